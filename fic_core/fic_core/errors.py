@@ -1,0 +1,45 @@
+"""Errors and input checks shared by every fic_core module.
+
+Every public function validates its inputs so that a NaN from a sensor or a
+malformed parameter becomes a clear exception at the boundary instead of a
+silently unstable robot.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+class FicInputError(ValueError):
+    """A parameter or a signal given to fic_core is invalid (NaN, Inf, out of range, wrong shape)."""
+
+
+def finite_array(name: str, value: ArrayLike, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
+    """Return ``value`` as a float64 array, raising FicInputError if it is not finite or has the wrong shape."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise FicInputError(f"{name} must be numeric, got {value!r}") from exc
+    if shape is not None and array.shape != shape:
+        raise FicInputError(f"{name} must have shape {shape}, got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise FicInputError(f"{name} must be finite, got {array}")
+    return array
+
+
+def finite_scalar(name: str, value: float, *, minimum: float | None = None, maximum: float | None = None,
+                  minimum_inclusive: bool = True, maximum_inclusive: bool = True) -> float:
+    """Return ``value`` as a float, raising FicInputError naming ``name`` if it is not finite or out of range."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise FicInputError(f"{name} must be a number, got {value!r}") from exc
+    if not np.isfinite(number):
+        raise FicInputError(f"{name} must be finite, got {number}")
+    if minimum is not None and (number < minimum or (not minimum_inclusive and number == minimum)):
+        bound = ">=" if minimum_inclusive else ">"
+        raise FicInputError(f"{name} must be {bound} {minimum}, got {number}")
+    if maximum is not None and (number > maximum or (not maximum_inclusive and number == maximum)):
+        bound = "<=" if maximum_inclusive else "<"
+        raise FicInputError(f"{name} must be {bound} {maximum}, got {number}")
+    return number
