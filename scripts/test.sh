@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Run the whole test suite: sets the workspace up when needed (scripts/setup.sh is idempotent), then pytest over
+# test/ (the core's mathematics, the simulation, and node-level tests that start real nodes over DDS).
+# Extra arguments go to pytest, e.g. scripts/test.sh test/core -k profile
+set -euo pipefail
+REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+"$REPO/scripts/setup.sh"
+# shellcheck source=/dev/null
+source "$REPO/scripts/env.sh"
+# A private log folder, and a graph that stays on this machine; each node-level test picks its own
+# ROS_DOMAIN_ID (test/conftest.py), so tests never hear each other or a user's running graph.
+ROS_LOG_DIR="$(mktemp -d -t fic_teleop_test_logs.XXXXXX)"
+export ROS_LOG_DIR ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+export MUJOCO_GL="${MUJOCO_GL:-egl}"
+cd "$REPO"
+echo "[test] pytest (ROS logs in $ROS_LOG_DIR)"
+exec python -m pytest -p no:cacheprovider "${@:-test}"
