@@ -122,7 +122,7 @@ else
 fi
 
 # 7. A check that the pieces fit: our messages import next to rclpy, and fic_core imports.
-step "check: rclpy, fic_teleop_msgs, fic_core, pinocchio, mujoco"
+step "check imports (rclpy, messages, fic_core, pin, mujoco)"
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
 python -c 'import rclpy, fic_teleop_msgs.msg, fic_core, pinocchio, mujoco' 2>/tmp/fic_setup_check.log \

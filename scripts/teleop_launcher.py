@@ -1,0 +1,261 @@
+#!/usr/bin/env python3
+"""Start the whole teleoperation graph, record it, stop it cleanly, and report it.
+
+This is what `scripts/run_teleop.sh` runs. It is a small launch file in Python (the ROS 2 launch system is not
+available from the wheels): each node is its own process, started with `ros2 run` where the ros2 CLI exists and
+otherwise by executing the very file `ros2 run` would (install/<pkg>/lib/<pkg>/<exe>). Ctrl-C (or the end of
+the run) stops the nodes in reverse order with SIGINT, so the recorder still finalises its bag, then the report
+is written.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+CONFIG = REPO / "config"
+
+
+@dataclass
+class NodeSpec:
+    package: str
+    executable: str
+    name: str
+    params_file: str | None = None
+    params: dict = field(default_factory=dict)
+    foreground: bool = False  # the interactive keyboard operator owns the terminal
+
+
+def parameter_literal(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(parameter_literal(item) for item in value) + "]"
+    return str(value)
+
+
+def node_command(spec: NodeSpec) -> list[str]:
+    executable = REPO / "install" / spec.package / "lib" / spec.package / spec.executable
+    if shutil.which("ros2") and os.environ.get("FIC_TELEOP_NO_ROS2_CLI") != "1":
+        command = ["ros2", "run", spec.package, spec.executable]
+    else:
+        command = [str(executable)]
+    command += ["--ros-args", "-r", f"__node:={spec.name}"]
+    if spec.params_file:
+        command += ["--params-file", str(CONFIG / spec.params_file)]
+    for key, value in spec.params.items():
+        command += ["-p", f"{key}:={parameter_literal(value)}"]
+    return command
+
+
+def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
+    """The paper's architecture (SPEC 2): device -> master -> channel -> replica -> robot, and back."""
+    lockstep = args.time_mode == "lockstep"
+    sim_time = {"use_sim_time": lockstep}
+    channel = {
+        "delay": args.delay,
+        "jitter": args.jitter,
+        "drop_probability": args.drop,
+        "lost_from": args.blackout_at if args.blackout_at is not None else -1.0,
+        "rate_cap_hz": args.rate_cap,
+        "seed": args.seed,
+    }
+    operator = "joy" if args.interactive else "scripted"
+    nodes = [
+        NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
+                 {"scene": args.scene, "mode": args.time_mode, "seed": args.seed}),
+        NodeSpec("sim_bridge", "recorder_node", "recorder", None,
+                 {"bag_path": str(bag_path), **sim_time}),
+        NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
+                 {"controller": args.controller, "control_rate": args.control_rate, **sim_time}),
+        NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml",
+                 {"trajectory": args.trajectory, **sim_time}),
+        NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {**channel, **sim_time}),
+        NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml", {**channel, **sim_time}),
+        NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml", {**sim_time}),
+        NodeSpec("sim_bridge", "haptic_device_node", "haptic_device", "haptic_device.yaml",
+                 {"scene": args.scene, "operator_source": operator, **sim_time}),
+    ]
+    if args.interactive:
+        nodes.append(NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", None, {}, foreground=True))
+    return nodes
+
+
+class Graph:
+    """The running processes, stopped in reverse start order."""
+
+    def __init__(self, log_dir: Path) -> None:
+        self.log_dir = log_dir
+        self.processes: list[tuple[NodeSpec, subprocess.Popen, object]] = []
+
+    def start(self, spec: NodeSpec) -> None:
+        command = node_command(spec)
+        if spec.foreground:
+            process = subprocess.Popen(command)
+            log = None
+        else:
+            log = open(self.log_dir / f"{spec.name}.log", "wb")
+            process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        self.processes.append((spec, process, log))
+
+    def dead(self) -> list[str]:
+        return [spec.name for spec, process, _ in self.processes if process.poll() is not None and not spec.foreground]
+
+    def foreground_done(self) -> bool:
+        return any(spec.foreground and process.poll() is not None for spec, process, _ in self.processes)
+
+    def stop(self, timeout: float = 15.0) -> dict[str, int]:
+        codes: dict[str, int] = {}
+        for spec, process, log in reversed(self.processes):
+            if spec.name == "recorder":
+                continue  # the recorder stops last, so it records the others' last messages
+            codes[spec.name] = _interrupt(process, timeout)
+        for spec, process, log in self.processes:
+            if spec.name == "recorder":
+                codes[spec.name] = _interrupt(process, 60.0)
+        for _, _, log in self.processes:
+            if log:
+                log.close()
+        return codes
+
+
+def _interrupt(process: subprocess.Popen, timeout: float) -> int:
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+    return process.returncode
+
+
+def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float) -> float:
+    """Block until the simulation has run `duration` seconds of its own time (read from /clock)."""
+    import rclpy
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
+
+    rclpy.init()
+    node = rclpy.create_node("fic_teleop_launcher")
+    latest = {"t": None, "start": None}
+
+    def on_clock(message: Clock) -> None:
+        now = message.clock.sec + 1e-9 * message.clock.nanosec
+        latest["t"] = now
+        if latest["start"] is None:
+            latest["start"] = now
+
+    node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+    wall_start = time.monotonic()
+    last_print = 0.0
+    try:
+        while rclpy.ok():
+            rclpy.spin_once(node, timeout_sec=0.1)
+            elapsed = 0.0 if latest["t"] is None else latest["t"] - latest["start"]
+            if elapsed >= duration or graph_.foreground_done():
+                break
+            dead = graph_.dead()
+            if dead:
+                print(f"[run] node(s) exited early: {', '.join(dead)} (see their logs)", file=sys.stderr)
+                break
+            if time.monotonic() - wall_start > wall_limit:
+                print(f"[run] wall-clock limit {wall_limit:.0f} s reached at sim time {elapsed:.1f} s", file=sys.stderr)
+                break
+            if time.monotonic() - last_print > 5.0:
+                last_print = time.monotonic()
+                print(f"[run] sim time {elapsed:5.1f} / {duration:.0f} s", flush=True)
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
+    return 0.0 if latest["t"] is None else latest["t"] - latest["start"]
+
+
+def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scene", default="superimposition", choices=["superimposition", "shape_sorting", "free_space"])
+    parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds to run (default 30)")
+    parser.add_argument("--delay", type=float, default=0.2, help="one-way channel delay [s], both ways (default 0.2)")
+    parser.add_argument("--jitter", type=float, default=0.0, help="delay jitter [s]")
+    parser.add_argument("--drop", type=float, default=0.0, help="drop probability in [0, 1]")
+    parser.add_argument("--blackout-at", type=float, default=None, help="total communication loss from this time [s] on")
+    parser.add_argument("--rate-cap", type=float, default=0.0, help="channel rate cap [Hz], 0 = none (paper: 10 Hz)")
+    parser.add_argument("--controller", default="fic", choices=["fic", "linear"], help="replica controller")
+    parser.add_argument("--control-rate", type=float, default=1000.0, help="replica control rate [Hz]")
+    parser.add_argument("--trajectory", default="circle", choices=["circle", "fixed", "via_points"])
+    parser.add_argument("--time-mode", default="realtime", choices=["realtime", "lockstep"],
+                        help="realtime: wall-clock paced; lockstep: the sim waits for each command (deterministic)")
+    parser.add_argument("--interactive", action="store_true", help="drive the operator's hand from the keyboard")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<date-time>)")
+    parser.add_argument("--domain-id", type=int, default=None, help="ROS_DOMAIN_ID for this run")
+    parser.add_argument("--no-report", action="store_true")
+    parser.add_argument("--no-video", action="store_true", help="skip the key frames and the animation")
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_arguments(argv)
+    if args.delay < 0 or args.jitter < 0 or not 0.0 <= args.drop <= 1.0 or args.duration <= 0 or args.rate_cap < 0:
+        print("[run] refused: delay, jitter, duration and rate cap must be >= 0 and drop in [0, 1]", file=sys.stderr)
+        return 2
+    run_dir = args.out or REPO / "runs" / datetime.now().strftime("%Y%m%d-%H%M%S")
+    log_dir = run_dir / "logs"
+    log_dir.mkdir(parents=True, exist_ok=True)
+    bag_path = run_dir / "bag"
+    if args.domain_id is not None:
+        os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("ROS_LOG_DIR", str(log_dir / "ros"))
+    (run_dir / "run.json").write_text(json.dumps({k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()}, indent=2))
+
+    running = Graph(log_dir)
+    interrupted = {"flag": False}
+
+    def on_signal(signum, frame):  # the first Ctrl-C ends the run early; the graph still stops cleanly
+        interrupted["flag"] = True
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, on_signal)
+    wall_start = time.monotonic()
+    sim_elapsed = 0.0
+    print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller},"
+          f" {args.time_mode}; run folder {run_dir}")
+    try:
+        for spec in graph(args, bag_path):
+            running.start(spec)
+        sim_elapsed = wait_for_sim_time(args.duration, running, wall_limit=max(120.0, 6.0 * args.duration))
+    except KeyboardInterrupt:
+        interrupted["flag"] = True
+        print("\n[run] interrupted: stopping the graph and finalising the bag")
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut the bag's finalisation
+        codes = running.stop()
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    wall = time.monotonic() - wall_start
+    failed = {name: code for name, code in codes.items() if code not in (0, -2, 130, None)}
+    print(f"[run] graph stopped after {wall:.1f} s wall, {sim_elapsed:.1f} s simulated"
+          + (f"; nodes with errors: {failed}" if failed else ""))
+    print(f"[run] bag: {bag_path}")
+    if args.no_report:
+        return 0 if not failed else 1
+    report_dir = run_dir / "report"
+    command = [sys.executable, "-m", "sim_bridge.report", str(bag_path), "--out", str(report_dir)]
+    if not args.no_video:
+        command.append("--render")
+    result = subprocess.run(command)
+    print(f"[run] report: {report_dir}")
+    return 0 if result.returncode == 0 and not failed else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
