@@ -1,1 +1,9 @@
 """The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a virtual operator, the delay/dropout channel, and the MCAP recorder."""
+
+import os as _os
+
+# MuJoCo chooses its OpenGL backend once, when it is first imported, and without a display only EGL works here
+# (Mesa llvmpipe; osmesa does not, see PLATFORM.md). Every sim_bridge module that imports mujoco goes through
+# this package first, so this is the one place where the choice is made before the import.
+if not _os.environ.get("DISPLAY") and not _os.environ.get("WAYLAND_DISPLAY"):
+    _os.environ.setdefault("MUJOCO_GL", "egl")

@@ -1,0 +1,154 @@
+"""Time keeping of the simulated robot: ``realtime`` (wall-clock paced) and ``lockstep`` (command-driven) modes.
+
+- realtime: one physics step per period (1 ms) of the wall clock, like the Franka's 1 kHz torque interface. The
+  torque applied is the last command received (zero-order hold), as a real robot does between packets. Each
+  step's lateness (how long after its deadline it started) is measured: a loaded machine shows up here first.
+- lockstep: the simulation publishes the state of step k, then advances only once a command arrives after that
+  publication (the controller's answer to that state), or after a timeout, which is counted. The simulation
+  then runs as fast as the controller answers, deterministically, and /clock carries its time to every node.
+
+Both are plain Python (threading only) so that a test or an in-process experiment can use them without ROS.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from fic_core.errors import finite_scalar
+
+STEPPING_MODES: tuple[str, ...] = ("realtime", "lockstep")
+
+
+@dataclass(frozen=True)
+class LatenessSummary:
+    count: int
+    p50: float  # [s]
+    p99: float  # [s]
+    max: float  # [s]
+    achieved_rate: float  # [Hz] steps per wall-clock second over the window
+    overruns: int  # times the loop fell so far behind that it dropped the missed deadlines (total)
+
+
+class RealtimePacer:
+    """Sleeps until each step's deadline on a fixed grid (start + k * period) and records the lateness.
+
+    A grid (not "sleep one period after the last step") keeps the mean rate exact when single steps run late.
+    When the loop falls more than ``max_backlog`` behind (a stall), the grid restarts from now: catching up by
+    running many steps back-to-back would replay the hold command as a burst of simulated time.
+    """
+
+    def __init__(self, period: float = 0.001, window: int = 10000, max_backlog: float = 0.05,
+                 clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep) -> None:
+        self._period = finite_scalar("period", period, minimum=0.0, minimum_inclusive=False)
+        self._max_backlog = finite_scalar("max_backlog", max_backlog, minimum=0.0)
+        self._clock = clock
+        self._sleep = sleep
+        self._lateness: deque[float] = deque(maxlen=window)
+        self._step_times: deque[float] = deque(maxlen=window)
+        self._start: float | None = None
+        self._index = 0
+        self.overruns = 0
+
+    def wait_next(self) -> float:
+        """Block until the next step is due; return its lateness [s] (>= 0 up to the sleep's precision)."""
+        now = self._clock()
+        if self._start is None:
+            self._start = now
+            self._index = 0
+        deadline = self._start + self._index * self._period
+        if now - deadline > self._max_backlog:
+            self.overruns += 1
+            self._start, self._index, deadline = now, 0, now
+        elif deadline > now:
+            self._sleep(deadline - now)
+            now = self._clock()
+        self._index += 1
+        lateness = max(0.0, now - deadline)
+        self._lateness.append(lateness)
+        self._step_times.append(now)
+        return lateness
+
+    def summary(self) -> LatenessSummary:
+        if not self._lateness:
+            return LatenessSummary(0, 0.0, 0.0, 0.0, 0.0, self.overruns)
+        lateness = np.fromiter(self._lateness, dtype=float)
+        span = self._step_times[-1] - self._step_times[0]
+        rate = (len(self._step_times) - 1) / span if span > 0 else 0.0
+        return LatenessSummary(len(lateness), float(np.percentile(lateness, 50)), float(np.percentile(lateness, 99)),
+                               float(lateness.max()), rate, self.overruns)
+
+
+class LockstepGate:
+    """Hands the command for step k from the subscriber's thread to the simulation thread.
+
+    ``state_published(k)`` opens step k; the first command delivered after it is the answer for step k (the
+    effort-command message carries no stamp, so arrival order is what ties a command to a state). Commands that
+    arrive before the publication answered an earlier state: they are kept as the latest command (used if the
+    wait times out) but do not release the step.
+    """
+
+    def __init__(self) -> None:
+        self._condition = threading.Condition()
+        self._open_step = -1
+        self._answered = False
+        self._latest: np.ndarray | None = None
+        self.timeouts = 0
+        self.answered_steps = 0
+
+    def state_published(self, step: int) -> None:
+        with self._condition:
+            self._open_step = step
+            self._answered = False
+
+    def deliver(self, command: np.ndarray) -> None:
+        """Called from the subscription callback with a validated command."""
+        with self._condition:
+            self._latest = command
+            if self._open_step >= 0 and not self._answered:
+                self._answered = True
+                self._condition.notify_all()
+
+    def wait(self, timeout: float) -> tuple[np.ndarray | None, bool]:
+        """Wait for the answer to the open step. Returns (command, fresh); on timeout (latest command, False)."""
+        deadline = time.monotonic() + timeout
+        with self._condition:
+            while not self._answered:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0.0:
+                    self.timeouts += 1
+                    return self._latest, False
+                self._condition.wait(remaining)
+            self.answered_steps += 1
+            return self._latest, True
+
+    def interrupt(self) -> None:
+        """Wake a waiting simulation thread (shutdown)."""
+        with self._condition:
+            self._answered = True
+            self._condition.notify_all()
+
+
+class ZeroOrderHold:
+    """The last command and when it arrived, shared between the subscriber's thread and the stepping thread."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._command: np.ndarray | None = None
+        self._arrival = float("-inf")
+        self._count = 0
+
+    def update(self, command: np.ndarray, arrival_time: float) -> None:
+        with self._lock:
+            self._command = command
+            self._arrival = arrival_time
+            self._count += 1
+
+    def latest(self) -> tuple[np.ndarray | None, float, int]:
+        """(command or None, arrival time, number of commands so far): the count tells a new command from old."""
+        with self._lock:
+            return self._command, self._arrival, self._count
