@@ -1,13 +1,14 @@
 """The adhesive bond between the end-effector plate and a piece (the paper's Velcro strap, experiment E2).
 
-A bond forms when the plate presses on a piece with at least ``formation_force`` (hooks engaging the pile), holds
+A bond forms when the plate presses on a piece with at least ``formation_force`` for ``formation_time`` (hooks
+engaging the pile; a contact spike when the plate lands does not count), holds
 while the force it transmits stays below a break threshold, and breaks above it. The paper's Velcro gives an
 "inconsistent bond", so the threshold is drawn anew for every bond from a seeded normal distribution (clipped).
 
 The bond is a MuJoCo weld equality (hand <-> piece), one per piece, inactive in the model and switched on at run
 time through ``data.eq_active`` with the relative pose of the moment it forms, so the piece is held rigidly by the
 constraint solver (implicit, stable at 1 ms) rather than by a stiff explicit spring. The force it transmits is the
-weld's constraint force, read from ``data.efc_force``. After a break, a piece cannot bond again until the plate has
+weld's constraint force on the piece (see ``_wrench_on_hand``). After a break, a piece cannot bond again until the plate has
 left it: a pull that just broke the bond must not re-form it on the next millisecond.
 """
 from __future__ import annotations
@@ -17,10 +18,13 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from .wrist_wrench import cross
+
 
 @dataclass(frozen=True)
 class BondParameters:
-    formation_force: float = 3.0  # [N] normal force plate->piece that makes the hooks engage
+    formation_force: float = 3.0  # [N] normal force plate->piece that makes the hooks engage...
+    formation_time: float = 0.1  # [s] ...held this long: the transient of the plate landing (30-50 ms) does not
     break_force_mean: float = 12.0  # [N]
     break_force_sd: float = 3.0  # [N]
     break_force_min: float = 5.0  # [N] clip: a bond always holds a piece's weight (0.3 N) and some handling
@@ -63,17 +67,11 @@ class AdhesiveBond:
             raise ValueError("the model lacks the plate geom, the hand, a piece body or its bond weld")
         self._piece_of_geom = {g: int(np.flatnonzero(self._piece_ids == model.geom_bodyid[g])[0])
                                for g in range(model.ngeom) if model.geom_bodyid[g] in self._piece_ids}
+        self._press_steps = np.zeros(len(piece_bodies), dtype=int)  # consecutive steps pressed firmly enough
+        self._formation_steps = max(1, round(parameters.formation_time / model.opt.timestep))
         self._must_separate: set[int] = set()  # piece indices that broke and have not yet left the plate
         self._active: int | None = None
         self.state = BondState()
-
-    @property
-    def active_weld_id(self) -> int | None:
-        return None if self._active is None else int(self._weld_ids[self._active])
-
-    @property
-    def bonded_body_id(self) -> int | None:
-        return None if self._active is None else int(self._piece_ids[self._active])
 
     def reset(self, data: mujoco.MjData, rng: np.random.Generator) -> None:
         self._rng = rng
@@ -81,19 +79,31 @@ class AdhesiveBond:
             data.eq_active[weld] = 0
         self._active = None
         self._must_separate.clear()
+        self._press_steps[:] = 0
         self.state = BondState()
 
     def _draw_threshold(self) -> float:
         p = self._parameters
         return float(np.clip(self._rng.normal(p.break_force_mean, p.break_force_sd), p.break_force_min, p.break_force_max))
 
-    def weld_force(self, data: mujoco.MjData) -> np.ndarray:
-        """Translational constraint force of the active weld (3 rows; zeros when none is active)."""
-        if self._active is None:
-            return np.zeros(3)
-        rows = np.flatnonzero((data.efc_type[: data.nefc] == mujoco.mjtConstraint.mjCNSTR_EQUALITY)
-                              & (data.efc_id[: data.nefc] == self._weld_ids[self._active]))
-        return np.array(data.efc_force[rows[:3]]) if rows.size >= 3 else np.zeros(3)
+    def _wrench_on_hand(self, model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray) -> np.ndarray:
+        """Wrench the active weld applies to the hand, about ``point``, world frame.
+
+        Read from the piece's side, where it is unambiguous: the weld's generalised force on the piece's free
+        joint is the force (world frame) and torque (piece frame) on the piece, and the hand receives the
+        opposite. (The weld's own constraint rows mix translation and rotation, so their norm is not the force.)
+        """
+        weld = self._weld_ids[self._active]
+        piece = self._piece_ids[self._active]
+        rows = (data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (data.efc_id == weld)
+        vector = np.where(rows, data.efc_force, 0.0)
+        generalised = np.zeros(model.nv)
+        mujoco.mj_mulJacTVec(model, data, generalised, vector)
+        dof = model.jnt_dofadr[model.body_jntadr[piece]]
+        force_on_piece = generalised[dof:dof + 3]
+        torque_on_piece = data.xmat[piece].reshape(3, 3) @ generalised[dof + 3:dof + 6]  # about the piece's origin
+        torque_on_hand = -(torque_on_piece + cross(data.xpos[piece] - point, force_on_piece))
+        return np.concatenate([-force_on_piece, torque_on_hand])
 
     def _plate_normal_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """Normal contact force between the plate and each piece (0 when not touching)."""
@@ -133,10 +143,12 @@ class AdhesiveBond:
                 forces[hits[0]] += wrench[0]
         return forces
 
-    def update(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Break an overloaded bond, or form one on a firm press. Uses the forces of the step just computed."""
+    def update(self, model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray) -> np.ndarray:
+        """Call once per step after the forces: returns the bond's wrench on the hand about ``point`` (world
+        frame; zeros without a bond), then breaks an overloaded bond or forms one on a firm press."""
         if self._active is not None:
-            force = float(np.linalg.norm(self.weld_force(data)))
+            wrench = self._wrench_on_hand(model, data, point)
+            force = float(np.linalg.norm(wrench[:3]))
             self.state.bond_force = force
             if force > self.state.break_threshold:
                 data.eq_active[self._weld_ids[self._active]] = 0
@@ -148,13 +160,16 @@ class AdhesiveBond:
                 self._active = None
                 self.state.bonded_piece = None
                 self.state.bond_force = 0.0
-            return
-        normal = self._plate_normal_forces(model, data).tolist()
+            return wrench  # it acted during this step, up to the break
+        normal = self._plate_normal_forces(model, data)
+        firm = normal >= self._parameters.formation_force
+        self._press_steps = np.where(firm, self._press_steps + 1, 0)
         self._must_separate = {k for k in self._must_separate if normal[k] > 0.0}
         candidates = [k for k in range(len(normal))
-                      if normal[k] >= self._parameters.formation_force and k not in self._must_separate]
+                      if self._press_steps[k] >= self._formation_steps and k not in self._must_separate]
         if candidates:
             self._form(model, data, max(candidates, key=lambda k: normal[k]))
+        return np.zeros(6)
 
     def _form(self, model: mujoco.MjModel, data: mujoco.MjData, index: int) -> None:
         weld = self._weld_ids[index]
@@ -176,6 +191,7 @@ class AdhesiveBond:
         self.state.bonded_piece = self._pieces[index]
         self.state.break_threshold = self._draw_threshold()
         self.state.bonds_formed += 1
+        self._press_steps[:] = 0
         self.state.bond_force = 0.0
         self.state.events.append(f"bond with {self._pieces[index]} formed "
                                  f"(breaks above {self.state.break_threshold:.1f} N)")

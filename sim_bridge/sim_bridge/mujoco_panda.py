@@ -37,7 +37,7 @@ from fic_core.panda_description import (
 
 from .adhesive_bond import AdhesiveBond, BondParameters, BondState, add_bond_welds
 from .scenes import FINGER_BODIES, SceneLayout, add_scene
-from .wrist_wrench import WristWrench, weld_wrench_on_body1
+from .wrist_wrench import WristWrench
 
 TIMESTEP = 0.001  # [s] the Franka's torque interface runs at 1 kHz
 #: Franka Emika Panda joint torque limits [N m] (datasheet; also the URDF's effort limits).
@@ -174,20 +174,13 @@ class PandaSimulation:
         self._data.ctrl[:] = command
         self._applied_torque = command
         mujoco.mj_step2(self._model, self._data)  # forces of the current state, then integrate
-        self._wrench = self._compute_wrench()
-        if self._bond is not None:
-            self._bond.update(self._model, self._data)
-        mujoco.mj_step1(self._model, self._data)  # kinematics, bias forces and contacts of the new state
-        self._steps += 1
-
-    def _compute_wrench(self) -> np.ndarray:
         # The contacts and forces are still those of the state before integration: use that state's TCP too.
         tcp = self._data.site_xpos[self._tcp_site].copy()
-        wrench = self._wrist.contact_wrench(self._model, self._data, tcp)
-        if self._bond is not None and self._bond.active_weld_id is not None:
-            wrench += weld_wrench_on_body1(self._model, self._data, self._bond.active_weld_id,
-                                           self._bond.bonded_body_id, tcp)
-        return wrench
+        self._wrench = self._wrist.contact_wrench(self._model, self._data, tcp)
+        if self._bond is not None:
+            self._wrench += self._bond.update(self._model, self._data, tcp)
+        mujoco.mj_step1(self._model, self._data)  # kinematics, bias forces and contacts of the new state
+        self._steps += 1
 
     # --- outputs -----------------------------------------------------------------------------------------------
     @property

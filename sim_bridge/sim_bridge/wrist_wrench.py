@@ -70,26 +70,3 @@ class WristWrench:
             total[:3] += force
             total[3:] += torque + cross(contacts.pos[i] - tcp_position, force)
         return total
-
-
-def weld_wrench_on_body1(model: mujoco.MjModel, data: mujoco.MjData, weld_id: int, body2: int,
-                         point: np.ndarray) -> np.ndarray:
-    """Wrench that an active weld applies to its first body, about ``point``, world frame.
-
-    Read from the other side: the weld's generalised force on body2's free joint is the force (world frame) and
-    the torque (body2's frame) the weld applies to body2, and body1 receives the opposite (Newton's third law).
-    This avoids depending on the weld's internal row conventions.
-    """
-    rows = np.flatnonzero((data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (data.efc_id == weld_id))
-    if rows.size == 0:
-        return np.zeros(6)
-    vector = np.zeros(data.nefc)
-    vector[rows] = data.efc_force[rows]
-    generalised = np.zeros(model.nv)
-    mujoco.mj_mulJacTVec(model, data, generalised, vector)
-    dof = model.jnt_dofadr[model.body_jntadr[body2]]
-    force_on_body2 = generalised[dof:dof + 3]
-    torque_on_body2 = data.xmat[body2].reshape(3, 3) @ generalised[dof + 3:dof + 6]  # about body2's origin
-    force = -force_on_body2
-    torque = -(torque_on_body2 + cross(data.xpos[body2] - point, force_on_body2))
-    return np.concatenate([force, torque])
