@@ -1,0 +1,11 @@
+"""fic_core: the Fractal Impedance Controller's mathematics for haptic teleoperation (pure Python, no ROS)."""
+# Control laws (paper Sec. II): profile (Eq. 1), attractor (Eq. 2), baseline, master (Eq. 3), teleoperation
+# modes, harmonic planner (Eqs. 5-6) and its trajectory sources.
+from fic_core.errors import FicInputError
+from fic_core.profile import ForceProfile, force_profile
+from fic_core.attractor import FractalAttractor, Phase, PoseAttractor
+from fic_core.baseline import LinearImpedance, make_baseline_like
+from fic_core.master import MasterLaw
+from fic_core.teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
+from fic_core.planner import HarmonicPlanner
+from fic_core.trajectories import Circle, FixedPoint, ViaPoints

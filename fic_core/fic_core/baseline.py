@@ -1,0 +1,101 @@
+"""The experiments' baseline: a linear Cartesian impedance with the FIC's stiffness K0 (SPEC 3, E4).
+
+    wrench = K*e + D*de/dt ,   e = x_d - x per axis (translation, then rotation vector)
+
+It has the same interface as ``attractor.PoseAttractor`` so the replica can run either.
+
+Damping: a linear spring without damping is conservative and would ring forever, so the baseline needs a
+damping term; the FIC has none and gets its dissipation from the D/C phase switch (paper Eq. 2). The
+defaults of ``make_baseline_like`` use a damping ratio zeta = 0.7 (near-critical, the usual choice of
+Cartesian impedance controllers such as franka_ros's example) on the Panda's effective Cartesian mass of
+about 4 kg (3-5 kg over the workspace) and an effective rotational inertia of about 0.1 kg m^2:
+D = 2*zeta*sqrt(K*m). With K0 = 1000 N/m this gives D ~ 89 N s/m.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fic_core.attractor import Phase, PoseAttractor
+from fic_core.errors import finite_array, finite_scalar
+
+#: Damping ratio of the baseline: near-critical, so it is neither sluggish nor ringing.
+DEFAULT_DAMPING_RATIO = 0.7
+#: The Panda's effective Cartesian mass at the TCP over its workspace is about 3-5 kg.
+DEFAULT_EFFECTIVE_MASS = 4.0
+#: The Panda's effective rotational inertia at the TCP [kg m^2], order of magnitude.
+DEFAULT_EFFECTIVE_INERTIA = 0.1
+
+
+class LinearImpedance:
+    """Linear spring-damper in Cartesian space, per axis (no saturation, no phase)."""
+
+    controller_name = "linear"
+
+    def __init__(self, translation_stiffness: float, rotation_stiffness: float, translation_damping: float,
+                 rotation_damping: float) -> None:
+        translation_stiffness = finite_scalar("translation_stiffness", translation_stiffness, minimum=0.0)
+        rotation_stiffness = finite_scalar("rotation_stiffness", rotation_stiffness, minimum=0.0)
+        translation_damping = finite_scalar("translation_damping", translation_damping, minimum=0.0)
+        rotation_damping = finite_scalar("rotation_damping", rotation_damping, minimum=0.0)
+        self._stiffness = np.array([translation_stiffness] * 3 + [rotation_stiffness] * 3)
+        self._damping = np.array([translation_damping] * 3 + [rotation_damping] * 3)
+        self.reset()
+
+    @property
+    def stiffness(self) -> NDArray[np.float64]:
+        return self._stiffness.copy()
+
+    @property
+    def damping(self) -> NDArray[np.float64]:
+        return self._damping.copy()
+
+    def reset(self) -> None:
+        self._last_error = np.zeros(6)
+        self._last_force = np.zeros(6)
+
+    def wrench(self, position_error: ArrayLike, rotation_error: ArrayLike, twist_error: ArrayLike) -> NDArray[np.float64]:
+        """K*e + D*de/dt [N, N m]; arguments as ``PoseAttractor.wrench``."""
+        error = np.concatenate([finite_array("position_error", position_error, (3,)),
+                                finite_array("rotation_error", rotation_error, (3,))])
+        twist_error = finite_array("twist_error", twist_error, (6,))
+        self._last_error = error
+        self._last_force = self._stiffness * error + self._damping * twist_error
+        return self._last_force.copy()
+
+    @property
+    def phase(self) -> NDArray[np.int64]:
+        """Always DIVERGENCE: a linear spring has no phase; reported so the FicState message stays uniform."""
+        return np.full(6, int(Phase.DIVERGENCE), dtype=np.int64)
+
+    @property
+    def latched_max_error(self) -> NDArray[np.float64]:
+        return np.zeros(6)
+
+    @property
+    def last_force(self) -> NDArray[np.float64]:
+        return self._last_force.copy()
+
+    @property
+    def stored_energy(self) -> NDArray[np.float64]:
+        """K*e^2/2 per axis [J]."""
+        return 0.5 * self._stiffness * self._last_error ** 2
+
+
+def make_baseline_like(pose_attractor: PoseAttractor, damping_ratio: float = DEFAULT_DAMPING_RATIO,
+                       effective_mass: float = DEFAULT_EFFECTIVE_MASS,
+                       effective_inertia: float = DEFAULT_EFFECTIVE_INERTIA) -> LinearImpedance:
+    """The linear baseline with the same K0 as ``pose_attractor`` and D = 2*zeta*sqrt(K0*m)."""
+    damping_ratio = finite_scalar("damping_ratio", damping_ratio, minimum=0.0)
+    effective_mass = finite_scalar("effective_mass", effective_mass, minimum=0.0, minimum_inclusive=False)
+    effective_inertia = finite_scalar("effective_inertia", effective_inertia, minimum=0.0, minimum_inclusive=False)
+    translation_stiffness = pose_attractor.translation.profile.stiffness
+    rotation_stiffness = pose_attractor.rotation.profile.stiffness
+    return LinearImpedance(
+        translation_stiffness=translation_stiffness,
+        rotation_stiffness=rotation_stiffness,
+        translation_damping=2.0 * damping_ratio * math.sqrt(translation_stiffness * effective_mass),
+        rotation_damping=2.0 * damping_ratio * math.sqrt(rotation_stiffness * effective_inertia),
+    )

@@ -1,0 +1,181 @@
+"""The FIC force profile F_c (paper Eq. 1, with SPEC 1.1's errata).
+
+Per axis, for an error ``e = x_d - x`` with ``a = |e|`` and ``s = sign(e)``::
+
+    F0 = xi*K0*x_b ;  dF = F_max - F0 ;  S = (1 - xi) * x_b / (2*pi)       [metres]
+    F_c(e) = K0*e                                                           if a <= xi*x_b
+           = s * (F0 + dF * (tanh((a - x_b)/S + pi) - tanh(-pi)) / (1 - tanh(-pi)))   otherwise
+
+Two errata of the printed Eq. 1 are applied (SPEC 1.1):
+
+* the tanh argument is ``(a - x_b)/S + pi`` (the paper divides by ``S*x_b``, which has units of m^2), so
+  that it runs from -pi at ``a = xi*x_b`` to +pi at ``a = x_b``;
+* the tanh term is renormalised by ``(tanh(u) - tanh(-pi)) / (1 - tanh(-pi))``, so that the profile is
+  continuous at ``xi*x_b`` (the printed one jumps by about 0.19 % of dF there) and tends to exactly F_max.
+
+The FIC's stability proof only needs F_c to be Lipschitz (paper Sec. II-A); ``lipschitz_bound`` gives a
+proven bound on |dF_c/de| and ``energy`` the spring's potential, used as stored energy by the attractor.
+The profile is odd, monotonically non-decreasing in ``e``, and bounded by F_max.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fic_core.errors import FicInputError, finite_array, finite_scalar
+
+#: tanh(-pi): the value of the profile's tanh at the start of the saturation (a = xi*x_b).
+_TANH_START = math.tanh(-math.pi)
+#: Normaliser of the tanh term so that it runs from exactly 0 (at xi*x_b) to 1 (a -> infinity).
+_TANH_SPAN = 1.0 - _TANH_START
+
+
+def _log_cosh(u: NDArray[np.float64]) -> NDArray[np.float64]:
+    """log(cosh(u)) without overflow for large |u|."""
+    magnitude = np.abs(u)
+    return magnitude + np.log1p(np.exp(-2.0 * magnitude)) - math.log(2.0)
+
+
+@dataclass(frozen=True)
+class ForceProfile:
+    """Parameters of the force profile F_c of paper Eq. 1, validated on construction.
+
+    Attributes:
+        stiffness: K0 [N/m, or N m/rad for rotation], the stiffness of the linear region.
+        saturation_error: x_b [m or rad], the error at which the force saturates.
+        saturation_start: xi in [0, 1), the fraction of x_b where the saturation starts.
+        max_force: F_max [N or N m] >= F0 = xi*K0*x_b, the force the profile tends to.
+    """
+
+    stiffness: float
+    saturation_error: float
+    saturation_start: float
+    max_force: float
+
+    def __post_init__(self) -> None:
+        stiffness = finite_scalar("stiffness", self.stiffness, minimum=0.0, minimum_inclusive=False)
+        saturation_error = finite_scalar("saturation_error", self.saturation_error, minimum=0.0,
+                                         minimum_inclusive=False)
+        saturation_start = finite_scalar("saturation_start", self.saturation_start, minimum=0.0)
+        if saturation_start >= 1.0:
+            # xi = 1 makes S = 0: the tanh would be a step, the profile discontinuous and not Lipschitz.
+            raise FicInputError(
+                f"saturation_start (xi) must be < 1 (xi = 1 makes the saturation width S zero and the profile "
+                f"discontinuous), got {saturation_start}")
+        max_force = finite_scalar("max_force", self.max_force, minimum=0.0, minimum_inclusive=False)
+        linear_limit_force = saturation_start * stiffness * saturation_error
+        if max_force < linear_limit_force:
+            raise FicInputError(
+                f"max_force must be >= F0 = saturation_start*stiffness*saturation_error = {linear_limit_force}, "
+                f"got {max_force}")
+        # Store plain floats so that numpy scalars or ints given by callers behave identically.
+        object.__setattr__(self, "stiffness", stiffness)
+        object.__setattr__(self, "saturation_error", saturation_error)
+        object.__setattr__(self, "saturation_start", saturation_start)
+        object.__setattr__(self, "max_force", max_force)
+
+    @property
+    def linear_limit(self) -> float:
+        """xi*x_b: the largest |e| where the profile is linear (K0*e)."""
+        return self.saturation_start * self.saturation_error
+
+    @property
+    def linear_limit_force(self) -> float:
+        """F0 = xi*K0*x_b: the force where the saturation starts."""
+        return self.saturation_start * self.stiffness * self.saturation_error
+
+    @property
+    def saturation_width(self) -> float:
+        """S = (1 - xi)*x_b/(2*pi) [m]: the tanh's length scale (SPEC 1.1 erratum on units)."""
+        return (1.0 - self.saturation_start) * self.saturation_error / (2.0 * math.pi)
+
+    def force(self, error: ArrayLike) -> NDArray[np.float64]:
+        """F_c(error), elementwise (paper Eq. 1)."""
+        # The parameters were validated in __post_init__; only the signal needs checking here.
+        return _profile_force(finite_array("error", error), self.stiffness, self.saturation_error,
+                              self.saturation_start, self.max_force)
+
+    def lipschitz_bound(self) -> float:
+        """A proven bound L with |F_c(a) - F_c(b)| <= L*|a - b| for all a, b.
+
+        The linear region has slope K0. In the saturation region
+        dF_c/da = dF / (1 - tanh(-pi)) * sech^2(u) / S with sech^2 <= 1. F_c is continuous and piecewise C^1,
+        so the larger of the two slopes bounds every difference quotient.
+        """
+        saturation_slope = (self.max_force - self.linear_limit_force) / (_TANH_SPAN * self.saturation_width)
+        return max(self.stiffness, saturation_slope)
+
+    def secant_stiffness(self, error: ArrayLike) -> NDArray[np.float64]:
+        """F_c(e)/e elementwise, with its limit dF_c/de(0) at e = 0 (no division by ~0).
+
+        This is the stiffness of the line from the origin to the profile, used by the convergence
+        law of Eq. 2, 2*F_c(e_max)/e_max.
+        """
+        error_array = finite_array("error", error)
+        magnitude = np.abs(error_array)
+        if self.linear_limit > 0.0:
+            slope_at_zero = self.stiffness
+        else:  # xi = 0: the tanh starts at the origin; its slope there is dF*sech^2(-pi)/((1 - tanh(-pi))*S).
+            slope_at_zero = (self.max_force * (1.0 - _TANH_START ** 2)) / (_TANH_SPAN * self.saturation_width)
+        # Below this the finite quotient loses digits to cancellation; the profile is its tangent there.
+        tiny = 1e-9 * self.saturation_error
+        safe = np.where(magnitude > tiny, magnitude, 1.0)
+        quotient = np.abs(self.force(safe)) / safe
+        return np.where(magnitude > tiny, quotient, slope_at_zero)
+
+    def energy(self, error: ArrayLike) -> NDArray[np.float64]:
+        """The potential of the profile, integral of F_c from 0 to |error| (closed form), elementwise [J].
+
+        Linear region: K0*a^2/2. Saturation region, with u = (a - x_b)/S + pi and a0 = xi*x_b:
+        E(a0) + F0*(a - a0) + dF/(1 - tanh(-pi)) * (S*(log cosh(u) - log cosh(-pi)) - tanh(-pi)*(a - a0)).
+        """
+        error_array = finite_array("error", error)
+        magnitude = np.abs(error_array)
+        linear_limit = self.linear_limit
+        width = self.saturation_width
+        force_span = self.max_force - self.linear_limit_force
+        beyond = np.maximum(magnitude - linear_limit, 0.0)
+        argument = (np.maximum(magnitude, linear_limit) - self.saturation_error) / width + math.pi
+        tanh_integral = width * (_log_cosh(argument) - _log_cosh(np.array(-math.pi))) - _TANH_START * beyond
+        saturated = (0.5 * self.stiffness * linear_limit ** 2 + self.linear_limit_force * beyond
+                     + force_span / _TANH_SPAN * tanh_integral)
+        return np.where(magnitude <= linear_limit, 0.5 * self.stiffness * magnitude ** 2, saturated)
+
+
+def force_profile(error: ArrayLike, *, stiffness: float, saturation_error: float, saturation_start: float,
+                  max_force: float) -> NDArray[np.float64]:
+    """F_c(error) of paper Eq. 1 with SPEC 1.1's errata, elementwise; odd, continuous, tends to max_force.
+
+    Args:
+        error: e = x_d - x per axis [m or rad], any shape.
+        stiffness: K0 > 0.
+        saturation_error: x_b > 0.
+        saturation_start: xi in [0, 1).
+        max_force: F_max >= xi*K0*x_b.
+    """
+    error_array = finite_array("error", error)
+    stiffness = finite_scalar("stiffness", stiffness, minimum=0.0, minimum_inclusive=False)
+    saturation_error = finite_scalar("saturation_error", saturation_error, minimum=0.0, minimum_inclusive=False)
+    saturation_start = finite_scalar("saturation_start", saturation_start, minimum=0.0, maximum=1.0,
+                                     maximum_inclusive=False)
+    max_force = finite_scalar("max_force", max_force, minimum=0.0, minimum_inclusive=False)
+    if max_force < saturation_start * stiffness * saturation_error:
+        raise FicInputError(f"max_force must be >= F0 = saturation_start*stiffness*saturation_error = "
+                            f"{saturation_start * stiffness * saturation_error}, got {max_force}")
+    return _profile_force(error_array, stiffness, saturation_error, saturation_start, max_force)
+
+
+def _profile_force(error: NDArray[np.float64], stiffness: float, saturation_error: float, saturation_start: float,
+                   max_force: float) -> NDArray[np.float64]:
+    """Eq. 1 on already validated inputs."""
+    linear_limit_force = saturation_start * stiffness * saturation_error  # F0
+    linear_limit = saturation_start * saturation_error  # xi*x_b
+    width = (1.0 - saturation_start) * saturation_error / (2.0 * math.pi)  # S
+    magnitude = np.abs(error)
+    # Eq. 1, second line (errata applied): tanh from -pi at a = xi*x_b to +pi at a = x_b, renormalised.
+    argument = (magnitude - saturation_error) / width + math.pi
+    saturated = linear_limit_force + (max_force - linear_limit_force) * (np.tanh(argument) - _TANH_START) / _TANH_SPAN
+    return np.where(magnitude <= linear_limit, stiffness * error, np.sign(error) * saturated)
