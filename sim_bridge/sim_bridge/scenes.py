@@ -105,12 +105,12 @@ SHAPE_SORTING_PIECES: tuple[ShapeSortingPiece, ...] = tuple(
 
 #: Piece cross-sections (centred polygons, counter-clockwise) [m].
 CUBOID_HALF_SIZE_XY = (0.025, 0.015)
-OCTAGON_APOTHEM = 0.02
+OCTAGON_APOTHEM = 0.024  # across flats 0.048 m: wider than the star hole's waist, so it cannot pass there
 #: Six points, twelve vertices: the paper's "star-shaped dodecagonal prism". With the inner radius at
 #: outer/sqrt(3) the star is a hexagram, the union of two triangles: two convex parts for the physics, so a
 #: star resting on the table costs 8 contacts, not 28.
 STAR_POINTS = 6
-STAR_OUTER_RADIUS = 0.03
+STAR_OUTER_RADIUS = 0.032  # points beyond the octagon hole's corners, so it cannot pass there
 STAR_INNER_RADIUS = STAR_OUTER_RADIUS / math.sqrt(3.0)
 
 #: End-effector plate replacing the gripper (shape_sorting): a square plate on panda_hand whose lower face is at
