@@ -1,0 +1,350 @@
+"""The postural optimisation: keep the replica's torque inside the Panda's limits by trading tracking accuracy.
+
+The paper's headline feature (Sec. I, point 1) without a formula in the paper; this is our design (SPEC 1.5).
+
+Each tick, given the desired torque tau_d of Eq. 7 (compensation + J^T FIC + null-space posture), solve
+
+    minimise    1/2 (tau - tau_d)^T M^-1 (tau - tau_d)                           (Gauss's least constraint)
+    subject to  max(-tau_max, tau_prev - rate*dt) <= tau <= min(tau_max, tau_prev + rate*dt)      (hard)
+                v_lo <= qd + T qdd(tau) <= v_hi                                  (joint velocity and position)
+                q_min <= q + dt (qd + dt qdd(tau)) <= q_max                      (next sample inside the range)
+                u^T J_v (qd + T qdd(tau)) <= v_tcp_max                           (TCP speed, cutting planes)
+    with        qdd(tau) = M^-1 (tau - C qd - g - D qd)                          (predicted by the model)
+
+- Objective: (tau - tau_d)^T M^-1 (tau - tau_d) = (qdd - qdd_d)^T M (qdd - qdd_d): the admissible motion closest
+  to the commanded one in the kinetic-energy metric. What is traded is the motion, not an accidental split of
+  the torque: a heavy shoulder and a light wrist are weighed by what their torque does.
+- Limits are constraints, strictly above tracking. Torque and torque rate are box bounds on tau, always hard.
+  The others are predictions, so they can be infeasible (a joint already past a limit, a contact pushing the arm,
+  the torque-rate box too narrow to brake in one tick): then the QP is solved again with them as daqp soft
+  constraints (minimal violation), and tau stays in the hard box.
+- Velocity-like limits use a horizon T = max(velocity_horizon, dt): the velocity extrapolated T ahead must be in
+  bounds, i.e. qdd <= (v_hi - qd) / T. The limit is approached exponentially (time constant T), which keeps the
+  braking compatible with the 1000 N m/s torque-rate limit, and the one-tick prediction qd + dt qdd is a convex
+  combination of qd and the horizon velocity, so it is within bounds too.
+- Joint position: braking distance. v_hi = min(v_max, sqrt(2 a_brake (q_max - q))), so the joint can still stop
+  before its limit at the deceleration a_brake; and the next sample must not cross it:
+  q + dt (qd + dt qdd) <= q_max. Both bound the same qdd, so the tighter is kept: still 7 two-sided rows.
+  Past a limit the velocity bound becomes a return velocity (q_max - q) / T < 0.
+- TCP speed |J_v qd| <= 1.7 m/s is a cone; it is enforced by up to ``tcp_cuts`` linear cuts along the predicted
+  TCP velocity, placed 0.1 % inside the limit (outer approximation refined until the prediction is inside).
+- Fast path: when tau_d satisfies every constraint the QP is not built: tau = tau_d exactly, nothing flagged.
+- Last guard: the result is clipped into the hard torque/torque-rate box whatever the solver returned (a solver
+  failure falls back to clipping tau_d); a clip larger than 1e-9 N m is counted in ``guard_clips``.
+- Report: ``flags`` names the limits that shaped the command: those the unshaped tau_d broke, plus those whose
+  constraint is active (non-zero multiplier) at the solution.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import daqp
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import FicInputError, finite_array, finite_scalar
+from .limits import LimitFlag, PandaLimits
+
+#: Half the Franka datasheet joint acceleration limits [rad/s^2]: the deceleration we count on to stop a joint
+#: before its position limit.
+DEFAULT_BRAKING_DECELERATION = (7.5, 3.75, 5.0, 6.25, 7.5, 10.0, 10.0)
+
+_INFINITY = 1e30
+_SENSE_INEQUALITY = 0
+_SENSE_SOFT = 8
+_EXIT_INFEASIBLE = -1
+_MULTIPLIER_TOLERANCE = 1e-9
+_TCP_RELATIVE_TOLERANCE = 1e-6  # the cone is met to this relative accuracy by the cutting planes
+# The cuts sit this fraction inside the limit, so that once two consecutive cut directions are within ~5 degrees
+# of each other the polytope's corner is inside the cone (1 / cos(2.5 deg) < 1 / (1 - 1e-3)).
+_TCP_CUT_SHRINK = 1e-3
+_GUARD_TOLERANCE = 1e-9  # [N m] clips below this are solver round-off, not a guard action
+
+
+@dataclass(frozen=True)
+class ShapedTorque:
+    """Result of one postural-optimisation step."""
+
+    torque: NDArray[np.float64]          # the command, inside the torque and torque-rate limits
+    flags: LimitFlag                     # limits that shaped it (NONE: torque == desired torque)
+    torque_change: float                 # |torque - desired torque| [N m]
+    solved_qp: bool                      # False on the fast path
+    relaxed: bool                        # the prediction constraints were infeasible and were softened
+    guard_clipped: bool                  # the last-guard clip changed the solver's answer
+    iterations: int                      # QP solver iterations (0 on the fast path)
+
+
+class PosturalOptimisation:
+    """Shapes a desired joint torque so that it respects ``limits`` (see the module docstring)."""
+
+    def __init__(self, limits: PandaLimits, control_period: float, *, velocity_horizon: float = 0.05,
+                 braking_deceleration: float | ArrayLike = DEFAULT_BRAKING_DECELERATION, tcp_cuts: int = 8,
+                 iteration_limit: int = 200) -> None:
+        self.limits = limits
+        self.control_period = finite_scalar("control_period", control_period, minimum=0.0, minimum_inclusive=False)
+        self.velocity_horizon = finite_scalar("velocity_horizon", velocity_horizon, minimum=0.0,
+                                              minimum_inclusive=False)
+        deceleration = np.broadcast_to(finite_array("braking_deceleration", braking_deceleration), (7,)).astype(float)
+        if np.any(deceleration <= 0.0):
+            raise FicInputError(f"braking_deceleration must be > 0, got {braking_deceleration}")
+        self.braking_deceleration = deceleration
+        if int(tcp_cuts) < 1:
+            raise FicInputError(f"tcp_cuts must be >= 1, got {tcp_cuts}")
+        self.tcp_cuts = int(tcp_cuts)
+        self.iteration_limit = int(iteration_limit)
+        # Beyond this distance to a position limit the braking bound cannot be tighter than the velocity limit.
+        v_max = limits.joint_velocity_array
+        self._free_room = np.maximum(v_max * v_max / (2.0 * deceleration), v_max * self.control_period)
+        rate_step = np.full(7, limits.torque_rate * self.control_period)
+        self._fast_bounds = np.concatenate((limits.torque_array, rate_step, v_max, v_max))
+        self._fast_bounds_first = np.concatenate((limits.torque_array, v_max, v_max))
+        self.qp_count = 0
+        self.relaxed_count = 0
+        self.guard_clips = 0
+
+    @property
+    def horizon(self) -> float:
+        """T: the horizon of the velocity-like constraints [s]."""
+        return max(self.velocity_horizon, self.control_period)
+
+    def torque_box(self, previous_torque: NDArray[np.float64] | None
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Hard bounds on the command: torque limits intersected with the torque-rate step from the last command.
+
+        If the last command was itself beyond a torque limit by more than one rate step, the torque limit wins.
+        """
+        torque_max = self.limits.torque_array
+        if previous_torque is None:
+            return -torque_max.copy(), torque_max.copy()
+        step = self.limits.torque_rate * self.control_period
+        lower = np.maximum(-torque_max, previous_torque - step)
+        upper = np.minimum(torque_max, previous_torque + step)
+        empty = lower > upper
+        if np.any(empty):
+            closest = np.clip(previous_torque, -torque_max, torque_max)
+            lower = np.where(empty, closest, lower)
+            upper = np.where(empty, closest, upper)
+        return lower, upper
+
+    def velocity_bounds(self, q: NDArray[np.float64], qd: NDArray[np.float64]
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
+        """Joint velocity bounds (v_lo, v_hi) for the horizon prediction, from the velocity limits and the braking
+        distance to the position limits; and, per side, whether the position limit is the tighter one."""
+        limits = self.limits
+        v_max = limits.joint_velocity_array
+        a = self.braking_deceleration
+        room_high = limits.upper_array - q
+        room_low = q - limits.lower_array
+        # Inside: the speed from which the joint still stops before the limit; beyond: a return speed.
+        pos_high = np.where(room_high >= 0.0, np.sqrt(2.0 * a * np.maximum(room_high, 0.0)), room_high / self.horizon)
+        pos_low = -np.where(room_low >= 0.0, np.sqrt(2.0 * a * np.maximum(room_low, 0.0)), room_low / self.horizon)
+        position_high = pos_high < v_max
+        position_low = pos_low > -v_max
+        v_hi = np.where(position_high, pos_high, v_max)
+        v_lo = np.minimum(np.where(position_low, pos_low, -v_max), v_hi)
+        return v_lo, v_hi, position_low, position_high
+
+    def acceleration_bounds(self, q: NDArray[np.float64], qd: NDArray[np.float64]
+                            ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_],
+                                       bool]:
+        """Bounds (a_lo, a_hi) on the joint acceleration qdd, which side is set by a position limit, and whether
+        the bounds had to be reconciled.
+
+        Two conditions on the same qdd, so the tighter one is kept: the horizon velocity qd + T qdd within
+        (v_lo, v_hi), and, for a joint inside its limits, the next sample q + dt (qd + dt qdd) still inside.
+        They can contradict each other (a joint too fast, too close to its limit): then the next-sample position
+        bound is kept and the horizon velocity bound on the other side gives way (reported as relaxed).
+        """
+        dt = self.control_period
+        limits = self.limits
+        v_lo, v_hi, position_low, position_high = self.velocity_bounds(q, qd)
+        velocity_high = (v_hi - qd) / self.horizon
+        velocity_low = (v_lo - qd) / self.horizon
+        room_high = limits.upper_array - q
+        room_low = q - limits.lower_array
+        step_high = np.where(room_high >= 0.0, (room_high / dt - qd) / dt, np.inf)
+        step_low = np.where(room_low >= 0.0, (-room_low / dt - qd) / dt, -np.inf)
+        high_from_step = step_high < velocity_high
+        low_from_step = step_low > velocity_low
+        a_hi = np.where(high_from_step, step_high, velocity_high)
+        a_lo = np.where(low_from_step, step_low, velocity_low)
+        conflict = a_lo > a_hi
+        reconciled = bool(conflict.any())
+        if reconciled:
+            a_lo = np.where(conflict & high_from_step, a_hi, a_lo)   # stop short of the upper limit
+            a_hi = np.where(conflict & ~high_from_step, a_lo, a_hi)  # stop short of the lower limit
+        return a_lo, a_hi, position_low | low_from_step, position_high | high_from_step, reconciled
+
+    def shape(self, desired_torque: NDArray[np.float64], previous_torque: NDArray[np.float64] | None,
+              q: NDArray[np.float64], qd: NDArray[np.float64], bias: NDArray[np.float64],
+              mass_matrix_inverse: NDArray[np.float64], tcp_linear_jacobian: NDArray[np.float64],
+              position_margin: NDArray[np.float64] | None = None) -> ShapedTorque:
+        """Shape ``desired_torque`` (7,) into the limits.
+
+        ``bias`` is what the torque works against, C qd + g + D qd, so that M qdd = tau - bias;
+        ``tcp_linear_jacobian`` the 3x7 linear rows of the TCP Jacobian (base frame); ``position_margin`` the
+        distance of each joint to its nearest position limit, if the caller has it. Inputs are trusted (the
+        replica validated them).
+        """
+        limits = self.limits
+        horizon = self.horizon
+        step = limits.torque_rate * self.control_period
+        # Joint velocity extrapolated T ahead under tau_d, and the TCP velocity it gives.
+        ahead = qd + horizon * (mass_matrix_inverse @ (desired_torque - bias))
+        tcp_ahead = tcp_linear_jacobian @ ahead
+        tcp_ahead_squared = float(tcp_ahead @ tcp_ahead)
+
+        # Fast path: far from every position limit and nothing else broken -> the command is tau_d, unshaped.
+        if position_margin is None:
+            position_margin = np.minimum(q - limits.lower_array, limits.upper_array - q)
+        # (With |qd| and |ahead| <= v_max and the room beyond v_max^2 / 2a and v_max dt, neither the braking nor
+        # the next-sample position bound can bind.)
+        if previous_torque is None:
+            stacked, bounds = np.concatenate((desired_torque, ahead, qd)), self._fast_bounds_first
+        else:
+            stacked, bounds = np.concatenate((desired_torque, desired_torque - previous_torque, ahead, qd)), \
+                self._fast_bounds
+        if ((np.abs(stacked) <= bounds).all() and tcp_ahead_squared <= limits.tcp_speed * limits.tcp_speed
+                and (position_margin > self._free_room).all()):
+            return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0)
+
+        minv_tau_d = mass_matrix_inverse @ desired_torque
+        free_acceleration = mass_matrix_inverse @ bias                      # M^-1 bias: qdd = M^-1 tau - this
+        tcp_velocity = tcp_linear_jacobian @ qd
+        abs_desired = np.abs(desired_torque)
+        lower, upper = self.torque_box(previous_torque)
+        a_lo, a_hi, position_low, position_high, reconciled = self.acceleration_bounds(q, qd)
+        # Bounds on the predicted acceleration, written on M^-1 tau = qdd + M^-1 bias.
+        row_lower = a_lo + free_acceleration
+        row_upper = a_hi + free_acceleration
+        tcp_max = limits.tcp_speed
+
+        # Flags of the constraints that the unshaped torque breaks.
+        flags = LimitFlag.NONE
+        if np.any(abs_desired > limits.torque_array):
+            flags |= LimitFlag.TORQUE
+        if previous_torque is not None and np.any(np.abs(desired_torque - previous_torque) > step):
+            flags |= LimitFlag.TORQUE_RATE
+        if np.any(desired_torque > upper) or np.any(desired_torque < lower):
+            if not flags & (LimitFlag.TORQUE | LimitFlag.TORQUE_RATE):  # box emptied by an out-of-limit tau_prev
+                flags |= LimitFlag.TORQUE
+        above = minv_tau_d > row_upper
+        below = minv_tau_d < row_lower
+        flags |= self._joint_flags(above, below, position_low, position_high)
+        tcp_ahead_speed = math.sqrt(tcp_ahead_squared)
+        if tcp_ahead_speed > tcp_max:
+            flags |= LimitFlag.TCP_SPEED
+        if flags == LimitFlag.NONE:
+            return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0)
+
+        # The QP, in daqp's form: 1/2 x'Hx + f'x, lower <= x <= upper (simple bounds), row bounds on A x.
+        self.qp_count += 1
+        hessian = mass_matrix_inverse
+        linear = -minv_tau_d
+        cut_rows: list[NDArray[np.float64]] = []
+        cut_upper: list[float] = []
+        if tcp_ahead_speed > tcp_max:
+            self._add_cut(tcp_ahead / tcp_ahead_speed, tcp_linear_jacobian, mass_matrix_inverse, tcp_velocity,
+                          free_acceleration, horizon, cut_rows, cut_upper)
+        softened = False
+        iterations = 0
+        torque = None
+        multipliers = None
+        for _ in range(self.tcp_cuts + 1):
+            rows = np.vstack([mass_matrix_inverse, *cut_rows]) if cut_rows else mass_matrix_inverse
+            b_upper = np.concatenate([upper, row_upper, cut_upper])
+            b_lower = np.concatenate([lower, row_lower, np.full(len(cut_rows), -_INFINITY)])
+            solution, exitflag, n_iter, lam, soft = self._solve(hessian, linear, rows, b_upper, b_lower, softened)
+            iterations += n_iter
+            if solution is None:
+                break
+            softened = softened or soft
+            torque, multipliers = solution, lam
+            ahead = tcp_velocity + horizon * (tcp_linear_jacobian @ (mass_matrix_inverse @ torque - free_acceleration))
+            speed = float(np.sqrt(ahead @ ahead))
+            if speed <= tcp_max * (1.0 + _TCP_RELATIVE_TOLERANCE) or len(cut_rows) >= self.tcp_cuts:
+                break
+            self._add_cut(ahead / speed, tcp_linear_jacobian, mass_matrix_inverse, tcp_velocity, free_acceleration,
+                          horizon, cut_rows, cut_upper)
+
+        if torque is None:  # the solver failed: the last guard alone
+            torque = desired_torque
+        elif multipliers is not None:
+            # The active set is what shaped the command: tau - tau_d = -H^-1 (sum of active multipliers * rows).
+            # (A constraint that tau_d broke but that is slack at the solution did not shape it.)
+            active = self._active_flags(multipliers, torque, lower, upper, previous_torque, position_low,
+                                        position_high, len(cut_rows))
+            flags = active if active else flags
+        relaxed = reconciled or softened
+        if relaxed:
+            self.relaxed_count += 1
+
+        # Last guard: never outside the torque and torque-rate box.
+        clipped = np.minimum(np.maximum(torque, lower), upper)
+        guard = bool(np.max(np.abs(clipped - torque)) > _GUARD_TOLERANCE)
+        if guard:
+            self.guard_clips += 1
+            flags |= self._box_flags(clipped, previous_torque, np.abs(clipped - torque) > _GUARD_TOLERANCE) \
+                or LimitFlag.TORQUE
+        change = clipped - desired_torque
+        return ShapedTorque(clipped, flags, float(np.sqrt(change @ change)), True, relaxed, guard, iterations)
+
+    def _solve(self, hessian, linear, rows, b_upper, b_lower, relaxed: bool):
+        """Solve with hard prediction constraints; on infeasibility, again with them soft (bounds stay hard)."""
+        sense = np.full(b_upper.size, _SENSE_SOFT if relaxed else _SENSE_INEQUALITY, dtype=np.int32)
+        sense[:7] = _SENSE_INEQUALITY
+        x, _, exitflag, info = daqp.solve(hessian, linear, rows, b_upper, b_lower, sense,
+                                          iter_limit=self.iteration_limit)
+        iterations = int(info["iterations"])
+        if exitflag == _EXIT_INFEASIBLE and not relaxed:
+            sense[7:] = _SENSE_SOFT
+            x, _, exitflag, info = daqp.solve(hessian, linear, rows, b_upper, b_lower, sense,
+                                              iter_limit=self.iteration_limit)
+            iterations += int(info["iterations"])
+            relaxed = True
+        if exitflag < 0 or not np.all(np.isfinite(x)):
+            return None, exitflag, iterations, None, relaxed
+        return np.array(x), exitflag, iterations, np.array(info["lam"]), relaxed
+
+    def _add_cut(self, direction, tcp_linear_jacobian, mass_matrix_inverse, tcp_velocity, free_acceleration,
+                 horizon, cut_rows, cut_upper) -> None:
+        # u^T J_v (qd + T (M^-1 tau - M^-1 bias)) <= v_max   <=>   (u^T J_v M^-1) tau <= (v_max - u^T v)/T + u^T J_v M^-1 bias
+        projected = direction @ tcp_linear_jacobian
+        cut_rows.append(projected @ mass_matrix_inverse)
+        cut_upper.append(float((self.limits.tcp_speed * (1.0 - _TCP_CUT_SHRINK) - direction @ tcp_velocity) / horizon
+                               + projected @ free_acceleration))
+
+    @staticmethod
+    def _joint_flags(above, below, position_low, position_high) -> LimitFlag:
+        flags = LimitFlag.NONE
+        if np.any(above & position_high) or np.any(below & position_low):
+            flags |= LimitFlag.JOINT_POSITION
+        if np.any(above & ~position_high) or np.any(below & ~position_low):
+            flags |= LimitFlag.JOINT_VELOCITY
+        return flags
+
+    def _box_flags(self, torque, previous_torque, mask=True) -> LimitFlag:
+        """Which of the torque and torque-rate limits the (masked) joints of a torque on the box's boundary sit on."""
+        flags = LimitFlag.NONE
+        if np.any(mask & (np.abs(torque) >= self.limits.torque_array - 1e-9)):
+            flags |= LimitFlag.TORQUE
+        step = self.limits.torque_rate * self.control_period
+        if previous_torque is not None and np.any(mask & (np.abs(torque - previous_torque) >= step - 1e-9)):
+            flags |= LimitFlag.TORQUE_RATE
+        return flags
+
+    def _active_flags(self, multipliers, torque, lower, upper, previous_torque, position_low, position_high,
+                      n_cuts) -> LimitFlag:
+        active = np.abs(multipliers) > _MULTIPLIER_TOLERANCE
+        flags = LimitFlag.NONE
+        if np.any(active[:7]):
+            flags |= self._box_flags(torque, previous_torque, active[:7])
+        joint_active = active[7:14]
+        if np.any(joint_active):
+            high = multipliers[7:14] > 0.0
+            flags |= self._joint_flags(joint_active & high, joint_active & ~high, position_low, position_high)
+        if n_cuts and np.any(active[14:14 + n_cuts]):
+            flags |= LimitFlag.TCP_SPEED
+        return flags
+

@@ -1,0 +1,180 @@
+"""Rigid-body terms of the Panda for the replica law (paper Eq. 7), from Pinocchio.
+
+One ``update(q, qd)`` a control tick computes everything the replica needs in one pass, on the same URDF that
+the simulator loads (``panda_description``): the TCP pose, its Jacobian in the base-aligned frame, g(q),
+C(q, qd) qd, M(q) and M(q)^-1. The accessors then only read the cached results, so the control law, the
+null-space posture and the postural optimisation all see the same state.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import FicInputError, finite_array
+from .panda_description import JOINT_DAMPING, load_pinocchio_model
+
+_LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+def checked_array(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """``finite_array`` with a fast path for the 1 kHz tick: one sum detects any NaN/Inf (they propagate);
+    only a suspicious input takes the full check, which raises FicInputError naming ``name``."""
+    array = np.asarray(value, dtype=np.float64) if not isinstance(value, np.ndarray) or value.dtype != np.float64 \
+        else value
+    if array.shape == shape and math.isfinite(array.sum()):
+        return array
+    return finite_array(name, value, shape)  # raises, unless a huge finite input overflowed the sum
+
+
+class RobotModel:
+    """Pinocchio model of the 7-DoF Panda arm (fingers locked, simulator's armature mirrored).
+
+    Cartesian quantities are in the base frame ``panda_link0``; the Jacobian is LOCAL_WORLD_ALIGNED (the TCP's
+    linear velocity and the angular velocity, both expressed in the base frame), axis order x, y, z, rx, ry, rz.
+    """
+
+    def __init__(self, model: pin.Model | None = None, tcp_frame_id: int | None = None) -> None:
+        if model is None:
+            model, _, default_frame = load_pinocchio_model()
+            tcp_frame_id = default_frame if tcp_frame_id is None else tcp_frame_id
+        elif tcp_frame_id is None:
+            raise FicInputError("tcp_frame_id is required when a model is given")
+        self.model = model
+        self.data = model.createData()
+        self.tcp_frame_id = int(tcp_frame_id)
+        self.dof = int(model.nv)
+        if model.nq != model.nv:
+            raise FicInputError(f"model must have nq == nv (revolute joints only), got nq={model.nq}, nv={model.nv}")
+        self.lower_position_limit: NDArray[np.float64] = np.array(model.lowerPositionLimit, dtype=float)
+        self.upper_position_limit: NDArray[np.float64] = np.array(model.upperPositionLimit, dtype=float)
+        self.urdf_velocity_limit: NDArray[np.float64] = np.array(model.velocityLimit, dtype=float)
+        self.urdf_effort_limit: NDArray[np.float64] = np.array(model.effortLimit, dtype=float)
+        #: Viscous joint damping of the real (simulated) arm; used to predict the next joint velocity.
+        self.joint_damping: NDArray[np.float64] = np.full(self.dof, JOINT_DAMPING)
+        for array in (self.lower_position_limit, self.upper_position_limit, self.urdf_velocity_limit,
+                      self.urdf_effort_limit, self.joint_damping):
+            array.flags.writeable = False
+        self._updated = False
+
+    def update(self, q: ArrayLike, qd: ArrayLike) -> None:
+        """Compute kinematics and dynamics at (q, qd). Raises FicInputError on NaN/Inf or a wrong shape.
+
+        The arrays the accessors return are valid until the next ``update`` (copy them to keep them).
+        """
+        q = checked_array("q", q, (self.dof,)).copy()
+        qd = checked_array("qd", qd, (self.dof,)).copy()
+        model, data = self.model, self.data
+        # computeJointJacobians also runs the forward kinematics of the placements.
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacement(model, data, self.tcp_frame_id)
+        self._jacobian = pin.getFrameJacobian(model, data, self.tcp_frame_id, _LOCAL_WORLD_ALIGNED)  # a new array
+        placement = data.oMf[self.tcp_frame_id]
+        self._position = placement.translation.copy()  # views of `data`, overwritten by the next call: copied
+        self._rotation = placement.rotation.copy()
+        # nonLinearEffects and computeMinverse return views of distinct members of `data` (nle, Minv), which only
+        # the next update overwrites. Pinocchio 4 fills both triangles of Minv (checked in test_robot_model).
+        self._nonlinear = pin.nonLinearEffects(model, data, q, qd)  # C(q, qd) qd + g(q)
+        self._mass_inverse = pin.computeMinverse(model, data, q)
+        self._q = q
+        self._qd = qd
+        self._twist = self._jacobian @ qd
+        # Computed on first use only: the replica's tick does not need them.
+        self._gravity = None
+        self._mass = None
+        self._kinetic_energy = None
+        self._updated = True
+
+    def _require_update(self) -> None:
+        if not self._updated:
+            raise RuntimeError("RobotModel.update(q, qd) must be called before reading the model")
+
+    @property
+    def q(self) -> NDArray[np.float64]:
+        self._require_update()
+        return self._q
+
+    @property
+    def qd(self) -> NDArray[np.float64]:
+        self._require_update()
+        return self._qd
+
+    @property
+    def tcp_position(self) -> NDArray[np.float64]:
+        """TCP position in the base frame [m] (3,)."""
+        self._require_update()
+        return self._position
+
+    @property
+    def tcp_rotation(self) -> NDArray[np.float64]:
+        """TCP orientation, base <- TCP rotation matrix (3, 3)."""
+        self._require_update()
+        return self._rotation
+
+    @property
+    def tcp_jacobian(self) -> NDArray[np.float64]:
+        """6x7 TCP Jacobian, LOCAL_WORLD_ALIGNED: [v; w] = J qd, both in the base frame."""
+        self._require_update()
+        return self._jacobian
+
+    @property
+    def tcp_twist(self) -> NDArray[np.float64]:
+        """TCP twist [v; w] in the base frame (6,)."""
+        self._require_update()
+        return self._twist
+
+    @property
+    def tcp_speed(self) -> float:
+        """Linear speed of the TCP [m/s]."""
+        self._require_update()
+        velocity = self._twist[:3]
+        return math.sqrt(velocity @ velocity)
+
+    @property
+    def gravity(self) -> NDArray[np.float64]:
+        """G(q) [N m] (7,)."""
+        self._require_update()
+        if self._gravity is None:
+            self._gravity = pin.computeGeneralizedGravity(self.model, self.data, self._q).copy()
+        return self._gravity
+
+    @property
+    def coriolis(self) -> NDArray[np.float64]:
+        """C(q, qd) qd, Coriolis and centrifugal torques [N m] (7,)."""
+        self._require_update()
+        return self._nonlinear - self.gravity
+
+    @property
+    def nonlinear_effects(self) -> NDArray[np.float64]:
+        """C(q, qd) qd + G(q) [N m] (7,)."""
+        self._require_update()
+        return self._nonlinear
+
+    @property
+    def mass_matrix(self) -> NDArray[np.float64]:
+        """M(q) incl. the joint armature [kg m^2] (7, 7), symmetric (Pinocchio 4 fills both triangles)."""
+        self._require_update()
+        if self._mass is None:
+            self._mass = pin.crba(self.model, self.data, self._q).copy()
+        return self._mass
+
+    @property
+    def mass_matrix_inverse(self) -> NDArray[np.float64]:
+        """M(q)^-1 (7, 7), symmetric."""
+        self._require_update()
+        return self._mass_inverse
+
+    @property
+    def kinetic_energy(self) -> float:
+        """0.5 qd^T M(q) qd [J]."""
+        self._require_update()
+        if self._kinetic_energy is None:
+            self._kinetic_energy = float(pin.computeKineticEnergy(self.model, self.data, self._q, self._qd))
+        return self._kinetic_energy
+
+    def joint_position_margin(self, q: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Distance of each joint to its nearest URDF limit [rad]; negative when beyond a limit."""
+        q = self.q if q is None else finite_array("q", q, (self.dof,))
+        return np.minimum(q - self.lower_position_limit, self.upper_position_limit - q)

@@ -1,0 +1,220 @@
+"""Postural optimisation: never outside the torque/torque-rate box; prediction constraints hold when feasible;
+flags set exactly when the command was shaped."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fic_core.limits import LimitFlag, PandaLimits
+from fic_core.panda_description import NOMINAL_CONFIGURATION
+from fic_core.postural_optimisation import PosturalOptimisation
+from fic_core.robot_model import RobotModel
+
+DT = 0.001
+TOLERANCE = 1e-9      # [N m] on the hard box
+PREDICTION_TOLERANCE = 1e-5  # solver feasibility tolerance, on velocities [rad/s, m/s]
+TCP_RELATIVE_TOLERANCE = 1e-6  # the TCP-speed cone is met by a finite number of cutting planes
+
+
+@pytest.fixture(scope="module")
+def robot() -> RobotModel:
+    return RobotModel()
+
+
+@pytest.fixture(scope="module")
+def limits(robot: RobotModel) -> PandaLimits:
+    return PandaLimits.from_robot(robot)
+
+
+def shape(optimisation: PosturalOptimisation, robot: RobotModel, q, qd, desired, previous):
+    robot.update(q, qd)
+    bias = robot.nonlinear_effects + robot.joint_damping * robot.qd
+    result = optimisation.shape(np.asarray(desired, dtype=float), previous, robot.q, robot.qd, bias,
+                                robot.mass_matrix_inverse, robot.tcp_jacobian[:3])
+    return result, bias
+
+
+def predicted_velocity(optimisation, robot: RobotModel, torque, bias):
+    """Joint and TCP velocity extrapolated over the optimisation's horizon, from the model."""
+    acceleration = robot.mass_matrix_inverse @ (torque - bias)
+    ahead = robot.qd + optimisation.horizon * acceleration
+    return ahead, robot.tcp_jacobian[:3] @ ahead
+
+
+def assert_inside_box(result, previous, limits: PandaLimits, dt: float = DT) -> None:
+    assert np.all(np.abs(result.torque) <= limits.torque_array + TOLERANCE)
+    if previous is not None:
+        assert np.all(np.abs(result.torque - previous) <= limits.torque_rate * dt + TOLERANCE)
+
+
+def test_unconstrained_torque_passes_unchanged(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    robot.update(NOMINAL_CONFIGURATION, np.zeros(7))
+    gravity = robot.nonlinear_effects.copy()
+    desired = gravity + 0.3
+    result, _ = shape(optimisation, robot, NOMINAL_CONFIGURATION, np.zeros(7), desired, gravity)
+    assert result.flags == LimitFlag.NONE
+    assert not result.solved_qp
+    assert result.torque_change == 0.0
+    np.testing.assert_array_equal(result.torque, desired)
+
+
+def test_torque_saturation_is_flagged_torque(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    qd = np.zeros(7)
+    qd[4] = -2.5  # joint 5 moving the other way, so that 12 N m cannot bring it to its velocity limit
+    robot.update(NOMINAL_CONFIGURATION, qd)
+    desired = robot.nonlinear_effects.copy()
+    desired[4] = 30.0  # joint 5's limit is 12 N m
+    result, bias = shape(optimisation, robot, NOMINAL_CONFIGURATION, qd, desired, None)
+    assert result.flags == LimitFlag.TORQUE
+    assert result.torque[4] == pytest.approx(12.0)
+    assert result.torque_change > 0.0
+    assert_inside_box(result, None, limits)
+
+
+def test_torque_rate_is_flagged_and_respected(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    robot.update(NOMINAL_CONFIGURATION, np.zeros(7))
+    previous = robot.nonlinear_effects.copy()
+    desired = previous.copy()
+    desired[1] += 5.0
+    result, _ = shape(optimisation, robot, NOMINAL_CONFIGURATION, np.zeros(7), desired, previous)
+    assert result.flags == LimitFlag.TORQUE_RATE
+    assert result.torque[1] == pytest.approx(previous[1] + 1.0)
+    assert_inside_box(result, previous, limits)
+
+
+def test_joint_velocity_limit_brakes(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    qd = np.zeros(7)
+    qd[0] = 2.15  # joint 1 close to its 2.175 rad/s limit
+    robot.update(NOMINAL_CONFIGURATION, qd)
+    bias = robot.nonlinear_effects + robot.joint_damping * qd
+    desired = bias + robot.mass_matrix @ np.array([5.0, 0, 0, 0, 0, 0, 0])  # keep accelerating joint 1
+    result, bias = shape(optimisation, robot, NOMINAL_CONFIGURATION, qd, desired, None)
+    assert result.flags & LimitFlag.JOINT_VELOCITY
+    assert not result.flags & LimitFlag.JOINT_POSITION
+    ahead, _ = predicted_velocity(optimisation, robot, result.torque, bias)
+    assert ahead[0] <= 2.175 + PREDICTION_TOLERANCE
+    assert ahead[0] == pytest.approx(2.175, abs=1e-4)  # active: the constraint, not more
+
+
+def test_joint_position_limit_brakes_in_time(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    q = NOMINAL_CONFIGURATION.copy()
+    q[3] = limits.joint_position_upper[3] - 0.05  # 5 cm... 0.05 rad from joint 4's upper limit
+    qd = np.zeros(7)
+    qd[3] = 1.0  # toward it
+    robot.update(q, qd)
+    bias = robot.nonlinear_effects + robot.joint_damping * qd
+    result, bias = shape(optimisation, robot, q, qd, bias, None)
+    assert result.flags & LimitFlag.JOINT_POSITION
+    ahead, _ = predicted_velocity(optimisation, robot, result.torque, bias)
+    braking = np.sqrt(2 * optimisation.braking_deceleration[3] * 0.05)
+    assert ahead[3] <= braking + PREDICTION_TOLERANCE
+
+
+def test_tcp_speed_limit(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    # A configuration and direction where 1.65 m/s at the TCP needs less than half of every joint speed limit.
+    q = np.array([-0.994, -0.313, -1.997, -1.823, -2.153, 1.711, -2.071])
+    direction = np.array([-0.125, -0.787, 0.604])
+    robot.update(q, np.zeros(7))
+    weights = np.diag(limits.joint_velocity_array)
+    joint_direction = weights @ np.linalg.pinv(robot.tcp_jacobian[:3] @ weights) @ direction
+    qd = joint_direction * 1.65 / np.linalg.norm(robot.tcp_jacobian[:3] @ joint_direction)
+    assert np.all(np.abs(qd) < 0.5 * limits.joint_velocity_array)
+    robot.update(q, qd)
+    bias = robot.nonlinear_effects + robot.joint_damping * qd
+    pushing = bias + robot.tcp_jacobian[:3].T @ (20.0 * direction)
+    result, bias = shape(optimisation, robot, q, qd, pushing, None)
+    assert result.flags == LimitFlag.TCP_SPEED
+    _, tcp_ahead = predicted_velocity(optimisation, robot, result.torque, bias)
+    assert np.linalg.norm(tcp_ahead) <= 1.7 * (1 + TCP_RELATIVE_TOLERANCE)
+    assert np.linalg.norm(tcp_ahead) >= 1.7 * (1 - 2e-3)  # braked to the limit, not far below it
+
+
+def test_joint_beyond_its_limit_relaxes_without_exception(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    q = NOMINAL_CONFIGURATION.copy()
+    q[0] = limits.joint_position_upper[0] + 0.05
+    qd = np.zeros(7)
+    qd[0] = 2.5  # beyond the velocity limit too, moving further out
+    robot.update(q, qd)
+    previous = robot.nonlinear_effects.copy()
+    result, _ = shape(optimisation, robot, q, qd, previous + 50.0, previous)
+    assert result.solved_qp
+    assert result.relaxed
+    assert result.flags & LimitFlag.JOINT_POSITION
+    assert_inside_box(result, previous, limits)
+    # It still brakes as hard as the torque-rate box allows.
+    assert result.torque[0] == pytest.approx(previous[0] - 1.0)
+
+
+def test_previous_torque_beyond_the_torque_limit_torque_wins(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    previous = np.zeros(7)
+    previous[5] = 20.0  # an outside command (not ours) above joint 6's 12 N m
+    result, _ = shape(optimisation, robot, NOMINAL_CONFIGURATION, np.zeros(7), previous, previous)
+    assert abs(result.torque[5]) <= 12.0
+    assert result.flags & LimitFlag.TORQUE
+
+
+def test_random_states_and_huge_demands(robot, limits) -> None:
+    """Thousands of random states (joints anywhere in range incl. right at the limits, velocities up to 110 % of
+    the limits), random previous commands inside the limits and huge random torque demands."""
+    rng = np.random.default_rng(11)
+    lower, upper = limits.lower_array, limits.upper_array
+    v_max = limits.joint_velocity_array
+    counts = {"fast": 0, "qp": 0, "relaxed": 0, "feasible qp": 0, "tcp": 0}
+    for dt in (0.001, 0.004, 0.02):
+        optimisation = PosturalOptimisation(limits, dt)
+        for _ in range(800):
+            near = rng.random(7) < 0.3
+            edge = np.where(rng.random(7) < 0.5, lower + rng.uniform(0, 0.1, 7), upper - rng.uniform(0, 0.1, 7))
+            q = np.where(near, edge, rng.uniform(lower, upper))
+            qd = rng.uniform(-1.1, 1.1, 7) * v_max * rng.choice([0.1, 0.5, 1.0])
+            robot.update(q, qd)
+            kind = rng.random()
+            if kind < 0.5:  # the last command was near what the arm needs now
+                previous = np.clip(robot.nonlinear_effects + rng.normal(size=7), -limits.torque_array,
+                                   limits.torque_array)
+            elif kind < 0.8:  # anything inside the limits
+                previous = rng.uniform(-1, 1, 7) * limits.torque_array
+            else:  # the first command
+                previous = None
+            scale = rng.choice([0.3, 3.0, 30.0, 1000.0])
+            desired = robot.nonlinear_effects + rng.normal(size=7) * scale
+            result, bias = shape(optimisation, robot, q, qd, desired, previous)
+
+            assert np.all(np.isfinite(result.torque))
+            assert_inside_box(result, previous, limits, dt)
+            # Flags exactly when shaped.
+            if result.flags == LimitFlag.NONE:
+                np.testing.assert_array_equal(result.torque, desired)
+                counts["fast"] += 1
+            else:
+                assert result.solved_qp
+                assert result.torque_change == pytest.approx(np.linalg.norm(result.torque - desired))
+                counts["qp"] += 1
+            if result.relaxed:
+                counts["relaxed"] += 1
+                continue
+            counts["feasible qp"] += result.solved_qp
+            # Feasible: the predicted joint velocity respects the velocity and braking bounds, the TCP speed too.
+            ahead, tcp_ahead = predicted_velocity(optimisation, robot, result.torque, bias)
+            v_lo, v_hi, _, _ = optimisation.velocity_bounds(robot.q, robot.qd)
+            assert np.all(ahead <= v_hi + PREDICTION_TOLERANCE)
+            assert np.all(ahead >= v_lo - PREDICTION_TOLERANCE)
+            current_tcp = np.linalg.norm(robot.tcp_jacobian[:3] @ robot.qd)
+            if current_tcp <= limits.tcp_speed:
+                assert np.linalg.norm(tcp_ahead) <= limits.tcp_speed * (1 + TCP_RELATIVE_TOLERANCE)
+                counts["tcp"] += 1
+            # The next sample stays inside the position limits if this one is.
+            inside = (robot.q >= lower) & (robot.q <= upper)
+            next_q = robot.q + dt * (robot.qd + dt * robot.mass_matrix_inverse @ (result.torque - bias))
+            assert np.all(next_q[inside] <= upper[inside] + 1e-6)
+            assert np.all(next_q[inside] >= lower[inside] - 1e-6)
+    # The sample exercised both paths and the infeasible case.
+    assert counts["fast"] > 100 and counts["feasible qp"] > 300 and counts["relaxed"] > 10, counts
