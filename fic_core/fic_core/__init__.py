@@ -9,3 +9,9 @@ from fic_core.master import MasterLaw
 from fic_core.teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
 from fic_core.planner import HarmonicPlanner
 from fic_core.trajectories import Circle, FixedPoint, ViaPoints
+# Replica (paper Eq. 7, SPEC 1.5): Pinocchio model, Panda limits, null-space posture, postural optimisation.
+from fic_core.robot_model import RobotModel
+from fic_core.limits import LimitFlag, PandaLimits, limit_violations
+from fic_core.posture import NullSpacePosture
+from fic_core.postural_optimisation import PosturalOptimisation, ShapedTorque
+from fic_core.replica import ReplicaCommand, ReplicaController, rotation_from_quaternion

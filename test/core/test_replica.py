@@ -1,0 +1,229 @@
+"""ReplicaController: paper Eq. 7 + postural optimisation, on the real PoseAttractor and LinearImpedance."""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from fic_core.attractor import PoseAttractor
+from fic_core.baseline import LinearImpedance
+from fic_core.errors import FicInputError
+from fic_core.limits import LimitFlag, PandaLimits, limit_violations
+from fic_core.panda_description import JOINT_DAMPING, NOMINAL_CONFIGURATION
+from fic_core.profile import ForceProfile
+from fic_core.replica import ReplicaController, rotation_from_quaternion
+from fic_core.robot_model import RobotModel
+
+DT = 0.001
+
+
+@pytest.fixture(scope="module")
+def robot() -> RobotModel:
+    return RobotModel()
+
+
+@pytest.fixture(scope="module")
+def limits(robot: RobotModel) -> PandaLimits:
+    return PandaLimits.from_robot(robot)
+
+
+def paper_fic() -> PoseAttractor:
+    """The paper's replica FIC: K0 = 200 N/m, x_b = 0.05 m (Sec. III); rotation 20 N m/rad, x_b = 0.5 rad."""
+    return PoseAttractor(ForceProfile(200.0, 0.05, 0.5, 30.0), ForceProfile(20.0, 0.5, 0.5, 10.0))
+
+
+def nominal_pose(robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
+    robot.update(NOMINAL_CONFIGURATION, np.zeros(7))
+    return robot.tcp_position.copy(), robot.tcp_rotation.copy()
+
+
+def test_unshaped_torque_is_paper_eq_7(robot: RobotModel) -> None:
+    """tau_d = C qd + G + J^T FIC + tau_posture, each term recomputed independently with Pinocchio."""
+    replica = ReplicaController(robot, paper_fic())
+    rng = np.random.default_rng(21)
+    data = robot.model.createData()
+    position, rotation = nominal_pose(robot)
+    for _ in range(20):
+        q = NOMINAL_CONFIGURATION + rng.normal(scale=0.2, size=7)
+        qd = rng.normal(scale=0.3, size=7)
+        command = replica.command(q, qd, position + rng.normal(scale=0.02, size=3), rotation)
+        bias = pin.rnea(robot.model, data, q, qd, np.zeros(7))  # C(q, qd) qd + G(q)
+        pin.computeJointJacobians(robot.model, data, q)
+        pin.updateFramePlacements(robot.model, data)
+        jacobian = pin.getFrameJacobian(robot.model, data, robot.tcp_frame_id, pin.LOCAL_WORLD_ALIGNED)
+        expected = bias + jacobian.T @ command.wrench + command.posture_torque
+        np.testing.assert_allclose(command.unshaped_torque, expected, atol=1e-9)
+        # And the posture term lies in the dynamically consistent null space.
+        minv = pin.computeMinverse(robot.model, data, q)
+        assert np.linalg.norm(jacobian @ minv @ command.posture_torque) < 1e-6 * max(
+            1.0, np.linalg.norm(minv @ command.posture_torque))
+
+
+def test_quiet_tick_is_unshaped(robot: RobotModel) -> None:
+    replica = ReplicaController(robot, paper_fic())
+    position, rotation = nominal_pose(robot)
+    replica.reset(previous_torque=robot.nonlinear_effects)
+    command = replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position + [0.001, 0.0, 0.0], rotation)
+    assert command.limit_shaping == LimitFlag.NONE
+    assert command.limit_violations == LimitFlag.NONE
+    assert not command.solved_qp
+    np.testing.assert_array_equal(command.torque, command.unshaped_torque)
+    assert command.torque_change == 0.0
+
+
+def test_huge_demand_is_flagged_and_kept_inside(robot: RobotModel, limits: PandaLimits) -> None:
+    stiff = LinearImpedance(1e6, 1e5, 0.0, 0.0)
+    replica = ReplicaController(robot, stiff)
+    position, rotation = nominal_pose(robot)
+    replica.reset(previous_torque=robot.nonlinear_effects)
+    command = replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position + [0.3, 0.0, 0.0], rotation)
+    assert command.limit_shaping & LimitFlag.TORQUE_RATE
+    assert command.limit_violations == LimitFlag.NONE
+    assert np.all(np.abs(command.torque - command.previous_torque) <= 1.0 + 1e-9)
+    assert np.max(command.torque_rate_ratio) == pytest.approx(1.0)
+    assert replica.shaped_ticks == 1 and replica.ticks == 1 and replica.violation_ticks == 0
+
+
+def random_pose_near(rng, position, rotation):
+    axis = rng.normal(size=3)
+    angle = rng.uniform(0.0, 2.0)
+    return position + rng.normal(scale=0.5, size=3), pin.exp3(axis / np.linalg.norm(axis) * angle) @ rotation
+
+
+def test_random_states_never_break_torque_or_rate(robot: RobotModel, limits: PandaLimits) -> None:
+    """Thousands of random states (incl. at and near the joint limits, speeds up to 110 % of the limits) with
+    huge wrench demands and random previous torques: the command never breaks the torque and torque-rate limits,
+    the shaping flags are set exactly when the command differs from tau_d."""
+    rng = np.random.default_rng(22)
+    position, rotation = nominal_pose(robot)
+    lower, upper, v_max = limits.lower_array, limits.upper_array, limits.joint_velocity_array
+    shaped = 0
+    for controller in (LinearImpedance(1e5, 1e4, 1e3, 1e2),
+                       PoseAttractor(ForceProfile(1e4, 0.05, 0.5, 5e3), ForceProfile(1e3, 0.5, 0.5, 500.0))):
+        replica = ReplicaController(robot, controller)
+        for _ in range(1000):
+            near = rng.random(7) < 0.2
+            edge = np.where(rng.random(7) < 0.5, lower + rng.uniform(0, 0.05, 7), upper - rng.uniform(0, 0.05, 7))
+            q = np.where(near, edge, rng.uniform(lower, upper))
+            qd = rng.uniform(-1.1, 1.1, 7) * v_max
+            previous = rng.uniform(-1, 1, 7) * limits.torque_array
+            replica.reset(previous_torque=previous)
+            desired_position, desired_rotation = random_pose_near(rng, position, rotation)
+            command = replica.command(q, qd, desired_position, desired_rotation, rng.normal(size=6))
+            torque = command.torque
+            assert np.all(np.isfinite(torque))
+            assert np.all(np.abs(torque) <= limits.torque_array + 1e-9)
+            assert np.all(np.abs(torque - previous) <= limits.torque_rate * DT + 1e-9)
+            assert not command.limit_violations & (LimitFlag.TORQUE | LimitFlag.TORQUE_RATE)
+            if command.limit_shaping == LimitFlag.NONE:
+                np.testing.assert_array_equal(torque, command.unshaped_torque)
+            else:
+                shaped += 1
+                assert command.torque_change > 0.0
+            # The measured-state flags agree with the public checker.
+            assert command.limit_violations == limit_violations(previous, torque, q, qd, command.tcp_speed, DT,
+                                                                limits)
+    assert shaped > 1500
+
+
+def test_hold_keeps_the_current_pose_before_any_command(robot: RobotModel) -> None:
+    replica = ReplicaController(robot, paper_fic())
+    position, rotation = nominal_pose(robot)
+    command = replica.hold(NOMINAL_CONFIGURATION, np.zeros(7))
+    np.testing.assert_allclose(command.desired_position, position)
+    np.testing.assert_allclose(command.desired_rotation, rotation)
+    np.testing.assert_allclose(command.tracking_error, 0.0, atol=1e-12)
+    target = position + [0.01, 0.0, 0.0]
+    replica.command(NOMINAL_CONFIGURATION, np.zeros(7), target, rotation)
+    np.testing.assert_allclose(replica.hold(NOMINAL_CONFIGURATION, np.zeros(7)).desired_position, target)
+
+
+def test_quaternion_and_matrix_give_the_same_command(robot: RobotModel) -> None:
+    position, rotation = nominal_pose(robot)
+    quaternion = pin.Quaternion(rotation)  # coefficients in (x, y, z, w) order, as ROS
+    np.testing.assert_allclose(rotation_from_quaternion(quaternion.coeffs()), rotation, atol=1e-12)
+    first = ReplicaController(robot, paper_fic()).command(NOMINAL_CONFIGURATION, np.zeros(7), position, rotation)
+    second = ReplicaController(robot, paper_fic()).command(NOMINAL_CONFIGURATION, np.zeros(7), position,
+                                                           2.0 * quaternion.coeffs())
+    np.testing.assert_allclose(first.torque, second.torque, atol=1e-9)
+
+
+@pytest.mark.parametrize("argument", ["q", "qd", "position", "rotation", "twist"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_non_finite_inputs_are_rejected(robot: RobotModel, argument: str, bad: float) -> None:
+    replica = ReplicaController(robot, paper_fic())
+    position, rotation = nominal_pose(robot)
+    arguments = {"q": NOMINAL_CONFIGURATION.copy(), "qd": np.zeros(7), "position": position.copy(),
+                 "rotation": rotation.copy(), "twist": np.zeros(6)}
+    arguments[argument].flat[1] = bad
+    with pytest.raises(FicInputError):
+        replica.command(arguments["q"], arguments["qd"], arguments["position"], arguments["rotation"],
+                        arguments["twist"])
+    assert replica.ticks == 0 and replica.previous_torque is None  # nothing was committed
+
+
+def test_invalid_rotations_are_rejected(robot: RobotModel) -> None:
+    replica = ReplicaController(robot, paper_fic())
+    position, rotation = nominal_pose(robot)
+    with pytest.raises(FicInputError, match="rotation matrix"):
+        replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, 1.1 * rotation)
+    with pytest.raises(FicInputError, match="rotation matrix"):
+        replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, -rotation)  # det -1
+    with pytest.raises(FicInputError, match="norm"):
+        replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, np.zeros(4))
+    with pytest.raises(FicInputError, match="shape"):
+        replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, np.zeros(5))
+
+
+def simulate(robot: RobotModel, replica: ReplicaController, target: np.ndarray, rotation: np.ndarray,
+             seconds: float) -> tuple[np.ndarray, LimitFlag, list]:
+    """Pinocchio forward dynamics (ABA) at 1 ms, semi-implicit Euler, the simulator's joint damping."""
+    model = robot.model
+    data = model.createData()
+    q, qd = NOMINAL_CONFIGURATION.copy(), np.zeros(7)
+    errors = []
+    violations = LimitFlag.NONE
+    commands = []
+    for _ in range(int(round(seconds / DT))):
+        command = replica.command(q, qd, target, rotation)
+        errors.append(np.linalg.norm(command.tracking_error))
+        violations |= command.limit_violations
+        commands.append(command)
+        qdd = pin.aba(model, data, q, qd, command.torque - JOINT_DAMPING * qd)
+        qd = qd + DT * qdd
+        q = pin.integrate(model, q, DT * qd)
+    return np.array(errors), violations, commands
+
+
+def test_closed_loop_converges_from_a_5_cm_offset(robot: RobotModel) -> None:
+    position, rotation = nominal_pose(robot)
+    offset = np.array([1.0, -1.0, 1.0]) / np.sqrt(3.0) * 0.05
+    replica = ReplicaController(robot, paper_fic())
+    errors, violations, commands = simulate(robot, replica, position + offset, rotation, 3.0)
+    assert errors[0] == pytest.approx(0.05, rel=1e-6)
+    assert np.max(errors[-500:]) < 0.005  # below 5 mm well within 3 s, and stays there
+    assert violations == LimitFlag.NONE
+    assert np.linalg.norm(commands[-1].rotation_error) < np.radians(1.0)
+    # Energy: the controller's stored energy plus kinetic never exceeds what it started with, by much.
+    total = np.array([command.total_energy for command in commands])
+    assert np.max(total) <= total[0] * 1.05 + 1e-6
+
+
+def test_closed_loop_with_the_linear_baseline(robot: RobotModel) -> None:
+    position, rotation = nominal_pose(robot)
+    replica = ReplicaController(robot, LinearImpedance(200.0, 20.0, 40.0, 1.0))
+    errors, violations, _ = simulate(robot, replica, position + [0.0, 0.05, 0.0], rotation, 3.0)
+    assert np.max(errors[-500:]) < 0.005
+    assert violations == LimitFlag.NONE
+
+
+def test_closed_loop_under_an_aggressive_demand_stays_inside_every_limit(robot: RobotModel) -> None:
+    """A far target with a stiff controller: the arm is driven hard, the optimisation shapes the torque, and
+    neither the commands nor the simulated motion break a limit."""
+    position, rotation = nominal_pose(robot)
+    replica = ReplicaController(robot, PoseAttractor(ForceProfile(5000.0, 0.05, 0.5, 400.0),
+                                                     ForceProfile(200.0, 0.5, 0.5, 50.0)))
+    _, violations, commands = simulate(robot, replica, position + [0.35, 0.3, -0.25], rotation, 1.5)
+    assert violations == LimitFlag.NONE
+    assert replica.shaped_ticks > 50
+    assert max(command.tcp_speed for command in commands) > 0.5  # it did move fast
