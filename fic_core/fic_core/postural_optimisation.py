@@ -73,6 +73,8 @@ class ShapedTorque:
     relaxed: bool                        # the prediction constraints were infeasible and were softened
     guard_clipped: bool                  # the last-guard clip changed the solver's answer
     iterations: int                      # QP solver iterations (0 on the fast path)
+    fast_path: bool = False              # tau_d in the box, |qd| within the velocity limits, joints far from
+                                         # their position limits: the measured state is then inside too
 
 
 class PosturalOptimisation:
@@ -207,7 +209,7 @@ class PosturalOptimisation:
                 self._fast_bounds
         if ((np.abs(stacked) <= bounds).all() and tcp_ahead_squared <= limits.tcp_speed * limits.tcp_speed
                 and (position_margin > self._free_room).all()):
-            return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0)
+            return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0, True)
 
         minv_tau_d = mass_matrix_inverse @ desired_torque
         free_acceleration = mass_matrix_inverse @ bias                      # M^-1 bias: qdd = M^-1 tau - this

@@ -233,7 +233,10 @@ class ReplicaController:
                                          minv, jacobian[:3], position_margin)
         torque = shaped.torque if shaped.solved_qp else desired_torque.copy()
         tcp_speed = robot.tcp_speed
-        violations = self._violations(previous, torque, qd, position_margin, tcp_speed)
+        if shaped.fast_path and tcp_speed <= limits.tcp_speed:
+            violations = LimitFlag.NONE  # the fast path checked the torque, its rate, |qd| and the joint ranges
+        else:
+            violations = self._violations(previous, torque, qd, position_margin, tcp_speed)
         self._previous_torque = torque
         self.ticks += 1
         if shaped.flags:
