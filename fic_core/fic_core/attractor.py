@@ -172,6 +172,8 @@ class PoseAttractor:
     def __init__(self, translation: ForceProfile, rotation: ForceProfile,
                  rate_deadband_translation: float = DEFAULT_RATE_DEADBAND,
                  rate_deadband_rotation: float = DEFAULT_RATE_DEADBAND) -> None:
+        rate_deadband_translation = finite_scalar("rate_deadband_translation", rate_deadband_translation, minimum=0.0)
+        rate_deadband_rotation = finite_scalar("rate_deadband_rotation", rate_deadband_rotation, minimum=0.0)
         self._translation = FractalAttractor(translation, 3, rate_deadband_translation)
         self._rotation = FractalAttractor(rotation, 3, rate_deadband_rotation)
 

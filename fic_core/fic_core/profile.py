@@ -106,6 +106,8 @@ class ForceProfile:
         so the larger of the two slopes bounds every difference quotient.
         """
         saturation_slope = (self.max_force - self.linear_limit_force) / (_TANH_SPAN * self.saturation_width)
+        if self.linear_limit == 0.0:  # xi = 0: there is no linear region, K0 plays no part
+            return saturation_slope
         return max(self.stiffness, saturation_slope)
 
     def secant_stiffness(self, error: ArrayLike) -> NDArray[np.float64]:
@@ -116,15 +118,19 @@ class ForceProfile:
         """
         error_array = finite_array("error", error)
         magnitude = np.abs(error_array)
-        if self.linear_limit > 0.0:
-            slope_at_zero = self.stiffness
-        else:  # xi = 0: the tanh starts at the origin; its slope there is dF*sech^2(-pi)/((1 - tanh(-pi))*S).
-            slope_at_zero = (self.max_force * (1.0 - _TANH_START ** 2)) / (_TANH_SPAN * self.saturation_width)
-        # Below this the finite quotient loses digits to cancellation; the profile is its tangent there.
+        linear_limit = self.linear_limit
+        # Just past xi*x_b the profile is F0 + (tangent slope)*(a - xi*x_b); below `tiny` the finite quotient
+        # would lose its digits to the cancellation in tanh(u) - tanh(-pi), so that linearisation is used.
+        tangent_slope = ((self.max_force - self.linear_limit_force) * (1.0 - _TANH_START ** 2)
+                         / (_TANH_SPAN * self.saturation_width))
         tiny = 1e-9 * self.saturation_error
-        safe = np.where(magnitude > tiny, magnitude, 1.0)
+        safe = np.where(magnitude > 0.0, magnitude, 1.0)
         quotient = np.abs(self.force(safe)) / safe
-        return np.where(magnitude > tiny, quotient, slope_at_zero)
+        linearised = np.where(magnitude > 0.0,
+                              (self.linear_limit_force + tangent_slope * (magnitude - linear_limit)) / safe,
+                              tangent_slope)
+        secant = np.where(magnitude > tiny, quotient, linearised)
+        return np.where((magnitude <= linear_limit) & (linear_limit > 0.0), self.stiffness, secant)
 
     def energy(self, error: ArrayLike) -> NDArray[np.float64]:
         """The potential of the profile, integral of F_c from 0 to |error| (closed form), elementwise [J].
