@@ -17,7 +17,7 @@ Conventions every script relies on (they are the master's, SPEC 1.3):
 Superimposition (E1): the robot circles autonomously (0.20 m diameter, 5 s period); the operator sees each
 obstacle coming and acts early by the one-way delay plus the handle's lag, so that the offset reaches the
 replica as the robot reaches the obstacle. Around the FIRST obstacle the operator pulls the robot inward by
-``avoid_offset`` (passing inside it) on every lap; at the SECOND obstacle, on the first lap, the operator takes
+``avoid_offset`` and up by ``avoid_lift`` (passing inside and over it) on every lap; at the SECOND obstacle, on the first lap, the operator takes
 the robot inside the circle and sweeps it outward through the obstacle, pushing it off the circle's path.
 
 Shape sorting (E2): the device's 0.19 m x 0.13 m workspace cannot span a table, and a larger workspace scale
@@ -45,8 +45,9 @@ from sim_bridge.virtual_operator import (BUTTON_HAPTIC_GAIN_DOWN, BUTTON_HAPTIC_
 WORKSPACE_HALF_EXTENTS = np.array(HapticDeviceParameters().half_extents)
 
 SUPERIMPOSITION_DEFAULTS: dict[str, Any] = {
-    # Until sim_bridge/scenes.py exports the obstacle positions, these are the assumed layout: the circle
-    # centred between the two obstacles, which sit on the circle's path on opposite sides.
+    # sim_bridge/scenes.py: the circle is centred between the two obstacles, which sit on its path on opposite
+    # sides, FIXED_OBSTACLE_POSITION at +y (90 deg) and PUSHABLE_OBSTACLE_POSITION at -y (270 deg). The circle's
+    # start time and angle are the planner's: check them against its configuration.
     "circle_radius": 0.10,              # [m] paper: 0.20 m diameter
     "circle_period": 5.0,               # [s] paper: 5 s
     "circle_start_time": 2.0,           # [s] script time at which the robot is at circle_start_angle
@@ -57,6 +58,9 @@ SUPERIMPOSITION_DEFAULTS: dict[str, Any] = {
     "one_way_delay": 0.2,               # [s] the channel's delay the operator anticipates (paper: ~200 ms)
     "handle_lag": 0.15,                 # [s] how long the handle takes to follow the hand
     "avoid_offset": 0.06,               # [m] inward offset while passing the first obstacle
+    "avoid_lift": 0.06,                 # [m] upward offset while passing it (scenes.py: its top is 0.03 m above
+                                        #     the circle's plane, and the handle's +-0.065 m cannot go around a
+                                        #     0.06 m wide obstacle with a 0.07 m plate by a side step alone)
     "push_inward": 0.05,                # [m] inward offset before the sweep through the second obstacle
     "push_outward": 0.06,               # [m] outward offset at the end of the sweep
     "hold": 0.5,                        # [s] full offset held each side of the passing time
@@ -142,7 +146,7 @@ def superimposition_script(overrides: Mapping[str, Any] | None = None) -> Operat
     first, second = radial(p["first_obstacle_angle_deg"]), radial(p["second_obstacle_angle_deg"])
     for lap in range(int(p["laps"])):
         t = passing_time(p["first_obstacle_angle_deg"], lap) - lead
-        inward = -float(p["avoid_offset"]) * first
+        inward = -float(p["avoid_offset"]) * first + [0.0, 0.0, float(p["avoid_lift"])]
         actions.append([(t - hold - ramp, np.zeros(3)), (t - hold, inward), (t + hold, inward),
                         (t + hold + ramp, np.zeros(3))])
     t = passing_time(p["second_obstacle_angle_deg"], 0) - lead

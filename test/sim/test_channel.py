@@ -201,3 +201,17 @@ def test_throughput_is_enough_for_1khz():
         channel.pop_due(now)
     per_message = (time.perf_counter() - start) / 20_000
     assert per_message < 100e-6                       # under 10 % of one core at 1 kHz (measured ~10 us)
+
+
+def test_header_stamp_is_read_from_cdr_bytes():
+    import struct
+
+    from sim_bridge.cdr_header import header_stamp
+
+    body = struct.pack("<iI", 1_700_000_123, 456_789_000) + struct.pack("<I", 11) + b"panda_link0\x00"
+    assert header_stamp(b"\x00\x01\x00\x00" + body) == (1_700_000_123, 456_789_000)
+    big = b"\x00\x00\x00\x00" + struct.pack(">iI", -3, 999_999_999)
+    assert header_stamp(big) == (-3, 999_999_999)
+    assert header_stamp(b"\x00\x01\x00\x00\x01\x00") is None                       # too short
+    assert header_stamp(b"\x00\x07\x00\x00" + body) is None                        # not plain CDR
+    assert header_stamp(b"\x00\x01\x00\x00" + struct.pack("<iI", 1, 2_000_000_000)) is None

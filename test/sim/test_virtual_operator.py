@@ -119,9 +119,9 @@ def test_superimposition_acts_ahead_of_the_delay_at_the_first_obstacle():
     passing = 2.0 + 1.25                              # a quarter turn after the start
     lead = 0.35
     # Full inward offset (toward the centre, -y at 90 degrees) around the passing time minus the lead.
-    assert script.target(passing - lead) == pytest.approx([0.0, -0.06, 0.0], abs=1e-9)
-    # ...and back to no offset well before the robot is back, one period later, minus the ramp.
-    assert np.linalg.norm(script.target(passing + 2.0)) < 0.07
+    assert script.target(passing - lead) == pytest.approx([0.0, -0.06, 0.06], abs=1e-9)
+    # ...and back to no offset once the robot is past it (hold 0.5 s + ramp 0.5 s).
+    assert np.linalg.norm(script.target(passing - lead + 1.0)) < 1e-9
 
 
 def test_superimposition_rejects_overlapping_actions():

@@ -1,0 +1,308 @@
+"""ROS 2 shell around the delay/dropout channel (sim_bridge/channel.py): one direction of the master-replica link.
+
+Each route ``in_topic:out_topic:pkg/msg/Type`` is a raw (CDR bytes) subscription, a ``Channel`` and a raw
+publisher, so any message type passes untouched and its header stamp is preserved. Run one instance per
+direction (config/channel.yaml: ``channel_forward`` master -> replica, ``channel_backward`` replica -> master).
+Every link parameter can be changed at run time (``ros2 param set /channel_forward delay 0.5``); the change
+applies to all routes of this node. Time is the node clock, so with use_sim_time the delay is in simulated time
+and runs in lockstep with the simulator.
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import rclpy
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                SetParametersResult)
+from rclpy.exceptions import ParameterUninitializedException
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from fic_core.errors import FicInputError
+from sim_bridge.cdr_header import header_stamp, stamp_seconds
+from sim_bridge.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
+from sim_bridge.spin import spin_until_shutdown
+
+try:
+    from fic_teleop_msgs.msg import ChannelDelivery
+except ImportError:          # the message package is not built: the channel still works, without that topic
+    ChannelDelivery = None
+
+# Teleoperation streams through the channel (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 20. The channel is where
+# loss is injected on purpose; DDS itself should add none.
+CHANNEL_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+# One ChannelDelivery per forwarded message, read by the recorder: deep enough for a 1 kHz burst.
+DELIVERY_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100)
+DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+
+# Parameters that reconfigure the links at run time; ``routes`` and the timer rates are fixed at start.
+LINK_PARAMETERS = ("delay", "jitter", "jitter_distribution", "allow_reorder", "drop_probability",
+                   "blackout_windows", "lost_from", "rate_cap_hz", "seed", "time_reference")
+
+
+@dataclass
+class Route:
+    in_topic: str
+    out_topic: str
+    type_name: str
+    has_header: bool
+    channel: Channel
+    publisher: Any
+    subscription: Any = None
+
+
+def message_class(type_name: str) -> type:
+    """``pkg/msg/Type`` -> the Python message class (rosidl_runtime_py is not in the wheels)."""
+    parts = type_name.split("/")
+    if len(parts) != 3 or parts[1] != "msg":
+        raise FicInputError(f"message type must look like pkg/msg/Type, got {type_name!r}")
+    try:
+        return getattr(importlib.import_module(f"{parts[0]}.msg"), parts[2])
+    except (ImportError, AttributeError) as exc:
+        raise FicInputError(f"unknown message type {type_name!r}: {exc}") from exc
+
+
+def starts_with_header(cls: type) -> bool:
+    """True if the CDR form begins with a header stamp: first field std_msgs/Header, or a Header itself."""
+    fields = list(cls.get_fields_and_field_types().items())
+    if not fields:
+        return False
+    first_type = fields[0][1]
+    return first_type == "std_msgs/Header" or (fields[0][0] == "stamp" and first_type == "builtin_interfaces/Time")
+
+
+def parse_route(text: str) -> tuple[str, str, str]:
+    parts = text.split(":")
+    if len(parts) != 3 or not all(parts):
+        raise FicInputError(f"route must be 'in_topic:out_topic:pkg/msg/Type', got {text!r}")
+    return parts[0], parts[1], parts[2]
+
+
+def _time_msg(seconds: float) -> Time:
+    nanoseconds = int(round(seconds * 1e9))
+    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
+
+class ChannelNode(Node):
+    def __init__(self) -> None:
+        super().__init__("channel")
+        self._declare_parameters()
+        self._origin = self._now()           # "start" time reference: blackout/lost_from relative to this
+        config = self._config_from({name: self._parameter(name) for name in LINK_PARAMETERS})
+        specs = self._route_specs()
+        seeds = route_seeds(config.seed, len(specs))
+        self._routes: list[Route] = []
+        for spec, seed in zip(specs, seeds):
+            in_topic, out_topic, type_name = parse_route(spec)
+            cls = message_class(type_name)
+            route = Route(in_topic, out_topic, type_name, starts_with_header(cls),
+                          Channel(dataclasses.replace(config, seed=seed)),
+                          self.create_publisher(cls, out_topic, CHANNEL_QOS))
+            route.subscription = self.create_subscription(
+                cls, in_topic, lambda data, route=route: self._on_message(route, data), CHANNEL_QOS, raw=True)
+            self._routes.append(route)
+            self.get_logger().info(f"route {in_topic} -> {out_topic} [{type_name}]"
+                                   + ("" if route.has_header else " (no header: stamps not read)"))
+        self._deliveries = None
+        if self.get_parameter("publish_deliveries").value:
+            if ChannelDelivery is None:
+                self.get_logger().warning("fic_teleop_msgs is not built: /channel/deliveries is not published")
+            else:
+                self._deliveries = self.create_publisher(ChannelDelivery, "/channel/deliveries", DELIVERY_QOS)
+        self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.create_timer(1.0 / self.get_parameter("delivery_rate_hz").value, self._deliver)
+        self.create_timer(1.0 / self.get_parameter("statistics_rate_hz").value, self._publish_statistics)
+        self.get_logger().info(f"channel up: {self._describe(config)}")
+
+    # -- parameters -------------------------------------------------------------------------------------------
+    def _declare_parameters(self) -> None:
+        def number(low: float, high: float, text: str) -> ParameterDescriptor:
+            return ParameterDescriptor(description=text, floating_point_range=[
+                FloatingPointRange(from_value=low, to_value=high, step=0.0)])
+
+        self.declare_parameter("routes", Parameter.Type.STRING_ARRAY, ParameterDescriptor(
+            description="in_topic:out_topic:pkg/msg/Type for each forwarded stream", read_only=True))
+        self.declare_parameter("delay", 0.0, number(0.0, 10.0, "fixed one-way delay [s]"))
+        self.declare_parameter("jitter", 0.0, number(0.0, 1.0, "bound on the deviation from delay [s]"))
+        self.declare_parameter("jitter_distribution", "uniform", ParameterDescriptor(
+            description=f"one of {JITTER_DISTRIBUTIONS} (normal: sigma = jitter/3, truncated at +-jitter)"))
+        self.declare_parameter("allow_reorder", False, ParameterDescriptor(
+            description="let jitter reorder messages (false: FIFO, a message waits for its predecessor)"))
+        self.declare_parameter("drop_probability", 0.0, number(0.0, 1.0, "independent loss probability"))
+        self.declare_parameter("blackout_windows", Parameter.Type.DOUBLE_ARRAY, ParameterDescriptor(
+            description="link-down windows as a flat list of doubles t0,t1,t0,t1,... [s] (see time_reference); "
+                        "unset: none; to clear at run time set [0.0, 0.0] (an empty window)"))
+        self.declare_parameter("lost_from", -1.0, number(-1e9, 1e9,
+                               "link lost for good from this time [s] (see time_reference); negative: never"))
+        self.declare_parameter("rate_cap_hz", 0.0, number(0.0, 10000.0,
+                               "at most this many deliveries a second per route, newest first; 0: no cap"))
+        self.declare_parameter("seed", -1, ParameterDescriptor(
+            description="seed of the random draws; negative: from the OS",
+            integer_range=[IntegerRange(from_value=-1, to_value=2 ** 31 - 1, step=1)]))
+        self.declare_parameter("time_reference", "start", ParameterDescriptor(
+            description="'start': blackout_windows and lost_from are relative to the node clock at node start "
+                        "(with use_sim_time and no /clock yet that is sim time 0); 'clock': absolute node clock"))
+        self.declare_parameter("delivery_rate_hz", 1000.0, number(10.0, 10000.0,
+                               "how often due messages are released [Hz]; sets the delay resolution"))
+        self.declare_parameter("statistics_rate_hz", 1.0, number(0.01, 100.0, "/diagnostics rate [Hz]"))
+        self.declare_parameter("publish_deliveries", True, ParameterDescriptor(
+            description="publish fic_teleop_msgs/ChannelDelivery on /channel/deliveries for each delivery"))
+
+    def _parameter(self, name: str) -> Parameter:
+        """The parameter, or an unset one (value None) for an array declared without a default."""
+        try:
+            return self.get_parameter(name)
+        except ParameterUninitializedException:
+            return Parameter(name, Parameter.Type.NOT_SET, None)
+
+    def _route_specs(self) -> list[str]:
+        value = self._parameter("routes").value
+        if not value:
+            raise FicInputError("parameter routes is empty: give at least one in_topic:out_topic:pkg/msg/Type")
+        return list(value)
+
+    def _config_from(self, parameters: dict[str, Parameter]) -> ChannelConfig:
+        values = {name: p.value for name, p in parameters.items()}
+        reference = values["time_reference"]
+        if reference not in ("start", "clock"):
+            raise FicInputError(f"time_reference must be 'start' or 'clock', got {reference!r}")
+        offset = self._origin if reference == "start" else 0.0
+        flat = list(values["blackout_windows"] or [])
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in flat):
+            raise FicInputError(f"blackout_windows must be numbers t0,t1,t0,t1,...; got {flat!r}")
+        if len(flat) % 2:
+            raise FicInputError(f"blackout_windows needs pairs t0,t1; got {len(flat)} numbers")
+        windows = tuple((float(flat[i]) + offset, float(flat[i + 1]) + offset) for i in range(0, len(flat), 2))
+        lost_from = float(values["lost_from"])
+        seed = int(values["seed"])
+        return ChannelConfig(delay=float(values["delay"]), jitter=float(values["jitter"]),
+                             jitter_distribution=str(values["jitter_distribution"]),
+                             allow_reorder=bool(values["allow_reorder"]),
+                             drop_probability=float(values["drop_probability"]), blackout_windows=windows,
+                             lost_from=None if lost_from < 0.0 else lost_from + offset,
+                             rate_cap_hz=float(values["rate_cap_hz"]), seed=None if seed < 0 else seed)
+
+    def _on_set_parameters(self, changes: list[Parameter]) -> SetParametersResult:
+        link_changes = {p.name: p for p in changes if p.name in LINK_PARAMETERS}
+        if not link_changes:
+            return SetParametersResult(successful=True)
+        candidate = {name: self._parameter(name) for name in LINK_PARAMETERS}
+        candidate.update(link_changes)
+        try:
+            config = self._config_from(candidate)
+        except FicInputError as exc:
+            self.get_logger().error(f"channel parameters refused: {exc}")
+            return SetParametersResult(successful=False, reason=str(exc))
+        seeds = route_seeds(config.seed, len(self._routes))
+        for route, seed in zip(self._routes, seeds):
+            # A changed seed restarts each route's stream from its route seed, as at start; otherwise the
+            # streams continue undisturbed.
+            route.channel.reconfigure(dataclasses.replace(
+                config, seed=seed if "seed" in link_changes else route.channel.config.seed))
+        self.get_logger().info(f"channel reconfigured: {self._describe(config)}")
+        return SetParametersResult(successful=True)
+
+    def _describe(self, config: ChannelConfig) -> str:
+        windows = [(round(a - self._origin, 3), round(b - self._origin, 3)) for a, b in config.blackout_windows]
+        return (f"delay={config.delay:.4f}s jitter={config.jitter:.4f}s ({config.jitter_distribution}) "
+                f"drop={config.drop_probability:.3f} blackouts(from start)={windows} "
+                f"lost_from={'never' if config.lost_from is None else round(config.lost_from - self._origin, 3)} "
+                f"rate_cap={config.rate_cap_hz:g}Hz seed={config.seed}")
+
+    # -- data path ----------------------------------------------------------------------------------------------
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _on_message(self, route: Route, data: bytes) -> None:
+        stamp = header_stamp(data) if route.has_header else None
+        route.channel.push(data, None if stamp is None else stamp_seconds(stamp), self._now())
+
+    def _deliver(self) -> None:
+        now = self._now()
+        for route in self._routes:
+            for delivery in route.channel.pop_due(now):
+                route.publisher.publish(delivery.payload)
+                if self._deliveries is not None:
+                    record = ChannelDelivery()
+                    stamp = header_stamp(delivery.payload) if route.has_header else None
+                    if stamp is not None:
+                        record.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
+                    record.topic = route.out_topic
+                    record.received = _time_msg(delivery.received_time)
+                    record.held = delivery.held
+                    self._deliveries.publish(record)
+
+    def _publish_statistics(self) -> None:
+        now = self._now()
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        for route in self._routes:
+            stats = route.channel.statistics()
+            config = route.channel.config
+            down = config.link_down(now)
+            status = DiagnosticStatus(name=f"{self.get_name()}: {route.in_topic} -> {route.out_topic}",
+                                      hardware_id="sim_bridge/channel")
+            status.level = DiagnosticStatus.WARN if down else DiagnosticStatus.OK
+            status.message = ("link down" if down else "link up") + (
+                f", held p50 {stats.held_p50 * 1e3:.1f} ms" if not math.isnan(stats.held_p50) else "")
+            values = {"received": stats.received, "delivered": stats.delivered, "queue_size": stats.queue_size,
+                      "dropped_total": stats.dropped_total,
+                      **{f"dropped_{cause}": count for cause, count in stats.dropped.items()},
+                      "held_p50_ms": stats.held_p50 * 1e3, "held_p99_ms": stats.held_p99 * 1e3,
+                      "held_max_ms": stats.held_max * 1e3, "age_p50_ms": stats.age_p50 * 1e3,
+                      "age_p99_ms": stats.age_p99 * 1e3, "delay_set_ms": config.delay * 1e3,
+                      "drop_probability": config.drop_probability, "rate_cap_hz": config.rate_cap_hz}
+            status.values = [KeyValue(key=key, value=f"{value:.3f}" if isinstance(value, float) else str(value))
+                             for key, value in values.items()]
+            array.status.append(status)
+        self._diagnostics.publish(array)
+
+    def summary(self) -> str:
+        lines = []
+        for route in self._routes:
+            s = route.channel.statistics()
+            lines.append(f"{route.in_topic} -> {route.out_topic}: received {s.received}, delivered {s.delivered}, "
+                         f"dropped {s.dropped}, held p50 {s.held_p50 * 1e3:.2f} ms p99 {s.held_p99 * 1e3:.2f} ms")
+        return "; ".join(lines)
+
+
+def route_seeds(seed: int | None, count: int) -> list[int | None]:
+    """One independent random stream per route, all derived from the one seed: reproducible, uncorrelated."""
+    if seed is None:
+        return [None] * count
+    return [int(s) for s in np.random.SeedSequence(seed).generate_state(count)]
+
+
+def main(args: list[str] | None = None) -> None:
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = ChannelNode()
+        spin_until_shutdown(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except FicInputError as exc:
+        # A bad parameter at start: say which and why, and exit non-zero instead of a traceback.
+        if node is None:
+            rclpy.logging.get_logger("channel").fatal(f"cannot start: {exc}")
+        raise SystemExit(2) from exc
+    finally:
+        if node is not None:
+            # Not the node logger: after a signal the context is gone and /rosout cannot take the message.
+            rclpy.logging.get_logger(node.get_name()).info(f"channel stopped: {node.summary()}")
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()
