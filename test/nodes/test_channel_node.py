@@ -1,0 +1,229 @@
+"""The channel node as a real process over DDS (sim_bridge/channel_node.py): delay, loss, blackout, parameters.
+
+The node is started from the source tree (``python -m sim_bridge.channel_node``), the same module the installed
+``channel_node`` executable loads, with its own ROS_DOMAIN_ID in 60-69 (reserved for these tests). The test
+process publishes stamped poses into the channel and measures, on the way out, what a replica would see.
+"""
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+from geometry_msgs.msg import PoseStamped  # noqa: E402
+from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
+from rcl_interfaces.srv import SetParameters  # noqa: E402
+from rclpy.experimental import EventsExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+
+pytestmark = pytest.mark.nodes
+
+REPO = Path(__file__).resolve().parents[2]
+QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+NODE = "channel_test"
+IN_TOPIC, OUT_TOPIC = "/test/in", "/test/out"
+_domains = iter(range(60, 70))
+
+
+@pytest.fixture
+def graph(tmp_path):
+    """A private ROS domain: an rclpy context for the test and a launcher for the channel process."""
+    domain = str(next(_domains))
+    env = dict(os.environ, ROS_DOMAIN_ID=domain, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
+    env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
+    saved = {key: os.environ.get(key) for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")}
+    os.environ.update({key: env[key] for key in saved})
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    processes = []
+
+    def start_channel(**parameters) -> subprocess.Popen:
+        command = [sys.executable, "-m", "sim_bridge.channel_node", "--ros-args", "-r", f"__node:={NODE}",
+                   "-p", f"routes:=['{IN_TOPIC}:{OUT_TOPIC}:geometry_msgs/msg/PoseStamped']"]
+        for key, value in parameters.items():
+            command += ["-p", f"{key}:={value}"]
+        log = open(tmp_path / f"channel-{len(processes)}.log", "wb")
+        process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT, cwd=tmp_path)
+        processes.append((process, log))
+        return process
+
+    yield context, start_channel, tmp_path
+    for process, log in processes:
+        if process.poll() is None:
+            process.send_signal(signal.SIGINT)
+            try:
+                process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+        log.close()
+    rclpy.shutdown(context=context)
+    for key, value in saved.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
+
+
+class Probe:
+    """Publishes stamped poses into the channel at a fixed rate and records what comes out."""
+
+    def __init__(self, context, rate_hz: float) -> None:
+        self.node = rclpy.create_node("channel_probe", context=context)
+        self.executor = EventsExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.publisher = self.node.create_publisher(PoseStamped, IN_TOPIC, QOS)
+        self.received: list[tuple[float, float, int]] = []     # (receipt time, stamp, sequence)
+        self.node.create_subscription(PoseStamped, OUT_TOPIC, self._on_output, QOS)
+        self.sent: list[tuple[float, int]] = []
+        self.sending = False
+        self.node.create_timer(1.0 / rate_hz, self._send)
+
+    def now(self) -> float:
+        return self.node.get_clock().now().nanoseconds * 1e-9
+
+    def _send(self) -> None:
+        if not self.sending:
+            return
+        message = PoseStamped()
+        message.header.stamp = self.node.get_clock().now().to_msg()
+        message.header.frame_id = "haptic_base"
+        message.pose.position.x = float(len(self.sent))           # a sequence number rides in the payload
+        self.publisher.publish(message)
+        self.sent.append((message.header.stamp.sec + message.header.stamp.nanosec * 1e-9, len(self.sent)))
+
+    def _on_output(self, message: PoseStamped) -> None:
+        stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
+        self.received.append((self.now(), stamp, int(message.pose.position.x)))
+
+    def spin_for(self, seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def wait_connected(self, channel: subprocess.Popen, timeout: float = 30.0) -> None:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            assert channel.poll() is None, "the channel node exited"
+            if self.publisher.get_subscription_count() > 0 and self.node.count_publishers(OUT_TOPIC) > 0:
+                self.spin_for(0.5)            # let both directions finish matching
+                return
+            self.spin_for(0.1)
+        raise AssertionError("the channel node did not connect")
+
+    def set_parameters(self, *parameters: Parameter):
+        client = self.node.create_client(SetParameters, f"/{NODE}/set_parameters")
+        assert client.wait_for_service(timeout_sec=10.0)
+        future = client.call_async(SetParameters.Request(parameters=[p.to_parameter_msg() for p in parameters]))
+        deadline = time.monotonic() + 10.0
+        while not future.done() and time.monotonic() < deadline:
+            self.spin_for(0.05)
+        assert future.done()
+        return future.result().results
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+
+
+def test_delay_median_is_within_5ms_of_200ms_stamps_are_kept_and_a_negative_delay_is_refused(graph):
+    context, start_channel, tmp_path = graph
+    channel = start_channel(delay=0.2, seed=1)
+    probe = Probe(context, rate_hz=250.0)
+    try:
+        probe.wait_connected(channel)
+        probe.sending = True
+        probe.spin_for(3.0)
+        probe.sending = False
+        probe.spin_for(0.5)
+        assert len(probe.sent) > 500
+        sent = dict((sequence, stamp) for stamp, sequence in probe.sent)
+        # Every message arrives, once, in order, with its stamp untouched.
+        sequences = [sequence for _, _, sequence in probe.received]
+        assert sequences == sorted(set(sequences)) and len(sequences) == len(sent)
+        assert all(stamp == pytest.approx(sent[sequence], abs=1e-9) for _, stamp, sequence in probe.received)
+        ages = np.array([receipt - stamp for receipt, stamp, _ in probe.received])
+        median, p99 = float(np.median(ages)), float(np.percentile(ages, 99))
+        print(f"\nchannel delay through DDS at 250 Hz, set 200 ms: p50 {median * 1e3:.2f} ms, "
+              f"p99 {p99 * 1e3:.2f} ms, min {ages.min() * 1e3:.2f} ms")
+        assert abs(median - 0.2) < 0.005
+        assert ages.min() >= 0.2 - 1e-3                  # never early
+
+        results = probe.set_parameters(Parameter("delay", Parameter.Type.DOUBLE, -0.1))
+        assert not results[0].successful and "delay" in results[0].reason
+        results = probe.set_parameters(Parameter("delay", Parameter.Type.DOUBLE, 0.05))
+        assert results[0].successful
+        results = probe.set_parameters(Parameter("blackout_windows", Parameter.Type.DOUBLE_ARRAY, [2.0, 1.0]))
+        assert not results[0].successful and "blackout_windows" in results[0].reason
+        # The new delay is in force: a fresh burst comes through in about 50 ms.
+        probe.received.clear()
+        probe.sending = True
+        probe.spin_for(1.0)
+        probe.sending = False
+        probe.spin_for(0.3)
+        ages = np.array([receipt - stamp for receipt, stamp, _ in probe.received[50:]])
+        assert abs(float(np.median(ages)) - 0.05) < 0.005
+    finally:
+        probe.close()
+    channel.send_signal(signal.SIGINT)
+    assert channel.wait(timeout=10) == 0
+    log = next(tmp_path.glob("channel-*.log")).read_text()
+    assert "channel stopped" in log and "Traceback" not in log
+
+
+def test_drop_rate_matches_the_probability(graph):
+    context, start_channel, _ = graph
+    probability = 0.3
+    channel = start_channel(delay=0.01, drop_probability=probability, seed=5)
+    probe = Probe(context, rate_hz=500.0)
+    try:
+        probe.wait_connected(channel)
+        probe.sending = True
+        probe.spin_for(3.0)
+        probe.sending = False
+        probe.spin_for(0.5)
+    finally:
+        probe.close()
+    n = len(probe.sent)
+    assert n > 1000
+    lost = n - len(probe.received)
+    sigma = math.sqrt(n * probability * (1.0 - probability))
+    print(f"\nchannel drop: {lost}/{n} = {lost / n:.3f} (p = {probability})")
+    assert abs(lost - n * probability) < 5.0 * sigma     # binomial, 5 sigma
+
+
+def test_a_blackout_delivers_nothing_and_the_link_comes_back(graph):
+    context, start_channel, _ = graph
+    channel = start_channel(delay=0.05, time_reference="clock")
+    probe = Probe(context, rate_hz=250.0)
+    try:
+        probe.wait_connected(channel)
+        probe.sending = True
+        probe.spin_for(0.5)
+        start = probe.now() + 0.5
+        window = (start, start + 1.0)
+        results = probe.set_parameters(Parameter("blackout_windows", Parameter.Type.DOUBLE_ARRAY, list(window)))
+        assert results[0].successful, results[0].reason
+        probe.spin_for(2.5)
+        probe.sending = False
+        probe.spin_for(0.3)
+    finally:
+        probe.close()
+    receipts = np.array([receipt for receipt, _, _ in probe.received])
+    # A message released just before the window may still be in DDS at its start: 10 ms of slack.
+    inside = receipts[(receipts > window[0] + 0.01) & (receipts < window[1])]
+    assert inside.size == 0
+    assert np.sum(receipts < window[0]) > 100 and np.sum(receipts > window[1] + 0.1) > 100
+    stamps = np.array([stamp for _, stamp, _ in probe.received])
+    # Lost: everything sent in the window, and what was sent in the 50 ms before it (it would have arrived in it).
+    assert not np.any((stamps > window[0] - 0.05 + 0.005) & (stamps < window[1] - 0.005))
