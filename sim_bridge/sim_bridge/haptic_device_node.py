@@ -1,0 +1,248 @@
+"""ROS 2 shell around the simulated haptic device and its virtual operator (haptic_device.py, virtual_operator.py).
+
+Speaks what a Force Dimension driver speaks, so a real sigma.7 can take its place: publishes the handle pose
+x_M (/haptic/pose, frame haptic_base) and twist (/haptic/twist), takes the force command
+(/haptic/wrench_command, force only). The loop is closed: the command moves the handle, integrated at the
+device's 1 kHz substep between publications. The hand on the handle is the virtual operator: a scripted one
+(config/operator_scripts/<scene>.yaml, which also presses buttons on /operator/joy for the master), one steered by
+/operator/joy axes (keyboard_operator or a joystick), or none (the handle is free). Time is the node clock, so
+use_sim_time runs the device in the simulator's time.
+"""
+from __future__ import annotations
+
+import math
+import os
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Joy
+
+from fic_core.errors import FicInputError
+from sim_bridge.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.spin import spin_until_shutdown
+from sim_bridge.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
+                                         load_script)
+
+# Device streams at 500 Hz (docs/CONVENTIONS.md): RELIABLE KEEP_LAST 20, like the other status streams.
+DEVICE_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+# Button presses must not be lost (a lost toggle inverts the mode for the rest of the run): RELIABLE, deep.
+JOY_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
+
+OPERATOR_SOURCES = ("scripted", "joy", "none")
+SCENES = ("superimposition", "shape_sorting", "free_space")
+JOY_RATE_HZ = 50.0
+LONGEST_STEP = 0.05      # [s] a clock jump (pause, sim restart) is integrated as at most this much time
+
+
+def _range(low: float, high: float, text: str) -> ParameterDescriptor:
+    return ParameterDescriptor(description=text, floating_point_range=[
+        FloatingPointRange(from_value=low, to_value=high, step=0.0)])
+
+
+def default_script_path(scene: str) -> Path:
+    """config/operator_scripts/<scene>.yaml of the workspace (FIC_TELEOP_ROOT, set by scripts/env.sh), else the
+    one next to this source tree (colcon's symlink install keeps it reachable)."""
+    candidates = []
+    if os.environ.get("FIC_TELEOP_ROOT"):
+        candidates.append(Path(os.environ["FIC_TELEOP_ROOT"]) / "config" / "operator_scripts" / f"{scene}.yaml")
+    candidates.append(Path(__file__).resolve().parents[2] / "config" / "operator_scripts" / f"{scene}.yaml")
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    raise FicInputError(f"no operator script for scene {scene!r}: looked at {[str(c) for c in candidates]}; "
+                        "set the script_file parameter")
+
+
+class HapticDeviceNode(Node):
+    def __init__(self) -> None:
+        super().__init__("haptic_device")
+        d = HapticDeviceParameters()
+        h = HandParameters()
+        self.declare_parameter("publish_rate_hz", 500.0, _range(10.0, 2000.0, "pose/twist rate and loop rate [Hz]"))
+        self.declare_parameter("substep", d.substep, _range(1e-4, 0.005, "physics substep [s] (1 kHz default)"))
+        self.declare_parameter("mass", d.mass, _range(0.01, 10.0, "effective moving mass at the handle [kg]"))
+        self.declare_parameter("damping", d.damping, _range(0.0, 100.0, "mechanism viscous damping [N s/m]"))
+        self.declare_parameter("half_extents", list(d.half_extents), ParameterDescriptor(
+            description="workspace box half-sizes x, y, z [m] around the local origin (sigma.7: 0.19 x 0.13 m)"))
+        self.declare_parameter("wall_stiffness", d.wall_stiffness, _range(0.0, 20000.0, "soft wall [N/m]"))
+        self.declare_parameter("wall_damping", d.wall_damping, _range(0.0, 500.0, "soft wall [N s/m]"))
+        self.declare_parameter("max_force", d.max_force, _range(0.0, 100.0, "command force saturation [N]"))
+        self.declare_parameter("command_timeout", 0.1, _range(0.001, 10.0,
+                               "a force command older than this is stale: zero force until a fresh one [s]"))
+        self.declare_parameter("operator_source", "scripted", ParameterDescriptor(
+            description=f"the hand on the handle: one of {OPERATOR_SOURCES}"))
+        self.declare_parameter("scene", "free_space", ParameterDescriptor(
+            description=f"scene whose operator script is played: one of {SCENES}"))
+        self.declare_parameter("script_file", "", ParameterDescriptor(
+            description="operator script YAML; empty: config/operator_scripts/<scene>.yaml"))
+        self.declare_parameter("script_start_time", -1.0, _range(-1.0, 1e10,
+                               "node-clock time of the script's t = 0 [s]; negative: when the node starts"))
+        self.declare_parameter("hand_stiffness", h.stiffness, _range(1.0, 5000.0, "operator hand [N/m]"))
+        self.declare_parameter("hand_damping", h.damping, _range(0.0, 200.0, "operator hand [N s/m]"))
+        self.declare_parameter("hand_correction_rate", h.correction_rate, _range(0.0, 50.0,
+                               "how fast the operator leans in to put the handle on target [1/s]; 0: never"))
+        self.declare_parameter("hand_max_correction", h.max_correction, _range(0.0, 0.5, "bound on lean-in [m]"))
+        self.declare_parameter("hand_max_force", h.max_force, _range(0.1, 200.0, "strongest hand push [N]"))
+        self.declare_parameter("joy_max_speed", 0.10, _range(0.0, 2.0, "hand target speed at full axis [m/s]"))
+        self.declare_parameter("joy_timeout", 0.5, _range(0.01, 10.0,
+                               "axes older than this count as zero (a crashed keyboard stops the hand) [s]"))
+        self.declare_parameter("frame_id", "haptic_base", ParameterDescriptor(description="frame of pose/twist"))
+
+        value = lambda name: self.get_parameter(name).value  # noqa: E731
+        parameters = HapticDeviceParameters(
+            mass=value("mass"), damping=value("damping"), half_extents=tuple(value("half_extents")),
+            wall_stiffness=value("wall_stiffness"), wall_damping=value("wall_damping"),
+            max_force=value("max_force"), substep=value("substep"))
+        self.device = HapticDevice(parameters)
+        self.hand = Hand(HandParameters(stiffness=value("hand_stiffness"), damping=value("hand_damping"),
+                                        correction_rate=value("hand_correction_rate"),
+                                        max_correction=value("hand_max_correction"),
+                                        max_force=value("hand_max_force")))
+        self.frame_id = value("frame_id")
+        self.command_timeout = value("command_timeout")
+        self.joy_timeout = value("joy_timeout")
+        self.source = value("operator_source")
+        if self.source not in OPERATOR_SOURCES:
+            raise FicInputError(f"operator_source must be one of {OPERATOR_SOURCES}, got {self.source!r}")
+
+        self.pose_publisher = self.create_publisher(PoseStamped, "/haptic/pose", DEVICE_QOS)
+        self.twist_publisher = self.create_publisher(TwistStamped, "/haptic/twist", DEVICE_QOS)
+        self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_command, DEVICE_QOS)
+        self.command_force = np.zeros(3)
+        self.command_time: float | None = None
+        self.stale_warned = False
+
+        self.scripted: ScriptedOperator | None = None
+        self.joy_target: JoyTarget | None = None
+        self.joy_axes: list[float] = []
+        self.joy_time = -math.inf
+        self.button_queue: deque[int] = deque()
+        self.button_down = False
+        if self.source == "scripted":
+            scene = value("scene")
+            path = Path(value("script_file")) if value("script_file") else default_script_path(scene)
+            script = load_script(path)
+            script.check_workspace(parameters.half_extents)
+            self.scripted = ScriptedOperator(script)
+            self.joy_publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
+            self.create_timer(1.0 / JOY_RATE_HZ, self._publish_buttons)
+            self.get_logger().info(f"scripted operator: {path} ({script.name}, {script.duration:.1f} s, "
+                                   f"{len(script.events)} button presses)")
+        elif self.source == "joy":
+            self.joy_target = JoyTarget(parameters.half_extents, max_speed=value("joy_max_speed"))
+            self.create_subscription(Joy, "/operator/joy", self._on_joy, JOY_QOS)
+            self.get_logger().info("operator steered by /operator/joy axes 0..2")
+        else:
+            self.get_logger().info("no operator: the handle moves under the force command alone")
+
+        now = self._now()
+        start = value("script_start_time")
+        self.script_origin = now if start < 0.0 else start
+        self.last_time = now
+        self.create_timer(1.0 / value("publish_rate_hz"), self._tick)
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    # -- inputs ---------------------------------------------------------------------------------------------
+    def _on_command(self, message: WrenchStamped) -> None:
+        force = np.array([message.wrench.force.x, message.wrench.force.y, message.wrench.force.z])
+        if not np.all(np.isfinite(force)):
+            self.get_logger().error(f"refused /haptic/wrench_command with a non-finite force {force.tolist()}",
+                                    throttle_duration_sec=1.0)
+            return
+        self.command_force = force
+        self.command_time = self._now()
+        if self.stale_warned:
+            self.get_logger().info("force commands are fresh again")
+            self.stale_warned = False
+
+    def _on_joy(self, message: Joy) -> None:
+        axes = list(message.axes[:3])
+        if not all(math.isfinite(a) for a in axes):
+            self.get_logger().error("refused /operator/joy with non-finite axes", throttle_duration_sec=1.0)
+            return
+        self.joy_axes = axes
+        self.joy_time = self._now()
+
+    # -- loop -----------------------------------------------------------------------------------------------
+    def _current_command(self, now: float) -> np.ndarray:
+        if self.command_time is not None and now - self.command_time <= self.command_timeout:
+            return self.command_force
+        if self.command_time is not None and not self.stale_warned:
+            # Once per stale episode, not every tick: a lost master makes the handle go limp, which is safe.
+            self.get_logger().warning(f"force command stale (older than {self.command_timeout:.3f} s): "
+                                      "rendering zero force")
+            self.stale_warned = True
+        return np.zeros(3)
+
+    def _tick(self) -> None:
+        now = self._now()
+        dt = min(max(now - self.last_time, 0.0), LONGEST_STEP)
+        self.last_time = now
+        command = self._current_command(now)
+        if self.scripted is not None:
+            self.hand.update(self.scripted.target(now - self.script_origin), self.device.position, dt)
+            self.button_queue.extend(event.button for event in self.scripted.poll_events(now - self.script_origin))
+            hand_force = self.hand.force
+        elif self.joy_target is not None:
+            axes = self.joy_axes if now - self.joy_time <= self.joy_timeout else []
+            self.hand.update(self.joy_target.update(axes, dt), self.device.position, dt)
+            hand_force = self.hand.force
+        else:
+            hand_force = np.zeros(3)
+        state = self.device.step(command, hand_force, dt)
+        stamp = self.get_clock().now().to_msg()
+        pose = PoseStamped()
+        pose.header.stamp, pose.header.frame_id = stamp, self.frame_id
+        pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = (float(v) for v in state.position)
+        pose.pose.orientation.w = 1.0        # translational device: the handle's orientation is not modelled
+        twist = TwistStamped()
+        twist.header.stamp, twist.header.frame_id = stamp, self.frame_id
+        twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = (float(v) for v in state.velocity)
+        self.pose_publisher.publish(pose)
+        self.twist_publisher.publish(twist)
+
+    def _publish_buttons(self) -> None:
+        """Edge-triggered presses: one Joy message with the button at 1, then one with all at 0, so two presses
+        of the same button in a row stay two presses."""
+        message = Joy()
+        message.header.stamp = self.get_clock().now().to_msg()
+        message.axes = [0.0, 0.0, 0.0]
+        message.buttons = [0] * BUTTON_COUNT
+        if not self.button_down and self.button_queue:
+            button = self.button_queue.popleft()
+            message.buttons[button] = 1
+            self.button_down = True
+            self.get_logger().info(f"operator presses button {button}")
+        else:
+            self.button_down = False
+        self.joy_publisher.publish(message)
+
+
+def main(args: list[str] | None = None) -> None:
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = HapticDeviceNode()
+        spin_until_shutdown(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except FicInputError as exc:
+        rclpy.logging.get_logger("haptic_device").fatal(f"cannot start: {exc}")
+        raise SystemExit(2) from exc
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()
