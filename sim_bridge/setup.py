@@ -21,6 +21,7 @@ setup(
             "robot_node = sim_bridge.robot_node:main",
             "haptic_device_node = sim_bridge.haptic_device_node:main",
             "channel_node = sim_bridge.channel_node:main",
+            "keyboard_operator = sim_bridge.keyboard_operator:main",
             "recorder_node = sim_bridge.recorder_node:main",
         ],
     },

@@ -1,0 +1,99 @@
+"""The keyboard operator in a pseudo-terminal: keys become Joy messages; q quits and restores the terminal;
+without a TTY it refuses to start with a clear message."""
+from __future__ import annotations
+
+import os
+import pty
+import subprocess
+import sys
+import termios
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+from rclpy.experimental import EventsExecutor  # noqa: E402
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import Joy  # noqa: E402
+
+pytestmark = pytest.mark.nodes
+REPO = Path(__file__).resolve().parents[2]
+QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
+
+
+def _env(tmp_path: Path) -> dict[str, str]:
+    env = dict(os.environ, ROS_DOMAIN_ID="71", ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1")
+    env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+def test_without_a_tty_it_exits_with_a_clear_message(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "sim_bridge.keyboard_operator"], env=_env(tmp_path),
+                            stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1 and "not a TTY" in result.stderr
+
+
+def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path):
+    env = _env(tmp_path)
+    master, slave = pty.openpty()
+    before = termios.tcgetattr(slave)
+    process = subprocess.Popen([sys.executable, "-m", "sim_bridge.keyboard_operator"], env=env, stdin=slave,
+                               stdout=slave, stderr=slave, close_fds=True)
+    saved = {key: os.environ.get(key) for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")}
+    os.environ.update({key: env[key] for key in saved})
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("joy_probe", context=context)
+    executor = EventsExecutor(context=context)
+    executor.add_node(node)
+    messages: list[Joy] = []
+    node.create_subscription(Joy, "/operator/joy", messages.append, QOS)
+
+    def spin_for(seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.01)
+
+    output = b""
+    try:
+        deadline = time.monotonic() + 30.0
+        while not messages and time.monotonic() < deadline:
+            assert process.poll() is None
+            spin_for(0.1)
+        assert messages, "no Joy message"
+        assert list(messages[-1].axes) == [0.0, 0.0, 0.0]
+        os.write(master, b"w")
+        spin_for(0.3)
+        assert list(messages[-1].axes) == [1.0, 0.0, 0.0]
+        os.write(master, b" m")
+        spin_for(0.3)
+        assert list(messages[-1].axes) == [0.0, 0.0, 0.0]
+        assert sum(m.buttons[0] for m in messages) == 1
+        os.write(master, b"q")
+        code = process.wait(timeout=15)
+        while True:
+            ready = __import__("select").select([master], [], [], 0.2)[0]
+            if not ready:
+                break
+            try:
+                output += os.read(master, 4096)
+            except OSError:
+                break
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+        if process.poll() is None:
+            process.kill()
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+    assert code == 0
+    assert b"keyboard operator" in output and b"terminal restored" in output
+    assert termios.tcgetattr(slave)[3] == before[3]      # local modes (echo, canonical) as before
+    os.close(master)
+    os.close(slave)
