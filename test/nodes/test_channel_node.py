@@ -88,6 +88,10 @@ class Probe:
         self.sent: list[tuple[float, int]] = []
         self.sending = False
         self.node.create_timer(1.0 / rate_hz, self._send)
+        self.deliveries: list[tuple[float, str, float]] = []    # (stamp, topic, held) from /channel/deliveries
+        from fic_teleop_msgs.msg import ChannelDelivery
+        self.node.create_subscription(ChannelDelivery, "/channel/deliveries", lambda m: self.deliveries.append(
+            (m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.topic, m.held)), QOS)
 
     def now(self) -> float:
         return self.node.get_clock().now().nanoseconds * 1e-9
@@ -158,6 +162,10 @@ def test_delay_median_is_within_5ms_of_200ms_stamps_are_kept_and_a_negative_dela
               f"p99 {p99 * 1e3:.2f} ms, min {ages.min() * 1e3:.2f} ms")
         assert abs(median - 0.2) < 0.005
         assert ages.min() >= 0.2 - 1e-3                  # never early
+        # One ChannelDelivery per message, carrying the message's own stamp (read from its CDR bytes).
+        assert sorted(stamp for stamp, _, _ in probe.deliveries) == pytest.approx(sorted(sent.values()), abs=1e-9)
+        assert {topic for _, topic, _ in probe.deliveries} == {OUT_TOPIC}
+        assert float(np.median([held for _, _, held in probe.deliveries])) == pytest.approx(0.2, abs=0.002)
 
         results = probe.set_parameters(Parameter("delay", Parameter.Type.DOUBLE, -0.1))
         assert not results[0].successful and "delay" in results[0].reason
