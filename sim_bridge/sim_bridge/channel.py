@@ -20,7 +20,8 @@ Times are floats in seconds on whatever clock the caller uses (wall or simulatio
 ``lost_from`` are on that same clock. The channel never reads a clock itself: the caller passes ``now``.
 
 Cost: a push is one heap insertion and at most two random draws, a pop one heap removal per delivered message,
-so a few microseconds a message; the node runs it at 250-1000 messages per second per direction.
+about 35 us a message with jitter and drops on this 2-core VM (numpy's scalar draws dominate), so 3.5 % of a
+core at 1000 messages per second.
 """
 from __future__ import annotations
 

@@ -200,7 +200,7 @@ def test_throughput_is_enough_for_1khz():
         channel.push(payload, now, now)
         channel.pop_due(now)
     per_message = (time.perf_counter() - start) / 20_000
-    assert per_message < 100e-6                       # under 10 % of one core at 1 kHz (measured ~10 us)
+    assert per_message < 100e-6                       # under 10 % of one core at 1 kHz (measured ~35 us here)
 
 
 def test_header_stamp_is_read_from_cdr_bytes():
