@@ -19,7 +19,6 @@ setup(
     entry_points={
         "console_scripts": [
             "master_node = fic_teleop_master.master_node:main",
-            "keyboard_operator = fic_teleop_master.keyboard_operator:main",
         ],
     },
 )

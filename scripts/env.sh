@@ -1,28 +1,25 @@
 # Source this file to get a shell where the fic_teleop workspace runs: `source scripts/env.sh`.
-# It activates the venv (ROS 2 Jazzy from wheels) and overlays our colcon install/ on it. With an existing
-# ROS 2 Jazzy install, source /opt/ros/jazzy/setup.bash and install/setup.bash instead (see README).
+# It activates the venv (ROS 2 Jazzy from wheels) and overlays our colcon install/ on it through colcon's own
+# local_setup (which also puts the symlinked Python sources on PYTHONPATH). With an existing ROS 2 Jazzy
+# install, source /opt/ros/jazzy/setup.bash and install/setup.bash instead (see README).
 _fic_repo="$(cd "$(dirname "${BASH_SOURCE[0]:-$0}")/.." && pwd)"
 _fic_venv="${FIC_VENV:-$_fic_repo/.venv}"
 # shellcheck source=/dev/null
 source "$_fic_venv/bin/activate"
-_fic_pyver="$(python -c 'import sys; print(f"python{sys.version_info.major}.{sys.version_info.minor}")')"
-_fic_prefixes=""
-for _fic_pkg in fic_teleop_msgs fic_teleop_master fic_teleop_replica fic_teleop_planner sim_bridge; do
-  _fic_prefix="$_fic_repo/install/$_fic_pkg"
-  [[ -d "$_fic_prefix" ]] || continue
-  _fic_prefixes="$_fic_prefix${_fic_prefixes:+:$_fic_prefixes}"
-  for _fic_site in "$_fic_prefix/lib/$_fic_pyver/site-packages" "$_fic_prefix/local/lib/$_fic_pyver/dist-packages"; do
-    [[ -d "$_fic_site" ]] && case ":${PYTHONPATH:-}:" in *":$_fic_site:"*) ;; *) PYTHONPATH="$_fic_site${PYTHONPATH:+:$PYTHONPATH}";; esac
-  done
-  case ":${LD_LIBRARY_PATH:-}:" in *":$_fic_prefix/lib:"*) ;; *) LD_LIBRARY_PATH="$_fic_prefix/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}";; esac
-done
-export PYTHONPATH LD_LIBRARY_PATH
-export AMENT_PREFIX_PATH="${_fic_prefixes:+$_fic_prefixes:}$_fic_venv"
+case ":${AMENT_PREFIX_PATH:-}:" in *":$_fic_venv:"*) ;; *) export AMENT_PREFIX_PATH="$_fic_venv${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}";; esac
+if [[ -f "$_fic_repo/install/local_setup.bash" ]]; then
+  # colcon's scripts read unset variables: relax `set -u` around them, as the caller may have it on.
+  case $- in *u*) _fic_nounset=1; set +u;; *) _fic_nounset=0;; esac
+  # shellcheck source=/dev/null
+  source "$_fic_repo/install/local_setup.bash"
+  [[ $_fic_nounset == 1 ]] && set -u
+  unset _fic_nounset
+fi
 export FIC_TELEOP_ROOT="$_fic_repo"
 # Keep the graph on this machine (ROS_LOCALHOST_ONLY is deprecated in Jazzy).
 export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
 export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
 export ROS_LOG_DIR="${ROS_LOG_DIR:-$_fic_repo/log/ros}"
 # Offscreen rendering without a display.
-[[ -z "${DISPLAY:-}" ]] && export MUJOCO_GL="${MUJOCO_GL:-egl}"
-unset _fic_repo _fic_venv _fic_pyver _fic_prefixes _fic_pkg _fic_prefix _fic_site
+if [[ -z "${DISPLAY:-}" ]]; then export MUJOCO_GL="${MUJOCO_GL:-egl}"; fi
+unset _fic_repo _fic_venv
