@@ -82,7 +82,7 @@ def test_lipschitz_bound_holds_for_difference_quotients(p: ForceProfile, a: floa
     assert difference <= p.lipschitz_bound() * abs(a - b) * (1 + 1e-9) + 1e-9
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(profiles())
 def test_lipschitz_bound_is_tight(p: ForceProfile) -> None:
     """The bound is not vacuous: the steepest finite-difference slope on a fine grid comes within 1 % of it."""

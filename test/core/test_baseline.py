@@ -1,0 +1,80 @@
+"""Linear impedance baseline: same interface as PoseAttractor, K0 from the FIC, damping from a damping ratio."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fic_core.attractor import PoseAttractor
+from fic_core.baseline import LinearImpedance, make_baseline_like
+from fic_core.errors import FicInputError
+from fic_core.profile import ForceProfile
+
+TRANSLATION = ForceProfile(stiffness=1000.0, saturation_error=0.05, saturation_start=0.5, max_force=40.0)
+ROTATION = ForceProfile(stiffness=40.0, saturation_error=0.5, saturation_start=0.5, max_force=15.0)
+
+
+def test_spring_damper_wrench_and_energy() -> None:
+    baseline = LinearImpedance(1000.0, 40.0, 90.0, 4.0)
+    assert baseline.controller_name == "linear"
+    wrench = baseline.wrench([0.01, -0.02, 0.0], [0.1, 0.0, -0.2], [0.5, 0.0, 0.0, 0.0, 1.0, 0.0])
+    np.testing.assert_allclose(wrench, [10.0 + 45.0, -20.0, 0.0, 4.0, 4.0, -8.0])
+    np.testing.assert_allclose(baseline.last_force, wrench)
+    np.testing.assert_allclose(baseline.stored_energy, [0.05, 0.2, 0.0, 0.2, 0.0, 0.8])
+    assert np.all(baseline.phase == 0) and np.all(baseline.latched_max_error == 0)
+    baseline.reset()
+    assert np.all(baseline.stored_energy == 0) and np.all(baseline.last_force == 0)
+
+
+def test_no_saturation_unlike_the_fic() -> None:
+    baseline = make_baseline_like(PoseAttractor(TRANSLATION, ROTATION))
+    fic = PoseAttractor(TRANSLATION, ROTATION)
+    error, zero = np.array([0.5, 0.0, 0.0]), np.zeros(3)
+    assert baseline.wrench(error, zero, np.zeros(6))[0] == pytest.approx(500.0)
+    assert fic.wrench(error, zero, np.zeros(6))[0] <= TRANSLATION.max_force
+
+
+def test_make_baseline_like_uses_k0_and_the_damping_ratio() -> None:
+    baseline = make_baseline_like(PoseAttractor(TRANSLATION, ROTATION), damping_ratio=0.7, effective_mass=4.0,
+                                  effective_inertia=0.1)
+    np.testing.assert_allclose(baseline.stiffness, [1000.0] * 3 + [40.0] * 3)
+    np.testing.assert_allclose(baseline.damping[:3], 2 * 0.7 * math.sqrt(1000.0 * 4.0))
+    np.testing.assert_allclose(baseline.damping[3:], 2 * 0.7 * math.sqrt(40.0 * 0.1))
+
+
+def test_damped_mass_decays_with_the_chosen_damping_ratio() -> None:
+    """A 4 kg mass under the baseline is an under-damped oscillator with zeta = 0.7: overshoot exp(-pi*z/sqrt(1-z^2))."""
+    baseline = make_baseline_like(PoseAttractor(TRANSLATION, ROTATION), damping_ratio=0.7, effective_mass=4.0)
+    mass, x, v, dt = 4.0, -0.01, 0.0, 1e-5
+    peak = 0.0
+    for _ in range(40_000):
+        force = baseline.wrench([-x, 0.0, 0.0], np.zeros(3), [-v, 0, 0, 0, 0, 0])[0]
+        v += force / mass * dt
+        x += v * dt
+        peak = max(peak, x)
+    expected_overshoot = 0.01 * math.exp(-math.pi * 0.7 / math.sqrt(1 - 0.7 ** 2))
+    assert peak == pytest.approx(expected_overshoot, rel=0.02)
+
+
+@pytest.mark.parametrize("name", ["translation_stiffness", "rotation_stiffness", "translation_damping",
+                                  "rotation_damping"])
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -1.0])
+def test_invalid_parameters_are_rejected(name: str, bad: float) -> None:
+    parameters = dict(translation_stiffness=1000.0, rotation_stiffness=40.0, translation_damping=90.0,
+                      rotation_damping=4.0)
+    parameters[name] = bad
+    with pytest.raises(FicInputError, match=name):
+        LinearImpedance(**parameters)
+
+
+def test_non_finite_signals_are_rejected() -> None:
+    baseline = LinearImpedance(1000.0, 40.0, 90.0, 4.0)
+    with pytest.raises(FicInputError, match="position_error"):
+        baseline.wrench([math.nan, 0, 0], [0, 0, 0], np.zeros(6))
+    with pytest.raises(FicInputError, match="rotation_error"):
+        baseline.wrench([0, 0, 0], [0, math.inf, 0], np.zeros(6))
+    with pytest.raises(FicInputError, match="twist_error"):
+        baseline.wrench([0, 0, 0], [0, 0, 0], [0, 0, 0, 0, 0, math.nan])
+    with pytest.raises(FicInputError, match="damping_ratio"):
+        make_baseline_like(PoseAttractor(TRANSLATION, ROTATION), damping_ratio=math.nan)

@@ -1,0 +1,92 @@
+"""Master law (paper Eq. 3): f = FIC(-x_M) + K_H*F_R, haptic gain clamped to [0, 1], device force saturation."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fic_core.attractor import FractalAttractor
+from fic_core.errors import FicInputError
+from fic_core.master import MasterLaw
+from fic_core.profile import ForceProfile
+
+PROFILE = ForceProfile(stiffness=200.0, saturation_error=0.03, saturation_start=0.5, max_force=8.0)
+
+
+def make_master(haptic_gain: float = 0.5, max_device_force: float | None = None) -> MasterLaw:
+    return MasterLaw(FractalAttractor(PROFILE, 3, rate_deadband=0.005), haptic_gain, max_device_force)
+
+
+def test_restoring_force_opposes_the_handle_displacement() -> None:
+    master = make_master(haptic_gain=0.0)
+    force = master.force([0.01, -0.02, 0.0], [0.0, 0.0, 0.0], [5.0, 5.0, 5.0])
+    np.testing.assert_allclose(force, -PROFILE.force([0.01, -0.02, 0.0]))
+    assert force[0] < 0 < force[1]
+
+
+def test_replica_force_is_scaled_by_the_haptic_gain() -> None:
+    replica_force = np.array([10.0, -4.0, 2.0])
+    for gain in (0.0, 0.3, 1.0):
+        master = make_master(haptic_gain=gain)
+        np.testing.assert_allclose(master.force(np.zeros(3), np.zeros(3), replica_force), gain * replica_force)
+
+
+def test_haptic_gain_is_clamped_and_the_clamp_reported() -> None:
+    master = make_master()
+    assert master.set_haptic_gain(0.7) is False and master.haptic_gain == 0.7
+    assert master.set_haptic_gain(5.0) is True and master.haptic_gain == 1.0
+    assert master.haptic_gain_clamped
+    assert master.set_haptic_gain(-0.2) is True and master.haptic_gain == 0.0
+    master.haptic_gain = 1.5
+    assert master.haptic_gain == 1.0 and master.haptic_gain_clamped
+    master.haptic_gain = 0.25
+    assert master.haptic_gain == 0.25 and not master.haptic_gain_clamped
+    assert make_master(haptic_gain=3.0).haptic_gain == 1.0
+    # Clamped gain really is what scales F_R.
+    master.set_haptic_gain(4.0)
+    assert master.force(np.zeros(3), np.zeros(3), [10.0, 0.0, 0.0])[0] == pytest.approx(10.0)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_non_finite_haptic_gain_is_rejected_and_the_old_value_kept(bad: float) -> None:
+    master = make_master(haptic_gain=0.4)
+    with pytest.raises(FicInputError, match="haptic_gain"):
+        master.set_haptic_gain(bad)
+    assert master.haptic_gain == 0.4
+
+
+def test_device_force_saturation_keeps_the_direction() -> None:
+    master = make_master(haptic_gain=1.0, max_device_force=20.0)
+    force = master.force(np.zeros(3), np.zeros(3), [30.0, 40.0, 0.0])
+    assert np.linalg.norm(force) == pytest.approx(20.0)
+    np.testing.assert_allclose(force / np.linalg.norm(force), [0.6, 0.8, 0.0])
+    assert master.device_force_saturated
+    master.force(np.zeros(3), np.zeros(3), [3.0, 4.0, 0.0])
+    assert not master.device_force_saturated
+
+
+def test_handle_released_returns_to_the_origin() -> None:
+    """A device-like 0.2 kg handle released at 2 cm under the master law settles at the origin."""
+    master = make_master(haptic_gain=0.0)
+    mass, x, v, dt = 0.2, np.array([0.02, -0.01, 0.0]), np.zeros(3), 2e-4
+    for _ in range(5000):
+        force = master.force(x, v, np.zeros(3))
+        v = v + force / mass * dt
+        x = x + v * dt
+    assert np.linalg.norm(x) < 2e-4
+
+
+def test_invalid_inputs_are_rejected() -> None:
+    master = make_master()
+    for name, arguments in [("handle_position", ([math.nan, 0, 0], [0, 0, 0], [0, 0, 0])),
+                            ("handle_velocity", ([0, 0, 0], [0, math.inf, 0], [0, 0, 0])),
+                            ("replica_force", ([0, 0, 0], [0, 0, 0], [0, 0, math.nan]))]:
+        with pytest.raises(FicInputError, match=name):
+            master.force(*arguments)
+    with pytest.raises(FicInputError, match="max_device_force"):
+        make_master(max_device_force=math.nan)
+    with pytest.raises(FicInputError, match="max_device_force"):
+        make_master(max_device_force=0.0)
+    with pytest.raises(FicInputError, match="attractor"):
+        MasterLaw(FractalAttractor(PROFILE, 6), 0.5)
