@@ -130,6 +130,7 @@ class PandaSimulation:
         self._arm_dof = np.array([self._model.jnt_dofadr[self._model.joint(n).id] for n in ARM_JOINT_NAMES])
         self._tcp_site = self._model.site(TCP_SITE).id
         self._hand_body = self._model.body(HAND_FRAME).id
+        self._tcp_body = self._model.body(TCP_FRAME).id  # the tcp site sits at its origin, unrotated
         self._wrist = WristWrench(self._model, (HAND_FRAME, TCP_FRAME) + FINGER_BODIES)
         self._bond = (AdhesiveBond(self._model, self.layout.plate_geom, HAND_FRAME, self.layout.bond_piece_bodies,
                                    np.random.default_rng(seed), bond_parameters)
@@ -216,6 +217,11 @@ class PandaSimulation:
     def tcp_pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(position [m], rotation matrix 3x3) of panda_hand_tcp in the base frame (= world: base at origin)."""
         return (self._data.site_xpos[self._tcp_site].copy(), self._data.site_xmat[self._tcp_site].reshape(3, 3).copy())
+
+    @property
+    def tcp_quaternion(self) -> NDArray[np.float64]:
+        """Orientation of panda_hand_tcp as a unit quaternion (w, x, y, z), base frame."""
+        return self._data.xquat[self._tcp_body].copy()
 
     def ft_wrench(self) -> NDArray[np.float64]:
         """Force [N] and torque [N m] the environment applies to the end-effector, about the TCP, base frame.

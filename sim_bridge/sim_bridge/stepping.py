@@ -14,6 +14,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from itertools import islice
 from dataclasses import dataclass
 from typing import Callable
 
@@ -73,6 +74,10 @@ class RealtimePacer:
         self._step_times.append(now)
         return lateness
 
+    def recent_max(self, steps: int) -> float:
+        """Worst lateness over the last ``steps`` steps [s] (0 before any)."""
+        return max(islice(reversed(self._lateness), steps), default=0.0)
+
     def summary(self) -> LatenessSummary:
         if not self._lateness:
             return LatenessSummary(0, 0.0, 0.0, 0.0, 0.0, self.overruns)
@@ -97,6 +102,8 @@ class LockstepGate:
         self._open_step = -1
         self._answered = False
         self._latest: np.ndarray | None = None
+        self._interrupted = False
+        self._deliveries = 0
         self.timeouts = 0
         self.answered_steps = 0
 
@@ -109,26 +116,53 @@ class LockstepGate:
         """Called from the subscription callback with a validated command."""
         with self._condition:
             self._latest = command
+            self._deliveries += 1
+            self._condition.notify_all()  # wakes wait_quiet too
             if self._open_step >= 0 and not self._answered:
                 self._answered = True
-                self._condition.notify_all()
 
-    def wait(self, timeout: float) -> tuple[np.ndarray | None, bool]:
-        """Wait for the answer to the open step. Returns (command, fresh); on timeout (latest command, False)."""
+    def wait(self, timeout: float, count_timeout: bool = True) -> tuple[np.ndarray | None, bool]:
+        """Wait for the answer to the open step. Returns (command, fresh); on timeout (latest command, False).
+
+        ``count_timeout=False`` for waits that are not a late controller (waiting for the first command)."""
         deadline = time.monotonic() + timeout
         with self._condition:
             while not self._answered:
                 remaining = deadline - time.monotonic()
                 if remaining <= 0.0:
-                    self.timeouts += 1
+                    self.timeouts += int(count_timeout)
                     return self._latest, False
                 self._condition.wait(remaining)
+            if self._interrupted:
+                return self._latest, False
             self.answered_steps += 1
             return self._latest, True
+
+    def wait_quiet(self, quiet_time: float) -> np.ndarray | None:
+        """Wait until no command has arrived for ``quiet_time``; return the latest.
+
+        For the start of a run: while the simulation waited at t = 0 it re-published the initial state, and a
+        controller that came up late answers every copy. Those answers must all be taken now, or each surplus one
+        would be mistaken for the answer to a later step and the commands would lag the states for good.
+        """
+        with self._condition:
+            while True:
+                seen = self._deliveries
+                self._condition.wait(quiet_time)
+                if self._deliveries == seen or self._interrupted:
+                    return self._latest
+
+    def poll(self) -> tuple[np.ndarray | None, bool]:
+        """Non-blocking: (latest command, whether it answers the open step); not counted as a timeout."""
+        with self._condition:
+            if self._answered:
+                self.answered_steps += 1
+            return self._latest, self._answered
 
     def interrupt(self) -> None:
         """Wake a waiting simulation thread (shutdown)."""
         with self._condition:
+            self._interrupted = True
             self._answered = True
             self._condition.notify_all()
 

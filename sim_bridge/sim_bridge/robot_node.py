@@ -1,0 +1,383 @@
+"""ROS 2 shell around the simulated Panda (mujoco_panda.py): the robot as a real Franka driver presents it.
+
+Publishes ``/joint_states`` (effort = torque applied), ``/ft_sensor/wrench`` (environment wrench at the TCP,
+frame panda_link0) every physics step, ``/clock``, ``/sim/step_lateness``, ``/sim/object_poses``,
+``/sim/tcp_pose`` and ``/diagnostics``; takes ``/effort_controller/commands`` (7 torques, ros2_control's
+effort-controller convention), so a real Panda driver can stand in its place.
+
+One thread steps the physics and publishes everything (so all rates are counted in physics steps and nothing
+reads the model while it moves); the executor thread only receives commands. Modes (stepping.py):
+- realtime: steps paced by the wall clock at 1 kHz, zero-order hold on the last command. Header stamps come from
+  the node clock; /clock (sim time) is published at ``realtime_clock_rate_hz``.
+- lockstep: after publishing the state of step k, wait for a command that arrives after that publication, then
+  step; a wait longer than ``lockstep_timeout`` (wall clock) is counted and the step proceeds on the last command.
+  Stamps are simulation time and /clock is published every step: run every other node with use_sim_time:=true.
+  Until the first command arrives the simulation waits at t=0 (re-publishing the initial state every
+  ``lockstep_timeout``), so a run does not depend on how long the controller took to start; the answers to those
+  copies are all drained (LockstepGate.wait_quiet) before the first step, so none is taken for a later step.
+  The effort command carries no stamp: the first command after a state's publication is its answer. While the watchdog holds (commands stopped), steps are
+  paced by the wall clock instead of waiting: the world and /clock keep moving for whoever is still listening.
+
+Safety (watchdog.py): commands older than ``command_timeout`` (wall seconds in realtime, simulated seconds in
+lockstep) are replaced by the hold torque (gravity compensation + damping); each transition is logged once.
+Commands with NaN/Inf or a length other than 7 are rejected with an error log and never reach the physics.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import rclpy
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Pose, PoseArray, PoseStamped, WrenchStamped
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64, Float64MultiArray
+
+from fic_core.errors import FicInputError
+from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
+from sim_bridge.mujoco_panda import TIMESTEP, PandaSimulation
+from sim_bridge.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
+from sim_bridge.scenes import SCENE_NAMES
+from sim_bridge.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
+from sim_bridge.watchdog import CommandWatchdog, WatchdogEvent
+
+# 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 50, so a recorder loses none; a late command is
+# superseded by the next one anyway.
+ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
+STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+
+BASE_FRAME = "panda_link0"
+STEPS_PER_SECOND = round(1.0 / TIMESTEP)
+
+
+def _time_from_steps(steps: int) -> Time:
+    """Exact simulation time of a step count (no float rounding in the stamps)."""
+    nanoseconds = steps * round(TIMESTEP * 1e9)
+    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
+
+def _every(rate_hz: float) -> int:
+    """Steps between publications at ``rate_hz`` (0: never)."""
+    return 0 if rate_hz <= 0.0 else max(1, round(STEPS_PER_SECOND / rate_hz))
+
+
+class RobotNode(Node):
+    def __init__(self) -> None:
+        super().__init__("robot_sim")
+        p = self._declare_parameters()
+        self._mode = p["mode"]
+        self._sim = PandaSimulation(p["scene"], p["seed"], p["initial_configuration"])
+        self._scene = p["scene"]
+        self._lockstep_timeout = p["lockstep_timeout"]
+        self._watchdog = CommandWatchdog(p["command_timeout"])
+        self._gate = LockstepGate()
+        self._hold = ZeroOrderHold()
+        self._pacer = RealtimePacer(TIMESTEP)
+        self._clock_every = 1 if self._mode == "lockstep" else _every(p["realtime_clock_rate_hz"])
+        self._lateness_every = _every(p["lateness_rate_hz"])
+        self._poses_every = _every(p["object_pose_rate_hz"])
+        self._diagnostics_every = _every(p["diagnostics_rate_hz"])
+        self._video_path = p["render_video_path"] or None
+        self._snapshot_dir = p["snapshot_dir"] or None
+        if self._video_path:
+            try:
+                check_video_path(self._video_path)  # refuse an unwritable format now, not after the run
+            except ValueError as exc:
+                raise FicInputError(f"render_video_path: {exc}") from exc
+        self._tape = (StateTape(1.0 / p["video_frame_rate_hz"]) if (self._video_path or self._snapshot_dir) else None)
+        self._video_fps = p["video_frame_rate_hz"]
+        self._snapshot_interval = p["snapshot_interval"]
+        self._viewer = launch_viewer(self._sim.model, self._sim.data) if p["viewer"] else None
+        if p["viewer"] and self._viewer is None:
+            self.get_logger().warning("viewer requested but there is no display: running without it")
+
+        self._rejected_commands = 0
+        self._accepted_commands = 0
+        self._last_command_count = 0
+        self._last_command: np.ndarray | None = None
+        self._stop = threading.Event()
+
+        self._joint_state_pub = self.create_publisher(JointState, "/joint_states", ROBOT_STREAM_QOS)
+        self._wrench_pub = self.create_publisher(WrenchStamped, "/ft_sensor/wrench", ROBOT_STREAM_QOS)
+        self._clock_pub = self.create_publisher(Clock, "/clock", ROBOT_STREAM_QOS)
+        self._lateness_pub = self.create_publisher(Float64, "/sim/step_lateness", STATUS_QOS)
+        self._object_poses_pub = self.create_publisher(PoseArray, "/sim/object_poses", STATUS_QOS)
+        self._tcp_pose_pub = self.create_publisher(PoseStamped, "/sim/tcp_pose", STATUS_QOS)
+        self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
+        self.create_subscription(Float64MultiArray, "/effort_controller/commands", self._on_command, ROBOT_STREAM_QOS)
+
+        self._joint_state = JointState()
+        self._joint_state.header.frame_id = BASE_FRAME
+        self._joint_state.name = list(ARM_JOINT_NAMES)
+        self._wrench = WrenchStamped()
+        self._wrench.header.frame_id = BASE_FRAME
+
+        objects = ", ".join(self._sim.layout.movable_bodies) or "none"
+        self.get_logger().info(
+            f"robot_sim ready: scene {self._scene}, mode {self._mode}, seed {p['seed']}, watchdog "
+            f"{p['command_timeout']:.3f} s; /sim/object_poses order: {objects}")
+        self._thread = threading.Thread(target=self._run, name="physics", daemon=True)
+        self._thread.start()
+
+    # --- parameters --------------------------------------------------------------------------------------------
+    def _declare_parameters(self) -> dict:
+        def number(name, default, description, low, high):
+            descriptor = ParameterDescriptor(description=description, floating_point_range=[
+                FloatingPointRange(from_value=low, to_value=high)])
+            return self.declare_parameter(name, default, descriptor).value
+
+        def text(name, default, description):
+            return self.declare_parameter(name, default, ParameterDescriptor(description=description)).value
+
+        values = {
+            "scene": text("scene", "superimposition", f"scene to build: one of {', '.join(SCENE_NAMES)}"),
+            "seed": self.declare_parameter("seed", 0, ParameterDescriptor(
+                description="seed of the scene's random elements (adhesive bond break thresholds)",
+                integer_range=[IntegerRange(from_value=0, to_value=2**31 - 1)])).value,
+            "mode": text("mode", "realtime", "realtime: wall-clock paced 1 kHz; lockstep: step on each command"),
+            "lockstep_timeout": number("lockstep_timeout", 0.05, "lockstep: longest wall-clock wait for the "
+                                       "command of a step before stepping on the last one (counted) [s]", 0.001, 10.0),
+            "command_timeout": number("command_timeout", 0.05, "watchdog: commands older than this are replaced "
+                                      "by the hold torque (wall s in realtime, simulated s in lockstep) [s]", 0.002, 10.0),
+            "realtime_clock_rate_hz": number("realtime_clock_rate_hz", 100.0, "realtime: /clock publication rate "
+                                             "(lockstep publishes every step) [Hz]", 0.0, 1000.0),
+            "lateness_rate_hz": number("lateness_rate_hz", 10.0, "/sim/step_lateness publication rate [Hz]", 0.0, 1000.0),
+            "object_pose_rate_hz": number("object_pose_rate_hz", 50.0, "/sim/object_poses and /sim/tcp_pose "
+                                          "publication rate [Hz]", 0.0, 1000.0),
+            "diagnostics_rate_hz": number("diagnostics_rate_hz", 1.0, "/diagnostics publication rate [Hz]", 0.0, 100.0),
+            "initial_configuration": self.declare_parameter(
+                "initial_configuration", NOMINAL_CONFIGURATION.tolist(),
+                ParameterDescriptor(description="joint positions at start, panda_joint1..7 [rad]")).value,
+            "render_video_path": text("render_video_path", "", "write the run to this .gif (or .mp4) at the end; "
+                                      "empty: no video"),
+            "snapshot_dir": text("snapshot_dir", "", "write PNG key frames of the run here at the end; empty: none"),
+            "video_frame_rate_hz": number("video_frame_rate_hz", 10.0, "frames per simulated second taped for "
+                                          "the video and key frames [Hz]", 0.1, 60.0),
+            "snapshot_interval": number("snapshot_interval", 5.0, "simulated time between key frames [s]", 0.01, 3600.0),
+            "viewer": self.declare_parameter("viewer", False, ParameterDescriptor(
+                description="open the live MuJoCo viewer (needs a display)")).value,
+        }
+        if values["scene"] not in SCENE_NAMES:
+            raise FicInputError(f"scene must be one of {SCENE_NAMES}, got {values['scene']!r}")
+        if values["mode"] not in STEPPING_MODES:
+            raise FicInputError(f"mode must be one of {STEPPING_MODES}, got {values['mode']!r}")
+        return values
+
+    # --- commands (executor thread) ------------------------------------------------------------------------------
+    def _on_command(self, message: Float64MultiArray) -> None:
+        command = np.asarray(message.data, dtype=np.float64)
+        if command.shape != (7,) or not np.isfinite(command).all():
+            self._rejected_commands += 1
+            reason = (f"{command.size} values instead of 7" if command.shape != (7,)
+                      else f"non-finite values {command.tolist()}")
+            self.get_logger().error(f"rejected torque command on /effort_controller/commands: {reason}; "
+                                    "it is not applied", throttle_duration_sec=1.0)
+            return
+        self._accepted_commands += 1
+        self._hold.update(command, time.monotonic())
+        self._gate.deliver(command)
+
+    # --- physics thread ------------------------------------------------------------------------------------------
+    def _run(self) -> None:
+        try:
+            if self._mode == "lockstep":
+                self._run_lockstep()
+            else:
+                self._run_realtime()
+        except Exception as exc:  # noqa: BLE001  (a context shut down under a publish ends the thread quietly)
+            if not self._stop.is_set() and rclpy.ok(context=self.context):
+                self.get_logger().fatal(f"physics thread failed: {exc!r}")
+                raise
+
+    def _run_realtime(self) -> None:
+        self._publish_state()
+        while not self._stop.is_set():
+            lateness = self._pacer.wait_next()
+            command, arrival, count = self._hold.latest()
+            if count != self._last_command_count:
+                self._last_command_count = count
+                self._log_event(self._watchdog.command_received(arrival))
+            self._log_event(self._watchdog.check(time.monotonic()))
+            self._sim.step(self._sim.hold_torque() if self._watchdog.holding else command)
+            self._after_step(lateness)
+
+    def _run_lockstep(self) -> None:
+        self._log_event(self._watchdog.check(self._sim.time))
+        while not self._stop.is_set():
+            self._gate.state_published(self._sim.steps)  # before publishing: an instant answer must count
+            self._publish_state()
+            started = self._last_command is not None
+            if started and self._watchdog.holding:
+                self._pacer.wait_next()  # held after commands stopped: keep the world moving at wall-clock pace
+                command, fresh = self._gate.poll()
+            else:  # waiting for the first command is not a late controller: not counted as a timeout
+                command, fresh = self._gate.wait(self._lockstep_timeout, count_timeout=started)
+            if self._stop.is_set():
+                return
+            if fresh and not started:  # take every answer to the re-published initial state (see wait_quiet)
+                command = self._gate.wait_quiet(self._lockstep_timeout)
+            if fresh:
+                self._log_event(self._watchdog.command_received(self._sim.time))
+                self._last_command = command
+            elif not started:
+                continue  # no command ever: wait at t=0, re-publishing the initial state
+            self._log_event(self._watchdog.check(self._sim.time))
+            self._sim.step(self._sim.hold_torque() if self._watchdog.holding else self._last_command)
+            self._after_step(None)
+
+    def _after_step(self, lateness: float | None) -> None:
+        steps = self._sim.steps
+        if self._mode == "realtime":
+            self._publish_state()
+        if self._clock_every and steps % self._clock_every == 0:
+            self._clock_pub.publish(Clock(clock=_time_from_steps(steps)))
+        if self._lateness_every and lateness is not None and steps % self._lateness_every == 0:
+            # The worst step lateness over the last publication period (the 10 s p50/p99 go to /diagnostics).
+            self._lateness_pub.publish(Float64(data=self._pacer.recent_max(self._lateness_every)))
+        if self._poses_every and steps % self._poses_every == 0:
+            self._publish_poses()
+        if self._diagnostics_every and steps % self._diagnostics_every == 0:
+            self._publish_diagnostics()
+        for event in self._sim.drain_bond_events():
+            self.get_logger().info(event)
+        if self._tape is not None:
+            self._tape.maybe_record(self._sim.data)
+        if self._viewer is not None and steps % 33 == 0 and self._viewer.is_running():
+            self._viewer.sync()
+
+    def _stamp(self) -> Time:
+        if self._mode == "lockstep":
+            return _time_from_steps(self._sim.steps)
+        return self.get_clock().now().to_msg()
+
+    def _publish_state(self) -> None:
+        stamp = self._stamp()
+        self._joint_state.header.stamp = stamp
+        self._joint_state.position = self._sim.joint_positions.tolist()
+        self._joint_state.velocity = self._sim.joint_velocities.tolist()
+        self._joint_state.effort = self._sim.applied_torque.tolist()
+        self._joint_state_pub.publish(self._joint_state)
+        wrench = self._sim.ft_wrench()
+        self._wrench.header.stamp = stamp
+        force, torque = self._wrench.wrench.force, self._wrench.wrench.torque
+        force.x, force.y, force.z, torque.x, torque.y, torque.z = wrench.tolist()
+        self._wrench_pub.publish(self._wrench)
+
+    def _publish_poses(self) -> None:
+        stamp = self._stamp()
+        array = PoseArray()
+        array.header.stamp, array.header.frame_id = stamp, BASE_FRAME
+        for position, quaternion in self._sim.object_poses().values():
+            array.poses.append(_pose(position, quaternion))
+        self._object_poses_pub.publish(array)
+        tcp = PoseStamped()
+        tcp.header.stamp, tcp.header.frame_id = stamp, BASE_FRAME
+        tcp.pose = _pose(self._sim.tcp_pose[0], self._sim.tcp_quaternion)
+        self._tcp_pose_pub.publish(tcp)
+
+    def _log_event(self, event: WatchdogEvent | None) -> None:
+        if event is None:
+            return
+        if event.engaged:
+            self.get_logger().warning(f"watchdog: {event.message}")
+        else:
+            self.get_logger().info(f"watchdog: {event.message}")
+
+    def statistics(self) -> dict[str, str]:
+        summary = self._pacer.summary()
+        values = {
+            "mode": self._mode,
+            "scene": self._scene,
+            "sim_time": f"{self._sim.time:.3f}",
+            "steps": str(self._sim.steps),
+            "watchdog_holding": str(self._watchdog.holding),
+            "watchdog_engagements": str(self._watchdog.engagements),
+            "commands_accepted": str(self._accepted_commands),
+            "commands_rejected": str(self._rejected_commands),
+            "lockstep_answered": str(self._gate.answered_steps),
+            "lockstep_timeouts": str(self._gate.timeouts),
+        }
+        if self._mode == "realtime":
+            values.update({"lateness_p50_ms": f"{summary.p50 * 1e3:.3f}", "lateness_p99_ms": f"{summary.p99 * 1e3:.3f}",
+                           "lateness_max_ms": f"{summary.max * 1e3:.3f}", "achieved_rate_hz": f"{summary.achieved_rate:.1f}",
+                           "overruns": str(summary.overruns)})
+        bond = self._sim.bond_state
+        if bond is not None:
+            values.update({"bonded_piece": bond.bonded_piece or "", "bond_force_n": f"{bond.bond_force:.2f}",
+                           "bond_break_threshold_n": f"{bond.break_threshold:.2f}", "bonds_formed": str(bond.bonds_formed),
+                           "bond_breaks": str(bond.breaks)})
+        return values
+
+    def _publish_diagnostics(self) -> None:
+        values = self.statistics()
+        array = DiagnosticArray()
+        array.header.stamp = self._stamp()
+        holding = self._watchdog.holding
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.WARN if holding or self._rejected_commands else DiagnosticStatus.OK,
+            name="robot_sim", hardware_id="panda_mujoco",
+            message="holding: torque commands stale" if holding else "following torque commands")
+        status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
+        array.status = [status]
+        self._diagnostics_pub.publish(array)
+
+    # --- shutdown ------------------------------------------------------------------------------------------------
+    def stop(self) -> None:
+        """Stop the physics thread, then write the pictures of the run (if asked)."""
+        self._stop.set()
+        self._gate.interrupt()
+        self._thread.join(timeout=5.0)
+        if self._viewer is not None:
+            self._viewer.close()
+        if self._tape is not None and len(self._tape):
+            written = render_tape(self._sim.model, self._tape, default_view(self._scene), self._video_path,
+                                  self._snapshot_dir, self._snapshot_interval, self._video_fps)
+            for path in written:
+                rclpy.logging.get_logger("sim_bridge.robot_node").info(f"wrote {path}")
+
+
+def _pose(position: np.ndarray, quaternion_wxyz: np.ndarray) -> Pose:
+    pose = Pose()
+    pose.position.x, pose.position.y, pose.position.z = position.tolist()
+    w, x, y, z = quaternion_wxyz.tolist()
+    pose.orientation.w, pose.orientation.x, pose.orientation.y, pose.orientation.z = w, x, y, z
+    return pose
+
+
+def main(args: list[str] | None = None) -> None:
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = RobotNode()
+        executor = EventsExecutor()
+        executor.add_node(node)
+        # Not executor.spin(): in these rclpy wheels EventsExecutor.spin() never returns on SIGINT/SIGTERM (the
+        # context shuts down but spin keeps waiting); spin_once notices and raises ExternalShutdownException.
+        while rclpy.ok(context=node.context):
+            executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except FicInputError as exc:
+        # A bad parameter at start: say which and why, and exit non-zero instead of a traceback.
+        rclpy.logging.get_logger("robot_sim").fatal(f"cannot start: {exc}")
+        raise SystemExit(2) from exc
+    finally:
+        if node is not None:
+            node.stop()
+            # Not node.get_logger(): after a signal the context is gone and the node logger's /rosout fails.
+            rclpy.logging.get_logger("sim_bridge.robot_node").info(f"robot_sim stopped: {node.statistics()}")
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,132 @@
+"""The robot node as a real process over DDS, in lockstep: one joint state per physics step, the commands it
+applies are the ones sent, bad commands are refused, and the watchdog holds the arm when commands stop."""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+
+from conftest import CONFIG, REPO, NodeProcess, installed_executable  # noqa: E402
+from fic_core.panda_description import load_pinocchio_model  # noqa: E402
+from sim_bridge.mujoco_panda import HOLD_DAMPING  # noqa: E402
+
+QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
+
+
+def _robot_node_command() -> list[str]:
+    """The installed executable (what `ros2 run sim_bridge robot_node` starts), or the module from source."""
+    path = installed_executable("sim_bridge", "robot_node")
+    if path.exists():
+        return [str(path)]
+    return [sys.executable, "-m", "sim_bridge.robot_node"]
+
+
+def _start_robot(ros_env: dict[str, str], tmp_path: Path, **params) -> NodeProcess:
+    env = dict(ros_env)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "sim_bridge"), env.get("PYTHONPATH")]))
+    command = _robot_node_command() + ["--ros-args", "--params-file", str(CONFIG / "robot.yaml")]
+    for key, value in params.items():
+        command += ["-p", f"{key}:={value}"]
+    return NodeProcess(command, env, tmp_path / "robot_node.log")
+
+
+class Controller:
+    """Answers every joint state with gravity compensation + damping (Pinocchio), like the replica would."""
+
+    def __init__(self, context) -> None:
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Float64MultiArray
+
+        self.node = rclpy.create_node("test_controller", context=context)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.model, self.data, _ = load_pinocchio_model()
+        self.publisher = self.node.create_publisher(Float64MultiArray, "/effort_controller/commands", QOS)
+        self.node.create_subscription(JointState, "/joint_states", self._on_state, QOS)
+        self.states: list = []
+        self.sent: list[np.ndarray] = []
+        self.answering = True
+        self._message = Float64MultiArray
+
+    def _on_state(self, message) -> None:
+        self.states.append(message)
+        if self.answering:
+            q, qd = np.array(message.position), np.array(message.velocity)
+            torque = pin.computeGeneralizedGravity(self.model, self.data, q) - 2.0 * qd + 0.5 * np.sin(len(self.sent) / 50.0)
+            self.sent.append(torque)
+            self.publisher.publish(self._message(data=torque.tolist()))
+
+    def send_raw(self, values: list[float]) -> None:
+        self.publisher.publish(self._message(data=values))
+
+    def spin_until(self, condition, timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if condition():
+                return True
+            self.executor.spin_once(timeout_sec=0.05)
+        return condition()
+
+
+def _stamp(message) -> int:
+    return message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+
+
+def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_they_stop(ros_env, rclpy_context,
+                                                                                      tmp_path):
+    robot = _start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.02,
+                         command_timeout=0.05, diagnostics_rate_hz=50.0)
+    try:
+        assert robot.wait_for_output("robot_sim ready", timeout=30.0), robot.output()
+        controller = Controller(rclpy_context)
+        # The simulation waits at t = 0, re-publishing its state, until the first command: then one step per answer.
+        assert controller.spin_until(lambda: len(controller.sent) >= 400, timeout=40.0), robot.output()
+        assert robot.wait_for_output("first torque command received", timeout=5.0)
+
+        stamps = [_stamp(m) for m in controller.states]
+        # Before the first step the initial state may come several times (stamp 0), then every physics step
+        # once, 1 ms apart in simulation time (lockstep stamps are simulation time), none lost.
+        first_step = next(i for i, stamp in enumerate(stamps) if stamp > 0)
+        assert all(stamp == 0 for stamp in stamps[:first_step])
+        np.testing.assert_array_equal(np.diff(stamps[first_step - 1:]), 1_000_000)
+        # The torque applied in each step is the command sent in answer to the state before it (for the first
+        # step: the answer to the last copy of the initial state).
+        answer_to = {stamp: command for stamp, command in zip(stamps, controller.sent)}
+        for message, stamp in zip(controller.states[first_step:], stamps[first_step:]):
+            np.testing.assert_array_equal(message.effort, answer_to[stamp - 1_000_000])
+
+        # A NaN and a short command are refused and never applied.
+        controller.answering = False
+        controller.send_raw([float("nan")] * 7)
+        controller.send_raw([1.0] * 6)
+        assert robot.wait_for_output("rejected torque command", timeout=5.0), robot.output()
+        # Commands stopped: after 50 ms of simulated time the watchdog holds the arm, and says so once.
+        assert robot.wait_for_output("torque commands stale", timeout=10.0), robot.output()
+        count_when_held = len(controller.states)
+        assert controller.spin_until(lambda: len(controller.states) > count_when_held + 200, timeout=10.0)
+        before, held = controller.states[-2], controller.states[-1]
+        q, qd = np.array(before.position), np.array(before.velocity)
+        # The hold torque, computed on the state before: gravity + Coriolis compensation and damping.
+        hold = pin.nonLinearEffects(controller.model, controller.data, q, qd) - HOLD_DAMPING * qd
+        np.testing.assert_allclose(held.effort, hold, rtol=0, atol=1e-9)
+        # Fresh commands release it.
+        controller.answering = True
+        assert robot.wait_for_output("torque commands resumed", timeout=10.0) or \
+            controller.spin_until(lambda: "torque commands resumed" in robot.output(), timeout=10.0), robot.output()
+        assert robot.output().count("torque commands stale") == 1
+        controller.node.destroy_node()
+    finally:
+        code = robot.stop(timeout=10.0)
+    log = robot.log_path.read_text()
+    assert code == 0, log  # a clean exit on SIGINT (what Ctrl-C sends)
+    assert "robot_sim stopped" in log
+
