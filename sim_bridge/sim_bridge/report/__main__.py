@@ -1,0 +1,48 @@
+"""python -m sim_bridge.report <bag> [--out DIR]: metrics.json, plots and a summary table of a recorded session."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .bag_data import BagReadError
+from .metrics import ReportSettings
+from .report import make_report, replica_config_defaults, summary_table
+
+
+def main(argv: list[str] | None = None) -> int:
+    defaults = ReportSettings(**replica_config_defaults())
+    parser = argparse.ArgumentParser(prog="python -m sim_bridge.report", description=__doc__)
+    parser.add_argument("bag", type=Path, help="bag folder (rosbag2 layout) or .mcap file")
+    parser.add_argument("--out", type=Path, default=None, help="report folder (default: <bag>_report next to it)")
+    parser.add_argument("--warmup", type=float, default=defaults.warmup_s,
+                        help="seconds at the start left out of error/force/latency figures (default %(default)s)")
+    parser.add_argument("--f-max", type=float, default=defaults.max_force_n,
+                        help="controller F_max [N] drawn on the force plot (default: config/replica.yaml)")
+    parser.add_argument("--x-b", type=float, default=defaults.error_bound_m,
+                        help="error bound x_b [m] drawn on the error plot (default %(default)s)")
+    parser.add_argument("--render", action="store_true",
+                        help="also render key frames (not implemented by this report yet: a warning is printed)")
+    args = parser.parse_args(argv)
+    if args.warmup < 0:
+        parser.error("--warmup must be >= 0")
+    out = args.out or args.bag.with_name(args.bag.name.removesuffix(".mcap") + "_report")
+    settings = ReportSettings(warmup_s=args.warmup, max_force_n=args.f_max, error_bound_m=args.x_b)
+    try:
+        analysis, plots = make_report(args.bag, out, settings)
+    except BagReadError as error:
+        print(f"[report] cannot read the bag: {error}", file=sys.stderr)
+        return 2
+    metrics = analysis.metrics
+    if not metrics["bag_complete"]:
+        print("[report] note: the bag has no footer (recorder killed?); read up to its last complete chunk",
+              file=sys.stderr)
+    if args.render:
+        print("[report] --render: key frames are not produced by sim_bridge.report yet", file=sys.stderr)
+    print(summary_table(metrics))
+    print(f"[report] {out / 'metrics.json'}; plots: {', '.join(p.name for p in plots) or 'none'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

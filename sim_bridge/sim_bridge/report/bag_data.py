@@ -1,0 +1,214 @@
+"""Read a recorded session into numpy arrays, with the mcap library and mcap-ros2-support only.
+
+Deliberately independent of sim_bridge.bag_writer: the report must read any rosbag2-layout MCAP bag (one
+written by `ros2 bag record -s mcap` as well as ours), so it relies on nothing but the files' own schemas.
+Messages are read sequentially (mcap's StreamReader, CRCs checked), so a bag whose recorder was killed (no
+summary, no footer) reads up to its last complete chunk; `BagData.complete` says whether the footer was there.
+
+Time bases: `stamp` arrays are header stamps (the publishers' clocks: sim time in lockstep mode) in seconds;
+`log` arrays are the recorder's receive times (wall clock) in seconds. Header stamps of the high-rate topics are
+read straight from the CDR bytes, without decoding the whole message.
+"""
+from __future__ import annotations
+
+import struct
+from collections import Counter, defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from mcap.exceptions import EndOfFile, McapError
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
+from mcap_ros2.decoder import DecoderFactory
+
+# Topics decoded in full (everything else is only counted).
+POSE_TOPICS = ("/replica/desired_pose", "/replica/tcp_pose", "/planner/desired_pose", "/master/pose")
+WRENCH_TOPICS = ("/ft_sensor/wrench",)
+TELEOP_TOPICS = ("/master/teleop_command", "/replica/teleop_command")
+FIC_STATE_TOPIC = "/replica/fic_state"
+LIMIT_STATUS_TOPIC = "/replica/limit_status"
+DELIVERY_TOPIC = "/channel/deliveries"
+# Only the stamps (parsed from the CDR bytes).
+STAMP_ONLY_TOPICS = ("/joint_states",)
+CLOCK_TOPIC = "/clock"
+# Forward direction of the channel (master -> replica): the one whose delay the latency metric subtracts.
+FORWARD_TOPICS = ("/replica/teleop_command", "/replica/master_pose")
+
+
+class BagReadError(RuntimeError):
+    """The path is not a readable MCAP bag."""
+
+
+def _stamp(time_msg) -> float:
+    return time_msg.sec + time_msg.nanosec * 1e-9
+
+
+def _stamp_ns(time_msg) -> int:
+    return time_msg.sec * 1_000_000_000 + time_msg.nanosec
+
+
+def _cdr_time_ns(cdr: bytes) -> int:
+    """The first builtin_interfaces/Time of a CDR message (Header.stamp, or Clock.clock)."""
+    sec, nanosec = struct.unpack_from("<iI" if cdr[1] & 1 else ">iI", cdr, 4)
+    return sec * 1_000_000_000 + nanosec
+
+
+@dataclass
+class Series:
+    """Time series of one topic: stamps [s], receive times [s] and named value columns."""
+    stamp: np.ndarray
+    log: np.ndarray
+    values: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.stamp)
+
+
+@dataclass
+class BagData:
+    path: Path
+    complete: bool
+    stopped_by: str
+    counts: dict[str, int]
+    types: dict[str, str]
+    series: dict[str, Series]
+    controller: str
+    deliveries: dict[str, dict[int, float]]  # topic -> {delivered message's stamp [ns]: held [s]}
+    first_log: float
+    last_log: float
+
+    def has(self, topic: str) -> bool:
+        return topic in self.series and len(self.series[topic]) > 0
+
+
+def mcap_path(bag: str | Path) -> Path:
+    path = Path(bag)
+    if path.is_dir():
+        files = sorted(path.glob("*.mcap"))
+        if len(files) != 1:
+            raise BagReadError(f"{path}: expected one .mcap file in the bag folder, found {len(files)}")
+        return files[0]
+    if not path.is_file():
+        raise BagReadError(f"{path}: no such bag folder or .mcap file")
+    return path
+
+
+def _records(path: Path, status: dict):
+    with open(path, "rb") as stream:
+        records = StreamReader(stream, validate_crcs=True).records
+        while True:
+            try:
+                yield next(records)
+            except StopIteration:
+                status["complete"] = True
+                return
+            except (EndOfFile, McapError, struct.error, ValueError) as error:
+                status["stopped_by"] = type(error).__name__
+                return
+            except Exception as error:  # a torn compressed chunk: the compressor's own error type
+                status["stopped_by"] = type(error).__name__
+                return
+
+
+def load_bag(bag: str | Path) -> BagData:
+    path = mcap_path(bag)
+    status = {"complete": False, "stopped_by": ""}
+    schemas: dict[int, Schema] = {}
+    channels: dict[int, Channel] = {}
+    decoders: dict[int, object] = {}
+    factory = DecoderFactory()
+    counts: Counter = Counter()
+    rows: dict[str, list] = defaultdict(list)
+    deliveries: dict[str, dict[int, float]] = defaultdict(dict)
+    controllers: Counter = Counter()
+    first_log, last_log = np.inf, -np.inf
+    decoded = set(POSE_TOPICS + WRENCH_TOPICS + TELEOP_TOPICS + (FIC_STATE_TOPIC, LIMIT_STATUS_TOPIC, DELIVERY_TOPIC))
+    try:
+        for record in _records(path, status):
+            if isinstance(record, Schema):
+                schemas[record.id] = record
+                continue
+            if isinstance(record, Channel):
+                channels[record.id] = record
+                continue
+            if not isinstance(record, Message):
+                continue
+            channel = channels[record.channel_id]
+            topic = channel.topic
+            counts[topic] += 1
+            log = record.log_time * 1e-9
+            first_log, last_log = min(first_log, log), max(last_log, log)
+            if topic in STAMP_ONLY_TOPICS or topic == CLOCK_TOPIC:
+                rows[topic].append((_cdr_time_ns(record.data) * 1e-9, log))
+                continue
+            if topic not in decoded:
+                continue
+            decoder = decoders.get(record.channel_id)
+            if decoder is None:
+                decoder = factory.decoder_for(channel.message_encoding, schemas.get(channel.schema_id))
+                if decoder is None:
+                    raise BagReadError(f"{path}: cannot decode {topic} ({channel.message_encoding})")
+                decoders[record.channel_id] = decoder
+            msg = decoder(record.data)
+            if topic in POSE_TOPICS:
+                p = msg.pose.position
+                rows[topic].append((_stamp(msg.header.stamp), log, p.x, p.y, p.z))
+            elif topic in WRENCH_TOPICS:
+                f = msg.wrench.force
+                rows[topic].append((_stamp(msg.header.stamp), log, f.x, f.y, f.z))
+            elif topic in TELEOP_TOPICS:
+                h, d = msg.handle_position, msg.desired_offset
+                rows[topic].append((_stamp(msg.header.stamp), log, h.x, h.y, h.z, d.x, d.y, d.z, msg.haptic_gain))
+            elif topic == FIC_STATE_TOPIC:
+                controllers[msg.controller] += 1
+                error = list(msg.error)[:3] + [np.nan] * (3 - min(3, len(msg.error)))
+                phase = list(msg.phase)[:3] + [-1] * (3 - min(3, len(msg.phase)))
+                rows[topic].append((_stamp(msg.header.stamp), log, *error, *phase, msg.total_energy,
+                                    _stamp_ns(msg.master_stamp), msg.master_age, float(msg.master_stale)))
+            elif topic == LIMIT_STATUS_TOPIC:
+                rows[topic].append((_stamp(msg.header.stamp), log, float(msg.shaping), float(msg.violations),
+                                    float(getattr(msg, "violation_ticks", 0)), float(getattr(msg, "shaped_ticks", 0)),
+                                    float(getattr(msg, "ticks", 0))))
+            elif topic == DELIVERY_TOPIC:
+                deliveries[msg.topic].setdefault(_stamp_ns(msg.header.stamp), float(msg.held))
+    except OSError as error:
+        raise BagReadError(f"{path}: {error}") from error
+    if not status["complete"] and not counts and not schemas:
+        raise BagReadError(f"{path}: not an MCAP file or empty ({status['stopped_by']})")
+
+    columns = {
+        "pose": ("x", "y", "z"),
+        "wrench": ("fx", "fy", "fz"),
+        "teleop": ("handle_x", "handle_y", "handle_z", "offset_x", "offset_y", "offset_z", "haptic_gain"),
+        "fic": ("ex", "ey", "ez", "phase_x", "phase_y", "phase_z", "total_energy", "master_stamp_ns",
+                "master_age", "master_stale"),
+        "limit": ("shaping", "violations", "violation_ticks", "shaped_ticks", "ticks"),
+        "stamps": (),
+    }
+    kinds = {**{t: "pose" for t in POSE_TOPICS}, **{t: "wrench" for t in WRENCH_TOPICS},
+             **{t: "teleop" for t in TELEOP_TOPICS}, FIC_STATE_TOPIC: "fic", LIMIT_STATUS_TOPIC: "limit",
+             CLOCK_TOPIC: "stamps", **{t: "stamps" for t in STAMP_ONLY_TOPICS}}
+    series: dict[str, Series] = {}
+    for topic, kind in kinds.items():
+        if not rows.get(topic):
+            continue
+        if kind == "fic":  # master stamps as exact integers (they are matched with delivery stamps)
+            table = rows[topic]
+            master_ns = np.array([r[9] for r in table], dtype=np.int64)
+            array = np.array([r[:9] + (0.0,) + r[10:] for r in table], dtype=float)
+        else:
+            array = np.array(rows[topic], dtype=float)
+        values = {name: array[:, 2 + i] for i, name in enumerate(columns[kind])}
+        if kind == "fic":
+            values["master_stamp_ns"] = master_ns
+        series[topic] = Series(array[:, 0], array[:, 1], values)
+
+    types = {}
+    for channel in channels.values():
+        schema = schemas.get(channel.schema_id)
+        types[channel.topic] = schema.name if schema else ""
+    return BagData(path=path, complete=status["complete"], stopped_by=status["stopped_by"], counts=dict(counts),
+                   types=types, series=series, controller=controllers.most_common(1)[0][0] if controllers else "",
+                   deliveries=dict(deliveries), first_log=float(first_log) if counts else 0.0,
+                   last_log=float(last_log) if counts else 0.0)

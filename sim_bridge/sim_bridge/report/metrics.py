@@ -1,0 +1,239 @@
+"""The SPEC 2.2 metrics of a recorded session (issue 5 item 4), exactly as defined in README of this package.
+
+All times are header stamps (sim time in lockstep mode) unless said otherwise; t = 0 is the first /joint_states
+stamp (or the earliest stamp of any decoded topic). The first `warmup_s` seconds (the arm settling on its
+nominal pose, DDS discovery) are left out of the tracking-error, force, energy, latency and delay figures; counts
+of limit ticks and of dropped joint states cover the whole recording.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .bag_data import DELIVERY_TOPIC, FIC_STATE_TOPIC, FORWARD_TOPICS, LIMIT_STATUS_TOPIC, BagData
+
+# Targets of the default run (issue 5 item 5): metric -> (comparison, value).
+TARGETS = {
+    "free_motion_error_max_m": ("<", 0.05),
+    "free_motion_error_rms_m": ("<", 0.01),
+    "limit_violations": ("==", 0),
+    "pipeline_latency_p99_ms": ("<", 5.0),
+    "real_time_factor": (">=", 0.95),
+    "dropped_joint_states": ("==", 0),
+}
+
+
+@dataclass
+class ReportSettings:
+    warmup_s: float = 2.0                 # left out of error/force/latency figures
+    free_force_threshold_n: float = 1.0   # SPEC 2.2: free motion when |F| < 1 N ...
+    free_hold_s: float = 0.2              # ... and has been for 0.2 s
+    error_bound_m: float = 0.05           # x_b, the paper's bound (plotted)
+    max_force_n: float | None = None      # F_max of the controller (plotted when known)
+    joint_states_period_s: float = 0.001  # the simulator's physics step
+
+
+@dataclass
+class Analysis:
+    """Metrics plus the time series the plots draw (times relative to t0)."""
+    metrics: dict
+    t0: float
+    error_t: np.ndarray = field(default_factory=lambda: np.empty(0))
+    error: np.ndarray = field(default_factory=lambda: np.empty(0))
+    error_free: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=bool))
+    contact_intervals: list[tuple[float, float]] = field(default_factory=list)
+    latencies_ms: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+
+def _key_us(stamps: np.ndarray) -> np.ndarray:
+    return np.round(stamps * 1e6).astype(np.int64)
+
+
+def _tracking_error(data: BagData) -> tuple[np.ndarray, np.ndarray, str]:
+    """|x_d - x_R| of the TCP position at the replica's pose stamps; falls back to FicState.error[0:3]."""
+    if data.has("/replica/desired_pose") and data.has("/replica/tcp_pose"):
+        desired, tcp = data.series["/replica/desired_pose"], data.series["/replica/tcp_pose"]
+        order_d, order_r = np.argsort(desired.stamp, kind="stable"), np.argsort(tcp.stamp, kind="stable")
+        d_t, r_t = desired.stamp[order_d], tcp.stamp[order_r]
+        d_xyz = np.column_stack([desired.values[a][order_d] for a in "xyz"])
+        r_xyz = np.column_stack([tcp.values[a][order_r] for a in "xyz"])
+        common, i_d, i_r = np.intersect1d(_key_us(d_t), _key_us(r_t), return_indices=True)
+        if len(common) >= max(2, len(r_t) // 2):  # the replica publishes both with one stamp per tick
+            return r_t[i_r], np.linalg.norm(d_xyz[i_d] - r_xyz[i_r], axis=1), "poses"
+        inside = (r_t >= d_t[0]) & (r_t <= d_t[-1])
+        if inside.sum() >= 2:
+            d_at_r = np.column_stack([np.interp(r_t[inside], d_t, d_xyz[:, k]) for k in range(3)])
+            return r_t[inside], np.linalg.norm(d_at_r - r_xyz[inside], axis=1), "poses_interpolated"
+    if data.has(FIC_STATE_TOPIC):
+        fic = data.series[FIC_STATE_TOPIC]
+        order = np.argsort(fic.stamp, kind="stable")
+        error = np.column_stack([fic.values[a][order] for a in ("ex", "ey", "ez")])
+        return fic.stamp[order], np.linalg.norm(error, axis=1), "fic_state"
+    return np.empty(0), np.empty(0), "none"
+
+
+def free_motion_flags(ft_t: np.ndarray, force: np.ndarray, threshold: float, hold: float) -> np.ndarray:
+    """Per F/T sample: |F| < threshold now and at every sample of the last `hold` seconds (SPEC 2.2).
+
+    The first `hold` seconds of the stream count as contact (not yet known to be free)."""
+    if len(ft_t) == 0:
+        return np.empty(0, dtype=bool)
+    contact = force >= threshold
+    last_contact = np.maximum.accumulate(np.where(contact, ft_t, ft_t[0]))
+    return (~contact) & (ft_t - last_contact >= hold - 1e-9)
+
+
+def _intervals(t: np.ndarray, flags: np.ndarray) -> list[tuple[float, float]]:
+    """[start, end) times of the runs where flags is True."""
+    if len(t) == 0:
+        return []
+    edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return [(float(t[s]), float(t[min(e, len(t) - 1)])) for s, e in zip(starts, ends)]
+
+
+def _number(value) -> float | int | None:
+    if value is None:
+        return None
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    value = float(value)
+    return None if math.isnan(value) or math.isinf(value) else value
+
+
+def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
+    settings = settings or ReportSettings()
+    series = data.series
+    if data.has("/joint_states"):
+        t0 = float(series["/joint_states"].stamp.min())
+    else:
+        starts = [s.stamp.min() for s in series.values() if len(s)]
+        t0 = float(min(starts)) if starts else 0.0
+    cut = t0 + settings.warmup_s
+    m: dict = {}
+
+    # Tracking error and free motion (SPEC 2.2).
+    error_t, error, source = _tracking_error(data)
+    if data.has("/ft_sensor/wrench"):
+        ft = series["/ft_sensor/wrench"]
+        order = np.argsort(ft.stamp, kind="stable")
+        ft_t = ft.stamp[order]
+        ft_force = np.linalg.norm(np.column_stack([ft.values[a][order] for a in ("fx", "fy", "fz")]), axis=1)
+        ft_free = free_motion_flags(ft_t, ft_force, settings.free_force_threshold_n, settings.free_hold_s)
+        index = np.searchsorted(ft_t, error_t, side="right") - 1
+        error_free = np.where(index >= 0, ft_free[np.clip(index, 0, None)], False)
+        contact_intervals = [(a - t0, b - t0) for a, b in _intervals(ft_t, ~ft_free)]
+        after = ft_t >= cut
+        m["peak_interaction_force_n"] = _number(ft_force[after].max()) if after.any() else None
+    else:
+        error_free = np.ones(len(error_t), dtype=bool)
+        contact_intervals = []
+        m["peak_interaction_force_n"] = None
+    counted = error_t >= cut
+    free_errors, contact_errors = error[counted & error_free], error[counted & ~error_free]
+    m["free_motion_error_max_m"] = _number(free_errors.max()) if len(free_errors) else None
+    m["free_motion_error_rms_m"] = _number(np.sqrt(np.mean(free_errors ** 2))) if len(free_errors) else None
+    m["contact_error_max_m"] = _number(contact_errors.max()) if len(contact_errors) else None
+
+    # Limits: one LimitStatus per control tick.
+    if data.has(LIMIT_STATUS_TOPIC):
+        limits = series[LIMIT_STATUS_TOPIC]
+        m["limit_violations"] = int(np.count_nonzero(limits.values["violations"]))
+        m["limit_shaped_ticks"] = int(np.count_nonzero(limits.values["shaping"]))
+    else:
+        m["limit_violations"] = m["limit_shaped_ticks"] = None
+
+    # Pipeline latency: replica tick stamp - master sample stamp - channel hold, at the sample's first use.
+    held_by_stamp = data.deliveries.get("/replica/teleop_command", {})
+    latencies, unmatched = [], 0
+    if data.has(FIC_STATE_TOPIC):
+        fic = series[FIC_STATE_TOPIC]
+        order = np.argsort(fic.stamp, kind="stable")
+        seen: set[int] = set()
+        for stamp, master_ns in zip(fic.stamp[order], fic.values["master_stamp_ns"][order]):
+            master_ns = int(master_ns)
+            if master_ns == 0 or master_ns in seen:
+                continue
+            seen.add(master_ns)
+            if stamp < cut:
+                continue
+            held = held_by_stamp.get(master_ns)
+            if held is None:
+                unmatched += 1
+                continue
+            latencies.append((stamp - master_ns * 1e-9 - held) * 1e3)
+    latencies_ms = np.array(latencies)
+    m["pipeline_latency_p50_ms"] = _number(np.percentile(latencies_ms, 50)) if len(latencies_ms) else None
+    m["pipeline_latency_p99_ms"] = _number(np.percentile(latencies_ms, 99)) if len(latencies_ms) else None
+
+    # Real-time factor: sim time advanced / wall time, after the warm-up.
+    clock_topic = "/joint_states" if data.has("/joint_states") else ("/clock" if data.has("/clock") else None)
+    m["real_time_factor"] = None
+    if clock_topic:
+        clock = series[clock_topic]
+        order = np.argsort(clock.log, kind="stable")
+        stamps, logs = clock.stamp[order], clock.log[order]
+        keep = stamps >= cut
+        if keep.sum() >= 2 and logs[keep][-1] > logs[keep][0]:
+            m["real_time_factor"] = _number((stamps[keep][-1] - stamps[keep][0]) / (logs[keep][-1] - logs[keep][0]))
+
+    # Dropped joint states: stamps advance by one physics step per message; gaps count the missing ones.
+    if data.has("/joint_states"):
+        js = series["/joint_states"]
+        steps = np.diff(js.stamp[np.argsort(js.log, kind="stable")]) / settings.joint_states_period_s
+        missing = np.round(steps[steps > 0]) - 1
+        m["dropped_joint_states"] = int(missing[missing > 0].sum())
+        m["joint_states_out_of_order"] = int(np.count_nonzero(steps <= 0))
+    else:
+        m["dropped_joint_states"] = None
+
+    # One-way delay the channel added on the forward direction.
+    held = [h for topic in FORWARD_TOPICS for stamp_ns, h in data.deliveries.get(topic, {}).items()
+            if stamp_ns * 1e-9 >= cut]
+    m["delay_one_way_ms"] = _number(np.median(held) * 1e3) if held else None
+
+    clock_series = series.get(clock_topic) if clock_topic else None
+    m["duration_s"] = _number(clock_series.stamp.max() - clock_series.stamp.min()) if clock_series else None
+    m["controller"] = data.controller or None
+
+    # Extras.
+    m["wall_duration_s"] = _number(data.last_log - data.first_log)
+    m["warmup_s"] = settings.warmup_s
+    m["tracking_error_source"] = source
+    m["tracking_error_samples"] = int(counted.sum())
+    m["free_motion_fraction"] = _number(error_free[counted].mean()) if counted.any() else None
+    m["pipeline_latency_samples"] = len(latencies_ms)
+    m["pipeline_latency_unmatched"] = unmatched
+    if data.has(FIC_STATE_TOPIC):
+        fic = series[FIC_STATE_TOPIC]
+        after = fic.stamp >= cut
+        m["energy_max_j"] = _number(fic.values["total_energy"][after].max()) if after.any() else None
+        m["master_stale_ticks"] = int(np.count_nonzero(fic.values["master_stale"]))
+        phases = np.column_stack([fic.values[f"phase_{a}"][after] for a in "xyz"])
+        m["convergence_phase_fraction"] = _number((phases == 1).mean()) if after.any() else None
+    if data.has(LIMIT_STATUS_TOPIC):
+        limits = series[LIMIT_STATUS_TOPIC]
+        last = np.argmax(limits.stamp)
+        m["limit_counters"] = {"ticks": int(limits.values["ticks"][last]),
+                               "violation_ticks": int(limits.values["violation_ticks"][last]),
+                               "shaped_ticks": int(limits.values["shaped_ticks"][last]),
+                               "limit_status_messages": len(limits)}
+    m["message_counts"] = dict(sorted(data.counts.items()))
+    m["topic_types"] = dict(sorted(data.types.items()))
+    m["bag"] = str(data.path)
+    m["bag_complete"] = data.complete
+    m["thresholds"] = {"free_force_threshold_n": settings.free_force_threshold_n,
+                       "free_hold_s": settings.free_hold_s, "error_bound_m": settings.error_bound_m,
+                       "max_force_n": settings.max_force_n}
+    m["targets"] = {name: {"target": f"{op} {value}", "met": _meets(m.get(name), op, value)}
+                    for name, (op, value) in TARGETS.items()}
+    return Analysis(metrics=m, t0=t0, error_t=error_t - t0, error=error, error_free=error_free,
+                    contact_intervals=contact_intervals, latencies_ms=latencies_ms)
+
+
+def _meets(value, op: str, target: float) -> bool | None:
+    if value is None:
+        return None
+    return {"<": value < target, "==": value == target, ">=": value >= target}[op]

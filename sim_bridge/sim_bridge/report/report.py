@@ -1,0 +1,75 @@
+"""Bag -> metrics.json + plots + a printed summary table."""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import yaml
+
+from .bag_data import load_bag
+from .metrics import TARGETS, Analysis, ReportSettings, analyse
+from .plots import plot_all
+
+SUMMARY_KEYS = [
+    ("free_motion_error_max_m", "m"), ("free_motion_error_rms_m", "m"), ("contact_error_max_m", "m"),
+    ("peak_interaction_force_n", "N"), ("limit_violations", ""), ("limit_shaped_ticks", ""),
+    ("pipeline_latency_p50_ms", "ms"), ("pipeline_latency_p99_ms", "ms"), ("real_time_factor", ""),
+    ("dropped_joint_states", ""), ("delay_one_way_ms", "ms"), ("duration_s", "s"), ("controller", ""),
+]
+
+
+def replica_config_defaults() -> dict:
+    """x_b and F_max of the replica's translation FIC from config/replica.yaml, when the workspace has it."""
+    root = os.environ.get("FIC_TELEOP_ROOT")
+    path = Path(root) / "config" / "replica.yaml" if root else None
+    if not path or not path.is_file():
+        return {}
+    try:
+        parameters = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]
+    except (KeyError, TypeError, yaml.YAMLError):
+        return {}
+    found = {}
+    if "translation_max_force" in parameters:
+        found["max_force_n"] = float(parameters["translation_max_force"])
+    if "translation_saturation_error" in parameters:
+        found["error_bound_m"] = float(parameters["translation_saturation_error"])
+    return found
+
+
+def make_report(bag: str | Path, out: str | Path, settings: ReportSettings | None = None
+                ) -> tuple[Analysis, list[Path]]:
+    """Read `bag`, write `out`/metrics.json and the PNG plots; returns the analysis and the plot paths."""
+    settings = settings or ReportSettings()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    data = load_bag(bag)
+    analysis = analyse(data, settings)
+    plots = plot_all(data, analysis, settings, out)
+    analysis.metrics["plots"] = [p.name for p in plots]
+    (out / "metrics.json").write_text(json.dumps(analysis.metrics, indent=2) + "\n")
+    return analysis, plots
+
+
+def _format(value, unit: str) -> str:
+    if value is None:
+        return "n/a"
+    if isinstance(value, float):
+        return f"{value:.4g} {unit}".strip()
+    return f"{value} {unit}".strip()
+
+
+def summary_table(metrics: dict) -> str:
+    rows = []
+    for key, unit in SUMMARY_KEYS:
+        target = TARGETS.get(key)
+        check = ""
+        if target:
+            met = metrics.get("targets", {}).get(key, {}).get("met")
+            check = f"{target[0]} {target[1]:g}  " + ("ok" if met else ("n/a" if met is None else "MISSED"))
+        rows.append((key, _format(metrics.get(key), unit), check))
+    width = max(len(r[0]) for r in rows)
+    value_width = max(len(r[1]) for r in rows)
+    lines = [f"{'metric':<{width}}  {'value':>{value_width}}  target", "-" * (width + value_width + 24)]
+    lines += [f"{k:<{width}}  {v:>{value_width}}  {c}" for k, v, c in rows]
+    return "\n".join(lines)
