@@ -94,6 +94,8 @@ class RobotNode(Node):
             except ValueError as exc:
                 raise FicInputError(f"render_video_path: {exc}") from exc
         self._tape = (StateTape(1.0 / p["video_frame_rate_hz"]) if (self._video_path or self._snapshot_dir) else None)
+        if self._tape is not None:
+            self._tape.maybe_record(self._sim.data)  # the initial state is the first frame
         self._video_fps = p["video_frame_rate_hz"]
         self._snapshot_interval = p["snapshot_interval"]
         self._viewer = launch_viewer(self._sim.model, self._sim.data) if p["viewer"] else None
