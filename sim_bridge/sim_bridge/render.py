@@ -145,6 +145,7 @@ def render_tape(model: mujoco.MjModel, tape: StateTape, view: CameraView, video_
             data.qpos[:] = qpos
             data.time = t
             mujoco.mj_kinematics(model, data)
+            mujoco.mj_camlight(model, data)  # lights are placed here, not in mj_kinematics: without it, a dark frame
             image = renderer.render(data)
             if video_path is not None:
                 frames.append(image)

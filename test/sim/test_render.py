@@ -42,6 +42,10 @@ def test_a_taped_run_renders_to_png_key_frames_and_a_gif(tmp_path):
         gif.seek(5)
         last = np.asarray(gif.convert("RGB"))
     assert np.abs(first.astype(int) - last.astype(int)).max() > 50  # the arm turned between them
+    # A taped frame is the picture of the live state (kinematics, lights and all): same pixels.
+    with OffscreenRenderer(sim.model, default_view("superimposition"), width=160, height=120) as renderer:
+        live = renderer.render(sim.data)
+    np.testing.assert_array_equal(np.asarray(Image.open(pngs[-1]).convert("RGB")), live)
 
 
 def test_unwritable_video_formats_are_refused_up_front(tmp_path):
