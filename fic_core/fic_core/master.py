@@ -47,6 +47,11 @@ class MasterLaw:
     def max_device_force(self) -> float | None:
         return self._max_device_force
 
+    @max_device_force.setter
+    def max_device_force(self, value: float | None) -> None:
+        self._max_device_force = (None if value is None else
+                                  finite_scalar("max_device_force", value, minimum=0.0, minimum_inclusive=False))
+
     @property
     def haptic_gain(self) -> float:
         """K_H in [0, 1]."""

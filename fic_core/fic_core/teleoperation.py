@@ -95,6 +95,10 @@ class TeleoperationCommandIntegrator:
     def velocity_deadband(self) -> float:
         return self._velocity_deadband
 
+    @velocity_deadband.setter
+    def velocity_deadband(self, value: float) -> None:
+        self._velocity_deadband = finite_scalar("velocity_deadband", value, minimum=0.0)
+
     def set_mode(self, mode: TeleoperationMode | int) -> None:
         """Switch mode without a jump of x_d' (see the module docstring)."""
         new_mode = _as_mode(mode)
