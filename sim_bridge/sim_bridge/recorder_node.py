@@ -50,6 +50,8 @@ DEFAULT_TOPICS = [
     "/replica/fic_state", "/replica/limit_status",
     "/joint_states", "/ft_sensor/wrench", "/clock", "/effort_controller/commands",
     "/channel/deliveries", "/diagnostics", "/sim/step_lateness",
+    # The robot sim's ground truth (robot_node, 50 Hz): where the E2 pieces ended (success), the true TCP pose.
+    "/sim/object_poses", "/sim/tcp_pose",
 ]
 # Subscriber QoS: RELIABLE so that DDS resends what a busy recorder missed, KEEP_LAST deep enough to absorb a
 # 1 s stall of the writer at 1 kHz (CONVENTIONS asks publishers for depth 50; a deeper reader queue is free).
