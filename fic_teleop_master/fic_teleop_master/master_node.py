@@ -28,8 +28,13 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Joy
 from std_msgs.msg import Float64
 
-from fic_core import FicInputError, ForceProfile, FractalAttractor, MasterLaw
-from fic_core import TeleoperationCommandIntegrator, TeleoperationMode
+# Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
+# namespace package first (the editable install resolves submodules only).
+from fic_core.attractor import FractalAttractor
+from fic_core.errors import FicInputError
+from fic_core.master import MasterLaw
+from fic_core.profile import ForceProfile
+from fic_core.teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
 from fic_teleop_msgs.msg import TeleoperationCommand
 
 # Device streams at 500 Hz and teleoperation streams through the channel (docs/CONVENTIONS.md): RELIABLE,

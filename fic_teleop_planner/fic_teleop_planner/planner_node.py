@@ -27,7 +27,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from fic_core import Circle, FicInputError, FixedPoint, HarmonicPlanner, ViaPoints
+# Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
+# namespace package first (the editable install resolves submodules only).
+from fic_core.errors import FicInputError
+from fic_core.planner import HarmonicPlanner
+from fic_core.trajectories import Circle, FixedPoint, ViaPoints
 
 # Poses (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 20.
 POSE_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
@@ -79,6 +83,7 @@ class PlannerNode(Node):
         self._frame_id = value("frame_id")
         self._trajectory_origin = self._now() + value("start_delay")
         self._last_step_time: float | None = None
+        self._nominal_period = 1.0 / value("publish_rate")
         self._target = self._planner.position
         self._published = 0
 
@@ -169,9 +174,15 @@ class PlannerNode(Node):
     def _tick(self) -> None:
         now = self._now()
         if self._last_step_time is not None and now > self._last_step_time:
-            trajectory_time = max(now - self._trajectory_origin, 0.0)
-            self._target = self._source.point(trajectory_time, position=self._planner.position)
-            self._planner.step(self._target, now - self._last_step_time)
+            # A late timer (a loaded machine, a slow sim clock) must not change the planner's dynamics: integrate
+            # in steps no longer than the nominal period, sampling the trajectory at each.
+            elapsed = now - self._last_step_time
+            steps = max(1, math.ceil(elapsed / self._nominal_period - 1e-9))
+            for k in range(1, steps + 1):
+                sample_time = self._last_step_time + elapsed * k / steps
+                trajectory_time = max(sample_time - self._trajectory_origin, 0.0)
+                self._target = self._source.point(trajectory_time, position=self._planner.position)
+                self._planner.step(self._target, elapsed / steps)
         if self._last_step_time is None or now > self._last_step_time:
             self._last_step_time = now
         position = self._planner.position
