@@ -281,6 +281,13 @@ class RecorderNode(Node):
         message.header.stamp = self.get_clock().now().to_msg()
         self._status_publisher.publish(message)
 
+    def _log_info(self, line: str) -> None:
+        # After a signal the context is already shut down and the logger could not reach /rosout.
+        if self.context.ok():
+            self.get_logger().info(line)
+        else:
+            print(f"[INFO] [{time.time():.9f}] [{self.get_name()}]: {line}", flush=True)
+
     def finish(self) -> None:
         """Drain the queue, write the summary/footer and metadata.yaml, and log the counts. Idempotent."""
         with self._finish_lock:
@@ -293,7 +300,7 @@ class RecorderNode(Node):
             self._writer.join()
             summary = self.bag.finish()
             per_topic = ", ".join(f"{topic} {count}" for topic, count in sorted(summary.topics.items()))
-            self.get_logger().info(
+            self._log_info(
                 f"finished bag {summary.bag_dir.resolve()}: {summary.message_count} messages on "
                 f"{len(summary.topics)} topics ({per_topic}); {self._joint_states_topic}: "
                 f"{self.joint_states.received} received, {self.joint_states.dropped} dropped in "

@@ -1,9 +1,29 @@
-"""The SPEC 2.2 metrics of a recorded session (issue 5 item 4), exactly as defined in README of this package.
+"""The SPEC 2.2 metrics of a recorded session (issue 5 item 4), as implemented here.
 
-All times are header stamps (sim time in lockstep mode) unless said otherwise; t = 0 is the first /joint_states
-stamp (or the earliest stamp of any decoded topic). The first `warmup_s` seconds (the arm settling on its
-nominal pose, DDS discovery) are left out of the tracking-error, force, energy, latency and delay figures; counts
-of limit ticks and of dropped joint states cover the whole recording.
+Time base: header stamps (sim time in lockstep mode); t0 = the first /joint_states stamp (else the earliest
+stamp of any decoded topic). Warm-up: samples stamped before t0 + warmup_s (default 2 s: the arm settling, DDS
+discovery) are left out of the error, force, energy, latency and delay figures and of the real-time factor;
+limit counts and dropped joint states cover the whole recording.
+
+- tracking error e(t) = |x_d - x_R| of the TCP position: /replica/desired_pose and /replica/tcp_pose joined on
+  equal stamps (interpolating x_d at the x_R stamps if the stamps differ); without them |FicState.error[0:3]|.
+- free motion at time t: the latest /ft_sensor/wrench sample at or before t has |F| < 1 N and no sample in the
+  0.2 s before it had |F| >= 1 N (the first 0.2 s of the F/T stream count as contact); contact otherwise.
+  Without an F/T topic every sample counts as free motion.
+- free_motion_error_max_m / _rms_m: max / RMS of e over free-motion samples; contact_error_max_m: max of e over
+  contact samples; peak_interaction_force_n: max |F| of the F/T samples.
+- limit_violations / limit_shaped_ticks: number of /replica/limit_status messages (one per control tick) with
+  violations != 0 / shaping != 0 (`limit_counters` adds the replica's own cumulative counters).
+- pipeline latency: for each master sample at its FIRST use by /replica/fic_state (FicState.master_stamp != 0,
+  first occurrence in stamp order): FicState.header.stamp - master_stamp - held, where held is
+  ChannelDelivery.held of the /channel/deliveries message with topic /replica/teleop_command and header.stamp ==
+  master_stamp; p50 and p99 (numpy linear percentiles) in ms. Samples without a delivery are counted as
+  `pipeline_latency_unmatched`.
+- real_time_factor: (last - first /joint_states stamp) / (last - first receive time) (else /clock).
+- dropped_joint_states: over consecutive /joint_states in receive order, sum of round(dt / 1 ms) - 1 for dt > 0.
+- delay_one_way_ms: median ChannelDelivery.held on /replica/teleop_command and /replica/master_pose, in ms.
+- duration_s: sim time covered by /joint_states (else /clock) stamps; controller: most frequent
+  FicState.controller.
 """
 from __future__ import annotations
 

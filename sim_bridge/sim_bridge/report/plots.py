@@ -110,6 +110,15 @@ def plot_paths(data: BagData, analysis: Analysis, out: Path) -> Path | None:
     if data.has("/replica/tcp_pose"):
         _, v = _sorted(data.series["/replica/tcp_pose"], analysis.t0)
         ax.plot(*np.column_stack([v[a] for a in AXES]).T, color="tab:blue", lw=1.4, label="replica $x_R$")
+    # Equal scale on the three axes (a circle looks like a circle), at least 5 cm wide.
+    lines = [np.column_stack(line.get_data_3d()) for line in ax.get_lines()]
+    points = np.concatenate(lines) if lines else np.zeros((1, 3))
+    centre = (points.max(axis=0) + points.min(axis=0)) / 2
+    half = max(float((points.max(axis=0) - points.min(axis=0)).max()) / 2, 0.025)
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1, 1, 1))
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
