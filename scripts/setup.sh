@@ -90,11 +90,11 @@ fi
 
 # 5. fic_core, editable: the node packages and tests import it from the venv.
 step "fic_core (editable)"
-core_hash=$(inputs_hash "$REPO/fic_core/pyproject.toml")
+core_hash=$( (inputs_hash "$REPO/fic_core/pyproject.toml"; echo compat) | sha256sum | cut -d" " -f1)
 if up_to_date fic_core "$core_hash" && "$VPY" -c 'import fic_core' 2>/dev/null; then
   done_step "up to date"
 else
-  "$VPY" -m pip install -q --no-deps --no-build-isolation -e "$REPO/fic_core" >/tmp/fic_setup_core.log 2>&1 \
+  "$VPY" -m pip install -q --no-deps --no-build-isolation --config-settings editable_mode=compat -e "$REPO/fic_core" >/tmp/fic_setup_core.log 2>&1 \
     || { tail -20 /tmp/fic_setup_core.log >&2; fail "installing fic_core failed" "see /tmp/fic_setup_core.log"; }
   mark fic_core "$core_hash"
   done_step "installed"
