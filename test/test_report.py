@@ -191,3 +191,16 @@ def test_command_line(synthetic_bag, tmp_path):
     missing = subprocess.run([sys.executable, "-m", "sim_bridge.report", str(tmp_path / "nope")],
                              capture_output=True, text=True, timeout=60)
     assert missing.returncode == 2 and "cannot read the bag" in missing.stderr
+
+
+def test_key_frames_follow_the_recorded_joint_states(synthetic_bag, tmp_path):
+    from sim_bridge.report import make_report
+
+    bag, _ = synthetic_bag
+    _, images = make_report(bag, tmp_path / "frames", key_frame_interval=4.0, scene="free_space")
+    frames = sorted(p.name for p in images if p.name.startswith("key_frame_"))
+    assert frames == ["key_frame_0000.00s.png", "key_frame_0004.00s.png", "key_frame_0008.00s.png"]
+    import imageio.v3 as iio
+
+    image = iio.imread(tmp_path / "frames" / frames[0])
+    assert image.shape == (480, 640, 3) and image.std() > 5  # a picture, not a blank frame

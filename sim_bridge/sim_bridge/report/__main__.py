@@ -22,14 +22,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--x-b", type=float, default=defaults.error_bound_m,
                         help="error bound x_b [m] drawn on the error plot (default %(default)s)")
     parser.add_argument("--render", action="store_true",
-                        help="also render key frames (not implemented by this report yet: a warning is printed)")
+                        help="also render key frames of the arm from /joint_states (MuJoCo, offscreen)")
+    parser.add_argument("--scene", default="superimposition", help="scene drawn in the key frames (default %(default)s)")
+    parser.add_argument("--key-frame-interval", type=float, default=5.0,
+                        help="seconds of sim time between key frames (default %(default)s)")
     args = parser.parse_args(argv)
     if args.warmup < 0:
         parser.error("--warmup must be >= 0")
     out = args.out or args.bag.with_name(args.bag.name.removesuffix(".mcap") + "_report")
     settings = ReportSettings(warmup_s=args.warmup, max_force_n=args.f_max, error_bound_m=args.x_b)
     try:
-        analysis, plots = make_report(args.bag, out, settings)
+        analysis, plots = make_report(args.bag, out, settings,
+                                      key_frame_interval=args.key_frame_interval if args.render else None,
+                                      scene=args.scene)
     except BagReadError as error:
         print(f"[report] cannot read the bag: {error}", file=sys.stderr)
         return 2
@@ -37,8 +42,6 @@ def main(argv: list[str] | None = None) -> int:
     if not metrics["bag_complete"]:
         print("[report] note: the bag has no footer (recorder killed?); read up to its last complete chunk",
               file=sys.stderr)
-    if args.render:
-        print("[report] --render: key frames are not produced by sim_bridge.report yet", file=sys.stderr)
     print(summary_table(metrics))
     print(f"[report] {out / 'metrics.json'}; plots: {', '.join(p.name for p in plots) or 'none'}")
     return 0

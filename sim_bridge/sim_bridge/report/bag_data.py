@@ -77,6 +77,8 @@ class BagData:
     deliveries: dict[str, dict[int, float]]  # topic -> {delivered message's stamp [ns]: held [s]}
     first_log: float
     last_log: float
+    # (stamp [s], joint names, positions) of /joint_states at least `keyframe_interval` apart (load_bag option)
+    key_joint_states: list[tuple[float, list[str], list[float]]] = field(default_factory=list)
 
     def has(self, topic: str) -> bool:
         return topic in self.series and len(self.series[topic]) > 0
@@ -111,7 +113,8 @@ def _records(path: Path, status: dict):
                 return
 
 
-def load_bag(bag: str | Path) -> BagData:
+def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData:
+    """Read a bag; with `keyframe_interval`, also decode /joint_states every that many seconds (key frames)."""
     path = mcap_path(bag)
     status = {"complete": False, "stopped_by": ""}
     schemas: dict[int, Schema] = {}
@@ -122,6 +125,7 @@ def load_bag(bag: str | Path) -> BagData:
     rows: dict[str, list] = defaultdict(list)
     deliveries: dict[str, dict[int, float]] = defaultdict(dict)
     controllers: Counter = Counter()
+    key_joint_states: list = []
     first_log, last_log = np.inf, -np.inf
     decoded = set(POSE_TOPICS + WRENCH_TOPICS + TELEOP_TOPICS + (FIC_STATE_TOPIC, LIMIT_STATUS_TOPIC, DELIVERY_TOPIC))
     try:
@@ -140,17 +144,16 @@ def load_bag(bag: str | Path) -> BagData:
             log = record.log_time * 1e-9
             first_log, last_log = min(first_log, log), max(last_log, log)
             if topic in STAMP_ONLY_TOPICS or topic == CLOCK_TOPIC:
-                rows[topic].append((_cdr_time_ns(record.data) * 1e-9, log))
+                stamp = _cdr_time_ns(record.data) * 1e-9
+                rows[topic].append((stamp, log))
+                if keyframe_interval and topic == "/joint_states" and (
+                        not key_joint_states or stamp >= key_joint_states[-1][0] + keyframe_interval):
+                    joint_state = _decoder(factory, decoders, record.channel_id, channel, schemas)(record.data)
+                    key_joint_states.append((stamp, list(joint_state.name), list(joint_state.position)))
                 continue
             if topic not in decoded:
                 continue
-            decoder = decoders.get(record.channel_id)
-            if decoder is None:
-                decoder = factory.decoder_for(channel.message_encoding, schemas.get(channel.schema_id))
-                if decoder is None:
-                    raise BagReadError(f"{path}: cannot decode {topic} ({channel.message_encoding})")
-                decoders[record.channel_id] = decoder
-            msg = decoder(record.data)
+            msg = _decoder(factory, decoders, record.channel_id, channel, schemas)(record.data)
             if topic in POSE_TOPICS:
                 p = msg.pose.position
                 rows[topic].append((_stamp(msg.header.stamp), log, p.x, p.y, p.z))
@@ -211,4 +214,14 @@ def load_bag(bag: str | Path) -> BagData:
     return BagData(path=path, complete=status["complete"], stopped_by=status["stopped_by"], counts=dict(counts),
                    types=types, series=series, controller=controllers.most_common(1)[0][0] if controllers else "",
                    deliveries=dict(deliveries), first_log=float(first_log) if counts else 0.0,
-                   last_log=float(last_log) if counts else 0.0)
+                   last_log=float(last_log) if counts else 0.0, key_joint_states=key_joint_states)
+
+
+def _decoder(factory: DecoderFactory, decoders: dict, channel_id: int, channel: Channel, schemas: dict):
+    decoder = decoders.get(channel_id)
+    if decoder is None:
+        decoder = factory.decoder_for(channel.message_encoding, schemas.get(channel.schema_id))
+        if decoder is None:
+            raise BagReadError(f"cannot decode {channel.topic} ({channel.message_encoding})")
+        decoders[channel_id] = decoder
+    return decoder

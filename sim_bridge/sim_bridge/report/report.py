@@ -37,15 +37,21 @@ def replica_config_defaults() -> dict:
     return found
 
 
-def make_report(bag: str | Path, out: str | Path, settings: ReportSettings | None = None
+def make_report(bag: str | Path, out: str | Path, settings: ReportSettings | None = None, *,
+                key_frame_interval: float | None = None, scene: str = "superimposition"
                 ) -> tuple[Analysis, list[Path]]:
-    """Read `bag`, write `out`/metrics.json and the PNG plots; returns the analysis and the plot paths."""
+    """Read `bag`, write `out`/metrics.json and the PNG plots (and key frames every `key_frame_interval` s of
+    sim time, when given); returns the analysis and the image paths."""
     settings = settings or ReportSettings()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    data = load_bag(bag)
+    data = load_bag(bag, keyframe_interval=key_frame_interval)
     analysis = analyse(data, settings)
     plots = plot_all(data, analysis, settings, out)
+    if key_frame_interval:
+        from .key_frames import render_key_frames
+
+        plots += render_key_frames(data, out, scene)
     analysis.metrics["plots"] = [p.name for p in plots]
     (out / "metrics.json").write_text(json.dumps(analysis.metrics, indent=2) + "\n")
     return analysis, plots
