@@ -29,9 +29,15 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from fic_core import (Circle, ForceProfile, FractalAttractor, HarmonicPlanner, MasterLaw, PoseAttractor,
-                      ReplicaController, RobotModel, TeleoperationCommandIntegrator)
+from fic_core.attractor import FractalAttractor, PoseAttractor
+from fic_core.master import MasterLaw
 from fic_core.panda_description import JOINT_DAMPING, NOMINAL_CONFIGURATION
+from fic_core.planner import HarmonicPlanner
+from fic_core.profile import ForceProfile
+from fic_core.replica import ReplicaController
+from fic_core.robot_model import RobotModel
+from fic_core.teleoperation import TeleoperationCommandIntegrator
+from fic_core.trajectories import Circle
 
 DT = 0.001
 

@@ -36,9 +36,15 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from fic_core import (ForceProfile, LinearImpedance, NullSpacePosture, PandaLimits, PosturalOptimisation,
-                      PoseAttractor, ReplicaController, RobotModel, rotation_from_quaternion)
+from fic_core.attractor import PoseAttractor
+from fic_core.baseline import LinearImpedance
 from fic_core.errors import FicInputError
+from fic_core.limits import PandaLimits
+from fic_core.postural_optimisation import PosturalOptimisation
+from fic_core.posture import NullSpacePosture
+from fic_core.profile import ForceProfile
+from fic_core.replica import ReplicaController, rotation_from_quaternion
+from fic_core.robot_model import RobotModel
 from fic_core.panda_description import ARM_JOINT_NAMES
 
 # 1 kHz robot streams: RELIABLE, KEEP_LAST 50 (a recorder must lose none; a late command is superseded anyway).
