@@ -15,7 +15,9 @@ reads the model while it moves); the executor thread only receives commands. Mod
   Until the first command arrives the simulation waits at t=0 (re-publishing the initial state every
   ``lockstep_timeout``), so a run does not depend on how long the controller took to start; the answers to those
   copies are all drained (LockstepGate.wait_quiet) before the first step, so none is taken for a later step.
-  The effort command carries no stamp: the first command after a state's publication is its answer. While the watchdog holds (commands stopped), steps are
+  The effort command carries no stamp: the controller must answer every joint state once, in order, and the
+  n-th command is taken as the answer to the n-th state (a late answer after a timeout is not mistaken for the
+  next state's). While the watchdog holds (commands stopped), steps are
   paced by the wall clock instead of waiting: the world and /clock keep moving for whoever is still listening.
 
 Safety (watchdog.py): commands older than ``command_timeout`` (wall seconds in realtime, simulated seconds in
@@ -214,19 +216,29 @@ class RobotNode(Node):
 
     def _run_lockstep(self) -> None:
         self._log_event(self._watchdog.check(self._sim.time))
+        late_steps = 0  # consecutive steps whose wait saw only late answers
         while not self._stop.is_set():
-            self._gate.state_published(self._sim.steps)  # before publishing: an instant answer must count
+            self._gate.state_published()  # before publishing: an instant answer must count
             self._publish_state()
             started = self._last_command is not None
             if started and self._watchdog.holding:
                 self._pacer.wait_next()  # held after commands stopped: keep the world moving at wall-clock pace
-                command, fresh = self._gate.poll()
+                command, fresh = self._gate.poll_any()
+                if fresh:  # the controller is back: take its burst of answers, then count afresh
+                    command = self._gate.wait_quiet(self._lockstep_timeout)
+                    self._gate.resync()
             else:  # waiting for the first command is not a late controller: not counted as a timeout
+                late_before = self._gate.late_answers
                 command, fresh = self._gate.wait(self._lockstep_timeout, count_timeout=started)
+                if fresh and not started:  # answers to every copy of the initial state: take them all
+                    command = self._gate.wait_quiet(self._lockstep_timeout)
+                    self._gate.resync()
+                late_steps = 0 if (fresh or self._gate.late_answers == late_before) else late_steps + 1
+                if late_steps >= 3:  # answers keep coming one state behind: the counts drifted, realign them
+                    self._gate.resync()
+                    late_steps = 0
             if self._stop.is_set():
                 return
-            if fresh and not started:  # take every answer to the re-published initial state (see wait_quiet)
-                command = self._gate.wait_quiet(self._lockstep_timeout)
             if fresh:
                 self._log_event(self._watchdog.command_received(self._sim.time))
                 self._last_command = command

@@ -3,8 +3,8 @@
 - realtime: one physics step per period (1 ms) of the wall clock, like the Franka's 1 kHz torque interface. The
   torque applied is the last command received (zero-order hold), as a real robot does between packets. Each
   step's lateness (how long after its deadline it started) is measured: a loaded machine shows up here first.
-- lockstep: the simulation publishes the state of step k, then advances only once a command arrives after that
-  publication (the controller's answer to that state), or after a timeout, which is counted. The simulation
+- lockstep: the simulation publishes the state of step k, then advances only once the controller's answer to
+  that state has arrived (counted in order, see LockstepGate), or after a timeout, which is counted. The simulation
   then runs as fast as the controller answers, deterministically, and /clock carries its time to every node.
 
 Both are plain Python (threading only) so that a test or an in-process experiment can use them without ROS.
@@ -89,81 +89,87 @@ class RealtimePacer:
 
 
 class LockstepGate:
-    """Hands the command for step k from the subscriber's thread to the simulation thread.
+    """Hands the command for each published state from the subscriber's thread to the simulation thread.
 
-    ``state_published(k)`` opens step k; the first command delivered after it is the answer for step k (the
-    effort-command message carries no stamp, so arrival order is what ties a command to a state). Commands that
-    arrive before the publication answered an earlier state: they are kept as the latest command (used if the
-    wait times out) but do not release the step.
+    The effort-command message carries no stamp, so order is what ties a command to a state: the controller
+    answers every state once, in order, so the n-th command delivered answers the n-th state published (FIFO).
+    A step is released when the answer to the newest published state has arrived. After a timeout the late answer
+    to the skipped state still arrives; counting keeps it from being taken for the next state (which would make
+    every later command lag its state by one step, for good). ``resync`` declares every published state answered:
+    after draining a burst (start, resuming after a hold) or when the counts have drifted apart.
     """
 
     def __init__(self) -> None:
         self._condition = threading.Condition()
-        self._open_step = -1
-        self._answered = False
+        self._published = 0
+        self._delivered = 0
         self._latest: np.ndarray | None = None
         self._interrupted = False
-        self._deliveries = 0
+        self._polled = 0
         self.timeouts = 0
         self.answered_steps = 0
+        self.late_answers = 0  # commands that answered an older state than the newest published
 
-    def state_published(self, step: int) -> None:
+    def state_published(self) -> None:
         with self._condition:
-            self._open_step = step
-            self._answered = False
+            self._published += 1
+
+    def _answered(self) -> bool:
+        return self._delivered >= self._published or self._interrupted
 
     def deliver(self, command: np.ndarray) -> None:
         """Called from the subscription callback with a validated command."""
         with self._condition:
             self._latest = command
-            self._deliveries += 1
-            self._condition.notify_all()  # wakes wait_quiet too
-            if self._open_step >= 0 and not self._answered:
-                self._answered = True
+            self._delivered += 1
+            if self._delivered < self._published:
+                self.late_answers += 1
+            self._condition.notify_all()
 
     def wait(self, timeout: float, count_timeout: bool = True) -> tuple[np.ndarray | None, bool]:
-        """Wait for the answer to the open step. Returns (command, fresh); on timeout (latest command, False).
+        """Wait for the answer to the newest published state: (command, True); on timeout (latest, False).
 
         ``count_timeout=False`` for waits that are not a late controller (waiting for the first command)."""
         deadline = time.monotonic() + timeout
         with self._condition:
-            while not self._answered:
+            while not self._answered():
                 remaining = deadline - time.monotonic()
                 if remaining <= 0.0:
                     self.timeouts += int(count_timeout)
+                    self._polled = self._delivered  # poll_any reports only what comes after this wait
                     return self._latest, False
                 self._condition.wait(remaining)
+            self._polled = self._delivered
             if self._interrupted:
                 return self._latest, False
             self.answered_steps += 1
             return self._latest, True
 
     def wait_quiet(self, quiet_time: float) -> np.ndarray | None:
-        """Wait until no command has arrived for ``quiet_time``; return the latest.
-
-        For the start of a run: while the simulation waited at t = 0 it re-published the initial state, and a
-        controller that came up late answers every copy. Those answers must all be taken now, or each surplus one
-        would be mistaken for the answer to a later step and the commands would lag the states for good.
-        """
+        """Wait until no command has arrived for ``quiet_time``; return the latest (a burst is over)."""
         with self._condition:
             while True:
-                seen = self._deliveries
+                seen = self._delivered
                 self._condition.wait(quiet_time)
-                if self._deliveries == seen or self._interrupted:
+                if self._delivered == seen or self._interrupted:
                     return self._latest
 
-    def poll(self) -> tuple[np.ndarray | None, bool]:
-        """Non-blocking: (latest command, whether it answers the open step); not counted as a timeout."""
+    def poll_any(self) -> tuple[np.ndarray | None, bool]:
+        """Non-blocking: (latest command, whether any command arrived since the last poll_any or wait)."""
         with self._condition:
-            if self._answered:
-                self.answered_steps += 1
-            return self._latest, self._answered
+            arrived = self._delivered != self._polled
+            self._polled = self._delivered
+            return self._latest, arrived
+
+    def resync(self) -> None:
+        with self._condition:
+            self._delivered = self._published
+            self._polled = self._delivered
 
     def interrupt(self) -> None:
         """Wake a waiting simulation thread (shutdown)."""
         with self._condition:
             self._interrupted = True
-            self._answered = True
             self._condition.notify_all()
 
 

@@ -83,8 +83,8 @@ def _stamp(message) -> int:
 
 def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_they_stop(ros_env, rclpy_context,
                                                                                       tmp_path):
-    robot = _start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.02,
-                         command_timeout=0.05, diagnostics_rate_hz=50.0)
+    robot = _start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.1,
+                         command_timeout=0.01, diagnostics_rate_hz=50.0)
     try:
         assert robot.wait_for_output("robot_sim ready", timeout=30.0), robot.output()
         controller = Controller(rclpy_context)
@@ -99,17 +99,24 @@ def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_the
         assert all(stamp == 0 for stamp in stamps[:first_step])
         np.testing.assert_array_equal(np.diff(stamps[first_step - 1:]), 1_000_000)
         # The torque applied in each step is the command sent in answer to the state before it (for the first
-        # step: the answer to the last copy of the initial state).
+        # step: the answer to the last copy of the initial state) - or, on a step whose answer was later than
+        # lockstep_timeout (a loaded machine), the previous torque held. Never a command from further back:
+        # that would be a lasting lag of the commands behind the states.
         answer_to = {stamp: command for stamp, command in zip(stamps, controller.sent)}
-        for message, stamp in zip(controller.states[first_step:], stamps[first_step:]):
-            np.testing.assert_array_equal(message.effort, answer_to[stamp - 1_000_000])
+        held_over = 0
+        for k in range(first_step, len(stamps)):
+            effort = np.array(controller.states[k].effort)
+            if not np.array_equal(effort, answer_to[stamps[k] - 1_000_000]):
+                np.testing.assert_array_equal(effort, controller.states[k - 1].effort)
+                held_over += 1
+        assert held_over <= 0.05 * (len(stamps) - first_step)
 
         # A NaN and a short command are refused and never applied.
         controller.answering = False
         controller.send_raw([float("nan")] * 7)
         controller.send_raw([1.0] * 6)
         assert robot.wait_for_output("rejected torque command", timeout=5.0), robot.output()
-        # Commands stopped: after 50 ms of simulated time the watchdog holds the arm, and says so once.
+        # Commands stopped: after 10 ms of simulated time the watchdog holds the arm, and says so once.
         assert robot.wait_for_output("torque commands stale", timeout=10.0), robot.output()
         count_when_held = len(controller.states)
         assert controller.spin_until(lambda: len(controller.states) > count_when_held + 200, timeout=10.0)

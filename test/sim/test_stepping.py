@@ -32,7 +32,7 @@ def _lockstep_run(scene: str, seed: int) -> np.ndarray:
     thread = threading.Thread(target=controller)
     thread.start()
     for k in range(STEPS):
-        gate.state_published(k)
+        gate.state_published()
         with ready:
             published.append((sim.joint_positions, sim.joint_velocities, sim.hold_torque()))
             ready.notify_all()
@@ -52,20 +52,38 @@ def test_lockstep_runs_with_the_same_seed_and_commands_are_identical_step_for_st
     assert np.abs(first[-1, :7] - first[0, :7]).max() > 0.01  # the arm did move
 
 
-def test_lockstep_gate_times_out_without_an_answer_and_counts_it():
+def test_lockstep_gate_times_out_and_a_late_answer_is_not_taken_for_the_next_state():
     gate = LockstepGate()
-    early = np.ones(7)
-    gate.deliver(early)  # arrives before the state is published: an answer to an earlier state
-    gate.state_published(0)
+    gate.state_published()  # state 0
     started = time.monotonic()
     command, fresh = gate.wait(timeout=0.02)
-    assert not fresh and gate.timeouts == 1 and time.monotonic() - started >= 0.02
-    assert command is early  # the latest command is still offered for the timed-out step
-    gate.state_published(1)
-    answer = np.zeros(7)
-    threading.Timer(0.005, gate.deliver, args=(answer,)).start()
+    assert not fresh and command is None and gate.timeouts == 1 and time.monotonic() - started >= 0.02
+    gate.state_published()  # state 1, stepped on the last command after the timeout
+    late, answer = np.zeros(7), np.ones(7)
+    gate.deliver(late)  # the answer to state 0 arrives now: it must not release state 1
+    command, fresh = gate.wait(timeout=0.02)
+    assert not fresh and command is late and gate.late_answers == 1 and gate.timeouts == 2
+    gate.state_published()  # state 2
+    gate.deliver(answer)  # answer to state 1: still one behind
+    assert gate.wait(timeout=0.0)[1] is False
+    threading.Timer(0.005, gate.deliver, args=(answer,)).start()  # answer to state 2, from another thread
     command, fresh = gate.wait(timeout=1.0)
     assert fresh and command is answer and gate.answered_steps == 1
+
+
+def test_lockstep_gate_resync_after_a_burst():
+    gate = LockstepGate()
+    for _ in range(5):  # the initial state re-published while the controller was starting
+        gate.state_published()
+    gate.deliver(np.full(7, 0.0))  # it saw three copies and answers each, in a burst
+    gate.deliver(np.full(7, 1.0))
+    threading.Timer(0.01, gate.deliver, args=(np.full(7, 2.0),)).start()
+    assert gate.wait_quiet(0.5)[0] == pytest.approx(2.0)  # waits out the whole burst
+    gate.resync()
+    gate.state_published()
+    assert gate.poll_any()[1] is False
+    gate.deliver(np.zeros(7))
+    assert gate.wait(timeout=0.0)[1] is True
 
 
 def test_realtime_pacer_keeps_a_1khz_grid_and_measures_lateness():
