@@ -1,0 +1,501 @@
+#!/usr/bin/env python3
+"""The paper's experiments E1-E4 (SPEC 3, issue 6), run through the main job's launcher on the real graph.
+
+    scripts/experiments.sh                      # everything, lockstep, results to results/
+    scripts/experiments.sh --only E4            # one experiment (E1, E2, E3, E4; comma-separated)
+    scripts/experiments.sh --quick              # 2 short E4 cells (the in-suite test), results to runs/.../results
+    scripts/experiments.sh --time-mode realtime # wall-clock paced instead of lockstep
+
+Every cell is one call of scripts/teleop_launcher.py (what scripts/run_teleop.sh runs): the whole graph as real
+processes over DDS, recorded to an MCAP bag under --runs. Each cell is then analysed from its bag: the report's
+SPEC 2.2 metrics (sim_bridge.report, computed in-process), the sweep stability criterion
+(sim_bridge/experiments/stability.py: judged on the last half of the run), and per experiment:
+
+- E1 superimposition at 200 ms: the default run (superimposition scene, scripted operator, 200 ms each way) with the
+  report's plots.
+- E2 shape sorting: the scripted operator (config/operator_scripts/shape_sorting.yaml) picks each of the three
+  pieces by the adhesive bond, inserts it, locks and pulls until the bond breaks; trials with different seeds (the
+  bond's break thresholds and the channel's draws); success = the piece ends inside the box (/sim/object_poses).
+- E3 blackout: the E2 task with total communication loss from --e3-blackout-at on (during contact); energy, limit
+  violations, forces and stability after the loss.
+- E4 sweeps: one-way delay (both ways) at the full rate, and the rate (channel rate cap AND replica control rate)
+  at zero delay, each with the FIC and the linear baseline of the same K0, haptic feedback on (the master's K_H).
+
+Results: <results>/e1.json ... e4.json, summary.json, and PNG plots. Nothing here is a placeholder: every number
+comes from a run's bag; a cell that failed says so (and why) in its JSON.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import time
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+REPO = Path(__file__).resolve().parent.parent
+os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
+
+from sim_bridge.experiments.bag_series import read_run  # noqa: E402
+from sim_bridge.experiments.runner import Cell, launch, report_metrics, stability_of, write_json  # noqa: E402
+from sim_bridge.experiments.shape_sorting import PIECE_NAMES, piece_outcomes  # noqa: E402
+from sim_bridge.experiments.stability import StabilityCriterion  # noqa: E402
+
+DELAYS = (0.0, 0.1, 0.2, 0.5, 1.0, 2.0)
+RATES = (1000.0, 250.0, 100.0, 50.0, 10.0)
+CONTROLLERS = ("fic", "linear")
+METRIC_KEYS = ("free_motion_error_max_m", "free_motion_error_rms_m", "contact_error_max_m", "peak_interaction_force_n",
+               "limit_violations", "limit_shaped_ticks", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
+               "real_time_factor", "dropped_joint_states", "delay_one_way_ms", "duration_s", "controller",
+               "energy_max_j", "master_stale_ticks")
+
+
+# --- the cells ---------------------------------------------------------------------------------------------------
+def e1_cells(args) -> list[Cell]:
+    return [Cell("e1", "E1", {"scene": "superimposition", "duration": args.e1_duration, "delay": 0.2,
+                              "controller": "fic", "seed": 1}, report=True)]
+
+
+def e2_cells(args) -> list[Cell]:
+    return [Cell(f"e2_seed{seed}", "E2", {"scene": "shape_sorting", "trajectory": "fixed",
+                                          "duration": args.e2_duration, "delay": 0.2, "seed": seed},
+                 labels={"seed": seed}) for seed in range(1, args.e2_trials + 1)]
+
+
+def e3_cells(args) -> list[Cell]:
+    return [Cell("e3", "E3", {"scene": "shape_sorting", "trajectory": "fixed", "duration": args.e3_duration,
+                              "delay": 0.2, "seed": 1, "blackout_at": args.e3_blackout_at},
+                 labels={"blackout_at": args.e3_blackout_at})]
+
+
+def e4_cells(args) -> list[Cell]:
+    cells = []
+    for delay in args.delays:
+        for controller in CONTROLLERS:
+            cells.append(Cell(f"e4_delay{delay:g}_{controller}", "E4",
+                              {"scene": "superimposition", "duration": args.sweep_duration, "delay": delay,
+                               "controller": controller, "seed": 1},
+                              labels={"sweep": "delay", "delay": delay, "rate": 1000.0, "controller": controller}))
+    for rate in args.rates:
+        for controller in CONTROLLERS:
+            cells.append(Cell(f"e4_rate{rate:g}_{controller}", "E4",
+                              {"scene": "superimposition", "duration": args.sweep_duration, "delay": 0.0,
+                               "rate_cap": rate, "control_rate": rate, "controller": controller, "seed": 1},
+                              labels={"sweep": "rate", "delay": 0.0, "rate": rate, "controller": controller}))
+    return cells
+
+
+def quick_cells(args) -> list[Cell]:
+    return [Cell(f"e4_delay0.2_{controller}", "E4",
+                 {"scene": "superimposition", "duration": args.sweep_duration, "delay": 0.2, "controller": controller,
+                  "seed": 1}, labels={"sweep": "delay", "delay": 0.2, "rate": 1000.0, "controller": controller})
+            for controller in CONTROLLERS]
+
+
+# --- analysis of one cell ----------------------------------------------------------------------------------------
+def analyse_cell(cell: Cell, run_dir: Path, outcome, criterion: StabilityCriterion, blackout_at: float | None = None
+                 ) -> dict:
+    requested = float(cell.options["duration"])
+    result = {"id": cell.id, "experiment": cell.experiment, "options": cell.options, "labels": cell.labels,
+              "run_dir": str(run_dir), "launcher_exit_code": outcome.returncode, "wall_s": round(outcome.wall_s, 1),
+              "simulated_s": outcome.simulated_s, "complete": outcome.simulated_s >= 0.98 * requested,
+              "node_errors": outcome.node_errors}
+    bag = run_dir / "bag"
+    if not bag.exists():
+        result["error"] = "no bag was written (see launcher.log)"
+        return result
+    try:
+        metrics = report_metrics(bag)
+        write_json(run_dir / "metrics.json", metrics)
+        result["metrics"] = {key: metrics.get(key) for key in METRIC_KEYS}
+    except Exception as error:  # noqa: BLE001  (a report failure is recorded, not hidden)
+        result["metrics_error"] = f"{type(error).__name__}: {error}"
+    series = read_run(bag)
+    result["stability"] = stability_of(series, criterion)
+    result["controller"] = series.controller
+    result["limits"] = {"violation_ticks": int(series.violation_ticks[-1]) if series.violation_ticks.size else None,
+                        "shaped_ticks": int(series.shaped_ticks[-1]) if series.shaped_ticks.size else None}
+    force = np.linalg.norm(series.force, axis=1) if series.force.size else np.zeros(0)
+    result["peak_force_n"] = float(force.max()) if force.size else None
+    if cell.experiment in ("E2", "E3"):
+        outcomes = piece_outcomes(series)
+        result["pieces"] = [o.as_dict() for o in outcomes]
+        result["pieces_inside"] = sum(o.inside for o in outcomes) if outcomes else None
+        robot = series.diagnostics.get("robot_sim", {})
+        result["bond"] = {key: robot.get(key) for key in ("bonds_formed", "bond_breaks")}
+        if force.size:
+            result["force_above_10n_s"] = float(np.sum(force > 10.0) * np.median(np.diff(series.wrench_time)))
+    if blackout_at is not None:
+        result["blackout"] = blackout_analysis(series, blackout_at, criterion)
+    return result
+
+
+def blackout_analysis(series, blackout_at: float, criterion: StabilityCriterion) -> dict:
+    """E3: what happens after the link is lost (times in the bag's clock, sim time in lockstep)."""
+    t0 = series.fic_time[0] if series.fic_time.size else 0.0
+    stale = series.fic_time[series.master_stale] if series.master_stale.size else np.zeros(0)
+    after = series.fic_time >= t0 + blackout_at
+    out = {"blackout_at_s": blackout_at,
+           "replica_holding_from_s": float(stale[0] - t0) if stale.size else None,
+           "stale_share_after": float(np.mean(series.master_stale[after])) if np.any(after) else None}
+    if np.any(after):
+        out["energy_max_after_j"] = float(series.total_energy[after].max())
+        out["energy_max_before_j"] = float(series.total_energy[~after].max()) if np.any(~after) else None
+        out["energy_end_j"] = float(series.total_energy[-1])
+        out["error_max_after_m"] = float(np.linalg.norm(series.error[after], axis=1).max())
+    if series.limit_time.size:
+        before = series.violation_ticks[series.limit_time < t0 + blackout_at]
+        out["violation_ticks_after"] = int(series.violation_ticks[-1] - (before[-1] if before.size else 0))
+    if series.force.size:
+        force_after = np.linalg.norm(series.force[series.wrench_time >= t0 + blackout_at], axis=1)
+        out["peak_force_after_n"] = float(force_after.max()) if force_after.size else None
+    out["stability_after"] = stability_of(series, criterion, start=t0 + blackout_at)
+    return out
+
+
+# --- plots -------------------------------------------------------------------------------------------------------
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_sweep(cells: list[dict], sweep: str, out: Path) -> Path | None:
+    chosen = [c for c in cells if c["labels"].get("sweep") == sweep and c.get("stability", {}).get("stable") is not None]
+    if not chosen:
+        return None
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    key = "delay" if sweep == "delay" else "rate"
+    for controller, colour in (("fic", "tab:blue"), ("linear", "tab:orange")):
+        rows = sorted((c["labels"][key], c["stability"]["max_error_last_half"], c["stability"]["stable"])
+                      for c in chosen if c["labels"]["controller"] == controller)
+        if not rows:
+            continue
+        x = [r[0] for r in rows]
+        y = [r[1] for r in rows]
+        ax.plot(x, y, "-", color=colour, label="FIC" if controller == "fic" else "linear baseline (same K0)")
+        for xi, yi, stable in rows:
+            ax.plot(xi, yi, "o" if stable else "X", color=colour, markersize=8 if stable else 11,
+                    markerfacecolor=colour if stable else "white")
+    criterion = chosen[0]["stability"].get("criterion", {})
+    if criterion.get("error_bound"):
+        ax.axhline(criterion["error_bound"], color="grey", ls="--", lw=1, label="error bound of the criterion")
+    ax.axhline(0.05, color="grey", ls=":", lw=1, label="x_b = 0.05 m")
+    if sweep == "rate":
+        ax.set_xscale("log")
+        ax.invert_xaxis()
+        ax.set_xlabel("controller rate: channel rate cap and replica control rate [Hz]")
+    else:
+        ax.set_xlabel("one-way delay, both directions [s]")
+    ax.set_ylabel("max tracking error, last half [m]")
+    ax.set_title(f"E4 {sweep} sweep (o stable, X unstable by the criterion)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path = out / f"e4_{sweep}_sweep.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_stability_map(cells: list[dict], out: Path) -> Path | None:
+    columns = [c for c in cells if c["labels"].get("controller") == "fic"]
+    if not columns:
+        return None
+    plt = _plt()
+    names = [f"{c['labels']['delay']:g} s" if c["labels"]["sweep"] == "delay" else f"{c['labels']['rate']:g} Hz"
+             for c in columns]
+    fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(columns), 2.6))
+    for row, controller in enumerate(CONTROLLERS):
+        for col, fic_cell in enumerate(columns):
+            twin = fic_cell["id"].replace("_fic", f"_{controller}")
+            cell = next((c for c in cells if c["id"] == twin), None)
+            stable = cell.get("stability", {}).get("stable") if cell else None
+            colour = {True: "#8fd18f", False: "#f08a8a", None: "#cccccc"}[stable]
+            ax.add_patch(plt.Rectangle((col, row), 1, 1, color=colour, ec="white"))
+            error = cell.get("stability", {}).get("max_error_last_half") if cell else None
+            text = ("stable" if stable else "unstable" if stable is False else "n/a")
+            if error is not None:
+                text += f"\n{error * 100:.1f} cm"
+            ax.text(col + 0.5, row + 0.5, text, ha="center", va="center", fontsize=7)
+    ax.set_xlim(0, len(columns))
+    ax.set_ylim(0, len(CONTROLLERS))
+    ax.set_xticks(np.arange(len(columns)) + 0.5, names, fontsize=8)
+    ax.set_yticks([0.5, 1.5], ["FIC", "linear"])
+    split = sum(1 for c in columns if c["labels"]["sweep"] == "delay")
+    ax.axvline(split, color="black", lw=2)
+    ax.set_title("E4: delay sweep (full rate) | rate sweep (zero delay); max error over the last half", fontsize=9)
+    fig.tight_layout()
+    path = out / "e4_stability_map.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_e2_forces(runs: list[tuple[dict, Path]], out: Path, max_force: float | None) -> Path | None:
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.5, 3.6))
+    drawn = False
+    for result, run_dir in runs:
+        bag = run_dir / "bag"
+        if not bag.exists():
+            continue
+        series = read_run(bag)
+        if not series.force.size:
+            continue
+        t = series.wrench_time - series.wrench_time[0]
+        ax.plot(t, np.linalg.norm(series.force, axis=1), lw=0.6, label=f"seed {result['labels'].get('seed')}")
+        drawn = True
+    if not drawn:
+        plt.close(fig)
+        return None
+    if max_force:
+        ax.axhline(max_force, color="k", ls="--", lw=1, label=f"F_max = {max_force:g} N (replica FIC)")
+    ax.axhline(10.0, color="grey", ls=":", lw=1, label="10 N")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("|F| at the wrist F/T sensor [N]")
+    ax.set_title("E2 shape sorting: interaction force")
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path = out / "e2_interaction_force.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_e3(result: dict, run_dir: Path, out: Path) -> Path | None:
+    bag = run_dir / "bag"
+    if not bag.exists():
+        return None
+    series = read_run(bag)
+    if not series.fic_time.size:
+        return None
+    plt = _plt()
+    t0 = series.fic_time[0]
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 6.0), sharex=True)
+    axes[0].plot(series.fic_time - t0, series.total_energy, lw=0.8)
+    axes[0].set_ylabel("FIC + kinetic energy [J]")
+    axes[1].plot(series.fic_time - t0, np.linalg.norm(series.error, axis=1), lw=0.8)
+    axes[1].set_ylabel("|x_d - x_R| [m]")
+    if series.force.size:
+        axes[2].plot(series.wrench_time - t0, np.linalg.norm(series.force, axis=1), lw=0.6)
+    axes[2].set_ylabel("|F| [N]")
+    axes[2].set_xlabel("time [s]")
+    for ax in axes:
+        ax.axvline(result["options"]["blackout_at"], color="red", ls="--", lw=1)
+        ax.grid(alpha=0.3)
+    axes[0].set_title(f"E3: communication lost from t = {result['options']['blackout_at']:g} s (red)")
+    fig.tight_layout()
+    path = out / "e3_blackout.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+# --- driver ------------------------------------------------------------------------------------------------------
+def git_commit() -> str:
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True,
+                              check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+
+
+def replica_max_force() -> float | None:
+    from sim_bridge.report.report import replica_config_defaults
+
+    return replica_config_defaults().get("max_force_n")
+
+
+def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--only", default="E1,E2,E3,E4", help="experiments to run, comma-separated (default all)")
+    parser.add_argument("--quick", action="store_true",
+                        help="two short E4 cells (FIC and linear at 200 ms, --sweep-duration 5 s unless given)")
+    parser.add_argument("--time-mode", default="lockstep", choices=["lockstep", "realtime"])
+    parser.add_argument("--results", type=Path, default=None,
+                        help="results folder (default: results/, or <runs>/results with --quick)")
+    parser.add_argument("--runs", type=Path, default=None, help="run folders with the bags (default runs/experiments-<time>)")
+    parser.add_argument("--e1-duration", type=float, default=30.0)
+    parser.add_argument("--e2-duration", type=float, default=None, help="default: the operator script's length")
+    parser.add_argument("--e2-trials", type=int, default=4)
+    parser.add_argument("--e3-duration", type=float, default=None, help="default: blackout time + 12 s")
+    parser.add_argument("--e3-blackout-at", type=float, default=None,
+                        help="default: while the plate presses the first piece (from the operator script)")
+    parser.add_argument("--sweep-duration", type=float, default=None, help="E4 cell duration (default 20 s, 5 s quick)")
+    parser.add_argument("--delays", type=float, nargs="+", default=list(DELAYS))
+    parser.add_argument("--rates", type=float, nargs="+", default=list(RATES))
+    args = parser.parse_args(argv)
+    args.only = {name.strip().upper() for name in args.only.split(",") if name.strip()}
+    if args.sweep_duration is None:
+        args.sweep_duration = 5.0 if args.quick else 20.0
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    args.runs = args.runs or REPO / "runs" / f"experiments-{stamp}"
+    args.results = args.results or (args.runs / "results" if args.quick else REPO / "results")
+    script = shape_sorting_script_timing()
+    if args.e2_duration is None:
+        args.e2_duration = round(script["length_s"] + 1.0, 1)
+    if args.e3_blackout_at is None:
+        args.e3_blackout_at = round(script["first_press_s"], 1)
+    if args.e3_duration is None:
+        args.e3_duration = round(args.e3_blackout_at + 12.0, 1)
+    return args
+
+
+def shape_sorting_script_timing() -> dict:
+    """Length of the E2 operator script and the middle of its first press on a piece (for the E3 blackout)."""
+    import yaml
+
+    script = yaml.safe_load((REPO / "config" / "operator_scripts" / "shape_sorting.yaml").read_text())
+    waypoints = script["waypoints"]
+    length = float(waypoints[-1]["t"])
+    press = next((float(w["t"]) for w in waypoints if w["position"][2] <= -0.02), length / 4)
+    return {"length_s": length, "first_press_s": press + 0.5}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_arguments(argv)
+    criterion = StabilityCriterion()
+    cells: list[Cell] = []
+    if args.quick:
+        cells = quick_cells(args)
+    else:
+        for name, make in (("E1", e1_cells), ("E2", e2_cells), ("E3", e3_cells), ("E4", e4_cells)):
+            if name in args.only:
+                cells += make(args)
+    if not cells:
+        print("[experiments] nothing to run", file=sys.stderr)
+        return 2
+    args.results.mkdir(parents=True, exist_ok=True)
+    args.runs.mkdir(parents=True, exist_ok=True)
+    total = sum(float(cell.options["duration"]) for cell in cells)
+    print(f"[experiments] {len(cells)} runs, {total:.0f} s simulated, {args.time_mode}; bags in {args.runs}; "
+          f"results in {args.results}", flush=True)
+    results: dict[str, list[tuple[dict, Path]]] = {}
+    started = time.monotonic()
+    bar = tqdm(total=round(total, 1), unit="sim s", dynamic_ncols=True, file=sys.stdout,
+               bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}] {postfix}")
+    done = 0.0
+    try:
+        for index, cell in enumerate(cells):
+            run_dir = args.runs / cell.id
+            if run_dir.exists():
+                shutil.rmtree(run_dir)
+            bar.set_postfix_str(f"{index + 1}/{len(cells)} {cell.id}")
+
+            def progress(simulated: float, base=done, limit=float(cell.options["duration"])) -> None:
+                bar.n = round(base + min(simulated, limit), 1)
+                bar.refresh()
+
+            outcome = launch(cell, run_dir, time_mode=args.time_mode, on_progress=progress)
+            done += float(cell.options["duration"])
+            bar.n = round(done, 1)
+            bar.refresh()
+            blackout = cell.options.get("blackout_at")
+            result = analyse_cell(cell, run_dir, outcome, criterion, blackout_at=blackout)
+            write_json(run_dir / "cell.json", result)
+            results.setdefault(cell.experiment, []).append((result, run_dir))
+            verdict = result.get("stability", {}).get("stable")
+            tqdm.write(f"[experiments] {cell.id}: {'stable' if verdict else 'UNSTABLE' if verdict is False else 'n/a'}"
+                       f", max error (last half) {result.get('stability', {}).get('max_error_last_half', float('nan')):.4f} m"
+                       f", violations {result.get('limits', {}).get('violation_ticks')}, wall {outcome.wall_s:.0f} s"
+                       + ("" if result.get("complete") else f" (ran {outcome.simulated_s:.1f} s of "
+                                                             f"{cell.options['duration']:g} s)"), file=sys.stdout)
+    except KeyboardInterrupt:
+        tqdm.write("[experiments] interrupted: writing what has run")
+    finally:
+        bar.close()
+    summary = write_results(args, results, criterion, time.monotonic() - started)
+    print(json.dumps(summary["headline"], indent=2))
+    print(f"[experiments] results in {args.results}")
+    return 0
+
+
+def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: StabilityCriterion, wall: float) -> dict:
+    out = args.results
+    headline: dict = {}
+    experiments: dict = {}
+    max_force = replica_max_force()
+    if "E1" in results:
+        result, run_dir = results["E1"][0]
+        for name in ("tracking_error.png", "position.png", "interaction_force.png", "paths_3d.png"):
+            source = run_dir / "report" / name
+            if source.exists():
+                shutil.copy(source, out / f"e1_{name}")
+        experiments["E1"] = result
+        write_json(out / "e1.json", result)
+        headline["E1"] = {"stable": result.get("stability", {}).get("stable"), **{
+            k: result.get("metrics", {}).get(k) for k in ("free_motion_error_max_m", "free_motion_error_rms_m",
+                                                          "contact_error_max_m", "peak_interaction_force_n",
+                                                          "limit_violations")}}
+    if "E2" in results:
+        trials = [r for r, _ in results["E2"]]
+        inside = [t.get("pieces_inside") for t in trials]
+        forces = [t.get("peak_force_n") for t in trials if t.get("peak_force_n") is not None]
+        e2 = {"trials": trials, "pieces_per_trial": len(PIECE_NAMES),
+              "pieces_inside_per_trial": inside,
+              "successful_trials": sum(1 for n in inside if n == len(PIECE_NAMES)),
+              "pieces_inside_total": sum(n for n in inside if n is not None),
+              "peak_force_n_max": max(forces) if forces else None,
+              "replica_max_force_n": max_force,
+              "stable_trials": sum(1 for t in trials if t.get("stability", {}).get("stable")),
+              "violation_ticks_total": sum(t.get("limits", {}).get("violation_ticks") or 0 for t in trials)}
+        experiments["E2"] = e2
+        write_json(out / "e2.json", e2)
+        plot_e2_forces(results["E2"], out, max_force)
+        headline["E2"] = {k: e2[k] for k in ("pieces_inside_per_trial", "successful_trials", "peak_force_n_max",
+                                             "stable_trials", "violation_ticks_total")}
+    if "E3" in results:
+        result, run_dir = results["E3"][0]
+        experiments["E3"] = result
+        write_json(out / "e3.json", result)
+        plot_e3(result, run_dir, out)
+        blackout = result.get("blackout", {})
+        headline["E3"] = {k: blackout.get(k) for k in ("blackout_at_s", "energy_max_after_j", "violation_ticks_after",
+                                                       "peak_force_after_n")}
+        headline["E3"]["stable_after"] = blackout.get("stability_after", {}).get("stable")
+    if "E4" in results:
+        cells = [r for r, _ in results["E4"]]
+        e4 = {"cells": cells, "criterion": criterion.as_dict(),
+              "table": [{"id": c["id"], **c["labels"], "stable": c.get("stability", {}).get("stable"),
+                         "max_error_last_half_m": c.get("stability", {}).get("max_error_last_half"),
+                         "max_error_m": c.get("stability", {}).get("max_error"),
+                         "free_motion_error_max_m": c.get("metrics", {}).get("free_motion_error_max_m"),
+                         "violation_ticks": c.get("limits", {}).get("violation_ticks"),
+                         "shaped_ticks": c.get("limits", {}).get("shaped_ticks"),
+                         "peak_force_n": c.get("peak_force_n"),
+                         "reasons": c.get("stability", {}).get("reasons"),
+                         "complete": c.get("complete")} for c in cells]}
+        experiments["E4"] = e4
+        write_json(out / "e4.json", e4)
+        plot_sweep(cells, "delay", out)
+        plot_sweep(cells, "rate", out)
+        plot_stability_map(cells, out)
+        headline["E4"] = {row["id"]: {"stable": row["stable"], "max_error_last_half_m": row["max_error_last_half_m"],
+                                      "violation_ticks": row["violation_ticks"]} for row in e4["table"]}
+    summary = {
+        "generated": datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(),
+        "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "time_mode": args.time_mode,
+        "quick": args.quick, "wall_s": round(wall, 1), "runs": str(args.runs),
+        "machine": {"cpus": os.cpu_count(), "load_average": list(os.getloadavg()), "python": platform.python_version()},
+        "stability_criterion": criterion.as_dict(), "headline": headline,
+        "experiments": {name: (value if name != "E4" else {"table": value["table"]}) for name, value in experiments.items()},
+    }
+    write_json(out / "summary.json", summary)
+    return summary
+
+
+if __name__ == "__main__":
+    sys.exit(main())

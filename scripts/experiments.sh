@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# The paper's experiments E1-E4 (SPEC 3, issue 6) on the real graph, in lockstep unless told otherwise, with a
+# progress bar; results (JSON + PNG) to results/. `--quick` runs two short E4 cells; `--help` lists the options.
+set -euo pipefail
+REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+"$REPO/scripts/setup.sh"
+# shellcheck source=/dev/null
+source "$REPO/scripts/env.sh"
+exec python "$REPO/scripts/experiments.py" "$@"

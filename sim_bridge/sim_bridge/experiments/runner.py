@@ -1,0 +1,183 @@
+"""Run one experiment cell through the main job's launcher (real processes over DDS) and analyse its bag.
+
+A cell is one call of scripts/teleop_launcher.py (what scripts/run_teleop.sh runs) with ``--no-video`` and, unless
+the cell asks for the paper-style plots, ``--no-report``; the metrics are then computed here in-process with the
+report's own definitions (sim_bridge.report: load_bag + analyse, no plots), the stability verdict with
+sim_bridge.experiments.stability, and scene-specific outcomes (E2 pieces) from the same bag.
+
+No rclpy here: the launcher is a child process. Each cell gets a ROS_DOMAIN_ID that no running process on this
+machine uses (read from /proc), so a cell never hears someone else's graph.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from sim_bridge.experiments.bag_series import RunSeries, read_run
+from sim_bridge.experiments.stability import StabilityCriterion, StabilityInputError, assess_stability
+
+REPO = Path(os.environ.get("FIC_TELEOP_ROOT") or Path(__file__).resolve().parents[3])
+LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
+_SIM_TIME = re.compile(r"\[run\] sim time\s+([0-9.]+)")
+#: Domain ids this runner may take, highest first (test/conftest.py hands out 10-59 and reserves 60-79).
+DOMAIN_CANDIDATES = tuple(range(101, 79, -1))
+
+
+def used_domain_ids() -> set[int]:
+    """ROS_DOMAIN_ID values of the processes running now (those whose environment we may read)."""
+    used: set[int] = set()
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            environment = (entry / "environ").read_bytes()
+        except OSError:
+            continue
+        for item in environment.split(b"\0"):
+            if item.startswith(b"ROS_DOMAIN_ID="):
+                try:
+                    used.add(int(item.split(b"=", 1)[1]))
+                except ValueError:
+                    pass
+    return used
+
+
+def free_domain_id(candidates: tuple[int, ...] = DOMAIN_CANDIDATES) -> int:
+    used = used_domain_ids()
+    for candidate in candidates:
+        if candidate not in used:
+            return candidate
+    raise RuntimeError(f"every ROS_DOMAIN_ID in {candidates[-1]}-{candidates[0]} is in use")
+
+
+@dataclass
+class Cell:
+    """One run of the graph: an id, the launcher options, and what to compute from it."""
+
+    id: str
+    experiment: str
+    options: dict                      # launcher option -> value ("delay": 0.2 -> --delay 0.2)
+    report: bool = False               # let the launcher write the paper-style report (plots)
+    labels: dict = field(default_factory=dict)  # what the cell varies, for tables and plots
+
+    def arguments(self) -> list[str]:
+        arguments: list[str] = []
+        for key, value in self.options.items():
+            flag = "--" + key.replace("_", "-")
+            if value is True:
+                arguments.append(flag)
+            elif value is not None and value is not False:
+                arguments += [flag, str(value)]
+        return arguments
+
+
+@dataclass
+class LaunchOutcome:
+    returncode: int
+    wall_s: float
+    simulated_s: float
+    log: Path
+    node_errors: str = ""
+
+
+def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[float], None] | None = None,
+           timeout: float | None = None) -> LaunchOutcome:
+    """Run the launcher for ``cell`` into ``run_dir`` (fresh), reporting simulated seconds as they pass."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    command = [sys.executable, str(LAUNCHER), *cell.arguments(), "--time-mode", time_mode, "--out", str(run_dir),
+               "--no-video", "--domain-id", str(free_domain_id())]
+    if not cell.report:
+        command.append("--no-report")
+    log_path = run_dir / "launcher.log"
+    environment = dict(os.environ, PYTHONUNBUFFERED="1")
+    start = time.monotonic()
+    simulated = 0.0
+    node_errors = ""
+    with open(log_path, "w", encoding="utf-8") as log:
+        log.write(" ".join(command) + "\n")
+        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                   env=environment, cwd=REPO)
+        try:
+            for line in process.stdout:
+                log.write(line)
+                match = _SIM_TIME.search(line)
+                if match:
+                    simulated = max(simulated, float(match.group(1)))
+                    if on_progress:
+                        on_progress(simulated)
+                stopped = re.search(r"graph stopped after ([0-9.]+) s wall, ([0-9.]+) s simulated(.*)", line)
+                if stopped:
+                    simulated = float(stopped.group(2))
+                    node_errors = stopped.group(3).strip("; ")
+                if timeout and time.monotonic() - start > timeout:
+                    break
+            process.wait(timeout=120)
+        except BaseException:
+            process.terminate()  # the launcher stops its graph cleanly on SIGTERM
+            process.wait(timeout=120)
+            raise
+    if on_progress:
+        on_progress(simulated)
+    return LaunchOutcome(process.returncode, time.monotonic() - start, simulated, log_path, node_errors)
+
+
+def report_metrics(bag: Path) -> dict:
+    """The report's metrics (SPEC 2.2 definitions, sim_bridge.report), computed in-process without plots."""
+    from sim_bridge.report.bag_data import load_bag
+    from sim_bridge.report.metrics import ReportSettings, analyse
+    from sim_bridge.report.report import replica_config_defaults
+
+    analysis = analyse(load_bag(bag), ReportSettings(**replica_config_defaults()))
+    return analysis.metrics
+
+
+def stability_of(series: RunSeries, criterion: StabilityCriterion, start: float | None = None,
+                 end: float | None = None) -> dict:
+    """The stability verdict of the run (or of its [start, end] part, in the bag's own time) as a dict."""
+    if series.fic_time.size < 4:
+        return {"stable": None, "reasons": ["no /replica/fic_state in the bag"]}
+    keep = np.ones(series.fic_time.size, dtype=bool)
+    if start is not None:
+        keep &= series.fic_time >= start
+    if end is not None:
+        keep &= series.fic_time <= end
+    limit_keep = np.ones(series.limit_time.size, dtype=bool)
+    if start is not None:
+        # keep the counter sample just before the start, so that the increase is counted from there
+        limit_keep &= series.limit_time >= (series.limit_time[series.limit_time <= start][-1]
+                                            if np.any(series.limit_time <= start) else start)
+    if end is not None:
+        limit_keep &= series.limit_time <= end
+    try:
+        verdict = assess_stability(
+            series.fic_time[keep], series.error[keep],
+            violation_time=series.limit_time[limit_keep] if series.limit_time.size else None,
+            violation_count=series.violation_ticks[limit_keep] if series.limit_time.size else None,
+            total_energy=series.total_energy[keep], criterion=criterion)
+    except StabilityInputError as error:
+        return {"stable": None, "reasons": [f"not assessable: {error}"]}
+    return verdict.as_dict()
+
+
+def write_json(path: Path, payload) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(payload, indent=2, default=_json_default) + "\n")
+
+
+def _json_default(value):
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
