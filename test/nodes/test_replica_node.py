@@ -59,6 +59,8 @@ class Robot:
 
         stream = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
         status = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+        # Deep reader histories: a test process that lags must not lose what it checks.
+        record = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=5000)
         self.node = Node("test_robot", context=context)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
@@ -68,9 +70,9 @@ class Robot:
         self.fic_states: list = []
         self.limit_status: list = []
         self.node.create_subscription(Float64MultiArray, "/effort_controller/commands",
-                                      lambda m: self.commands.append(list(m.data)), stream)
-        self.node.create_subscription(FicState, "/replica/fic_state", self.fic_states.append, status)
-        self.node.create_subscription(LimitStatus, "/replica/limit_status", self.limit_status.append, status)
+                                      lambda m: self.commands.append(list(m.data)), record)
+        self.node.create_subscription(FicState, "/replica/fic_state", self.fic_states.append, record)
+        self.node.create_subscription(LimitStatus, "/replica/limit_status", self.limit_status.append, record)
         self.JointState = JointState
         self.TeleoperationCommand = TeleoperationCommand
         # Shuffled joint order (and an extra finger joint): the replica must reorder by name.
@@ -175,8 +177,8 @@ def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     errors = [state.error[0] for state in robot.fic_states]
     assert max(errors) > 0.015, errors[-5:]
     assert max(errors) <= 0.02 + 1e-9
-    # No jump: x_d' moves 0.1 mm a control tick (0.1 m/s * 1 ms); a few status messages may be missed under load.
-    assert np.all(np.diff(errors) >= -1e-9) and np.all(np.diff(errors) <= 1e-3), np.diff(errors).max()
+    # No jump: x_d' moves 0.1 mm a control tick (0.1 m/s * 1 ms).
+    assert np.all(np.diff(errors) >= -1e-9) and np.all(np.diff(errors) <= 1e-4 + 1e-9), np.diff(errors).max()
     commands = np.array(robot.commands)
     assert np.all(np.abs(commands) <= torque_max + 1e-9)
     assert np.all(np.abs(np.diff(commands, axis=0)) <= limits.torque_rate * 0.001 + 1e-9)
