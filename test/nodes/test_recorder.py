@@ -30,7 +30,9 @@ from fic_teleop_msgs.msg import ChannelDelivery, FicState, LimitStatus
 count, skip = int(sys.argv[1]), {int(s) for s in sys.argv[2].split(",") if s}
 rclpy.init()
 node = rclpy.create_node("test_publisher")
-qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
+# Deep writer history: a reliable KEEP_LAST writer overwrites samples not yet acknowledged once its history is
+# full, so on a starved machine a depth of 50 (50 ms at 1 kHz) can lose samples before they reach any reader.
+qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
 joint_states = node.create_publisher(JointState, "/joint_states", qos)
 fic = node.create_publisher(FicState, "/replica/fic_state", qos)
 limits = node.create_publisher(LimitStatus, "/replica/limit_status", qos)
@@ -130,7 +132,7 @@ def _record(start_node, tmp_path, ros_env, params: dict, stop_signal: int):
     return bag, recorder.output()
 
 
-def _check_bag(bag: Path) -> None:
+def _check_bag(bag: Path, recorder_log: str) -> None:
     from mcap_ros2.reader import read_ros2_messages
     from rosbags.highlevel import AnyReader
 
@@ -140,7 +142,7 @@ def _check_bag(bag: Path) -> None:
     metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert metadata["storage_identifier"] == "mcap" and metadata["relative_file_paths"] == ["bag_0.mcap"]
     counts = {t["topic_metadata"]["name"]: t["message_count"] for t in metadata["topics_with_message_count"]}
-    assert counts["/joint_states"] == len(expected_stamps)
+    assert counts["/joint_states"] == len(expected_stamps), recorder_log
 
     # rosbags, on the bag folder (metadata.yaml) and on the bare .mcap.
     for path in (bag, mcap_files[0]):
@@ -154,7 +156,8 @@ def _check_bag(bag: Path) -> None:
                 message = reader.deserialize(raw, connection.msgtype)
                 stamps.append(message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec)
                 positions.append(message.position)
-            assert stamps == expected_stamps  # every joint state, once, in order
+            missing = sorted(set(expected_stamps) - set(stamps))
+            assert stamps == expected_stamps, (len(stamps), missing[:20], recorder_log)  # all, once, in order
             k = np.array([(s - 100_000_000_000) // 1_000_000 for s in stamps])
             np.testing.assert_allclose(np.array(positions)[:, 3], k * 1e-3 + 3)
             fic = [reader.deserialize(raw, c.msgtype) for c, _, raw in
@@ -180,14 +183,14 @@ def _check_bag(bag: Path) -> None:
 
 def test_recorder_keeps_every_message_and_finishes_on_sigint(start_node, tmp_path, ros_env):
     bag, log = _record(start_node, tmp_path, ros_env, {"topics": list(RECORDED)}, signal.SIGINT)
-    _check_bag(bag)
+    _check_bag(bag, log)
     # The gap counter found exactly the stamps the publisher skipped.
     assert f"/joint_states: {COUNT - len(SKIPPED)} received, {len(SKIPPED)} dropped in 2 gaps" in log, log
 
 
 def test_recorder_discovers_all_topics_and_finishes_on_sigterm(start_node, tmp_path, ros_env):
     bag, log = _record(start_node, tmp_path, ros_env, {"topics": ["/nothing"], "all": True}, signal.SIGTERM)
-    _check_bag(bag)
+    _check_bag(bag, log)
     assert "finished bag" in log
 
 
@@ -225,9 +228,10 @@ def test_recorder_bag_survives_sigkill(start_node, tmp_path, ros_env):
     cat.wait()
     assert ended_without_footer  # the recorder really died before writing its footer
     assert not (bag / "metadata.yaml").exists()
-    # Everything up to the last flush is there, in order, without a gap: at most ~1 s lost at the tail.
+    # Everything up to the last flush is there, in order, without a gap; the tail lost is the last flush period
+    # plus what the recorder had not yet received (generous here: the machine may be busy).
     assert stamps == _expected_joint_stamps(len(stamps), [])
-    assert len(stamps) >= published_before_kill - 1000, (len(stamps), published_before_kill)
+    assert len(stamps) >= published_before_kill - 1500, (len(stamps), published_before_kill, recorder.output())
 
     # recover() turns it into a complete bag that rosbags opens; the report reads the torn file directly.
     summary, result = recover(mcap_file, tmp_path / "recovered")
