@@ -44,7 +44,8 @@ REPO = Path(__file__).resolve().parent.parent
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
 from sim_bridge.experiments.bag_series import read_run  # noqa: E402
-from sim_bridge.experiments.runner import Cell, launch, report_metrics, stability_of, write_json  # noqa: E402
+from sim_bridge.experiments.runner import (Cell, LaunchOutcome, launch, report_metrics, stability_of,  # noqa: E402
+                                          write_json)
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES, piece_outcomes  # noqa: E402
 from sim_bridge.experiments.stability import StabilityCriterion  # noqa: E402
 
@@ -305,6 +306,19 @@ def plot_e3(result: dict, run_dir: Path, out: Path) -> Path | None:
 
 
 # --- driver ------------------------------------------------------------------------------------------------------
+def outcome_from_log(run_dir: Path) -> LaunchOutcome:
+    """The launch outcome of an existing run folder, from its launcher.log (for --reanalyse)."""
+    import re
+
+    text = (run_dir / "launcher.log").read_text(errors="replace")
+    stopped = re.search(r"graph stopped after ([0-9.]+) s wall, ([0-9.]+) s simulated(.*)", text)
+    previous = run_dir / "cell.json"
+    code = json.loads(previous.read_text()).get("launcher_exit_code", 0) if previous.exists() else 0
+    if not stopped:
+        return LaunchOutcome(code, 0.0, 0.0, run_dir / "launcher.log", "launcher did not finish")
+    return LaunchOutcome(code, float(stopped.group(1)), float(stopped.group(2)), run_dir / "launcher.log",
+                         stopped.group(3).strip("; "))
+
 def git_commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True,
@@ -335,6 +349,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--e3-blackout-at", type=float, default=None,
                         help="default: while the plate presses the first piece (from the operator script)")
     parser.add_argument("--sweep-duration", type=float, default=None, help="E4 cell duration (default 20 s, 5 s quick)")
+    parser.add_argument("--reanalyse", action="store_true",
+                        help="do not run: analyse the run folders already in --runs again (e.g. after changing the "
+                             "criterion) and rewrite the results")
     parser.add_argument("--delays", type=float, nargs="+", default=list(DELAYS))
     parser.add_argument("--rates", type=float, nargs="+", default=list(RATES))
     args = parser.parse_args(argv)
@@ -342,6 +359,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     if args.sweep_duration is None:
         args.sweep_duration = 5.0 if args.quick else 20.0
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    if args.reanalyse and args.runs is None:
+        parser.error("--reanalyse needs --runs")
     args.runs = args.runs or REPO / "runs" / f"experiments-{stamp}"
     args.results = args.results or (args.runs / "results" if args.quick else REPO / "results")
     script = shape_sorting_script_timing()
@@ -391,15 +410,21 @@ def main(argv: list[str] | None = None) -> int:
     try:
         for index, cell in enumerate(cells):
             run_dir = args.runs / cell.id
-            if run_dir.exists():
-                shutil.rmtree(run_dir)
             bar.set_postfix_str(f"{index + 1}/{len(cells)} {cell.id}")
 
             def progress(simulated: float, base=done, limit=float(cell.options["duration"])) -> None:
                 bar.n = round(base + min(simulated, limit), 1)
                 bar.refresh()
 
-            outcome = launch(cell, run_dir, time_mode=args.time_mode, on_progress=progress)
+            if args.reanalyse:
+                if not (run_dir / "launcher.log").exists():
+                    tqdm.write(f"[experiments] {cell.id}: no run in {run_dir}, skipped")
+                    continue
+                outcome = outcome_from_log(run_dir)
+            else:
+                if run_dir.exists():
+                    shutil.rmtree(run_dir)
+                outcome = launch(cell, run_dir, time_mode=args.time_mode, on_progress=progress)
             done += float(cell.options["duration"])
             bar.n = round(done, 1)
             bar.refresh()
@@ -423,10 +448,31 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def headline_of(name: str, data: dict) -> dict:
+    """The few numbers of an experiment that the summary shows (from its eN.json)."""
+    if name == "E1":
+        return {"stable": data.get("stability", {}).get("stable"), **{
+            key: data.get("metrics", {}).get(key) for key in (
+                "free_motion_error_max_m", "free_motion_error_rms_m", "contact_error_max_m",
+                "peak_interaction_force_n", "limit_violations", "limit_shaped_ticks")}}
+    if name == "E2":
+        return {key: data.get(key) for key in ("pieces_inside_per_trial", "successful_trials", "peak_force_n_max",
+                                               "replica_max_force_n", "stable_trials", "violation_ticks_total")}
+    if name == "E3":
+        blackout = data.get("blackout", {})
+        return {**{key: blackout.get(key) for key in ("blackout_at_s", "energy_max_before_j", "energy_max_after_j",
+                                                      "violation_ticks_after", "peak_force_after_n")},
+                "stable_after": blackout.get("stability_after", {}).get("stable")}
+    if name == "E4":
+        return {row["id"]: {"stable": row["stable"], "max_error_last_half_m": row["max_error_last_half_m"],
+                            "violation_ticks": row["violation_ticks"]} for row in data.get("table", [])}
+    return {}
+
+
 def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: StabilityCriterion, wall: float) -> dict:
     out = args.results
-    headline: dict = {}
-    experiments: dict = {}
+    stamp = {"generated": datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(),
+             "time_mode": args.time_mode, "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]])}
     max_force = replica_max_force()
     if "E1" in results:
         result, run_dir = results["E1"][0]
@@ -434,17 +480,12 @@ def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: 
             source = run_dir / "report" / name
             if source.exists():
                 shutil.copy(source, out / f"e1_{name}")
-        experiments["E1"] = result
-        write_json(out / "e1.json", result)
-        headline["E1"] = {"stable": result.get("stability", {}).get("stable"), **{
-            k: result.get("metrics", {}).get(k) for k in ("free_motion_error_max_m", "free_motion_error_rms_m",
-                                                          "contact_error_max_m", "peak_interaction_force_n",
-                                                          "limit_violations")}}
+        write_json(out / "e1.json", {**stamp, **result})
     if "E2" in results:
         trials = [r for r, _ in results["E2"]]
         inside = [t.get("pieces_inside") for t in trials]
         forces = [t.get("peak_force_n") for t in trials if t.get("peak_force_n") is not None]
-        e2 = {"trials": trials, "pieces_per_trial": len(PIECE_NAMES),
+        e2 = {**stamp, "trials": trials, "pieces_per_trial": len(PIECE_NAMES),
               "pieces_inside_per_trial": inside,
               "successful_trials": sum(1 for n in inside if n == len(PIECE_NAMES)),
               "pieces_inside_total": sum(n for n in inside if n is not None),
@@ -452,47 +493,45 @@ def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: 
               "replica_max_force_n": max_force,
               "stable_trials": sum(1 for t in trials if t.get("stability", {}).get("stable")),
               "violation_ticks_total": sum(t.get("limits", {}).get("violation_ticks") or 0 for t in trials)}
-        experiments["E2"] = e2
         write_json(out / "e2.json", e2)
         plot_e2_forces(results["E2"], out, max_force)
-        headline["E2"] = {k: e2[k] for k in ("pieces_inside_per_trial", "successful_trials", "peak_force_n_max",
-                                             "stable_trials", "violation_ticks_total")}
     if "E3" in results:
         result, run_dir = results["E3"][0]
-        experiments["E3"] = result
-        write_json(out / "e3.json", result)
+        write_json(out / "e3.json", {**stamp, **result})
         plot_e3(result, run_dir, out)
-        blackout = result.get("blackout", {})
-        headline["E3"] = {k: blackout.get(k) for k in ("blackout_at_s", "energy_max_after_j", "violation_ticks_after",
-                                                       "peak_force_after_n")}
-        headline["E3"]["stable_after"] = blackout.get("stability_after", {}).get("stable")
     if "E4" in results:
         cells = [r for r, _ in results["E4"]]
-        e4 = {"cells": cells, "criterion": criterion.as_dict(),
+        e4 = {**stamp, "cells": cells, "criterion": criterion.as_dict(),
               "table": [{"id": c["id"], **c["labels"], "stable": c.get("stability", {}).get("stable"),
                          "max_error_last_half_m": c.get("stability", {}).get("max_error_last_half"),
                          "max_error_m": c.get("stability", {}).get("max_error"),
                          "free_motion_error_max_m": c.get("metrics", {}).get("free_motion_error_max_m"),
+                         "contact_error_max_m": c.get("metrics", {}).get("contact_error_max_m"),
                          "violation_ticks": c.get("limits", {}).get("violation_ticks"),
                          "shaped_ticks": c.get("limits", {}).get("shaped_ticks"),
                          "peak_force_n": c.get("peak_force_n"),
                          "reasons": c.get("stability", {}).get("reasons"),
-                         "complete": c.get("complete")} for c in cells]}
-        experiments["E4"] = e4
+                         "complete": c.get("complete"), "wall_s": c.get("wall_s")} for c in cells]}
         write_json(out / "e4.json", e4)
         plot_sweep(cells, "delay", out)
         plot_sweep(cells, "rate", out)
         plot_stability_map(cells, out)
-        headline["E4"] = {row["id"]: {"stable": row["stable"], "max_error_last_half_m": row["max_error_last_half_m"],
-                                      "violation_ticks": row["violation_ticks"]} for row in e4["table"]}
-    summary = {
-        "generated": datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(),
-        "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "time_mode": args.time_mode,
-        "quick": args.quick, "wall_s": round(wall, 1), "runs": str(args.runs),
-        "machine": {"cpus": os.cpu_count(), "load_average": list(os.getloadavg()), "python": platform.python_version()},
-        "stability_criterion": criterion.as_dict(), "headline": headline,
-        "experiments": {name: (value if name != "E4" else {"table": value["table"]}) for name, value in experiments.items()},
-    }
+    # The summary is composed from every eN.json in the folder, so experiments run by separate invocations
+    # (--only E4, then --only E2) all appear in it; each keeps its own "generated" stamp.
+    experiments = {}
+    for name in ("E1", "E2", "E3", "E4"):
+        path = out / f"{name.lower()}.json"
+        if path.exists():
+            data = json.loads(path.read_text())
+            experiments[name] = {"generated": data.get("generated"), "time_mode": data.get("time_mode"),
+                                 "headline": headline_of(name, data)}
+            if name == "E4":
+                experiments[name]["table"] = data.get("table")
+    summary = {**stamp, "quick": args.quick, "wall_s_of_this_invocation": round(wall, 1), "runs": str(args.runs),
+               "machine": {"cpus": os.cpu_count(), "load_average": list(os.getloadavg()),
+                           "python": platform.python_version()},
+               "stability_criterion": criterion.as_dict(), "experiments": experiments,
+               "headline": {name: value["headline"] for name, value in experiments.items()}}
     write_json(out / "summary.json", summary)
     return summary
 
