@@ -13,7 +13,8 @@ source timestamp is not available for publish_time.
 
 Dropped joint states: the simulator stamps /joint_states with its own clock, advancing by exactly one physics
 step (`joint_states_period`, 1 ms) per message; a jump of n steps between consecutive stamps counts n - 1
-dropped messages (wherever they were lost: by the simulator, DDS, or this recorder).
+dropped messages (wherever they were lost: by the simulator, DDS, or this recorder). Stamps off that grid (the
+simulator's realtime mode stamps with its node clock) are counted as such and not gap-checked.
 
 Stopping: SIGINT and SIGTERM (rclpy's handlers shut the context down) or any other rclpy shutdown end the spin;
 the writer thread then drains the queue and the bag gets its summary, footer and metadata.yaml.
@@ -87,6 +88,7 @@ class JointStateGapCounter:
         self.dropped = 0
         self.gaps = 0
         self.out_of_order = 0
+        self.off_grid = 0  # stamps not on the step grid (realtime mode stamps with the node clock)
         self._last_ns: int | None = None
 
     def add(self, cdr: bytes) -> None:
@@ -94,6 +96,11 @@ class JointStateGapCounter:
         sec, nanosec = struct.unpack_from("<iI" if cdr[1] & 1 else ">iI", cdr, 4)
         stamp = sec * 1_000_000_000 + nanosec
         self.received += 1
+        offset = stamp % self.period_ns
+        if min(offset, self.period_ns - offset) > 1000:  # more than 1 us off a step: not a sim-time stamp
+            self.off_grid += 1
+            self._last_ns = None
+            return
         if self._last_ns is not None:
             delta = stamp - self._last_ns
             if delta <= 0:
@@ -274,7 +281,8 @@ class RecorderNode(Node):
         values = {"bag": str(self.bag.bag_dir), "backlog": len(self._queue), "max_backlog": self._max_backlog,
                   "joint_states_received": self.joint_states.received,
                   "joint_states_dropped": self.joint_states.dropped,
-                  "joint_states_out_of_order": self.joint_states.out_of_order}
+                  "joint_states_out_of_order": self.joint_states.out_of_order,
+                  "joint_states_off_step_grid": self.joint_states.off_grid}
         values.update({f"count {topic}": count for topic, count in self.counts().items()})
         status.values = [KeyValue(key=key, value=str(value)) for key, value in values.items()]
         message = DiagnosticArray(status=[status])
@@ -304,7 +312,8 @@ class RecorderNode(Node):
                 f"finished bag {summary.bag_dir.resolve()}: {summary.message_count} messages on "
                 f"{len(summary.topics)} topics ({per_topic}); {self._joint_states_topic}: "
                 f"{self.joint_states.received} received, {self.joint_states.dropped} dropped in "
-                f"{self.joint_states.gaps} gaps, {self.joint_states.out_of_order} out of order; "
+                f"{self.joint_states.gaps} gaps, {self.joint_states.out_of_order} out of order, "
+                f"{self.joint_states.off_grid} off the step grid (not gap-checked); "
                 f"max backlog {self._max_backlog}")
 
 

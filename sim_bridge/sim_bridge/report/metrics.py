@@ -19,10 +19,13 @@ limit counts and dropped joint states cover the whole recording.
   ChannelDelivery.held of the /channel/deliveries message with topic /replica/teleop_command and header.stamp ==
   master_stamp; p50 and p99 (numpy linear percentiles) in ms. Samples without a delivery are counted as
   `pipeline_latency_unmatched`.
-- real_time_factor: (last - first /joint_states stamp) / (last - first receive time) (else /clock).
-- dropped_joint_states: over consecutive /joint_states in receive order, sum of round(dt / 1 ms) - 1 for dt > 0.
+- real_time_factor: (last - first /clock time) / (last - first receive time) after the warm-up (/clock is sim
+  time in both sim modes); without /clock, the same with /joint_states stamps.
+- dropped_joint_states: over consecutive /joint_states in receive order, sum of round(dt / 1 ms) - 1 for dt > 0;
+  only when >= 99 % of the stamps lie on the 1 ms step grid (lockstep: sim time), else null (realtime mode
+  stamps with the node clock, where a gap cannot be told from a late step).
 - delay_one_way_ms: median ChannelDelivery.held on /replica/teleop_command and /replica/master_pose, in ms.
-- duration_s: sim time covered by /joint_states (else /clock) stamps; controller: most frequent
+- duration_s: sim time covered by /clock (else /joint_states) stamps; controller: most frequent
   FicState.controller.
 """
 from __future__ import annotations
@@ -188,26 +191,34 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
     m["pipeline_latency_p50_ms"] = _number(np.percentile(latencies_ms, 50)) if len(latencies_ms) else None
     m["pipeline_latency_p99_ms"] = _number(np.percentile(latencies_ms, 99)) if len(latencies_ms) else None
 
-    # Real-time factor: sim time advanced / wall time, after the warm-up.
-    clock_topic = "/joint_states" if data.has("/joint_states") else ("/clock" if data.has("/clock") else None)
+    # Real-time factor: sim time advanced / wall time, after the warm-up. /clock carries sim time in both of the
+    # simulator's modes; /joint_states stamps are sim time only in lockstep (the node clock in realtime mode).
+    clock_topic = "/clock" if data.has("/clock") else ("/joint_states" if data.has("/joint_states") else None)
     m["real_time_factor"] = None
     if clock_topic:
         clock = series[clock_topic]
         order = np.argsort(clock.log, kind="stable")
         stamps, logs = clock.stamp[order], clock.log[order]
-        keep = stamps >= cut
+        keep = stamps >= (cut if clock_topic == "/joint_states" else stamps[0] + settings.warmup_s)
         if keep.sum() >= 2 and logs[keep][-1] > logs[keep][0]:
             m["real_time_factor"] = _number((stamps[keep][-1] - stamps[keep][0]) / (logs[keep][-1] - logs[keep][0]))
 
     # Dropped joint states: stamps advance by one physics step per message; gaps count the missing ones.
+    # Countable only when the stamps sit on the step grid (lockstep: sim time); in realtime mode they are the
+    # robot node's clock and a gap is indistinguishable from a late step, so the figure is left out (null).
+    m["dropped_joint_states"] = None
     if data.has("/joint_states"):
         js = series["/joint_states"]
-        steps = np.diff(js.stamp[np.argsort(js.log, kind="stable")]) / settings.joint_states_period_s
-        missing = np.round(steps[steps > 0]) - 1
-        m["dropped_joint_states"] = int(missing[missing > 0].sum())
-        m["joint_states_out_of_order"] = int(np.count_nonzero(steps <= 0))
-    else:
-        m["dropped_joint_states"] = None
+        stamps = js.stamp[np.argsort(js.log, kind="stable")]
+        period_ns = round(settings.joint_states_period_s * 1e9)
+        offset_ns = np.round(stamps * 1e9).astype(np.int64) % period_ns
+        on_grid = np.minimum(offset_ns, period_ns - offset_ns) <= 1000  # within 1 us of a step
+        m["joint_states_on_step_grid"] = _number(on_grid.mean())
+        if on_grid.mean() >= 0.99:
+            steps = np.diff(stamps) / settings.joint_states_period_s
+            missing = np.round(steps[steps > 0]) - 1
+            m["dropped_joint_states"] = int(missing[missing > 0].sum())
+            m["joint_states_out_of_order"] = int(np.count_nonzero(steps <= 0))
 
     # One-way delay the channel added on the forward direction.
     held = [h for topic in FORWARD_TOPICS for stamp_ns, h in data.deliveries.get(topic, {}).items()
