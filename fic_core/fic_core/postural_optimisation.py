@@ -6,7 +6,8 @@ Each tick, given the desired torque tau_d of Eq. 7 (compensation + J^T FIC + nul
 
     minimise    1/2 (tau - tau_d)^T M^-1 (tau - tau_d)                           (Gauss's least constraint)
     subject to  max(-tau_max, tau_prev - rate*dt) <= tau <= min(tau_max, tau_prev + rate*dt)      (hard)
-                v_lo <= qd + T qdd(tau) <= v_hi                                  (joint velocity and position)
+                -v_max <= qd + T qdd(tau) <= v_max                               (joint velocity, horizon T)
+                v_brake_lo(q) <= qd + dt qdd(tau) <= v_brake_hi(q)               (braking curve, next sample)
                 q_min <= q + dt (qd + dt qdd(tau)) <= q_max                      (next sample inside the range)
                 u^T J_v (qd + T qdd(tau)) <= v_tcp_max                           (TCP speed, cutting planes)
     with        qdd(tau) = M^-1 (tau - C qd - g - D qd)                          (predicted by the model)
@@ -18,14 +19,16 @@ Each tick, given the desired torque tau_d of Eq. 7 (compensation + J^T FIC + nul
   The others are predictions, so they can be infeasible (a joint already past a limit, a contact pushing the arm,
   the torque-rate box too narrow to brake in one tick): then the QP is solved again with them as daqp soft
   constraints (minimal violation), and tau stays in the hard box.
-- Velocity-like limits use a horizon T = max(velocity_horizon, dt): the velocity extrapolated T ahead must be in
-  bounds, i.e. qdd <= (v_hi - qd) / T. The limit is approached exponentially (time constant T), which keeps the
+- Velocity limits use a horizon T = max(velocity_horizon, dt): the velocity extrapolated T ahead must be in
+  bounds, i.e. qdd <= (v_max - qd) / T. The limit is approached exponentially (time constant T), which keeps the
   braking compatible with the 1000 N m/s torque-rate limit, and the one-tick prediction qd + dt qdd is a convex
   combination of qd and the horizon velocity, so it is within bounds too.
-- Joint position: braking distance. v_hi = min(v_max, sqrt(2 a_brake (q_max - q))), so the joint can still stop
-  before its limit at the deceleration a_brake; and the next sample must not cross it:
-  q + dt (qd + dt qdd) <= q_max. Both bound the same qdd, so the tighter is kept: still 7 two-sided rows.
-  Past a limit the velocity bound becomes a return velocity (q_max - q) / T < 0.
+- Joint position: a braking curve on the next sample's velocity, v_b L + v_b^2 / (2 a_brake) = q_max - q, so the
+  joint can always still stop before its limit at the deceleration a_brake reached after a lag L (the horizon
+  T plus the torque ramp at the rate limit, 20 ms); and the next sample must not cross it:
+  q + dt (qd + dt qdd) <= q_max. (An exponential approach on the horizon, as for the velocity limit, lags the
+  shrinking braking speed and overshoots the limit.) All bound the same qdd, so the tightest is kept: still 7
+  two-sided rows. Past a limit the bound becomes a return velocity (q_max - q) / T < 0, on the horizon.
 - TCP speed |J_v qd| <= 1.7 m/s is a cone; it is enforced by up to ``tcp_cuts`` linear cuts along the predicted
   TCP velocity, placed 0.1 % inside the limit (outer approximation refined until the prediction is inside).
 - Fast path: when tau_d satisfies every constraint the QP is not built: tau = tau_d exactly, nothing flagged.
@@ -49,6 +52,10 @@ from .limits import LimitFlag, PandaLimits
 #: Half the Franka datasheet joint acceleration limits [rad/s^2]: the deceleration we count on to stop a joint
 #: before its position limit.
 DEFAULT_BRAKING_DECELERATION = (7.5, 3.75, 5.0, 6.25, 7.5, 10.0, 10.0)
+
+#: Time for the torque to reach the braking deceleration at the torque-rate limit [s] (a * I / rate with
+#: I up to about 2.5 kg m^2 for the shoulder of an outstretched arm).
+BRAKING_TORQUE_RAMP = 0.02
 
 _INFINITY = 1e30
 _SENSE_INEQUALITY = 0
@@ -95,9 +102,14 @@ class PosturalOptimisation:
             raise FicInputError(f"tcp_cuts must be >= 1, got {tcp_cuts}")
         self.tcp_cuts = int(tcp_cuts)
         self.iteration_limit = int(iteration_limit)
+        #: Delay before the braking deceleration is reached: the horizon (velocities approach their bound with time
+        #: constant T) plus the torque ramp at the torque-rate limit (a * I / rate, about 20 ms for the heaviest
+        #: joint at its braking deceleration).
+        self._braking_lag = self.horizon + BRAKING_TORQUE_RAMP
         # Beyond this distance to a position limit the braking bound cannot be tighter than the velocity limit.
         v_max = limits.joint_velocity_array
-        self._free_room = np.maximum(v_max * v_max / (2.0 * deceleration), v_max * self.control_period)
+        self._free_room = np.maximum(v_max * v_max / (2.0 * deceleration) + v_max * self._braking_lag,
+                                     v_max * self.control_period)
         rate_step = np.full(7, limits.torque_rate * self.control_period)
         self._fast_bounds = np.concatenate((limits.torque_array, rate_step, v_max, v_max))
         self._fast_bounds_first = np.concatenate((limits.torque_array, v_max, v_max))
@@ -129,23 +141,20 @@ class PosturalOptimisation:
             upper = np.where(empty, closest, upper)
         return lower, upper
 
-    def velocity_bounds(self, q: NDArray[np.float64], qd: NDArray[np.float64]
-                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
-        """Joint velocity bounds (v_lo, v_hi) for the horizon prediction, from the velocity limits and the braking
-        distance to the position limits; and, per side, whether the position limit is the tighter one."""
+    def braking_velocity(self, q: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(v_lo, v_hi): the joint velocities from which each joint still stops before its lower / upper position
+        limit, braking at ``braking_deceleration`` a after a lag L (the horizon plus the torque ramp):
+        v L + v^2 / 2a = room. Beyond a limit: a return speed room / T (v_hi < 0 past the upper limit)."""
         limits = self.limits
-        v_max = limits.joint_velocity_array
         a = self.braking_deceleration
+        lag = self._braking_lag
         room_high = limits.upper_array - q
         room_low = q - limits.lower_array
-        # Inside: the speed from which the joint still stops before the limit; beyond: a return speed.
-        pos_high = np.where(room_high >= 0.0, np.sqrt(2.0 * a * np.maximum(room_high, 0.0)), room_high / self.horizon)
-        pos_low = -np.where(room_low >= 0.0, np.sqrt(2.0 * a * np.maximum(room_low, 0.0)), room_low / self.horizon)
-        position_high = pos_high < v_max
-        position_low = pos_low > -v_max
-        v_hi = np.where(position_high, pos_high, v_max)
-        v_lo = np.minimum(np.where(position_low, pos_low, -v_max), v_hi)
-        return v_lo, v_hi, position_low, position_high
+        v_hi = np.where(room_high >= 0.0, a * (np.sqrt(lag * lag + 2.0 * np.maximum(room_high, 0.0) / a) - lag),
+                        room_high / self.horizon)
+        v_lo = -np.where(room_low >= 0.0, a * (np.sqrt(lag * lag + 2.0 * np.maximum(room_low, 0.0) / a) - lag),
+                         room_low / self.horizon)
+        return v_lo, v_hi
 
     def acceleration_bounds(self, q: NDArray[np.float64], qd: NDArray[np.float64]
                             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_],
@@ -153,30 +162,40 @@ class PosturalOptimisation:
         """Bounds (a_lo, a_hi) on the joint acceleration qdd, which side is set by a position limit, and whether
         the bounds had to be reconciled.
 
-        Two conditions on the same qdd, so the tighter one is kept: the horizon velocity qd + T qdd within
-        (v_lo, v_hi), and, for a joint inside its limits, the next sample q + dt (qd + dt qdd) still inside.
-        They can contradict each other (a joint too fast, too close to its limit): then the next-sample position
-        bound is kept and the horizon velocity bound on the other side gives way (reported as relaxed).
+        Three conditions on the same qdd, the tightest kept:
+        - velocity limit, on the horizon: |qd + T qdd| <= v_max (exponential approach, time constant T);
+        - braking curve, on the next sample: qd + dt qdd within the braking velocities (``braking_velocity``), so
+          the joint can always still stop before its position limit (past a limit: return, on the horizon);
+        - range, on the next sample: q + dt (qd + dt qdd) within the position limits.
+        They can contradict each other (a joint too fast, too close to its limit): then the position side is
+        kept and the other side gives way (reported as relaxed).
         """
         dt = self.control_period
+        horizon = self.horizon
         limits = self.limits
-        v_lo, v_hi, position_low, position_high = self.velocity_bounds(q, qd)
-        velocity_high = (v_hi - qd) / self.horizon
-        velocity_low = (v_lo - qd) / self.horizon
+        v_max = limits.joint_velocity_array
+        velocity_high = (v_max - qd) / horizon
+        velocity_low = (-v_max - qd) / horizon
+        brake_lo, brake_hi = self.braking_velocity(q)
         room_high = limits.upper_array - q
         room_low = q - limits.lower_array
-        step_high = np.where(room_high >= 0.0, (room_high / dt - qd) / dt, np.inf)
-        step_low = np.where(room_low >= 0.0, (-room_low / dt - qd) / dt, -np.inf)
-        high_from_step = step_high < velocity_high
-        low_from_step = step_low > velocity_low
-        a_hi = np.where(high_from_step, step_high, velocity_high)
-        a_lo = np.where(low_from_step, step_low, velocity_low)
+        inside_high = room_high >= 0.0
+        inside_low = room_low >= 0.0
+        # Inside: the braking curve and the range on the next sample; beyond: the return speed on the horizon.
+        position_high = np.where(inside_high, np.minimum((brake_hi - qd) / dt, (room_high / dt - qd) / dt),
+                                 (brake_hi - qd) / horizon)
+        position_low = np.where(inside_low, np.maximum((brake_lo - qd) / dt, (-room_low / dt - qd) / dt),
+                                (brake_lo - qd) / horizon)
+        high_from_position = position_high < velocity_high
+        low_from_position = position_low > velocity_low
+        a_hi = np.where(high_from_position, position_high, velocity_high)
+        a_lo = np.where(low_from_position, position_low, velocity_low)
         conflict = a_lo > a_hi
         reconciled = bool(conflict.any())
         if reconciled:
-            a_lo = np.where(conflict & high_from_step, a_hi, a_lo)   # stop short of the upper limit
-            a_hi = np.where(conflict & ~high_from_step, a_lo, a_hi)  # stop short of the lower limit
-        return a_lo, a_hi, position_low | low_from_step, position_high | high_from_step, reconciled
+            a_lo = np.where(conflict & high_from_position, a_hi, a_lo)   # stop short of the upper limit
+            a_hi = np.where(conflict & ~high_from_position, a_lo, a_hi)  # stop short of the lower limit
+        return a_lo, a_hi, low_from_position, high_from_position, reconciled
 
     def shape(self, desired_torque: NDArray[np.float64], previous_torque: NDArray[np.float64] | None,
               q: NDArray[np.float64], qd: NDArray[np.float64], bias: NDArray[np.float64],

@@ -7,7 +7,7 @@ import pytest
 
 from fic_core.limits import LimitFlag, PandaLimits
 from fic_core.panda_description import NOMINAL_CONFIGURATION
-from fic_core.postural_optimisation import PosturalOptimisation
+from fic_core.postural_optimisation import BRAKING_TORQUE_RAMP, PosturalOptimisation
 from fic_core.robot_model import RobotModel
 
 DT = 0.001
@@ -102,17 +102,22 @@ def test_joint_velocity_limit_brakes(robot, limits) -> None:
 
 def test_joint_position_limit_brakes_in_time(robot, limits) -> None:
     optimisation = PosturalOptimisation(limits, DT)
+    room = 0.05  # rad from joint 4's upper limit
     q = NOMINAL_CONFIGURATION.copy()
-    q[3] = limits.joint_position_upper[3] - 0.05  # 5 cm... 0.05 rad from joint 4's upper limit
+    q[3] = limits.joint_position_upper[3] - room
+    a, lag = optimisation.braking_deceleration[3], optimisation.horizon + BRAKING_TORQUE_RAMP
+    braking_speed = a * (np.sqrt(lag ** 2 + 2 * room / a) - lag)
     qd = np.zeros(7)
-    qd[3] = 1.0  # toward it
+    qd[3] = braking_speed + 0.02  # toward the limit, a little faster than the braking curve allows
     robot.update(q, qd)
     bias = robot.nonlinear_effects + robot.joint_damping * qd
-    result, bias = shape(optimisation, robot, q, qd, bias, None)
+    result, bias = shape(optimisation, robot, q, qd, bias, None)  # tau_d: coast on
     assert result.flags & LimitFlag.JOINT_POSITION
-    ahead, _ = predicted_velocity(optimisation, robot, result.torque, bias)
-    braking = np.sqrt(2 * optimisation.braking_deceleration[3] * 0.05)
-    assert ahead[3] <= braking + PREDICTION_TOLERANCE
+    assert not result.relaxed
+    next_velocity = qd + DT * robot.mass_matrix_inverse @ (result.torque - bias)
+    # Back on the braking curve: from the next velocity v it stops within the room left, braking at a after the lag.
+    assert next_velocity[3] == pytest.approx(optimisation.braking_velocity(q)[1][3], abs=1e-6)
+    assert next_velocity[3] * lag + next_velocity[3] ** 2 / (2 * a) <= room + 1e-6
 
 
 def test_tcp_speed_limit(robot, limits) -> None:
@@ -202,17 +207,21 @@ def test_random_states_and_huge_demands(robot, limits) -> None:
                 counts["relaxed"] += 1
                 continue
             counts["feasible qp"] += result.solved_qp
-            # Feasible: the predicted joint velocity respects the velocity and braking bounds, the TCP speed too.
+            # Feasible: the velocity on the horizon respects the velocity limits, the next sample's velocity the
+            # braking curve of the position limits, and the TCP speed its limit.
             ahead, tcp_ahead = predicted_velocity(optimisation, robot, result.torque, bias)
-            v_lo, v_hi, _, _ = optimisation.velocity_bounds(robot.q, robot.qd)
-            assert np.all(ahead <= v_hi + PREDICTION_TOLERANCE)
-            assert np.all(ahead >= v_lo - PREDICTION_TOLERANCE)
+            v_max = limits.joint_velocity_array
+            assert np.all(np.abs(ahead) <= v_max + PREDICTION_TOLERANCE)
+            next_velocity = robot.qd + dt * robot.mass_matrix_inverse @ (result.torque - bias)
+            brake_lo, brake_hi = optimisation.braking_velocity(robot.q)
+            inside = (robot.q >= lower) & (robot.q <= upper)
+            assert np.all(next_velocity[inside] <= brake_hi[inside] + PREDICTION_TOLERANCE)
+            assert np.all(next_velocity[inside] >= brake_lo[inside] - PREDICTION_TOLERANCE)
             current_tcp = np.linalg.norm(robot.tcp_jacobian[:3] @ robot.qd)
             if current_tcp <= limits.tcp_speed:
                 assert np.linalg.norm(tcp_ahead) <= limits.tcp_speed * (1 + TCP_RELATIVE_TOLERANCE)
                 counts["tcp"] += 1
             # The next sample stays inside the position limits if this one is.
-            inside = (robot.q >= lower) & (robot.q <= upper)
             next_q = robot.q + dt * (robot.qd + dt * robot.mass_matrix_inverse @ (result.torque - bias))
             assert np.all(next_q[inside] <= upper[inside] + 1e-6)
             assert np.all(next_q[inside] >= lower[inside] - 1e-6)
