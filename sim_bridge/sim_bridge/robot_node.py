@@ -7,8 +7,9 @@ effort-controller convention), so a real Panda driver can stand in its place.
 
 One thread steps the physics and publishes everything (so all rates are counted in physics steps and nothing
 reads the model while it moves); the executor thread only receives commands. Modes (stepping.py):
-- realtime: steps paced by the wall clock at 1 kHz, zero-order hold on the last command. Header stamps come from
-  the node clock; /clock (sim time) is published at ``realtime_clock_rate_hz``.
+- realtime: steps paced by the wall clock at 1 kHz, zero-order hold on the last command. Header stamps are the
+  simulation's 1 ms step grid laid on the wall clock at the first step (so gaps are countable and stamps compare
+  with other nodes' wall-clock stamps); /clock (sim time) is published at ``realtime_clock_rate_hz``.
 - lockstep: after publishing the state of step k, wait for a command that arrives after that publication, then
   step; a wait longer than ``lockstep_timeout`` (wall clock) is counted and the step proceeds on the last command.
   Stamps are simulation time and /clock is published every step: run every other node with use_sim_time:=true.
@@ -51,9 +52,10 @@ from sim_bridge.scenes import SCENE_NAMES
 from sim_bridge.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
 from sim_bridge.watchdog import CommandWatchdog, WatchdogEvent
 
-# 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 50, so a recorder loses none; a late command is
-# superseded by the next one anyway.
-ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
+# 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 1000. A reliable writer overwrites samples a
+# slow reader has not acknowledged once its history is full, so a deep history (one second, only memory) is what
+# lets a recorder on a busy machine lose none; a late command is superseded by the next one anyway.
+ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
 STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
 DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
 
@@ -109,6 +111,7 @@ class RobotNode(Node):
         self._last_command_count = 0
         self._last_command: np.ndarray | None = None
         self._stop = threading.Event()
+        self._wall_epoch_ns = self.get_clock().now().nanoseconds
 
         self._joint_state_pub = self.create_publisher(JointState, "/joint_states", ROBOT_STREAM_QOS)
         self._wrench_pub = self.create_publisher(WrenchStamped, "/ft_sensor/wrench", ROBOT_STREAM_QOS)
@@ -203,6 +206,10 @@ class RobotNode(Node):
                 raise
 
     def _run_realtime(self) -> None:
+        # Stamps are the simulation's own 1 ms grid laid on the wall clock from the first step: comparable with
+        # every other node's wall-clock stamps (to within the step lateness) and exact enough for a recorder or
+        # report to count a missing joint state as a gap in the grid.
+        self._wall_epoch_ns = self.get_clock().now().nanoseconds - self._sim.steps * round(TIMESTEP * 1e9)
         self._publish_state()
         while not self._stop.is_set():
             lateness = self._pacer.wait_next()
@@ -271,7 +278,8 @@ class RobotNode(Node):
     def _stamp(self) -> Time:
         if self._mode == "lockstep":
             return _time_from_steps(self._sim.steps)
-        return self.get_clock().now().to_msg()
+        nanoseconds = self._wall_epoch_ns + self._sim.steps * round(TIMESTEP * 1e9)
+        return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
 
     def _publish_state(self) -> None:
         stamp = self._stamp()
