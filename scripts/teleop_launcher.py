@@ -198,6 +198,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<date-time>)")
     parser.add_argument("--domain-id", type=int, default=None, help="ROS_DOMAIN_ID for this run")
+    parser.add_argument("--wall-limit", type=float, default=None,
+                        help="give up after this many wall-clock seconds (default max(120, 6 x duration); lockstep "
+                             "on a loaded 2-core machine can run at 0.1x real time)")
     parser.add_argument("--no-report", action="store_true")
     parser.add_argument("--no-video", action="store_true", help="skip the key frames and the animation")
     return parser.parse_args(argv)
@@ -233,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         for spec in graph(args, bag_path):
             running.start(spec)
-        sim_elapsed = wait_for_sim_time(args.duration, running, wall_limit=max(120.0, 6.0 * args.duration))
+        sim_elapsed = wait_for_sim_time(args.duration, running, wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration))
     except KeyboardInterrupt:
         interrupted["flag"] = True
         print("\n[run] interrupted: stopping the graph and finalising the bag")
