@@ -20,8 +20,10 @@ REPO = Path(__file__).resolve().parent.parent
 INSTALL = REPO / "install"
 CONFIG = REPO / "config"
 
-# Domain ids 10-59 are handed out here in turn; 60-79 are reserved for tests that pin their own.
-_domain_ids = itertools.cycle(range(10, 60))
+# Domain ids 10-59 are handed out here in turn, starting at an offset taken from the process id so that two
+# pytest sessions on one machine are unlikely to share a domain; 60-79 are reserved for tests that pin their own.
+_first_domain = 10 + os.getpid() % 50
+_domain_ids = itertools.cycle(list(range(_first_domain, 60)) + list(range(10, _first_domain)))
 
 
 def installed_executable(package: str, executable: str) -> Path:
