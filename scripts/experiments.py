@@ -31,6 +31,7 @@ import json
 import os
 import platform
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -78,13 +79,19 @@ def e3_cells(args) -> list[Cell]:
 
 def e4_cells(args) -> list[Cell]:
     cells = []
+    # The rate sweep runs at zero delay; its 1000 Hz point IS the zero-delay cell of the delay sweep (a 1000 Hz rate
+    # cap is above the master's 250 Hz network rate and the replica's default rate is 1000 Hz: the same run).
+    full_rate = max(args.rates) >= 1000.0 and 0.0 in args.delays
     for delay in args.delays:
         for controller in CONTROLLERS:
+            sweep = "delay+rate" if (delay == 0.0 and full_rate) else "delay"
             cells.append(Cell(f"e4_delay{delay:g}_{controller}", "E4",
                               {"scene": "superimposition", "duration": args.sweep_duration, "delay": delay,
                                "controller": controller, "seed": 1},
-                              labels={"sweep": "delay", "delay": delay, "rate": 1000.0, "controller": controller}))
+                              labels={"sweep": sweep, "delay": delay, "rate": 1000.0, "controller": controller}))
     for rate in args.rates:
+        if rate >= 1000.0 and full_rate:
+            continue
         for controller in CONTROLLERS:
             cells.append(Cell(f"e4_rate{rate:g}_{controller}", "E4",
                               {"scene": "superimposition", "duration": args.sweep_duration, "delay": 0.0,
@@ -172,7 +179,8 @@ def _plt():
 
 
 def plot_sweep(cells: list[dict], sweep: str, out: Path) -> Path | None:
-    chosen = [c for c in cells if c["labels"].get("sweep") == sweep and c.get("stability", {}).get("stable") is not None]
+    chosen = [c for c in cells if sweep in c["labels"].get("sweep", "").split("+")
+              and c.get("stability", {}).get("stable") is not None]
     if not chosen:
         return None
     plt = _plt()
@@ -215,8 +223,8 @@ def plot_stability_map(cells: list[dict], out: Path) -> Path | None:
     if not columns:
         return None
     plt = _plt()
-    names = [f"{c['labels']['delay']:g} s" if c["labels"]["sweep"] == "delay" else f"{c['labels']['rate']:g} Hz"
-             for c in columns]
+    names = [(f"{c['labels']['delay']:g} s" + ("\n1000 Hz" if "rate" in c["labels"]["sweep"] else ""))
+             if c["labels"]["sweep"].startswith("delay") else f"{c['labels']['rate']:g} Hz" for c in columns]
     fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(columns), 2.6))
     for row, controller in enumerate(CONTROLLERS):
         for col, fic_cell in enumerate(columns):
@@ -234,7 +242,7 @@ def plot_stability_map(cells: list[dict], out: Path) -> Path | None:
     ax.set_ylim(0, len(CONTROLLERS))
     ax.set_xticks(np.arange(len(columns)) + 0.5, names, fontsize=8)
     ax.set_yticks([0.5, 1.5], ["FIC", "linear"])
-    split = sum(1 for c in columns if c["labels"]["sweep"] == "delay")
+    split = sum(1 for c in columns if c["labels"]["sweep"].startswith("delay"))
     ax.axvline(split, color="black", lw=2)
     ax.set_title("E4: delay sweep (full rate) | rate sweep (zero delay); max error over the last half", fontsize=9)
     fig.tight_layout()
@@ -384,7 +392,15 @@ def shape_sorting_script_timing() -> dict:
     return {"length_s": length, "first_press_s": press + 0.5}
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
+    # Started in the background (nohup ... &) a process inherits SIGINT ignored, and so would the launcher and its
+    # nodes, which are stopped with SIGINT: restore Ctrl-C, and let SIGTERM stop the running cell cleanly too.
+    signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)
     args = parse_arguments(argv)
     criterion = StabilityCriterion()
     cells: list[Cell] = []

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
 import time
@@ -94,7 +95,9 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
     """Run the launcher for ``cell`` into ``run_dir`` (fresh), reporting simulated seconds as they pass."""
     run_dir.mkdir(parents=True, exist_ok=True)
     command = [sys.executable, str(LAUNCHER), *cell.arguments(), "--time-mode", time_mode, "--out", str(run_dir),
-               "--no-video", "--domain-id", str(free_domain_id())]
+               "--no-video", "--domain-id", str(free_domain_id()),
+               # lockstep runs at 0.1-0.3x real time on a loaded 2-core machine: let a cell finish
+               "--wall-limit", f"{120.0 + 30.0 * float(cell.options.get('duration', 30.0)):.0f}"]
     if not cell.report:
         command.append("--no-report")
     log_path = run_dir / "launcher.log"
@@ -122,7 +125,7 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
                     break
             process.wait(timeout=120)
         except BaseException:
-            process.terminate()  # the launcher stops its graph cleanly on SIGTERM
+            process.send_signal(signal.SIGINT)  # the launcher stops its graph and finalises the bag on Ctrl-C
             process.wait(timeout=120)
             raise
     if on_progress:

@@ -1,0 +1,238 @@
+#!/usr/bin/env python3
+"""Benchmarks of the whole system (issue 6 item 3); prints a table and writes results/bench.json.
+
+    scripts/bench.sh [--duration 30] [--lockstep-duration 10] [--out results/bench.json]
+
+1. Replica tick compute (median, p99): scripts/bench_core.py (the control law alone, in process).
+2. The default main job, timed end to end: `scripts/run_teleop.sh` with its defaults (superimposition, 200 ms, 30 s,
+   realtime, report included; only --out and a free --domain-id are added). While it runs, every node process the
+   launcher started is sampled with psutil every 0.5 s: CPU share (CPU seconds / wall seconds, 100 % = one core)
+   and peak resident memory (RSS). From its metrics.json: pipeline latency (median, p99) and real-time factor; from
+   its bag: the realtime step lateness of the robot sim (/sim/step_lateness, the worst step of each 0.1 s, and the
+   robot_sim diagnostics' 10 s p50/p99).
+3. Lockstep: the same graph in lockstep (--time-mode lockstep, --no-report): physics steps per wall second with the
+   whole graph answering every step (report's real_time_factor x 1000), with the same per-node sampling.
+
+Every figure depends on the machine's load (a 2-core VM shared with other work): the load average is written next
+to them.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import threading
+import time
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+import psutil
+
+REPO = Path(__file__).resolve().parent.parent
+os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
+
+from sim_bridge.experiments.bag_series import read_run  # noqa: E402
+from sim_bridge.experiments.runner import free_domain_id, write_json  # noqa: E402
+
+
+class NodeSampler(threading.Thread):
+    """Samples the CPU time and RSS of every descendant of ``root`` (the launcher) until stopped."""
+
+    def __init__(self, root: int, period: float = 0.5) -> None:
+        super().__init__(daemon=True)
+        self.root, self.period = root, period
+        self.stats: dict[str, dict] = {}
+        self._stop = threading.Event()
+
+    @staticmethod
+    def _name(process: psutil.Process) -> str | None:
+        try:
+            command = process.cmdline()
+        except (psutil.NoSuchProcess, psutil.AccessDenied):
+            return None
+        for item in command:
+            if item.startswith("__node:="):
+                return item.split("=", 1)[1]
+        if any("sim_bridge.report" in item for item in command):
+            return "report"
+        return None
+
+    def run(self) -> None:
+        try:
+            root = psutil.Process(self.root)
+        except psutil.NoSuchProcess:
+            return
+        while not self._stop.is_set():
+            try:
+                children = root.children(recursive=True)
+            except psutil.NoSuchProcess:
+                break
+            now = time.monotonic()
+            for child in children:
+                name = self._name(child)
+                if name is None:
+                    continue
+                try:
+                    with child.oneshot():
+                        times = child.cpu_times()
+                        rss = child.memory_info().rss
+                except (psutil.NoSuchProcess, psutil.AccessDenied):
+                    continue
+                cpu = times.user + times.system
+                entry = self.stats.setdefault(name, {"pid": child.pid, "first_t": now, "first_cpu": cpu,
+                                                     "last_t": now, "last_cpu": cpu, "peak_rss": rss})
+                entry["last_t"], entry["last_cpu"] = now, cpu
+                entry["peak_rss"] = max(entry["peak_rss"], rss)
+            self._stop.wait(self.period)
+
+    def stop(self) -> dict[str, dict]:
+        self._stop.set()
+        self.join(timeout=5.0)
+        table = {}
+        for name, entry in sorted(self.stats.items()):
+            span = entry["last_t"] - entry["first_t"]
+            table[name] = {"cpu_percent_of_one_core": round(100.0 * (entry["last_cpu"] - entry["first_cpu"]) / span, 1)
+                           if span > 1.0 else None,
+                           "peak_rss_mb": round(entry["peak_rss"] / 2 ** 20, 1), "sampled_s": round(span, 1)}
+        return table
+
+
+def run_sampled(command: list[str], log_path: Path) -> tuple[int, float, dict]:
+    start = time.monotonic()
+    with open(log_path, "w", encoding="utf-8") as log:
+        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=REPO,
+                                   env=dict(os.environ, PYTHONUNBUFFERED="1"))
+        sampler = NodeSampler(process.pid)
+        sampler.start()
+        code = process.wait()
+    wall = time.monotonic() - start
+    return code, wall, sampler.stop()
+
+
+def bench_core(ticks: int, out: Path) -> dict:
+    path = out / "bench_core.json"
+    subprocess.run([sys.executable, str(REPO / "scripts" / "bench_core.py"), "--ticks", str(ticks), "--json", str(path)],
+                   check=True, cwd=REPO, stdout=subprocess.DEVNULL)
+    return json.loads(path.read_text())
+
+
+def lateness(bag: Path) -> dict:
+    series = read_run(bag)
+    robot = series.diagnostics.get("robot_sim", {})
+    figures = {key: float(robot[key]) for key in ("lateness_p50_ms", "lateness_p99_ms", "lateness_max_ms",
+                                                  "achieved_rate_hz") if key in robot}
+    if "overruns" in robot:
+        figures["overruns"] = int(robot["overruns"])
+    values = _step_lateness(bag)
+    if values.size:
+        figures["step_lateness_topic_worst_per_100ms_median_ms"] = float(np.median(values) * 1e3)
+        figures["step_lateness_topic_worst_per_100ms_p99_ms"] = float(np.percentile(values, 99) * 1e3)
+        figures["step_lateness_topic_samples"] = int(values.size)
+    return figures
+
+
+def _step_lateness(bag: Path) -> np.ndarray:
+    import struct
+
+    from sim_bridge.bag_writer import read_messages
+
+    values = []
+    for _, channel, message in read_messages(bag):
+        if channel.topic == "/sim/step_lateness":
+            little = message.data[1] & 1
+            values.append(struct.unpack_from("<d" if little else ">d", message.data, 4)[0])  # std_msgs/Float64
+    return np.asarray(values)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", type=Path, default=REPO / "results" / "bench.json")
+    parser.add_argument("--runs", type=Path, default=None, help="run folders (default runs/bench-<time>)")
+    parser.add_argument("--ticks", type=int, default=20000, help="bench_core ticks")
+    parser.add_argument("--lockstep-duration", type=float, default=10.0)
+    parser.add_argument("--skip-default", action="store_true", help="skip the default main job")
+    parser.add_argument("--skip-lockstep", action="store_true")
+    args = parser.parse_args(argv)
+    runs = args.runs or REPO / "runs" / f"bench-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+    runs.mkdir(parents=True, exist_ok=True)
+    result: dict = {"generated": datetime.now().isoformat(timespec="seconds"),
+                    "machine": {"cpus": os.cpu_count(), "load_average_at_start": list(os.getloadavg())},
+                    "commands": {}}
+
+    print("[bench] replica tick compute (scripts/bench_core.py) ...", flush=True)
+    core = bench_core(args.ticks, runs)
+    result["replica_tick_us"] = {key: core["replica"].get(key) for key in ("median_us", "p99_us", "max_us", "count")}
+    cpu_only = core.get("replica (CPU time)") or {}
+    result["replica_tick_cpu_time_us"] = {key: cpu_only.get(key) for key in ("median_us", "p99_us")} if cpu_only else None
+    result["commands"]["replica_tick"] = f".venv/bin/python scripts/bench_core.py --ticks {args.ticks}"
+
+    if not args.skip_default:
+        run_dir = runs / "default"
+        command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), "--domain-id", str(free_domain_id())]
+        print(f"[bench] default main job: {' '.join(command)} ...", flush=True)
+        code, wall, nodes = run_sampled(command, runs / "default.log")
+        metrics_path = run_dir / "report" / "metrics.json"
+        metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else {}
+        result["default_main_job"] = {
+            "exit_code": code, "wall_s": round(wall, 1),
+            "pipeline_latency_p50_ms": metrics.get("pipeline_latency_p50_ms"),
+            "pipeline_latency_p99_ms": metrics.get("pipeline_latency_p99_ms"),
+            "real_time_factor": metrics.get("real_time_factor"),
+            "dropped_joint_states": metrics.get("dropped_joint_states"),
+            "realtime_step_lateness": lateness(run_dir / "bag") if (run_dir / "bag").exists() else None,
+            "nodes": nodes, "load_average_after": list(os.getloadavg())}
+        result["commands"]["default_main_job"] = "time scripts/run_teleop.sh"
+
+    if not args.skip_lockstep:
+        run_dir = runs / "lockstep"
+        command = [sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--time-mode", "lockstep",
+                   "--duration", f"{args.lockstep_duration:g}", "--no-report", "--no-video", "--out", str(run_dir),
+                   "--domain-id", str(free_domain_id())]
+        print(f"[bench] lockstep graph: {' '.join(command[1:])} ...", flush=True)
+        code, wall, nodes = run_sampled(command, runs / "lockstep.log")
+        from sim_bridge.experiments.runner import report_metrics
+
+        metrics = report_metrics(run_dir / "bag") if (run_dir / "bag").exists() else {}
+        text = (runs / "lockstep.log").read_text(errors="replace")
+        stopped = re.search(r"graph stopped after ([0-9.]+) s wall, ([0-9.]+) s simulated", text)
+        rtf = metrics.get("real_time_factor")
+        result["lockstep"] = {
+            "exit_code": code, "wall_s_incl_start_stop": round(wall, 1),
+            "simulated_s": float(stopped.group(2)) if stopped else None,
+            "real_time_factor": rtf, "steps_per_s": round(rtf * 1000.0, 1) if rtf else None,
+            "nodes": nodes, "load_average_after": list(os.getloadavg())}
+        result["commands"]["lockstep"] = (f"scripts/run_teleop.sh --time-mode lockstep --duration "
+                                          f"{args.lockstep_duration:g} --no-report --no-video")
+
+    write_json(args.out, result)
+    print_table(result)
+    print(f"[bench] {args.out}")
+    return 0
+
+
+def print_table(result: dict) -> None:
+    tick = result["replica_tick_us"]
+    print(f"\nreplica tick compute          median {tick['median_us']:.1f} us, p99 {tick['p99_us']:.1f} us")
+    default = result.get("default_main_job")
+    if default:
+        print(f"default main job              {default['wall_s']:.1f} s wall (exit {default['exit_code']})")
+        print(f"pipeline latency              median {default['pipeline_latency_p50_ms']} ms, "
+              f"p99 {default['pipeline_latency_p99_ms']} ms")
+        print(f"real-time factor (realtime)   {default['real_time_factor']}")
+        print(f"realtime step lateness        {default['realtime_step_lateness']}")
+    lock = result.get("lockstep")
+    if lock:
+        print(f"lockstep                      {lock['steps_per_s']} steps/s (RTF {lock['real_time_factor']})")
+    for label, block in (("realtime", default), ("lockstep", lock)):
+        if block and block.get("nodes"):
+            print(f"\nper node ({label})            CPU % of one core   peak RSS MB")
+            for name, row in block["nodes"].items():
+                print(f"  {name:<26} {row['cpu_percent_of_one_core']!s:>10}   {row['peak_rss_mb']:>10}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# Benchmarks (issue 6 item 3): replica tick compute, the default main job (timed; pipeline latency, real-time
+# factor, realtime step lateness, CPU and peak RSS per node) and lockstep steps per second; prints a table and
+# writes results/bench.json. `--help` lists the options.
+set -euo pipefail
+REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+"$REPO/scripts/setup.sh"
+# shellcheck source=/dev/null
+source "$REPO/scripts/env.sh"
+exec python "$REPO/scripts/bench.py" "$@"
