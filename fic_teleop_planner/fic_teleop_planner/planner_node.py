@@ -2,7 +2,9 @@
 
 A trajectory source (fic_core.trajectories: the paper's circle, a fixed point or via-points, chosen by the
 ``trajectory`` parameter) gives the next trajectory point x_t(t); fic_core.HarmonicPlanner turns it into x_d'',
-published as /planner/desired_pose (PoseStamped, panda_link0) at ``publish_rate``. The replica superimposes it
+published as /planner/desired_pose (PoseStamped, panda_link0) at ``publish_rate``, with the planner's
+acceleration on /planner/desired_accel (AccelStamped, same stamp) so that the replica can feed the superimposed
+motion's inertia forward (an addition beyond the paper, see fic_core.replica). The replica superimposes it
 on the operator's offset: x_d = x_d' + x_d''. x_d'' is an absolute position in the robot base frame; the planner
 starts at ``start_position`` (empty: the trajectory's first point) and the trajectory's clock starts
 ``start_delay`` seconds after the node. The orientation is a fixed parameter (the planner plans positions).
@@ -18,7 +20,7 @@ import math
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import AccelStamped, PoseStamped
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import ParameterUninitializedException
 from rclpy.executors import ExternalShutdownException
@@ -88,6 +90,7 @@ class PlannerNode(Node):
         self._published = 0
 
         self._publisher = self.create_publisher(PoseStamped, "/planner/desired_pose", POSE_QOS)
+        self._accel_publisher = self.create_publisher(AccelStamped, "/planner/desired_accel", POSE_QOS)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.create_timer(1.0 / value("publish_rate"), self._tick)
@@ -193,6 +196,10 @@ class PlannerNode(Node):
         (message.pose.orientation.x, message.pose.orientation.y, message.pose.orientation.z,
          message.pose.orientation.w) = self._orientation
         self._publisher.publish(message)
+        accel = AccelStamped()
+        accel.header = message.header
+        accel.accel.linear.x, accel.accel.linear.y, accel.accel.linear.z = (float(a) for a in self._planner.acceleration)
+        self._accel_publisher.publish(accel)
         self._published += 1
 
     def _publish_diagnostics(self) -> None:

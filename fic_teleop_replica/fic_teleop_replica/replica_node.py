@@ -51,6 +51,11 @@ from fic_core.panda_description import ARM_JOINT_NAMES
 # 1 kHz robot streams: RELIABLE, KEEP_LAST 50 (a recorder must lose none; a late command is superseded anyway).
 ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
 # Teleoperation streams through the channel: loss is the channel's job, DDS should add none.
+# The replica's own view of the robot: only the newest state matters. A deep reader queue would, on a busy
+# machine, hand the control law a backlog of old states and send torques computed for the past, a delayed
+# feedback loop that the physics then integrates (measured: the arm was thrown about under overload). Lockstep
+# is unaffected: the sim publishes the next state only after this node answered the last.
+NEWEST_STATE_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1)
 TELEOP_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
 # Status streams (fic_state, limit_status, poses, feedback wrench).
 STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
@@ -161,8 +166,8 @@ class ReplicaNode(Node):
         self._tcp_pose_pub = self.create_publisher(PoseStamped, "/replica/tcp_pose", STATUS_QOS)
         self._feedback_pub = self.create_publisher(WrenchStamped, "/replica/feedback_wrench", STATUS_QOS)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
-        self.create_subscription(JointState, "/joint_states", self._on_joint_state, ROBOT_STREAM_QOS)
-        self.create_subscription(WrenchStamped, "/ft_sensor/wrench", self._on_wrench, ROBOT_STREAM_QOS)
+        self.create_subscription(JointState, "/joint_states", self._on_joint_state, NEWEST_STATE_QOS)
+        self.create_subscription(WrenchStamped, "/ft_sensor/wrench", self._on_wrench, NEWEST_STATE_QOS)
         self.create_subscription(TeleoperationCommand, "/replica/teleop_command", self._on_teleop_command,
                                  TELEOP_QOS)
         self.create_subscription(PoseStamped, "/planner/desired_pose", self._on_planner_pose, TELEOP_QOS)

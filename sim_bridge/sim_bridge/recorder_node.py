@@ -47,7 +47,7 @@ DEFAULT_TOPICS = [
     "/haptic/pose", "/haptic/twist", "/haptic/wrench_command", "/operator/joy",
     "/master/pose", "/master/teleop_command", "/master/feedback_wrench",
     "/replica/master_pose", "/replica/teleop_command", "/replica/feedback_wrench",
-    "/planner/desired_pose", "/replica/desired_pose", "/replica/tcp_pose",
+    "/planner/desired_pose", "/planner/desired_accel", "/replica/desired_pose", "/replica/tcp_pose",
     "/replica/fic_state", "/replica/limit_status",
     "/joint_states", "/ft_sensor/wrench", "/clock", "/effort_controller/commands",
     "/channel/deliveries", "/diagnostics", "/sim/step_lateness",
