@@ -80,7 +80,8 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml",
                  {"trajectory": args.trajectory, **sim_time}),
         NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {**channel, **sim_time}),
-        NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml", {**channel, **sim_time}),
+        NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml",
+                 {**channel, "seed": args.seed + 1, **sim_time}),  # its own random stream
         NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml", {**sim_time}),
         NodeSpec("sim_bridge", "haptic_device_node", "haptic_device", "haptic_device.yaml",
                  {"scene": args.scene, "operator_source": operator, **sim_time}),
@@ -187,7 +188,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--delay", type=float, default=0.2, help="one-way channel delay [s], both ways (default 0.2)")
     parser.add_argument("--jitter", type=float, default=0.0, help="delay jitter [s]")
     parser.add_argument("--drop", type=float, default=0.0, help="drop probability in [0, 1]")
-    parser.add_argument("--blackout-at", type=float, default=None, help="total communication loss from this time [s] on")
+    parser.add_argument("--blackout-at", type=float, default=None,
+                        help="total loss of communication, both ways, from this many seconds after the channel starts")
     parser.add_argument("--rate-cap", type=float, default=0.0, help="channel rate cap [Hz], 0 = none (paper: 10 Hz)")
     parser.add_argument("--controller", default="fic", choices=["fic", "linear"], help="replica controller")
     parser.add_argument("--control-rate", type=float, default=1000.0, help="replica control rate [Hz]")
