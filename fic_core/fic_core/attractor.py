@@ -42,6 +42,11 @@ is no division by ~0 (``e_max`` itself is never exactly zero: entering C needs `
 ``e_max -> 0`` the C law tends to the spring ``2*F_c'(0)*(e - e_max/2)``, whose force tends to zero.
 The C force is clipped to ``|F_c(e_max)|`` (only reachable if a caller's rate disagrees with its error), so
 |FIC| <= F_max always.
+
+Implementation: the per-axis logic runs on plain Python floats (3 axes: numpy's per-call overhead would cost
+more than the arithmetic), and each ``force`` call replaces an immutable ``AttractorSnapshot`` of the state, so
+the stored energy is computed only when read (``stored_energy``, e.g. when a node publishes FicState), and a
+snapshot taken at one tick (``snapshot()``) still reports that tick after later calls.
 """
 from __future__ import annotations
 
@@ -50,8 +55,8 @@ from enum import IntEnum
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fic_core.errors import FicInputError, finite_array, finite_scalar
-from fic_core.profile import ForceProfile, _profile_force
+from fic_core.errors import FicInputError, finite_floats, finite_scalar
+from fic_core.profile import ForceProfile
 
 #: Default dead-band on d|e|/dt [m/s or rad/s] for entering C: well above the noise of a differentiated
 #: 1 kHz joint-velocity signal, well below the speeds of a deliberate motion.
@@ -63,6 +68,56 @@ class Phase(IntEnum):
 
     DIVERGENCE = 0
     CONVERGENCE = 1
+
+
+def _sign(value: float) -> int:
+    return (value > 0.0) - (value < 0.0)  # numpy.sign's values: -1, 0, +1
+
+
+class AttractorSnapshot:
+    """The state of a FractalAttractor after one ``force`` call, immutable; derived values computed on read.
+
+    Tuples per axis: whether the axis is in C, e_max, K_C = 2*F_c(e_max)/e_max, the offset c of V_C, and the
+    error and force of that call.
+    """
+
+    __slots__ = ("profile", "in_convergence", "latched_max_errors", "convergence_stiffness", "convergence_offset",
+                 "errors", "forces")
+
+    def __init__(self, profile: ForceProfile, in_convergence: tuple[bool, ...], latched_max_errors: tuple[float, ...],
+                 convergence_stiffness: tuple[float, ...], convergence_offset: tuple[float, ...],
+                 errors: tuple[float, ...], forces: tuple[float, ...]) -> None:
+        self.profile = profile
+        self.in_convergence = in_convergence
+        self.latched_max_errors = latched_max_errors
+        self.convergence_stiffness = convergence_stiffness
+        self.convergence_offset = convergence_offset
+        self.errors = errors
+        self.forces = forces
+
+    @property
+    def phase(self) -> NDArray[np.int64]:
+        """Phase per axis (Phase.DIVERGENCE = 0 or Phase.CONVERGENCE = 1)."""
+        return np.array(self.in_convergence, dtype=np.int64)
+
+    @property
+    def latched_max_error(self) -> NDArray[np.float64]:
+        return np.array(self.latched_max_errors, dtype=np.float64)
+
+    @property
+    def last_force(self) -> NDArray[np.float64]:
+        return np.array(self.forces, dtype=np.float64)
+
+    @property
+    def stored_energy(self) -> NDArray[np.float64]:
+        """Energy stored in each axis's spring [J]: V_D in D, V_C in C (see the module docstring)."""
+        energy = self.profile._scalar_energy
+        return np.array([
+            0.5 * stiffness * (error - 0.5 * latched) * (error - 0.5 * latched) + offset if converging
+            else energy(error)
+            for converging, latched, stiffness, offset, error in zip(
+                self.in_convergence, self.latched_max_errors, self.convergence_stiffness, self.convergence_offset,
+                self.errors)], dtype=np.float64)
 
 
 class FractalAttractor:
@@ -80,12 +135,8 @@ class FractalAttractor:
 
     def reset(self) -> None:
         """Back to D on every axis, nothing latched, no force, no stored energy."""
-        self._in_convergence = np.zeros(self._axes, dtype=bool)
-        self._latched_max_error = np.zeros(self._axes)
-        self._convergence_stiffness = np.zeros(self._axes)  # K_C = 2*F_c(e_max)/e_max, per axis
-        self._convergence_offset = np.zeros(self._axes)  # c in V_C, per axis
-        self._last_error = np.zeros(self._axes)
-        self._last_force = np.zeros(self._axes)
+        zeros = (0.0,) * self._axes
+        self._state = AttractorSnapshot(self._profile, (False,) * self._axes, zeros, zeros, zeros, zeros, zeros)
 
     @property
     def profile(self) -> ForceProfile:
@@ -99,28 +150,29 @@ class FractalAttractor:
     def rate_deadband(self) -> float:
         return self._rate_deadband
 
+    def snapshot(self) -> AttractorSnapshot:
+        """The state after the last ``force`` call; later calls do not change it."""
+        return self._state
+
     @property
     def phase(self) -> NDArray[np.int64]:
         """Phase per axis (Phase.DIVERGENCE = 0 or Phase.CONVERGENCE = 1), a copy."""
-        return np.where(self._in_convergence, int(Phase.CONVERGENCE), int(Phase.DIVERGENCE)).astype(np.int64)
+        return self._state.phase
 
     @property
     def latched_max_error(self) -> NDArray[np.float64]:
         """e_max latched at each axis's last D->C switch (zero before the first), a copy."""
-        return self._latched_max_error.copy()
+        return self._state.latched_max_error
 
     @property
     def last_force(self) -> NDArray[np.float64]:
         """The force returned by the last ``force`` call, a copy."""
-        return self._last_force.copy()
+        return self._state.last_force
 
     @property
     def stored_energy(self) -> NDArray[np.float64]:
         """Energy stored in each axis's spring at the last ``force`` call [J] (see the module docstring)."""
-        divergence_energy = self._profile.energy(self._last_error)
-        centred = self._last_error - 0.5 * self._latched_max_error
-        convergence_energy = 0.5 * self._convergence_stiffness * centred ** 2 + self._convergence_offset
-        return np.where(self._in_convergence, convergence_energy, divergence_energy)
+        return self._state.stored_energy
 
     def force(self, error: ArrayLike, error_rate: ArrayLike) -> NDArray[np.float64]:
         """FIC(e) per axis (paper Eq. 2); updates the phase state.
@@ -132,32 +184,75 @@ class FractalAttractor:
         Returns:
             The force per axis [N or N m], shape (axes,).
         """
-        error = finite_array("error", error, (self._axes,))
-        error_rate = finite_array("error_rate", error_rate, (self._axes,))
-        magnitude_rate = np.sign(error) * error_rate  # d|e|/dt
-        same_side = np.sign(error) == np.sign(self._latched_max_error)
-        # Stay in C while |e| keeps decreasing on the same side of the target; enter C past the dead-band.
-        staying = self._in_convergence & (magnitude_rate < 0.0) & same_side
-        entering = ~self._in_convergence & (magnitude_rate < -self._rate_deadband)
-        if np.any(entering):
-            latched = error[entering]
-            stiffness = 2.0 * self._profile.secant_stiffness(latched)  # K_C = 2*F_c(e_max)/e_max
-            self._latched_max_error[entering] = latched
-            self._convergence_stiffness[entering] = stiffness
-            # V_C(e_max) = V_D(e_max): c = V_D(e_max) - K_C*e_max^2/8.
-            self._convergence_offset[entering] = self._profile.energy(latched) - stiffness * latched ** 2 / 8.0
-        self._in_convergence = staying | entering
+        errors = finite_floats("error", error, self._axes)
+        rates = finite_floats("error_rate", error_rate, self._axes)
+        return np.array(self._step(errors, rates), dtype=np.float64)
 
-        profile = self._profile  # already validated; evaluate Eq. 1 without re-checking its parameters
-        divergence_force = _profile_force(error, profile.stiffness, profile.saturation_error,
-                                          profile.saturation_start, profile.max_force)  # Eq. 2, D
-        convergence_force = self._convergence_stiffness * (error - 0.5 * self._latched_max_error)  # Eq. 2, C
-        convergence_limit = self._convergence_stiffness * 0.5 * np.abs(self._latched_max_error)  # |F_c(e_max)|
-        convergence_force = np.clip(convergence_force, -convergence_limit, convergence_limit)
-        force = np.where(self._in_convergence, convergence_force, divergence_force)
-        self._last_error = error
-        self._last_force = force
-        return force.copy()
+    def _step(self, errors: list[float], rates: list[float]) -> list[float]:
+        """Eq. 2 on validated floats: the phase logic per axis, then the force; returns the forces."""
+        old = self._state
+        profile = self._profile
+        deadband = self._rate_deadband
+        in_convergence = list(old.in_convergence)
+        latched_max_errors = list(old.latched_max_errors)
+        convergence_stiffness = list(old.convergence_stiffness)
+        convergence_offset = list(old.convergence_offset)
+        forces = []
+        for axis, (error, rate) in enumerate(zip(errors, rates)):
+            error_sign = _sign(error)
+            magnitude_rate = error_sign * rate  # d|e|/dt
+            if in_convergence[axis]:
+                # Stay in C while |e| keeps decreasing on the same side of the target.
+                converging = magnitude_rate < 0.0 and error_sign == _sign(latched_max_errors[axis])
+            else:
+                # Enter C past the dead-band, latching e_max.
+                converging = magnitude_rate < -deadband
+                if converging:
+                    stiffness = 2.0 * profile._scalar_secant_stiffness(error)  # K_C = 2*F_c(e_max)/e_max
+                    latched_max_errors[axis] = error
+                    convergence_stiffness[axis] = stiffness
+                    # V_C(e_max) = V_D(e_max): c = V_D(e_max) - K_C*e_max^2/8.
+                    convergence_offset[axis] = profile._scalar_energy(error) - stiffness * error * error / 8.0
+            in_convergence[axis] = converging
+            if converging:
+                stiffness = convergence_stiffness[axis]
+                latched = latched_max_errors[axis]
+                force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
+                limit = stiffness * 0.5 * abs(latched)  # |F_c(e_max)|
+                force = limit if force > limit else (-limit if force < -limit else force)
+            else:
+                force = profile._scalar_force(error)  # Eq. 2, D
+            forces.append(force)
+        self._state = AttractorSnapshot(profile, tuple(in_convergence), tuple(latched_max_errors),
+                                        tuple(convergence_stiffness), tuple(convergence_offset), tuple(errors),
+                                        tuple(forces))
+        return forces
+
+
+class PoseAttractorSnapshot:
+    """The two snapshots of a PoseAttractor after one ``wrench`` call; 6-vectors x, y, z, rx, ry, rz on read."""
+
+    __slots__ = ("translation", "rotation")
+
+    def __init__(self, translation: AttractorSnapshot, rotation: AttractorSnapshot) -> None:
+        self.translation = translation
+        self.rotation = rotation
+
+    @property
+    def phase(self) -> NDArray[np.int64]:
+        return np.array(self.translation.in_convergence + self.rotation.in_convergence, dtype=np.int64)
+
+    @property
+    def latched_max_error(self) -> NDArray[np.float64]:
+        return np.array(self.translation.latched_max_errors + self.rotation.latched_max_errors, dtype=np.float64)
+
+    @property
+    def last_force(self) -> NDArray[np.float64]:
+        return np.array(self.translation.forces + self.rotation.forces, dtype=np.float64)
+
+    @property
+    def stored_energy(self) -> NDArray[np.float64]:
+        return np.concatenate([self.translation.stored_energy, self.rotation.stored_energy])
 
 
 class PoseAttractor:
@@ -198,23 +293,27 @@ class PoseAttractor:
             twist_error: d/dt of (position_error, rotation_error): desired minus measured twist [m/s, rad/s],
                 shape (6,), base frame.
         """
-        twist_error = finite_array("twist_error", twist_error, (6,))
-        force = self._translation.force(finite_array("position_error", position_error, (3,)), twist_error[:3])
-        torque = self._rotation.force(finite_array("rotation_error", rotation_error, (3,)), twist_error[3:])
-        return np.concatenate([force, torque])
+        twist_error = finite_floats("twist_error", twist_error, 6)
+        force = self._translation._step(finite_floats("position_error", position_error, 3), twist_error[:3])
+        torque = self._rotation._step(finite_floats("rotation_error", rotation_error, 3), twist_error[3:])
+        return np.array(force + torque, dtype=np.float64)
+
+    def snapshot(self) -> PoseAttractorSnapshot:
+        """The state after the last ``wrench`` call (phase, latched_max_error, last_force, stored_energy on read)."""
+        return PoseAttractorSnapshot(self._translation.snapshot(), self._rotation.snapshot())
 
     @property
     def phase(self) -> NDArray[np.int64]:
-        return np.concatenate([self._translation.phase, self._rotation.phase])
+        return self.snapshot().phase
 
     @property
     def latched_max_error(self) -> NDArray[np.float64]:
-        return np.concatenate([self._translation.latched_max_error, self._rotation.latched_max_error])
+        return self.snapshot().latched_max_error
 
     @property
     def last_force(self) -> NDArray[np.float64]:
-        return np.concatenate([self._translation.last_force, self._rotation.last_force])
+        return self.snapshot().last_force
 
     @property
     def stored_energy(self) -> NDArray[np.float64]:
-        return np.concatenate([self._translation.stored_energy, self._rotation.stored_energy])
+        return self.snapshot().stored_energy

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fic_core.attractor import Phase, PoseAttractor
-from fic_core.errors import finite_array, finite_scalar
+from fic_core.errors import finite_floats, finite_scalar
 
 #: Damping ratio of the baseline: near-critical, so it is neither sluggish nor ringing.
 DEFAULT_DAMPING_RATIO = 0.7
@@ -27,6 +27,35 @@ DEFAULT_DAMPING_RATIO = 0.7
 DEFAULT_EFFECTIVE_MASS = 4.0
 #: The Panda's effective rotational inertia at the TCP [kg m^2], order of magnitude.
 DEFAULT_EFFECTIVE_INERTIA = 0.1
+
+
+class LinearImpedanceSnapshot:
+    """The state of a LinearImpedance after one ``wrench`` call, immutable; derived values computed on read."""
+
+    __slots__ = ("stiffness", "errors", "forces")
+
+    def __init__(self, stiffness: tuple[float, ...], errors: tuple[float, ...], forces: tuple[float, ...]) -> None:
+        self.stiffness = stiffness
+        self.errors = errors
+        self.forces = forces
+
+    @property
+    def phase(self) -> NDArray[np.int64]:
+        """Always DIVERGENCE: a linear spring has no phase; reported so the FicState message stays uniform."""
+        return np.full(6, int(Phase.DIVERGENCE), dtype=np.int64)
+
+    @property
+    def latched_max_error(self) -> NDArray[np.float64]:
+        return np.zeros(6)
+
+    @property
+    def last_force(self) -> NDArray[np.float64]:
+        return np.array(self.forces, dtype=np.float64)
+
+    @property
+    def stored_energy(self) -> NDArray[np.float64]:
+        """K*e^2/2 per axis [J]."""
+        return np.array([0.5 * k * e * e for k, e in zip(self.stiffness, self.errors)], dtype=np.float64)
 
 
 class LinearImpedance:
@@ -40,48 +69,51 @@ class LinearImpedance:
         rotation_stiffness = finite_scalar("rotation_stiffness", rotation_stiffness, minimum=0.0)
         translation_damping = finite_scalar("translation_damping", translation_damping, minimum=0.0)
         rotation_damping = finite_scalar("rotation_damping", rotation_damping, minimum=0.0)
-        self._stiffness = np.array([translation_stiffness] * 3 + [rotation_stiffness] * 3)
-        self._damping = np.array([translation_damping] * 3 + [rotation_damping] * 3)
+        # Plain floats per axis: the 6-vector arithmetic of one tick is cheaper without numpy's call overhead.
+        self._stiffness_values = (translation_stiffness,) * 3 + (rotation_stiffness,) * 3
+        self._damping_values = (translation_damping,) * 3 + (rotation_damping,) * 3
         self.reset()
 
     @property
     def stiffness(self) -> NDArray[np.float64]:
-        return self._stiffness.copy()
+        return np.array(self._stiffness_values)
 
     @property
     def damping(self) -> NDArray[np.float64]:
-        return self._damping.copy()
+        return np.array(self._damping_values)
 
     def reset(self) -> None:
-        self._last_error = np.zeros(6)
-        self._last_force = np.zeros(6)
+        self._state = LinearImpedanceSnapshot(self._stiffness_values, (0.0,) * 6, (0.0,) * 6)
 
     def wrench(self, position_error: ArrayLike, rotation_error: ArrayLike, twist_error: ArrayLike) -> NDArray[np.float64]:
         """K*e + D*de/dt [N, N m]; arguments as ``PoseAttractor.wrench``."""
-        error = np.concatenate([finite_array("position_error", position_error, (3,)),
-                                finite_array("rotation_error", rotation_error, (3,))])
-        twist_error = finite_array("twist_error", twist_error, (6,))
-        self._last_error = error
-        self._last_force = self._stiffness * error + self._damping * twist_error
-        return self._last_force.copy()
+        error = finite_floats("position_error", position_error, 3) + finite_floats("rotation_error", rotation_error, 3)
+        twist_error = finite_floats("twist_error", twist_error, 6)
+        forces = [k * e + d * r for k, e, d, r in zip(self._stiffness_values, error, self._damping_values, twist_error)]
+        self._state = LinearImpedanceSnapshot(self._stiffness_values, tuple(error), tuple(forces))
+        return np.array(forces, dtype=np.float64)
+
+    def snapshot(self) -> LinearImpedanceSnapshot:
+        """The state after the last ``wrench`` call; later calls do not change it."""
+        return self._state
 
     @property
     def phase(self) -> NDArray[np.int64]:
         """Always DIVERGENCE: a linear spring has no phase; reported so the FicState message stays uniform."""
-        return np.full(6, int(Phase.DIVERGENCE), dtype=np.int64)
+        return self._state.phase
 
     @property
     def latched_max_error(self) -> NDArray[np.float64]:
-        return np.zeros(6)
+        return self._state.latched_max_error
 
     @property
     def last_force(self) -> NDArray[np.float64]:
-        return self._last_force.copy()
+        return self._state.last_force
 
     @property
     def stored_energy(self) -> NDArray[np.float64]:
         """K*e^2/2 per axis [J]."""
-        return 0.5 * self._stiffness * self._last_error ** 2
+        return self._state.stored_energy
 
 
 def make_baseline_like(pose_attractor: PoseAttractor, damping_ratio: float = DEFAULT_DAMPING_RATIO,

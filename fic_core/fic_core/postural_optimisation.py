@@ -110,9 +110,12 @@ class PosturalOptimisation:
         v_max = limits.joint_velocity_array
         self._free_room = np.maximum(v_max * v_max / (2.0 * deceleration) + v_max * self._braking_lag,
                                      v_max * self.control_period)
-        rate_step = np.full(7, limits.torque_rate * self.control_period)
-        self._fast_bounds = np.concatenate((limits.torque_array, rate_step, v_max, v_max))
-        self._fast_bounds_first = np.concatenate((limits.torque_array, v_max, v_max))
+        # The fast-path bounds as Python floats (``_admits_unshaped`` runs on floats).
+        self._torque_values = limits.torque_array.tolist()
+        self._velocity_values = v_max.tolist()
+        self._free_room_values = self._free_room.tolist()
+        self._rate_step = limits.torque_rate * self.control_period
+        self._tcp_speed_squared = limits.tcp_speed * limits.tcp_speed
         self.qp_count = 0
         self.relaxed_count = 0
         self.guard_clips = 0
@@ -221,13 +224,8 @@ class PosturalOptimisation:
             position_margin = np.minimum(q - limits.lower_array, limits.upper_array - q)
         # (With |qd| and |ahead| <= v_max and the room beyond v_max^2 / 2a and v_max dt, neither the braking nor
         # the next-sample position bound can bind.)
-        if previous_torque is None:
-            stacked, bounds = np.concatenate((desired_torque, ahead, qd)), self._fast_bounds_first
-        else:
-            stacked, bounds = np.concatenate((desired_torque, desired_torque - previous_torque, ahead, qd)), \
-                self._fast_bounds
-        if ((np.abs(stacked) <= bounds).all() and tcp_ahead_squared <= limits.tcp_speed * limits.tcp_speed
-                and (position_margin > self._free_room).all()):
+        if self._admits_unshaped(desired_torque.tolist(), None if previous_torque is None else previous_torque.tolist(),
+                                 qd.tolist(), ahead.tolist(), tcp_ahead_squared, position_margin.tolist()):
             return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0, True)
 
         minv_tau_d = mass_matrix_inverse @ desired_torque
@@ -310,6 +308,27 @@ class PosturalOptimisation:
                 or LimitFlag.TORQUE
         change = clipped - desired_torque
         return ShapedTorque(clipped, flags, float(np.sqrt(change @ change)), True, relaxed, guard, iterations)
+
+    def _admits_unshaped(self, desired_torque: list[float], previous_torque: list[float] | None,
+                         qd: list[float], ahead: list[float], tcp_ahead_squared: float,
+                         position_margin: list[float]) -> bool:
+        """The fast path's test, on floats: tau_d inside the torque and torque-rate box, |qd| and the velocity
+        extrapolated T ahead (``ahead``) within the velocity limits, the TCP speed T ahead within its limit, and
+        every joint farther from its position limits than the braking bound can reach (``_free_room``)."""
+        if tcp_ahead_squared > self._tcp_speed_squared:
+            return False
+        for torque, torque_limit, velocity, velocity_ahead, velocity_limit, margin, room in zip(
+                desired_torque, self._torque_values, qd, ahead, self._velocity_values, position_margin,
+                self._free_room_values):
+            if not (abs(torque) <= torque_limit and abs(velocity_ahead) <= velocity_limit
+                    and abs(velocity) <= velocity_limit and margin > room):
+                return False
+        if previous_torque is not None:
+            step = self._rate_step
+            for torque, previous in zip(desired_torque, previous_torque):
+                if not abs(torque - previous) <= step:
+                    return False
+        return True
 
     def _solve(self, hessian, linear, rows, b_upper, b_lower, relaxed: bool):
         """Solve with hard prediction constraints; on infeasibility, again with them soft (bounds stay hard)."""

@@ -68,6 +68,11 @@ class NullSpacePosture:
         self.task_regularisation = finite_scalar("task_regularisation", task_regularisation, minimum=0.0)
         self.dof = dof
         self._regularisation_matrix = self.task_regularisation * np.eye(6)
+        # The gains as Python floats for the per-joint arithmetic of the replica's tick (``_joint_torque_values``);
+        # the parameters are fixed at construction.
+        self._nominal_values = self.nominal.tolist()
+        self._stiffness_values = self.stiffness.tolist()
+        self._damping_values = self.damping.tolist()
 
     def limit_repulsion(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
         """Joint torque pushing each joint out of the band near its limits (zero outside the band)."""
@@ -86,6 +91,16 @@ class NullSpacePosture:
         torque = self.stiffness * (self.nominal - q) - self.damping * qd
         if position_margin is None or position_margin.min() < self.limit_band:
             torque += self.limit_repulsion(q)
+        return torque
+
+    def _joint_torque_values(self, q_values: list[float], qd_values: list[float], q: NDArray[np.float64],
+                             smallest_margin: float) -> list[float]:
+        """``joint_torque`` on validated floats (the replica's tick): the same terms, as a list of floats."""
+        torque = [stiffness * (nominal - position) - damping * velocity
+                  for stiffness, nominal, position, damping, velocity in zip(
+                      self._stiffness_values, self._nominal_values, q_values, self._damping_values, qd_values)]
+        if smallest_margin < self.limit_band:
+            torque = [value + repulsion for value, repulsion in zip(torque, self.limit_repulsion(q).tolist())]
         return torque
 
     def projector(self, jacobian: NDArray[np.float64], mass_matrix_inverse: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -76,21 +76,31 @@ class ForceProfile:
         object.__setattr__(self, "saturation_error", saturation_error)
         object.__setattr__(self, "saturation_start", saturation_start)
         object.__setattr__(self, "max_force", max_force)
+        # Derived constants, computed once here rather than on every call of the 1 kHz tick (not dataclass
+        # fields: equality, hashing and repr still use the four parameters only).
+        width = (1.0 - saturation_start) * saturation_error / (2.0 * math.pi)
+        force_span = max_force - linear_limit_force
+        object.__setattr__(self, "_linear_limit", saturation_start * saturation_error)
+        object.__setattr__(self, "_linear_limit_force", linear_limit_force)
+        object.__setattr__(self, "_force_span", force_span)  # dF = F_max - F0
+        object.__setattr__(self, "_width", width)  # S
+        object.__setattr__(self, "_tangent_slope", force_span * (1.0 - _TANH_START ** 2) / (_TANH_SPAN * width))
+        object.__setattr__(self, "_linear_energy", 0.5 * stiffness * (saturation_start * saturation_error) ** 2)
 
     @property
     def linear_limit(self) -> float:
         """xi*x_b: the largest |e| where the profile is linear (K0*e)."""
-        return self.saturation_start * self.saturation_error
+        return self._linear_limit
 
     @property
     def linear_limit_force(self) -> float:
         """F0 = xi*K0*x_b: the force where the saturation starts."""
-        return self.saturation_start * self.stiffness * self.saturation_error
+        return self._linear_limit_force
 
     @property
     def saturation_width(self) -> float:
         """S = (1 - xi)*x_b/(2*pi) [m]: the tanh's length scale (SPEC 1.1 erratum on units)."""
-        return (1.0 - self.saturation_start) * self.saturation_error / (2.0 * math.pi)
+        return self._width
 
     def force(self, error: ArrayLike) -> NDArray[np.float64]:
         """F_c(error), elementwise (paper Eq. 1)."""
@@ -149,6 +159,47 @@ class ForceProfile:
         saturated = (0.5 * self.stiffness * linear_limit ** 2 + self.linear_limit_force * beyond
                      + force_span / _TANH_SPAN * tanh_integral)
         return np.where(magnitude <= linear_limit, 0.5 * self.stiffness * magnitude ** 2, saturated)
+
+    # Scalar forms of force, secant_stiffness and energy for one axis, on plain floats that the caller has
+    # validated (the attractor's per-axis loop): the same formulas, without numpy's per-call overhead on 3-vectors.
+    def _scalar_force(self, error: float) -> float:
+        magnitude = abs(error)
+        if magnitude <= self._linear_limit:
+            return self.stiffness * error
+        saturated = self._linear_limit_force + self._force_span * (
+            math.tanh((magnitude - self.saturation_error) / self._width + math.pi) - _TANH_START) / _TANH_SPAN
+        return saturated if error > 0.0 else -saturated
+
+    def _scalar_secant_stiffness(self, error: float) -> float:
+        magnitude = abs(error)
+        linear_limit = self._linear_limit
+        if magnitude <= linear_limit and linear_limit > 0.0:
+            return self.stiffness
+        if magnitude > 1e-9 * self.saturation_error:
+            return abs(self._scalar_force(magnitude)) / magnitude
+        if magnitude > 0.0:
+            return (self._linear_limit_force + self._tangent_slope * (magnitude - linear_limit)) / magnitude
+        return self._tangent_slope
+
+    def _scalar_energy(self, error: float) -> float:
+        magnitude = abs(error)
+        linear_limit = self._linear_limit
+        if magnitude <= linear_limit:
+            return 0.5 * self.stiffness * magnitude * magnitude
+        width = self._width
+        beyond = magnitude - linear_limit
+        argument = (magnitude - self.saturation_error) / width + math.pi
+        tanh_integral = width * (_scalar_log_cosh(argument) - _LOG_COSH_START) - _TANH_START * beyond
+        return self._linear_energy + self._linear_limit_force * beyond + self._force_span / _TANH_SPAN * tanh_integral
+
+
+def _scalar_log_cosh(u: float) -> float:
+    magnitude = abs(u)
+    return magnitude + math.log1p(math.exp(-2.0 * magnitude)) - _LOG_2
+
+
+_LOG_2 = math.log(2.0)
+_LOG_COSH_START = _scalar_log_cosh(-math.pi)
 
 
 def force_profile(error: ArrayLike, *, stiffness: float, saturation_error: float, saturation_start: float,

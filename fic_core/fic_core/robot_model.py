@@ -29,6 +29,21 @@ def checked_array(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArra
     return finite_array(name, value, shape)  # raises, unless a huge finite input overflowed the sum
 
 
+def _state_vector(name: str, value: ArrayLike, size: int) -> tuple[NDArray[np.float64], list[float]]:
+    """A fresh float64 copy of a joint vector and its values as floats, checked with one sum (NaN/Inf propagate
+    into it); a suspicious input takes ``finite_array``, which raises FicInputError naming ``name``."""
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise FicInputError(f"{name} must be numeric, got {value!r}") from exc
+    if array.shape != (size,):
+        raise FicInputError(f"{name} must have shape {(size,)}, got {array.shape}")
+    values = array.tolist()
+    if not math.isfinite(sum(values)):
+        finite_array(name, array, (size,))  # raises, unless a huge finite input overflowed the sum
+    return array, values
+
+
 class RobotModel:
     """Pinocchio model of the 7-DoF Panda arm (fingers locked, simulator's armature mirrored).
 
@@ -62,25 +77,30 @@ class RobotModel:
     def update(self, q: ArrayLike, qd: ArrayLike) -> None:
         """Compute kinematics and dynamics at (q, qd). Raises FicInputError on NaN/Inf or a wrong shape.
 
-        The arrays the accessors return are valid until the next ``update`` (copy them to keep them).
+        The arrays the accessors return are valid until the next ``update`` (copy them to keep them); ``q``,
+        ``qd``, the TCP pose, Jacobian and twist are fresh arrays each update, never overwritten.
         """
-        q = checked_array("q", q, (self.dof,)).copy()
-        qd = checked_array("qd", qd, (self.dof,)).copy()
-        model, data = self.model, self.data
-        # computeJointJacobians also runs the forward kinematics of the placements.
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacement(model, data, self.tcp_frame_id)
-        self._jacobian = pin.getFrameJacobian(model, data, self.tcp_frame_id, _LOCAL_WORLD_ALIGNED)  # a new array
-        placement = data.oMf[self.tcp_frame_id]
-        self._position = placement.translation.copy()  # views of `data`, overwritten by the next call: copied
-        self._rotation = placement.rotation.copy()
+        dof = self.dof
+        q, q_values = _state_vector("q", q, dof)
+        qd, qd_values = _state_vector("qd", qd, dof)
+        model, data, frame = self.model, self.data, self.tcp_frame_id
+        # One pass for the TCP: computeFrameJacobian runs the forward kinematics of the frame's support, sets
+        # data.oMf[frame] and returns a new array (cheaper than computeJointJacobians + updateFramePlacement +
+        # getFrameJacobian, the same numbers: test_robot_model checks J against finite differences).
+        jacobian = pin.computeFrameJacobian(model, data, q, frame, _LOCAL_WORLD_ALIGNED)
+        pose = data.oMf[frame].homogeneous  # a new 4x4 array: no copy needed to keep the pose
         # nonLinearEffects and computeMinverse return views of distinct members of `data` (nle, Minv), which only
         # the next update overwrites. Pinocchio 4 fills both triangles of Minv (checked in test_robot_model).
         self._nonlinear = pin.nonLinearEffects(model, data, q, qd)  # C(q, qd) qd + g(q)
         self._mass_inverse = pin.computeMinverse(model, data, q)
+        self._jacobian = jacobian
+        self._position = pose[:3, 3]
+        self._rotation = pose[:3, :3]
         self._q = q
         self._qd = qd
-        self._twist = self._jacobian @ qd
+        self._q_values = q_values  # the same numbers as Python floats, for per-joint arithmetic (the replica)
+        self._qd_values = qd_values
+        self._twist = jacobian.dot(qd)  # ndarray.dot: half the call overhead of @ on these small arrays
         # Computed on first use only: the replica's tick does not need them.
         self._gravity = None
         self._mass = None
