@@ -105,6 +105,7 @@ class RobotModel:
         self._gravity = None
         self._mass = None
         self._kinetic_energy = None
+        self._bias_acceleration = None
         self._updated = True
 
     def _require_update(self) -> None:
@@ -151,6 +152,22 @@ class RobotModel:
         self._require_update()
         velocity = self._twist[:3]
         return math.sqrt(velocity @ velocity)
+
+    @property
+    def tcp_bias_acceleration(self) -> NDArray[np.float64]:
+        """Jdot(q, qd) qd: the TCP's classical acceleration [a; alpha] at zero joint acceleration, base frame (6,).
+
+        The TCP acceleration is J qdd + Jdot qd; the replica's inertial feedforward subtracts this term.
+        """
+        self._require_update()
+        if self._bias_acceleration is None:
+            model, data = self.model, self.data
+            # Overwrites data's placements, velocities and accelerations only (not nle or Minv, which the
+            # accessors return views of); the pose and Jacobian were kept as arrays of their own.
+            pin.forwardKinematics(model, data, self._q, self._qd, np.zeros(self.dof))
+            self._bias_acceleration = pin.getFrameClassicalAcceleration(model, data, self.tcp_frame_id,
+                                                                        _LOCAL_WORLD_ALIGNED).vector.copy()
+        return self._bias_acceleration
 
     @property
     def gravity(self) -> NDArray[np.float64]:
