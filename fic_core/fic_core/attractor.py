@@ -70,10 +70,6 @@ class Phase(IntEnum):
     CONVERGENCE = 1
 
 
-def _sign(value: float) -> int:
-    return (value > 0.0) - (value < 0.0)  # numpy.sign's values: -1, 0, +1
-
-
 class AttractorSnapshot:
     """The state of a FractalAttractor after one ``force`` call, immutable; derived values computed on read.
 
@@ -192,37 +188,41 @@ class FractalAttractor:
         """Eq. 2 on validated floats: the phase logic per axis, then the force; returns the forces."""
         old = self._state
         profile = self._profile
-        deadband = self._rate_deadband
+        deadband = -self._rate_deadband
         in_convergence = list(old.in_convergence)
         latched_max_errors = list(old.latched_max_errors)
         convergence_stiffness = list(old.convergence_stiffness)
         convergence_offset = list(old.convergence_offset)
         forces = []
-        for axis, (error, rate) in enumerate(zip(errors, rates)):
-            error_sign = _sign(error)
-            magnitude_rate = error_sign * rate  # d|e|/dt
+        axis = 0
+        for error, rate in zip(errors, rates):
+            # d|e|/dt = sign(e) * de/dt, with sign(0) = 0 as numpy.sign.
+            magnitude_rate = rate if error > 0.0 else (-rate if error < 0.0 else 0.0)
             if in_convergence[axis]:
-                # Stay in C while |e| keeps decreasing on the same side of the target.
-                converging = magnitude_rate < 0.0 and error_sign == _sign(latched_max_errors[axis])
+                # Stay in C while |e| keeps decreasing on the same side of the target (sign(e) == sign(e_max)).
+                latched = latched_max_errors[axis]
+                converging = magnitude_rate < 0.0 and ((error > 0.0) == (latched > 0.0)) \
+                    and ((error < 0.0) == (latched < 0.0))
             else:
                 # Enter C past the dead-band, latching e_max.
-                converging = magnitude_rate < -deadband
+                converging = magnitude_rate < deadband
                 if converging:
                     stiffness = 2.0 * profile._scalar_secant_stiffness(error)  # K_C = 2*F_c(e_max)/e_max
                     latched_max_errors[axis] = error
                     convergence_stiffness[axis] = stiffness
                     # V_C(e_max) = V_D(e_max): c = V_D(e_max) - K_C*e_max^2/8.
                     convergence_offset[axis] = profile._scalar_energy(error) - stiffness * error * error / 8.0
-            in_convergence[axis] = converging
+                in_convergence[axis] = converging
             if converging:
                 stiffness = convergence_stiffness[axis]
                 latched = latched_max_errors[axis]
                 force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
                 limit = stiffness * 0.5 * abs(latched)  # |F_c(e_max)|
-                force = limit if force > limit else (-limit if force < -limit else force)
+                forces.append(limit if force > limit else (-limit if force < -limit else force))
             else:
-                force = profile._scalar_force(error)  # Eq. 2, D
-            forces.append(force)
+                in_convergence[axis] = False
+                forces.append(profile._scalar_force(error))  # Eq. 2, D
+            axis += 1
         self._state = AttractorSnapshot(profile, tuple(in_convergence), tuple(latched_max_errors),
                                         tuple(convergence_stiffness), tuple(convergence_offset), tuple(errors),
                                         tuple(forces))
@@ -294,9 +294,15 @@ class PoseAttractor:
                 shape (6,), base frame.
         """
         twist_error = finite_floats("twist_error", twist_error, 6)
-        force = self._translation._step(finite_floats("position_error", position_error, 3), twist_error[:3])
-        torque = self._rotation._step(finite_floats("rotation_error", rotation_error, 3), twist_error[3:])
-        return np.array(force + torque, dtype=np.float64)
+        return np.array(self._wrench_values(finite_floats("position_error", position_error, 3),
+                                            finite_floats("rotation_error", rotation_error, 3), twist_error),
+                        dtype=np.float64)
+
+    def _wrench_values(self, position_error: list[float], rotation_error: list[float],
+                       twist_error: list[float]) -> list[float]:
+        """``wrench`` on floats its caller has validated (the replica's tick), as a list of 6 floats."""
+        return self._translation._step(position_error, twist_error[:3]) + \
+            self._rotation._step(rotation_error, twist_error[3:])
 
     def snapshot(self) -> PoseAttractorSnapshot:
         """The state after the last ``wrench`` call (phase, latched_max_error, last_force, stored_energy on read)."""

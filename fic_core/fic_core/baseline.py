@@ -87,11 +87,18 @@ class LinearImpedance:
 
     def wrench(self, position_error: ArrayLike, rotation_error: ArrayLike, twist_error: ArrayLike) -> NDArray[np.float64]:
         """K*e + D*de/dt [N, N m]; arguments as ``PoseAttractor.wrench``."""
-        error = finite_floats("position_error", position_error, 3) + finite_floats("rotation_error", rotation_error, 3)
-        twist_error = finite_floats("twist_error", twist_error, 6)
+        position_error = finite_floats("position_error", position_error, 3)
+        rotation_error = finite_floats("rotation_error", rotation_error, 3)
+        return np.array(self._wrench_values(position_error, rotation_error, finite_floats("twist_error", twist_error, 6)),
+                        dtype=np.float64)
+
+    def _wrench_values(self, position_error: list[float], rotation_error: list[float],
+                       twist_error: list[float]) -> list[float]:
+        """``wrench`` on floats its caller has validated (the replica's tick), as a list of 6 floats."""
+        error = position_error + rotation_error
         forces = [k * e + d * r for k, e, d, r in zip(self._stiffness_values, error, self._damping_values, twist_error)]
         self._state = LinearImpedanceSnapshot(self._stiffness_values, tuple(error), tuple(forces))
-        return np.array(forces, dtype=np.float64)
+        return forces
 
     def snapshot(self) -> LinearImpedanceSnapshot:
         """The state after the last ``wrench`` call; later calls do not change it."""

@@ -400,14 +400,17 @@ class ReplicaController:
         else:
             twist_error = [target - actual for target, actual in zip(desired_twist, twist)]
         controller = self.controller
-        wrench = controller.wrench(position_error, rotation_error, twist_error)
-        if type(wrench) is not np.ndarray or wrench.dtype != np.float64:
-            wrench = np.asarray(wrench, dtype=float)
-        if wrench.shape != (6,) or not math.isfinite(sum(wrench.tolist())):
-            raise FicInputError(f"the controller returned a non-finite or mis-shaped wrench: {wrench}")
+        wrench_values = getattr(controller, "_wrench_values", None)
+        if wrench_values is not None:  # PoseAttractor, LinearImpedance: on the floats validated above
+            wrench = np.array(wrench_values(position_error, rotation_error.tolist(), twist_error))
+        else:
+            wrench = np.asarray(controller.wrench(np.array(position_error), rotation_error, np.array(twist_error)),
+                                dtype=float)
+            if wrench.shape != (6,):
+                raise FicInputError(f"the controller returned a mis-shaped wrench: {wrench}")
         limits = self.limits
         minv = robot._mass_inverse
-        margins = [min(value - lower, upper - value)
+        margins = [value - lower if value - lower < upper - value else upper - value
                    for value, lower, upper in zip(q_values, self._lower_values, self._upper_values)]
         smallest_margin = min(margins)
         posture = self.posture
@@ -439,6 +442,11 @@ class ReplicaController:
         tcp_ahead_squared = tcp_ahead[0] * tcp_ahead[0] + tcp_ahead[1] * tcp_ahead[1] + tcp_ahead[2] * tcp_ahead[2]
         previous = self._previous_torque
         desired_values = desired_torque.tolist()
+        # One check for every term (NaN/Inf propagate into the sum; a sum that overflowed is checked in full).
+        if not math.isfinite(sum(desired_values)) and not np.isfinite(desired_torque).all():
+            if not np.isfinite(wrench).all():
+                raise FicInputError(f"the controller returned a non-finite wrench: {wrench}")
+            raise FicInputError(f"the desired torque is not finite: {desired_torque}")
         if optimisation._admits_unshaped(desired_values, self._previous_values, qd_values, ahead, tcp_ahead_squared,
                                          margins):
             shaped = None
