@@ -28,7 +28,7 @@ import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
-from geometry_msgs.msg import PoseStamped, WrenchStamped
+from geometry_msgs.msg import AccelStamped, PoseStamped, WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
@@ -64,6 +64,8 @@ DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=His
 BASE_FRAME = "panda_link0"
 NODE_NAME = "replica"
 LOG_THROTTLE_S = 2.0
+# An older planner acceleration is not fed forward (the planner publishes at 100 Hz).
+FEEDFORWARD_TIMEOUT_S = 0.05
 RESUMED_TOLERANCE = 1e-4  # [m] x_d' within this of the commanded value: the blend after a resume is over
 
 # name: (default, description, low, high) -- config/replica.yaml holds the same defaults.
@@ -137,6 +139,8 @@ class ReplicaNode(Node):
         self._planner_position: np.ndarray | None = None   # x_d'' as last received
         self._planner_in_use: np.ndarray | None = None     # x_d'' in use (approaches the first pose, then follows)
         self._planner_blending = False
+        self._planner_acceleration: np.ndarray | None = None
+        self._planner_acceleration_received = 0.0
         self._planner_rotation: np.ndarray | None = None
         self._commanded_offset = np.zeros(3)   # x_d' as last received
         self._offset = np.zeros(3)             # x_d' in use (held while stale, blended on resume)
@@ -171,6 +175,7 @@ class ReplicaNode(Node):
         self.create_subscription(TeleoperationCommand, "/replica/teleop_command", self._on_teleop_command,
                                  TELEOP_QOS)
         self.create_subscription(PoseStamped, "/planner/desired_pose", self._on_planner_pose, TELEOP_QOS)
+        self.create_subscription(AccelStamped, "/planner/desired_accel", self._on_planner_accel, TELEOP_QOS)
         self._diagnostics_timer = self.create_timer(1.0 / self._p["diagnostics_rate"], self._publish_diagnostics)
         self.get_logger().info(
             f"replica ready: controller {self._p['controller']}, control_rate {self._p['control_rate']:g} Hz, "
@@ -181,6 +186,9 @@ class ReplicaNode(Node):
         self.declare_parameter("controller", "fic", ParameterDescriptor(
             description="task-space law: 'fic' (the paper's Fractal Impedance Controller) or 'linear' (the "
                         "baseline spring-damper with the same stiffness)"))
+        self.declare_parameter("planner_feedforward", True, ParameterDescriptor(
+            description="feed the planner's acceleration (/planner/desired_accel) forward through the task-space "
+                        "inertia, J^T Lambda a_d (beyond paper Eq. 7: the FIC compensates no inertia)"))
         self.declare_parameter("use_planner_orientation", False, ParameterDescriptor(
             description="track the orientation of /planner/desired_pose; false holds the TCP orientation found at "
                         "start (the planner plans positions, paper Eqs. 5-6)"))
@@ -191,7 +199,8 @@ class ReplicaNode(Node):
         self._p = self._parameter_values()
 
     def _parameter_values(self, overrides: dict | None = None) -> dict:
-        values = {name: self.get_parameter(name).value for name in (*NUMBERS, "controller", "use_planner_orientation")}
+        values = {name: self.get_parameter(name).value for name in (*NUMBERS, "controller", "use_planner_orientation",
+                                                                   "planner_feedforward")}
         values.update(overrides or {})
         for name in NUMBERS:
             values[name] = float(values[name])
@@ -284,6 +293,24 @@ class ReplicaNode(Node):
         self._planner_position = np.array([position.x, position.y, position.z])
         self._planner_rotation = rotation
 
+
+    def _on_planner_accel(self, message: AccelStamped) -> None:
+        linear = message.accel.linear
+        if not _finite(linear.x, linear.y, linear.z):
+            self._refuse("/planner/desired_accel", "the acceleration is not finite", "rejected_planner_poses")
+            return
+        self._planner_acceleration = np.array([linear.x, linear.y, linear.z])
+        self._planner_acceleration_received = self._now()
+
+    def _feedforward_acceleration(self) -> np.ndarray | None:
+        """The planner's acceleration for the inertial feedforward (beyond paper Eq. 7, fic_core.replica), only
+        while x_d'' is the planner's own output (not while approaching its first pose) and the value is fresh."""
+        if not self._p["planner_feedforward"] or self._planner_acceleration is None or self._planner_blending or \
+                self._planner_in_use is None:
+            return None
+        if self._now() - self._planner_acceleration_received > FEEDFORWARD_TIMEOUT_S:
+            return None
+        return self._planner_acceleration
 
     def _on_wrench(self, message: WrenchStamped) -> None:
         force, torque = message.wrench.force, message.wrench.torque
@@ -383,7 +410,8 @@ class ReplicaNode(Node):
         desired_rotation = self._planner_rotation if use_planner_rotation else self._start_rotation
         desired_twist = self._desired_twist(desired_position, dt)
         try:
-            command = self._replica.command(q, qd, desired_position, desired_rotation, desired_twist)
+            command = self._replica.command(q, qd, desired_position, desired_rotation, desired_twist,
+                                            desired_acceleration=self._feedforward_acceleration())
         except FicInputError as exc:  # only reachable through a bug upstream: hold, say why
             self._counts["controller_errors"] += 1
             self.get_logger().error(f"control step refused its inputs: {exc}; holding",

@@ -209,7 +209,9 @@ class RobotNode(Node):
         # Stamps are the simulation's own 1 ms grid laid on the wall clock from the first step: comparable with
         # every other node's wall-clock stamps (to within the step lateness) and exact enough for a recorder or
         # report to count a missing joint state as a gap in the grid.
-        self._wall_epoch_ns = self.get_clock().now().nanoseconds - self._sim.steps * round(TIMESTEP * 1e9)
+        step_ns = round(TIMESTEP * 1e9)
+        start_ns = self.get_clock().now().nanoseconds // step_ns * step_ns  # on a whole step of the wall clock
+        self._wall_epoch_ns = start_ns - self._sim.steps * step_ns
         self._publish_state()
         while not self._stop.is_set():
             lateness = self._pacer.wait_next()
