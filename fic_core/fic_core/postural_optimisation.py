@@ -116,6 +116,9 @@ class PosturalOptimisation:
         self._free_room_values = self._free_room.tolist()
         self._rate_step = limits.torque_rate * self.control_period
         self._tcp_speed_squared = limits.tcp_speed * limits.tcp_speed
+        self._lower_values = limits.lower_array.tolist()
+        self._upper_values = limits.upper_array.tolist()
+        self._deceleration_values = self.braking_deceleration.tolist()
         self.qp_count = 0
         self.relaxed_count = 0
         self.guard_clips = 0
@@ -215,7 +218,8 @@ class PosturalOptimisation:
         horizon = self.horizon
         step = limits.torque_rate * self.control_period
         # Joint velocity extrapolated T ahead under tau_d, and the TCP velocity it gives.
-        ahead = qd + horizon * (mass_matrix_inverse @ (desired_torque - bias))
+        acceleration = mass_matrix_inverse @ (desired_torque - bias)
+        ahead = qd + horizon * acceleration
         tcp_ahead = tcp_linear_jacobian @ ahead
         tcp_ahead_squared = float(tcp_ahead @ tcp_ahead)
 
@@ -224,9 +228,16 @@ class PosturalOptimisation:
             position_margin = np.minimum(q - limits.lower_array, limits.upper_array - q)
         # (With |qd| and |ahead| <= v_max and the room beyond v_max^2 / 2a and v_max dt, neither the braking nor
         # the next-sample position bound can bind.)
-        if self._admits_unshaped(desired_torque.tolist(), None if previous_torque is None else previous_torque.tolist(),
-                                 qd.tolist(), ahead.tolist(), tcp_ahead_squared, position_margin.tolist()):
+        desired_values = desired_torque.tolist()
+        previous_values = None if previous_torque is None else previous_torque.tolist()
+        qd_values = qd.tolist()
+        if self._admits_unshaped(desired_values, previous_values, qd_values, ahead.tolist(), tcp_ahead_squared,
+                                 position_margin.tolist()):
             return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0, True)
+        # Near a position limit but nothing broken: the same answer as the flags below, on floats.
+        if self._satisfies_every_limit(desired_values, previous_values, q.tolist(), qd_values,
+                                       acceleration.tolist(), tcp_ahead_squared):
+            return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0)
 
         minv_tau_d = mass_matrix_inverse @ desired_torque
         free_acceleration = mass_matrix_inverse @ bias                      # M^-1 bias: qdd = M^-1 tau - this
@@ -328,6 +339,54 @@ class PosturalOptimisation:
             for torque, previous in zip(desired_torque, previous_torque):
                 if not abs(torque - previous) <= step:
                     return False
+        return True
+
+    def _satisfies_every_limit(self, desired_torque: list[float], previous_torque: list[float] | None,
+                               q: list[float], qd: list[float], acceleration: list[float],
+                               tcp_ahead_squared: float) -> bool:
+        """Whether tau_d breaks none of the constraints of the QP, on floats (the joints near a position limit,
+        where ``_admits_unshaped`` cannot decide; the numpy path computes the flags when this says no).
+
+        ``acceleration`` is the predicted qdd = M^-1 (tau_d - bias). The bounds on it are those of
+        ``acceleration_bounds`` (velocity on the horizon, braking curve and range on the next sample, the
+        tightest kept); a joint whose bounds conflict answers no (the numpy path reconciles them).
+        """
+        if tcp_ahead_squared > self._tcp_speed_squared:
+            return False
+        step = self._rate_step
+        if previous_torque is not None:
+            for torque, previous in zip(desired_torque, previous_torque):
+                if not abs(torque - previous) <= step:
+                    return False
+        dt = self.control_period
+        horizon = self.horizon
+        lag = self._braking_lag
+        for torque, torque_limit, position, velocity, qdd, velocity_limit, lower, upper, deceleration in zip(
+                desired_torque, self._torque_values, q, qd, acceleration, self._velocity_values, self._lower_values,
+                self._upper_values, self._deceleration_values):
+            if not abs(torque) <= torque_limit:
+                return False
+            high = (velocity_limit - velocity) / horizon
+            low = (-velocity_limit - velocity) / horizon
+            room_high = upper - position
+            room_low = position - lower
+            # braking_velocity, then the position bounds of acceleration_bounds.
+            if room_high >= 0.0:
+                brake_high = deceleration * (math.sqrt(lag * lag + 2.0 * room_high / deceleration) - lag)
+                position_high = min((brake_high - velocity) / dt, (room_high / dt - velocity) / dt)
+            else:
+                position_high = (room_high / horizon - velocity) / horizon
+            if room_low >= 0.0:
+                brake_low = -(deceleration * (math.sqrt(lag * lag + 2.0 * room_low / deceleration) - lag))
+                position_low = max((brake_low - velocity) / dt, (-room_low / dt - velocity) / dt)
+            else:
+                position_low = (-(room_low / horizon) - velocity) / horizon
+            if position_high < high:
+                high = position_high
+            if position_low > low:
+                low = position_low
+            if low > high or not low <= qdd <= high:
+                return False
         return True
 
     def _solve(self, hessian, linear, rows, b_upper, b_lower, relaxed: bool):

@@ -344,6 +344,8 @@ class ReplicaController:
         self.feedforward_regularisation = finite_scalar("feedforward_regularisation", feedforward_regularisation,
                                                         minimum=0.0, minimum_inclusive=False)
         self._feedforward_matrix = self.feedforward_regularisation * np.eye(6)
+        self._torque_values = self.limits.torque_array.tolist()
+        self._velocity_values = self.limits.joint_velocity_array.tolist()
         self._lower_values = self.limits.lower_array.tolist()
         self._upper_values = self.limits.upper_array.tolist()
         self._previous_values: list[float] | None = None
@@ -436,7 +438,8 @@ class ReplicaController:
         horizon = optimisation.horizon
         damping = robot.joint_damping
         acceleration = minv.dot(drive - damping * qd)
-        ahead = [velocity + horizon * value for velocity, value in zip(qd_values, acceleration.tolist())]
+        acceleration_values = acceleration.tolist()
+        ahead = [velocity + horizon * value for velocity, value in zip(qd_values, acceleration_values)]
         tcp_acceleration = jacobian[:3].dot(acceleration).tolist()
         tcp_ahead = [velocity + horizon * value for velocity, value in zip(twist, tcp_acceleration)]
         tcp_ahead_squared = tcp_ahead[0] * tcp_ahead[0] + tcp_ahead[1] * tcp_ahead[1] + tcp_ahead[2] * tcp_ahead[2]
@@ -447,12 +450,13 @@ class ReplicaController:
             if not np.isfinite(wrench).all():
                 raise FicInputError(f"the controller returned a non-finite wrench: {wrench}")
             raise FicInputError(f"the desired torque is not finite: {desired_torque}")
-        if optimisation._admits_unshaped(desired_values, self._previous_values, qd_values, ahead, tcp_ahead_squared,
-                                         margins):
-            shaped = None
+        fast_path = optimisation._admits_unshaped(desired_values, self._previous_values, qd_values, ahead,
+                                                  tcp_ahead_squared, margins)
+        if fast_path or optimisation._satisfies_every_limit(desired_values, self._previous_values, q_values,
+                                                            qd_values, acceleration_values, tcp_ahead_squared):
+            # tau_d breaks no constraint of the optimisation: it is the command, unshaped (as shape() would say).
             torque, torque_values = desired_torque.copy(), desired_values
             flags, torque_change, solved_qp, relaxed, guard_clipped = LimitFlag.NONE, 0.0, False, False, False
-            fast_path = True
         else:
             position_margin = np.array(margins)
             shaped = optimisation.shape(desired_torque, previous, q, qd, nonlinear + damping * qd, minv,
@@ -463,7 +467,8 @@ class ReplicaController:
             relaxed, guard_clipped, fast_path = shaped.relaxed, shaped.guard_clipped, shaped.fast_path
         velocity = twist[:3]
         tcp_speed = math.sqrt(velocity[0] * velocity[0] + velocity[1] * velocity[1] + velocity[2] * velocity[2])
-        if fast_path and tcp_speed <= limits.tcp_speed:
+        if (fast_path and tcp_speed <= limits.tcp_speed) or \
+                self._violation_free(torque_values, qd_values, margins, tcp_speed):
             violations = LimitFlag.NONE  # the fast path checked the torque, its rate, |qd| and the joint ranges
         else:
             violations = self._violations(previous, torque, qd, np.array(margins), tcp_speed)
@@ -515,6 +520,26 @@ class ReplicaController:
         if info != 0:  # only if J M^-1 J^T were not positive semidefinite (a corrupt model)
             solution = np.linalg.lstsq(matrix, desired_acceleration, rcond=None)[0]
         return solution
+
+    def _violation_free(self, torque: list[float], qd: list[float], position_margin: list[float],
+                        tcp_speed: float) -> bool:
+        """No SPEC 2.2 violation (the common tick), on floats; ``_violations`` names them otherwise."""
+        limits = self.limits
+        tolerance = VIOLATION_TOLERANCE
+        if tcp_speed > limits.tcp_speed + tolerance:
+            return False
+        previous = self._previous_values
+        if previous is not None:
+            step = limits.torque_rate * self.control_period + tolerance
+            for value, before in zip(torque, previous):
+                if not abs(value - before) <= step:
+                    return False
+        for value, torque_limit, velocity, velocity_limit, margin in zip(
+                torque, self._torque_values, qd, self._velocity_values, position_margin):
+            if not (abs(value) <= torque_limit + tolerance and abs(velocity) <= velocity_limit + tolerance
+                    and margin >= -tolerance):
+                return False
+        return True
 
     def _violations(self, previous: NDArray[np.float64] | None, torque: NDArray[np.float64],
                     qd: NDArray[np.float64], position_margin: NDArray[np.float64], tcp_speed: float) -> LimitFlag:

@@ -227,3 +227,28 @@ def test_random_states_and_huge_demands(robot, limits) -> None:
             assert np.all(next_q[inside] >= lower[inside] - 1e-6)
     # The sample exercised both paths and the infeasible case.
     assert counts["fast"] > 100 and counts["feasible qp"] > 300 and counts["relaxed"] > 10, counts
+
+
+def test_float_shortcut_agrees_with_the_flag_computation(robot, limits) -> None:
+    """The shortcut on floats that passes tau_d unshaped near the position limits (``_satisfies_every_limit``)
+    gives exactly what the flag computation with numpy gives, on random states near and at the limits."""
+    rng = np.random.default_rng(31)
+    fast = PosturalOptimisation(limits, DT)
+    reference = PosturalOptimisation(limits, DT)
+    reference._satisfies_every_limit = lambda *arguments: False  # always the numpy path
+    lower, upper, v_max = limits.lower_array, limits.upper_array, limits.joint_velocity_array
+    unshaped = 0
+    for _ in range(400):
+        near = rng.random(7) < 0.4
+        edge = np.where(rng.random(7) < 0.5, lower + rng.uniform(-0.01, 0.3, 7), upper - rng.uniform(-0.01, 0.3, 7))
+        q = np.where(near, edge, rng.uniform(lower + 0.3, upper - 0.3))
+        qd = rng.uniform(-0.3, 0.3, 7) * v_max
+        robot.update(q, qd)
+        desired = robot.nonlinear_effects + rng.normal(scale=0.3, size=7)
+        previous = desired + rng.normal(scale=0.3, size=7)
+        first, _ = shape(fast, robot, q, qd, desired, previous)
+        second, _ = shape(reference, robot, q, qd, desired, previous)
+        assert first.flags == second.flags and first.solved_qp == second.solved_qp
+        np.testing.assert_allclose(first.torque, second.torque, atol=1e-9)
+        unshaped += not first.solved_qp and not first.fast_path
+    assert unshaped > 50  # the shortcut was exercised
