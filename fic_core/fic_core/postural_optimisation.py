@@ -141,7 +141,7 @@ class PosturalOptimisation:
         lower = np.maximum(-torque_max, previous_torque - step)
         upper = np.minimum(torque_max, previous_torque + step)
         empty = lower > upper
-        if np.any(empty):
+        if empty.any():
             closest = np.clip(previous_torque, -torque_max, torque_max)
             lower = np.where(empty, closest, lower)
             upper = np.where(empty, closest, upper)
@@ -176,31 +176,50 @@ class PosturalOptimisation:
         They can contradict each other (a joint too fast, too close to its limit): then the position side is
         kept and the other side gives way (reported as relaxed).
         """
+        a_lo, a_hi, low_from_position, high_from_position, reconciled = self._bounds_values(q.tolist(), qd.tolist())
+        return (np.array(a_lo), np.array(a_hi), np.array(low_from_position), np.array(high_from_position),
+                reconciled)
+
+    def _bounds_values(self, q: list[float], qd: list[float]
+                       ) -> tuple[list[float], list[float], list[bool], list[bool], bool]:
+        """``acceleration_bounds`` on floats, per joint (7 joints: cheaper than ~30 numpy calls on 7-vectors)."""
         dt = self.control_period
         horizon = self.horizon
-        limits = self.limits
-        v_max = limits.joint_velocity_array
-        velocity_high = (v_max - qd) / horizon
-        velocity_low = (-v_max - qd) / horizon
-        brake_lo, brake_hi = self.braking_velocity(q)
-        room_high = limits.upper_array - q
-        room_low = q - limits.lower_array
-        inside_high = room_high >= 0.0
-        inside_low = room_low >= 0.0
-        # Inside: the braking curve and the range on the next sample; beyond: the return speed on the horizon.
-        position_high = np.where(inside_high, np.minimum((brake_hi - qd) / dt, (room_high / dt - qd) / dt),
-                                 (brake_hi - qd) / horizon)
-        position_low = np.where(inside_low, np.maximum((brake_lo - qd) / dt, (-room_low / dt - qd) / dt),
-                                (brake_lo - qd) / horizon)
-        high_from_position = position_high < velocity_high
-        low_from_position = position_low > velocity_low
-        a_hi = np.where(high_from_position, position_high, velocity_high)
-        a_lo = np.where(low_from_position, position_low, velocity_low)
-        conflict = a_lo > a_hi
-        reconciled = bool(conflict.any())
-        if reconciled:
-            a_lo = np.where(conflict & high_from_position, a_hi, a_lo)   # stop short of the upper limit
-            a_hi = np.where(conflict & ~high_from_position, a_lo, a_hi)  # stop short of the lower limit
+        lag = self._braking_lag
+        a_lo, a_hi, low_from_position, high_from_position = [], [], [], []
+        reconciled = False
+        for position, velocity, velocity_limit, lower, upper, deceleration in zip(
+                q, qd, self._velocity_values, self._lower_values, self._upper_values, self._deceleration_values):
+            velocity_high = (velocity_limit - velocity) / horizon
+            velocity_low = (-velocity_limit - velocity) / horizon
+            room_high = upper - position
+            room_low = position - lower
+            # Inside: the braking curve (braking_velocity) and the range on the next sample; beyond: the return
+            # speed on the horizon.
+            if room_high >= 0.0:
+                brake_high = deceleration * (math.sqrt(lag * lag + 2.0 * room_high / deceleration) - lag)
+                position_high = min((brake_high - velocity) / dt, (room_high / dt - velocity) / dt)
+            else:
+                position_high = (room_high / horizon - velocity) / horizon
+            if room_low >= 0.0:
+                brake_low = -(deceleration * (math.sqrt(lag * lag + 2.0 * room_low / deceleration) - lag))
+                position_low = max((brake_low - velocity) / dt, (-room_low / dt - velocity) / dt)
+            else:
+                position_low = (-(room_low / horizon) - velocity) / horizon
+            high_set_by_position = position_high < velocity_high
+            low_set_by_position = position_low > velocity_low
+            high = position_high if high_set_by_position else velocity_high
+            low = position_low if low_set_by_position else velocity_low
+            if low > high:  # conflict: the position side is kept, the other gives way
+                reconciled = True
+                if high_set_by_position:
+                    low = high  # stop short of the upper limit
+                else:
+                    high = low  # stop short of the lower limit
+            a_lo.append(low)
+            a_hi.append(high)
+            low_from_position.append(low_set_by_position)
+            high_from_position.append(high_set_by_position)
         return a_lo, a_hi, low_from_position, high_from_position, reconciled
 
     def shape(self, desired_torque: NDArray[np.float64], previous_torque: NDArray[np.float64] | None,
@@ -252,11 +271,11 @@ class PosturalOptimisation:
 
         # Flags of the constraints that the unshaped torque breaks.
         flags = LimitFlag.NONE
-        if np.any(abs_desired > limits.torque_array):
+        if (abs_desired > limits.torque_array).any():
             flags |= LimitFlag.TORQUE
-        if previous_torque is not None and np.any(np.abs(desired_torque - previous_torque) > step):
+        if previous_torque is not None and (np.abs(desired_torque - previous_torque) > step).any():
             flags |= LimitFlag.TORQUE_RATE
-        if np.any(desired_torque > upper) or np.any(desired_torque < lower):
+        if (desired_torque > upper).any() or (desired_torque < lower).any():
             if not flags & (LimitFlag.TORQUE | LimitFlag.TORQUE_RATE):  # box emptied by an out-of-limit tau_prev
                 flags |= LimitFlag.TORQUE
         above = minv_tau_d > row_upper
@@ -347,9 +366,9 @@ class PosturalOptimisation:
         """Whether tau_d breaks none of the constraints of the QP, on floats (the joints near a position limit,
         where ``_admits_unshaped`` cannot decide; the numpy path computes the flags when this says no).
 
-        ``acceleration`` is the predicted qdd = M^-1 (tau_d - bias). The bounds on it are those of
-        ``acceleration_bounds`` (velocity on the horizon, braking curve and range on the next sample, the
-        tightest kept); a joint whose bounds conflict answers no (the numpy path reconciles them).
+        ``acceleration`` is the predicted qdd = M^-1 (tau_d - bias), bounded as in ``acceleration_bounds``
+        (velocity on the horizon, braking curve and range on the next sample, the tightest kept); conflicting
+        bounds answer no (the numpy path reports them as relaxed).
         """
         if tcp_ahead_squared > self._tcp_speed_squared:
             return False
@@ -358,34 +377,14 @@ class PosturalOptimisation:
             for torque, previous in zip(desired_torque, previous_torque):
                 if not abs(torque - previous) <= step:
                     return False
-        dt = self.control_period
-        horizon = self.horizon
-        lag = self._braking_lag
-        for torque, torque_limit, position, velocity, qdd, velocity_limit, lower, upper, deceleration in zip(
-                desired_torque, self._torque_values, q, qd, acceleration, self._velocity_values, self._lower_values,
-                self._upper_values, self._deceleration_values):
+        for torque, torque_limit in zip(desired_torque, self._torque_values):
             if not abs(torque) <= torque_limit:
                 return False
-            high = (velocity_limit - velocity) / horizon
-            low = (-velocity_limit - velocity) / horizon
-            room_high = upper - position
-            room_low = position - lower
-            # braking_velocity, then the position bounds of acceleration_bounds.
-            if room_high >= 0.0:
-                brake_high = deceleration * (math.sqrt(lag * lag + 2.0 * room_high / deceleration) - lag)
-                position_high = min((brake_high - velocity) / dt, (room_high / dt - velocity) / dt)
-            else:
-                position_high = (room_high / horizon - velocity) / horizon
-            if room_low >= 0.0:
-                brake_low = -(deceleration * (math.sqrt(lag * lag + 2.0 * room_low / deceleration) - lag))
-                position_low = max((brake_low - velocity) / dt, (-room_low / dt - velocity) / dt)
-            else:
-                position_low = (-(room_low / horizon) - velocity) / horizon
-            if position_high < high:
-                high = position_high
-            if position_low > low:
-                low = position_low
-            if low > high or not low <= qdd <= high:
+        a_lo, a_hi, _, _, reconciled = self._bounds_values(q, qd)
+        if reconciled:
+            return False
+        for low, qdd, high in zip(a_lo, acceleration, a_hi):
+            if not low <= qdd <= high:
                 return False
         return True
 
@@ -417,19 +416,19 @@ class PosturalOptimisation:
     @staticmethod
     def _joint_flags(above, below, position_low, position_high) -> LimitFlag:
         flags = LimitFlag.NONE
-        if np.any(above & position_high) or np.any(below & position_low):
+        if (above & position_high).any() or (below & position_low).any():
             flags |= LimitFlag.JOINT_POSITION
-        if np.any(above & ~position_high) or np.any(below & ~position_low):
+        if (above & ~position_high).any() or (below & ~position_low).any():
             flags |= LimitFlag.JOINT_VELOCITY
         return flags
 
     def _box_flags(self, torque, previous_torque, mask=True) -> LimitFlag:
         """Which of the torque and torque-rate limits the (masked) joints of a torque on the box's boundary sit on."""
         flags = LimitFlag.NONE
-        if np.any(mask & (np.abs(torque) >= self.limits.torque_array - 1e-9)):
+        if (mask & (np.abs(torque) >= self.limits.torque_array - 1e-9)).any():
             flags |= LimitFlag.TORQUE
         step = self.limits.torque_rate * self.control_period
-        if previous_torque is not None and np.any(mask & (np.abs(torque - previous_torque) >= step - 1e-9)):
+        if previous_torque is not None and (mask & (np.abs(torque - previous_torque) >= step - 1e-9)).any():
             flags |= LimitFlag.TORQUE_RATE
         return flags
 
@@ -437,13 +436,13 @@ class PosturalOptimisation:
                       n_cuts) -> LimitFlag:
         active = np.abs(multipliers) > _MULTIPLIER_TOLERANCE
         flags = LimitFlag.NONE
-        if np.any(active[:7]):
+        if active[:7].any():
             flags |= self._box_flags(torque, previous_torque, active[:7])
         joint_active = active[7:14]
-        if np.any(joint_active):
+        if joint_active.any():
             high = multipliers[7:14] > 0.0
             flags |= self._joint_flags(joint_active & high, joint_active & ~high, position_low, position_high)
-        if n_cuts and np.any(active[14:14 + n_cuts]):
+        if n_cuts and active[14:14 + n_cuts].any():
             flags |= LimitFlag.TCP_SPEED
         return flags
 
