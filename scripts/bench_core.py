@@ -11,6 +11,8 @@
 - replica + report: the same plus reading the LimitStatus ratios and the FicState energies a node publishes.
 - master: MasterLaw.force + TeleoperationCommandIntegrator.update (500 Hz device loop).
 - planner: HarmonicPlanner.step + Circle.point (250 Hz).
+- numpy reference: one addition of two 7-vectors, to compare figures taken under different loads.
+With --feedforward the replica also gets the circle's acceleration (ReplicaController's inertial feedforward).
 Figures are wall-clock (time.perf_counter) and depend on the machine's load (a shared 2-core VM here): a tick
 during which the process was descheduled counts in full. "replica (CPU time)" uses the thread's CPU clock
 (time.thread_time, about 1 us resolution), which leaves out the time the scheduler gave to other processes.
@@ -50,7 +52,7 @@ def statistics(samples: list[float]) -> dict[str, float]:
             "mean_us": float(np.mean(array)), "max_us": float(np.max(array))}
 
 
-def bench_replica(ticks: int) -> dict[str, dict[str, float]]:
+def bench_replica(ticks: int, feedforward: bool = False) -> dict[str, dict[str, float]]:
     robot = RobotModel()
     controller = PoseAttractor(ForceProfile(200.0, 0.05, 0.5, 30.0), ForceProfile(20.0, 0.5, 0.5, 10.0))
     replica = ReplicaController(robot, controller, control_period=DT)
@@ -60,18 +62,25 @@ def bench_replica(ticks: int) -> dict[str, dict[str, float]]:
     robot.update(q, qd)
     start, rotation = robot.tcp_position.copy(), robot.tcp_rotation.copy()
     circle = Circle(start - np.array([0.10, 0.0, 0.0]))
-    everything, fast, solved, reported, cpu = [], [], [], [], []
+    centre = circle.centre
+    rate_squared = (2.0 * np.pi / circle.period) ** 2
+    everything, fast, solved, reported, cpu, cpu_solved = [], [], [], [], [], []
     gc.disable()  # the collector's pauses are the interpreter's, not the control law's
     try:
         for tick in range(ticks):
             t = tick * DT
             offset = np.array([0.08, -0.08, 0.0]) * ((int(t / 2.0) % 2) * 2 - 1) * (t >= 2.0)
-            target = circle.point(t) + offset
+            point = circle.point(t)
+            target = point + offset
+            # The circle's acceleration -w^2 (p - c), fed forward with --feedforward (the offset's jumps are not).
+            acceleration = -rate_squared * (point - centre) if feedforward else None
             cpu_begin = time.thread_time()
             begin = time.perf_counter()
-            command = replica.command(q, qd, target, rotation)
+            command = replica.command(q, qd, target, rotation, None, acceleration)
             end = time.perf_counter()
             cpu.append(time.thread_time() - cpu_begin)
+            if command.solved_qp:
+                cpu_solved.append(cpu[-1])
             # What a node reads to fill LimitStatus and FicState, timed apart.
             _ = (command.torque_ratio, command.torque_rate_ratio, command.joint_velocity_ratio,
                  command.joint_position_margin, command.total_energy)
@@ -85,10 +94,22 @@ def bench_replica(ticks: int) -> dict[str, dict[str, float]]:
         gc.enable()
     result = {"replica": statistics(everything), "replica fast path": statistics(fast),
               "replica QP ticks": statistics(solved), "replica + report": statistics(reported),
-              "replica (CPU time)": statistics(cpu)}
+              "replica (CPU time)": statistics(cpu), "replica QP (CPU time)": statistics(cpu_solved)}
     result["replica"]["shaped_ticks"] = replica.shaped_ticks
     result["replica"]["violation_ticks"] = replica.violation_ticks
     return result
+
+
+def bench_reference(ticks: int) -> dict[str, float]:
+    """One numpy addition of two 7-vectors: how slow small numpy calls are on the machine right now (about
+    0.3-0.5 us on an idle desktop core), to compare figures measured under different loads."""
+    a, b = np.ones(7), np.ones(7)
+    samples = []
+    for _ in range(ticks):
+        begin = time.perf_counter()
+        a + b
+        samples.append(time.perf_counter() - begin)
+    return statistics(samples)
 
 
 def bench_master(ticks: int) -> dict[str, float]:
@@ -125,12 +146,17 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--ticks", type=int, default=20000, help="ticks per benchmark (>= 10000 for the report)")
     parser.add_argument("--json", metavar="PATH", help="also write the figures as JSON")
+    parser.add_argument("--feedforward", action="store_true",
+                        help="pass the circle's acceleration as desired_acceleration (inertial feedforward)")
     args = parser.parse_args(argv)
-    results = bench_replica(args.ticks)
+    load_before = os.getloadavg()
+    results = {"numpy reference": bench_reference(args.ticks)}
+    results.update(bench_replica(args.ticks, args.feedforward))
     results["master"] = bench_master(args.ticks)
     results["planner"] = bench_planner(args.ticks)
     load = os.getloadavg()
-    print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} cores")
+    print(f"load average {load_before[0]:.2f} before, {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} after, on "
+          f"{os.cpu_count()} cores{'; with the inertial feedforward' if args.feedforward else ''}")
     print(f"{'step':<20} {'ticks':>7} {'median us':>10} {'p99 us':>9} {'max us':>9}")
     for name, figures in results.items():
         if figures.get("count"):
@@ -142,7 +168,9 @@ def main(argv: list[str] | None = None) -> int:
           f"p99 < 200 us: {'met' if replica['p99_us'] < 200 else 'NOT met'}")
     if args.json:
         results["machine"] = {"python": sys.version.split()[0], "platform": platform.platform(),
-                              "load_average": [round(x, 2) for x in os.getloadavg()], "cpus": os.cpu_count()}
+                              "load_average_before": [round(x, 2) for x in load_before],
+                              "load_average": [round(x, 2) for x in os.getloadavg()], "cpus": os.cpu_count(),
+                              "feedforward": args.feedforward}
         with open(args.json, "w", encoding="utf-8") as stream:
             json.dump(results, stream, indent=2)
     return 0
