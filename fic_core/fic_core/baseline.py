@@ -89,8 +89,8 @@ class LinearImpedance:
         """K*e + D*de/dt [N, N m]; arguments as ``PoseAttractor.wrench``."""
         position_error = finite_floats("position_error", position_error, 3)
         rotation_error = finite_floats("rotation_error", rotation_error, 3)
-        return np.array(self._wrench_values(position_error, rotation_error, finite_floats("twist_error", twist_error, 6)),
-                        dtype=np.float64)
+        twist_error = finite_floats("twist_error", twist_error, 6)
+        return np.array(self._wrench_values(position_error, rotation_error, twist_error), dtype=np.float64)
 
     def _wrench_values(self, position_error: list[float], rotation_error: list[float],
                        twist_error: list[float]) -> list[float]:

@@ -60,7 +60,12 @@ DEFAULT_FEEDFORWARD_REGULARISATION = 1e-3
 
 
 class TaskController(Protocol):
-    """What the replica needs of PoseAttractor (the FIC) and LinearImpedance (the baseline)."""
+    """What the replica needs of PoseAttractor (the FIC) and LinearImpedance (the baseline).
+
+    Both also offer ``snapshot()`` (the report values of the last tick, computed on read) and
+    ``_wrench_values`` (``wrench`` on floats the replica has validated); a controller without them works too,
+    at the cost of reading its report values at each tick and of ``wrench``'s own input checks.
+    """
 
     controller_name: str
 

@@ -313,3 +313,49 @@ def test_non_finite_desired_acceleration_is_rejected(robot: RobotModel, bad: flo
     with pytest.raises(FicInputError, match="desired_acceleration"):
         replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, rotation, None, np.zeros(4))
     assert replica.ticks == 0 and replica.previous_torque is None
+
+
+def test_report_fields_are_those_of_their_own_tick(robot: RobotModel) -> None:
+    """The report fields are computed on read, from the state of the tick that made the command."""
+    replica = ReplicaController(robot, paper_fic())
+    position, rotation = nominal_pose(robot)
+    first = replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position + [0.03, 0.0, 0.0], rotation)
+    energy, phase = replica.controller.stored_energy.copy(), replica.controller.phase.copy()
+    robot_energy = 0.0  # at rest
+    second = replica.command(NOMINAL_CONFIGURATION, np.full(7, 0.1), position + [0.01, 0.0, 0.0], rotation)
+    np.testing.assert_array_equal(first.stored_energy, energy)
+    np.testing.assert_array_equal(first.phase, phase)
+    assert first.kinetic_energy == robot_energy and second.kinetic_energy > 0.0
+    np.testing.assert_allclose(first.tracking_error, [0.03, 0.0, 0.0], atol=1e-12)
+    assert not np.allclose(second.stored_energy, energy)
+
+
+class _ForeignController:
+    """A TaskController with only the Protocol's members (no snapshot, no _wrench_values)."""
+
+    controller_name = "foreign"
+
+    def __init__(self) -> None:
+        self.inner = LinearImpedance(200.0, 20.0, 40.0, 1.0)
+
+    def wrench(self, position_error, rotation_error, twist_error):
+        return self.inner.wrench(position_error, rotation_error, twist_error)
+
+    phase = property(lambda self: self.inner.phase)
+    latched_max_error = property(lambda self: self.inner.latched_max_error)
+    last_force = property(lambda self: self.inner.last_force)
+    stored_energy = property(lambda self: self.inner.stored_energy)
+
+    def reset(self) -> None:
+        self.inner.reset()
+
+
+def test_a_controller_with_only_the_protocol_gives_the_same_command(robot: RobotModel) -> None:
+    position, rotation = nominal_pose(robot)
+    target = position + [0.02, -0.01, 0.0]
+    native = ReplicaController(robot, LinearImpedance(200.0, 20.0, 40.0, 1.0)).command(
+        NOMINAL_CONFIGURATION, np.full(7, 0.05), target, rotation)
+    foreign = ReplicaController(robot, _ForeignController()).command(
+        NOMINAL_CONFIGURATION, np.full(7, 0.05), target, rotation)
+    np.testing.assert_allclose(foreign.torque, native.torque, atol=1e-12)
+    np.testing.assert_allclose(foreign.stored_energy, native.stored_energy, atol=1e-15)
