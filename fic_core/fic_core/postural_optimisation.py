@@ -66,6 +66,14 @@ _TCP_RELATIVE_TOLERANCE = 1e-6  # the cone is met to this relative accuracy by t
 # The cuts sit this fraction inside the limit, so that once two consecutive cut directions are within ~5 degrees
 # of each other the polytope's corner is inside the cone (1 / cos(2.5 deg) < 1 / (1 - 1e-3)).
 _TCP_CUT_SHRINK = 1e-3
+# The flags as plain ints inside the optimisation (IntFlag's operators cost microseconds each); ShapedTorque
+# gets a LimitFlag.
+_NONE = 0
+_TORQUE = LimitFlag.TORQUE.value
+_TORQUE_RATE = LimitFlag.TORQUE_RATE.value
+_JOINT_VELOCITY = LimitFlag.JOINT_VELOCITY.value
+_JOINT_POSITION = LimitFlag.JOINT_POSITION.value
+_TCP_SPEED = LimitFlag.TCP_SPEED.value
 _GUARD_TOLERANCE = 1e-9  # [N m] clips below this are solver round-off, not a guard action
 
 
@@ -270,21 +278,21 @@ class PosturalOptimisation:
         tcp_max = limits.tcp_speed
 
         # Flags of the constraints that the unshaped torque breaks.
-        flags = LimitFlag.NONE
+        flags = _NONE
         if (abs_desired > limits.torque_array).any():
-            flags |= LimitFlag.TORQUE
+            flags |= _TORQUE
         if previous_torque is not None and (np.abs(desired_torque - previous_torque) > step).any():
-            flags |= LimitFlag.TORQUE_RATE
+            flags |= _TORQUE_RATE
         if (desired_torque > upper).any() or (desired_torque < lower).any():
-            if not flags & (LimitFlag.TORQUE | LimitFlag.TORQUE_RATE):  # box emptied by an out-of-limit tau_prev
-                flags |= LimitFlag.TORQUE
+            if not flags & (_TORQUE | _TORQUE_RATE):  # box emptied by an out-of-limit tau_prev
+                flags |= _TORQUE
         above = minv_tau_d > row_upper
         below = minv_tau_d < row_lower
         flags |= self._joint_flags(above, below, position_low, position_high)
         tcp_ahead_speed = math.sqrt(tcp_ahead_squared)
         if tcp_ahead_speed > tcp_max:
-            flags |= LimitFlag.TCP_SPEED
-        if flags == LimitFlag.NONE:
+            flags |= _TCP_SPEED
+        if flags == _NONE:
             return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0)
 
         # The QP, in daqp's form: 1/2 x'Hx + f'x, lower <= x <= upper (simple bounds), row bounds on A x.
@@ -335,9 +343,10 @@ class PosturalOptimisation:
         if guard:
             self.guard_clips += 1
             flags |= self._box_flags(clipped, previous_torque, np.abs(clipped - torque) > _GUARD_TOLERANCE) \
-                or LimitFlag.TORQUE
+                or _TORQUE
         change = clipped - desired_torque
-        return ShapedTorque(clipped, flags, float(np.sqrt(change @ change)), True, relaxed, guard, iterations)
+        return ShapedTorque(clipped, LimitFlag(flags), float(np.sqrt(change @ change)), True, relaxed, guard,
+                            iterations)
 
     def _admits_unshaped(self, desired_torque: list[float], previous_torque: list[float] | None,
                          qd: list[float], ahead: list[float], tcp_ahead_squared: float,
@@ -414,28 +423,28 @@ class PosturalOptimisation:
                                + projected @ free_acceleration))
 
     @staticmethod
-    def _joint_flags(above, below, position_low, position_high) -> LimitFlag:
-        flags = LimitFlag.NONE
+    def _joint_flags(above, below, position_low, position_high) -> int:
+        flags = _NONE
         if (above & position_high).any() or (below & position_low).any():
-            flags |= LimitFlag.JOINT_POSITION
+            flags |= _JOINT_POSITION
         if (above & ~position_high).any() or (below & ~position_low).any():
-            flags |= LimitFlag.JOINT_VELOCITY
+            flags |= _JOINT_VELOCITY
         return flags
 
-    def _box_flags(self, torque, previous_torque, mask=True) -> LimitFlag:
+    def _box_flags(self, torque, previous_torque, mask=True) -> int:
         """Which of the torque and torque-rate limits the (masked) joints of a torque on the box's boundary sit on."""
-        flags = LimitFlag.NONE
+        flags = _NONE
         if (mask & (np.abs(torque) >= self.limits.torque_array - 1e-9)).any():
-            flags |= LimitFlag.TORQUE
+            flags |= _TORQUE
         step = self.limits.torque_rate * self.control_period
         if previous_torque is not None and (mask & (np.abs(torque - previous_torque) >= step - 1e-9)).any():
-            flags |= LimitFlag.TORQUE_RATE
+            flags |= _TORQUE_RATE
         return flags
 
     def _active_flags(self, multipliers, torque, lower, upper, previous_torque, position_low, position_high,
-                      n_cuts) -> LimitFlag:
+                      n_cuts) -> int:
         active = np.abs(multipliers) > _MULTIPLIER_TOLERANCE
-        flags = LimitFlag.NONE
+        flags = _NONE
         if active[:7].any():
             flags |= self._box_flags(torque, previous_torque, active[:7])
         joint_active = active[7:14]
@@ -443,6 +452,6 @@ class PosturalOptimisation:
             high = multipliers[7:14] > 0.0
             flags |= self._joint_flags(joint_active & high, joint_active & ~high, position_low, position_high)
         if n_cuts and active[14:14 + n_cuts].any():
-            flags |= LimitFlag.TCP_SPEED
+            flags |= _TCP_SPEED
         return flags
 
