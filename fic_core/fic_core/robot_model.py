@@ -73,6 +73,8 @@ class RobotModel:
                       self.urdf_effort_limit, self.joint_damping):
             array.flags.writeable = False
         self._updated = False
+        # A reference into data.oMf (never resized), fetched once: indexing the vector costs a microsecond a tick.
+        self._tcp_placement = self.data.oMf[self.tcp_frame_id]
 
     def update(self, q: ArrayLike, qd: ArrayLike) -> None:
         """Compute kinematics and dynamics at (q, qd). Raises FicInputError on NaN/Inf or a wrong shape.
@@ -88,7 +90,7 @@ class RobotModel:
         # data.oMf[frame] and returns a new array (cheaper than computeJointJacobians + updateFramePlacement +
         # getFrameJacobian, the same numbers: test_robot_model checks J against finite differences).
         jacobian = pin.computeFrameJacobian(model, data, q, frame, _LOCAL_WORLD_ALIGNED)
-        pose = data.oMf[frame].homogeneous  # a new 4x4 array: no copy needed to keep the pose
+        pose = self._tcp_placement.homogeneous  # a new 4x4 array: no copy needed to keep the pose
         # nonLinearEffects and computeMinverse return views of distinct members of `data` (nle, Minv), which only
         # the next update overwrites. Pinocchio 4 fills both triangles of Minv (checked in test_robot_model).
         self._nonlinear = pin.nonLinearEffects(model, data, q, qd)  # C(q, qd) qd + g(q)
