@@ -187,3 +187,20 @@ def test_verdict_is_json_ready():
     t, error = simulate(200.0, -2.0, duration=8.0)
     payload = json.dumps(assess_stability(t, error, criterion=StabilityCriterion(error_bound=0.1)).as_dict())
     assert '"stable": false' in payload
+
+
+def test_oscillation_only_in_contact_is_not_sustained_but_in_free_motion_it_is():
+    # A 1 cm, 3 Hz oscillation while the F/T reads 20 N (chatter against an obstacle) during the middle of the last
+    # half, free motion otherwise: test 4 judges the free-motion windows only, so it passes; the same oscillation in
+    # free motion (force 0) is flagged.
+    t = np.arange(0.0, 20.0, DT)
+    in_contact = (t > 9.0) & (t < 18.5)
+    error = np.column_stack([np.where(in_contact, 0.01 * np.sin(2 * math.pi * 3.0 * t), 0.0), np.zeros_like(t),
+                             np.zeros_like(t)])
+    force = np.column_stack([np.where(in_contact, 20.0, 0.0), np.zeros_like(t), np.zeros_like(t)])
+    contact = assess_stability(t, error, force_time=t, force=force)
+    assert contact.stable, contact.reasons
+    assert 0 < contact.free_windows_last_half < contact.windows_last_half
+    everywhere = np.column_stack([0.01 * np.sin(2 * math.pi * 3.0 * t), np.zeros_like(t), np.zeros_like(t)])
+    free = assess_stability(t, everywhere, force_time=t, force=np.zeros((t.size, 3)))
+    assert not free.stable and any("free-motion" not in r and "sustained" in r for r in free.reasons)

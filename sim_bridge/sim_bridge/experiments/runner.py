@@ -165,7 +165,9 @@ def stability_of(series: RunSeries, criterion: StabilityCriterion, start: float 
             series.fic_time[keep], series.error[keep],
             violation_time=series.limit_time[limit_keep] if series.limit_time.size else None,
             violation_count=series.violation_ticks[limit_keep] if series.limit_time.size else None,
-            total_energy=series.total_energy[keep], criterion=criterion)
+            total_energy=series.total_energy[keep],
+            force_time=series.wrench_time if series.wrench_time.size >= 4 else None,
+            force=series.force if series.wrench_time.size >= 4 else None, criterion=criterion)
     except StabilityInputError as error:
         return {"stable": None, "reasons": [f"not assessable: {error}"]}
     return verdict.as_dict()

@@ -22,12 +22,18 @@ transients). It is STABLE when all four tests pass:
    2 x 3 sign alternations of an e_osc axis between beyond +h and beyond -h, h = oscillation_amplitude / 2.
    Medians, not the peak, and cycles, not edges: a contact that starts or ends in the last quarter is a step of
    the error, which the detrending turns into ONE alternation, not an oscillation.
-4. No sustained oscillation: the oscillation amplitude ``max |e_osc|`` of a window exceeds
+4. No sustained oscillation IN FREE MOTION: among the last half's windows spent in free motion (SPEC 2.2: the F/T
+   force below 1 N and for 0.2 s; a window is free when 80 % of it is), the oscillation amplitude ``max |e_osc|`` exceeds
    ``oscillation_amplitude`` (5 mm = x_b/10) in fewer than ``sustained_fraction`` (90 %) of the last half's
    windows (it persists through the last half: contact chatter while the task presses on an obstacle stops
    when the contact does; an unstable loop oscillates in free motion too), or the last half holds fewer than max(2 min_cycles, ``min_alternation_rate`` (1/s) x its length)
    alternations (so only oscillations of 0.5 Hz and faster count; slower motion is the operator's). A limit
-   cycle that the postural optimisation keeps inside the limits (so test 3 sees no growth) is caught here.
+   cycle that the postural optimisation keeps inside the limits (so test 3 sees no growth) is caught here. Why free
+   motion only: in contact the environment drives the error (impacts, stick-slip, a piece jamming), and a
+   contact-rich task then fills every window with forced "oscillation" whatever the controller; an unstable loop
+   oscillates on its own, in free motion too. Contact is still judged by tests 1-3 (growth, bound, limits).
+   Without force data every window counts; with force data and fewer than 3 free-motion windows in the last half,
+   test 4 is not assessed (``sustained_assessed`` false in the verdict) and the verdict rests on tests 1-3.
 
 Signals are averaged over and resampled onto a uniform grid (``resample_period`` 10 ms, or the median sample period
 if longer; linear interpolation) before filtering, so a 10 Hz controller's state and a 1 kHz one are judged alike,
@@ -60,6 +66,9 @@ class StabilityCriterion:
     growth_ratio: float = 2.0            # fourth-quarter / third-quarter median window energy
     min_cycles: int = 3                  # oscillation cycles that make a growth or a sustained oscillation
     min_alternation_rate: float = 1.0    # [1/s] sign alternations a second of a sustained oscillation
+    free_force: float = 1.0              # [N] SPEC 2.2 free motion: |F| below this ...
+    free_hold: float = 0.2               # [s] ... for this long
+    free_window_share: float = 0.8       # a window is a free-motion window when this share of it is free
     stiffness: float = 200.0             # [N/m] K0 of the replica
     mass: float = 4.0                    # [kg] nominal TCP mass
     energy_floor: float | None = None    # [J] default 1/2 K0 oscillation_amplitude^2
@@ -91,8 +100,11 @@ class StabilityVerdict:
     energy_growth: float                  # q4 / q3 (inf when q3 is 0 and q4 is not)
     oscillating_fraction: float           # share of the last half's windows with amplitude above the threshold
     alternations_q4: int                  # sign alternations of e_osc beyond +-h in the fourth quarter
-    alternations_last_half: int           # same over the last half
+    alternations_last_half: int           # same over the last half (in the windows test 4 judged)
     max_oscillation_amplitude: float      # [m] over the last half
+    free_windows_last_half: int = -1      # windows of the last half in free motion (-1: no force data)
+    windows_last_half: int = 0
+    sustained_assessed: bool = True       # test 4 had at least 3 (free-motion) windows to judge
     total_energy_peak_last_half: float | None = None   # [J] FicState total_energy (record only)
     total_energy_peak_first_half: float | None = None  # [J]
     joint_speed_peak_last_half: float | None = None    # [rad/s] (record only)
@@ -183,6 +195,20 @@ def _alternations(grid: NDArray, oscillation: NDArray, start: float, stop: float
     return most
 
 
+def _free_motion(time: NDArray, magnitude: NDArray, criterion: StabilityCriterion) -> NDArray:
+    """SPEC 2.2: a sample is free motion when the force has been below free_force for at least free_hold."""
+    below = magnitude < criterion.free_force
+    free = np.zeros(time.size, dtype=bool)
+    since = None
+    for k in range(time.size):
+        if below[k]:
+            since = time[k] if since is None else since
+            free[k] = time[k] - since >= criterion.free_hold
+        else:
+            since = None
+    return free
+
+
 def _counter_increase(time: NDArray, counter: NDArray, start: float) -> int:
     """Increase of a cumulative counter from the last sample at or before ``start`` to the last sample."""
     before = np.nonzero(time <= start)[0]
@@ -192,14 +218,16 @@ def _counter_increase(time: NDArray, counter: NDArray, start: float) -> int:
 
 def assess_stability(time: ArrayLike, error: ArrayLike, *, violation_time: ArrayLike | None = None,
                      violation_count: ArrayLike | None = None, total_energy: ArrayLike | None = None,
-                     joint_velocity: ArrayLike | None = None,
+                     joint_velocity: ArrayLike | None = None, force_time: ArrayLike | None = None,
+                     force: ArrayLike | None = None,
                      criterion: StabilityCriterion = StabilityCriterion()) -> StabilityVerdict:
     """Judge one run by the criterion of this module's docstring.
 
     time: (n,) [s]; error: (n, 3) translation error x_d - x_R [m] (or (n,) for one axis); violation_time and
     violation_count: samples of the cumulative violation-tick counter (LimitStatus.violation_ticks), may be
     sampled at another rate than the error; total_energy (n,) [J] and joint_velocity (n, 7) [rad/s] on ``time``,
-    optional, reported only.
+    optional, reported only; force_time (m,) and force (m, 3) [N]: the wrist F/T force, which tells free motion
+    from contact for test 4 (without it every window counts).
     """
     time = _time("time", time)
     error_array = np.asarray(error, dtype=np.float64)
@@ -246,11 +274,32 @@ def assess_stability(time: ArrayLike, error: ArrayLike, *, violation_time: Array
                        f"{alternations_q4} alternations")
 
     amplitudes = _window_peaks(grid, amplitude, half, end, window)
-    fraction = float(np.mean(amplitudes > criterion.oscillation_amplitude))
-    needed = max(2 * criterion.min_cycles, int(np.ceil(criterion.min_alternation_rate * (end - half))))
-    if fraction >= criterion.sustained_fraction and alternations_half >= needed:
+    edges = np.linspace(half, end, amplitudes.size + 1)
+    chosen = np.ones(amplitudes.size, dtype=bool)
+    free_windows = -1
+    if force is not None and force_time is not None:
+        f_time = _time("force_time", force_time)
+        f_values = _series("force", f_time, force, columns=np.shape(force)[-1] if np.ndim(force) == 2 else 1)
+        free = _free_motion(f_time, np.linalg.norm(f_values, axis=1), criterion)
+        free_on_grid = np.interp(grid, f_time, free.astype(float)) > 0.5
+        shares = np.array([np.mean(free_on_grid[(grid >= low) & (grid <= high)]) if np.any((grid >= low) & (grid <= high))
+                           else 0.0 for low, high in zip(edges[:-1], edges[1:])])
+        free_mask = shares >= criterion.free_window_share
+        free_windows = int(np.sum(free_mask))
+        chosen = free_mask
+    assessed = int(np.sum(chosen)) >= 3
+    fraction = float(np.mean(amplitudes[chosen] > criterion.oscillation_amplitude)) if np.any(chosen) else 0.0
+    judged = (end - half) * float(np.mean(chosen))
+    alternations_judged = sum(_alternations(grid, oscillation, low, high, level)
+                              for low, high, keep in zip(edges[:-1], edges[1:], chosen) if keep)
+    if np.all(chosen):
+        alternations_judged = alternations_half
+    needed = max(2 * criterion.min_cycles, int(np.ceil(criterion.min_alternation_rate * judged)))
+    if assessed and fraction >= criterion.sustained_fraction and alternations_judged >= needed:
+        where = "free-motion " if not np.all(chosen) else ""
         reasons.append(f"sustained oscillation: amplitude above {criterion.oscillation_amplitude * 1e3:.1f} mm in "
-                       f"{fraction:.0%} of the last half's {window:.2f} s windows, {alternations_half} alternations")
+                       f"{fraction:.0%} of the last half's {int(np.sum(chosen))} {where}{window:.2f} s windows, "
+                       f"{alternations_judged} alternations")
 
     total_last = total_first = None
     if total_energy is not None:
@@ -266,7 +315,8 @@ def assess_stability(time: ArrayLike, error: ArrayLike, *, violation_time: Array
         stable=not reasons, reasons=reasons, last_half_start=half - start, duration=duration,
         violations_last_half=violations, max_error_last_half=max_error_last, max_error=float(np.max(magnitude)),
         energy_q3_median=q3_median, energy_q4_median=q4_median, energy_growth=float(growth),
-        oscillating_fraction=fraction, alternations_q4=alternations_q4, alternations_last_half=alternations_half,
+        oscillating_fraction=fraction, alternations_q4=alternations_q4, alternations_last_half=alternations_judged,
+        free_windows_last_half=free_windows, windows_last_half=int(amplitudes.size), sustained_assessed=assessed,
         max_oscillation_amplitude=float(np.max(amplitude[grid >= half])),
         total_energy_peak_last_half=total_last, total_energy_peak_first_half=total_first,
         joint_speed_peak_last_half=speed_last, criterion=criterion.as_dict())
