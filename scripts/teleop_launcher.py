@@ -69,6 +69,8 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         "rate_cap_hz": args.rate_cap,
         "seed": args.seed,
     }
+    if args.blackout_window:
+        channel["blackout_windows"] = [float(t) for t in args.blackout_window]
     operator = "joy" if args.interactive else "scripted"
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
@@ -146,7 +148,10 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float) -> floa
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
 
-    rclpy.init()
+    from rclpy.signals import SignalHandlerOptions
+
+    # Our own Ctrl-C handling (KeyboardInterrupt in main) stops the graph in order; rclpy's would only end the wait.
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("fic_teleop_launcher")
     latest = {"t": None, "start": None}
 
@@ -190,6 +195,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--drop", type=float, default=0.0, help="drop probability in [0, 1]")
     parser.add_argument("--blackout-at", type=float, default=None,
                         help="total loss of communication, both ways, from this many seconds after the channel starts")
+    parser.add_argument("--blackout-window", type=float, nargs=2, metavar=("START", "END"), default=None,
+                        help="total loss of communication, both ways, between these times after the channel starts")
     parser.add_argument("--rate-cap", type=float, default=0.0, help="channel rate cap [Hz], 0 = none (paper: 10 Hz)")
     parser.add_argument("--controller", default="fic", choices=["fic", "linear"], help="replica controller")
     parser.add_argument("--control-rate", type=float, default=1000.0, help="replica control rate [Hz]")
