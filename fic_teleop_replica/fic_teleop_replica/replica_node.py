@@ -30,6 +30,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 from geometry_msgs.msg import AccelStamped, PoseStamped, WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rclpy._rclpy_pybind11 import RCLError
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
@@ -536,7 +538,11 @@ class ReplicaNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
+    try:
+        rclpy.init(args=args)
+    except RCLError as exc:  # e.g. a malformed --params-file: refuse to start, in one clear line
+        rclpy.logging.get_logger(NODE_NAME).fatal(f"cannot start: bad ROS arguments or parameter file: {exc}")
+        raise SystemExit(2) from None
     node = None
     try:
         node = ReplicaNode()
@@ -549,9 +555,9 @@ def main(args: list[str] | None = None) -> None:
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except FicInputError as exc:
+    except (FicInputError, ParameterException) as exc:  # out-of-range, NaN or wrongly typed parameters
         rclpy.logging.get_logger(NODE_NAME).fatal(f"cannot start: {exc}")
-        raise SystemExit(2) from exc
+        raise SystemExit(2) from None
     finally:
         if node is not None:
             node.get_logger().info(f"replica stopped: {node.statistics()}")
