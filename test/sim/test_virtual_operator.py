@@ -132,8 +132,11 @@ def test_superimposition_rejects_overlapping_actions():
 def test_shape_sorting_velocity_legs_travel_the_planned_distance():
     """Integrate the master's velocity law over the script's handle targets, in each mode as toggled, and check
     that the replica offset x_d' visits every piece and every hole."""
-    script = shape_sorting_script()
+    # Without the closed-loop leg corrections (a tuning on top of the geometry, see SHAPE_SORTING_DEFAULTS), and with
+    # the master's own velocity law including its dead-band (fic_core.teleoperation), the legs land on the plan.
+    script = shape_sorting_script({"leg_corrections": {}})
     gain = SHAPE_SORTING_DEFAULTS["velocity_gain"]
+    deadband = SHAPE_SORTING_DEFAULTS["velocity_deadband"]
     dt = 0.001
     velocity_mode = False
     offset_base = np.zeros(3)                          # x_d' at the last switch to offset mode
@@ -149,7 +152,8 @@ def test_shape_sorting_velocity_legs_travel_the_planned_distance():
                 offset_base = desired.copy()
         handle = script.target(t)
         if velocity_mode:
-            desired = desired + gain * handle * dt
+            norm = np.linalg.norm(handle)
+            desired = desired + (gain * handle * (1.0 - deadband / norm) * dt if norm > deadband else 0.0)
         else:
             desired = offset_base + handle
             visited.append(desired.copy())
