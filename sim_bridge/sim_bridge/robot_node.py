@@ -27,6 +27,7 @@ Commands with NaN/Inf or a length other than 7 are rejected with an error log an
 """
 from __future__ import annotations
 
+import sys
 import threading
 import time
 
@@ -378,6 +379,9 @@ def _pose(position: np.ndarray, quaternion_wxyz: np.ndarray) -> Pose:
 
 
 def main(args: list[str] | None = None) -> None:
+    # Two threads share the GIL here (physics, and the executor receiving commands): the default 5 ms switch
+    # interval would let a busy executor hold the physics thread past several 1 ms steps.
+    sys.setswitchinterval(0.0002)
     rclpy.init(args=args)
     node = None
     try:
