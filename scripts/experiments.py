@@ -355,7 +355,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--e2-trials", type=int, default=4)
     parser.add_argument("--e3-duration", type=float, default=None, help="default: blackout time + 12 s")
     parser.add_argument("--e3-blackout-at", type=float, default=None,
-                        help="default: while the plate presses the first piece (from the operator script)")
+                        help="default: mid-press of the plate on the first piece (from the operator script)")
     parser.add_argument("--sweep-duration", type=float, default=None, help="E4 cell duration (default 20 s, 5 s quick)")
     parser.add_argument("--reanalyse", action="store_true",
                         help="do not run: analyse the run folders already in --runs again (e.g. after changing the "
@@ -377,7 +377,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     if args.e2_duration is None:
         args.e2_duration = round(script["length_s"] + 1.0, 1)
     if args.e3_blackout_at is None:
-        args.e3_blackout_at = round(script["first_press_s"], 1)
+        args.e3_blackout_at = round(script["first_press_s"], 1)  # mid-press on the first piece: contact
     if args.e3_duration is None:
         args.e3_duration = round(args.e3_blackout_at + 12.0, 1)
     return args
@@ -390,8 +390,14 @@ def shape_sorting_script_timing() -> dict:
     script = yaml.safe_load((REPO / "config" / "operator_scripts" / "shape_sorting.yaml").read_text())
     waypoints = script["waypoints"]
     length = float(waypoints[-1]["t"])
-    press = next((float(w["t"]) for w in waypoints if w["position"][2] <= -0.02), length / 4)
-    return {"length_s": length, "first_press_s": press + 0.5}
+    parameters = script.get("parameters", {})
+    # The first pick: the travel down to hover over the first piece ends (leg_ends), then the handle descends for
+    # 2 ramps to press the plate on the piece and holds bond_time: the middle of that hold is contact.
+    down = parameters.get("leg_ends", {}).get(f"{parameters['pieces'][0]['name']}:down") if parameters.get("pieces") else None
+    if down is None:
+        raise SystemExit("the shape-sorting script has no leg_ends: regenerate it (python -m sim_bridge.operator_scripts)")
+    press = float(down[0]) + 2.0 * float(parameters["ramp"]) + 0.5 * float(parameters["bond_time"])
+    return {"length_s": length, "first_press_s": press}
 
 
 def _number(value, digits: int = 3, scale: float = 1.0) -> str:
