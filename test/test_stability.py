@@ -204,3 +204,18 @@ def test_oscillation_only_in_contact_is_not_sustained_but_in_free_motion_it_is()
     everywhere = np.column_stack([0.01 * np.sin(2 * math.pi * 3.0 * t), np.zeros_like(t), np.zeros_like(t)])
     free = assess_stability(t, everywhere, force_time=t, force=np.zeros((t.size, 3)))
     assert not free.stable and any("free-motion" not in r and "sustained" in r for r in free.reasons)
+
+
+def test_an_impact_burst_in_the_last_quarter_of_a_contact_task_is_not_growth():
+    # Free motion with a small 2 mm wobble, then 1.8 s of 1.5 cm, 3 Hz chatter against an obstacle (F/T 20 N) in the
+    # last quarter: with the force, test 3 compares free-motion windows and passes; an oscillation that grows in
+    # free motion is still flagged.
+    t = np.arange(0.0, 20.0, DT)
+    burst = (t > 15.5) & (t < 17.3)
+    error = 0.002 * np.sin(2 * math.pi * 3.0 * t) + np.where(burst, 0.015 * np.sin(2 * math.pi * 3.0 * t), 0.0)
+    force = np.column_stack([np.where(burst, 20.0, 0.0), np.zeros_like(t), np.zeros_like(t)])
+    verdict = assess_stability(t, np.column_stack([error, 0 * t, 0 * t]), force_time=t, force=force)
+    assert verdict.stable and verdict.growth_in_free_motion, verdict.reasons
+    growing = 0.002 * np.exp(0.25 * (t - 10.0)) * np.sin(2 * math.pi * 3.0 * t)
+    verdict = assess_stability(t, np.column_stack([growing, 0 * t, 0 * t]), force_time=t, force=0 * force)
+    assert not verdict.stable and any("growing in free motion" in r for r in verdict.reasons)

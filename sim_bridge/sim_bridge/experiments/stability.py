@@ -21,7 +21,9 @@ transients). It is STABLE when all four tests pass:
    there is nothing to grow), AND the fourth quarter shows ``min_cycles`` (3) cycles of oscillation: at least
    2 x 3 sign alternations of an e_osc axis between beyond +h and beyond -h, h = oscillation_amplitude / 2.
    Medians, not the peak, and cycles, not edges: a contact that starts or ends in the last quarter is a step of
-   the error, which the detrending turns into ONE alternation, not an oscillation.
+   the error, which the detrending turns into ONE alternation, not an oscillation. With force data, only the
+   free-motion windows of each quarter are compared when each quarter has at least 2 (an impact burst in the
+   last quarter of a contact task is the environment's doing); otherwise all windows.
 4. No sustained oscillation IN FREE MOTION: among the last half's windows spent in free motion (SPEC 2.2: the F/T
    force below 1 N and for 0.2 s; a window is free when 80 % of it is), the oscillation amplitude ``max |e_osc|`` exceeds
    ``oscillation_amplitude`` (5 mm = x_b/10) in fewer than ``sustained_fraction`` (90 %) of the last half's
@@ -95,7 +97,8 @@ class StabilityVerdict:
     violations_last_half: int
     max_error_last_half: float            # [m]
     max_error: float                      # [m] over the whole run
-    energy_q3_median: float               # [J] median window peak of E_osc, third quarter
+    energy_q3_median: float               # [J] median window peak of E_osc, third quarter (free-motion windows
+                                          #     when each quarter has 2, see growth_in_free_motion)
     energy_q4_median: float               # [J] same, fourth quarter
     energy_growth: float                  # q4 / q3 (inf when q3 is 0 and q4 is not)
     oscillating_fraction: float           # share of the last half's windows with amplitude above the threshold
@@ -105,6 +108,7 @@ class StabilityVerdict:
     free_windows_last_half: int = -1      # windows of the last half in free motion (-1: no force data)
     windows_last_half: int = 0
     sustained_assessed: bool = True       # test 4 had at least 3 (free-motion) windows to judge
+    growth_in_free_motion: bool = False   # test 3 compared free-motion windows only
     total_energy_peak_last_half: float | None = None   # [J] FicState total_energy (record only)
     total_energy_peak_first_half: float | None = None  # [J]
     joint_speed_peak_last_half: float | None = None    # [rad/s] (record only)
@@ -260,40 +264,57 @@ def assess_stability(time: ArrayLike, error: ArrayLike, *, violation_time: Array
 
     grid, oscillation, energy = oscillation_components(time, error_array, criterion)
     amplitude = np.linalg.norm(oscillation, axis=1)
-    q3 = _window_peaks(grid, energy, third_quarter, fourth_quarter, window)
-    q4 = _window_peaks(grid, energy, fourth_quarter, end, window)
-    q3_median, q4_median = float(np.median(q3)), float(np.median(q4))
-    growth = q4_median / q3_median if q3_median > 0.0 else (np.inf if q4_median > 0.0 else 1.0)
     level = 0.5 * criterion.oscillation_amplitude
-    alternations_q4 = _alternations(grid, oscillation, fourth_quarter, end, level)
-    alternations_half = _alternations(grid, oscillation, half, end, level)
-    if (q4_median > criterion.floor() and q4_median > criterion.growth_ratio * q3_median
-            and alternations_q4 >= 2 * criterion.min_cycles):
-        reasons.append(f"oscillation energy growing: last-quarter median window peak {q4_median * 1e3:.2f} mJ is "
-                       f"{growth:.1f}x the third quarter's (limit {criterion.growth_ratio:.1f}x), "
-                       f"{alternations_q4} alternations")
 
-    amplitudes = _window_peaks(grid, amplitude, half, end, window)
-    edges = np.linspace(half, end, amplitudes.size + 1)
-    chosen = np.ones(amplitudes.size, dtype=bool)
-    free_windows = -1
+    free_on_grid = None
     if force is not None and force_time is not None:
         f_time = _time("force_time", force_time)
         f_values = _series("force", f_time, force, columns=np.shape(force)[-1] if np.ndim(force) == 2 else 1)
         free = _free_motion(f_time, np.linalg.norm(f_values, axis=1), criterion)
         free_on_grid = np.interp(grid, f_time, free.astype(float)) > 0.5
-        shares = np.array([np.mean(free_on_grid[(grid >= low) & (grid <= high)]) if np.any((grid >= low) & (grid <= high))
-                           else 0.0 for low, high in zip(edges[:-1], edges[1:])])
-        free_mask = shares >= criterion.free_window_share
-        free_windows = int(np.sum(free_mask))
-        chosen = free_mask
+
+    def edges_of(start_: float, stop_: float) -> NDArray:
+        return np.linspace(start_, stop_, max(1, int(np.floor((stop_ - start_) / window + 1e-9))) + 1)
+
+    def free_windows_of(edges: NDArray) -> NDArray:
+        if free_on_grid is None:
+            return np.ones(edges.size - 1, dtype=bool)
+        shares = [np.mean(free_on_grid[(grid >= low) & (grid <= high)]) if np.any((grid >= low) & (grid <= high))
+                  else 0.0 for low, high in zip(edges[:-1], edges[1:])]
+        return np.asarray(shares) >= criterion.free_window_share
+
+    def alternations_in(edges: NDArray, keep: NDArray) -> int:
+        if np.all(keep):
+            return _alternations(grid, oscillation, edges[0], edges[-1], level)
+        return sum(_alternations(grid, oscillation, low, high, level)
+                   for low, high, chosen_ in zip(edges[:-1], edges[1:], keep) if chosen_)
+
+    # Test 3 on the free-motion windows of each quarter when both have at least 2, else on all of them.
+    q3_edges, q4_edges = edges_of(third_quarter, fourth_quarter), edges_of(fourth_quarter, end)
+    q3 = _window_peaks(grid, energy, third_quarter, fourth_quarter, window)
+    q4 = _window_peaks(grid, energy, fourth_quarter, end, window)
+    q3_free, q4_free = free_windows_of(q3_edges), free_windows_of(q4_edges)
+    growth_free = free_on_grid is not None and q3_free.sum() >= 2 and q4_free.sum() >= 2
+    if growth_free:
+        q3, q4 = q3[q3_free], q4[q4_free]
+    q3_median, q4_median = float(np.median(q3)), float(np.median(q4))
+    growth = q4_median / q3_median if q3_median > 0.0 else (np.inf if q4_median > 0.0 else 1.0)
+    alternations_q4 = alternations_in(q4_edges, q4_free if growth_free else np.ones(q4_edges.size - 1, bool))
+    alternations_half = _alternations(grid, oscillation, half, end, level)
+    if (q4_median > criterion.floor() and q4_median > criterion.growth_ratio * q3_median
+            and alternations_q4 >= 2 * criterion.min_cycles):
+        reasons.append(f"oscillation energy growing{' in free motion' if growth_free else ''}: last-quarter median "
+                       f"window peak {q4_median * 1e3:.2f} mJ is {growth:.1f}x the third quarter's (limit "
+                       f"{criterion.growth_ratio:.1f}x), {alternations_q4} alternations")
+
+    amplitudes = _window_peaks(grid, amplitude, half, end, window)
+    edges = np.linspace(half, end, amplitudes.size + 1)
+    chosen = free_windows_of(edges)
+    free_windows = -1 if free_on_grid is None else int(np.sum(chosen))
     assessed = int(np.sum(chosen)) >= 3
     fraction = float(np.mean(amplitudes[chosen] > criterion.oscillation_amplitude)) if np.any(chosen) else 0.0
     judged = (end - half) * float(np.mean(chosen))
-    alternations_judged = sum(_alternations(grid, oscillation, low, high, level)
-                              for low, high, keep in zip(edges[:-1], edges[1:], chosen) if keep)
-    if np.all(chosen):
-        alternations_judged = alternations_half
+    alternations_judged = alternations_in(edges, chosen)
     needed = max(2 * criterion.min_cycles, int(np.ceil(criterion.min_alternation_rate * judged)))
     if assessed and fraction >= criterion.sustained_fraction and alternations_judged >= needed:
         where = "free-motion " if not np.all(chosen) else ""
@@ -317,6 +338,7 @@ def assess_stability(time: ArrayLike, error: ArrayLike, *, violation_time: Array
         energy_q3_median=q3_median, energy_q4_median=q4_median, energy_growth=float(growth),
         oscillating_fraction=fraction, alternations_q4=alternations_q4, alternations_last_half=alternations_judged,
         free_windows_last_half=free_windows, windows_last_half=int(amplitudes.size), sustained_assessed=assessed,
+        growth_in_free_motion=bool(growth_free),
         max_oscillation_amplitude=float(np.max(amplitude[grid >= half])),
         total_energy_peak_last_half=total_last, total_energy_peak_first_half=total_first,
         joint_speed_peak_last_half=speed_last, criterion=criterion.as_dict())
