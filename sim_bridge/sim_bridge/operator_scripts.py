@@ -67,7 +67,7 @@ SUPERIMPOSITION_DEFAULTS: dict[str, Any] = {
     "hold": 0.5,                        # [s] full offset held each side of the passing time
     "ramp": 0.5,                        # [s] hand moves between offsets
     "push_hold": 0.3,                   # [s] held outward after the sweep through the second obstacle
-    "laps": 3,                          # laps scripted (the first obstacle is avoided on each)
+    "laps": 6,                          # laps scripted (the first obstacle is avoided on each): covers the 30 s main job
 }
 
 #: The replica's desired TCP position while x_d' = 0 in the E2 run: the planner's fixed point (config/planner.yaml
