@@ -156,7 +156,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--lockstep-duration", type=float, default=10.0)
     parser.add_argument("--skip-default", action="store_true", help="skip the default main job")
     parser.add_argument("--skip-lockstep", action="store_true")
+    parser.add_argument("--markdown", action="store_true", help="only print --out as markdown tables (no runs)")
     args = parser.parse_args(argv)
+    if args.markdown:
+        print(markdown(json.loads(args.out.read_text())))
+        return 0
     runs = args.runs or REPO / "runs" / f"bench-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
     runs.mkdir(parents=True, exist_ok=True)
     result: dict = {"generated": datetime.now().isoformat(timespec="seconds"),
@@ -212,6 +216,41 @@ def main(argv: list[str] | None = None) -> int:
     print_table(result)
     print(f"[bench] {args.out}")
     return 0
+
+
+def markdown(result: dict) -> str:
+    tick = result["replica_tick_us"]
+    default, lock = result.get("default_main_job") or {}, result.get("lockstep") or {}
+    late = default.get("realtime_step_lateness") or {}
+    lines = [f"### Benchmarks ({result['generated']}, load average at start "
+             f"{', '.join(f'{x:.1f}' for x in result['machine']['load_average_at_start'])} on "
+             f"{result['machine']['cpus']} cores)", "",
+             "| figure | value | command |", "|---|---|---|",
+             f"| replica tick compute, median / p99 | {tick['median_us']:.0f} / {tick['p99_us']:.0f} us | "
+             f"`{result['commands'].get('replica_tick')}` |"]
+    if default:
+        lines += [f"| default main job, wall time (setup check, 30 s run, stop, report) | {default['wall_s']:.0f} s | "
+                  f"`time scripts/run_teleop.sh` |",
+                  f"| pipeline latency, median / p99 (default run) | {default['pipeline_latency_p50_ms']:.2f} / "
+                  f"{default['pipeline_latency_p99_ms']:.2f} ms | same run's metrics.json |",
+                  f"| real-time factor (default run, realtime) | {default['real_time_factor']:.3f} | same |",
+                  f"| realtime step lateness p50 / p99 / max (robot_sim, last 10 s) | "
+                  f"{late.get('lateness_p50_ms', float('nan')):.2f} / {late.get('lateness_p99_ms', float('nan')):.2f} / "
+                  f"{late.get('lateness_max_ms', float('nan')):.1f} ms; achieved {late.get('achieved_rate_hz', float('nan')):.0f} Hz"
+                  f" | same run's bag (/diagnostics) |",
+                  f"| /sim/step_lateness (worst step per 0.1 s), median / p99 | "
+                  f"{late.get('step_lateness_topic_worst_per_100ms_median_ms', float('nan')):.2f} / "
+                  f"{late.get('step_lateness_topic_worst_per_100ms_p99_ms', float('nan')):.2f} ms | same run's bag |"]
+    if lock:
+        lines.append(f"| lockstep physics steps per second, whole graph answering | {lock['steps_per_s']} (RTF "
+                     f"{lock['real_time_factor']:.3f}) | `{result['commands'].get('lockstep')}` |")
+    for label, block in (("realtime default run", default), ("lockstep run", lock)):
+        if block.get("nodes"):
+            lines += ["", f"Per node, {label} (CPU: CPU seconds per wall second, 100 % = one core; RSS peak):", "",
+                      "| node | CPU % | peak RSS MB |", "|---|---|---|"]
+            lines += [f"| {name} | {row['cpu_percent_of_one_core']} | {row['peak_rss_mb']} |"
+                      for name, row in block["nodes"].items()]
+    return "\n".join(lines)
 
 
 def print_table(result: dict) -> None:
