@@ -228,6 +228,10 @@ def markdown(result: dict) -> str:
              "| figure | value | command |", "|---|---|---|",
              f"| replica tick compute, median / p99 | {tick['median_us']:.0f} / {tick['p99_us']:.0f} us | "
              f"`{result['commands'].get('replica_tick')}` |"]
+    cpu = result.get("replica_tick_cpu_time_us") or {}
+    if cpu.get("median_us") is not None:
+        lines.append(f"| replica tick, thread CPU time (leaves out time given to other processes), median / p99 | "
+                     f"{cpu['median_us']:.0f} / {cpu['p99_us']:.0f} us | same |")
     if default:
         lines += [f"| default main job, wall time (setup check, 30 s run, stop, report) | {default['wall_s']:.0f} s | "
                   f"`time scripts/run_teleop.sh` |",
