@@ -200,7 +200,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--rate-cap", type=float, default=0.0, help="channel rate cap [Hz], 0 = none (paper: 10 Hz)")
     parser.add_argument("--controller", default="fic", choices=["fic", "linear"], help="replica controller")
     parser.add_argument("--control-rate", type=float, default=1000.0, help="replica control rate [Hz]")
-    parser.add_argument("--trajectory", default="circle", choices=["circle", "fixed", "via_points"])
+    parser.add_argument("--trajectory", default=None, choices=["circle", "fixed", "via_points"],
+                        help="planner trajectory (default: the circle for superimposition, a fixed point otherwise)")
     parser.add_argument("--time-mode", default="realtime", choices=["realtime", "lockstep"],
                         help="realtime: wall-clock paced; lockstep: the sim waits for each command (deterministic)")
     parser.add_argument("--interactive", action="store_true", help="drive the operator's hand from the keyboard")
@@ -217,6 +218,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_arguments(argv)
+    if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
+        args.trajectory = "circle" if args.scene == "superimposition" else "fixed"
     if args.delay < 0 or args.jitter < 0 or not 0.0 <= args.drop <= 1.0 or args.duration <= 0 or args.rate_cap < 0:
         print("[run] refused: delay, jitter, duration and rate cap must be >= 0 and drop in [0, 1]", file=sys.stderr)
         return 2
