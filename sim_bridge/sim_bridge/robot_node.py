@@ -38,7 +38,6 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Pose, PoseArray, PoseStamped, WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
@@ -50,6 +49,7 @@ from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
 from sim_bridge.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
 from sim_bridge.scenes import SCENE_NAMES
+from sim_bridge.spin import spin_until_shutdown
 from sim_bridge.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
 from sim_bridge.watchdog import CommandWatchdog, WatchdogEvent
 
@@ -386,12 +386,7 @@ def main(args: list[str] | None = None) -> None:
     node = None
     try:
         node = RobotNode()
-        executor = EventsExecutor()
-        executor.add_node(node)
-        # Not executor.spin(): in these rclpy wheels EventsExecutor.spin() never returns on SIGINT/SIGTERM (the
-        # context shuts down but spin keeps waiting); spin_once notices and raises ExternalShutdownException.
-        while rclpy.ok(context=node.context):
-            executor.spin_once(timeout_sec=0.1)
+        spin_until_shutdown(node)  # spin_once slices: EventsExecutor.spin() ignores SIGINT in these wheels
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except FicInputError as exc:
