@@ -46,10 +46,10 @@ class NodeSampler(threading.Thread):
         super().__init__(daemon=True)
         self.root, self.period = root, period
         self.stats: dict[str, dict] = {}
-        self._stop = threading.Event()
+        self._halt = threading.Event()
 
     @staticmethod
-    def _name(process: psutil.Process) -> str | None:
+    def _process_name(process: psutil.Process) -> str | None:
         try:
             command = process.cmdline()
         except (psutil.NoSuchProcess, psutil.AccessDenied):
@@ -66,14 +66,14 @@ class NodeSampler(threading.Thread):
             root = psutil.Process(self.root)
         except psutil.NoSuchProcess:
             return
-        while not self._stop.is_set():
+        while not self._halt.is_set():
             try:
                 children = root.children(recursive=True)
             except psutil.NoSuchProcess:
                 break
             now = time.monotonic()
             for child in children:
-                name = self._name(child)
+                name = self._process_name(child)
                 if name is None:
                     continue
                 try:
@@ -87,10 +87,10 @@ class NodeSampler(threading.Thread):
                                                      "last_t": now, "last_cpu": cpu, "peak_rss": rss})
                 entry["last_t"], entry["last_cpu"] = now, cpu
                 entry["peak_rss"] = max(entry["peak_rss"], rss)
-            self._stop.wait(self.period)
+            self._halt.wait(self.period)
 
     def stop(self) -> dict[str, dict]:
-        self._stop.set()
+        self._halt.set()
         self.join(timeout=5.0)
         table = {}
         for name, entry in sorted(self.stats.items()):
