@@ -14,6 +14,7 @@ import json
 import os
 import shutil
 import signal
+import threading
 import subprocess
 import sys
 import time
@@ -142,15 +143,17 @@ def _interrupt(process: subprocess.Popen, timeout: float) -> int:
     return process.returncode
 
 
-def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float) -> float:
-    """Block until the simulation has run `duration` seconds of its own time (read from /clock)."""
+def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event) -> float:
+    """Block until the simulation has run `duration` seconds of its own time (read from /clock), or `stop` is set."""
     import rclpy
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
 
     from rclpy.signals import SignalHandlerOptions
 
-    # Our own Ctrl-C handling (KeyboardInterrupt in main) stops the graph in order; rclpy's would only end the wait.
+    # Our own Ctrl-C handling (a flag set by main's signal handler) stops the graph in order; rclpy's would only end
+    # the wait. The handler must not raise: an exception raised while rclpy's C++ layer converts a message comes out
+    # as a pybind11 RuntimeError instead of a KeyboardInterrupt.
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("fic_teleop_launcher")
     latest = {"t": None, "start": None}
@@ -165,7 +168,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float) -> floa
     wall_start = time.monotonic()
     last_print = 0.0
     try:
-        while rclpy.ok():
+        while rclpy.ok() and not stop.is_set():
             rclpy.spin_once(node, timeout_sec=0.1)
             elapsed = 0.0 if latest["t"] is None else latest["t"] - latest["start"]
             if elapsed >= duration or graph_.foreground_done():
@@ -182,7 +185,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float) -> floa
                 print(f"[run] sim time {elapsed:5.1f} / {duration:.0f} s", flush=True)
     finally:
         node.destroy_node()
-        rclpy.shutdown()
+        rclpy.try_shutdown()
     return 0.0 if latest["t"] is None else latest["t"] - latest["start"]
 
 
@@ -234,12 +237,12 @@ def main(argv: list[str] | None = None) -> int:
     (run_dir / "run.json").write_text(json.dumps({k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()}, indent=2))
 
     running = Graph(log_dir)
-    interrupted = {"flag": False}
+    interrupted = threading.Event()
 
-    def on_signal(signum, frame):  # the first Ctrl-C ends the run early; the graph still stops cleanly
-        interrupted["flag"] = True
-        raise KeyboardInterrupt
+    def on_signal(signum, frame):  # the first Ctrl-C or SIGTERM ends the run early; the graph still stops cleanly
+        interrupted.set()
 
+    signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     wall_start = time.monotonic()
     sim_elapsed = 0.0
@@ -248,12 +251,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         for spec in graph(args, bag_path):
             running.start(spec)
-        sim_elapsed = wait_for_sim_time(args.duration, running, wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration))
-    except KeyboardInterrupt:
-        interrupted["flag"] = True
-        print("\n[run] interrupted: stopping the graph and finalising the bag")
+        if not interrupted.is_set():
+            sim_elapsed = wait_for_sim_time(args.duration, running, stop=interrupted,
+                                            wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration))
+    except KeyboardInterrupt:  # only if a signal arrived before our handler was installed
+        interrupted.set()
     finally:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut the bag's finalisation
+        if interrupted.is_set():
+            print("\n[run] interrupted: stopping the graph and finalising the bag", flush=True)
+        # Further Ctrl-Cs only set the flag again: they must not cut the bag's finalisation.
         codes = running.stop()
         signal.signal(signal.SIGINT, signal.default_int_handler)
     wall = time.monotonic() - wall_start

@@ -389,9 +389,16 @@ def spin_until_shutdown(node: Node, slice_s: float = 0.1) -> None:
     executor.add_node(node)
     try:
         while rclpy.ok(context=node.context):
-            executor.spin_once(timeout_sec=slice_s)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+            try:
+                executor.spin_once(timeout_sec=slice_s)
+            except (KeyboardInterrupt, ExternalShutdownException):
+                break
+            except Exception:
+                # A callback that ran while the signal handler was shutting the context down (a timer's publish
+                # on the invalidated context, a pybind11 conversion error in a take) is not a fault of the node.
+                if rclpy.ok(context=node.context):
+                    raise
+                break
     finally:
         executor.shutdown(timeout_sec=1.0)
 

@@ -554,11 +554,14 @@ def main(args: list[str] | None = None) -> None:
         while rclpy.ok():  # short slices so that the signal handler's shutdown is seen promptly
             try:
                 executor.spin_once(timeout_sec=0.1)
-            except RuntimeError:
+            except (KeyboardInterrupt, ExternalShutdownException):
+                break
+            except Exception:
                 # Seen once in 4 long runs: the EventsExecutor of these wheels raised a pybind11 conversion error
                 # from a callback racing the context's shutdown. Only then is it not an error of ours.
                 if rclpy.ok():
                     raise
+                break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (FicInputError, ParameterException) as exc:  # out-of-range, NaN or wrongly typed parameters

@@ -21,8 +21,15 @@ def spin_until_shutdown(node: Node) -> None:
     executor.add_node(node)
     try:
         while rclpy.ok(context=node.context):
-            executor.spin_once(timeout_sec=SLICE)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+            try:
+                executor.spin_once(timeout_sec=SLICE)
+            except (KeyboardInterrupt, ExternalShutdownException):
+                break
+            except Exception:
+                # A callback that ran while the signal handler was shutting the context down (a timer's publish
+                # on the invalidated context, a pybind11 conversion error in a take) is not a fault of the node.
+                if rclpy.ok(context=node.context):
+                    raise
+                break
     finally:
         executor.shutdown(timeout_sec=1.0)
