@@ -11,7 +11,7 @@ reads any rosbag2 MCAP bag. Scenario (sim time, t = 0 at the first joint state, 
 - master samples every 4 ms, held by the channel 200 ms (201 ms for every third), first used by the replica
   1, 1.5 or 2 ms after delivery (and used again 0.5 ms later, which must not count); backward deliveries held
   300 ms (must not count as forward delay);
-- LimitStatus at 100 Hz with 3 violations and 7 shaped ticks.
+- LimitStatus at 100 Hz: 3 messages flag violations and 7 shaping, 2 ticks each by the cumulative counters.
 """
 from __future__ import annotations
 
@@ -74,6 +74,7 @@ def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
             position=Point(x=x, y=0.1, z=0.4), orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)))
 
     messages: list[tuple[int, str, object]] = []  # (sim time ns, topic, message)
+    shaped_total = violation_total = 0
     for k in range(DURATION_MS):
         ns = BASE_NS + k * 1_000_000
         if k not in SKIPPED_JOINT_STATES:
@@ -89,20 +90,27 @@ def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
             messages.append((ns, "/replica/desired_pose", pose(ns, 0.3 + 0.05 * np.sin(t))))
             messages.append((ns, "/replica/tcp_pose", pose(ns, 0.3 + 0.05 * np.sin(t) - _tracking_error(t))))
         if k % 10 == 0:
+            # Flags OR-ed over the 10 ticks since the last message; in each flagged period two ticks count
+            # (cumulative counters), so the metric must read the counters, not count flagged messages.
+            shaping = 2 if k in (1000, 1010, 1020, 3000, 3010, 5000, 9000) else 0
+            violations = 1 if k in (2000, 6000, 9990) else 0
+            shaped_total += 2 * bool(shaping)
+            violation_total += 2 * bool(violations)
             messages.append((ns, "/replica/limit_status", T["fic_teleop_msgs/msg/LimitStatus"](
-                header=header(ns), shaping=2 if k in (1000, 1010, 1020, 3000, 3010, 5000, 9000) else 0,
-                violations=1 if k in (2000, 6000, 9990) else 0, torque_change=0.0,
+                header=header(ns), shaping=shaping, violations=violations, torque_change=0.0,
                 torque_ratio=np.zeros(7), torque_rate_ratio=np.zeros(7), joint_velocity_ratio=np.zeros(7),
-                joint_position_margin=np.zeros(7), tcp_speed=0.0, ticks=k, shaped_ticks=0, violation_ticks=0)))
+                joint_position_margin=np.zeros(7), tcp_speed=0.0, ticks=k + 1, shaped_ticks=shaped_total,
+                violation_ticks=violation_total)))
 
-    def fic_state(ns: int, master_ns: int):
+    def fic_state(ns: int, master_ns: int, first_use_ns: int):
         return T["fic_teleop_msgs/msg/FicState"](
             header=header(ns), controller="fic", phase=np.array([0, 1, 0, 0, 0, 0], dtype=np.uint8),
             error=np.zeros(6), latched_max_error=np.zeros(6), force=np.zeros(6), stored_energy=np.zeros(6),
-            total_energy=0.25, master_stamp=time_of(master_ns), master_age=0.0, master_stale=False)
+            total_energy=0.25, master_stamp=time_of(master_ns), master_age=(first_use_ns - master_ns) * 1e-9,
+            master_stale=False)
 
     expected_latencies = []
-    messages.append((BASE_NS, "/replica/fic_state", fic_state(BASE_NS, 0)))  # no master sample yet
+    messages.append((BASE_NS, "/replica/fic_state", fic_state(BASE_NS, 0, 0)))  # no master sample yet
     for k in range(DURATION_MS // 4 - 100):
         master_ns = BASE_NS + k * 4_000_000
         held = _forward_hold(k)
@@ -112,8 +120,11 @@ def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
             header=header(master_ns), topic="/replica/teleop_command", received=time_of(master_ns), held=held)))
         messages.append((delivered_ns, "/channel/deliveries", T["fic_teleop_msgs/msg/ChannelDelivery"](
             header=header(master_ns + 1000), topic="/master/feedback_wrench", received=time_of(master_ns), held=0.3)))
-        messages.append((first_use_ns, "/replica/fic_state", fic_state(first_use_ns, master_ns)))
-        messages.append((first_use_ns + 500_000, "/replica/fic_state", fic_state(first_use_ns + 500_000, master_ns)))
+        # Published 3 ms after the first use (a status rate below the control rate): the age is the first use's.
+        messages.append((first_use_ns + 3_000_000, "/replica/fic_state",
+                         fic_state(first_use_ns + 3_000_000, master_ns, first_use_ns)))
+        messages.append((first_use_ns + 5_000_000, "/replica/fic_state",
+                         fic_state(first_use_ns + 5_000_000, master_ns, first_use_ns)))
         if first_use_ns >= BASE_NS + WARMUP * 1e9:
             expected_latencies.append(_pipeline_ms(k))
 
@@ -146,7 +157,7 @@ def test_metrics_of_a_known_session(synthetic_bag, tmp_path):
     # Free motion: [1, 4) s and [5.2, 10) s of the 9 s after the warm-up.
     assert m["free_motion_fraction"] == pytest.approx(7.8 / 9.0, abs=1e-9)
     assert m["peak_interaction_force_n"] == pytest.approx(12.0)
-    assert m["limit_violations"] == 3 and m["limit_shaped_ticks"] == 7
+    assert m["limit_violations"] == 6 and m["limit_shaped_ticks"] == 14
     assert m["pipeline_latency_samples"] == len(truth["latencies"]) and m["pipeline_latency_unmatched"] == 0
     assert m["pipeline_latency_p50_ms"] == pytest.approx(np.percentile(truth["latencies"], 50), abs=1e-5)
     assert m["pipeline_latency_p50_ms"] == pytest.approx(1.5, abs=1e-5)

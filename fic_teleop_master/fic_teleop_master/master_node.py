@@ -133,7 +133,7 @@ class MasterNode(Node):
         self.declare_parameter("pose_timeout", 0.1, _number(0.001, 60.0,
                                "no /haptic/pose for this long: the wrench command is zero [s]"))
         self.declare_parameter("control_rate", 500.0, _number(1.0, 5000.0, "/haptic/wrench_command rate [Hz]", True))
-        self.declare_parameter("network_rate", 250.0, _number(1.0, 5000.0,
+        self.declare_parameter("network_rate", 100.0, _number(1.0, 5000.0,
                                "/master/pose and /master/teleop_command rate [Hz]", True))
         self.declare_parameter("diagnostics_rate", 1.0, _number(0.01, 100.0, "/diagnostics rate [Hz]", True))
         self.declare_parameter("frame_id", "haptic_base", ParameterDescriptor(

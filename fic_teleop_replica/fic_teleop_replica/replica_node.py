@@ -56,8 +56,11 @@ ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=Hi
 # The replica's own view of the robot: only the newest state matters. A deep reader queue would, on a busy
 # machine, hand the control law a backlog of old states and send torques computed for the past, a delayed
 # feedback loop that the physics then integrates (measured: the arm was thrown about under overload). Lockstep
-# is unaffected: the sim publishes the next state only after this node answered the last.
-NEWEST_STATE_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1)
+# is unaffected: the sim publishes the next state only after this node answered the last. BEST_EFFORT (it matches
+# the robot's RELIABLE writer): a reliable reader delivers in order, so one sample lost between processes held
+# every later state back until the writer's heartbeat repaired it (seen here: 50-90 ms without joint states);
+# a newer state is worth more than a repaired old one.
+NEWEST_STATE_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=1)
 TELEOP_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
 # Status streams (fic_state, limit_status, poses, feedback wrench).
 STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
@@ -102,8 +105,11 @@ NUMBERS: dict[str, tuple[float, str, float, float]] = {
                      0.001, 2.0),
     "desired_velocity_filter": (0.02, "time constant of the x_d velocity estimate fed to the FIC's error rate [s]; "
                                       "0 disables it (zero desired twist)", 0.0, 1.0),
-    "pose_rate": (250.0, "rate of /replica/desired_pose, /replica/tcp_pose, /replica/feedback_wrench [Hz]",
+    "pose_rate": (100.0, "rate of /replica/desired_pose, /replica/tcp_pose, /replica/feedback_wrench [Hz]",
                   1.0, 1000.0),
+    "status_rate": (100.0, "rate of /replica/fic_state and /replica/limit_status [Hz]; LimitStatus flags are OR-ed "
+                           "over the ticks since the last message and its tick counters are cumulative, so a lower "
+                           "rate loses no count", 1.0, 1000.0),
     "diagnostics_rate": (1.0, "rate of /diagnostics [Hz]", 0.1, 10.0),
 }
 CONTROLLERS = ("fic", "linear")
@@ -154,6 +160,11 @@ class ReplicaNode(Node):
         self._wrench.header.frame_id = BASE_FRAME
         self._last_control_time: float | None = None
         self._last_pose_time: float | None = None
+        self._last_status_time: float | None = None
+        self._shaping_since_status = 0      # LimitStatus flags OR-ed over the ticks since the last message
+        self._violations_since_status = 0
+        self._master_stamp_used = Time()    # the teleop command the last control tick used
+        self._master_first_use_age = 0.0    # its age at the control tick that first used it [s]
         self._held_torque: np.ndarray | None = None   # the law's last output
         self._published_torque: np.ndarray | None = None
         self._previous_desired: np.ndarray | None = None
@@ -369,10 +380,16 @@ class ReplicaNode(Node):
             self._last_control_time = time
             self._control(q, qd, stamp, control_period)
         self._publish_torque(self._held_torque)
-        if self._last_pose_time is None or time < self._last_pose_time or \
-                time - self._last_pose_time >= 1.0 / self._p["pose_rate"] - 0.5 * self._p["command_period"]:
+        if self._due(self._last_pose_time, time, self._p["pose_rate"]):
             self._last_pose_time = time
             self._publish_poses(stamp)
+        if self._last_command is not None and self._due(self._last_status_time, time, self._p["status_rate"]):
+            self._last_status_time = time
+            self._publish_status(self._last_command, stamp)
+
+    def _due(self, last: float | None, time: float, rate: float) -> bool:
+        """Whether a stream at ``rate`` is due at joint-state time ``time`` (half a command period of slack)."""
+        return last is None or time < last or time - last >= 1.0 / rate - 0.5 * self._p["command_period"]
 
     def _update_planner(self, dt: float) -> np.ndarray:
         """x_d'' in use: the start TCP pose until the planner speaks; its first pose is approached at resume_speed
@@ -422,7 +439,13 @@ class ReplicaNode(Node):
         self._counts["control_ticks"] += 1
         self._last_command = command
         self._held_torque = command.torque
-        self._publish_status(command, stamp)
+        self._shaping_since_status |= int(command.limit_shaping)
+        self._violations_since_status |= int(command.limit_violations)
+        if self._master_received is not None and self._master_stamp != self._master_stamp_used:
+            # First use of this teleop command: its age now is the pipeline latency plus the channel's hold
+            # (SPEC 2.2), kept with it so that a FicState published at a lower rate still carries it exactly.
+            self._master_stamp_used = self._master_stamp
+            self._master_first_use_age = self._now() - _seconds(self._master_stamp)
 
     def _desired_twist(self, desired_position: np.ndarray, dt: float) -> np.ndarray | None:
         """x_d's velocity, low-pass filtered (x_d moves in steps as messages arrive), so that the FIC's error rate
@@ -451,9 +474,9 @@ class ReplicaNode(Node):
         self._command_pub.publish(Float64MultiArray(data=target.tolist()))
 
     def _publish_status(self, command, stamp: Time) -> None:
-        # FicState is stamped when the command was computed (the node clock), so that the pipeline latency
-        # (SPEC 2.2: master sample -> the command that first used it) includes any wait in the replica's queue;
-        # the joint state it answers carries the sensor stamp (LimitStatus, poses).
+        # FicState is stamped when it is published (the node clock); the pipeline latency (SPEC 2.2: master sample
+        # -> the command that first used it, including any wait in the replica's queue) is master_age, taken at
+        # that first use. The joint state it answers carries the sensor stamp (LimitStatus, poses).
         computed = self.get_clock().now().to_msg()
         state = FicState()
         state.header.stamp = computed
@@ -465,17 +488,17 @@ class ReplicaNode(Node):
         state.force = command.wrench.tolist()
         state.stored_energy = command.stored_energy.tolist()
         state.total_energy = float(command.total_energy)
-        state.master_stamp = self._master_stamp
-        state.master_age = (_seconds(computed) - _seconds(self._master_stamp)) if self._master_received is not None \
-            else 0.0
+        state.master_stamp = self._master_stamp_used
+        state.master_age = self._master_first_use_age
         state.master_stale = self._master_stale
         self._fic_state_pub.publish(state)
 
         status = LimitStatus()
         status.header.stamp = stamp
         status.header.frame_id = BASE_FRAME
-        status.shaping = int(command.limit_shaping)
-        status.violations = int(command.limit_violations)
+        status.shaping = self._shaping_since_status
+        status.violations = self._violations_since_status
+        self._shaping_since_status = self._violations_since_status = 0
         status.torque_change = float(command.torque_change)
         status.torque_ratio = command.torque_ratio.tolist()
         status.torque_rate_ratio = command.torque_rate_ratio.tolist()

@@ -1,7 +1,9 @@
 """ROS 2 shell around the simulated Panda (mujoco_panda.py): the robot as a real Franka driver presents it.
 
-Publishes ``/joint_states`` (effort = torque applied), ``/ft_sensor/wrench`` (environment wrench at the TCP,
-frame panda_link0) every physics step, ``/clock``, ``/sim/step_lateness``, ``/sim/object_poses``,
+Publishes ``/joint_states`` (effort = torque applied) every physics step, ``/ft_sensor/wrench`` (environment
+wrench at the TCP, frame panda_link0) every ``1000 / wrench_rate_hz`` steps (250 Hz by default: the wrench feeds
+the haptic feedback, which runs at 250 Hz, and on this 2-core machine each 1 kHz stream costs about a third of a
+core with its subscribers, docs/CONVENTIONS.md), ``/clock``, ``/sim/step_lateness``, ``/sim/object_poses``,
 ``/sim/tcp_pose`` and ``/diagnostics``; takes ``/effort_controller/commands`` (7 torques, ros2_control's
 effort-controller convention), so a real Panda driver can stand in its place.
 
@@ -57,6 +59,7 @@ from sim_bridge.watchdog import CommandWatchdog, WatchdogEvent
 # slow reader has not acknowledged once its history is full, so a deep history (one second, only memory) is what
 # lets a recorder on a busy machine lose none; a late command is superseded by the next one anyway.
 ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
+NEWEST_COMMAND_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=1)
 STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
 DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
 
@@ -89,6 +92,7 @@ class RobotNode(Node):
         self._pacer = RealtimePacer(TIMESTEP)
         self._clock_every = 1 if self._mode == "lockstep" else _every(p["realtime_clock_rate_hz"])
         self._lateness_every = _every(p["lateness_rate_hz"])
+        self._wrench_every = _every(p["wrench_rate_hz"])
         self._poses_every = _every(p["object_pose_rate_hz"])
         self._diagnostics_every = _every(p["diagnostics_rate_hz"])
         self._video_path = p["render_video_path"] or None
@@ -121,7 +125,10 @@ class RobotNode(Node):
         self._object_poses_pub = self.create_publisher(PoseArray, "/sim/object_poses", STATUS_QOS)
         self._tcp_pose_pub = self.create_publisher(PoseStamped, "/sim/tcp_pose", STATUS_QOS)
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
-        self.create_subscription(Float64MultiArray, "/effort_controller/commands", self._on_command, ROBOT_STREAM_QOS)
+        # Realtime: only the newest command matters (zero-order hold), and a reliable reader would hold every later
+        # command back behind one lost sample until it is repaired. Lockstep: every answer counts, in order.
+        command_qos = ROBOT_STREAM_QOS if self._mode == "lockstep" else NEWEST_COMMAND_QOS
+        self.create_subscription(Float64MultiArray, "/effort_controller/commands", self._on_command, command_qos)
 
         self._joint_state = JointState()
         self._joint_state.header.frame_id = BASE_FRAME
@@ -158,6 +165,8 @@ class RobotNode(Node):
                                       "by the hold torque (wall s in realtime, simulated s in lockstep) [s]", 0.002, 10.0),
             "realtime_clock_rate_hz": number("realtime_clock_rate_hz", 100.0, "realtime: /clock publication rate "
                                              "(lockstep publishes every step) [Hz]", 0.0, 1000.0),
+            "wrench_rate_hz": number("wrench_rate_hz", 250.0, "/ft_sensor/wrench publication rate, a divisor of "
+                                     "1000 (the sample of that step) [Hz]", 1.0, 1000.0),
             "lateness_rate_hz": number("lateness_rate_hz", 10.0, "/sim/step_lateness publication rate [Hz]", 0.0, 1000.0),
             "object_pose_rate_hz": number("object_pose_rate_hz", 50.0, "/sim/object_poses and /sim/tcp_pose "
                                           "publication rate [Hz]", 0.0, 1000.0),
@@ -291,6 +300,8 @@ class RobotNode(Node):
         self._joint_state.velocity = self._sim.joint_velocities.tolist()
         self._joint_state.effort = self._sim.applied_torque.tolist()
         self._joint_state_pub.publish(self._joint_state)
+        if self._sim.steps % self._wrench_every:
+            return
         wrench = self._sim.ft_wrench()
         self._wrench.header.stamp = stamp
         force, torque = self._wrench.wrench.force, self._wrench.wrench.torque

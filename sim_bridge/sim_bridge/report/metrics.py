@@ -12,10 +12,11 @@ limit counts and dropped joint states cover the whole recording.
   Without an F/T topic every sample counts as free motion.
 - free_motion_error_max_m / _rms_m: max / RMS of e over free-motion samples; contact_error_max_m: max of e over
   contact samples; peak_interaction_force_n: max |F| of the F/T samples.
-- limit_violations / limit_shaped_ticks: number of /replica/limit_status messages (one per control tick) with
-  violations != 0 / shaping != 0 (`limit_counters` adds the replica's own cumulative counters).
-- pipeline latency: for each master sample at its FIRST use by /replica/fic_state (FicState.master_stamp != 0,
-  first occurrence in stamp order): FicState.header.stamp - master_stamp - held, where held is
+- limit_violations / limit_shaped_ticks: the replica's cumulative LimitStatus.violation_ticks / shaped_ticks of
+  the last message (every control tick counts, whatever the status rate); for bags whose LimitStatus has no
+  counters (ticks = 0), the number of messages with violations != 0 / shaping != 0.
+- pipeline latency: for each master sample (FicState.master_stamp != 0, first occurrence in stamp order):
+  FicState.master_age (its age at the control tick that first used it) - held, where held is
   ChannelDelivery.held of the /channel/deliveries message with topic /replica/teleop_command and header.stamp ==
   master_stamp; p50 and p99 (numpy linear percentiles) in ms. Samples without a delivery are counted as
   `pipeline_latency_unmatched`.
@@ -160,33 +161,42 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
     m["free_motion_error_rms_m"] = _number(np.sqrt(np.mean(free_errors ** 2))) if len(free_errors) else None
     m["contact_error_max_m"] = _number(contact_errors.max()) if len(contact_errors) else None
 
-    # Limits: one LimitStatus per control tick.
+    # Limits: LimitStatus carries cumulative tick counters, so the counts hold at any status rate; a bag without
+    # them (ticks all zero) falls back to counting messages with flags set (one message per tick, as recorded
+    # before the replica had a status_rate).
     if data.has(LIMIT_STATUS_TOPIC):
         limits = series[LIMIT_STATUS_TOPIC]
-        m["limit_violations"] = int(np.count_nonzero(limits.values["violations"]))
-        m["limit_shaped_ticks"] = int(np.count_nonzero(limits.values["shaping"]))
+        order = np.argsort(limits.log, kind="stable")
+        if np.any(limits.values["ticks"] > 0):
+            m["limit_violations"] = int(limits.values["violation_ticks"][order][-1])
+            m["limit_shaped_ticks"] = int(limits.values["shaped_ticks"][order][-1])
+        else:
+            m["limit_violations"] = int(np.count_nonzero(limits.values["violations"]))
+            m["limit_shaped_ticks"] = int(np.count_nonzero(limits.values["shaping"]))
     else:
         m["limit_violations"] = m["limit_shaped_ticks"] = None
 
-    # Pipeline latency: replica tick stamp - master sample stamp - channel hold, at the sample's first use.
+    # Pipeline latency: the master sample's age at the control tick that first used it (FicState.master_age)
+    # minus the channel's hold of that sample.
     held_by_stamp = data.deliveries.get("/replica/teleop_command", {})
     latencies, unmatched = [], 0
     if data.has(FIC_STATE_TOPIC):
         fic = series[FIC_STATE_TOPIC]
         order = np.argsort(fic.stamp, kind="stable")
         seen: set[int] = set()
-        for stamp, master_ns in zip(fic.stamp[order], fic.values["master_stamp_ns"][order]):
+        for stamp, master_ns, age in zip(fic.stamp[order], fic.values["master_stamp_ns"][order],
+                                         fic.values["master_age"][order]):
             master_ns = int(master_ns)
             if master_ns == 0 or master_ns in seen:
                 continue
             seen.add(master_ns)
-            if stamp < cut:
+            if master_ns * 1e-9 + age < cut:  # first used during the warm-up
                 continue
             held = held_by_stamp.get(master_ns)
             if held is None:
                 unmatched += 1
                 continue
-            latencies.append((stamp - master_ns * 1e-9 - held) * 1e3)
+            latencies.append((age - held) * 1e3)
     latencies_ms = np.array(latencies)
     m["pipeline_latency_p50_ms"] = _number(np.percentile(latencies_ms, 50)) if len(latencies_ms) else None
     m["pipeline_latency_p99_ms"] = _number(np.percentile(latencies_ms, 99)) if len(latencies_ms) else None
