@@ -167,6 +167,7 @@ class ReplicaNode(Node):
         self._master_first_use_age = 0.0    # its age at the control tick that first used it [s]
         self._held_torque: np.ndarray | None = None   # the law's last output
         self._published_torque: np.ndarray | None = None
+        self._published_time: float | None = None     # joint-state time of the last published command
         self._previous_desired: np.ndarray | None = None
         self._desired_velocity = np.zeros(3)
         self._last_command = None
@@ -199,6 +200,10 @@ class ReplicaNode(Node):
         self.declare_parameter("controller", "fic", ParameterDescriptor(
             description="task-space law: 'fic' (the paper's Fractal Impedance Controller) or 'linear' (the "
                         "baseline spring-damper with the same stiffness)"))
+        self.declare_parameter("answer_every_state", False, ParameterDescriptor(
+            description="publish a command for every joint state (the held torque between control ticks), as the "
+                        "simulator's lockstep mode needs; false: only at control ticks, the robot holding the last "
+                        "command in between (realtime; saves a 1 kHz stream when control_rate is below 1 kHz)"))
         self.declare_parameter("planner_feedforward", True, ParameterDescriptor(
             description="feed the planner's acceleration (/planner/desired_accel) forward through the task-space "
                         "inertia, J^T Lambda a_d (beyond paper Eq. 7: the FIC compensates no inertia)"))
@@ -213,7 +218,7 @@ class ReplicaNode(Node):
 
     def _parameter_values(self, overrides: dict | None = None) -> dict:
         values = {name: self.get_parameter(name).value for name in (*NUMBERS, "controller", "use_planner_orientation",
-                                                                   "planner_feedforward")}
+                                                                   "planner_feedforward", "answer_every_state")}
         values.update(overrides or {})
         for name in NUMBERS:
             values[name] = float(values[name])
@@ -355,13 +360,13 @@ class ReplicaNode(Node):
         if index is None or len(message.position) != len(message.name) or len(message.velocity) != len(message.name):
             self._refuse("/joint_states", f"expected positions and velocities of {', '.join(ARM_JOINT_NAMES)}, got "
                          f"names {list(message.name)}", "rejected_joint_states")
-            self._publish_torque(None)
+            self._publish_torque(None, None)
             return
         q = np.asarray(message.position)[index]
         qd = np.asarray(message.velocity)[index]
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
             self._refuse("/joint_states", "positions or velocities are not finite", "rejected_joint_states")
-            self._publish_torque(None)
+            self._publish_torque(None, None)
             return
         stamp = message.header.stamp
         time = _seconds(stamp)
@@ -379,7 +384,8 @@ class ReplicaNode(Node):
         if due:
             self._last_control_time = time
             self._control(q, qd, stamp, control_period)
-        self._publish_torque(self._held_torque)
+        if due or self._p["answer_every_state"]:
+            self._publish_torque(self._held_torque, time)
         if self._due(self._last_pose_time, time, self._p["pose_rate"]):
             self._last_pose_time = time
             self._publish_poses(stamp)
@@ -460,17 +466,23 @@ class ReplicaNode(Node):
         return np.concatenate((self._desired_velocity, np.zeros(3)))
 
     # --- outputs ---------------------------------------------------------------------------------------------
-    def _publish_torque(self, target: np.ndarray | None) -> None:
-        """Publish the held torque, slewed at the torque-rate limit per command period (never a faster step)."""
+    def _publish_torque(self, target: np.ndarray | None, time: float | None) -> None:
+        """Publish the held torque, slewed at the torque-rate limit over the time since the last command (at least
+        one command period; never a faster step). ``time``: the joint-state time it answers (None: unknown)."""
         if target is None:
             target = self._published_torque
             if target is None:
                 return
         previous = self._published_torque
         if previous is not None:
-            step = self._limits.torque_rate * self._p["command_period"]
+            elapsed = self._p["command_period"]
+            if time is not None and self._published_time is not None and time > self._published_time:
+                elapsed = max(elapsed, time - self._published_time)
+            step = self._limits.torque_rate * elapsed
             target = previous + np.clip(target - previous, -step, step)
         self._published_torque = target
+        if time is not None:
+            self._published_time = time
         self._command_pub.publish(Float64MultiArray(data=target.tolist()))
 
     def _publish_status(self, command, stamp: Time) -> None:

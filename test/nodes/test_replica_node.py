@@ -133,7 +133,7 @@ class Robot:
 
 def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"master_timeout": 0.3}, env=replica_env(ros_env))
+                         params={"master_timeout": 0.3, "status_rate": 1000.0}, env=replica_env(ros_env))
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     assert rclpy_context.ok() and ros_env["ROS_DOMAIN_ID"] == DOMAIN_ID
     robot = Robot(rclpy_context)
