@@ -24,6 +24,9 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "config"
+SCRIPT_CIRCLE_START_S = 2.0     # circle_start_time of config/operator_scripts/superimposition.yaml
+PLANNER_LAG_S = 0.2             # the harmonic planner's lag behind the circle at 0.126 m/s (measured)
+REALTIME_START_MARGIN_S = 4.0   # realtime: the script and the circle start this long after launch
 
 # Scheduler niceness for the loop that closes through the robot. On 2 cores the graph uses most of both; with
 # these, the physics, the replica, the channel and the haptic loop get the CPU first and the recorder and the
@@ -83,6 +86,15 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     if args.blackout_window:
         channel["blackout_windows"] = [float(t) for t in args.blackout_window]
     operator = "joy" if args.interactive else "scripted"
+    # One origin for the operator script and the planner's circle: the script steers around the obstacles where
+    # the circle will be (its circle_start_time, 2 s, less the harmonic planner's lag of about 0.2 s behind its
+    # source at the circle's speed, measured). Sim time starts at 0 in lockstep; in realtime, a few seconds
+    # from now on the wall clock, once every node is up.
+    planner_timing, operator_timing = {}, {}
+    if args.scene == "superimposition" and args.trajectory == "circle" and not args.interactive:
+        origin = 0.0 if lockstep else time.time() + REALTIME_START_MARGIN_S
+        operator_timing = {"script_start_time": origin}
+        planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
                  {"scene": args.scene, "mode": args.time_mode, "seed": args.seed}),
@@ -92,13 +104,13 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
                  {"controller": args.controller, "control_rate": args.control_rate,
                   "answer_every_state": lockstep, **sim_time}),
         NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml",
-                 {"trajectory": args.trajectory, **sim_time}),
+                 {"trajectory": args.trajectory, **planner_timing, **sim_time}),
         NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {**channel, **sim_time}),
         NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml",
                  {**channel, "seed": args.seed + 1, **sim_time}),  # its own random stream
         NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml", {**sim_time}),
         NodeSpec("sim_bridge", "haptic_device_node", "haptic_device", "haptic_device.yaml",
-                 {"scene": args.scene, "operator_source": operator, **sim_time}),
+                 {"scene": args.scene, "operator_source": operator, **operator_timing, **sim_time}),
     ]
     if args.interactive:
         nodes.append(NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", None, {}, foreground=True))

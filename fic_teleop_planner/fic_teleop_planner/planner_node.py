@@ -43,7 +43,7 @@ TRAJECTORIES = ("circle", "fixed", "via_points")
 TRAJECTORY_PARAMETERS = ("trajectory", "circle_centre", "circle_diameter", "circle_period", "circle_normal",
                          "circle_phase", "fixed_point", "via_points", "via_dwell", "via_tolerance", "via_loop")
 PLANNER_PARAMETERS = ("natural_frequency", "max_velocity")
-READ_ONLY = ("publish_rate", "diagnostics_rate", "frame_id", "start_position", "start_delay")
+READ_ONLY = ("publish_rate", "diagnostics_rate", "frame_id", "start_position", "start_delay", "start_time")
 
 
 def _number(low: float, high: float, text: str, read_only: bool = False) -> ParameterDescriptor:
@@ -83,7 +83,10 @@ class PlannerNode(Node):
         start = list(value("start_position"))
         self._planner.reset(start if start else self._source.point(0.0))
         self._frame_id = value("frame_id")
-        self._trajectory_origin = self._now() + value("start_delay")
+        # The trajectory's clock: an absolute start time lets another node (the operator script, which plans its
+        # moves around the circle's obstacles) share the same origin; otherwise start_delay after this node.
+        start_time = value("start_time")
+        self._trajectory_origin = start_time if start_time >= 0.0 else self._now() + value("start_delay")
         self._last_step_time: float | None = None
         self._nominal_period = 1.0 / value("publish_rate")
         self._target = self._planner.position
@@ -129,6 +132,9 @@ class PlannerNode(Node):
             description="x_d'' at start [m]; unset or empty: the trajectory's first point", read_only=True))
         self.declare_parameter("start_delay", 0.0, _number(0.0, 3600.0,
                                "the trajectory's clock starts this long after the node [s]", True))
+        self.declare_parameter("start_time", -1.0, _number(-1.0, 1e10,
+                               "node-clock time at which the trajectory's clock starts [s] (sim time with "
+                               "use_sim_time); negative: start_delay after the node starts", True))
         self.declare_parameter("publish_rate", 250.0, _number(1.0, 5000.0, "/planner/desired_pose rate [Hz]", True))
         self.declare_parameter("diagnostics_rate", 1.0, _number(0.01, 100.0, "/diagnostics rate [Hz]", True))
         self.declare_parameter("frame_id", "panda_link0", ParameterDescriptor(
