@@ -27,6 +27,11 @@ CONFIG = REPO / "config"
 SCRIPT_CIRCLE_START_S = 2.0     # circle_start_time of config/operator_scripts/superimposition.yaml
 PLANNER_LAG_S = 0.2             # the harmonic planner's lag behind the circle at 0.126 m/s (measured)
 REALTIME_START_MARGIN_S = 4.0   # realtime: the script and the circle start this long after launch
+# Realtime on 2 cores, the replica law runs at 500 Hz (the robot holds each command for 2 ms): at 1 kHz a Python
+# replica needs about 80 % of a core here (measured: 775 joint states/s with a core to itself) and, with the rest
+# of the graph, fell behind irregularly (about 350 states/s), which tracked worse than a steady 500 Hz (measured
+# in one session, docs/CONVENTIONS.md "Rates"). Lockstep has no such budget and keeps the paper's 1 kHz.
+REALTIME_CONTROL_RATE_HZ = 500.0
 
 # Scheduler niceness for the loop that closes through the robot. On 2 cores the graph uses most of both; with
 # these, the physics, the replica, the channel and the haptic loop get the CPU first and the recorder and the
@@ -254,7 +259,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                         help="total loss of communication, both ways, between these times after the channel starts")
     parser.add_argument("--rate-cap", type=float, default=0.0, help="channel rate cap [Hz], 0 = none (paper: 10 Hz)")
     parser.add_argument("--controller", default="fic", choices=["fic", "linear"], help="replica controller")
-    parser.add_argument("--control-rate", type=float, default=1000.0, help="replica control rate [Hz]")
+    parser.add_argument("--control-rate", type=float, default=None,
+                        help="replica control rate [Hz] (default: 1000 in lockstep, the paper's rate; 500 in realtime, "
+                             "REALTIME_CONTROL_RATE_HZ)")
     parser.add_argument("--trajectory", default=None, choices=["circle", "fixed", "via_points"],
                         help="planner trajectory (default: the circle for superimposition, a fixed point otherwise)")
     parser.add_argument("--time-mode", default="realtime", choices=["realtime", "lockstep"],
@@ -276,6 +283,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_arguments(argv)
+    if args.control_rate is None:
+        args.control_rate = 1000.0 if args.time_mode == "lockstep" else REALTIME_CONTROL_RATE_HZ
     if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
         args.trajectory = "circle" if args.scene == "superimposition" else "fixed"
     if args.delay < 0 or args.jitter < 0 or not 0.0 <= args.drop <= 1.0 or args.duration <= 0 or args.rate_cap < 0:
@@ -301,8 +310,8 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     wall_start = time.monotonic()
     sim_elapsed = 0.0
-    print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller},"
-          f" {args.time_mode}; run folder {run_dir}")
+    print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller}"
+          f" at {args.control_rate:g} Hz, {args.time_mode}; run folder {run_dir}")
     try:
         for spec in graph(args, bag_path):
             running.start(spec)
