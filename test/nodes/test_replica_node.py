@@ -205,3 +205,28 @@ def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     # Ctrl-C: a clean exit.
     assert replica.stop(timeout=15.0) == 0, replica.log_path.read_text()
     assert "replica stopped" in replica.log_path.read_text()
+
+
+def test_replica_below_the_joint_state_rate(start_node, ros_env, rclpy_context) -> None:
+    """Realtime rates: a 250 Hz law on 1 kHz joint states answers only at control ticks (the robot holds in
+    between), and its 50 Hz status still counts every tick (cumulative counters)."""
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         params={"control_rate": 250.0, "status_rate": 50.0, "answer_every_state": False},
+                         env=replica_env(ros_env))
+    assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
+    robot = Robot(rclpy_context)
+    robot.spin(1.0)
+    started = time.monotonic()
+    robot.publish_joint_states(3.0, period=0.001)
+    robot.spin(1.0)
+    published_for = time.monotonic() - started - 1.0
+    assert robot.commands, replica.output()
+    # One command a control tick: at most one per 4 ms of joint-state time (plus the first), never one a state.
+    assert len(robot.commands) <= published_for * 250 * 1.1 + 2, (len(robot.commands), published_for)
+    assert robot.limit_status and robot.fic_states
+    assert len(robot.fic_states) <= published_for * 50 * 1.2 + 2
+    # Every control tick is counted although only about one in five is published.
+    assert abs(robot.limit_status[-1].ticks - len(robot.commands)) <= 5, (robot.limit_status[-1].ticks,
+                                                                         len(robot.commands))
+    assert robot.limit_status[-1].ticks > 2 * len(robot.limit_status)
+    assert replica.stop(timeout=15.0) == 0, replica.log_path.read_text()
