@@ -127,6 +127,7 @@ class FractalAttractor:
         self._profile = profile
         self._axes = int(axes)
         self._rate_deadband = finite_scalar("rate_deadband", rate_deadband, minimum=0.0)
+        self._axis_indices = tuple(range(self._axes))
         self.reset()
 
     def reset(self) -> None:
@@ -185,44 +186,54 @@ class FractalAttractor:
         return np.array(self._step(errors, rates), dtype=np.float64)
 
     def _step(self, errors: list[float], rates: list[float]) -> list[float]:
-        """Eq. 2 on validated floats: the phase logic per axis, then the force; returns the forces."""
+        """Eq. 2 on validated floats: the phase logic per axis, then the force; returns the forces.
+
+        ``rates`` may be longer than ``errors`` (the extra values are ignored). The state's e_max, K_C and c are
+        copied only when an axis enters C (on the common tick the new snapshot shares them with the old one).
+        """
         old = self._state
         profile = self._profile
         deadband = -self._rate_deadband
-        in_convergence = list(old.in_convergence)
-        latched_max_errors = list(old.latched_max_errors)
-        convergence_stiffness = list(old.convergence_stiffness)
-        convergence_offset = list(old.convergence_offset)
+        linear_limit = profile._linear_limit
+        latched_max_errors = old.latched_max_errors
+        convergence_stiffness = old.convergence_stiffness
+        convergence_offset = old.convergence_offset
+        in_convergence = []
         forces = []
-        axis = 0
-        for error, rate in zip(errors, rates):
+        for axis, error, rate, converging, latched, stiffness in zip(
+                self._axis_indices, errors, rates, old.in_convergence, latched_max_errors, convergence_stiffness):
             # d|e|/dt = sign(e) * de/dt, with sign(0) = 0 as numpy.sign.
-            magnitude_rate = rate if error > 0.0 else (-rate if error < 0.0 else 0.0)
-            if in_convergence[axis]:
+            if converging:
                 # Stay in C while |e| keeps decreasing on the same side of the target (sign(e) == sign(e_max)).
-                latched = latched_max_errors[axis]
-                converging = magnitude_rate < 0.0 and ((error > 0.0) == (latched > 0.0)) \
-                    and ((error < 0.0) == (latched < 0.0))
+                if error > 0.0:
+                    converging = rate < 0.0 and latched > 0.0
+                elif error < 0.0:
+                    converging = -rate < 0.0 and latched < 0.0
+                else:
+                    converging = False
             else:
                 # Enter C past the dead-band, latching e_max.
-                converging = magnitude_rate < deadband
+                converging = (rate if error > 0.0 else (-rate if error < 0.0 else 0.0)) < deadband
                 if converging:
+                    if type(latched_max_errors) is tuple:  # the first axis to enter C this call: copy the state
+                        latched_max_errors = list(latched_max_errors)
+                        convergence_stiffness = list(convergence_stiffness)
+                        convergence_offset = list(convergence_offset)
+                    latched = error
                     stiffness = 2.0 * profile._scalar_secant_stiffness(error)  # K_C = 2*F_c(e_max)/e_max
                     latched_max_errors[axis] = error
                     convergence_stiffness[axis] = stiffness
                     # V_C(e_max) = V_D(e_max): c = V_D(e_max) - K_C*e_max^2/8.
                     convergence_offset[axis] = profile._scalar_energy(error) - stiffness * error * error / 8.0
-                in_convergence[axis] = converging
+            in_convergence.append(converging)
             if converging:
-                stiffness = convergence_stiffness[axis]
-                latched = latched_max_errors[axis]
                 force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
                 limit = stiffness * 0.5 * abs(latched)  # |F_c(e_max)|
                 forces.append(limit if force > limit else (-limit if force < -limit else force))
+            elif -linear_limit <= error <= linear_limit:
+                forces.append(profile.stiffness * error)  # Eq. 2, D, in the profile's linear region (K0 e)
             else:
-                in_convergence[axis] = False
                 forces.append(profile._scalar_force(error))  # Eq. 2, D
-            axis += 1
         self._state = AttractorSnapshot(profile, tuple(in_convergence), tuple(latched_max_errors),
                                         tuple(convergence_stiffness), tuple(convergence_offset), tuple(errors),
                                         tuple(forces))
@@ -301,12 +312,12 @@ class PoseAttractor:
     def _wrench_values(self, position_error: list[float], rotation_error: list[float],
                        twist_error: list[float]) -> list[float]:
         """``wrench`` on floats its caller has validated (the replica's tick), as a list of 6 floats."""
-        return self._translation._step(position_error, twist_error[:3]) + \
+        return self._translation._step(position_error, twist_error) + \
             self._rotation._step(rotation_error, twist_error[3:])
 
     def snapshot(self) -> PoseAttractorSnapshot:
         """The state after the last ``wrench`` call (phase, latched_max_error, last_force, stored_energy on read)."""
-        return PoseAttractorSnapshot(self._translation.snapshot(), self._rotation.snapshot())
+        return PoseAttractorSnapshot(self._translation._state, self._rotation._state)
 
     @property
     def phase(self) -> NDArray[np.int64]:

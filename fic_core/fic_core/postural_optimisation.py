@@ -75,6 +75,11 @@ _JOINT_VELOCITY = LimitFlag.JOINT_VELOCITY.value
 _JOINT_POSITION = LimitFlag.JOINT_POSITION.value
 _TCP_SPEED = LimitFlag.TCP_SPEED.value
 _GUARD_TOLERANCE = 1e-9  # [N m] clips below this are solver round-off, not a guard action
+# A joint this much farther from its position limits than ``_free_room`` (and with |qd| <= v_max) has its
+# acceleration bounds set by the velocity limit alone: the braking and next-sample bounds are then looser by far
+# more than their rounding (``_joint_bounds``'s shortcut; the exact comparison would give the same answer).
+_FREE_ROOM_GUARD = 1e-6  # [rad]
+_FLAGS = {value: LimitFlag(value) for value in range(32)}  # LimitFlag(int) costs a microsecond a call
 
 
 @dataclass(frozen=True)
@@ -120,6 +125,7 @@ class PosturalOptimisation:
                                      v_max * self.control_period)
         # The fast-path bounds as Python floats (``_admits_unshaped`` runs on floats).
         self._torque_values = limits.torque_array.tolist()
+        self._negative_torque_values = (-limits.torque_array).tolist()
         self._velocity_values = v_max.tolist()
         self._free_room_values = self._free_room.tolist()
         self._rate_step = limits.torque_rate * self.control_period
@@ -127,6 +133,19 @@ class PosturalOptimisation:
         self._lower_values = limits.lower_array.tolist()
         self._upper_values = limits.upper_array.tolist()
         self._deceleration_values = self.braking_deceleration.tolist()
+        # Joint positions strictly between these are farther than _free_room (plus _FREE_ROOM_GUARD, which also
+        # covers the rounding of the sums) from both position limits (``_joint_bounds``'s shortcut).
+        self._free_low_values = [lower + room + _FREE_ROOM_GUARD
+                                 for lower, room in zip(self._lower_values, self._free_room_values)]
+        self._free_high_values = [upper - room - _FREE_ROOM_GUARD
+                                  for upper, room in zip(self._upper_values, self._free_room_values)]
+        self._horizon = self.horizon
+        # The box-flag thresholds of ``_box_flags`` (a torque within 1e-9 N m of its bound sits on it).
+        self._torque_edge_values = (limits.torque_array - 1e-9).tolist()
+        self._rate_edge = self._rate_step - 1e-9
+        # daqp's constraint senses: the 7 simple bounds always hard, the rows hard or (relaxed) soft; by row count.
+        self._senses: dict[tuple[int, bool], NDArray[np.int32]] = {}
+        self._far_from_limits = True  # the last ``_bounded`` found every joint far from its position limits
         self.qp_count = 0
         self.relaxed_count = 0
         self.guard_clips = 0
@@ -192,38 +211,23 @@ class PosturalOptimisation:
                        ) -> tuple[list[float], list[float], list[bool], list[bool], bool]:
         """``acceleration_bounds`` on floats, per joint (7 joints: cheaper than ~30 numpy calls on 7-vectors)."""
         dt = self.control_period
-        horizon = self.horizon
+        horizon = self._horizon
         lag = self._braking_lag
         a_lo, a_hi, low_from_position, high_from_position = [], [], [], []
         reconciled = False
-        for position, velocity, velocity_limit, lower, upper, deceleration in zip(
-                q, qd, self._velocity_values, self._lower_values, self._upper_values, self._deceleration_values):
-            velocity_high = (velocity_limit - velocity) / horizon
-            velocity_low = (-velocity_limit - velocity) / horizon
-            room_high = upper - position
-            room_low = position - lower
-            # Inside: the braking curve (braking_velocity) and the range on the next sample; beyond: the return
-            # speed on the horizon.
-            if room_high >= 0.0:
-                brake_high = deceleration * (math.sqrt(lag * lag + 2.0 * room_high / deceleration) - lag)
-                position_high = min((brake_high - velocity) / dt, (room_high / dt - velocity) / dt)
-            else:
-                position_high = (room_high / horizon - velocity) / horizon
-            if room_low >= 0.0:
-                brake_low = -(deceleration * (math.sqrt(lag * lag + 2.0 * room_low / deceleration) - lag))
-                position_low = max((brake_low - velocity) / dt, (-room_low / dt - velocity) / dt)
-            else:
-                position_low = (-(room_low / horizon) - velocity) / horizon
-            high_set_by_position = position_high < velocity_high
-            low_set_by_position = position_low > velocity_low
-            high = position_high if high_set_by_position else velocity_high
-            low = position_low if low_set_by_position else velocity_low
-            if low > high:  # conflict: the position side is kept, the other gives way
-                reconciled = True
-                if high_set_by_position:
-                    low = high  # stop short of the upper limit
-                else:
-                    high = low  # stop short of the lower limit
+        for position, velocity, velocity_limit, lower, upper, deceleration, free_low, free_high in zip(
+                q, qd, self._velocity_values, self._lower_values, self._upper_values, self._deceleration_values,
+                self._free_low_values, self._free_high_values):
+            if free_low < position < free_high and -velocity_limit <= velocity <= velocity_limit:
+                # Far from both limits (``_admissible``): the velocity limit sets both bounds.
+                a_lo.append((-velocity_limit - velocity) / horizon)
+                a_hi.append((velocity_limit - velocity) / horizon)
+                low_from_position.append(False)
+                high_from_position.append(False)
+                continue
+            low, high, low_set_by_position, high_set_by_position, conflict = _joint_bounds(
+                position, velocity, velocity_limit, lower, upper, deceleration, dt, horizon, lag)
+            reconciled = reconciled or conflict
             a_lo.append(low)
             a_hi.append(high)
             low_from_position.append(low_set_by_position)
@@ -242,8 +246,7 @@ class PosturalOptimisation:
         replica validated them).
         """
         limits = self.limits
-        horizon = self.horizon
-        step = limits.torque_rate * self.control_period
+        horizon = self._horizon
         # Joint velocity extrapolated T ahead under tau_d, and the TCP velocity it gives.
         acceleration = mass_matrix_inverse @ (desired_torque - bias)
         ahead = qd + horizon * acceleration
@@ -262,91 +265,146 @@ class PosturalOptimisation:
                                  position_margin.tolist()):
             return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0, True)
         # Near a position limit but nothing broken: the same answer as the flags below, on floats.
-        if self._satisfies_every_limit(desired_values, previous_values, q.tolist(), qd_values,
+        q_values = q.tolist()
+        if self._satisfies_every_limit(desired_values, previous_values, q_values, qd_values,
                                        acceleration.tolist(), tcp_ahead_squared):
             return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0)
+        torque, flags, change, solved_qp, relaxed, guard, iterations = self._shape_values(
+            desired_torque, desired_values, previous_values, q_values, qd, qd_values, bias, mass_matrix_inverse,
+            tcp_linear_jacobian, tcp_ahead.tolist(), tcp_ahead_squared)
+        return ShapedTorque(torque, _FLAGS[flags], change, solved_qp, relaxed, guard, iterations)
 
-        minv_tau_d = mass_matrix_inverse @ desired_torque
-        free_acceleration = mass_matrix_inverse @ bias                      # M^-1 bias: qdd = M^-1 tau - this
-        tcp_velocity = tcp_linear_jacobian @ qd
-        abs_desired = np.abs(desired_torque)
-        lower, upper = self.torque_box(previous_torque)
-        a_lo, a_hi, position_low, position_high, reconciled = self.acceleration_bounds(q, qd)
-        # Bounds on the predicted acceleration, written on M^-1 tau = qdd + M^-1 bias.
-        row_lower = a_lo + free_acceleration
-        row_upper = a_hi + free_acceleration
+    def _shape_values(self, desired_torque: NDArray[np.float64], desired_values: list[float],
+                      previous_values: list[float] | None, q_values: list[float], qd: NDArray[np.float64],
+                      qd_values: list[float], bias: NDArray[np.float64], mass_matrix_inverse: NDArray[np.float64],
+                      tcp_linear_jacobian: NDArray[np.float64], tcp_ahead: list[float], tcp_ahead_squared: float
+                      ) -> tuple[NDArray[np.float64], int, float, bool, bool, bool, int]:
+        """``shape`` after its fast-path tests, for a tau_d that they did not admit: the flags of what tau_d
+        breaks, then the QP and the last guard. ``tcp_ahead`` is the TCP velocity T ahead under tau_d.
+
+        Returns (torque, flags as an int, |torque - tau_d|, solved_qp, relaxed, guard_clipped, iterations); the
+        torque is ``desired_torque`` itself if tau_d breaks nothing after all. The per-joint logic runs on floats
+        (the same comparisons as torque_box, acceleration_bounds and the flag tests on numpy 7-vectors).
+        """
+        limits = self.limits
+        horizon = self._horizon
+        step = self._rate_step
+        minv_tau_d = mass_matrix_inverse.dot(desired_torque)
+        free_acceleration = mass_matrix_inverse.dot(bias)                  # M^-1 bias: qdd = M^-1 tau - this
+        a_lo, a_hi, position_low, position_high, reconciled = self._bounds_values(q_values, qd_values)
         tcp_max = limits.tcp_speed
 
-        # Flags of the constraints that the unshaped torque breaks.
+        # The hard box (torque_box) and the flags of the torque and torque-rate limits that tau_d breaks.
         flags = _NONE
-        if (abs_desired > limits.torque_array).any():
-            flags |= _TORQUE
-        if previous_torque is not None and (np.abs(desired_torque - previous_torque) > step).any():
-            flags |= _TORQUE_RATE
-        if (desired_torque > upper).any() or (desired_torque < lower).any():
-            if not flags & (_TORQUE | _TORQUE_RATE):  # box emptied by an out-of-limit tau_prev
-                flags |= _TORQUE
-        above = minv_tau_d > row_upper
-        below = minv_tau_d < row_lower
-        flags |= self._joint_flags(above, below, position_low, position_high)
+        if previous_values is None:
+            lower, upper = self._negative_torque_values, self._torque_values
+            for desired, torque_max in zip(desired_values, self._torque_values):
+                if abs(desired) > torque_max:  # (the box is the torque limits)
+                    flags = _TORQUE
+        else:
+            lower, upper = [], []
+            outside_box = False
+            for desired, previous, torque_max in zip(desired_values, previous_values, self._torque_values):
+                # Torque limits intersected with the rate step; if the last command was beyond a torque limit by
+                # more than a step, the torque limit wins (the box is the clipped last command).
+                box_low = previous - step
+                if box_low < -torque_max:
+                    box_low = -torque_max
+                box_high = previous + step
+                if box_high > torque_max:
+                    box_high = torque_max
+                if box_low > box_high:
+                    box_low = box_high = -torque_max if previous < -torque_max else \
+                        (torque_max if previous > torque_max else previous)
+                lower.append(box_low)
+                upper.append(box_high)
+                if abs(desired - previous) > step:
+                    flags |= _TORQUE_RATE
+                if abs(desired) > torque_max:
+                    flags |= _TORQUE
+                if desired > box_high or desired < box_low:
+                    outside_box = True
+            if outside_box and not flags:  # box emptied by an out-of-limit tau_prev
+                flags = _TORQUE
+        # The bounds on the predicted acceleration, written on M^-1 tau = qdd + M^-1 bias, and the flags of the
+        # joint limits that tau_d breaks (a_lo <= a_hi, so at most one side per joint).
+        free_values = free_acceleration.tolist()
+        row_lower = [low + free for low, free in zip(a_lo, free_values)]
+        row_upper = [high + free for high, free in zip(a_hi, free_values)]
+        for minv_desired, low, high, low_by_position, high_by_position in zip(
+                minv_tau_d.tolist(), row_lower, row_upper, position_low, position_high):
+            if minv_desired > high:
+                flags |= _JOINT_POSITION if high_by_position else _JOINT_VELOCITY
+            elif minv_desired < low:
+                flags |= _JOINT_POSITION if low_by_position else _JOINT_VELOCITY
         tcp_ahead_speed = math.sqrt(tcp_ahead_squared)
         if tcp_ahead_speed > tcp_max:
             flags |= _TCP_SPEED
         if flags == _NONE:
-            return ShapedTorque(desired_torque, LimitFlag.NONE, 0.0, False, False, False, 0)
+            return desired_torque, _NONE, 0.0, False, False, False, 0
 
         # The QP, in daqp's form: 1/2 x'Hx + f'x, lower <= x <= upper (simple bounds), row bounds on A x.
         self.qp_count += 1
         hessian = mass_matrix_inverse
         linear = -minv_tau_d
+        tcp_velocity = tcp_linear_jacobian.dot(qd)
+        bounds_upper = upper + row_upper
+        bounds_lower = lower + row_lower
         cut_rows: list[NDArray[np.float64]] = []
         cut_upper: list[float] = []
         if tcp_ahead_speed > tcp_max:
-            self._add_cut(tcp_ahead / tcp_ahead_speed, tcp_linear_jacobian, mass_matrix_inverse, tcp_velocity,
-                          free_acceleration, horizon, cut_rows, cut_upper)
+            self._add_cut(np.array(tcp_ahead) / tcp_ahead_speed, tcp_linear_jacobian, mass_matrix_inverse,
+                          tcp_velocity, free_acceleration, horizon, cut_rows, cut_upper)
         softened = False
         iterations = 0
         torque = None
         multipliers = None
         for _ in range(self.tcp_cuts + 1):
-            rows = np.vstack([mass_matrix_inverse, *cut_rows]) if cut_rows else mass_matrix_inverse
-            b_upper = np.concatenate([upper, row_upper, cut_upper])
-            b_lower = np.concatenate([lower, row_lower, np.full(len(cut_rows), -_INFINITY)])
-            solution, exitflag, n_iter, lam, soft = self._solve(hessian, linear, rows, b_upper, b_lower, softened)
+            if cut_rows:
+                rows = np.vstack([mass_matrix_inverse, *cut_rows])
+                b_upper = np.array(bounds_upper + cut_upper)
+                b_lower = np.array(bounds_lower + [-_INFINITY] * len(cut_rows))
+            else:
+                rows, b_upper, b_lower = mass_matrix_inverse, np.array(bounds_upper), np.array(bounds_lower)
+            solution, n_iter, lam, soft = self._solve(hessian, linear, rows, b_upper, b_lower, softened)
             iterations += n_iter
             if solution is None:
                 break
             softened = softened or soft
             torque, multipliers = solution, lam
-            ahead = tcp_velocity + horizon * (tcp_linear_jacobian @ (mass_matrix_inverse @ torque - free_acceleration))
-            speed = float(np.sqrt(ahead @ ahead))
+            # The TCP velocity T ahead under the solution.
+            ahead = tcp_velocity + horizon * tcp_linear_jacobian.dot(mass_matrix_inverse.dot(torque)
+                                                                      - free_acceleration)
+            speed = math.sqrt(ahead @ ahead)
             if speed <= tcp_max * (1.0 + _TCP_RELATIVE_TOLERANCE) or len(cut_rows) >= self.tcp_cuts:
                 break
             self._add_cut(ahead / speed, tcp_linear_jacobian, mass_matrix_inverse, tcp_velocity, free_acceleration,
                           horizon, cut_rows, cut_upper)
 
         if torque is None:  # the solver failed: the last guard alone
-            torque = desired_torque
-        elif multipliers is not None:
+            torque_values = desired_values
+        else:
+            torque_values = torque.tolist()
             # The active set is what shaped the command: tau - tau_d = -H^-1 (sum of active multipliers * rows).
             # (A constraint that tau_d broke but that is slack at the solution did not shape it.)
-            active = self._active_flags(multipliers, torque, lower, upper, previous_torque, position_low,
-                                        position_high, len(cut_rows))
+            active = self._active_flags(multipliers, torque_values, previous_values, position_low, position_high,
+                                        len(cut_rows))
             flags = active if active else flags
         relaxed = reconciled or softened
         if relaxed:
             self.relaxed_count += 1
 
         # Last guard: never outside the torque and torque-rate box.
-        clipped = np.minimum(np.maximum(torque, lower), upper)
-        guard = bool(np.max(np.abs(clipped - torque)) > _GUARD_TOLERANCE)
+        clipped = [low if value < low else (high if value > high else value)  # (lower <= upper)
+                   for value, low, high in zip(torque_values, lower, upper)]
+        clips = [abs(value - before) > _GUARD_TOLERANCE for value, before in zip(clipped, torque_values)]
+        guard = True in clips
         if guard:
             self.guard_clips += 1
-            flags |= self._box_flags(clipped, previous_torque, np.abs(clipped - torque) > _GUARD_TOLERANCE) \
-                or _TORQUE
-        change = clipped - desired_torque
-        return ShapedTorque(clipped, LimitFlag(flags), float(np.sqrt(change @ change)), True, relaxed, guard,
-                            iterations)
+            flags |= self._box_flags(clipped, previous_values, clips) or _TORQUE
+        torque = np.array(clipped)
+        change = torque - desired_torque
+        return torque, flags, math.sqrt(change @ change), True, relaxed, guard, iterations
 
     def _admits_unshaped(self, desired_torque: list[float], previous_torque: list[float] | None,
                          qd: list[float], ahead: list[float], tcp_ahead_squared: float,
@@ -381,38 +439,113 @@ class PosturalOptimisation:
         """
         if tcp_ahead_squared > self._tcp_speed_squared:
             return False
+        return self._bounded(desired_torque, desired_torque if previous_torque is None else previous_torque, q, qd,
+                             acceleration, None) != _REJECTED
+
+    def _admissible(self, desired_torque: list[float], previous_torque: list[float] | None, q: list[float],
+                    qd: list[float], acceleration: list[float], tcp_ahead_squared: float,
+                    position_margin: list[float]) -> int:
+        """Whether tau_d passes unshaped, on floats: ``_admits_unshaped`` or ``_satisfies_every_limit``.
+
+        Returns _REJECTED (0) if neither holds, else _INSIDE if moreover every joint has |qd| <= v_max and a
+        margin >= 0 in ``position_margin`` (the distance of each joint to its nearest position limit: the
+        measured state is inside its limits; the first test implies it), else _UNSHAPED.
+        ``acceleration`` is the predicted qdd = M^-1 (tau_d - bias). The two tests are tried in the order that
+        is likely to decide with one of them: the first while the joints are far from their position limits,
+        the second after a call that found a joint near one. (Both are exact; only the cost depends on it.)
+        """
+        if tcp_ahead_squared > self._tcp_speed_squared:
+            return _REJECTED
+        if previous_torque is None:
+            previous_torque = desired_torque  # no torque-rate bound: |tau_d - tau_d| = 0 <= step
+        if self._far_from_limits:
+            if self._fast(desired_torque, previous_torque, qd, acceleration, position_margin):
+                return _INSIDE
+            return self._bounded(desired_torque, previous_torque, q, qd, acceleration, position_margin)
+        verdict = self._bounded(desired_torque, previous_torque, q, qd, acceleration, position_margin)
+        if verdict or not self._fast(desired_torque, previous_torque, qd, acceleration, position_margin):
+            return verdict
+        return _INSIDE
+
+    def _fast(self, desired_torque: list[float], previous_torque: list[float], qd: list[float],
+              acceleration: list[float], position_margin: list[float]) -> bool:
+        """``_admits_unshaped`` but for the TCP speed, with the velocity T ahead from ``acceleration``."""
+        horizon = self._horizon
         step = self._rate_step
-        if previous_torque is not None:
-            for torque, previous in zip(desired_torque, previous_torque):
-                if not abs(torque - previous) <= step:
-                    return False
-        for torque, torque_limit in zip(desired_torque, self._torque_values):
-            if not abs(torque) <= torque_limit:
-                return False
-        a_lo, a_hi, _, _, reconciled = self._bounds_values(q, qd)
-        if reconciled:
-            return False
-        for low, qdd, high in zip(a_lo, acceleration, a_hi):
-            if not low <= qdd <= high:
+        for torque, previous, torque_limit, velocity, qdd, velocity_limit, margin, room in zip(
+                desired_torque, previous_torque, self._torque_values, qd, acceleration, self._velocity_values,
+                position_margin, self._free_room_values):
+            if not (abs(torque) <= torque_limit and abs(torque - previous) <= step and margin > room
+                    and abs(velocity) <= velocity_limit and abs(velocity + horizon * qdd) <= velocity_limit):
                 return False
         return True
 
+    def _bounded(self, desired_torque: list[float], previous_torque: list[float], q: list[float], qd: list[float],
+                 acceleration: list[float], position_margin: list[float] | None) -> int:
+        """``_satisfies_every_limit`` but for the TCP speed: _REJECTED, or _INSIDE / _UNSHAPED as in
+        ``_admissible`` (_UNSHAPED without ``position_margin``). Records whether every joint was far from its
+        position limits (``_far_from_limits``).
+
+        A joint with |qd| <= v_max and farther than ``_free_room`` (plus _FREE_ROOM_GUARD) from both position
+        limits has its acceleration bounds set by the velocity limit alone (the braking and next-sample bounds are
+        looser, by more than their rounding: the comparisons of ``_joint_bounds`` pick the velocity bounds), so
+        only those are computed for it.
+        """
+        horizon = self._horizon
+        step = self._rate_step
+        dt = self.control_period
+        lag = self._braking_lag
+        inside = position_margin is not None
+        far = True
+        for torque, previous, torque_limit, position, velocity, qdd, velocity_limit, margin, free_low, free_high, \
+                lower, upper, deceleration in zip(desired_torque, previous_torque, self._torque_values, q, qd,
+                                                  acceleration, self._velocity_values,
+                                                  position_margin if inside else q, self._free_low_values,
+                                                  self._free_high_values, self._lower_values, self._upper_values,
+                                                  self._deceleration_values):
+            if not (abs(torque) <= torque_limit and abs(torque - previous) <= step):
+                return _REJECTED
+            if free_low < position < free_high and -velocity_limit <= velocity <= velocity_limit:
+                # Far from both limits, |qd| <= v_max: the velocity limit sets both bounds.
+                if not (-velocity_limit - velocity) / horizon <= qdd <= (velocity_limit - velocity) / horizon:
+                    return _REJECTED
+                if inside:
+                    inside = margin >= 0.0
+            else:
+                far = False
+                low, high, _, _, reconciled = _joint_bounds(position, velocity, velocity_limit, lower, upper,
+                                                            deceleration, dt, horizon, lag)
+                if reconciled or not low <= qdd <= high:
+                    return _REJECTED
+                if inside:
+                    inside = abs(velocity) <= velocity_limit and margin >= 0.0
+        self._far_from_limits = far
+        return _INSIDE if inside else _UNSHAPED
+
     def _solve(self, hessian, linear, rows, b_upper, b_lower, relaxed: bool):
         """Solve with hard prediction constraints; on infeasibility, again with them soft (bounds stay hard)."""
-        sense = np.full(b_upper.size, _SENSE_SOFT if relaxed else _SENSE_INEQUALITY, dtype=np.int32)
-        sense[:7] = _SENSE_INEQUALITY
-        x, _, exitflag, info = daqp.solve(hessian, linear, rows, b_upper, b_lower, sense,
+        size = b_upper.size
+        x, _, exitflag, info = daqp.solve(hessian, linear, rows, b_upper, b_lower, self._sense(size, relaxed),
                                           iter_limit=self.iteration_limit)
-        iterations = int(info["iterations"])
+        iterations = info["iterations"]
         if exitflag == _EXIT_INFEASIBLE and not relaxed:
-            sense[7:] = _SENSE_SOFT
-            x, _, exitflag, info = daqp.solve(hessian, linear, rows, b_upper, b_lower, sense,
+            x, _, exitflag, info = daqp.solve(hessian, linear, rows, b_upper, b_lower, self._sense(size, True),
                                               iter_limit=self.iteration_limit)
-            iterations += int(info["iterations"])
+            iterations += info["iterations"]
             relaxed = True
-        if exitflag < 0 or not np.all(np.isfinite(x)):
-            return None, exitflag, iterations, None, relaxed
-        return np.array(x), exitflag, iterations, np.array(info["lam"]), relaxed
+        if exitflag < 0 or not math.isfinite(sum(x.tolist())) and not np.all(np.isfinite(x)):
+            return None, int(iterations), None, relaxed
+        return np.array(x), int(iterations), info["lam"].tolist(), relaxed
+
+    def _sense(self, size: int, relaxed: bool) -> NDArray[np.int32]:
+        """daqp's sense array: the 7 simple bounds hard, the rows soft if relaxed (a copy of a cached one: daqp
+        keeps its working set in the array it is given)."""
+        sense = self._senses.get((size, relaxed))
+        if sense is None:
+            sense = np.full(size, _SENSE_SOFT if relaxed else _SENSE_INEQUALITY, dtype=np.int32)
+            sense[:7] = _SENSE_INEQUALITY
+            self._senses[(size, relaxed)] = sense
+        return sense.copy()
 
     def _add_cut(self, direction, tcp_linear_jacobian, mass_matrix_inverse, tcp_velocity, free_acceleration,
                  horizon, cut_rows, cut_upper) -> None:
@@ -422,36 +555,77 @@ class PosturalOptimisation:
         cut_upper.append(float((self.limits.tcp_speed * (1.0 - _TCP_CUT_SHRINK) - direction @ tcp_velocity) / horizon
                                + projected @ free_acceleration))
 
-    @staticmethod
-    def _joint_flags(above, below, position_low, position_high) -> int:
-        flags = _NONE
-        if (above & position_high).any() or (below & position_low).any():
-            flags |= _JOINT_POSITION
-        if (above & ~position_high).any() or (below & ~position_low).any():
-            flags |= _JOINT_VELOCITY
-        return flags
-
-    def _box_flags(self, torque, previous_torque, mask=True) -> int:
+    def _box_flags(self, torque: list[float], previous_torque: list[float] | None, mask: list[bool]) -> int:
         """Which of the torque and torque-rate limits the (masked) joints of a torque on the box's boundary sit on."""
         flags = _NONE
-        if (mask & (np.abs(torque) >= self.limits.torque_array - 1e-9)).any():
-            flags |= _TORQUE
-        step = self.limits.torque_rate * self.control_period
-        if previous_torque is not None and (mask & (np.abs(torque - previous_torque) >= step - 1e-9)).any():
-            flags |= _TORQUE_RATE
+        for selected, value, edge in zip(mask, torque, self._torque_edge_values):
+            if selected and abs(value) >= edge:
+                flags |= _TORQUE
+                break
+        if previous_torque is not None:
+            edge = self._rate_edge
+            for selected, value, previous in zip(mask, torque, previous_torque):
+                if selected and abs(value - previous) >= edge:
+                    flags |= _TORQUE_RATE
+                    break
         return flags
 
-    def _active_flags(self, multipliers, torque, lower, upper, previous_torque, position_low, position_high,
-                      n_cuts) -> int:
-        active = np.abs(multipliers) > _MULTIPLIER_TOLERANCE
+    def _active_flags(self, multipliers: list[float], torque: list[float], previous_torque: list[float] | None,
+                      position_low: list[bool], position_high: list[bool], n_cuts: int) -> int:
+        """The limits whose constraints are active (non-zero multiplier) at the solution: the simple bounds (7),
+        the joint rows (7; a positive multiplier is the upper side) and the TCP cuts."""
+        active = [abs(value) > _MULTIPLIER_TOLERANCE for value in multipliers]
         flags = _NONE
-        if active[:7].any():
+        if True in active[:7]:
             flags |= self._box_flags(torque, previous_torque, active[:7])
-        joint_active = active[7:14]
-        if joint_active.any():
-            high = multipliers[7:14] > 0.0
-            flags |= self._joint_flags(joint_active & high, joint_active & ~high, position_low, position_high)
-        if n_cuts and active[14:14 + n_cuts].any():
+        for selected, multiplier, low_by_position, high_by_position in zip(
+                active[7:14], multipliers[7:14], position_low, position_high):
+            if selected:
+                if multiplier > 0.0:
+                    flags |= _JOINT_POSITION if high_by_position else _JOINT_VELOCITY
+                else:
+                    flags |= _JOINT_POSITION if low_by_position else _JOINT_VELOCITY
+        if n_cuts and True in active[14:14 + n_cuts]:
             flags |= _TCP_SPEED
         return flags
 
+
+#: ``PosturalOptimisation._admissible``'s answers: each one above _REJECTED passes tau_d unshaped.
+_REJECTED = 0    # tau_d breaks a constraint (or nearly): the flags and the QP decide
+_UNSHAPED = 1    # tau_d breaks none of the QP's constraints
+_INSIDE = 2      # and the measured |qd| and q are inside their limits
+
+
+def _joint_bounds(position: float, velocity: float, velocity_limit: float, lower: float, upper: float,
+                  deceleration: float, dt: float, horizon: float, lag: float
+                  ) -> tuple[float, float, bool, bool, bool]:
+    """One joint of ``acceleration_bounds`` on floats: (a_lo, a_hi, a_lo set by the position limit, a_hi set by
+    it, the bounds had to be reconciled)."""
+    velocity_high = (velocity_limit - velocity) / horizon
+    velocity_low = (-velocity_limit - velocity) / horizon
+    room_high = upper - position
+    room_low = position - lower
+    # Inside: the braking curve (braking_velocity) and the range on the next sample; beyond: the return
+    # speed on the horizon.
+    if room_high >= 0.0:
+        brake_high = deceleration * (math.sqrt(lag * lag + 2.0 * room_high / deceleration) - lag)
+        position_high = min((brake_high - velocity) / dt, (room_high / dt - velocity) / dt)
+    else:
+        position_high = (room_high / horizon - velocity) / horizon
+    if room_low >= 0.0:
+        brake_low = -(deceleration * (math.sqrt(lag * lag + 2.0 * room_low / deceleration) - lag))
+        position_low = max((brake_low - velocity) / dt, (-room_low / dt - velocity) / dt)
+    else:
+        position_low = (-(room_low / horizon) - velocity) / horizon
+    high_set_by_position = position_high < velocity_high
+    low_set_by_position = position_low > velocity_low
+    high = position_high if high_set_by_position else velocity_high
+    low = position_low if low_set_by_position else velocity_low
+    reconciled = False
+    if low > high:  # conflict: the position side is kept, the other gives way
+        reconciled = True
+        if high_set_by_position:
+            low = high  # stop short of the upper limit
+        else:
+            high = low  # stop short of the lower limit
+    return low, high, low_set_by_position, high_set_by_position, reconciled

@@ -46,13 +46,14 @@ from scipy.linalg.lapack import dposv  # a 6x6 Cholesky solve without numpy.lina
 
 from .errors import FicInputError, finite_array, finite_floats, finite_scalar
 from .limits import VIOLATION_TOLERANCE, LimitFlag, PandaLimits, violation_flags
-from .postural_optimisation import PosturalOptimisation
+from .postural_optimisation import _INSIDE, PosturalOptimisation
 from .posture import NullSpacePosture
 from .robot_model import RobotModel, checked_array
 
 _ROTATION_TOLERANCE = 1e-6
 _IDENTITY3 = np.eye(3)
 _ZERO3 = np.zeros(3)
+_NO_LIMIT = LimitFlag.NONE
 
 #: mu of the inertial feedforward's Lambda = (J M^-1 J^T + mu I)^-1 [1/kg, 1/(kg m^2)]: effective masses capped
 #: at 1/mu = 1000 kg near singularities, < 1 % change where they are below 10 kg (module docstring).
@@ -123,7 +124,7 @@ class ReplicaCommand:
     limits: PandaLimits
     feedforward_wrench: NDArray[np.float64] | None  # Lambda a_d [N, N m] (6,), None without a_d
 
-    def __init__(self, *, torque, unshaped_torque, wrench, rotation_error, desired_rotation, tcp_rotation,
+    def __init__(self, torque, unshaped_torque, wrench, rotation_error, desired_rotation, tcp_rotation,
                  limit_shaping, limit_violations, torque_change, tcp_speed, controller_name, solved_qp, relaxed,
                  guard_clipped, q, qd, previous_torque, control_period, limits, feedforward_wrench,
                  desired_position, tcp_position, tracking_error, jacobian, posture_joint_torque,
@@ -354,6 +355,12 @@ class ReplicaController:
         self._lower_values = self.limits.lower_array.tolist()
         self._upper_values = self.limits.upper_array.tolist()
         self._previous_values: list[float] | None = None
+        self._tcp_speed_bound = self.limits.tcp_speed + VIOLATION_TOLERANCE
+        # An unshaped tau_d passed the optimisation's torque and torque-rate tests: with the same limits (and a
+        # rate step no larger than the violation check's), it is inside SPEC 2.2's torque and rate limits too.
+        self._verdict_covers_violations = self.optimisation.limits == self.limits and \
+            self.optimisation._rate_step <= self.limits.torque_rate * self.control_period + VIOLATION_TOLERANCE
+        self._valid_rotation_rows: list[list[float]] | None = None  # the last desired rotation matrix checked
         # A Pinocchio Data of the commands' own, to compute a command's kinetic energy when it is read (the
         # robot's Data belongs to the next tick by then).
         self._report_dynamics = (robot.model, robot.model.createData())
@@ -384,7 +391,7 @@ class ReplicaController:
         Raises FicInputError on NaN/Inf or bad shapes, before any state changes.
         """
         desired_position = finite_floats("desired_position", desired_position, 3)
-        desired_rotation = _desired_rotation(desired_rotation)
+        desired_rotation = self._desired_rotation(desired_rotation)
         desired_twist = None if desired_twist is None else finite_floats("desired_twist", desired_twist, 6)
         if desired_acceleration is not None:
             desired_acceleration = _desired_acceleration(desired_acceleration)
@@ -400,7 +407,8 @@ class ReplicaController:
         rotation = robot._rotation
         jacobian = robot._jacobian
         twist = robot._twist.tolist()
-        position_error = [target - actual for target, actual in zip(desired_position, position.tolist())]
+        x, y, z = position.tolist()
+        position_error = [desired_position[0] - x, desired_position[1] - y, desired_position[2] - z]
         rotation_error = pin.log3(desired_rotation.dot(rotation.T))
         if desired_twist is None:
             twist_error = [-value for value in twist]
@@ -419,10 +427,9 @@ class ReplicaController:
         minv = robot._mass_inverse
         margins = [value - lower if value - lower < upper - value else upper - value
                    for value, lower, upper in zip(q_values, self._lower_values, self._upper_values)]
-        smallest_margin = min(margins)
         posture = self.posture
         # Null-space posture, N^T tau_0 = tau_0 - J^T Lambda J M^-1 tau_0 (posture.py), with J M^-1 shared.
-        posture_joint_torque = np.array(posture._joint_torque_values(q_values, qd_values, q, smallest_margin))
+        posture_joint_torque = np.array(posture._joint_torque_values(q_values, qd_values, q, min(margins)))
         j_minv = jacobian.dot(minv)
         task_inverse_inertia = j_minv.dot(jacobian.T)  # J M^-1 J^T
         posture_task_force = posture._solve_task(task_inverse_inertia, j_minv.dot(posture_joint_torque))
@@ -431,50 +438,50 @@ class ReplicaController:
         if desired_acceleration is not None:
             feedforward_wrench = self._feedforward_wrench(task_inverse_inertia,
                                                           desired_acceleration - robot.tcp_bias_acceleration)
-            task_force = task_force + feedforward_wrench
+            task_force += feedforward_wrench
         nonlinear = robot._nonlinear
         # tau_d - (C qd + g) = J^T (FIC [+ Lambda a_d] - Lambda J M^-1 tau_0) + tau_0.
-        drive = jacobian.T.dot(task_force) + posture_joint_torque
+        drive = task_force.dot(jacobian)
+        drive += posture_joint_torque
         desired_torque = nonlinear + drive
 
         # Postural optimisation: M qdd = tau - (C qd + g) - D qd in the prediction (the arm's joint damping).
-        # Its fast path first, on floats: the velocity extrapolated T ahead under tau_d, and the TCP's.
+        # Its fast path first, on floats: the acceleration under tau_d, and the TCP velocity extrapolated T ahead.
         optimisation = self.optimisation
-        horizon = optimisation.horizon
+        horizon = optimisation._horizon
         damping = robot.joint_damping
         acceleration = minv.dot(drive - damping * qd)
-        acceleration_values = acceleration.tolist()
-        ahead = [velocity + horizon * value for velocity, value in zip(qd_values, acceleration_values)]
         tcp_acceleration = jacobian[:3].dot(acceleration).tolist()
         tcp_ahead = [velocity + horizon * value for velocity, value in zip(twist, tcp_acceleration)]
         tcp_ahead_squared = tcp_ahead[0] * tcp_ahead[0] + tcp_ahead[1] * tcp_ahead[1] + tcp_ahead[2] * tcp_ahead[2]
         previous = self._previous_torque
+        previous_values = self._previous_values
         desired_values = desired_torque.tolist()
         # One check for every term (NaN/Inf propagate into the sum; a sum that overflowed is checked in full).
         if not math.isfinite(sum(desired_values)) and not np.isfinite(desired_torque).all():
             if not np.isfinite(wrench).all():
                 raise FicInputError(f"the controller returned a non-finite wrench: {wrench}")
             raise FicInputError(f"the desired torque is not finite: {desired_torque}")
-        fast_path = optimisation._admits_unshaped(desired_values, self._previous_values, qd_values, ahead,
-                                                  tcp_ahead_squared, margins)
-        if fast_path or optimisation._satisfies_every_limit(desired_values, self._previous_values, q_values,
-                                                            qd_values, acceleration_values, tcp_ahead_squared):
+        verdict = optimisation._admissible(desired_values, previous_values, q_values, qd_values,
+                                           acceleration.tolist(), tcp_ahead_squared, margins)
+        if verdict:
             # tau_d breaks no constraint of the optimisation: it is the command, unshaped (as shape() would say).
             torque, torque_values = desired_torque.copy(), desired_values
-            flags, torque_change, solved_qp, relaxed, guard_clipped = LimitFlag.NONE, 0.0, False, False, False
+            flags, torque_change, solved_qp, relaxed, guard_clipped = _NO_LIMIT, 0.0, False, False, False
         else:
-            position_margin = np.array(margins)
             shaped = optimisation.shape(desired_torque, previous, q, qd, nonlinear + damping * qd, minv,
-                                        jacobian[:3], position_margin)
+                                        jacobian[:3], np.array(margins))
             torque = shaped.torque if shaped.solved_qp else desired_torque.copy()
             torque_values = torque.tolist()
             flags, torque_change, solved_qp = shaped.flags, shaped.torque_change, shaped.solved_qp
-            relaxed, guard_clipped, fast_path = shaped.relaxed, shaped.guard_clipped, shaped.fast_path
+            relaxed, guard_clipped = shaped.relaxed, shaped.guard_clipped
         velocity = twist[:3]
         tcp_speed = math.sqrt(velocity[0] * velocity[0] + velocity[1] * velocity[1] + velocity[2] * velocity[2])
-        if (fast_path and tcp_speed <= limits.tcp_speed) or \
-                self._violation_free(torque_values, qd_values, margins, tcp_speed):
-            violations = LimitFlag.NONE  # the fast path checked the torque, its rate, |qd| and the joint ranges
+        # An unshaped tau_d with |qd| and q inside their limits (the verdict says so, with the same limits) breaks
+        # none of SPEC 2.2's limits unless the TCP speed does; otherwise the full check on floats.
+        if (tcp_speed <= self._tcp_speed_bound if verdict >= _INSIDE and self._verdict_covers_violations
+                else self._violation_free(torque_values, qd_values, margins, tcp_speed)):
+            violations = _NO_LIMIT
         else:
             violations = self._violations(previous, torque, qd, np.array(margins), tcp_speed)
         self._previous_torque = torque
@@ -487,35 +494,23 @@ class ReplicaController:
 
         snapshot = getattr(controller, "snapshot", None)
         return ReplicaCommand(
-            torque=torque,
-            unshaped_torque=desired_torque,
-            wrench=wrench,
-            rotation_error=rotation_error,
-            desired_rotation=desired_rotation,
-            tcp_rotation=rotation,
-            limit_shaping=flags,
-            limit_violations=violations,
-            torque_change=torque_change,
-            tcp_speed=tcp_speed,
-            controller_name=controller.controller_name,
-            solved_qp=solved_qp,
-            relaxed=relaxed,
-            guard_clipped=guard_clipped,
-            q=q,
-            qd=qd,
-            previous_torque=previous,
-            control_period=self.control_period,
-            limits=limits,
-            feedforward_wrench=feedforward_wrench,
-            desired_position=desired_position,
-            tcp_position=position,
-            tracking_error=position_error,
-            jacobian=jacobian,
-            posture_joint_torque=posture_joint_torque,
-            posture_task_force=posture_task_force,
-            controller_snapshot=snapshot() if snapshot is not None else _EagerSnapshot(controller),
-            dynamics=self._report_dynamics,
-        )
+            torque, desired_torque, wrench, rotation_error, desired_rotation, rotation, flags, violations,
+            torque_change, tcp_speed, controller.controller_name, solved_qp, relaxed, guard_clipped, q, qd,
+            previous, self.control_period, limits, feedforward_wrench, desired_position, position, position_error,
+            jacobian, posture_joint_torque, posture_task_force,
+            snapshot() if snapshot is not None else _EagerSnapshot(controller), self._report_dynamics)
+
+    def _desired_rotation(self, value: ArrayLike) -> NDArray[np.float64]:
+        """``_desired_rotation``, whose orthonormality test is skipped for a matrix equal to the last one that
+        passed it (a held orientation is the same matrix tick after tick)."""
+        if type(value) is np.ndarray and value.shape == (3, 3) and value.dtype == np.float64:
+            rows = value.tolist()
+            if rows == self._valid_rotation_rows:  # NaN never compares equal
+                return value.copy()
+            rotation = _desired_rotation(value)
+            self._valid_rotation_rows = rows
+            return rotation
+        return _desired_rotation(value)
 
     def _feedforward_wrench(self, task_inverse_inertia: NDArray[np.float64],
                             desired_acceleration: NDArray[np.float64]) -> NDArray[np.float64]:
