@@ -65,10 +65,9 @@ class RealtimePacer:
         if now - deadline > self._max_backlog:
             self.overruns += 1
             self._start, self._index, deadline = now, 0, now
-        else:
-            while deadline > now:  # a sleep that does work in between (an executor) may return early
-                self._sleep(deadline - now)
-                now = self._clock()
+        elif deadline > now:
+            self._sleep(deadline - now)
+            now = self._clock()
         self._index += 1
         lateness = max(0.0, now - deadline)
         self._lateness.append(lateness)
