@@ -51,12 +51,15 @@ snapshot taken at one tick (``snapshot()``) still reports that tick after later 
 from __future__ import annotations
 
 from enum import IntEnum
+from operator import itemgetter
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fic_core.errors import FicInputError, finite_floats, finite_scalar
 from fic_core.profile import ForceProfile
+
+_new_snapshot = tuple.__new__  # AttractorSnapshot's __new__ without its call, on the tick
 
 #: Default dead-band on d|e|/dt [m/s or rad/s] for entering C: well above the noise of a differentiated
 #: 1 kHz joint-velocity signal, well below the speeds of a deliberate motion.
@@ -70,26 +73,28 @@ class Phase(IntEnum):
     CONVERGENCE = 1
 
 
-class AttractorSnapshot:
+class AttractorSnapshot(tuple):
     """The state of a FractalAttractor after one ``force`` call, immutable; derived values computed on read.
 
     Tuples per axis: whether the axis is in C, e_max, K_C = 2*F_c(e_max)/e_max, the offset c of V_C, and the
-    error and force of that call.
+    error and force of that call. (A tuple underneath: one C call to create at each tick.)
     """
 
-    __slots__ = ("profile", "in_convergence", "latched_max_errors", "convergence_stiffness", "convergence_offset",
-                 "errors", "forces")
+    __slots__ = ()
 
-    def __init__(self, profile: ForceProfile, in_convergence: tuple[bool, ...], latched_max_errors: tuple[float, ...],
-                 convergence_stiffness: tuple[float, ...], convergence_offset: tuple[float, ...],
-                 errors: tuple[float, ...], forces: tuple[float, ...]) -> None:
-        self.profile = profile
-        self.in_convergence = in_convergence
-        self.latched_max_errors = latched_max_errors
-        self.convergence_stiffness = convergence_stiffness
-        self.convergence_offset = convergence_offset
-        self.errors = errors
-        self.forces = forces
+    def __new__(cls, profile: ForceProfile, in_convergence: tuple[bool, ...], latched_max_errors: tuple[float, ...],
+                convergence_stiffness: tuple[float, ...], convergence_offset: tuple[float, ...],
+                errors: tuple[float, ...], forces: tuple[float, ...]) -> AttractorSnapshot:
+        return tuple.__new__(cls, (profile, in_convergence, latched_max_errors, convergence_stiffness,
+                                   convergence_offset, errors, forces))
+
+    profile = property(itemgetter(0))
+    in_convergence = property(itemgetter(1))
+    latched_max_errors = property(itemgetter(2))
+    convergence_stiffness = property(itemgetter(3))
+    convergence_offset = property(itemgetter(4))
+    errors = property(itemgetter(5))
+    forces = property(itemgetter(6))
 
     @property
     def phase(self) -> NDArray[np.int64]:
@@ -127,7 +132,6 @@ class FractalAttractor:
         self._profile = profile
         self._axes = int(axes)
         self._rate_deadband = finite_scalar("rate_deadband", rate_deadband, minimum=0.0)
-        self._axis_indices = tuple(range(self._axes))
         self.reset()
 
     def reset(self) -> None:
@@ -188,52 +192,76 @@ class FractalAttractor:
     def _step(self, errors: list[float], rates: list[float]) -> list[float]:
         """Eq. 2 on validated floats: the phase logic per axis, then the force; returns the forces.
 
-        ``rates`` may be longer than ``errors`` (the extra values are ignored). The state's e_max, K_C and c are
-        copied only when an axis enters C (on the common tick the new snapshot shares them with the old one).
+        ``rates`` may be longer than ``errors`` (the extra values are ignored). This is the common tick, where no
+        axis enters C: e_max, K_C and c stay as they are (shared with the previous snapshot); a tick where an axis
+        enters C is handed to ``_step_entering``, before any state changes.
         """
         old = self._state
-        profile = self._profile
+        profile = old[0]
         deadband = -self._rate_deadband
         linear_limit = profile._linear_limit
-        latched_max_errors = old.latched_max_errors
-        convergence_stiffness = old.convergence_stiffness
-        convergence_offset = old.convergence_offset
-        in_convergence = []
+        phases = []
         forces = []
-        for axis, error, rate, converging, latched, stiffness in zip(
-                self._axis_indices, errors, rates, old.in_convergence, latched_max_errors, convergence_stiffness):
+        for error, rate, converging, latched, stiffness in zip(errors, rates, old[1], old[2], old[3]):
             # d|e|/dt = sign(e) * de/dt, with sign(0) = 0 as numpy.sign.
             if converging:
                 # Stay in C while |e| keeps decreasing on the same side of the target (sign(e) == sign(e_max)).
-                if error > 0.0:
-                    converging = rate < 0.0 and latched > 0.0
-                elif error < 0.0:
-                    converging = -rate < 0.0 and latched < 0.0
-                else:
-                    converging = False
+                if (rate < 0.0 and latched > 0.0) if error > 0.0 else \
+                        (error < 0.0 and -rate < 0.0 and latched < 0.0):
+                    force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
+                    limit = stiffness * 0.5 * abs(latched)  # |F_c(e_max)|
+                    forces.append(limit if force > limit else (-limit if force < -limit else force))
+                    phases.append(True)
+                    continue
+            elif (rate if error > 0.0 else (-rate if error < 0.0 else 0.0)) < deadband:
+                return self._step_entering(errors, rates)  # enters C past the dead-band
+            phases.append(False)
+            # Eq. 2, D (K0 e in the profile's linear region).
+            forces.append(profile.stiffness * error if -linear_limit <= error <= linear_limit
+                          else profile._scalar_force(error))
+        self._state = _new_snapshot(AttractorSnapshot, (profile, tuple(phases), old[2], old[3], old[4],
+                                                        tuple(errors), tuple(forces)))
+        return forces
+
+    def _step_entering(self, errors: list[float], rates: list[float]) -> list[float]:
+        """``_step`` for a tick where an axis may enter C (latching e_max, K_C and c)."""
+        old = self._state
+        profile = self._profile
+        deadband = -self._rate_deadband
+        in_convergence = list(old.in_convergence)
+        latched_max_errors = list(old.latched_max_errors)
+        convergence_stiffness = list(old.convergence_stiffness)
+        convergence_offset = list(old.convergence_offset)
+        forces = []
+        axis = 0
+        for error, rate in zip(errors, rates):
+            # d|e|/dt = sign(e) * de/dt, with sign(0) = 0 as numpy.sign.
+            magnitude_rate = rate if error > 0.0 else (-rate if error < 0.0 else 0.0)
+            if in_convergence[axis]:
+                # Stay in C while |e| keeps decreasing on the same side of the target (sign(e) == sign(e_max)).
+                latched = latched_max_errors[axis]
+                converging = magnitude_rate < 0.0 and ((error > 0.0) == (latched > 0.0)) \
+                    and ((error < 0.0) == (latched < 0.0))
             else:
                 # Enter C past the dead-band, latching e_max.
-                converging = (rate if error > 0.0 else (-rate if error < 0.0 else 0.0)) < deadband
+                converging = magnitude_rate < deadband
                 if converging:
-                    if type(latched_max_errors) is tuple:  # the first axis to enter C this call: copy the state
-                        latched_max_errors = list(latched_max_errors)
-                        convergence_stiffness = list(convergence_stiffness)
-                        convergence_offset = list(convergence_offset)
-                    latched = error
                     stiffness = 2.0 * profile._scalar_secant_stiffness(error)  # K_C = 2*F_c(e_max)/e_max
                     latched_max_errors[axis] = error
                     convergence_stiffness[axis] = stiffness
                     # V_C(e_max) = V_D(e_max): c = V_D(e_max) - K_C*e_max^2/8.
                     convergence_offset[axis] = profile._scalar_energy(error) - stiffness * error * error / 8.0
-            in_convergence.append(converging)
+                in_convergence[axis] = converging
             if converging:
+                stiffness = convergence_stiffness[axis]
+                latched = latched_max_errors[axis]
                 force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
                 limit = stiffness * 0.5 * abs(latched)  # |F_c(e_max)|
                 forces.append(limit if force > limit else (-limit if force < -limit else force))
-            elif -linear_limit <= error <= linear_limit:
-                forces.append(profile.stiffness * error)  # Eq. 2, D, in the profile's linear region (K0 e)
             else:
+                in_convergence[axis] = False
                 forces.append(profile._scalar_force(error))  # Eq. 2, D
+            axis += 1
         self._state = AttractorSnapshot(profile, tuple(in_convergence), tuple(latched_max_errors),
                                         tuple(convergence_stiffness), tuple(convergence_offset), tuple(errors),
                                         tuple(forces))

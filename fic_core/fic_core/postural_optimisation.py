@@ -32,6 +32,9 @@ Each tick, given the desired torque tau_d of Eq. 7 (compensation + J^T FIC + nul
 - TCP speed |J_v qd| <= 1.7 m/s is a cone; it is enforced by up to ``tcp_cuts`` linear cuts along the predicted
   TCP velocity, placed 0.1 % inside the limit (outer approximation refined until the prediction is inside).
 - Fast path: when tau_d satisfies every constraint the QP is not built: tau = tau_d exactly, nothing flagged.
+  The test runs on floats; a joint with |qd| <= v_max farther from its limits than the braking bound can reach
+  only needs its velocity bounds (the others cannot be the tighter ones there). Past it, the flags, the box and
+  the active-set report are also computed on floats, per joint (``_shape_values``).
 - Last guard: the result is clipped into the hard torque/torque-rate box whatever the solver returned (a solver
   failure falls back to clipping tau_d); a clip larger than 1e-9 N m is counted in ``guard_clips``.
 - Report: ``flags`` names the limits that shaped the command: those the unshaped tau_d broke, plus those whose
@@ -248,9 +251,9 @@ class PosturalOptimisation:
         limits = self.limits
         horizon = self._horizon
         # Joint velocity extrapolated T ahead under tau_d, and the TCP velocity it gives.
-        acceleration = mass_matrix_inverse @ (desired_torque - bias)
+        acceleration = mass_matrix_inverse.dot(desired_torque - bias)
         ahead = qd + horizon * acceleration
-        tcp_ahead = tcp_linear_jacobian @ ahead
+        tcp_ahead = tcp_linear_jacobian.dot(ahead)
         tcp_ahead_squared = float(tcp_ahead @ tcp_ahead)
 
         # Fast path: far from every position limit and nothing else broken -> the command is tau_d, unshaped.

@@ -17,6 +17,7 @@ from .errors import FicInputError, finite_array
 from .panda_description import JOINT_DAMPING, load_pinocchio_model
 
 _LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+_FLOAT64 = np.dtype(np.float64)
 
 
 def checked_array(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
@@ -32,12 +33,15 @@ def checked_array(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArra
 def _state_vector(name: str, value: ArrayLike, size: int) -> tuple[NDArray[np.float64], list[float]]:
     """A fresh float64 copy of a joint vector and its values as floats, checked with one sum (NaN/Inf propagate
     into it); a suspicious input takes ``finite_array``, which raises FicInputError naming ``name``."""
-    try:
-        array = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise FicInputError(f"{name} must be numeric, got {value!r}") from exc
-    if array.shape != (size,):
-        raise FicInputError(f"{name} must have shape {(size,)}, got {array.shape}")
+    if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.shape == (size,):
+        array = value.copy()  # the common case, at half the cost of np.array(value, dtype=np.float64)
+    else:
+        try:
+            array = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise FicInputError(f"{name} must be numeric, got {value!r}") from exc
+        if array.shape != (size,):
+            raise FicInputError(f"{name} must have shape {(size,)}, got {array.shape}")
     values = array.tolist()
     if not math.isfinite(sum(values)):
         finite_array(name, array, (size,))  # raises, unless a huge finite input overflowed the sum
