@@ -239,11 +239,12 @@ def circle_reference(centre: np.ndarray, radius: float, period: float, t: float)
     return position, twist, acceleration
 
 
-def track_circle(robot: RobotModel, feedforward: bool, seconds: float) -> tuple[np.ndarray, LimitFlag]:
+def track_circle(robot: RobotModel, feedforward: bool, seconds: float,
+                 damping_compensation: bool = False) -> tuple[np.ndarray, LimitFlag]:
     """The paper's circle (0.20 m diameter, 5 s period) from the nominal pose, Panda under ABA at 1 ms."""
     position, rotation = nominal_pose(robot)
     centre = position - np.array([0.1, 0.0, 0.0])  # starts on the circle
-    replica = ReplicaController(robot, paper_fic())
+    replica = ReplicaController(robot, paper_fic(), joint_damping_compensation=damping_compensation)
     model = robot.model
     data = model.createData()
     q, qd = NOMINAL_CONFIGURATION.copy(), np.zeros(7)
@@ -271,6 +272,33 @@ def test_inertial_feedforward_halves_the_circle_tracking_error(robot: RobotModel
     assert rms_without > 0.005  # the FIC alone lags the moving target (about 14 mm)
     assert rms_with < 0.5 * rms_without, (rms_with, rms_without)
     assert violations_without == LimitFlag.NONE and violations_with == LimitFlag.NONE
+
+
+def test_joint_damping_compensation_takes_out_the_circle_lag(robot: RobotModel) -> None:
+    """Beyond Eq. 7: + D qd (the arm's viscous joint friction) on top of the inertial feedforward leaves a
+    fraction of the circle's tracking error: the FIC no longer needs an error to push against the friction."""
+    seconds = 4.0
+    steady = int(round(1.5 / DT))
+    feedforward_only, _ = track_circle(robot, True, seconds)
+    compensated, violations = track_circle(robot, True, seconds, damping_compensation=True)
+    rms_feedforward = np.sqrt(np.mean(feedforward_only[steady:] ** 2))
+    rms_compensated = np.sqrt(np.mean(compensated[steady:] ** 2))
+    assert rms_compensated < 0.5 * rms_feedforward, (rms_compensated, rms_feedforward)
+    assert violations == LimitFlag.NONE
+
+
+def test_joint_damping_compensation_adds_d_qd_to_tau_d(robot: RobotModel) -> None:
+    """The unshaped torque differs by exactly robot.joint_damping * qd, at random states."""
+    rng = np.random.default_rng(5)
+    position, rotation = nominal_pose(robot)
+    for _ in range(10):
+        q = NOMINAL_CONFIGURATION + rng.normal(scale=0.2, size=7)
+        qd = rng.normal(scale=0.5, size=7)
+        plain = ReplicaController(robot, paper_fic()).command(q, qd, position, rotation)
+        compensated = ReplicaController(robot, paper_fic(), joint_damping_compensation=True).command(
+            q, qd, position, rotation)
+        np.testing.assert_allclose(compensated.unshaped_torque - plain.unshaped_torque, JOINT_DAMPING * qd,
+                                   atol=1e-9)
 
 
 def test_feedforward_produces_the_desired_task_acceleration(robot: RobotModel) -> None:
