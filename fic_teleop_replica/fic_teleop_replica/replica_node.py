@@ -12,9 +12,16 @@ Data path (docs/CONVENTIONS.md):
   state rate the law runs every 1/control_rate seconds of joint-state time and the last torque is held in
   between, published on every joint state so lockstep still advances. The published torque is slewed at the
   Panda's torque-rate limit (1000 N m/s over ``command_period``), so a slow controller's steps never break it.
+- Set-points between samples (fic_core.set_point): x_d' (100 Hz through the channel) and x_d'' (100 Hz) are
+  first-order holds on their senders' stamps, so x_d moves smoothly at the control rate; the acceleration of both
+  (the planner's own, the teleoperated offset's estimated) is fed forward through J^T Lambda, and D qd (the arm's viscous joint
+  friction) is added to tau_d (``planner_feedforward``, ``offset_feedforward``, ``joint_damping_compensation``;
+  all beyond paper Eq. 7, none depends on the tracking error).
 - Watchdog: teleoperation commands not received for ``master_timeout`` -> x_d' is held (said once, as a warning);
-  when they return, x_d' moves to the new value at no more than ``resume_speed`` instead of jumping.
-- No planner yet -> x_d'' is the TCP pose at the first joint state; a silent planner -> its last value.
+  when they return, the jump between the held and the new x_d' is given back at ``resume_speed`` instead of
+  jumping, while x_d' follows the new commands underneath.
+- No planner yet -> x_d'' is the TCP pose at the first joint state; then the jump to the planner's first pose is
+  given back at ``resume_speed``; a silent planner -> its last value.
 - Before the first joint state nothing is published. Messages with NaN/Inf are refused (throttled error log) and
   the last good value is kept. Parameters are validated at start and when changed at run time.
 """
@@ -50,6 +57,7 @@ from fic_core.posture import NullSpacePosture
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController, rotation_from_quaternion
 from fic_core.robot_model import RobotModel
+from fic_core.set_point import SampledSetPoint, ShrinkingOffset
 from fic_core.panda_description import ARM_JOINT_NAMES
 
 # 1 kHz robot streams: RELIABLE, KEEP_LAST 50 (a recorder must lose none; a late command is superseded anyway).
@@ -76,7 +84,8 @@ NODE_NAME = "replica"
 LOG_THROTTLE_S = 2.0
 # An older planner acceleration is not fed forward (the planner publishes at 100 Hz).
 FEEDFORWARD_TIMEOUT_S = 0.05
-RESUMED_TOLERANCE = 1e-4  # [m] x_d' within this of the commanded value: the blend after a resume is over
+# A sample gap longer than this restarts a set-point's velocity and acceleration estimates from rest [s].
+SET_POINT_MAX_GAP_S = 0.1
 
 # name: (default, description, low, high) -- config/replica.yaml holds the same defaults.
 NUMBERS: dict[str, tuple[float, str, float, float]] = {
@@ -108,6 +117,11 @@ NUMBERS: dict[str, tuple[float, str, float, float]] = {
                        0.01, 60.0),
     "resume_speed": (0.1, "speed at which x_d' moves to the commanded value after a stale period [m/s]",
                      0.001, 2.0),
+    "set_point_acceleration_filter": (0.05, "time constant of the acceleration estimate of x_d' (fed forward when "
+                                            "offset_feedforward is true) [s]", 0.0, 1.0),
+    "set_point_extrapolation": (0.05, "x_d' and x_d'' move on along their last velocity for at most this long "
+                                      "after a sample (first-order hold between samples) [s]; 0: held as steps",
+                                0.0, 0.5),
     "desired_velocity_filter": (0.02, "time constant of the x_d velocity estimate fed to the FIC's error rate [s]; "
                                       "0 disables it (zero desired twist)", 0.0, 1.0),
     "pose_rate": (100.0, "rate of /replica/desired_pose, /replica/tcp_pose, /replica/feedback_wrench [Hz]",
@@ -127,15 +141,6 @@ def _finite(*values: float) -> bool:
     return all(math.isfinite(v) for v in values)
 
 
-def _approach(current: np.ndarray, target: np.ndarray, step: float) -> tuple[np.ndarray, bool]:
-    """Move ``current`` toward ``target`` by at most ``step``; returns (new value, still approaching)."""
-    gap = target - current
-    distance = float(np.linalg.norm(gap))
-    if distance <= max(step, RESUMED_TOLERANCE):
-        return target.copy(), False
-    return current + gap * (step / distance), True
-
-
 def _seconds(stamp: Time) -> float:
     return stamp.sec + 1e-9 * stamp.nanosec
 
@@ -153,17 +158,19 @@ class ReplicaNode(Node):
         self._start_position = np.zeros(3)
         self._start_rotation = np.eye(3)
         self._planner_position: np.ndarray | None = None   # x_d'' as last received
-        self._planner_in_use: np.ndarray | None = None     # x_d'' in use (approaches the first pose, then follows)
-        self._planner_blending = False
+        self._planner_in_use: np.ndarray | None = None     # x_d'' in use (the first pose's jump given back)
+        self._planner_hold = self._set_point_hold()        # x_d'' between samples (fic_core.set_point)
+        self._planner_jump = ShrinkingOffset()             # start pose - first planner pose, given back
         self._planner_acceleration: np.ndarray | None = None
         self._planner_acceleration_received = 0.0
         self._planner_rotation: np.ndarray | None = None
         self._commanded_offset = np.zeros(3)   # x_d' as last received
         self._offset = np.zeros(3)             # x_d' in use (held while stale, blended on resume)
+        self._offset_hold = self._set_point_hold()          # x_d' between samples
+        self._offset_jump = ShrinkingOffset()               # x_d' held - x_d' commanded at a resume, given back
         self._master_stamp = Time()
         self._master_received: float | None = None  # node-clock seconds of the last good teleop command
         self._master_stale = False
-        self._blending = False
         self._wrench = WrenchStamped()
         self._wrench.header.frame_id = BASE_FRAME
         self._last_control_time: float | None = None
@@ -215,6 +222,12 @@ class ReplicaNode(Node):
         self.declare_parameter("planner_feedforward", True, ParameterDescriptor(
             description="feed the planner's acceleration (/planner/desired_accel) forward through the task-space "
                         "inertia, J^T Lambda a_d (beyond paper Eq. 7: the FIC compensates no inertia)"))
+        self.declare_parameter("offset_feedforward", True, ParameterDescriptor(
+            description="feed the estimated acceleration of the teleoperated x_d' forward the same way (beyond paper "
+                        "Eq. 7; fic_core.set_point: from the stamps of successive commands, low-pass filtered)"))
+        self.declare_parameter("joint_damping_compensation", True, ParameterDescriptor(
+            description="add D qd, the arm's viscous joint friction, to tau_d as Eq. 7 adds C qd (beyond the paper; "
+                        "fic_core.replica)"))
         self.declare_parameter("use_planner_orientation", False, ParameterDescriptor(
             description="track the orientation of /planner/desired_pose; false holds the TCP orientation found at "
                         "start (the planner plans positions, paper Eqs. 5-6)"))
@@ -226,7 +239,9 @@ class ReplicaNode(Node):
 
     def _parameter_values(self, overrides: dict | None = None) -> dict:
         values = {name: self.get_parameter(name).value for name in (*NUMBERS, "controller", "use_planner_orientation",
-                                                                   "planner_feedforward", "answer_every_state")}
+                                                                   "planner_feedforward", "offset_feedforward",
+                                                                   "joint_damping_compensation",
+                                                                   "answer_every_state")}
         values.update(overrides or {})
         for name in NUMBERS:
             values[name] = float(values[name])
@@ -259,7 +274,12 @@ class ReplicaNode(Node):
             raise FicInputError(f"control_rate {p['control_rate']:g} Hz is faster than the joint states "
                                 f"(command_period {p['command_period']:g} s)")
         optimisation = PosturalOptimisation(self._limits, period, velocity_horizon=p["velocity_horizon"])
-        return ReplicaController(robot, controller, self._limits, posture, period, optimisation)
+        return ReplicaController(robot, controller, self._limits, posture, period, optimisation,
+                                 joint_damping_compensation=bool(p["joint_damping_compensation"]))
+
+    def _set_point_hold(self) -> SampledSetPoint:
+        return SampledSetPoint(3, self._p["set_point_acceleration_filter"], self._p["set_point_extrapolation"],
+                               SET_POINT_MAX_GAP_S)
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         overrides = {parameter.name: parameter.value for parameter in parameters}
@@ -276,6 +296,9 @@ class ReplicaNode(Node):
         if p["diagnostics_rate"] != self._p["diagnostics_rate"]:
             self._diagnostics_timer.cancel()
             self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
+        for hold in (self._planner_hold, self._offset_hold):
+            hold.acceleration_time_constant = p["set_point_acceleration_filter"]
+            hold.max_extrapolation = p["set_point_extrapolation"]
         self._p = p
         self.get_logger().info(f"parameters changed: {', '.join(f'{k}={v}' for k, v in overrides.items())}")
         return SetParametersResult(successful=True)
@@ -297,12 +320,13 @@ class ReplicaNode(Node):
         self._master_stamp = message.header.stamp
         first = self._master_received is None
         self._master_received = self._now()
+        self._offset_hold.add(_seconds(message.header.stamp), self._commanded_offset, self._master_received)
         if self._master_stale or first:  # the first command is approached the same way: no jump either
             if self._master_stale:
                 self.get_logger().warning(f"teleoperation commands are back: moving x_d' to the new command at "
                                           f"<= {self._p['resume_speed']:g} m/s")
             self._master_stale = False
-            self._blending = True
+            self._offset_jump.start(self._offset, self._commanded_offset, self._p["resume_speed"])
 
     def _on_planner_pose(self, message: PoseStamped) -> None:
         position, orientation = message.pose.position, message.pose.orientation
@@ -318,6 +342,7 @@ class ReplicaNode(Node):
         self._counts["planner_poses"] += 1
         self._planner_position = np.array([position.x, position.y, position.z])
         self._planner_rotation = rotation
+        self._planner_hold.add(_seconds(message.header.stamp), self._planner_position, self._now())
 
 
     def _on_planner_accel(self, message: AccelStamped) -> None:
@@ -329,14 +354,20 @@ class ReplicaNode(Node):
         self._planner_acceleration_received = self._now()
 
     def _feedforward_acceleration(self) -> np.ndarray | None:
-        """The planner's acceleration for the inertial feedforward (beyond paper Eq. 7, fic_core.replica), only
-        while x_d'' is the planner's own output (not while approaching its first pose) and the value is fresh."""
-        if not self._p["planner_feedforward"] or self._planner_acceleration is None or self._planner_blending or \
-                self._planner_in_use is None:
-            return None
-        if self._now() - self._planner_acceleration_received > FEEDFORWARD_TIMEOUT_S:
-            return None
-        return self._planner_acceleration
+        """The acceleration of x_d = x_d'' + x_d' for the inertial feedforward (beyond paper Eq. 7,
+        fic_core.replica): the planner's own (fresh values only), plus the estimate for the teleoperated offset x_d', from the stamps of the
+        teleoperation commands while they are not stale. The jumps being given back (ShrinkingOffset) move at
+        constant speed: no acceleration."""
+        now = self._now()
+        acceleration = None
+        if self._p["planner_feedforward"] and self._planner_acceleration is not None and \
+                self._planner_in_use is not None and \
+                now - self._planner_acceleration_received <= FEEDFORWARD_TIMEOUT_S:
+            acceleration = self._planner_acceleration
+        if self._p["offset_feedforward"] and not self._master_stale and self._offset_hold.has_sample:
+            offset_acceleration = self._offset_hold.acceleration(now)
+            acceleration = offset_acceleration if acceleration is None else acceleration + offset_acceleration
+        return acceleration
 
     def _on_wrench(self, message: WrenchStamped) -> None:
         force, torque = message.wrench.force, message.wrench.torque
@@ -422,35 +453,30 @@ class ReplicaNode(Node):
         return last is None or time < last or time - last >= 1.0 / rate - 0.5 * self._p["command_period"]
 
     def _update_planner(self, dt: float) -> np.ndarray:
-        """x_d'' in use: the start TCP pose until the planner speaks; its first pose is approached at resume_speed
-        (the planner may start elsewhere); then the planner's output as it comes (it is smooth by design)."""
+        """x_d'' in use: the start TCP pose until the planner speaks; then the planner's output held between
+        samples (first-order hold), with the jump from the start pose to its first pose given back at
+        resume_speed (the planner may start elsewhere; fic_core.set_point.ShrinkingOffset)."""
         if self._planner_position is None:
             return self._start_position
-        if self._planner_in_use is None:  # the first planner pose: approach it from the start pose
-            self._planner_in_use = self._start_position.copy()
-            self._planner_blending = True
-        if self._planner_blending:
-            self._planner_in_use, self._planner_blending = _approach(
-                self._planner_in_use, self._planner_position, self._p["resume_speed"] * dt)
-            return self._planner_in_use
-        return self._planner_position
+        planner = self._planner_hold.position(self._now())
+        if self._planner_in_use is None:  # the first planner pose: start from the start pose
+            self._planner_jump.start(self._start_position, planner, self._p["resume_speed"])
+        self._planner_in_use = self._planner_jump.apply(planner, dt)
+        return self._planner_in_use
 
     def _update_offset(self, dt: float) -> None:
         """x_d' in use: the commanded one, held while stale, rate-limited back after a stale period."""
         if self._master_received is not None and not self._master_stale and \
                 self._now() - self._master_received > self._p["master_timeout"]:
             self._master_stale = True
-            self._blending = False
+            self._offset_jump.stop()
             self.get_logger().warning(
                 f"no teleoperation command for more than master_timeout = {self._p['master_timeout']:g} s: holding "
                 f"the last desired offset {np.round(self._offset, 4)} (the replica stays under its FIC)")
         if self._master_stale:
             return
-        if self._blending:
-            self._offset, self._blending = _approach(self._offset, self._commanded_offset,
-                                                     self._p["resume_speed"] * dt)
-        else:
-            self._offset = self._commanded_offset
+        commanded = self._offset_hold.position(self._now()) if self._offset_hold.has_sample else self._commanded_offset
+        self._offset = self._offset_jump.apply(commanded, dt)
 
     def _control(self, q: np.ndarray, qd: np.ndarray, stamp: Time, dt: float) -> None:
         self._update_offset(dt)
@@ -570,7 +596,7 @@ class ReplicaNode(Node):
         values.update({
             "controller": self._p["controller"],
             "master_watchdog": "stale (holding x_d')" if self._master_stale else
-            ("no command yet" if self._master_received is None else ("resuming" if self._blending else "ok")),
+            ("no command yet" if self._master_received is None else ("resuming" if self._offset_jump.active else "ok")),
             "planner": "no pose yet (holding the start pose)" if self._planner_position is None else "ok",
             "ticks": str(self._replica.ticks),
             "shaped_ticks": str(self._replica.shaped_ticks),
