@@ -10,7 +10,11 @@ two samples (taken from their stamps, so that network jitter in the arrival does
 most ``max_extrapolation`` seconds (a late or lost sample then holds the set-point still, it never runs away).
 The acceleration estimate, the difference of successive velocities low-pass filtered over
 ``acceleration_time_constant``, is what the replica feeds forward through J^T Lambda (replica.py). Samples
-further apart than ``max_sample_gap`` (a blackout, a restart) restart the estimates from rest.
+further apart than ``max_sample_gap`` (a blackout, a restart) restart the estimates from rest. Bad timing must
+not become motion: a sample closer than ``min_sample_interval`` to the last one (a burst after a stalled sender,
+a duplicate) moves the hold but does not change the slope, and the estimates are clipped to ``max_speed`` and
+``max_acceleration`` (a difference quotient over a short, jittery interval is where a huge velocity would come
+from; the extrapolation would turn it into a jump of x_d).
 
 ``ShrinkingOffset`` takes a jump out of a set-point without stopping it: when the set-point in use and the
 commanded one disagree (the planner's first pose is far from where the arm starts; x_d' comes back after a
@@ -29,17 +33,26 @@ from numpy.typing import ArrayLike, NDArray
 from .errors import FicInputError, finite_array, finite_scalar
 
 
+def _clipped(vector: NDArray[np.float64], bound: float) -> NDArray[np.float64]:
+    norm = math.sqrt(float(vector.dot(vector)))
+    return vector * (bound / norm) if norm > bound else vector
+
+
 class SampledSetPoint:
     """First-order hold of a sampled set-point, with its velocity and a filtered acceleration (module docstring)."""
 
     def __init__(self, dimension: int = 3, acceleration_time_constant: float = 0.05,
-                 max_extrapolation: float = 0.05, max_sample_gap: float = 0.1) -> None:
+                 max_extrapolation: float = 0.05, max_sample_gap: float = 0.1, min_sample_interval: float = 0.002,
+                 max_speed: float = 1.0, max_acceleration: float = 10.0) -> None:
         """
         Args:
             dimension: size of the set-point (3 for a TCP position).
             acceleration_time_constant: low-pass time constant of the acceleration estimate [s] (>= 0; 0: raw).
             max_extrapolation: the hold moves on along the velocity for at most this long after a sample [s].
             max_sample_gap: samples further apart than this [s] restart the velocity and acceleration from zero.
+            min_sample_interval: a sample closer than this to the last [s] does not change the estimates.
+            max_speed: the velocity estimate's norm is clipped to this [m/s] (> 0).
+            max_acceleration: the acceleration estimate's norm is clipped to this [m/s^2] (> 0).
         """
         if isinstance(dimension, bool) or not isinstance(dimension, (int, np.integer)) or dimension < 1:
             raise FicInputError(f"dimension must be a positive integer, got {dimension!r}")
@@ -48,11 +61,16 @@ class SampledSetPoint:
                                                         minimum=0.0)
         self.max_extrapolation = finite_scalar("max_extrapolation", max_extrapolation, minimum=0.0)
         self.max_sample_gap = finite_scalar("max_sample_gap", max_sample_gap, minimum=0.0, minimum_inclusive=False)
+        self.min_sample_interval = finite_scalar("min_sample_interval", min_sample_interval, minimum=0.0)
+        self.max_speed = finite_scalar("max_speed", max_speed, minimum=0.0, minimum_inclusive=False)
+        self.max_acceleration = finite_scalar("max_acceleration", max_acceleration, minimum=0.0,
+                                              minimum_inclusive=False)
         self.reset()
 
     def reset(self) -> None:
         """Forget every sample."""
-        self._stamp: float | None = None
+        self._stamp: float | None = None   # stamp of the sample the slope is measured from
+        self._slope_position = np.zeros(self.dimension)
         self._received = 0.0
         self._position = np.zeros(self.dimension)
         self._velocity = np.zeros(self.dimension)
@@ -65,25 +83,28 @@ class SampledSetPoint:
     def add(self, stamp: float, position: ArrayLike, received: float) -> None:
         """A new sample: ``position`` as of its ``stamp`` (the sender's clock), taken in at ``received`` (ours).
 
-        A stamp not newer than the last one's replaces the position only (a repeated or reordered sample says
-        nothing about the slope). Raises FicInputError on NaN/Inf.
+        A stamp less than min_sample_interval newer than the last one's (repeated, reordered, a burst) replaces
+        the position only: it says nothing reliable about the slope. Raises FicInputError on NaN/Inf.
         """
         stamp = finite_scalar("stamp", stamp)
         received = finite_scalar("received", received)
         position = finite_array("position", position, (self.dimension,)).copy()
-        if self._stamp is not None and stamp > self._stamp:
+        if self._stamp is not None and stamp - self._stamp >= self.min_sample_interval:
             elapsed = stamp - self._stamp
             if elapsed <= self.max_sample_gap:
-                velocity = (position - self._position) / elapsed
+                velocity = _clipped((position - self._slope_position) / elapsed, self.max_speed)
                 # Low-pass of the velocity's difference quotient (backward Euler of a first-order lag).
                 blend = elapsed / (self.acceleration_time_constant + elapsed)
-                self._acceleration += ((velocity - self._velocity) / elapsed - self._acceleration) * blend
+                self._acceleration = _clipped(
+                    self._acceleration + ((velocity - self._velocity) / elapsed - self._acceleration) * blend,
+                    self.max_acceleration)
                 self._velocity = velocity
             else:
                 self._velocity[:] = 0.0
                 self._acceleration[:] = 0.0
-        if self._stamp is None or stamp >= self._stamp:
+        if self._stamp is None or stamp - self._stamp >= self.min_sample_interval:
             self._stamp = stamp
+            self._slope_position = position
         self._position = position
         self._received = received
 

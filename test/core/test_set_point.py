@@ -38,7 +38,7 @@ def test_a_ramp_is_reproduced_between_samples_despite_arrival_jitter() -> None:
 
 
 def test_the_acceleration_estimate_converges_on_a_parabola() -> None:
-    acceleration = np.array([1.5, -0.5, 0.2])
+    acceleration = np.array([0.5, -0.3, 0.2])
     hold = SampledSetPoint(acceleration_time_constant=0.05)
     for k in range(100):
         t = k * PERIOD
@@ -79,6 +79,23 @@ def test_a_repeated_or_older_stamp_changes_no_slope() -> None:
     hold.add(0.01, [0.001, 0.0, 0.0], 0.01)
     hold.add(0.005, [0.3, 0.0, 0.0], 0.012)
     np.testing.assert_allclose(hold.velocity(0.012), [0.1, 0.0, 0.0])
+
+
+def test_a_burst_after_a_stalled_sender_makes_no_jump() -> None:
+    """A sender that stalled sends three samples 0.1 ms apart with a little noise: no huge velocity, no jump of
+    the extrapolated set-point, and the estimates stay within their bounds."""
+    hold = SampledSetPoint(max_speed=1.0, max_acceleration=10.0)
+    for k in range(10):
+        hold.add(k * PERIOD, [0.001 * k, 0.0, 0.0], k * PERIOD)
+    t = 0.09
+    for k, noise in enumerate((0.0, 0.0005, -0.0005)):
+        hold.add(t + 1e-4 * k, [0.01 + noise, 0.0, 0.0], 0.2)
+    assert np.linalg.norm(hold.velocity(0.2)) <= 1.0
+    np.testing.assert_allclose(hold.velocity(0.2), [0.1, 0.0, 0.0])  # the slope of the regular samples
+    assert np.linalg.norm(hold.position(0.25) - [0.0095, 0.0, 0.0]) <= 1.0 * 0.05
+    hold.add(0.1, [0.5, 0.0, 0.0], 0.21)  # a wild sample: clipped estimates
+    assert np.linalg.norm(hold.velocity(0.21)) <= 1.0 + 1e-12
+    assert np.linalg.norm(hold.acceleration(0.21)) <= 10.0 + 1e-12
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf])
