@@ -13,6 +13,7 @@ clamped to it with a warning; NaN is refused.
 """
 from __future__ import annotations
 
+import gc
 import math
 
 import numpy as np
@@ -387,6 +388,10 @@ def spin_until_shutdown(node: Node, slice_s: float = 0.1) -> None:
     """
     executor = EventsExecutor(context=node.context)
     executor.add_node(node)
+    # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
+    # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
+    gc.collect()
+    gc.freeze()
     try:
         while rclpy.ok(context=node.context):
             try:

@@ -15,6 +15,7 @@ restarts the planner at its current position, at rest.
 """
 from __future__ import annotations
 
+import gc
 import math
 
 import numpy as np
@@ -248,6 +249,10 @@ def spin_until_shutdown(node: Node, slice_s: float = 0.1) -> None:
     """
     executor = EventsExecutor(context=node.context)
     executor.add_node(node)
+    # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
+    # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
+    gc.collect()
+    gc.freeze()
     try:
         while rclpy.ok(context=node.context):
             try:

@@ -27,6 +27,7 @@ Data path (docs/CONVENTIONS.md):
 """
 from __future__ import annotations
 
+import gc
 import math
 import struct
 
@@ -636,6 +637,10 @@ def main(args: list[str] | None = None) -> None:
         # poses: 11 % of a core and 93 % of messages taken, against 28 % and 79 % for SingleThreadedExecutor).
         executor = EventsExecutor()
         executor.add_node(node)
+        # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
+        # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
+        gc.collect()
+        gc.freeze()
         while rclpy.ok():  # short slices so that the signal handler's shutdown is seen promptly
             try:
                 executor.spin_once(timeout_sec=0.1)

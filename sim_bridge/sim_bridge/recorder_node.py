@@ -21,6 +21,7 @@ the writer thread then drains the queue and the bag gets its summary, footer and
 """
 from __future__ import annotations
 
+import gc
 import collections
 import datetime
 import importlib
@@ -326,6 +327,10 @@ def main(args: list[str] | None = None) -> None:
         node = RecorderNode()
         executor = EventsExecutor()
         executor.add_node(node)
+        # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
+        # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
+        gc.collect()
+        gc.freeze()
         # Spin in bounded slices: with the rclpy 7.1 wheels, EventsExecutor.spin() and spin_until_future_complete
         # without a timeout busy-loop without ever running a timer; with a timeout they work.
         never = Future()
