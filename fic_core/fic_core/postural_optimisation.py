@@ -277,6 +277,22 @@ class PosturalOptimisation:
             tcp_linear_jacobian, tcp_ahead.tolist(), tcp_ahead_squared)
         return ShapedTorque(torque, _FLAGS[flags], change, solved_qp, relaxed, guard, iterations)
 
+    def _shape_rejected(self, desired_torque: NDArray[np.float64], desired_values: list[float],
+                        previous_values: list[float] | None, q_values: list[float], qd: NDArray[np.float64],
+                        qd_values: list[float], bias: NDArray[np.float64], mass_matrix_inverse: NDArray[np.float64],
+                        tcp_linear_jacobian: NDArray[np.float64]
+                        ) -> tuple[NDArray[np.float64], int, float, bool, bool, bool]:
+        """``shape`` for a tau_d that its fast-path tests already rejected (the replica's ``_admissible`` verdict):
+        the TCP velocity T ahead as ``shape`` computes it, then ``_shape_values``, without a ShapedTorque.
+
+        Returns (torque, flags as an int, |torque - tau_d|, solved_qp, relaxed, guard_clipped).
+        """
+        ahead = qd + self._horizon * mass_matrix_inverse.dot(desired_torque - bias)
+        tcp_ahead = tcp_linear_jacobian.dot(ahead)
+        return self._shape_values(desired_torque, desired_values, previous_values, q_values, qd, qd_values, bias,
+                                  mass_matrix_inverse, tcp_linear_jacobian, tcp_ahead.tolist(),
+                                  float(tcp_ahead @ tcp_ahead))[:6]
+
     def _shape_values(self, desired_torque: NDArray[np.float64], desired_values: list[float],
                       previous_values: list[float] | None, q_values: list[float], qd: NDArray[np.float64],
                       qd_values: list[float], bias: NDArray[np.float64], mass_matrix_inverse: NDArray[np.float64],

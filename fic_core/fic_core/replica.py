@@ -57,7 +57,7 @@ from scipy.linalg.lapack import dposv  # a 6x6 Cholesky solve without numpy.lina
 
 from .errors import FicInputError, finite_array, finite_floats, finite_scalar
 from .limits import VIOLATION_TOLERANCE, LimitFlag, PandaLimits, violation_flags
-from .postural_optimisation import _INSIDE, PosturalOptimisation
+from .postural_optimisation import _FLAGS, _INSIDE, PosturalOptimisation
 from .posture import NullSpacePosture
 from .robot_model import RobotModel, checked_array
 
@@ -168,10 +168,12 @@ class ReplicaCommand:
         self._posture_task_force = posture_task_force    # Lambda J M^-1 (that torque) (6,): N^T tau = tau - J^T this
         self._controller_snapshot = controller_snapshot  # phase, latched_max_error, stored_energy of this tick
         self._dynamics = dynamics                        # (pin.Model, a Data of the replica's own) for the energy
-        self._cache: dict[str, object] = {}
+        self._cache: dict[str, object] | None = None  # created on the first report read, not on the tick
 
     def _cached(self, name: str, compute):
         cache = self._cache
+        if cache is None:
+            cache = self._cache = {}
         if name not in cache:
             cache[name] = compute()
         return cache[name]
@@ -485,12 +487,14 @@ class ReplicaController:
             torque, torque_values = desired_torque.copy(), desired_values
             flags, torque_change, solved_qp, relaxed, guard_clipped = _NO_LIMIT, 0.0, False, False, False
         else:
-            shaped = optimisation.shape(desired_torque, previous, q, qd, nonlinear + damping * qd, minv,
-                                        jacobian[:3], np.array(margins))
-            torque = shaped.torque if shaped.solved_qp else desired_torque.copy()
+            # The verdict already ran shape()'s fast-path tests (on these floats): straight to the flags and the QP.
+            torque, flags, torque_change, solved_qp, relaxed, guard_clipped = optimisation._shape_rejected(
+                desired_torque, desired_values, previous_values, q_values, qd, qd_values, nonlinear + damping * qd,
+                minv, jacobian[:3])
+            if not solved_qp:
+                torque = desired_torque.copy()
             torque_values = torque.tolist()
-            flags, torque_change, solved_qp = shaped.flags, shaped.torque_change, shaped.solved_qp
-            relaxed, guard_clipped = shaped.relaxed, shaped.guard_clipped
+            flags = _FLAGS[flags]
         velocity = twist[:3]
         tcp_speed = math.sqrt(velocity[0] * velocity[0] + velocity[1] * velocity[1] + velocity[2] * velocity[2])
         # An unshaped tau_d with |qd| and q inside their limits (the verdict says so, with the same limits) breaks

@@ -87,8 +87,19 @@ class RobotModel:
         ``qd``, the TCP pose, Jacobian and twist are fresh arrays each update, never overwritten.
         """
         dof = self.dof
-        q, q_values = _state_vector("q", q, dof)
-        qd, qd_values = _state_vector("qd", qd, dof)
+        shape = (dof,)
+        if type(q) is np.ndarray and type(qd) is np.ndarray and q.dtype is _FLOAT64 and qd.dtype is _FLOAT64 \
+                and q.shape == shape and qd.shape == shape:
+            # The common tick: fresh copies, and one sum for both (NaN/Inf propagate into it); a suspicious pair
+            # takes _state_vector, which raises FicInputError naming the culprit.
+            q, qd = q.copy(), qd.copy()
+            q_values, qd_values = q.tolist(), qd.tolist()
+            if not math.isfinite(sum(q_values) + sum(qd_values)):
+                q, q_values = _state_vector("q", q, dof)
+                qd, qd_values = _state_vector("qd", qd, dof)
+        else:
+            q, q_values = _state_vector("q", q, dof)
+            qd, qd_values = _state_vector("qd", qd, dof)
         model, data, frame = self.model, self.data, self.tcp_frame_id
         # One pass for the TCP: computeFrameJacobian runs the forward kinematics of the frame's support, sets
         # data.oMf[frame] and returns a new array (cheaper than computeJointJacobians + updateFramePlacement +
