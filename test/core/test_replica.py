@@ -287,18 +287,30 @@ def test_joint_damping_compensation_takes_out_the_circle_lag(robot: RobotModel) 
     assert violations == LimitFlag.NONE
 
 
-def test_joint_damping_compensation_adds_d_qd_to_tau_d(robot: RobotModel) -> None:
-    """The unshaped torque differs by exactly robot.joint_damping * qd, at random states."""
+def test_joint_damping_compensation_adds_the_friction_of_the_desired_motion(robot: RobotModel) -> None:
+    """The unshaped torque differs by D M^-1 J^T Lambda xd_d (independent Pinocchio calls), at random states, and
+    not at all without a desired twist (the damping of deviations stays the arm's)."""
     rng = np.random.default_rng(5)
     position, rotation = nominal_pose(robot)
+    data = robot.model.createData()
     for _ in range(10):
         q = NOMINAL_CONFIGURATION + rng.normal(scale=0.2, size=7)
         qd = rng.normal(scale=0.5, size=7)
-        plain = ReplicaController(robot, paper_fic()).command(q, qd, position, rotation)
+        twist = rng.normal(scale=0.2, size=6)
+        plain = ReplicaController(robot, paper_fic()).command(q, qd, position, rotation, twist)
         compensated = ReplicaController(robot, paper_fic(), joint_damping_compensation=True).command(
+            q, qd, position, rotation, twist)
+        minv = pin.computeMinverse(robot.model, data, q)
+        minv = np.triu(minv) + np.triu(minv, 1).T
+        jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.tcp_frame_id, pin.LOCAL_WORLD_ALIGNED)
+        inertia = np.linalg.inv(jacobian @ minv @ jacobian.T + 1e-3 * np.eye(6))
+        expected = JOINT_DAMPING * (minv @ jacobian.T @ inertia @ twist)
+        np.testing.assert_allclose(compensated.unshaped_torque - plain.unshaped_torque, expected, atol=1e-8)
+        without_twist = ReplicaController(robot, paper_fic(), joint_damping_compensation=True).command(
             q, qd, position, rotation)
-        np.testing.assert_allclose(compensated.unshaped_torque - plain.unshaped_torque, JOINT_DAMPING * qd,
-                                   atol=1e-9)
+        np.testing.assert_allclose(without_twist.unshaped_torque,
+                                   ReplicaController(robot, paper_fic()).command(q, qd, position,
+                                                                                 rotation).unshaped_torque)
 
 
 def test_feedforward_produces_the_desired_task_acceleration(robot: RobotModel) -> None:
