@@ -14,7 +14,9 @@ further apart than ``max_sample_gap`` (a blackout, a restart) restart the estima
 not become motion: a sample closer than ``min_sample_interval`` to the last one (a burst after a stalled sender,
 a duplicate) moves the hold but does not change the slope, and the estimates are clipped to ``max_speed`` and
 ``max_acceleration`` (a difference quotient over a short, jittery interval is where a huge velocity would come
-from; the extrapolation would turn it into a jump of x_d).
+from; the extrapolation would turn it into a jump of x_d). When a sample lands away from where the hold had got
+to (after a gap in the stream: a stalled sender, a lost message), the difference is blended out over
+``blend_time`` instead of stepping, so x_d stays continuous.
 
 ``ShrinkingOffset`` takes a jump out of a set-point without stopping it: when the set-point in use and the
 commanded one disagree (the planner's first pose is far from where the arm starts; x_d' comes back after a
@@ -43,7 +45,7 @@ class SampledSetPoint:
 
     def __init__(self, dimension: int = 3, acceleration_time_constant: float = 0.05,
                  max_extrapolation: float = 0.05, max_sample_gap: float = 0.1, min_sample_interval: float = 0.002,
-                 max_speed: float = 1.0, max_acceleration: float = 10.0) -> None:
+                 max_speed: float = 1.0, max_acceleration: float = 10.0, blend_time: float = 0.05) -> None:
         """
         Args:
             dimension: size of the set-point (3 for a TCP position).
@@ -53,6 +55,7 @@ class SampledSetPoint:
             min_sample_interval: a sample closer than this to the last [s] does not change the estimates.
             max_speed: the velocity estimate's norm is clipped to this [m/s] (> 0).
             max_acceleration: the acceleration estimate's norm is clipped to this [m/s^2] (> 0).
+            blend_time: a new sample's distance from the hold's output is blended out over this long [s] (0: steps).
         """
         if isinstance(dimension, bool) or not isinstance(dimension, (int, np.integer)) or dimension < 1:
             raise FicInputError(f"dimension must be a positive integer, got {dimension!r}")
@@ -65,6 +68,7 @@ class SampledSetPoint:
         self.max_speed = finite_scalar("max_speed", max_speed, minimum=0.0, minimum_inclusive=False)
         self.max_acceleration = finite_scalar("max_acceleration", max_acceleration, minimum=0.0,
                                               minimum_inclusive=False)
+        self.blend_time = finite_scalar("blend_time", blend_time, minimum=0.0)
         self.reset()
 
     def reset(self) -> None:
@@ -72,6 +76,7 @@ class SampledSetPoint:
         self._stamp: float | None = None   # stamp of the sample the slope is measured from
         self._slope_position = np.zeros(self.dimension)
         self._received = 0.0
+        self._jump = np.zeros(self.dimension)  # hold output - new sample, at the sample's arrival
         self._position = np.zeros(self.dimension)
         self._velocity = np.zeros(self.dimension)
         self._acceleration = np.zeros(self.dimension)
@@ -89,6 +94,9 @@ class SampledSetPoint:
         stamp = finite_scalar("stamp", stamp)
         received = finite_scalar("received", received)
         position = finite_array("position", position, (self.dimension,)).copy()
+        # Where the hold had got to: the new sample's distance from it is blended out, not stepped.
+        self._jump = self.position(received) - position if self._stamp is not None and self.blend_time > 0.0 \
+            else np.zeros(self.dimension)
         if self._stamp is not None and stamp - self._stamp >= self.min_sample_interval:
             elapsed = stamp - self._stamp
             if elapsed <= self.max_sample_gap:
@@ -116,7 +124,12 @@ class SampledSetPoint:
         it came in, at most max_extrapolation."""
         if self._stamp is None:
             raise FicInputError("no sample yet")
-        return self._position + self._velocity * self._extrapolation(now)
+        position = self._position + self._velocity * self._extrapolation(now)
+        if self.blend_time > 0.0:
+            remaining = 1.0 - (now - self._received) / self.blend_time
+            if remaining > 0.0:
+                position = position + self._jump * min(remaining, 1.0)
+        return position
 
     def velocity(self, now: float) -> NDArray[np.float64]:
         """The hold's velocity at ``now``: that of the last two samples, zero once the hold stops moving."""

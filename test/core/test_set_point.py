@@ -62,7 +62,7 @@ def test_the_acceleration_estimate_of_a_circle_lags_by_its_filter() -> None:
 
 
 def test_the_hold_stops_after_max_extrapolation_and_restarts_after_a_gap() -> None:
-    hold = SampledSetPoint(max_extrapolation=0.02, max_sample_gap=0.1)
+    hold = SampledSetPoint(max_extrapolation=0.02, max_sample_gap=0.1, blend_time=0.0)
     hold.add(0.0, [0.0, 0.0, 0.0], 0.0)
     hold.add(0.01, [0.001, 0.0, 0.0], 0.01)  # 0.1 m/s
     np.testing.assert_allclose(hold.position(0.02), [0.002, 0.0, 0.0])
@@ -96,6 +96,22 @@ def test_a_burst_after_a_stalled_sender_makes_no_jump() -> None:
     hold.add(0.1, [0.5, 0.0, 0.0], 0.21)  # a wild sample: clipped estimates
     assert np.linalg.norm(hold.velocity(0.21)) <= 1.0 + 1e-12
     assert np.linalg.norm(hold.acceleration(0.21)) <= 10.0 + 1e-12
+
+
+def test_a_sample_after_a_gap_is_blended_in_not_stepped() -> None:
+    """The stream pauses for 80 ms while the set-point moves on at 0.1 m/s: the next sample lands 7 mm from where
+    the hold stopped; x_d moves there continuously over blend_time, then follows the samples."""
+    hold = SampledSetPoint(max_extrapolation=0.05, blend_time=0.05)
+    for k in range(5):
+        hold.add(k * PERIOD, [0.1 * k * PERIOD, 0.0, 0.0], k * PERIOD)
+    stopped = hold.position(0.12)[0]
+    assert stopped == pytest.approx(0.004 + 0.1 * 0.05)  # the hold stopped after max_extrapolation
+    hold.add(0.12, [0.012, 0.0, 0.0], 0.12)
+    assert hold.position(0.12)[0] == pytest.approx(stopped, abs=1e-12)  # no step
+    track = [hold.position(0.12 + k * DT)[0] for k in range(60)]
+    biggest_step = max(abs(b - a) for a, b in zip(track, track[1:]))
+    assert biggest_step <= (0.012 - stopped) / 0.05 * DT + 0.1 * DT + 1e-12
+    assert hold.position(0.17)[0] == pytest.approx(0.012 + 0.1 * 0.05)  # blended in, following the samples
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf])
