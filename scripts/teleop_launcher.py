@@ -33,14 +33,16 @@ REALTIME_START_MARGIN_S = 4.0   # realtime: the script and the circle start this
 # in one session, docs/CONVENTIONS.md "Rates"). Lockstep has no such budget and keeps the paper's 1 kHz.
 REALTIME_CONTROL_RATE_HZ = 500.0
 
-# Scheduler niceness for the loop that closes through the robot. On 2 cores the graph uses most of both; with
-# these, the physics, the replica, the channel and the haptic loop get the CPU first and the recorder and the
-# planner, whose deep queues let them wait a few milliseconds, take what is left, instead of all of them being
-# late together. Niceness, not SCHED_FIFO: the rclpy 7.1 EventsExecutor and Fast DDS threads yield in loops that
-# a FIFO thread never leaves (measured here: the replica and the robot at 100 % of a core each under SCHED_FIFO).
+# Scheduler niceness for the loops that close through the robot. On 2 cores the graph uses most of both; with
+# these, the physics, the replica, the channel, the haptic loop and the planner get the CPU first and the
+# recorder, whose deep queues let it wait, takes what is left, instead of all of them being late together. The
+# planner is in: at the default niceness it was starved for seconds at a time (x_d'' stood still while the
+# operator script went on, and the arm ran into the obstacle it was meant to pass). Niceness, not SCHED_FIFO:
+# the rclpy 7.1 EventsExecutor and Fast DDS threads yield in loops that a FIFO thread never leaves (measured
+# here: the replica and the robot at 100 % of a core each under SCHED_FIFO).
 # Each step of niceness is about 1.25x the CPU share against a contending process at 0.
 PRIORITY_NICENESS = {"robot": -15, "replica": -12, "channel_forward": -10, "channel_backward": -10, "master": -10,
-                     "haptic_device": -10}
+                     "haptic_device": -10, "planner": -10}
 
 
 @dataclass
@@ -200,8 +202,12 @@ def _interrupt(process: subprocess.Popen, timeout: float) -> int:
     return process.returncode
 
 
-def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event) -> float:
-    """Block until the simulation has run `duration` seconds of its own time (read from /clock), or `stop` is set."""
+def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event,
+                      wall_origin: float | None = None) -> float:
+    """Block until the simulation has run `duration` seconds of its own time (read from /clock), or `stop` is set.
+
+    ``wall_origin`` (realtime, a scripted scene): the duration counts from the first /clock at or after this
+    wall-clock time, when the operator script and the circle start, so that the whole script is run."""
     import rclpy
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
@@ -218,7 +224,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     def on_clock(message: Clock) -> None:
         now = message.clock.sec + 1e-9 * message.clock.nanosec
         latest["t"] = now
-        if latest["start"] is None:
+        if latest["start"] is None and (wall_origin is None or time.time() >= wall_origin):
             latest["start"] = now
 
     node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
@@ -227,7 +233,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     try:
         while rclpy.ok() and not stop.is_set():
             rclpy.spin_once(node, timeout_sec=0.1)
-            elapsed = 0.0 if latest["t"] is None else latest["t"] - latest["start"]
+            elapsed = 0.0 if latest["start"] is None else latest["t"] - latest["start"]
             if elapsed >= duration or graph_.foreground_done():
                 break
             dead = graph_.dead()
@@ -243,7 +249,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
-    return 0.0 if latest["t"] is None else latest["t"] - latest["start"]
+    return 0.0 if latest["start"] is None else latest["t"] - latest["start"]
 
 
 def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
@@ -276,8 +282,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--no-report", action="store_true")
     parser.add_argument("--no-video", action="store_true", help="skip the key frames and the animation")
     parser.add_argument("--no-priority", action="store_true",
-                        help="run every node at the default niceness (by default the robot, replica, channel, master "
-                             "and haptic device run ahead of the recorder and planner)")
+                        help="run every node at the default niceness (by default the robot, replica, channel, master, "
+                             "haptic device and planner run ahead of the recorder)")
     return parser.parse_args(argv)
 
 
@@ -313,7 +319,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller}"
           f" at {args.control_rate:g} Hz, {args.time_mode}; run folder {run_dir}")
     try:
-        for spec in graph(args, bag_path):
+        specs = graph(args, bag_path)
+        # Realtime with a scripted operator: the run's duration counts from the script's start (its origin on the
+        # wall clock), so that the script's last moves are not cut by the nodes' start-up time.
+        script_origin = next((spec.params["script_start_time"] for spec in specs
+                              if "script_start_time" in spec.params), None)
+        wall_origin = script_origin if args.time_mode == "realtime" else None
+        for spec in specs:
             running.start(spec)
         granted = running.prioritised()
         if granted:
@@ -328,7 +340,8 @@ def main(argv: list[str] | None = None) -> int:
             (run_dir / "run.json").write_text(json.dumps(run_record, indent=2))
         if not interrupted.is_set():
             sim_elapsed = wait_for_sim_time(args.duration, running, stop=interrupted,
-                                            wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration))
+                                            wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
+                                            wall_origin=wall_origin)
     except KeyboardInterrupt:  # only if a signal arrived before our handler was installed
         interrupted.set()
     finally:

@@ -85,6 +85,8 @@ NODE_NAME = "replica"
 LOG_THROTTLE_S = 2.0
 # An older planner acceleration is not fed forward (the planner publishes at 100 Hz).
 FEEDFORWARD_TIMEOUT_S = 0.05
+# A longer interval between two control ticks (a stall, a restart) is taken as one nominal period.
+MAX_CONTROL_INTERVAL_S = 0.1
 # A sample gap longer than this restarts a set-point's velocity and acceleration estimates from rest [s].
 SET_POINT_MAX_GAP_S = 0.1
 
@@ -438,8 +440,13 @@ class ReplicaNode(Node):
         control_period = 1.0 / self._p["control_rate"]
         due = self._control_due(time)
         if due:
+            # The time since the last control tick, by the joint-state stamps: a busy replica skips states, and
+            # x_d's velocity (the FIC's error rate, the friction feedforward) and the give-back of jumps must use
+            # the real interval, not the nominal one (a skipped tick at the nominal dt doubled the velocity).
+            last = self._last_control_time
+            dt = time - last if last is not None and 0.0 < time - last <= MAX_CONTROL_INTERVAL_S else control_period
             self._last_control_time = time
-            self._control(q, qd, stamp, control_period)
+            self._control(q, qd, stamp, max(dt, 0.5 * control_period))
         if due or self._p["answer_every_state"]:
             self._publish_torque(self._held_torque, time)
         if self._due(self._last_pose_time, time, self._p["pose_rate"]):
