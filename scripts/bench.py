@@ -101,6 +101,15 @@ class NodeSampler(threading.Thread):
         return table
 
 
+def machine_shares(before, after) -> dict:
+    """The machine's CPU time between two psutil.cpu_times() readings, in % of all cores: steal is the time the
+    hypervisor gave this VM's vCPUs to others (a shared host), which no niceness of ours can win back."""
+    fields = ("user", "system", "idle", "iowait", "steal")
+    total = sum(getattr(after, name) - getattr(before, name) for name in after._fields)
+    return {f"{name}_percent": round(100.0 * (getattr(after, name, 0.0) - getattr(before, name, 0.0)) / total, 1)
+            for name in fields} if total > 0 else {}
+
+
 def run_sampled(command: list[str], log_path: Path) -> tuple[int, float, dict]:
     start = time.monotonic()
     with open(log_path, "w", encoding="utf-8") as log:
@@ -178,7 +187,9 @@ def main(argv: list[str] | None = None) -> int:
         run_dir = runs / "default"
         command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), "--domain-id", str(free_domain_id())]
         print(f"[bench] default main job: {' '.join(command)} ...", flush=True)
+        cpu_before = psutil.cpu_times()
         code, wall, nodes = run_sampled(command, runs / "default.log")
+        machine = machine_shares(cpu_before, psutil.cpu_times())
         metrics_path = run_dir / "report" / "metrics.json"
         metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else {}
         result["default_main_job"] = {
@@ -188,7 +199,8 @@ def main(argv: list[str] | None = None) -> int:
             "real_time_factor": metrics.get("real_time_factor"),
             "dropped_joint_states": metrics.get("dropped_joint_states"),
             "realtime_step_lateness": lateness(run_dir / "bag") if (run_dir / "bag").exists() else None,
-            "nodes": nodes, "load_average_after": list(os.getloadavg())}
+            "nodes": nodes, "load_average_after": list(os.getloadavg()), "machine_cpu_during_run": machine,
+            "metrics": metrics}
         result["commands"]["default_main_job"] = "time scripts/run_teleop.sh"
 
     if not args.skip_lockstep:
@@ -238,6 +250,9 @@ def markdown(result: dict) -> str:
                   f"| pipeline latency, median / p99 (default run) | {default['pipeline_latency_p50_ms']:.2f} / "
                   f"{default['pipeline_latency_p99_ms']:.2f} ms | same run's metrics.json |",
                   f"| real-time factor (default run, realtime) | {default['real_time_factor']:.3f} | same |",
+                  f"| machine CPU during that run (% of both cores) | "
+                  f"{', '.join(f'{k[:-8]} {v}' for k, v in (default.get('machine_cpu_during_run') or {}).items())} | "
+                  f"psutil.cpu_times() before and after |",
                   f"| realtime step lateness p50 / p99 / max (robot_sim, last 10 s) | "
                   f"{late.get('lateness_p50_ms', float('nan')):.2f} / {late.get('lateness_p99_ms', float('nan')):.2f} / "
                   f"{late.get('lateness_max_ms', float('nan')):.1f} ms; achieved {late.get('achieved_rate_hz', float('nan')):.0f} Hz"
@@ -266,6 +281,7 @@ def print_table(result: dict) -> None:
         print(f"pipeline latency              median {default['pipeline_latency_p50_ms']} ms, "
               f"p99 {default['pipeline_latency_p99_ms']} ms")
         print(f"real-time factor (realtime)   {default['real_time_factor']}")
+        print(f"machine CPU during the run    {default.get('machine_cpu_during_run')}")
         print(f"realtime step lateness        {default['realtime_step_lateness']}")
     lock = result.get("lockstep")
     if lock:
