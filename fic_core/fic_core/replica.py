@@ -34,6 +34,12 @@ the desired motion, not of the measured one: compensating D qd also cancels the 
 and in the graph the operator's quick moves then overshot by 3 cm more; with D qd_d the twin's free-space RMS
 error was 3.3 mm (4.0 with D qd, 9.2 with neither). Like the inertial feedforward it does not depend on the
 error, and it goes into tau_d before the postural optimisation, so every limit still holds.
+Bounded feedforward (``feedforward_limit``, optional): the force and the moment of Lambda a_d are clipped to
+norms (F_lin, M_lin), the node passes the FIC's own F_max of translation and rotation. Why: a_d of a teleoperated
+offset is an estimate (a difference quotient of delayed, jittery samples), and near a singularity an effective
+mass of hundreds of kg turns a few m/s^2 of estimation noise into hundreds of newtons (an E2 trial with the
+unbounded offset feedforward peaked at 562 N at the wrist; the same trial before the feedforward existed, 32 N). Bounded by F_max, the feedforward can never push harder than the FIC itself
+may, which keeps the paper's bounded-force property for the whole task-space command.
 The regularisation mu (``feedforward_regularisation``, default 1e-3 in 1/kg, 1/(kg m^2) on the rotation rows)
 caps the effective mass of any task direction at 1/mu = 1000 kg: near a singularity, where J M^-1 J^T loses rank,
 Lambda stays finite (a damped least-squares inverse), and away from one (the Panda's effective masses are a few
@@ -65,6 +71,20 @@ from .posture import NullSpacePosture
 from .robot_model import RobotModel, checked_array
 
 _ROTATION_TOLERANCE = 1e-6
+
+
+def _limited_wrench(wrench: NDArray[np.float64], limit: tuple[float, float]) -> NDArray[np.float64]:
+    """The wrench with its force and moment each scaled down to at most the given norms."""
+    force_norm = math.sqrt(float(wrench[:3].dot(wrench[:3])))
+    moment_norm = math.sqrt(float(wrench[3:].dot(wrench[3:])))
+    if force_norm <= limit[0] and moment_norm <= limit[1]:
+        return wrench
+    wrench = wrench.copy()
+    if force_norm > limit[0]:
+        wrench[:3] *= limit[0] / force_norm
+    if moment_norm > limit[1]:
+        wrench[3:] *= limit[1] / moment_norm
+    return wrench
 _IDENTITY3 = np.eye(3)
 _ZERO3 = np.zeros(3)
 _NO_LIMIT = LimitFlag.NONE
@@ -343,7 +363,8 @@ class ReplicaController:
                  posture: NullSpacePosture | None = None, control_period: float = 0.001,
                  optimisation: PosturalOptimisation | None = None,
                  feedforward_regularisation: float = DEFAULT_FEEDFORWARD_REGULARISATION,
-                 joint_damping_compensation: bool = False) -> None:
+                 joint_damping_compensation: bool = False,
+                 feedforward_limit: tuple[float, float] | None = None) -> None:
         self.robot = robot
         self.controller = controller
         self.limits = PandaLimits.from_robot(robot) if limits is None else limits
@@ -369,6 +390,10 @@ class ReplicaController:
         self._feedforward_matrix = self.feedforward_regularisation * np.eye(6)
         #: Add D qd_d, the viscous joint friction of the desired motion, to tau_d (module docstring).
         self.joint_damping_compensation = bool(joint_damping_compensation)
+        #: Norm bounds [N, N m] of the feedforward wrench's force and moment (module docstring); None: unbounded.
+        self.feedforward_limit = None if feedforward_limit is None else (
+            finite_scalar("feedforward_limit[0]", feedforward_limit[0], minimum=0.0),
+            finite_scalar("feedforward_limit[1]", feedforward_limit[1], minimum=0.0))
         self._torque_values = self.limits.torque_array.tolist()
         self._velocity_values = self.limits.joint_velocity_array.tolist()
         self._lower_values = self.limits.lower_array.tolist()
@@ -457,6 +482,8 @@ class ReplicaController:
         if desired_acceleration is not None:
             feedforward_wrench = self._feedforward_wrench(task_inverse_inertia,
                                                           desired_acceleration - robot.tcp_bias_acceleration)
+            if self.feedforward_limit is not None:
+                feedforward_wrench = _limited_wrench(feedforward_wrench, self.feedforward_limit)
             task_force += feedforward_wrench
         nonlinear = robot._nonlinear
         # tau_d - (C qd + g) = J^T (FIC [+ Lambda a_d] - Lambda J M^-1 tau_0) + tau_0.

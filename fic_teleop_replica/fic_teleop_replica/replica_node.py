@@ -278,7 +278,9 @@ class ReplicaNode(Node):
                                 f"(command_period {p['command_period']:g} s)")
         optimisation = PosturalOptimisation(self._limits, period, velocity_horizon=p["velocity_horizon"])
         return ReplicaController(robot, controller, self._limits, posture, period, optimisation,
-                                 joint_damping_compensation=bool(p["joint_damping_compensation"]))
+                                 joint_damping_compensation=bool(p["joint_damping_compensation"]),
+                                 # The feedforward never pushes harder than the FIC may (fic_core.replica).
+                                 feedforward_limit=(p["translation_max_force"], p["rotation_max_force"]))
 
     def _set_point_hold(self) -> SampledSetPoint:
         return SampledSetPoint(3, self._p["set_point_acceleration_filter"], self._p["set_point_extrapolation"],

@@ -274,6 +274,26 @@ def test_inertial_feedforward_halves_the_circle_tracking_error(robot: RobotModel
     assert violations_without == LimitFlag.NONE and violations_with == LimitFlag.NONE
 
 
+def test_the_feedforward_is_bounded_by_its_limit(robot: RobotModel) -> None:
+    """With feedforward_limit (F, M), |Lambda a_d| force and moment never exceed F and M, even for a wild a_d;
+    a small a_d passes unchanged."""
+    rng = np.random.default_rng(11)
+    position, rotation = nominal_pose(robot)
+    for _ in range(10):
+        q = NOMINAL_CONFIGURATION + rng.normal(scale=0.2, size=7)
+        qd = rng.normal(scale=0.3, size=7)
+        wild = rng.normal(scale=50.0, size=6)
+        command = ReplicaController(robot, paper_fic(), feedforward_limit=(15.0, 5.0)).command(
+            q, qd, position, rotation, None, wild)
+        assert np.linalg.norm(command.feedforward_wrench[:3]) <= 15.0 + 1e-9
+        assert np.linalg.norm(command.feedforward_wrench[3:]) <= 5.0 + 1e-9
+        gentle = 0.01 * np.ones(3)
+        bounded = ReplicaController(robot, paper_fic(), feedforward_limit=(15.0, 5.0)).command(
+            q, qd, position, rotation, None, gentle)
+        free = ReplicaController(robot, paper_fic()).command(q, qd, position, rotation, None, gentle)
+        np.testing.assert_array_equal(bounded.unshaped_torque, free.unshaped_torque)
+
+
 def test_joint_damping_compensation_takes_out_the_circle_lag(robot: RobotModel) -> None:
     """Beyond Eq. 7: + D qd (the arm's viscous joint friction) on top of the inertial feedforward leaves a
     fraction of the circle's tracking error: the FIC no longer needs an error to push against the friction."""
