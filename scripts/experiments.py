@@ -66,14 +66,18 @@ def e1_cells(args) -> list[Cell]:
 
 
 def e2_cells(args) -> list[Cell]:
+    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (scripts/e2_twin.py);
+    # --e2-law default runs the same script with the replica's default model terms (docs/EXPERIMENTS.md).
     return [Cell(f"e2_seed{seed}", "E2", {"scene": "shape_sorting", "trajectory": "fixed",
-                                          "duration": args.e2_duration, "delay": 0.2, "seed": seed},
+                                          "duration": args.e2_duration, "delay": 0.2, "seed": seed,
+                                          "paper_law": args.e2_law == "paper"},
                  labels={"seed": seed}) for seed in range(1, args.e2_trials + 1)]
 
 
 def e3_cells(args) -> list[Cell]:
     return [Cell("e3", "E3", {"scene": "shape_sorting", "trajectory": "fixed", "duration": args.e3_duration,
-                              "delay": 0.2, "seed": 1, "blackout_at": args.e3_blackout_at},
+                              "delay": 0.2, "seed": 1, "blackout_at": args.e3_blackout_at,
+                              "paper_law": args.e2_law == "paper"},
                  labels={"blackout_at": args.e3_blackout_at})]
 
 
@@ -357,6 +361,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--e1-duration", type=float, default=30.0)
     parser.add_argument("--e2-duration", type=float, default=None, help="default: the operator script's length")
     parser.add_argument("--e2-trials", type=int, default=4)
+    parser.add_argument("--e2-law", choices=["paper", "default"], default="paper",
+                        help="E2 and E3: the replica law the operator script was tuned against (paper: Eq. 7 as "
+                             "written, the launcher's --paper-law) or the default with its model terms")
     parser.add_argument("--e3-duration", type=float, default=None, help="default: blackout time + 12 s")
     parser.add_argument("--e3-blackout-at", type=float, default=None,
                         help="default: mid-press of the plate on the first piece (from the operator script)")

@@ -26,6 +26,8 @@ REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "config"
 SCRIPT_CIRCLE_START_S = 2.0     # circle_start_time of config/operator_scripts/superimposition.yaml
 PLANNER_LAG_S = 0.2             # the harmonic planner's lag behind the circle at 0.126 m/s (measured)
+# --paper-law: the replica's model terms beyond Eq. 7 off (fic_core/replica.py).
+PAPER_LAW = {"planner_feedforward": False, "offset_feedforward": False, "joint_damping_compensation": False}
 REALTIME_START_MARGIN_S = 4.0   # realtime: the script and the circle start this long after launch
 # Realtime on 2 cores, the replica law runs at 500 Hz (the robot holds each command for 2 ms): at 1 kHz a Python
 # replica needs about 80 % of a core here (measured: 775 joint states/s with a core to itself) and, with the rest
@@ -109,7 +111,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
                  {"bag_path": str(bag_path), **sim_time}),
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
                  {"controller": args.controller, "control_rate": args.control_rate,
-                  "answer_every_state": lockstep, **sim_time}),
+                  "answer_every_state": lockstep, **(PAPER_LAW if args.paper_law else {}), **sim_time}),
         NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml",
                  {"trajectory": args.trajectory, **planner_timing, **sim_time}),
         NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {**channel, **sim_time}),
@@ -265,6 +267,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                         help="total loss of communication, both ways, between these times after the channel starts")
     parser.add_argument("--rate-cap", type=float, default=0.0, help="channel rate cap [Hz], 0 = none (paper: 10 Hz)")
     parser.add_argument("--controller", default="fic", choices=["fic", "linear"], help="replica controller")
+    parser.add_argument("--paper-law", action="store_true",
+                        help="the replica's Eq. 7 as the paper writes it: no inertial feedforward and no friction "
+                             "compensation (by default both are on, config/replica.yaml)")
     parser.add_argument("--control-rate", type=float, default=None,
                         help="replica control rate [Hz] (default: 1000 in lockstep, the paper's rate; 500 in realtime, "
                              "REALTIME_CONTROL_RATE_HZ)")
