@@ -174,11 +174,20 @@ def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     deadline = time.monotonic() + 20.0  # the pace depends on the machine's load: run until x_d' got there
     while time.monotonic() < deadline and not (robot.fic_states and robot.fic_states[-1].error[0] > 0.015):
         robot.publish_joint_states(0.5, teleop_offset=[0.02, 0.0, 0.0])
-    errors = [state.error[0] for state in robot.fic_states]
-    assert max(errors) > 0.015, errors[-5:]
-    assert max(errors) <= 0.02 + 1e-9
-    # No jump: x_d' moves 0.1 mm a control tick (0.1 m/s * 1 ms).
-    assert np.all(np.diff(errors) >= -1e-9) and np.all(np.diff(errors) <= 1e-4 + 1e-9), np.diff(errors).max()
+    errors = np.array([state.error[0] for state in robot.fic_states])
+    computed = np.array([state.header.stamp.sec + 1e-9 * state.header.stamp.nanosec for state in robot.fic_states])
+    assert errors.max() > 0.015, errors[-5:]
+    assert errors.max() <= 0.02 + 1e-9
+    # No jump: x_d' moves at resume_speed = 0.1 m/s of the joint states' clock (the control dt comes from their
+    # stamps; this test sends one every 4 ms, so about 0.4 mm a tick). A tick's step may exceed 0.1 m/s times the
+    # gap between the replica's own compute stamps by one joint-state period of scheduling jitter, never more.
+    steps = np.diff(errors)
+    assert np.all(steps >= -1e-9), steps.min()
+    assert np.all(steps <= 0.1 * (np.diff(computed) + 0.004) + 1e-9), (steps.max(), np.diff(computed).max())
+    # Over the whole approach, not faster than resume_speed (one joint-state period of slack at each end).
+    first, arrived = np.argmax(errors > 1e-6), np.argmax(errors > 0.015)
+    travelled, took = errors[arrived] - errors[first], computed[arrived] - computed[first]
+    assert took >= travelled / 0.1 - 0.008, (travelled, took)
     commands = np.array(robot.commands)
     assert np.all(np.abs(commands) <= torque_max + 1e-9)
     assert np.all(np.abs(np.diff(commands, axis=0)) <= limits.torque_rate * 0.001 + 1e-9)
