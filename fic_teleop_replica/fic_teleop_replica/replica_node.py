@@ -42,7 +42,7 @@ from geometry_msgs.msg import AccelStamped, PoseStamped, WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -644,7 +644,9 @@ def main(args: list[str] | None = None) -> None:
         # EventsExecutor spun in spin_once slices: its spin() from these rclpy 7.1 wheels busy-waits and never
         # returns on SIGINT/SIGTERM, but spin_once is cheap (measured here with 1 kHz joint states and 250 Hz
         # poses: 11 % of a core and 93 % of messages taken, against 28 % and 79 % for SingleThreadedExecutor).
-        executor = EventsExecutor()
+        # Under simulated time (lockstep) the EventsExecutor's timers do not follow /clock (measured on the
+        # master: bursts of ticks with one stamp, then silences); the wait-set executor checks them against it.
+        executor = SingleThreadedExecutor() if node.get_parameter("use_sim_time").value else EventsExecutor()
         executor.add_node(node)
         # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
         # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
