@@ -80,6 +80,11 @@ def node_command(spec: NodeSpec) -> list[str]:
     return command
 
 
+# Lockstep: the simulation also waits for the nodes that only follow /clock (sim_bridge/peer_barrier.py), by the
+# stamps of what each publishes: the device's handle pose, the master's command, the planner's pose.
+LOCKSTEP_PEERS = ["/haptic/pose", "/master/teleop_command", "/planner/desired_pose"]
+
+
 def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     """The paper's architecture (SPEC 2): device -> master -> channel -> replica -> robot, and back."""
     lockstep = args.time_mode == "lockstep"
@@ -106,7 +111,8 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
-                 {"scene": args.scene, "mode": args.time_mode, "seed": args.seed}),
+                 {"scene": args.scene, "mode": args.time_mode, "seed": args.seed,
+                  **({"lockstep_peers": LOCKSTEP_PEERS} if lockstep and not args.no_peer_barrier else {})}),
         NodeSpec("sim_bridge", "recorder_node", "recorder", None,
                  {"bag_path": str(bag_path), **sim_time}),
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
@@ -275,6 +281,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                              "REALTIME_CONTROL_RATE_HZ)")
     parser.add_argument("--trajectory", default=None, choices=["circle", "fixed", "via_points"],
                         help="planner trajectory (default: the circle for superimposition, a fixed point otherwise)")
+    parser.add_argument("--no-peer-barrier", action="store_true",
+                        help="lockstep: step on the replica's answers only, without waiting for the device, master "
+                             "and planner to keep up (how lockstep ran before; runs then depend on the machine's load)")
     parser.add_argument("--time-mode", default="realtime", choices=["realtime", "lockstep"],
                         help="realtime: wall-clock paced; lockstep: the sim waits for each command (deterministic)")
     parser.add_argument("--interactive", action="store_true", help="drive the operator's hand from the keyboard")

@@ -18,6 +18,9 @@ reads the model while it moves); the executor thread only receives commands. Mod
   Until the first command arrives the simulation waits at t=0 (re-publishing the initial state every
   ``lockstep_timeout``), so a run does not depend on how long the controller took to start; the answers to those
   copies are all drained (LockstepGate.wait_quiet) before the first step, so none is taken for a later step.
+  ``lockstep_peers`` (header-stamped topics of the nodes that only follow /clock: the device, the master, the
+  planner) are waited for too: no step past t until each has published a stamp >= t - ``lockstep_peer_lag``
+  (peer_barrier.py), so that the operator's side keeps up with the simulation instead of falling behind it.
   The effort command carries no stamp: the controller must answer every joint state once, in order, and the
   n-th command is taken as the answer to the n-th state (a late answer after a timeout is not mistaken for the
   next state's). While the watchdog holds (commands stopped), steps are
@@ -29,6 +32,7 @@ Commands with NaN/Inf or a length other than 7 are rejected with an error log an
 """
 from __future__ import annotations
 
+import importlib
 import sys
 import threading
 import time
@@ -48,7 +52,9 @@ from std_msgs.msg import Float64, Float64MultiArray
 
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
+from sim_bridge.cdr_header import header_stamp, stamp_seconds
 from sim_bridge.mujoco_panda import TIMESTEP, PandaSimulation
+from sim_bridge.peer_barrier import PeerBarrier
 from sim_bridge.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
 from sim_bridge.scenes import SCENE_NAMES
 from sim_bridge.spin import spin_until_shutdown
@@ -61,6 +67,8 @@ from sim_bridge.watchdog import CommandWatchdog, WatchdogEvent
 ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
 NEWEST_COMMAND_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=1)
 STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+# Peers' stamps: only the newest matters; best effort matches reliable and best-effort publishers alike.
+PEER_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=10)
 DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
 
 BASE_FRAME = "panda_link0"
@@ -88,6 +96,8 @@ class RobotNode(Node):
         self._lockstep_timeout = p["lockstep_timeout"]
         self._watchdog = CommandWatchdog(p["command_timeout"])
         self._gate = LockstepGate()
+        self._barrier = (PeerBarrier(p["lockstep_peers"], p["lockstep_peer_lag"], p["lockstep_peer_timeout"])
+                         if self._mode == "lockstep" and p["lockstep_peers"] else None)
         self._hold = ZeroOrderHold()
         self._pacer = RealtimePacer(TIMESTEP)
         self._clock_every = 1 if self._mode == "lockstep" else _every(p["realtime_clock_rate_hz"])
@@ -129,6 +139,9 @@ class RobotNode(Node):
         # command back behind one lost sample until it is repaired. Lockstep: every answer counts, in order.
         command_qos = ROBOT_STREAM_QOS if self._mode == "lockstep" else NEWEST_COMMAND_QOS
         self.create_subscription(Float64MultiArray, "/effort_controller/commands", self._on_command, command_qos)
+        self._unresolved_peers = list(self._barrier.topics) if self._barrier is not None else []
+        if self._unresolved_peers:  # their types come from the graph, once their publishers are up
+            self._peer_timer = self.create_timer(0.2, self._subscribe_peers)
 
         self._joint_state = JointState()
         self._joint_state.header.frame_id = BASE_FRAME
@@ -161,6 +174,15 @@ class RobotNode(Node):
             "mode": text("mode", "realtime", "realtime: wall-clock paced 1 kHz; lockstep: step on each command"),
             "lockstep_timeout": number("lockstep_timeout", 0.05, "lockstep: longest wall-clock wait for the "
                                        "command of a step before stepping on the last one (counted) [s]", 0.001, 10.0),
+            "lockstep_peers": self.declare_parameter("lockstep_peers", [""], ParameterDescriptor(
+                description="lockstep: header-stamped topics of nodes that follow /clock (device, master, planner); "
+                            "no step past t until each has published a stamp >= t - lockstep_peer_lag "
+                            "(empty: none)")).value,
+            "lockstep_peer_lag": number("lockstep_peer_lag", 0.03, "lockstep: how far a peer's newest stamp may "
+                                        "trail the simulation (at least its own period) [s]", 0.0, 10.0),
+            "lockstep_peer_timeout": number("lockstep_peer_timeout", 1.0, "lockstep: a peer that holds a step "
+                                            "longer than this (wall) is declared stalled and not waited for "
+                                            "until it catches up [s]", 0.001, 60.0),
             "command_timeout": number("command_timeout", 0.05, "watchdog: commands older than this are replaced "
                                       "by the hold torque (wall s in realtime, simulated s in lockstep) [s]", 0.002, 10.0),
             "realtime_clock_rate_hz": number("realtime_clock_rate_hz", 100.0, "realtime: /clock publication rate "
@@ -185,6 +207,7 @@ class RobotNode(Node):
         }
         if values["scene"] not in SCENE_NAMES:
             raise FicInputError(f"scene must be one of {SCENE_NAMES}, got {values['scene']!r}")
+        values["lockstep_peers"] = [topic for topic in values["lockstep_peers"] if topic]
         if values["mode"] not in STEPPING_MODES:
             raise FicInputError(f"mode must be one of {STEPPING_MODES}, got {values['mode']!r}")
         return values
@@ -202,6 +225,28 @@ class RobotNode(Node):
         self._accepted_commands += 1
         self._hold.update(command, time.monotonic())
         self._gate.deliver(command)
+
+    # --- lockstep peers (executor thread) -------------------------------------------------------------------------
+    def _subscribe_peers(self) -> None:
+        """Subscribe to each peer topic whose type the graph now knows (raw: only the header stamp is read)."""
+        types = dict(self.get_topic_names_and_types())
+        for topic in list(self._unresolved_peers):
+            names = types.get(topic)
+            if not names:
+                continue
+            package, _, name = names[0].split("/")
+            message_type = getattr(importlib.import_module(f"{package}.msg"), name)
+            self.create_subscription(message_type, topic, lambda data, topic=topic: self._on_peer(topic, data),
+                                     PEER_QOS, raw=True)
+            self._unresolved_peers.remove(topic)
+            self.get_logger().info(f"lockstep: waiting for peer {topic} ({names[0]}) to keep up")
+        if not self._unresolved_peers:
+            self._peer_timer.cancel()
+
+    def _on_peer(self, topic: str, data: bytes) -> None:
+        stamp = header_stamp(data)
+        if stamp is not None:
+            self._barrier.stamp(topic, stamp_seconds(stamp))
 
     # --- physics thread ------------------------------------------------------------------------------------------
     def _run(self) -> None:
@@ -264,6 +309,11 @@ class RobotNode(Node):
             elif not started:
                 continue  # no command ever: wait at t=0, re-publishing the initial state
             self._log_event(self._watchdog.check(self._sim.time))
+            if self._barrier is not None:
+                for topic in self._barrier.wait(self._sim.time):
+                    self.get_logger().warning(
+                        f"lockstep: peer {topic} held the simulation at t = {self._sim.time:.3f} s for more than "
+                        f"lockstep_peer_timeout; not waiting for it until it catches up")
             self._sim.step(self._sim.hold_torque() if self._watchdog.holding else self._last_command)
             self._after_step(None)
 
@@ -342,6 +392,11 @@ class RobotNode(Node):
             "lockstep_answered": str(self._gate.answered_steps),
             "lockstep_timeouts": str(self._gate.timeouts),
         }
+        if self._barrier is not None:
+            values.update({"lockstep_peer_waits": str(self._barrier.waits),
+                           "lockstep_peer_wait_s": f"{self._barrier.wait_time:.3f}",
+                           "lockstep_peer_stalls": str(self._barrier.stalls),
+                           "lockstep_peers_stalled": ",".join(self._barrier.stalled)})
         if self._mode == "realtime":
             values.update({"lateness_p50_ms": f"{summary.p50 * 1e3:.3f}", "lateness_p99_ms": f"{summary.p99 * 1e3:.3f}",
                            "lateness_max_ms": f"{summary.max * 1e3:.3f}", "achieved_rate_hz": f"{summary.achieved_rate:.1f}",
@@ -371,6 +426,8 @@ class RobotNode(Node):
         """Stop the physics thread, then write the pictures of the run (if asked)."""
         self._stop.set()
         self._gate.interrupt()
+        if self._barrier is not None:
+            self._barrier.interrupt()
         self._thread.join(timeout=5.0)
         if self._viewer is not None:
             self._viewer.close()

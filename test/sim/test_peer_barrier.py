@@ -1,0 +1,84 @@
+"""The lockstep barrier for the operator's side (sim_bridge/peer_barrier.py), with real threads."""
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+from fic_core.errors import FicInputError
+from sim_bridge.peer_barrier import PeerBarrier
+
+
+def test_a_peer_that_has_not_published_is_not_waited_for() -> None:
+    barrier = PeerBarrier(["/master/teleop_command"], max_lag=0.03, timeout=5.0)
+    started = time.monotonic()
+    assert barrier.wait(10.0) == []
+    assert time.monotonic() - started < 1.0 and barrier.waits == 0
+
+
+def test_the_step_waits_until_the_peer_catches_up() -> None:
+    barrier = PeerBarrier(["/a", "/b"], max_lag=0.03, timeout=5.0)
+    barrier.stamp("/a", 0.5)
+    barrier.stamp("/b", 0.995)
+
+    def publisher() -> None:  # /a catches up in steps, from another thread, as a subscriber callback would
+        for stamp in (0.8, 0.9, 0.96, 0.98):
+            time.sleep(0.05)
+            barrier.stamp("/a", stamp)
+
+    thread = threading.Thread(target=publisher)
+    started = time.monotonic()
+    thread.start()
+    assert barrier.wait(1.0) == []   # released by 0.98 >= 1.0 - 0.03, not by 0.96
+    waited = time.monotonic() - started
+    thread.join()
+    assert 0.15 <= waited < 2.0, waited
+    assert barrier.waits == 1 and barrier.wait_time == pytest.approx(waited, abs=0.05)
+    assert barrier.newest("/a") == 0.98
+
+
+def test_a_peer_within_its_lag_does_not_hold_the_step() -> None:
+    barrier = PeerBarrier(["/a"], max_lag=0.03, timeout=5.0)
+    barrier.stamp("/a", 0.975)
+    started = time.monotonic()
+    assert barrier.wait(1.0) == []
+    assert time.monotonic() - started < 0.5 and barrier.waits == 0
+
+
+def test_a_dead_peer_costs_one_timeout_then_is_not_waited_for_until_it_catches_up() -> None:
+    barrier = PeerBarrier(["/dead", "/alive"], max_lag=0.03, timeout=0.2)
+    barrier.stamp("/dead", 0.1)
+    barrier.stamp("/alive", 1.0)
+    started = time.monotonic()
+    assert barrier.wait(1.0) == ["/dead"]
+    assert 0.15 <= time.monotonic() - started < 2.0
+    assert barrier.stalled == ("/dead",) and barrier.stalls == 1
+    started = time.monotonic()
+    for step in range(1, 200):   # the next steps do not wait for it
+        barrier.stamp("/alive", 1.0 + step * 0.001)
+        assert barrier.wait(1.0 + step * 0.001) == []
+    assert time.monotonic() - started < 1.0
+    # It comes back and catches up: it is waited for again.
+    barrier.stamp("/dead", 1.2)
+    assert barrier.wait(1.2) == [] and barrier.stalled == ()
+    started = time.monotonic()
+    assert sorted(barrier.wait(1.5)) == ["/alive", "/dead"]  # both behind now: one timeout for the two
+    assert time.monotonic() - started >= 0.15 and barrier.stalls == 3
+
+
+def test_interrupt_wakes_a_waiting_step() -> None:
+    barrier = PeerBarrier(["/a"], max_lag=0.0, timeout=30.0)
+    barrier.stamp("/a", 0.0)
+    threading.Timer(0.1, barrier.interrupt).start()
+    started = time.monotonic()
+    assert barrier.wait(5.0) == []
+    assert time.monotonic() - started < 5.0
+
+
+@pytest.mark.parametrize("topics, lag, timeout", [(["/a", "/a"], 0.03, 1.0), ([""], 0.03, 1.0),
+                                                  (["/a"], float("nan"), 1.0), (["/a"], -0.1, 1.0),
+                                                  (["/a"], 0.03, 0.0)])
+def test_bad_settings_are_refused(topics, lag, timeout) -> None:
+    with pytest.raises(FicInputError):
+        PeerBarrier(topics, max_lag=lag, timeout=timeout)
