@@ -65,6 +65,9 @@ SUPERIMPOSITION_DEFAULTS: dict[str, Any] = {
     "push_inward": 0.05,                # [m] inward offset before the sweep through the second obstacle
     "push_outward": 0.06,               # [m] outward offset at the end of the sweep
     "hold": 0.5,                        # [s] full offset held each side of the passing time
+    "avoid_early": 0.3,                 # [s] the lift over the first obstacle starts and ends this much earlier
+                                        #     (its return does not): the hand, 0.2 m wide along the path, meets
+                                        #     the obstacle's near edge about 1 s before the TCP passes its centre
     "ramp": 0.5,                        # [s] hand moves between offsets
     "push_hold": 0.3,                   # [s] held outward after the sweep through the second obstacle
     "laps": 6,                          # laps scripted (the first obstacle is avoided on each): covers the 30 s main job
@@ -194,7 +197,8 @@ def superimposition_script(overrides: Mapping[str, Any] | None = None) -> Operat
     for lap in range(int(p["laps"])):
         t = passing_time(p["first_obstacle_angle_deg"], lap) - lead
         inward = -float(p["avoid_offset"]) * first + [0.0, 0.0, float(p["avoid_lift"])]
-        actions.append([(t - hold - ramp, np.zeros(3)), (t - hold, inward), (t + hold, inward),
+        early = float(p["avoid_early"])
+        actions.append([(t - early - hold - ramp, np.zeros(3)), (t - early - hold, inward), (t + hold, inward),
                         (t + hold + ramp, np.zeros(3))])
     t = passing_time(p["second_obstacle_angle_deg"], 0) - lead
     inside, outside = -float(p["push_inward"]) * second, float(p["push_outward"]) * second
@@ -202,6 +206,10 @@ def superimposition_script(overrides: Mapping[str, Any] | None = None) -> Operat
                     (t + hold + push_hold, outside), (t + hold + push_hold + ramp, np.zeros(3))])
     builder = _ScriptBuilder()
     for action in sorted(actions, key=lambda a: a[0][0]):
+        start_time, start_position = action[0]
+        last = builder.waypoints[-1]
+        if start_time <= last.time and not start_position.any() and not last.position.any():
+            action = action[1:]  # it would start at rest before the previous action has ended: start from its end
         for time, position in action:
             builder.at(time, position)
     builder.wait(2.0)
