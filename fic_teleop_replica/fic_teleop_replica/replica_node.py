@@ -122,7 +122,7 @@ NUMBERS: dict[str, tuple[float, str, float, float]] = {
                      0.001, 2.0),
     "set_point_acceleration_filter": (0.05, "time constant of the acceleration estimate of x_d' (fed forward when "
                                             "offset_feedforward is true) [s]", 0.0, 1.0),
-    "set_point_extrapolation": (0.05, "x_d' and x_d'' move on along their last velocity for at most this long "
+    "set_point_extrapolation": (0.015, "x_d' and x_d'' move on along their last velocity for at most this long "
                                       "after a sample (first-order hold between samples) [s]; 0: held as steps",
                                 0.0, 0.5),
     "desired_velocity_filter": (0.02, "time constant of the x_d velocity estimate fed to the FIC's error rate [s]; "
