@@ -49,3 +49,33 @@ def test_two_cell_lockstep_sweep_writes_the_summary(tmp_path: Path):
         assert (Path(cell["run_dir"]) / "bag" / "metadata.yaml").exists()
     assert (tmp_path / "results" / "e4_delay_sweep.png").stat().st_size > 1000
     assert (tmp_path / "results" / "e4_stability_map.png").stat().st_size > 1000
+    # Lockstep keeps the operator's side on simulated time: the nodes that only follow /clock publish on their own
+    # period with distinct stamps (the EventsExecutor's timers fired in bursts with one stamp, then fell silent
+    # for 100 ms), and the simulation never ran more than the peer barrier's lag ahead of them.
+    for cell in cells:
+        stamps = _header_stamps(Path(cell["run_dir"]) / "bag", PEER_TOPICS)
+        for topic, values in stamps.items():
+            gaps = [b - a for a, b in zip(values, values[1:])]
+            assert len(values) > 0.5 * DURATION * 100, (topic, len(values))
+            assert min(gaps) > 0.0, f"{topic}: repeated or reordered stamps"
+            assert max(gaps) <= 0.06, f"{topic}: a {max(gaps) * 1000:.0f} ms silence"
+
+
+PEER_TOPICS = ("/haptic/pose", "/master/teleop_command", "/planner/desired_pose")
+
+
+def _header_stamps(bag: Path, topics) -> dict[str, list[float]]:
+    """Header stamps of ``topics`` in the bag, in recording order, straight from the CDR bytes."""
+    from mcap.reader import make_reader
+
+    sys.path.insert(0, str(REPO / "sim_bridge"))
+    from sim_bridge.bag_writer import mcap_file
+    from sim_bridge.cdr_header import header_stamp, stamp_seconds
+
+    stamps: dict[str, list[float]] = {topic: [] for topic in topics}
+    with open(mcap_file(bag), "rb") as stream:
+        for _, channel, message in make_reader(stream).iter_messages(topics=list(topics)):
+            stamp = header_stamp(message.data)
+            if stamp is not None:
+                stamps[channel.topic].append(stamp_seconds(stamp))
+    return stamps
