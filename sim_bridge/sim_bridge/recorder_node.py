@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 import rclpy
+from rclpy.clock import Clock, ClockType
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
 from rclpy.executors import ExternalShutdownException
@@ -173,7 +174,11 @@ class RecorderNode(Node):
         self._writer.start()
 
         self._status_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.create_timer(float(self.get_parameter("discovery_period").value), self._discover)
+        # Discovery on the wall clock: under simulated time the lockstep simulation stands at t = 0 until the
+        # replica answers, and a sim-time timer would not look for topics until it moved on (the first 0.6 s of
+        # /joint_states of a lockstep run were missed that way).
+        self.create_timer(float(self.get_parameter("discovery_period").value), self._discover,
+                          clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.create_timer(float(self.get_parameter("status_period").value), self._publish_status)
         self._discover()
         self.get_logger().info(f"recording to {self.bag.bag_dir.resolve()} "
