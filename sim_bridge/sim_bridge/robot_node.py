@@ -234,11 +234,16 @@ class RobotNode(Node):
             names = types.get(topic)
             if not names:
                 continue
-            package, _, name = names[0].split("/")
-            message_type = getattr(importlib.import_module(f"{package}.msg"), name)
+            self._unresolved_peers.remove(topic)
+            try:
+                package, _, name = names[0].split("/")
+                message_type = getattr(importlib.import_module(f"{package}.msg"), name)
+            except (ValueError, ImportError, AttributeError) as exc:  # a type this workspace cannot load
+                self.get_logger().error(f"lockstep: cannot wait for peer {topic}: its type {names[0]} does not "
+                                        f"load here ({exc}); stepping without it")
+                continue
             self.create_subscription(message_type, topic, lambda data, topic=topic: self._on_peer(topic, data),
                                      PEER_QOS, raw=True)
-            self._unresolved_peers.remove(topic)
             self.get_logger().info(f"lockstep: waiting for peer {topic} ({names[0]}) to keep up")
         if not self._unresolved_peers:
             self._peer_timer.cancel()
