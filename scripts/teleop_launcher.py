@@ -112,7 +112,9 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
                  {"scene": args.scene, "mode": args.time_mode, "seed": args.seed,
-                  **({"lockstep_peers": LOCKSTEP_PEERS} if lockstep and not args.no_peer_barrier else {})}),
+                  **({"lockstep_peers": LOCKSTEP_PEERS} if lockstep and not args.no_peer_barrier else {}),
+                  # lockstep starts once the replica and the recorder both read /joint_states: no step unrecorded
+                  **({"lockstep_subscribers": 2} if lockstep else {})}),
         NodeSpec("sim_bridge", "recorder_node", "recorder", None,
                  {"bag_path": str(bag_path), **sim_time}),
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",

@@ -72,6 +72,7 @@ PEER_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=History
 DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
 
 BASE_FRAME = "panda_link0"
+SUBSCRIBER_WAIT_S = 60.0  # lockstep: longest wall-clock wait for the /joint_states readers before the first step
 STEPS_PER_SECOND = round(1.0 / TIMESTEP)
 
 
@@ -94,6 +95,7 @@ class RobotNode(Node):
         self._sim = PandaSimulation(p["scene"], p["seed"], p["initial_configuration"])
         self._scene = p["scene"]
         self._lockstep_timeout = p["lockstep_timeout"]
+        self._lockstep_subscribers = p["lockstep_subscribers"]
         self._watchdog = CommandWatchdog(p["command_timeout"])
         self._gate = LockstepGate()
         self._barrier = (PeerBarrier(p["lockstep_peers"], p["lockstep_peer_lag"], p["lockstep_peer_timeout"])
@@ -178,6 +180,10 @@ class RobotNode(Node):
                 description="lockstep: header-stamped topics of nodes that follow /clock (device, master, planner); "
                             "no step past t until each has published a stamp >= t - lockstep_peer_lag "
                             "(empty: none)")).value,
+            "lockstep_subscribers": self.declare_parameter("lockstep_subscribers", 1, ParameterDescriptor(
+                description="lockstep: the simulation starts once /joint_states has this many readers (the replica, "
+                            f"a recorder), or after {SUBSCRIBER_WAIT_S:g} s with a warning",
+                integer_range=[IntegerRange(from_value=0, to_value=100)])).value,
             "lockstep_peer_lag": number("lockstep_peer_lag", 0.03, "lockstep: how far a peer's newest stamp may "
                                         "trail the simulation (at least its own period) [s]", 0.0, 10.0),
             "lockstep_peer_timeout": number("lockstep_peer_timeout", 1.0, "lockstep: a peer that holds a step "
@@ -284,6 +290,16 @@ class RobotNode(Node):
             self._after_step(lateness)
 
     def _run_lockstep(self) -> None:
+        # Nothing moves before every expected reader of /joint_states is there (the replica and the recorder): a
+        # recorder that subscribes late would miss the first steps of the run.
+        deadline = time.monotonic() + SUBSCRIBER_WAIT_S
+        while self._joint_state_pub.get_subscription_count() < self._lockstep_subscribers and \
+                time.monotonic() < deadline and not self._stop.is_set():
+            time.sleep(0.05)
+        if self._joint_state_pub.get_subscription_count() < self._lockstep_subscribers:
+            self.get_logger().warning(
+                f"lockstep: {self._joint_state_pub.get_subscription_count()} of {self._lockstep_subscribers} "
+                f"/joint_states readers after {SUBSCRIBER_WAIT_S:g} s; starting anyway")
         self._log_event(self._watchdog.check(self._sim.time))
         late_steps = 0  # consecutive steps whose wait saw only late answers
         while not self._stop.is_set():
