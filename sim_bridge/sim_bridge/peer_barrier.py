@@ -1,9 +1,11 @@
 """Lockstep for the nodes that do not answer each step: the operator's side of the graph.
 
 In lockstep the simulation waits for the replica's answer to every joint state (stepping.LockstepGate), but the
-haptic device, the master and the planner only follow ``/clock``. On a loaded machine they fall behind it: the
-master then publishes a burst of commands with one stale stamp, and the replica receives x_d' tens of milliseconds
-of simulated time late. The run then depends on the machine's scheduling, not only on its seed.
+haptic device, the master and the planner only follow ``/clock``. On a loaded machine they can fall behind it
+(each gets the CPU in chunks while the simulation steps on), and the replica then receives x_d' tens of
+milliseconds of simulated time late: the run depends on the machine's scheduling, not only on its seed. (The
+bursts of commands with one stamp seen in lockstep bags had another cause, the EventsExecutor's timers under
+simulated time; the nodes now spin the wait-set executor there.)
 
 ``PeerBarrier`` closes that gap. Each peer is a header-stamped topic of such a node; the simulation does not step
 past ``t`` until every peer's newest stamp is at least ``t - max_lag`` (``max_lag`` covers the peer's own period:
