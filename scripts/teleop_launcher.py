@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
+from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
+
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "config"
 SCRIPT_CIRCLE_START_S = 2.0     # circle_start_time of config/operator_scripts/superimposition.yaml
@@ -56,6 +58,7 @@ class NodeSpec:
     params: dict = field(default_factory=dict)
     foreground: bool = False  # the interactive keyboard operator owns the terminal
     niceness: int | None = None  # negative: ahead of the recorder and planner (PRIORITY_NICENESS); None: unchanged
+    fifo_priority: int | None = None  # SCHED_FIFO priority of its loop threads (realtime_scheduling.py); None: none
 
 
 def parameter_literal(value) -> str:
@@ -131,9 +134,11 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     ]
     if args.interactive:
         nodes.append(NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", None, {}, foreground=True))
-    if not args.no_priority:
+    if args.scheduling != "default":
         for spec in nodes:
             spec.niceness = PRIORITY_NICENESS.get(spec.name)
+            if args.scheduling == "fifo":
+                spec.fifo_priority = REALTIME_PRIORITIES.get(spec.name)
     return nodes
 
 
@@ -157,6 +162,7 @@ class Graph:
     def __init__(self, log_dir: Path) -> None:
         self.log_dir = log_dir
         self.processes: list[tuple[NodeSpec, subprocess.Popen, object]] = []
+        self.scheduler = RealtimeScheduler()
 
     def start(self, spec: NodeSpec) -> None:
         command = node_command(spec)
@@ -168,6 +174,8 @@ class Graph:
             process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
                                        preexec_fn=_prioritised(spec.niceness))
         self.processes.append((spec, process, log))
+        if spec.fifo_priority is not None:
+            self.scheduler.register(spec.name, process.pid, spec.fifo_priority)
 
     def prioritised(self) -> dict[str, bool]:
         """For each node that asked for a negative niceness, whether it runs with it."""
@@ -239,10 +247,16 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
 
     node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
     wall_start = time.monotonic()
-    last_print = 0.0
+    last_print = last_scheduling = 0.0
     try:
         while rclpy.ok() and not stop.is_set():
             rclpy.spin_once(node, timeout_sec=0.1)
+            # Threads appear while the nodes start (executor, DDS participant, the robot's physics thread): look for
+            # new ones often at first, then rarely.
+            since_start = time.monotonic() - wall_start
+            if time.monotonic() - last_scheduling > (0.2 if since_start < 20.0 else 2.0):
+                last_scheduling = time.monotonic()
+                graph_.scheduler.apply()
             elapsed = 0.0 if latest["start"] is None else latest["t"] - latest["start"]
             if elapsed >= duration or graph_.foreground_done():
                 break
@@ -260,6 +274,25 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
         node.destroy_node()
         rclpy.try_shutdown()
     return 0.0 if latest["start"] is None else latest["t"] - latest["start"]
+
+
+def _report_scheduling(running: Graph, run_dir: Path) -> None:
+    """Say which loops run under SCHED_FIFO (or were refused it), and keep it in run.json."""
+    summary = running.scheduler.summary()
+    if not summary:
+        return
+    refused = running.scheduler.refused()
+    applied = [f"{name} {entry['priority']} ({entry['threads']} threads)" for name, entry in summary.items()
+               if entry["policy"] == "fifo"]
+    if applied:
+        print(f"[run] SCHED_FIFO: {', '.join(applied)}")
+    if refused:
+        print(f"[run] warning: SCHED_FIFO refused for {', '.join(refused)} ({next(iter(refused.values()))}; needs root "
+              "or CAP_SYS_NICE): they run at their niceness, and the pipeline latency is longer (README)",
+              file=sys.stderr)
+    run_record = json.loads((run_dir / "run.json").read_text())
+    run_record["realtime_scheduling"] = summary
+    (run_dir / "run.json").write_text(json.dumps(run_record, indent=2))
 
 
 def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
@@ -297,9 +330,12 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                              "on a loaded 2-core machine can run at 0.1x real time)")
     parser.add_argument("--no-report", action="store_true")
     parser.add_argument("--no-video", action="store_true", help="skip the key frames and the animation")
-    parser.add_argument("--no-priority", action="store_true",
-                        help="run every node at the default niceness (by default the robot, replica, channel, master, "
-                             "haptic device and planner run ahead of the recorder)")
+    parser.add_argument("--scheduling", choices=["nice", "fifo", "default"], default="nice",
+                        help="nice (default): the loops' nodes at negative niceness, ahead of the recorder; fifo "
+                             "(realtime only, opt-in): also their threads under SCHED_FIFO along the data path, "
+                             "lower pipeline latency but on 2 cores the recorder can lose joint states "
+                             "(scripts/realtime_scheduling.py); default: every node as the shell starts it")
+    parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
     return parser.parse_args(argv)
 
 
@@ -307,6 +343,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_arguments(argv)
     if args.control_rate is None:
         args.control_rate = 1000.0 if args.time_mode == "lockstep" else REALTIME_CONTROL_RATE_HZ
+    if args.no_priority:
+        args.scheduling = "default"
+    if args.scheduling == "fifo" and args.time_mode == "lockstep":
+        print("[run] refused: --scheduling fifo is for realtime runs (lockstep waits for every answer and needs no "
+              "pre-emption)", file=sys.stderr)
+        return 2
     if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
         args.trajectory = "circle" if args.scene == "superimposition" else "fixed"
     if args.delay < 0 or args.jitter < 0 or not 0.0 <= args.drop <= 1.0 or args.duration <= 0 or args.rate_cap < 0:
@@ -314,11 +356,18 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     run_dir = args.out or REPO / "runs" / datetime.now().strftime("%Y%m%d-%H%M%S")
     log_dir = run_dir / "logs"
-    log_dir.mkdir(parents=True, exist_ok=True)
     bag_path = run_dir / "bag"
+    if bag_path.exists() and any(bag_path.iterdir()):
+        # The recorder would refuse to overwrite it, and the report would then describe the old run.
+        print(f"[run] refused: {bag_path} already holds a bag; give another --out", file=sys.stderr)
+        return 2
+    log_dir.mkdir(parents=True, exist_ok=True)
     if args.domain_id is not None:
         os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    # numpy's OpenBLAS would start a worker per core that busy-waits after each call: the nodes' matrices are 7x7,
+    # a worker only costs CPU here (and must never be a FIFO thread, realtime_scheduling.py).
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("ROS_LOG_DIR", str(log_dir / "ros"))
     (run_dir / "run.json").write_text(json.dumps({k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()}, indent=2))
 
@@ -358,6 +407,7 @@ def main(argv: list[str] | None = None) -> int:
             sim_elapsed = wait_for_sim_time(args.duration, running, stop=interrupted,
                                             wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
                                             wall_origin=wall_origin)
+        _report_scheduling(running, run_dir)
     except KeyboardInterrupt:  # only if a signal arrived before our handler was installed
         interrupted.set()
     finally:

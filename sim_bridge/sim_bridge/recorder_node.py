@@ -42,7 +42,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from sim_bridge.bag_writer import BagWriter, MessageDefinitionError, qos_profile_dict
+from sim_bridge.bag_writer import BagError, BagWriter, MessageDefinitionError, qos_profile_dict
 
 # The topic table of docs/CONVENTIONS.md: what a session is.
 DEFAULT_TOPICS = [
@@ -329,7 +329,11 @@ def main(args: list[str] | None = None) -> None:
     rclpy.init(args=args)
     node = None
     try:
-        node = RecorderNode()
+        try:
+            node = RecorderNode()
+        except BagError as exc:  # an existing bag folder, an unwritable path: one clear line, not a traceback
+            rclpy.logging.get_logger("recorder").fatal(f"cannot record: {exc}")
+            raise SystemExit(2) from exc
         executor = EventsExecutor()
         executor.add_node(node)
         # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a

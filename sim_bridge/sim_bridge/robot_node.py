@@ -53,6 +53,7 @@ from std_msgs.msg import Float64, Float64MultiArray
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
 from sim_bridge.cdr_header import header_stamp, stamp_seconds
+from sim_bridge.os_thread import name_os_thread
 from sim_bridge.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.peer_barrier import PeerBarrier
 from sim_bridge.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
@@ -74,6 +75,8 @@ DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=His
 BASE_FRAME = "panda_link0"
 SUBSCRIBER_WAIT_S = 60.0  # lockstep: longest wall-clock wait for the /joint_states readers before the first step
 STEPS_PER_SECOND = round(1.0 / TIMESTEP)
+# The physics thread's name as the OS shows it (top -H, /proc): the launcher gives it real-time priority by it.
+PHYSICS_THREAD_NAME = "physics"
 
 
 def _time_from_steps(steps: int) -> Time:
@@ -155,7 +158,7 @@ class RobotNode(Node):
         self.get_logger().info(
             f"robot_sim ready: scene {self._scene}, mode {self._mode}, seed {p['seed']}, watchdog "
             f"{p['command_timeout']:.3f} s; /sim/object_poses order: {objects}")
-        self._thread = threading.Thread(target=self._run, name="physics", daemon=True)
+        self._thread = threading.Thread(target=self._run, name=PHYSICS_THREAD_NAME, daemon=True)
         self._thread.start()
 
     # --- parameters --------------------------------------------------------------------------------------------
@@ -261,6 +264,7 @@ class RobotNode(Node):
 
     # --- physics thread ------------------------------------------------------------------------------------------
     def _run(self) -> None:
+        name_os_thread(PHYSICS_THREAD_NAME)
         try:
             if self._mode == "lockstep":
                 self._run_lockstep()
