@@ -1,16 +1,17 @@
 """Real-time (SCHED_FIFO) scheduling for the threads of the teleoperation loop: ``--scheduling fifo``, opt-in.
 
 Why it exists: on 2 cores the graph uses most of both, and under the normal scheduler a message waits for a core
-at every hop; the pipeline latency p99 of the default main job is 19-25 ms with the loops at negative niceness
+at every hop; the pipeline latency p99 of the default main job is 16-31 ms with the loops at negative niceness
 (the default, ``--scheduling nice``) against issue 5's 5 ms. With the loops' threads under SCHED_FIFO, each
-receiver pre-empts its sender and the p99 measured 5.6-7.7 ms (median 1.8-2.7 ms).
+receiver pre-empts its sender: measured 2026-12-02 in 11 runs of the default job with this thread choice, p50
+1.3-2.6 ms and p99 2.9-10.1 ms in 9 (the other two 15 and 26 ms), against 16-31 ms in the nice runs in between.
+With it the launcher sets the replica's ``tick_on_command``.
 
-Why it is not the default (measured here, 2026-12-02, 9 runs in four variants; README "What falls short"):
-what the FIFO threads leave is too little for the normal class on 2 cores. The recorder, which must stay behind
-the loops, then fell more than a second behind and lost 590-7519 of the 30,000 joint states in 7 of 9 runs,
-and in some variants the nodes' timer threads (left in the normal class) starved, so the device and the master
-published at a third of their rate and the arm's error reached 72 mm. On a machine with cores to spare, or with
-the recorder elsewhere, it is what a real deployment of these loops would use.
+Why it is not the default: what the FIFO threads leave is too little for the normal class on 2 cores (the graph
+needs about 180 % of the machine). The recorder, which must stay behind the loops, then fell more than a second
+behind and lost 590-10,541 of the 30,000 joint states in 10 of those 11 runs; given FIFO itself (below the
+loops) it lost 5,209. On a machine with cores to spare, or with the recorder elsewhere, this is what a deployment of
+these loops would use.
 
 Which threads: in each node process, every thread named like the process (the main thread that runs the
 callbacks, rclpy's timer thread), a thread the node named ``physics`` (the robot's simulation loop,

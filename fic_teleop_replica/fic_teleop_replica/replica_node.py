@@ -223,6 +223,12 @@ class ReplicaNode(Node):
             description="publish a command for every joint state (the held torque between control ticks), as the "
                         "simulator's lockstep mode needs; false: only at control ticks, the robot holding the last "
                         "command in between (realtime; saves a 1 kHz stream when control_rate is below 1 kHz)"))
+        self.declare_parameter("tick_on_command", False, ParameterDescriptor(
+            description="also run a control tick at the first joint state after a new teleoperation command, instead "
+                        "of waiting for the control_rate grid, which restarts from that tick: the command is "
+                        "applied up to one control period sooner, for at most one extra tick per command (the "
+                        "launcher sets it with --scheduling fifo; off, the law runs at control_rate exactly, as the "
+                        "bandwidth sweep needs)"))
         self.declare_parameter("planner_feedforward", True, ParameterDescriptor(
             description="feed the planner's acceleration (/planner/desired_accel) forward through the task-space "
                         "inertia, J^T Lambda a_d (beyond paper Eq. 7: the FIC compensates no inertia)"))
@@ -245,7 +251,7 @@ class ReplicaNode(Node):
         values = {name: self.get_parameter(name).value for name in (*NUMBERS, "controller", "use_planner_orientation",
                                                                    "planner_feedforward", "offset_feedforward",
                                                                    "joint_damping_compensation",
-                                                                   "answer_every_state")}
+                                                                   "answer_every_state", "tick_on_command")}
         values.update(overrides or {})
         for name in NUMBERS:
             values[name] = float(values[name])
@@ -405,10 +411,15 @@ class ReplicaNode(Node):
         tens of microseconds to convert, and in realtime most states are not control ticks)."""
         if not self._p["answer_every_state"] and self._last_control_time is not None and len(data) >= 12:
             sec, nanosec = (STAMP_LITTLE_ENDIAN if data[1] == 1 else STAMP_BIG_ENDIAN).unpack_from(data, 4)
-            if not self._control_due(sec + 1e-9 * nanosec):
+            if not self._control_due(sec + 1e-9 * nanosec) and not self._command_waiting():
                 self._counts["joint_states"] += 1
                 return
         self._on_joint_state(deserialize_message(data, JointState))
+
+    def _command_waiting(self) -> bool:
+        """Whether a teleoperation command has arrived that no control tick has used yet (tick_on_command)."""
+        return self._p["tick_on_command"] and self._master_received is not None and \
+            self._master_stamp != self._master_stamp_used
 
     def _control_due(self, time: float) -> bool:
         """Whether the joint state stamped ``time`` starts a control tick (half a command period of slack)."""
@@ -441,7 +452,7 @@ class ReplicaNode(Node):
                                    "until the master and the planner speak")
 
         control_period = 1.0 / self._p["control_rate"]
-        due = self._control_due(time)
+        due = self._control_due(time) or self._command_waiting()
         if due:
             # The time since the last control tick, by the joint-state stamps: a busy replica skips states, and
             # x_d's velocity (the FIC's error rate, the friction feedforward) and the give-back of jumps must use

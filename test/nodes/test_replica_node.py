@@ -83,7 +83,8 @@ class Robot:
         while time.monotonic() < deadline:
             self.executor.spin_once(timeout_sec=0.01)
 
-    def publish_joint_states(self, seconds: float, period: float = 0.004, teleop_offset=None) -> None:
+    def publish_joint_states(self, seconds: float, period: float = 0.004, teleop_offset=None,
+                             teleop_period: float = 0.004) -> None:
         """Joint states of the arm at rest at the nominal configuration, every ``period`` (wall clock)."""
         position = {name: value for name, value in zip(ARM_JOINT_NAMES, NOMINAL_CONFIGURATION)}
         position["panda_finger_joint1"] = 0.02
@@ -101,7 +102,7 @@ class Robot:
             self.joint_state_pub.publish(message)
             if teleop_offset is not None and time.monotonic() >= next_teleop:
                 self.publish_teleop(teleop_offset)
-                next_teleop += 0.004  # 250 Hz
+                next_teleop += teleop_period
 
     def publish_teleop(self, offset) -> None:
         message = self.TeleoperationCommand()
@@ -238,4 +239,40 @@ def test_replica_below_the_joint_state_rate(start_node, ros_env, rclpy_context) 
     assert abs(robot.limit_status[-1].ticks - len(robot.commands)) <= 5, (robot.limit_status[-1].ticks,
                                                                          len(robot.commands))
     assert robot.limit_status[-1].ticks > 2 * len(robot.limit_status)
+    assert replica.stop(timeout=15.0) == 0, replica.log_path.read_text()
+
+
+@pytest.mark.parametrize("tick_on_command", [True, False])
+def test_a_new_command_is_used_at_the_next_joint_state(start_node, ros_env, rclpy_context, tick_on_command) -> None:
+    """tick_on_command: a 50 Hz law (20 ms grid) on 1 kHz joint states uses each new 50 Hz teleoperation command at
+    the next joint state, not at the next tick of its grid: the command's age at first use (FicState.master_age)
+    stays within a few ms, for at most one extra tick per command. Off, the law keeps its grid: the age is spread
+    over the 20 ms period and the tick count is the grid's."""
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         params={"control_rate": 50.0, "status_rate": 100.0, "answer_every_state": False,
+                                 "tick_on_command": tick_on_command}, env=replica_env(ros_env))
+    assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
+    robot = Robot(rclpy_context)
+    robot.spin(1.0)
+    robot.publish_joint_states(0.5, period=0.001)  # started, holding, before the commands
+    started_ticks = robot.limit_status[-1].ticks if robot.limit_status else 0
+    started = time.monotonic()
+    robot.publish_joint_states(4.0, period=0.001, teleop_offset=(0.0, 0.0, 0.0), teleop_period=0.02)
+    published_for = time.monotonic() - started
+    robot.spin(1.0)
+    first_use_age = {}
+    for state in robot.fic_states:
+        stamp = state.master_stamp.sec * 1_000_000_000 + state.master_stamp.nanosec
+        if stamp:
+            first_use_age.setdefault(stamp, state.master_age)
+    ages_ms = np.array(list(first_use_age.values())) * 1e3
+    assert len(ages_ms) > 0.5 * published_for * 50, (len(ages_ms), replica.output())
+    ticks_per_s = (robot.limit_status[-1].ticks - started_ticks) / published_for
+    if tick_on_command:
+        assert np.median(ages_ms) < 4.0, np.percentile(ages_ms, [50, 90])
+        # The tick comes sooner and the grid restarts from it: at most one extra tick per command.
+        assert 0.9 * 50 < ticks_per_s < 1.15 * (50 + 50), ticks_per_s
+    else:
+        assert np.median(ages_ms) > 5.0, np.percentile(ages_ms, [50, 90])
+        assert ticks_per_s < 1.15 * 50, ticks_per_s
     assert replica.stop(timeout=15.0) == 0, replica.log_path.read_text()
