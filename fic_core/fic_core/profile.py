@@ -136,9 +136,12 @@ class ForceProfile:
         tiny = 1e-9 * self.saturation_error
         safe = np.where(magnitude > 0.0, magnitude, 1.0)
         quotient = np.abs(self.force(safe)) / safe
-        linearised = np.where(magnitude > 0.0,
-                              (self.linear_limit_force + tangent_slope * (magnitude - linear_limit)) / safe,
-                              tangent_slope)
+        # For a subnormal magnitude inside the linear range this quotient overflows; np.where below then takes the
+        # stiffness instead, so the overflow is harmless and not worth a warning.
+        with np.errstate(over="ignore"):
+            linearised = np.where(magnitude > 0.0,
+                                  (self.linear_limit_force + tangent_slope * (magnitude - linear_limit)) / safe,
+                                  tangent_slope)
         secant = np.where(magnitude > tiny, quotient, linearised)
         return np.where((magnitude <= linear_limit) & (linear_limit > 0.0), self.stiffness, secant)
 
