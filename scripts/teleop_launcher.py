@@ -123,8 +123,9 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
                  {"controller": args.controller, "control_rate": args.control_rate,
                   "answer_every_state": lockstep,
-                  # With the loops pre-empting (fifo) a new command is used at the next joint state: p50 1.3-2.0 ms
-                  # against 1.8-2.7 ms. Under niceness the extra ticks only add load (A/B: no gain).
+                  # With the loops pre-empting (fifo), a new command used at the next joint state gave a latency p50
+                  # of 1.3 and 1.7 ms in two runs, against 1.8-2.6 ms in five without; under niceness the extra
+                  # ticks only added load (A/B in one session: no gain).
                   "tick_on_command": args.scheduling == "fifo",
                   **(PAPER_LAW if args.paper_law else {}), **sim_time}),
         NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml",
