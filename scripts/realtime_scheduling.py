@@ -74,7 +74,8 @@ def loop_threads(pid: int) -> list[int]:
         if name is None:
             continue
         port = name[len(SHARED_MEMORY_THREAD_PREFIX):]
-        if int(task.name) == pid or name == process_name or name in LOOP_THREAD_NAMES or \
+        # The main thread is named like the process (/proc/<pid>/comm is its name).
+        if name == process_name or name in LOOP_THREAD_NAMES or \
                 (name.startswith(SHARED_MEMORY_THREAD_PREFIX) and port.isdigit()):
             threads.append(int(task.name))
     return threads
