@@ -10,7 +10,6 @@ and runs in lockstep with the simulator.
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -30,6 +29,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from fic_core.errors import FicInputError
 from sim_bridge.cdr_header import header_stamp, stamp_seconds
 from sim_bridge.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
+from sim_bridge.message_types import message_class
 from sim_bridge.spin import spin_until_shutdown
 
 try:
@@ -58,17 +58,6 @@ class Route:
     channel: Channel
     publisher: Any
     subscription: Any = None
-
-
-def message_class(type_name: str) -> type:
-    """``pkg/msg/Type`` -> the Python message class (rosidl_runtime_py is not in the wheels)."""
-    parts = type_name.split("/")
-    if len(parts) != 3 or parts[1] != "msg":
-        raise FicInputError(f"message type must look like pkg/msg/Type, got {type_name!r}")
-    try:
-        return getattr(importlib.import_module(f"{parts[0]}.msg"), parts[2])
-    except (ImportError, AttributeError) as exc:
-        raise FicInputError(f"unknown message type {type_name!r}: {exc}") from exc
 
 
 def starts_with_header(cls: type) -> bool:

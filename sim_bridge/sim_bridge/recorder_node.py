@@ -24,7 +24,6 @@ from __future__ import annotations
 import gc
 import collections
 import datetime
-import importlib
 import re
 import signal
 import struct
@@ -42,7 +41,9 @@ from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from fic_core.errors import FicInputError
 from sim_bridge.bag_writer import BagError, BagWriter, MessageDefinitionError, qos_profile_dict
+from sim_bridge.message_types import message_class
 
 # The topic table of docs/CONVENTIONS.md: what a session is.
 DEFAULT_TOPICS = [
@@ -73,12 +74,6 @@ def _descriptor(description: str, *, type_: int | None = None, float_range: tupl
     if int_range is not None:
         descriptor.integer_range = [IntegerRange(from_value=int_range[0], to_value=int_range[1], step=1)]
     return descriptor
-
-
-def _message_class(type_name: str):
-    """'pkg/msg/Type' -> the Python message class (needed to create even a raw subscription)."""
-    package, interface, name = type_name.split("/")
-    return getattr(importlib.import_module(f"{package}.{interface}"), name)
 
 
 class JointStateGapCounter:
@@ -203,8 +198,8 @@ class RecorderNode(Node):
             return
         type_name = types[0]
         try:
-            message_class = _message_class(type_name)
-        except (ImportError, AttributeError, ValueError) as error:
+            subscription_type = message_class(type_name)
+        except FicInputError as error:
             self.get_logger().warning(f"not recording {topic}: type {type_name} is not importable ({error})")
             self._skipped.add(topic)
             return
@@ -224,7 +219,7 @@ class RecorderNode(Node):
         self._counts.append(0)
         # The bag learns the topic before its first message: the queue is FIFO.
         self._queue.append((None, (topic, type_name, offered), 0))
-        self._recorded[topic] = self.create_subscription(message_class, topic, self._enqueuer(index), qos,
+        self._recorded[topic] = self.create_subscription(subscription_type, topic, self._enqueuer(index), qos,
                                                          raw=True)
         self.get_logger().info(f"recording {topic} [{type_name}] "
                                f"({qos.reliability.name.lower()}, {qos.durability.name.lower()}, depth {qos.depth})")

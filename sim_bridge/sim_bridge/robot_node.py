@@ -32,7 +32,6 @@ Commands with NaN/Inf or a length other than 7 are rejected with an error log an
 """
 from __future__ import annotations
 
-import importlib
 import sys
 import threading
 import time
@@ -53,6 +52,7 @@ from std_msgs.msg import Float64, Float64MultiArray
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
 from sim_bridge.cdr_header import header_stamp, stamp_seconds
+from sim_bridge.message_types import message_class
 from sim_bridge.os_thread import name_os_thread
 from sim_bridge.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.peer_barrier import PeerBarrier
@@ -245,9 +245,8 @@ class RobotNode(Node):
                 continue
             self._unresolved_peers.remove(topic)
             try:
-                package, _, name = names[0].split("/")
-                message_type = getattr(importlib.import_module(f"{package}.msg"), name)
-            except (ValueError, ImportError, AttributeError) as exc:  # a type this workspace cannot load
+                message_type = message_class(names[0])
+            except FicInputError as exc:  # a type this workspace cannot load
                 self.get_logger().error(f"lockstep: cannot wait for peer {topic}: its type {names[0]} does not "
                                         f"load here ({exc}); stepping without it")
                 continue
