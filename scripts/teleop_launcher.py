@@ -295,8 +295,13 @@ def _report_scheduling(running: Graph, run_dir: Path) -> None:
         print(f"[run] warning: SCHED_FIFO refused for {', '.join(refused)} ({next(iter(refused.values()))}; needs root "
               "or CAP_SYS_NICE): they run at their niceness, and the pipeline latency is longer (README)",
               file=sys.stderr)
+    _add_to_run_record(run_dir, "realtime_scheduling", summary)
+
+
+def _add_to_run_record(run_dir: Path, key: str, value) -> None:
+    """Add what the run learned while starting to its run.json."""
     run_record = json.loads((run_dir / "run.json").read_text())
-    run_record["realtime_scheduling"] = summary
+    run_record[key] = value
     (run_dir / "run.json").write_text(json.dumps(run_record, indent=2))
 
 
@@ -405,9 +410,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"[run] warning: negative niceness refused for "
                       f"{', '.join(n for n, ok in granted.items() if not ok)} (needs root or CAP_SYS_NICE): on a "
                       "loaded machine expect a lower real-time factor and a longer pipeline latency", file=sys.stderr)
-            run_record = json.loads((run_dir / "run.json").read_text())
-            run_record["prioritised"] = granted
-            (run_dir / "run.json").write_text(json.dumps(run_record, indent=2))
+            _add_to_run_record(run_dir, "prioritised", granted)
         if not interrupted.is_set():
             sim_elapsed = wait_for_sim_time(args.duration, running, stop=interrupted,
                                             wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
