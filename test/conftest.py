@@ -6,8 +6,9 @@ ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST keeps them off the network.
 """
 from __future__ import annotations
 
-import itertools
+import contextlib
 import os
+import random
 import signal
 import subprocess
 import tempfile
@@ -20,10 +21,22 @@ REPO = Path(__file__).resolve().parent.parent
 INSTALL = REPO / "install"
 CONFIG = REPO / "config"
 
-# Domain ids 10-59 are handed out here in turn, starting at an offset taken from the process id so that two
-# pytest sessions on one machine are unlikely to share a domain; 60-79 are reserved for tests that pin their own.
-_first_domain = 10 + os.getpid() % 50
-_domain_ids = itertools.cycle(list(range(_first_domain, 60)) + list(range(10, _first_domain)))
+
+
+@contextlib.contextmanager
+def reserved_domain():
+    """A ROS_DOMAIN_ID no other process on this machine holds, reserved until the block ends.
+
+    rclpy's own ``domain_coordinator`` reserves a domain by binding a port that stands for it, so two pytest
+    sessions, a test and a user's run started by the launcher never share a domain. The search starts at a random
+    domain so that parallel sessions do not race for the same first one.
+    """
+    from domain_coordinator import domain_id
+
+    start = random.randrange(100)
+    counter = iter(range(start, start + 100))
+    with domain_id(selector=lambda: next(counter) % 100 + 1) as domain:
+        yield domain
 
 
 def installed_executable(package: str, executable: str) -> Path:
@@ -31,16 +44,22 @@ def installed_executable(package: str, executable: str) -> Path:
     return INSTALL / package / "lib" / package / executable
 
 
-@pytest.fixture
-def ros_env(tmp_path: Path) -> dict[str, str]:
-    """An environment for processes of one test: private domain, localhost only, private log folder."""
+def isolated_env(log_dir: Path, domain: int) -> dict[str, str]:
+    """This process's environment on a private domain, localhost only, with a private log folder."""
     env = dict(os.environ)
-    env["ROS_DOMAIN_ID"] = str(next(_domain_ids))
+    env["ROS_DOMAIN_ID"] = str(domain)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    env["ROS_LOG_DIR"] = str(tmp_path / "ros_log")
+    env["ROS_LOG_DIR"] = str(log_dir)
     env["PYTHONUNBUFFERED"] = "1"
     env["RCUTILS_COLORIZED_OUTPUT"] = "0"
     return env
+
+
+@pytest.fixture
+def ros_env(tmp_path: Path):
+    """An environment for processes of one test: a reserved domain, localhost only, private log folder."""
+    with reserved_domain() as domain:
+        yield isolated_env(tmp_path / "ros_log", domain)
 
 
 class NodeProcess:

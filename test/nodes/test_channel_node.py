@@ -1,7 +1,7 @@
 """The channel node as a real process over DDS (sim_bridge/channel_node.py): delay, loss, blackout, parameters.
 
 The node is started from the source tree (``python -m sim_bridge.channel_node``), the same module the installed
-``channel_node`` executable loads, with its own ROS_DOMAIN_ID in 60-69 (reserved for these tests). The test
+``channel_node`` executable loads, on a domain reserved for the test (test/conftest.py). The test
 process publishes stamped poses into the channel and measures, on the way out, what a replica would see.
 """
 from __future__ import annotations
@@ -31,13 +31,12 @@ REPO = Path(__file__).resolve().parents[2]
 QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
 NODE = "channel_test"
 IN_TOPIC, OUT_TOPIC = "/test/in", "/test/out"
-_domains = iter(range(60, 70))
 
 
 @pytest.fixture
-def graph(tmp_path):
+def graph(tmp_path, ros_env):
     """A private ROS domain: an rclpy context for the test and a launcher for the channel process."""
-    domain = str(next(_domains))
+    domain = ros_env["ROS_DOMAIN_ID"]
     env = dict(os.environ, ROS_DOMAIN_ID=domain, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
     env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import REPO
+from conftest import REPO, isolated_env, reserved_domain
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 pytestmark = pytest.mark.nodes
@@ -31,11 +31,12 @@ def _launch(ros_env: dict[str, str], out: Path, *arguments: str) -> subprocess.P
 def blackout_run(tmp_path_factory) -> Path:
     """A 9 s lockstep run of the superimposition scene with 200 ms delay and a 2 s blackout in the channel."""
     out = tmp_path_factory.mktemp("graph") / "run"
-    env = dict(os.environ, ROS_DOMAIN_ID="58", ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-               ROS_LOG_DIR=str(out.parent / "ros_log"), PYTHONUNBUFFERED="1")
-    process = _launch(env, out, "--duration", "9", "--time-mode", "lockstep", "--delay", "0.2",
-                      "--blackout-window", str(BLACKOUT[0]), str(BLACKOUT[1]), "--no-video", "--wall-limit", "400")
-    output, _ = process.communicate(timeout=600)
+    with reserved_domain() as domain:
+        env = isolated_env(out.parent / "ros_log", domain)
+        process = _launch(env, out, "--duration", "9", "--time-mode", "lockstep", "--delay", "0.2",
+                          "--blackout-window", str(BLACKOUT[0]), str(BLACKOUT[1]), "--no-video",
+                          "--wall-limit", "400")
+        output, _ = process.communicate(timeout=600)
     (out / "launcher_output.txt").write_text(output)
     assert process.returncode == 0, output
     return out

@@ -23,8 +23,8 @@ REPO = Path(__file__).resolve().parents[2]
 QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
 
 
-def test_force_command_moves_the_handle_nan_is_refused_and_stale_commands_go_limp(tmp_path):
-    env = dict(os.environ, ROS_DOMAIN_ID="70", ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+def test_force_command_moves_the_handle_nan_is_refused_and_stale_commands_go_limp(tmp_path, ros_env):
+    env = dict(os.environ, ROS_DOMAIN_ID=ros_env["ROS_DOMAIN_ID"], ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
     env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
     saved = {key: os.environ.get(key) for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")}

@@ -22,21 +22,21 @@ REPO = Path(__file__).resolve().parents[2]
 QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
 
 
-def _env(tmp_path: Path) -> dict[str, str]:
-    env = dict(os.environ, ROS_DOMAIN_ID="71", ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+def _env(tmp_path: Path, ros_env: dict[str, str]) -> dict[str, str]:
+    env = dict(os.environ, ROS_DOMAIN_ID=ros_env["ROS_DOMAIN_ID"], ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1")
     env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
     return env
 
 
-def test_without_a_tty_it_exits_with_a_clear_message(tmp_path):
-    result = subprocess.run([sys.executable, "-m", "sim_bridge.keyboard_operator"], env=_env(tmp_path),
+def test_without_a_tty_it_exits_with_a_clear_message(tmp_path, ros_env):
+    result = subprocess.run([sys.executable, "-m", "sim_bridge.keyboard_operator"], env=_env(tmp_path, ros_env),
                             stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60)
     assert result.returncode == 1 and "not a TTY" in result.stderr
 
 
-def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path):
-    env = _env(tmp_path)
+def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path, ros_env):
+    env = _env(tmp_path, ros_env)
     master, slave = pty.openpty()
     before = termios.tcgetattr(slave)
     process = subprocess.Popen([sys.executable, "-m", "sim_bridge.keyboard_operator"], env=env, stdin=slave,

@@ -24,18 +24,6 @@ from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION  #
 from fic_core.robot_model import RobotModel  # noqa: E402
 
 
-# A pinned domain (60-79 are for tests that pin their own, test/conftest.py): the fixture's cycle starts at 10 in
-# every pytest process, so two engineers' test runs can share a domain, and a replica that hears another test's
-# /joint_states would command that robot.
-DOMAIN_ID = "71"
-
-
-@pytest.fixture
-def ros_env(ros_env: dict[str, str]) -> dict[str, str]:
-    ros_env["ROS_DOMAIN_ID"] = DOMAIN_ID
-    return ros_env
-
-
 def replica_env(ros_env: dict[str, str]) -> dict[str, str]:
     """The fixture's environment plus colcon's develop-mode build folder, where the entry point's metadata lives
     (colcon --symlink-install keeps fic_teleop_replica.egg-info in build/, which `install/setup.bash` adds via a
@@ -136,7 +124,7 @@ def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
                          params={"master_timeout": 0.3, "status_rate": 1000.0}, env=replica_env(ros_env))
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
-    assert rclpy_context.ok() and ros_env["ROS_DOMAIN_ID"] == DOMAIN_ID
+    assert rclpy_context.ok()
     robot = Robot(rclpy_context)
     limits = PandaLimits.from_robot(RobotModel())
     torque_max = np.array(limits.torque)
