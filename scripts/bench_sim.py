@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def in_process(scenes: list[str], steps: int) -> None:
-    from sim_bridge.mujoco_panda import PandaSimulation
+    from sim_bridge.robot.mujoco_panda import PandaSimulation
 
     for scene in scenes:
         sim = PandaSimulation(scene, seed=0)
@@ -38,8 +38,8 @@ def in_process(scenes: list[str], steps: int) -> None:
 
 
 def render(scenes: list[str], frames: int) -> None:
-    from sim_bridge.mujoco_panda import PandaSimulation
-    from sim_bridge.render import OffscreenRenderer, default_view
+    from sim_bridge.robot.mujoco_panda import PandaSimulation
+    from sim_bridge.robot.render import OffscreenRenderer, default_view
 
     for scene in scenes:
         sim = PandaSimulation(scene, seed=0)
@@ -68,7 +68,7 @@ def through_node(mode: str, seconds: float, scene: str) -> None:
                ROS_LOG_DIR=tempfile.mkdtemp(prefix="bench_sim_"))
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")})
     executable = REPO / "install" / "sim_bridge" / "lib" / "sim_bridge" / "robot_node"
-    command = [str(executable)] if executable.exists() else [sys.executable, "-m", "sim_bridge.robot_node"]
+    command = [str(executable)] if executable.exists() else [sys.executable, "-m", "sim_bridge.robot.robot_node"]
     command += ["--ros-args", "--params-file", str(REPO / "config" / "robot.yaml"), "-p", f"mode:={mode}",
                 "-p", f"scene:={scene}", "-p", "diagnostics_rate_hz:=1.0"]
     log = open(Path(env["ROS_LOG_DIR"]) / "robot_node.out", "w")

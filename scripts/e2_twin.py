@@ -32,9 +32,9 @@ from fic_core.attractor import FractalAttractor  # noqa: E402
 from fic_core.master import MasterLaw  # noqa: E402
 from fic_core.teleoperation import TeleoperationCommandIntegrator  # noqa: E402
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box  # noqa: E402
-from sim_bridge.haptic_device import HapticDevice, HapticDeviceParameters  # noqa: E402
-from sim_bridge.mujoco_panda import PandaSimulation  # noqa: E402
-from sim_bridge.virtual_operator import (BUTTON_HAPTIC_GAIN_DOWN, BUTTON_HAPTIC_GAIN_UP, BUTTON_TOGGLE_MODE,  # noqa: E402
+from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters  # noqa: E402
+from sim_bridge.robot.mujoco_panda import PandaSimulation  # noqa: E402
+from sim_bridge.device.virtual_operator import (BUTTON_HAPTIC_GAIN_DOWN, BUTTON_HAPTIC_GAIN_UP, BUTTON_TOGGLE_MODE,  # noqa: E402
                                          Hand, HandParameters, ScriptedOperator, load_script)
 
 
@@ -151,9 +151,9 @@ def run(script_path: Path, seed: int, delay: float, duration: float | None, verb
 
 
 def tune(args) -> int:
-    from sim_bridge.operator_scripts import shape_sorting_script
-    from sim_bridge.virtual_operator import script_to_mapping
-    from sim_bridge.operator_scripts import _plain
+    from sim_bridge.device.operator_scripts import shape_sorting_script
+    from sim_bridge.device.virtual_operator import script_to_mapping
+    from sim_bridge.device.operator_scripts import _plain
 
     corrections = {}
     overrides = yaml.safe_load(args.overrides.read_text()) if args.overrides else {}

@@ -406,7 +406,7 @@ def shape_sorting_script_timing() -> dict:
     # 2 ramps to press the plate on the piece and holds bond_time: the middle of that hold is contact.
     down = parameters.get("leg_ends", {}).get(f"{parameters['pieces'][0]['name']}:down") if parameters.get("pieces") else None
     if down is None:
-        raise SystemExit("the shape-sorting script has no leg_ends: regenerate it (python -m sim_bridge.operator_scripts)")
+        raise SystemExit("the shape-sorting script has no leg_ends: regenerate it (python -m sim_bridge.device.operator_scripts)")
     press = float(down[0]) + 2.0 * float(parameters["ramp"]) + 0.5 * float(parameters["bond_time"])
     return {"length_s": length, "first_press_s": press}
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Closest approach of the Panda's hand and fingers to the superimposition scene's fixed obstacle, per lap.
 
-Replays a run's recorded /joint_states in the scene's MuJoCo model (the simulator's own, sim_bridge.mujoco_panda)
+Replays a run's recorded /joint_states in the scene's MuJoCo model (the simulator's own, sim_bridge.robot.mujoco_panda)
 and measures the signed distance of every hand and finger geom to the obstacle with ``mj_geomDistance`` (negative:
 penetration, i.e. a contact). One line per 5 s lap of the circle: the smallest distance, when, and where the hand
 was. This is how the E1 operator script's margin over the obstacle was measured (docs/EXPERIMENTS.md).
@@ -22,8 +22,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "sim_bridge"))
 
 from fic_core.panda_description import ARM_JOINT_NAMES  # noqa: E402
-from sim_bridge.bag_writer import mcap_file  # noqa: E402
-from sim_bridge.mujoco_panda import build_model  # noqa: E402
+from sim_bridge.recording.bag_writer import mcap_file  # noqa: E402
+from sim_bridge.robot.mujoco_panda import build_model  # noqa: E402
 
 HAND_BODIES = ("panda_hand", "panda_leftfinger", "panda_rightfinger")
 OBSTACLE_GEOM = "fixed_obstacle"

@@ -83,7 +83,7 @@ def node_command(spec: NodeSpec) -> list[str]:
     return command
 
 
-# Lockstep: the simulation also waits for the nodes that only follow /clock (sim_bridge/peer_barrier.py), by the
+# Lockstep: the simulation also waits for the nodes that only follow /clock (sim_bridge/robot/peer_barrier.py), by the
 # stamps of what each publishes: the device's handle pose, the master's command, the planner's pose.
 LOCKSTEP_PEERS = ["/haptic/pose", "/master/teleop_command", "/planner/desired_pose"]
 

@@ -18,11 +18,11 @@ setup(
     license="BSD-3-Clause",
     entry_points={
         "console_scripts": [
-            "robot_node = sim_bridge.robot_node:main",
-            "haptic_device_node = sim_bridge.haptic_device_node:main",
-            "channel_node = sim_bridge.channel_node:main",
-            "keyboard_operator = sim_bridge.keyboard_operator:main",
-            "recorder_node = sim_bridge.recorder_node:main",
+            "robot_node = sim_bridge.robot.robot_node:main",
+            "haptic_device_node = sim_bridge.device.haptic_device_node:main",
+            "channel_node = sim_bridge.channel.channel_node:main",
+            "keyboard_operator = sim_bridge.device.keyboard_operator:main",
+            "recorder_node = sim_bridge.recording.recorder_node:main",
         ],
     },
 )

@@ -52,7 +52,7 @@ def _pipeline_ms(k: int) -> float:
 def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    from sim_bridge.bag_writer import find_interface_file
+    from sim_bridge.recording.bag_writer import find_interface_file
 
     store = get_typestore(Stores.ROS2_JAZZY)
     for name in ("FicState", "LimitStatus", "ChannelDelivery"):

@@ -1,6 +1,6 @@
-"""The channel node as a real process over DDS (sim_bridge/channel_node.py): delay, loss, blackout, parameters.
+"""The channel node as a real process over DDS (sim_bridge/channel/channel_node.py): delay, loss, blackout, parameters.
 
-The node is started from the source tree (``python -m sim_bridge.channel_node``), the same module the installed
+The node is started from the source tree (``python -m sim_bridge.channel.channel_node``), the same module the installed
 ``channel_node`` executable loads, on a domain reserved for the test (test/conftest.py). The test
 process publishes stamped poses into the channel and measures, on the way out, what a replica would see.
 """
@@ -47,7 +47,7 @@ def graph(tmp_path, ros_env):
     processes = []
 
     def start_channel(**parameters) -> subprocess.Popen:
-        command = [sys.executable, "-m", "sim_bridge.channel_node", "--ros-args", "-r", f"__node:={NODE}",
+        command = [sys.executable, "-m", "sim_bridge.channel.channel_node", "--ros-args", "-r", f"__node:={NODE}",
                    "-p", f"routes:=['{IN_TOPIC}:{OUT_TOPIC}:geometry_msgs/msg/PoseStamped']"]
         for key, value in parameters.items():
             command += ["-p", f"{key}:={value}"]

@@ -31,7 +31,7 @@ def test_force_command_moves_the_handle_nan_is_refused_and_stale_commands_go_lim
     os.environ.update({key: env[key] for key in saved})
     log_path = tmp_path / "haptic.log"
     with open(log_path, "wb") as log:
-        device = subprocess.Popen([sys.executable, "-m", "sim_bridge.haptic_device_node", "--ros-args",
+        device = subprocess.Popen([sys.executable, "-m", "sim_bridge.device.haptic_device_node", "--ros-args",
                                    "--params-file", str(REPO / "config" / "haptic_device.yaml"),
                                    "-p", "operator_source:=none"], env=env, stdout=log, stderr=subprocess.STDOUT)
     context = rclpy.Context()

@@ -30,7 +30,7 @@ def _env(tmp_path: Path, ros_env: dict[str, str]) -> dict[str, str]:
 
 
 def test_without_a_tty_it_exits_with_a_clear_message(tmp_path, ros_env):
-    result = subprocess.run([sys.executable, "-m", "sim_bridge.keyboard_operator"], env=_env(tmp_path, ros_env),
+    result = subprocess.run([sys.executable, "-m", "sim_bridge.device.keyboard_operator"], env=_env(tmp_path, ros_env),
                             stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60)
     assert result.returncode == 1 and "not a TTY" in result.stderr
 
@@ -39,7 +39,7 @@ def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path, ros_env)
     env = _env(tmp_path, ros_env)
     master, slave = pty.openpty()
     before = termios.tcgetattr(slave)
-    process = subprocess.Popen([sys.executable, "-m", "sim_bridge.keyboard_operator"], env=env, stdin=slave,
+    process = subprocess.Popen([sys.executable, "-m", "sim_bridge.device.keyboard_operator"], env=env, stdin=slave,
                                stdout=slave, stderr=slave, close_fds=True)
     saved = {key: os.environ.get(key) for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")}
     os.environ.update({key: env[key] for key in saved})

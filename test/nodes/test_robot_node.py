@@ -17,7 +17,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 
 from conftest import CONFIG, REPO, NodeProcess, installed_executable  # noqa: E402
 from fic_core.panda_description import load_pinocchio_model  # noqa: E402
-from sim_bridge.mujoco_panda import HOLD_DAMPING  # noqa: E402
+from sim_bridge.robot.mujoco_panda import HOLD_DAMPING  # noqa: E402
 
 QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
 
@@ -27,7 +27,7 @@ def _robot_node_command() -> list[str]:
     path = installed_executable("sim_bridge", "robot_node")
     if path.exists():
         return [str(path)]
-    return [sys.executable, "-m", "sim_bridge.robot_node"]
+    return [sys.executable, "-m", "sim_bridge.robot.robot_node"]
 
 
 def _start_robot(ros_env: dict[str, str], tmp_path: Path, **params) -> NodeProcess:

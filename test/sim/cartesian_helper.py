@@ -7,7 +7,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from sim_bridge.mujoco_panda import PandaSimulation
+from sim_bridge.robot.mujoco_panda import PandaSimulation
 
 
 def rotation_error(rotation: np.ndarray, desired: np.ndarray) -> np.ndarray:

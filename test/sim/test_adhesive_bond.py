@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from cartesian_helper import cartesian_torque
 
-from sim_bridge.adhesive_bond import BondParameters
-from sim_bridge.mujoco_panda import PandaSimulation
-from sim_bridge.scenes import PIECE_HEIGHT, SHAPE_SORTING_PIECES
+from sim_bridge.robot.adhesive_bond import BondParameters
+from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.scenes import PIECE_HEIGHT, SHAPE_SORTING_PIECES
 
 
 def _pick(sim: PandaSimulation, piece_index: int) -> tuple[np.ndarray, np.ndarray]:

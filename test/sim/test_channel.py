@@ -1,4 +1,4 @@
-"""The delay/dropout channel's logic (sim_bridge/channel.py), on a simulated clock: no ROS, no wall time."""
+"""The delay/dropout channel's logic (sim_bridge/channel/channel.py), on a simulated clock: no ROS, no wall time."""
 from __future__ import annotations
 
 import math
@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fic_core.errors import FicInputError
-from sim_bridge.channel import Channel, ChannelConfig
+from sim_bridge.channel.channel import Channel, ChannelConfig
 
 TICK = 0.001   # the node's delivery timer period
 

@@ -1,4 +1,4 @@
-"""The sigma.7-class device model (sim_bridge/haptic_device.py): dynamics, saturation, walls, closed loop."""
+"""The sigma.7-class device model (sim_bridge/device/haptic_device.py): dynamics, saturation, walls, closed loop."""
 from __future__ import annotations
 
 import math
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fic_core.errors import FicInputError
-from sim_bridge.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 
 PARAMETERS = HapticDeviceParameters()
 

@@ -1,6 +1,6 @@
-"""Keys to operator commands (sim_bridge/keyboard_teleop.py), without a terminal."""
-from sim_bridge.keyboard_teleop import KeyboardState, split_keys
-from sim_bridge.virtual_operator import BUTTON_HAPTIC_GAIN_DOWN, BUTTON_TOGGLE_MODE
+"""Keys to operator commands (sim_bridge/device/keyboard_teleop.py), without a terminal."""
+from sim_bridge.device.keyboard_teleop import KeyboardState, split_keys
+from sim_bridge.device.virtual_operator import BUTTON_HAPTIC_GAIN_DOWN, BUTTON_TOGGLE_MODE
 
 
 def test_arrow_sequences_and_letters_are_split_into_keys():

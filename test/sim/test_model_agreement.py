@@ -4,7 +4,7 @@ import numpy as np
 import pinocchio as pin
 
 from fic_core.panda_description import load_pinocchio_model
-from sim_bridge.mujoco_panda import PandaSimulation
+from sim_bridge.robot.mujoco_panda import PandaSimulation
 
 
 def test_tcp_pose_gravity_coriolis_and_mass_matrix_agree_over_random_states():

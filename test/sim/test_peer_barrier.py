@@ -1,4 +1,4 @@
-"""The lockstep barrier for the operator's side (sim_bridge/peer_barrier.py), with real threads."""
+"""The lockstep barrier for the operator's side (sim_bridge/robot/peer_barrier.py), with real threads."""
 from __future__ import annotations
 
 import threading
@@ -7,7 +7,7 @@ import time
 import pytest
 
 from fic_core.errors import FicInputError
-from sim_bridge.peer_barrier import PeerBarrier
+from sim_bridge.robot.peer_barrier import PeerBarrier
 
 
 def test_a_peer_that_has_not_published_is_not_waited_for() -> None:

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sim_bridge.mujoco_panda import PandaSimulation
-from sim_bridge.render import OffscreenRenderer, StateTape, check_video_path, default_view, render_tape
-from sim_bridge.scenes import PIECE_RGBA
+from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.render import OffscreenRenderer, StateTape, check_video_path, default_view, render_tape
+from sim_bridge.robot.scenes import PIECE_RGBA
 
 
 def test_key_frame_of_the_shape_sorting_scene_shows_the_pieces_and_the_robot():

@@ -3,9 +3,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim_bridge import scenes
-from sim_bridge.mujoco_panda import PandaSimulation
-from sim_bridge.scenes import (HOLE_CLEARANCE, SHAPE_SORTING_PIECES, SORTER_CELL_HALF_SIZE, cell_minus_hole,
+from sim_bridge.robot import scenes
+from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.scenes import (HOLE_CLEARANCE, SHAPE_SORTING_PIECES, SORTER_CELL_HALF_SIZE, cell_minus_hole,
                                convex_parts, piece_polygon)
 
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from fic_core.panda_description import NOMINAL_CONFIGURATION
-from sim_bridge.mujoco_panda import PandaSimulation
-from sim_bridge.stepping import LockstepGate, RealtimePacer, ZeroOrderHold
+from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.stepping import LockstepGate, RealtimePacer, ZeroOrderHold
 
 STEPS = 400
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from fic_core.errors import FicInputError
-from sim_bridge.mujoco_panda import TORQUE_LIMITS, PandaSimulation
+from sim_bridge.robot.mujoco_panda import TORQUE_LIMITS, PandaSimulation
 
 
 @pytest.mark.parametrize("torque", [

@@ -1,4 +1,4 @@
-"""The virtual operator (sim_bridge/virtual_operator.py) and the scene scripts (sim_bridge/operator_scripts.py)."""
+"""The virtual operator (sim_bridge/device/virtual_operator.py) and the scene scripts (sim_bridge/device/operator_scripts.py)."""
 from __future__ import annotations
 
 import math
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from fic_core.errors import FicInputError
-from sim_bridge.haptic_device import HapticDevice, HapticDeviceParameters
-from sim_bridge.operator_scripts import (GENERATORS, SHAPE_SORTING_DEFAULTS, shape_sorting_script,
+from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.operator_scripts import (GENERATORS, SHAPE_SORTING_DEFAULTS, shape_sorting_script,
                                          superimposition_script)
-from sim_bridge.virtual_operator import (BUTTON_HAPTIC_GAIN_UP, BUTTON_TOGGLE_MODE, Hand, HandParameters,
+from sim_bridge.device.virtual_operator import (BUTTON_HAPTIC_GAIN_UP, BUTTON_TOGGLE_MODE, Hand, HandParameters,
                                          JoyTarget, OperatorScript, ScriptedOperator, ScriptEvent, Waypoint,
                                          load_script, script_from_mapping, script_to_mapping)
 

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from fic_core.errors import FicInputError
-from sim_bridge.mujoco_panda import PandaSimulation
-from sim_bridge.watchdog import CommandWatchdog
+from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.watchdog import CommandWatchdog
 
 
 def test_engages_once_when_stale_and_releases_on_a_fresh_command():

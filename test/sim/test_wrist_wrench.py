@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 from cartesian_helper import cartesian_torque
 
-from sim_bridge.mujoco_panda import PandaSimulation
-from sim_bridge.scenes import TABLE_TOP_HEIGHT
+from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.scenes import TABLE_TOP_HEIGHT
 
 # A free spot on the superimposition table, away from the two obstacles.
 PRESS_POINT = np.array([0.40, -0.35])

@@ -2,7 +2,7 @@
 
 A piece SUCCEEDED when its last recorded position (/sim/object_poses, the robot sim's ground truth) is inside the
 box: within the inner walls in x and y and below the underside of the top plate (so through its hole and
-released, not resting on the lid or still stuck to the plate above it). The box is sim_bridge.scenes' constants.
+released, not resting on the lid or still stuck to the plate above it). The box is sim_bridge.robot.scenes' constants.
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from sim_bridge.experiments.bag_series import RunSeries
-from sim_bridge.scenes import (SHAPE_SORTING_PIECES, SORTER_CENTRE_XY, SORTER_HALF_SIZE_XY, SORTER_PLATE_THICKNESS,
+from sim_bridge.robot.scenes import (SHAPE_SORTING_PIECES, SORTER_CENTRE_XY, SORTER_HALF_SIZE_XY, SORTER_PLATE_THICKNESS,
                                SORTER_TOP_HEIGHT, SORTER_WALL_THICKNESS, TABLE_TOP_HEIGHT)
 
 #: Order of /sim/object_poses in the shape_sorting scene (scenes.SceneLayout.movable_bodies).

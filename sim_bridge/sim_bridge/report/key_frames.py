@@ -1,6 +1,6 @@
 """Key frames of a recorded session: the arm's recorded joint positions replayed through the MuJoCo model.
 
-Kinematics only (mj_kinematics), as sim_bridge.render replays its tapes: the arm is where /joint_states says;
+Kinematics only (mj_kinematics), as sim_bridge.robot.render replays its tapes: the arm is where /joint_states says;
 free objects of the scene are drawn at their initial poses (the bag's /sim/object_poses are not replayed).
 """
 from __future__ import annotations
@@ -14,8 +14,8 @@ def render_key_frames(data: BagData, out: Path, scene: str, width: int = 640, he
     import sim_bridge  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported, when there is no display)
     import mujoco
 
-    from sim_bridge.mujoco_panda import build_model
-    from sim_bridge.render import OffscreenRenderer, default_view, save_png
+    from sim_bridge.robot.mujoco_panda import build_model
+    from sim_bridge.robot.render import OffscreenRenderer, default_view, save_png
 
     if not data.key_joint_states:
         return []

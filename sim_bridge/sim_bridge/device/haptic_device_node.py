@@ -25,9 +25,9 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Joy
 
 from fic_core.errors import FicInputError
-from sim_bridge.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.spin import spin_until_shutdown
-from sim_bridge.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
+from sim_bridge.device.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
                                          load_script)
 
 # Device streams at 500 Hz (docs/CONVENTIONS.md): RELIABLE KEEP_LAST 20, like the other status streams.

@@ -54,13 +54,13 @@ from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
 from sim_bridge.cdr_header import header_stamp, stamp_seconds
 from sim_bridge.message_types import message_class
 from sim_bridge.os_thread import name_os_thread
-from sim_bridge.mujoco_panda import TIMESTEP, PandaSimulation
-from sim_bridge.peer_barrier import PeerBarrier
-from sim_bridge.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
-from sim_bridge.scenes import SCENE_NAMES
+from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
+from sim_bridge.robot.peer_barrier import PeerBarrier
+from sim_bridge.robot.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
+from sim_bridge.robot.scenes import SCENE_NAMES
 from sim_bridge.spin import spin_until_shutdown
-from sim_bridge.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
-from sim_bridge.watchdog import CommandWatchdog, WatchdogEvent
+from sim_bridge.robot.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
+from sim_bridge.robot.watchdog import CommandWatchdog, WatchdogEvent
 
 # 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 1000. A reliable writer overwrites samples a
 # slow reader has not acknowledged once its history is full, so a deep history (one second, only memory) is what
@@ -459,7 +459,7 @@ class RobotNode(Node):
             written = render_tape(self._sim.model, self._tape, default_view(self._scene), self._video_path,
                                   self._snapshot_dir, self._snapshot_interval, self._video_fps)
             for path in written:
-                rclpy.logging.get_logger("sim_bridge.robot_node").info(f"wrote {path}")
+                rclpy.logging.get_logger("sim_bridge.robot.robot_node").info(f"wrote {path}")
 
 
 def _pose(position: np.ndarray, quaternion_wxyz: np.ndarray) -> Pose:
@@ -489,7 +489,7 @@ def main(args: list[str] | None = None) -> None:
         if node is not None:
             node.stop()
             # Not node.get_logger(): after a signal the context is gone and the node logger's /rosout fails.
-            rclpy.logging.get_logger("sim_bridge.robot_node").info(f"robot_sim stopped: {node.statistics()}")
+            rclpy.logging.get_logger("sim_bridge.robot.robot_node").info(f"robot_sim stopped: {node.statistics()}")
             node.destroy_node()
         rclpy.try_shutdown()
 

@@ -19,7 +19,7 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Joy
 
-from sim_bridge.keyboard_teleop import HELP, KeyboardState, split_keys
+from sim_bridge.device.keyboard_teleop import HELP, KeyboardState, split_keys
 from sim_bridge.spin import spin_until_shutdown
 
 # Same QoS as the scripted operator's buttons: a lost toggle would invert the mode for the rest of the run.

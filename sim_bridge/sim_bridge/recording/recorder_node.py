@@ -1,6 +1,6 @@
 """Recorder node: every topic of the teleoperation graph to a rosbag2-layout MCAP bag (SPEC 4; issue 5 item 3).
 
-Wiring only; the file format is sim_bridge.bag_writer. The subscriptions are raw (CDR bytes, never
+Wiring only; the file format is sim_bridge.recording.bag_writer. The subscriptions are raw (CDR bytes, never
 deserialised) and their callbacks only append (topic index, bytes, receive time) to a deque; a writer thread
 drains it into the bag, closes a chunk every `flush_period` (so a SIGKILL loses at most that much), counts
 messages per topic and checks /joint_states for gaps. That keeps the executor thread free to take ~8 topics at
@@ -42,7 +42,7 @@ from rclpy.task import Future
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from fic_core.errors import FicInputError
-from sim_bridge.bag_writer import BagError, BagWriter, MessageDefinitionError, qos_profile_dict
+from sim_bridge.recording.bag_writer import BagError, BagWriter, MessageDefinitionError, qos_profile_dict
 from sim_bridge.message_types import message_class
 
 # The topic table of docs/CONVENTIONS.md: what a session is.

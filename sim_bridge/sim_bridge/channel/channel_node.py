@@ -1,4 +1,4 @@
-"""ROS 2 shell around the delay/dropout channel (sim_bridge/channel.py): one direction of the master-replica link.
+"""ROS 2 shell around the delay/dropout channel (sim_bridge/channel/channel.py): one direction of the master-replica link.
 
 Each route ``in_topic:out_topic:pkg/msg/Type`` is a raw (CDR bytes) subscription, a ``Channel`` and a raw
 publisher, so any message type passes untouched and its header stamp is preserved. Run one instance per
@@ -28,7 +28,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from fic_core.errors import FicInputError
 from sim_bridge.cdr_header import header_stamp, stamp_seconds
-from sim_bridge.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
+from sim_bridge.channel.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
 from sim_bridge.message_types import message_class
 from sim_bridge.spin import spin_until_shutdown
 
@@ -240,7 +240,7 @@ class ChannelNode(Node):
             config = route.channel.config
             down = config.link_down(now)
             status = DiagnosticStatus(name=f"{self.get_name()}: {route.in_topic} -> {route.out_topic}",
-                                      hardware_id="sim_bridge/channel")
+                                      hardware_id="sim_bridge/channel/channel")
             status.level = DiagnosticStatus.WARN if down else DiagnosticStatus.OK
             status.message = ("link down" if down else "link up") + (
                 f", held p50 {stats.held_p50 * 1e3:.1f} ms" if not math.isnan(stats.held_p50) else "")
