@@ -147,7 +147,7 @@ def lateness(bag: Path) -> dict:
 def _step_lateness(bag: Path) -> np.ndarray:
     import struct
 
-    from sim_bridge.recording.bag_writer import read_messages
+    from sim_bridge.recording.bag_reader import read_messages
 
     values = []
     for _, channel, message in read_messages(bag):

@@ -38,25 +38,20 @@ import time
 from datetime import datetime
 from pathlib import Path
 
-import numpy as np
 from tqdm import tqdm
 
 REPO = Path(__file__).resolve().parent.parent
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
-from sim_bridge.experiments.bag_series import read_run  # noqa: E402
-from sim_bridge.experiments.runner import (Cell, LaunchOutcome, launch, report_metrics, stability_of,  # noqa: E402
-                                          write_json)
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES, piece_outcomes  # noqa: E402
+from sim_bridge.experiments.cell_analysis import analyse_cell  # noqa: E402
+from sim_bridge.experiments.plots import plot_e2_forces, plot_e3, plot_stability_map, plot_sweep  # noqa: E402
+from sim_bridge.experiments.runner import CONTROLLERS, Cell, LaunchOutcome, launch, write_json  # noqa: E402
+from sim_bridge.experiments.shape_sorting import PIECE_NAMES  # noqa: E402
 from sim_bridge.experiments.stability import StabilityCriterion  # noqa: E402
+from sim_bridge.experiments.tables import headline_of, markdown_tables  # noqa: E402
 
 DELAYS = (0.0, 0.1, 0.2, 0.5, 1.0, 2.0)
 RATES = (1000.0, 250.0, 100.0, 50.0, 10.0)
-CONTROLLERS = ("fic", "linear")
-METRIC_KEYS = ("free_motion_error_max_m", "free_motion_error_rms_m", "contact_error_max_m", "peak_interaction_force_n",
-               "limit_violations", "limit_shaped_ticks", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
-               "real_time_factor", "dropped_joint_states", "delay_one_way_ms", "duration_s", "controller",
-               "energy_max_j", "master_stale_ticks")
 
 
 # --- the cells ---------------------------------------------------------------------------------------------------
@@ -111,216 +106,6 @@ def quick_cells(args) -> list[Cell]:
             for controller in CONTROLLERS]
 
 
-# --- analysis of one cell ----------------------------------------------------------------------------------------
-def analyse_cell(cell: Cell, run_dir: Path, outcome, criterion: StabilityCriterion, blackout_at: float | None = None
-                 ) -> dict:
-    requested = float(cell.options["duration"])
-    result = {"id": cell.id, "experiment": cell.experiment, "options": cell.options, "labels": cell.labels,
-              "run_dir": str(run_dir), "launcher_exit_code": outcome.returncode, "wall_s": round(outcome.wall_s, 1),
-              "simulated_s": outcome.simulated_s, "complete": outcome.simulated_s >= 0.98 * requested,
-              "node_errors": outcome.node_errors}
-    bag = run_dir / "bag"
-    if not bag.exists():
-        result["error"] = "no bag was written (see launcher.log)"
-        return result
-    try:
-        metrics = report_metrics(bag)
-        write_json(run_dir / "metrics.json", metrics)
-        result["metrics"] = {key: metrics.get(key) for key in METRIC_KEYS}
-    except Exception as error:  # noqa: BLE001  (a report failure is recorded, not hidden)
-        result["metrics_error"] = f"{type(error).__name__}: {error}"
-    series = read_run(bag)
-    result["stability"] = stability_of(series, criterion)
-    result["controller"] = series.controller
-    result["limits"] = {"violation_ticks": int(series.violation_ticks[-1]) if series.violation_ticks.size else None,
-                        "shaped_ticks": int(series.shaped_ticks[-1]) if series.shaped_ticks.size else None}
-    robot = series.diagnostics.get("robot_sim", {})
-    # Lockstep steps that went ahead on the previous torque because the replica's answer took longer than the robot's
-    # lockstep_timeout (50 ms wall): the measure of how far a loaded machine made a lockstep run non-deterministic.
-    result["lockstep_timeouts"] = int(robot["lockstep_timeouts"]) if "lockstep_timeouts" in robot else None
-    force = np.linalg.norm(series.force, axis=1) if series.force.size else np.zeros(0)
-    result["peak_force_n"] = float(force.max()) if force.size else None
-    if cell.experiment in ("E2", "E3"):
-        outcomes = piece_outcomes(series)
-        result["pieces"] = [o.as_dict() for o in outcomes]
-        result["pieces_inside"] = sum(o.inside for o in outcomes) if outcomes else None
-        robot = series.diagnostics.get("robot_sim", {})
-        result["bond"] = {key: robot.get(key) for key in ("bonds_formed", "bond_breaks")}
-        if force.size:
-            result["force_above_10n_s"] = float(np.sum(force > 10.0) * np.median(np.diff(series.wrench_time)))
-    if blackout_at is not None:
-        result["blackout"] = blackout_analysis(series, blackout_at, criterion)
-    return result
-
-
-def blackout_analysis(series, blackout_at: float, criterion: StabilityCriterion) -> dict:
-    """E3: what happens after the link is lost (times in the bag's clock, sim time in lockstep)."""
-    t0 = series.fic_time[0] if series.fic_time.size else 0.0
-    stale = series.fic_time[series.master_stale] if series.master_stale.size else np.zeros(0)
-    after = series.fic_time >= t0 + blackout_at
-    out = {"blackout_at_s": blackout_at,
-           "replica_holding_from_s": float(stale[0] - t0) if stale.size else None,
-           "stale_share_after": float(np.mean(series.master_stale[after])) if np.any(after) else None}
-    if np.any(after):
-        out["energy_max_after_j"] = float(series.total_energy[after].max())
-        out["energy_max_before_j"] = float(series.total_energy[~after].max()) if np.any(~after) else None
-        out["energy_end_j"] = float(series.total_energy[-1])
-        out["error_max_after_m"] = float(np.linalg.norm(series.error[after], axis=1).max())
-    if series.limit_time.size:
-        before = series.violation_ticks[series.limit_time < t0 + blackout_at]
-        out["violation_ticks_after"] = int(series.violation_ticks[-1] - (before[-1] if before.size else 0))
-    if series.force.size:
-        force_after = np.linalg.norm(series.force[series.wrench_time >= t0 + blackout_at], axis=1)
-        out["peak_force_after_n"] = float(force_after.max()) if force_after.size else None
-    out["stability_after"] = stability_of(series, criterion, start=t0 + blackout_at)
-    return out
-
-
-# --- plots -------------------------------------------------------------------------------------------------------
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def plot_sweep(cells: list[dict], sweep: str, out: Path) -> Path | None:
-    chosen = [c for c in cells if sweep in c["labels"].get("sweep", "").split("+")
-              and c.get("stability", {}).get("stable") is not None]
-    if not chosen:
-        return None
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
-    key = "delay" if sweep == "delay" else "rate"
-    for controller, colour in (("fic", "tab:blue"), ("linear", "tab:orange")):
-        rows = sorted((c["labels"][key], c["stability"]["max_error_last_half"], c["stability"]["stable"])
-                      for c in chosen if c["labels"]["controller"] == controller)
-        if not rows:
-            continue
-        x = [r[0] for r in rows]
-        y = [r[1] for r in rows]
-        ax.plot(x, y, "-", color=colour, label="FIC" if controller == "fic" else "linear baseline (same K0)")
-        for xi, yi, stable in rows:
-            ax.plot(xi, yi, "o" if stable else "X", color=colour, markersize=8 if stable else 11,
-                    markerfacecolor=colour if stable else "white")
-    criterion = chosen[0]["stability"].get("criterion", {})
-    if criterion.get("error_bound"):
-        ax.axhline(criterion["error_bound"], color="grey", ls="--", lw=1, label="error bound of the criterion")
-    ax.axhline(0.05, color="grey", ls=":", lw=1, label="x_b = 0.05 m")
-    if sweep == "rate":
-        ax.set_xscale("log")
-        ax.invert_xaxis()
-        ax.set_xlabel("controller rate: channel rate cap and replica control rate [Hz]")
-    else:
-        ax.set_xlabel("one-way delay, both directions [s]")
-    ax.set_ylabel("max tracking error, last half [m]")
-    ax.set_title(f"E4 {sweep} sweep (o stable, X unstable by the criterion)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    path = out / f"e4_{sweep}_sweep.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def plot_stability_map(cells: list[dict], out: Path) -> Path | None:
-    columns = [c for c in cells if c["labels"].get("controller") == "fic"]
-    if not columns:
-        return None
-    plt = _plt()
-    names = [(f"{c['labels']['delay']:g} s" + ("\n1000 Hz" if "rate" in c["labels"]["sweep"] else ""))
-             if c["labels"]["sweep"].startswith("delay") else f"{c['labels']['rate']:g} Hz" for c in columns]
-    fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(columns), 2.6))
-    for row, controller in enumerate(CONTROLLERS):
-        for col, fic_cell in enumerate(columns):
-            twin = fic_cell["id"].replace("_fic", f"_{controller}")
-            cell = next((c for c in cells if c["id"] == twin), None)
-            stable = cell.get("stability", {}).get("stable") if cell else None
-            colour = {True: "#8fd18f", False: "#f08a8a", None: "#cccccc"}[stable]
-            ax.add_patch(plt.Rectangle((col, row), 1, 1, color=colour, ec="white"))
-            error = cell.get("stability", {}).get("max_error_last_half") if cell else None
-            text = ("stable" if stable else "unstable" if stable is False else "n/a")
-            if error is not None:
-                text += f"\n{error * 100:.1f} cm"
-            ax.text(col + 0.5, row + 0.5, text, ha="center", va="center", fontsize=7)
-    ax.set_xlim(0, len(columns))
-    ax.set_ylim(0, len(CONTROLLERS))
-    ax.set_xticks(np.arange(len(columns)) + 0.5, names, fontsize=8)
-    ax.set_yticks([0.5, 1.5], ["FIC", "linear"])
-    split = sum(1 for c in columns if c["labels"]["sweep"].startswith("delay"))
-    ax.axvline(split, color="black", lw=2)
-    ax.set_title("E4: delay sweep (full rate) | rate sweep (zero delay); max error over the last half", fontsize=9)
-    fig.tight_layout()
-    path = out / "e4_stability_map.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def plot_e2_forces(runs: list[tuple[dict, Path]], out: Path, max_force: float | None) -> Path | None:
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.5, 3.6))
-    drawn = False
-    for result, run_dir in runs:
-        bag = run_dir / "bag"
-        if not bag.exists():
-            continue
-        series = read_run(bag)
-        if not series.force.size:
-            continue
-        t = series.wrench_time - series.wrench_time[0]
-        ax.plot(t, np.linalg.norm(series.force, axis=1), lw=0.6, label=f"seed {result['labels'].get('seed')}")
-        drawn = True
-    if not drawn:
-        plt.close(fig)
-        return None
-    if max_force:
-        ax.axhline(max_force, color="k", ls="--", lw=1, label=f"F_max = {max_force:g} N (replica FIC)")
-    ax.axhline(10.0, color="grey", ls=":", lw=1, label="10 N")
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("|F| at the wrist F/T sensor [N]")
-    ax.set_title("E2 shape sorting: interaction force")
-    ax.legend(fontsize=7, ncol=2)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    path = out / "e2_interaction_force.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def plot_e3(result: dict, run_dir: Path, out: Path) -> Path | None:
-    bag = run_dir / "bag"
-    if not bag.exists():
-        return None
-    series = read_run(bag)
-    if not series.fic_time.size:
-        return None
-    plt = _plt()
-    t0 = series.fic_time[0]
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 6.0), sharex=True)
-    axes[0].plot(series.fic_time - t0, series.total_energy, lw=0.8)
-    axes[0].set_ylabel("FIC + kinetic energy [J]")
-    axes[1].plot(series.fic_time - t0, np.linalg.norm(series.error, axis=1), lw=0.8)
-    axes[1].set_ylabel("|x_d - x_R| [m]")
-    if series.force.size:
-        axes[2].plot(series.wrench_time - t0, np.linalg.norm(series.force, axis=1), lw=0.6)
-    axes[2].set_ylabel("|F| [N]")
-    axes[2].set_xlabel("time [s]")
-    for ax in axes:
-        ax.axvline(result["options"]["blackout_at"], color="red", ls="--", lw=1)
-        ax.grid(alpha=0.3)
-    axes[0].set_title(f"E3: communication lost from t = {result['options']['blackout_at']:g} s (red)")
-    fig.tight_layout()
-    path = out / "e3_blackout.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
 # --- driver ------------------------------------------------------------------------------------------------------
 def outcome_from_log(run_dir: Path) -> LaunchOutcome:
     """The launch outcome of an existing run folder, from its launcher.log (for --reanalyse)."""
@@ -334,6 +119,7 @@ def outcome_from_log(run_dir: Path) -> LaunchOutcome:
         return LaunchOutcome(code, 0.0, 0.0, run_dir / "launcher.log", "launcher did not finish")
     return LaunchOutcome(code, float(stopped.group(1)), float(stopped.group(2)), run_dir / "launcher.log",
                          stopped.group(3).strip("; "))
+
 
 def git_commit() -> str:
     try:
@@ -411,87 +197,6 @@ def shape_sorting_script_timing() -> dict:
     return {"length_s": length, "first_press_s": press}
 
 
-def _number(value, digits: int = 3, scale: float = 1.0) -> str:
-    if value is None:
-        return "n/a"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, (int, float)):
-        return f"{value * scale:.{digits}f}"
-    return str(value)
-
-
-def markdown_tables(results_dir: Path) -> str:
-    """Markdown tables of whatever eN.json the results folder holds (docs/EXPERIMENTS.md is drafted from them)."""
-    lines: list[str] = []
-    path = results_dir / "e1.json"
-    if path.exists():
-        e1 = json.loads(path.read_text())
-        m = e1.get("metrics", {})
-        s = e1.get("stability", {})
-        lines += ["### E1 superimposition, 200 ms each way (" + e1.get("time_mode", "") + ")", "",
-                  "| metric | value |", "|---|---|"]
-        for key, unit, scale in (("free_motion_error_max_m", "mm", 1e3), ("free_motion_error_rms_m", "mm", 1e3),
-                                 ("contact_error_max_m", "mm", 1e3), ("peak_interaction_force_n", "N", 1.0),
-                                 ("limit_violations", "", 1.0), ("limit_shaped_ticks", "", 1.0),
-                                 ("pipeline_latency_p50_ms", "ms", 1.0), ("pipeline_latency_p99_ms", "ms", 1.0),
-                                 ("real_time_factor", "", 1.0), ("dropped_joint_states", "", 1.0),
-                                 ("duration_s", "s", 1.0)):
-            value = m.get(key)
-            digits = 0 if key in ("limit_violations", "limit_shaped_ticks", "dropped_joint_states") else 2
-            lines.append(f"| {key} | {_number(value, digits, scale)} {unit} |")
-        lines += [f"| stable (criterion) | {_number(s.get('stable'))} {'; '.join(s.get('reasons') or [])} |", ""]
-    path = results_dir / "e2.json"
-    if path.exists():
-        e2 = json.loads(path.read_text())
-        lines += ["### E2 shape sorting (" + e2.get("time_mode", "") + ")", "",
-                  "| trial (seed) | pieces inside the box | bonds formed / broken | peak force [N] | time above 10 N [s] "
-                  "| limit violations | stable |", "|---|---|---|---|---|---|---|"]
-        for trial in e2["trials"]:
-            bond = trial.get("bond", {})
-            names = ", ".join(p["name"].replace("piece_", "") for p in trial.get("pieces", []) if p["inside"]) or "none"
-            lines.append(f"| {trial['labels'].get('seed')} | {trial.get('pieces_inside')} / 3 ({names}) | "
-                         f"{bond.get('bonds_formed')} / {bond.get('bond_breaks')} | {_number(trial.get('peak_force_n'), 1)} | "
-                         f"{_number(trial.get('force_above_10n_s'), 2)} | {trial.get('limits', {}).get('violation_ticks')} | "
-                         f"{_number(trial.get('stability', {}).get('stable'))} |")
-        lines += ["", f"Trials with all three pieces inside: {e2['successful_trials']} of {len(e2['trials'])}; pieces "
-                  f"inside: {e2['pieces_inside_total']} of {3 * len(e2['trials'])}; replica F_max = "
-                  f"{_number(e2.get('replica_max_force_n'), 0)} N.", ""]
-    path = results_dir / "e3.json"
-    if path.exists():
-        e3 = json.loads(path.read_text())
-        b = e3.get("blackout", {})
-        st = b.get("stability_after", {})
-        lines += ["### E3 blackout during contact (" + e3.get("time_mode", "") + ")", "", "| quantity | value |",
-                  "|---|---|",
-                  f"| link lost from | {_number(b.get('blackout_at_s'), 1)} s |",
-                  f"| replica holding x_d' from (watchdog) | {_number(b.get('replica_holding_from_s'), 2)} s |",
-                  f"| energy max before / after the loss | {_number(b.get('energy_max_before_j'), 3)} / "
-                  f"{_number(b.get('energy_max_after_j'), 3)} J |",
-                  f"| energy at the end | {_number(b.get('energy_end_j'), 3)} J |",
-                  f"| limit-violation ticks after the loss | {b.get('violation_ticks_after')} |",
-                  f"| peak force after the loss | {_number(b.get('peak_force_after_n'), 1)} N |",
-                  f"| max error after the loss | {_number(b.get('error_max_after_m'), 1, 1e3)} mm |",
-                  f"| stable after the loss (criterion on [loss, end]) | {_number(st.get('stable'))} "
-                  f"{'; '.join(st.get('reasons') or [])} |", ""]
-    path = results_dir / "e4.json"
-    if path.exists():
-        e4 = json.loads(path.read_text())
-        lines += ["### E4 sweeps (" + e4.get("time_mode", "") + ", " +
-                  _number(e4["cells"][0]["options"]["duration"] if e4.get("cells") else None, 0) + " s a cell)", "",
-                  "| sweep | one-way delay [s] | rate [Hz] | controller | stable | max error, last half [mm] | "
-                  "max error [mm] | limit violations | shaped ticks | peak force [N] | why not stable |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|"]
-        for row in e4["table"]:
-            lines.append(f"| {row['sweep']} | {row['delay']:g} | {row['rate']:g} | {row['controller']} | "
-                         f"{_number(row['stable'])} | {_number(row['max_error_last_half_m'], 1, 1e3)} | "
-                         f"{_number(row['max_error_m'], 1, 1e3)} | {row['violation_ticks']} | {row['shaped_ticks']} | "
-                         f"{_number(row['peak_force_n'], 0)} | {'; '.join(row.get('reasons') or []) or '-'}"
-                         + ("" if row.get("complete", True) else " (run cut short)") + " |")
-        lines.append("")
-    return "\n".join(lines)
-
-
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
@@ -565,27 +270,6 @@ def main(argv: list[str] | None = None) -> int:
     print(json.dumps(summary["headline"], indent=2))
     print(f"[experiments] results in {args.results}")
     return 0
-
-
-def headline_of(name: str, data: dict) -> dict:
-    """The few numbers of an experiment that the summary shows (from its eN.json)."""
-    if name == "E1":
-        return {"stable": data.get("stability", {}).get("stable"), **{
-            key: data.get("metrics", {}).get(key) for key in (
-                "free_motion_error_max_m", "free_motion_error_rms_m", "contact_error_max_m",
-                "peak_interaction_force_n", "limit_violations", "limit_shaped_ticks")}}
-    if name == "E2":
-        return {key: data.get(key) for key in ("pieces_inside_per_trial", "successful_trials", "peak_force_n_max",
-                                               "replica_max_force_n", "stable_trials", "violation_ticks_total")}
-    if name == "E3":
-        blackout = data.get("blackout", {})
-        return {**{key: blackout.get(key) for key in ("blackout_at_s", "energy_max_before_j", "energy_max_after_j",
-                                                      "violation_ticks_after", "peak_force_after_n")},
-                "stable_after": blackout.get("stability_after", {}).get("stable")}
-    if name == "E4":
-        return {row["id"]: {"stable": row["stable"], "max_error_last_half_m": row["max_error_last_half_m"],
-                            "violation_ticks": row["violation_ticks"]} for row in data.get("table", [])}
-    return {}
 
 
 def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: StabilityCriterion, wall: float) -> dict:

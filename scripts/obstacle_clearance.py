@@ -22,7 +22,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "sim_bridge"))
 
 from fic_core.panda_description import ARM_JOINT_NAMES  # noqa: E402
-from sim_bridge.recording.bag_writer import mcap_file  # noqa: E402
+from sim_bridge.recording.bag_reader import mcap_file  # noqa: E402
 from sim_bridge.robot.mujoco_panda import build_model  # noqa: E402
 
 HAND_BODIES = ("panda_hand", "panda_leftfinger", "panda_rightfinger")

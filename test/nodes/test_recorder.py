@@ -199,7 +199,7 @@ def test_recorder_bag_survives_sigkill(start_node, tmp_path, ros_env):
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
     from rosbags.highlevel import AnyReader
-    from sim_bridge.recording.bag_writer import recover
+    from sim_bridge.recording.recovery import recover
     from sim_bridge.report import load_bag
 
     bag = tmp_path / "bag"

@@ -1,6 +1,6 @@
 """Time series of one recorded run, read from its bag, for the experiments (stability, E2 success, E3 energy).
 
-Reads the rosbag2-layout MCAP that the recorder writes (finished or torn: bag_writer.read_messages) and decodes
+Reads the rosbag2-layout MCAP that the recorder writes (finished or torn: recording.bag_reader.read_messages) and decodes
 only the topics asked for, with the ros2msg schemas embedded in the bag (mcap_ros2), so it needs neither rclpy nor
 the message packages. Times are the messages' header stamps in seconds (simulation time in lockstep).
 """
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from mcap_ros2.decoder import DecoderFactory
 
-from sim_bridge.recording.bag_writer import ReadResult, read_messages
+from sim_bridge.recording.bag_reader import ReadResult, read_messages
 
 FIC_STATE = "/replica/fic_state"
 LIMIT_STATUS = "/replica/limit_status"

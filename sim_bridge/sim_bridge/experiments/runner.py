@@ -28,6 +28,8 @@ from sim_bridge.experiments.stability import StabilityCriterion, StabilityInputE
 
 REPO = Path(os.environ.get("FIC_TELEOP_ROOT") or Path(__file__).resolve().parents[3])
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
+#: The two controllers every E4 cell is run with: the FIC and the linear baseline of the same stiffness K0.
+CONTROLLERS = ("fic", "linear")
 _SIM_TIME = re.compile(r"\[run\] sim time\s+([0-9.]+)")
 #: Domain ids this runner may take, highest first (test/conftest.py hands out 10-59 and reserves 60-79).
 DOMAIN_CANDIDATES = tuple(range(101, 79, -1))

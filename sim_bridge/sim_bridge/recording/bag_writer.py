@@ -1,4 +1,4 @@
-"""A rosbag2-layout MCAP bag writer that survives being killed (SPEC 4).
+"""A rosbag2-layout MCAP bag writer that survives being killed.
 
 Layout, as `ros2 bag record -s mcap` writes it:
 
@@ -14,8 +14,8 @@ Messages are raw CDR bytes (what an rclpy subscription with raw=True hands over)
 Crash safety: messages go into small compressed chunks (default 256 KiB, zstd) and `flush()` (called every
 flush period by the owner) closes the chunk in progress and hands it to the kernel unbuffered. After a SIGKILL
 the file lacks only its summary and footer, and every complete chunk is still readable sequentially:
-`read_messages()` below (the mcap library's non-seeking StreamReader with CRC validation, stopping cleanly at
-the torn tail) reads it, and `recover()` rewrites it into a complete bag that every tool opens.
+`bag_reader.read_messages()` (the mcap library's non-seeking StreamReader with CRC validation, stopping cleanly
+at the torn tail) reads it, and `recovery.recover()` rewrites it into a complete bag that every tool opens.
 
 Pure Python (mcap, PyYAML); no rclpy import.
 """
@@ -24,17 +24,12 @@ from __future__ import annotations
 import json
 import os
 import re
-import struct
 import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator
 
 import yaml
-from mcap.exceptions import EndOfFile, McapError
-from mcap.records import Channel, Message, Schema
-from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.writer import CompressionType, Writer
 
 ROSBAG2_VERSION = 9  # rosbag2 metadata version of ROS 2 Jazzy
@@ -354,78 +349,3 @@ class BagWriter:
 
     def __exit__(self, *exc_info) -> None:
         self.finish()
-
-
-# ---------------------------------------------------------------------------------------------------------
-# Reading a bag that was never finished (the recorder was killed), and repairing it
-# ---------------------------------------------------------------------------------------------------------
-def mcap_file(bag: str | os.PathLike) -> Path:
-    """The .mcap file of a bag folder (rosbag2 layout) or the path itself if it is a file."""
-    path = Path(bag)
-    if path.is_dir():
-        files = sorted(path.glob("*.mcap"))
-        if not files:
-            raise BagError(f"no .mcap file in {path}")
-        if len(files) > 1:
-            raise BagError(f"{path} holds {len(files)} .mcap files; split bags are not supported")
-        return files[0]
-    return path
-
-
-@dataclass
-class ReadResult:
-    """Outcome of a sequential read: whether the file ended with a valid footer, and why reading stopped."""
-    complete: bool = False
-    stopped_by: str = ""
-    message_count: int = 0
-
-
-def read_messages(bag: str | os.PathLike, result: ReadResult | None = None
-                  ) -> Iterator[tuple[Schema, Channel, Message]]:
-    """Yield (schema, channel, message) in file order from a finished or a torn (killed) bag.
-
-    Uses the mcap library's sequential StreamReader with chunk CRC validation; at a torn tail (a record cut
-    short, a chunk whose CRC or decompression fails) it stops cleanly instead of raising and records why in
-    `result`. A chunk is decoded whole before any of its messages is yielded, so a torn chunk yields nothing.
-    """
-    result = result if result is not None else ReadResult()
-    schemas: dict[int, Schema] = {}
-    channels: dict[int, Channel] = {}
-    with open(mcap_file(bag), "rb") as stream:
-        reader = StreamReader(stream, validate_crcs=True)
-        records = reader.records
-        while True:
-            try:
-                record = next(records)
-            except StopIteration:
-                result.complete = True
-                return
-            except (EndOfFile, McapError, CRCValidationError, struct.error, ValueError, EOFError) as error:
-                result.stopped_by = f"{type(error).__name__}: {error}".strip(": ")
-                return
-            except Exception as error:  # zstd/lz4 errors on a torn compressed chunk have library-specific types
-                result.stopped_by = f"{type(error).__name__}: {error}"
-                return
-            if isinstance(record, Schema):
-                schemas[record.id] = record
-            elif isinstance(record, Channel):
-                channels[record.id] = record
-            elif isinstance(record, Message):
-                channel = channels[record.channel_id]
-                result.message_count += 1
-                yield schemas.get(channel.schema_id), channel, record
-
-
-def recover(src: str | os.PathLike, dst_bag_dir: str | os.PathLike) -> tuple[BagSummary, ReadResult]:
-    """Rewrite a possibly torn bag (a killed recorder's) into a complete bag folder at `dst_bag_dir`."""
-    result = ReadResult()
-    writer = BagWriter(dst_bag_dir)
-    channel_topics: dict[int, str] = {}
-    for schema, channel, message in read_messages(src, result):
-        if channel.id not in channel_topics:
-            profiles = yaml.safe_load(channel.metadata.get("offered_qos_profiles", "")) or None
-            writer.add_topic(channel.topic, schema.name, offered_qos_profiles=profiles,
-                             definition=schema.data.decode(), type_hash=channel.metadata.get("topic_type_hash", ""))
-            channel_topics[channel.id] = channel.topic
-        writer.write(channel_topics[channel.id], message.data, message.log_time, message.publish_time)
-    return writer.finish(), result

@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from mcap.exceptions import EndOfFile, McapError
-from mcap.records import Channel, Message, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel
 from mcap_ros2.decoder import DecoderFactory
+
+from sim_bridge.recording.bag_reader import BagReadError, ReadResult, mcap_file, read_messages
 
 # Topics decoded in full (everything else is only counted).
 POSE_TOPICS = ("/replica/desired_pose", "/replica/tcp_pose", "/planner/desired_pose", "/master/pose")
@@ -34,10 +34,6 @@ STAMP_ONLY_TOPICS = ("/joint_states",)
 CLOCK_TOPIC = "/clock"
 # Forward direction of the channel (master -> replica): the one whose delay the latency metric subtracts.
 FORWARD_TOPICS = ("/replica/teleop_command", "/replica/master_pose")
-
-
-class BagReadError(RuntimeError):
-    """The path is not a readable MCAP bag."""
 
 
 def _stamp(time_msg) -> float:
@@ -84,41 +80,11 @@ class BagData:
         return topic in self.series and len(self.series[topic]) > 0
 
 
-def mcap_path(bag: str | Path) -> Path:
-    path = Path(bag)
-    if path.is_dir():
-        files = sorted(path.glob("*.mcap"))
-        if len(files) != 1:
-            raise BagReadError(f"{path}: expected one .mcap file in the bag folder, found {len(files)}")
-        return files[0]
-    if not path.is_file():
-        raise BagReadError(f"{path}: no such bag folder or .mcap file")
-    return path
-
-
-def _records(path: Path, status: dict):
-    with open(path, "rb") as stream:
-        records = StreamReader(stream, validate_crcs=True).records
-        while True:
-            try:
-                yield next(records)
-            except StopIteration:
-                status["complete"] = True
-                return
-            except (EndOfFile, McapError, struct.error, ValueError) as error:
-                status["stopped_by"] = type(error).__name__
-                return
-            except Exception as error:  # a torn compressed chunk: the compressor's own error type
-                status["stopped_by"] = type(error).__name__
-                return
-
-
 def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData:
     """Read a bag; with `keyframe_interval`, also decode /joint_states every that many seconds (key frames)."""
-    path = mcap_path(bag)
-    status = {"complete": False, "stopped_by": ""}
-    schemas: dict[int, Schema] = {}
-    channels: dict[int, Channel] = {}
+    path = mcap_file(bag)
+    status = ReadResult()
+    schemas, channels = status.schemas, status.channels
     decoders: dict[int, object] = {}
     factory = DecoderFactory()
     counts: Counter = Counter()
@@ -129,16 +95,7 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
     first_log, last_log = np.inf, -np.inf
     decoded = set(POSE_TOPICS + WRENCH_TOPICS + TELEOP_TOPICS + (FIC_STATE_TOPIC, LIMIT_STATUS_TOPIC, DELIVERY_TOPIC))
     try:
-        for record in _records(path, status):
-            if isinstance(record, Schema):
-                schemas[record.id] = record
-                continue
-            if isinstance(record, Channel):
-                channels[record.id] = record
-                continue
-            if not isinstance(record, Message):
-                continue
-            channel = channels[record.channel_id]
+        for _, channel, record in read_messages(path, status):
             topic = channel.topic
             counts[topic] += 1
             log = record.log_time * 1e-9
@@ -177,8 +134,8 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
                 deliveries[msg.topic].setdefault(_stamp_ns(msg.header.stamp), float(msg.held))
     except OSError as error:
         raise BagReadError(f"{path}: {error}") from error
-    if not status["complete"] and not counts and not schemas:
-        raise BagReadError(f"{path}: not an MCAP file or empty ({status['stopped_by']})")
+    if not status.complete and not counts and not schemas:
+        raise BagReadError(f"{path}: not an MCAP file or empty ({status.stopped_by})")
 
     columns = {
         "pose": ("x", "y", "z"),
@@ -211,7 +168,7 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
     for channel in channels.values():
         schema = schemas.get(channel.schema_id)
         types[channel.topic] = schema.name if schema else ""
-    return BagData(path=path, complete=status["complete"], stopped_by=status["stopped_by"], counts=dict(counts),
+    return BagData(path=path, complete=status.complete, stopped_by=status.stopped_by, counts=dict(counts),
                    types=types, series=series, controller=controllers.most_common(1)[0][0] if controllers else "",
                    deliveries=dict(deliveries), first_log=float(first_log) if counts else 0.0,
                    last_log=float(last_log) if counts else 0.0, key_joint_states=key_joint_states)
