@@ -1,52 +1,55 @@
-"""The Fractal Impedance Controller's attractor (paper Eq. 2), per axis, with SPEC 1.2's reading.
+"""The Fractal Impedance Controller's attractor (paper Eq. 2), per axis, built so that it is passive for every input.
 
 Paper Eq. 2::
 
     D (divergence):  FIC(e) = F_c(e)
     C (convergence): FIC(e) = 2*F_c(e_max)/e_max * (e - e_max/2)
 
-Reading implemented (SPEC 1.2; the printed switching condition, ``|e(t)| < |e(t-1)|`` *and* a sign change,
-cannot hold together in one sample and is not used literally):
+The switching reading (when an axis is in D or C) is the one the project has always used
+(docs/CONTROL_LAWS.md, "The attractor's phases"):
 
 * An axis **enters C** when ``|e|`` is decreasing faster than the dead-band: ``sign(e)*de/dt < -rate_deadband``.
-  ``e_max`` is latched to the error at that D->C switch (the turning point of the divergence swing).
-* It **stays in C** while ``|e|`` keeps decreasing (``sign(e)*de/dt < 0``) and ``e`` keeps the sign of ``e_max``.
-  It **returns to D** as soon as ``|e|`` stops decreasing or the error crosses zero (the paper's sign change:
-  crossing the target ends the convergence). The two thresholds (-rate_deadband to enter, 0 to leave) form a
-  hysteresis so that rate noise smaller than the dead-band cannot chatter the phase.
+* It **stays in C** while ``|e|`` keeps decreasing (``sign(e)*de/dt < 0``) and ``e`` keeps the sign of ``e_max``;
+  it **returns to D** as soon as ``|e|`` stops decreasing or the error crosses zero (the paper's sign change).
+  The two thresholds form a hysteresis, so rate noise smaller than the dead-band cannot chatter the phase.
 * This is the reading of the public ROS 1 implementation (wxmerkt/superimposition_of_passive_taskspace_controllers,
-  ``fractal_impedance_controller.hpp``): divergence while the error grows or the speed is below a threshold,
-  convergence about the mid-point ``e_max/2``. That code sizes the C stiffness from the stored energy; here the
-  C law is the paper's, whose force is continuous at D->C (both equal F_c(e_max)).
+  ``fractal_impedance_controller.hpp``): divergence while the error grows, convergence about ``e_max/2``.
 
-Why it converges: a mass released from rest at ``e_max`` under the C law is a harmonic oscillator about
-``e_max/2`` with amplitude ``e_max/2``; it reaches ``e = 0`` with zero velocity (the "harmonic trajectory").
-The C law's force then points back to ``e_max/2``, ``|e|`` would grow, the axis returns to D where
-F_c(0) = 0 holds it: the energy of the swing is dissipated by the phase switch (the FIC has no damping term).
-A free unit mass converges to a residual oscillation whose speed is below the dead-band, i.e. an amplitude
-below ``rate_deadband / sqrt(K0/m)``.
+What makes it passive (docs/CONTROL_LAWS.md, "Passivity of the attractor", has the whole argument): each phase's
+force is the gradient of a storage V that is convex in e (the force is non-decreasing in e), and every switch at
+sample k is built so that the new phase's storage at the previous sample e_{k-1} is at most the old one's there.
+Then, with the port work W_k = sum_j F_j (e_j - e_{j-1}) (the force returned at a sample times the displacement
+that led to it), ``V_k - V_0 <= W_k`` holds for every input sequence, rates that contradict the errors included:
+``V_new(e_k) - V_old(e_{k-1}) <= V_new(e_k) - V_new(e_{k-1}) <= F_new(e_k) (e_k - e_{k-1})`` by convexity.
 
-Stored energy (a potential V with dV/de = FIC(e), so that kinetic + V is constant along any free motion
-inside one phase):
+* **D** with a dead zone delta >= 0 (delta = 0 normally): ``F = sign(e) F_c(max(|e| - delta, 0))``,
+  ``V = V_D(max(|e| - delta, 0))`` with ``V_D = integral_0^a F_c`` (``ForceProfile.energy``, closed form).
+* **D -> C** at sample k latches ``e_max = e_{k-1}`` (the sample whose storage is known), its storage
+  ``V_latch`` and force ``F_latch`` in D, and the C stiffness
+  ``K_C = min(2 F_latch/|e_max|, 8 V_latch/e_max^2)``: the paper's force-continuous stiffness, capped by the
+  stored-energy sizing of the public ROS 1 code (K = U/x_mid^2 with x_mid = e_max/2) so that V_C >= 0.
+  C force: ``K_C (e - e_max/2)`` clipped to ``|F| <= F_max``; ``V_C(e) = V_latch + integral_{e_max}^e F_C``,
+  which equals V_latch at e_max and at 0 and is >= 0 everywhere (its minimum, at e_max/2, is
+  ``V_latch - K_C e_max^2/8 >= 0`` by the cap).
+* **Any switch into D** (C -> D) at sample k: delta = 0 if ``V_D(e_{k-1}) <= V_C(e_{k-1})`` (the difference is
+  dissipated: this is where the FIC, which has no damping term, loses energy); otherwise the dead zone delta
+  with ``V_D(|e_{k-1}| - delta) = V_C(e_{k-1})`` (``ForceProfile.energy_inverse``, rounded towards the smaller
+  storage), so the storage is continuous and the force stays <= F_max. A switch to a smaller delta is made only
+  where it does not change the storage: while the previous sample lies inside the dead zone, delta shrinks to
+  ``|e_{k-1}|`` (the zone closes as the error comes back to the target, so at rest at e = 0 the axis is plain D
+  again with V = 0).
+* Entering C needs a previous sample on the same side of the target as e, with a non-zero force there
+  (``|e_{k-1}| > 1e-12 x_b``): otherwise there is no swing to converge from, and the axis stays in D.
 
-* D: ``V_D(e) = integral_0^|e| F_c`` (``ForceProfile.energy``).
-* C: ``V_C(e) = K_C/2*(e - e_max/2)^2 + c`` with ``K_C = 2*F_c(e_max)/e_max`` and ``c`` chosen so that
-  ``V_C(e_max) = V_D(e_max)``: the D->C switch neither creates nor destroys energy. By symmetry
-  ``V_C(0) = V_D(e_max)`` and the C->D switch at ``e ~ 0`` drops it to ``V_D(0) = 0``: that drop is the
-  dissipation. ``c = V_D(e_max) - F_c(e_max)*e_max/4`` is negative when the profile is locally convex at
-  ``e_max`` (small xi, e_max in the first half of the tanh), so V_C can dip below zero mid-swing there; the
-  sum kinetic + V still never grows along a free motion.
-
-Tiny ``e_max``: ``K_C`` uses ``ForceProfile.secant_stiffness``, F_c(e)/e with its finite limit at 0, so there
-is no division by ~0 (``e_max`` itself is never exactly zero: entering C needs ``sign(e) != 0``), and as
-``e_max -> 0`` the C law tends to the spring ``2*F_c'(0)*(e - e_max/2)``, whose force tends to zero.
-The C force is clipped to ``|F_c(e_max)|`` (only reachable if a caller's rate disagrees with its error), so
-|FIC| <= F_max always.
+The paper's harmonic convergence is kept: a mass released from rest at e_max under any C stiffness is a harmonic
+oscillator about e_max/2 of amplitude e_max/2, so it reaches e = 0 with zero velocity, and there the C -> D
+switch drops the storage V_C(0) = V_latch to V_D(0) = 0. K_C is the paper's 2 F_latch/e_max whenever
+V_latch >= F_latch e_max/4, which holds for the shipped profiles over their range (test_passivity).
 
 Implementation: the per-axis logic runs on plain Python floats (3 axes: numpy's per-call overhead would cost
 more than the arithmetic), and each ``force`` call replaces an immutable ``AttractorSnapshot`` of the state, so
-the stored energy is computed only when read (``stored_energy``, e.g. when a node publishes FicState), and a
-snapshot taken at one tick (``snapshot()``) still reports that tick after later calls.
+the storage is computed only when read (``stored_energy``, e.g. by the passivity observer), and a snapshot taken
+at one tick (``snapshot()``) still reports that tick after later calls.
 """
 from __future__ import annotations
 
@@ -65,6 +68,10 @@ _new_snapshot = tuple.__new__  # AttractorSnapshot's __new__ without its call, o
 #: 1 kHz joint-velocity signal, well below the speeds of a deliberate motion.
 DEFAULT_RATE_DEADBAND = 0.005
 
+#: The smallest |e_max| (as a fraction of x_b) from which an axis enters C: below it e_max^2 in K_C's cap would
+#: lose its digits, and the force there is negligible anyway.
+_SMALLEST_LATCH = 1e-12
+
 
 class Phase(IntEnum):
     """Phase of one FIC axis (values as fic_teleop_msgs/FicState's PHASE_* constants)."""
@@ -73,28 +80,56 @@ class Phase(IntEnum):
     CONVERGENCE = 1
 
 
+def convergence_storage(profile: ForceProfile, latched: float, stiffness: float, latched_energy: float,
+                        error: float) -> float:
+    """V_C(e) = V_latch + integral_{e_max}^e F_C of the clipped C force F_C = clip(K_C (e - e_max/2), +-F_max) [J].
+
+    With u = e - e_max/2 and the clip width c = F_max/K_C, the integral of F_C from the mid-point is
+    K_C u^2/2 for |u| <= c and F_max (|u| - c/2) beyond; at e_max, |u| = |e_max|/2 <= c because
+    K_C |e_max|/2 <= F_latch <= F_max.
+    """
+    if stiffness <= 0.0:
+        return latched_energy
+    offset = error - 0.5 * latched
+    magnitude = abs(offset)
+    clip = profile.max_force / stiffness
+    if magnitude <= clip:
+        potential = 0.5 * stiffness * offset * offset
+    else:
+        potential = profile.max_force * (magnitude - 0.5 * clip)
+    return latched_energy + potential - 0.125 * stiffness * latched * latched
+
+
+def _divergence_storage(profile: ForceProfile, dead_zone: float, error: float) -> float:
+    """V_D(max(|e| - delta, 0)) [J]."""
+    magnitude = abs(error) - dead_zone
+    return profile._scalar_energy(magnitude) if magnitude > 0.0 else 0.0
+
+
 class AttractorSnapshot(tuple):
     """The state of a FractalAttractor after one ``force`` call, immutable; derived values computed on read.
 
-    Tuples per axis: whether the axis is in C, e_max, K_C = 2*F_c(e_max)/e_max, the offset c of V_C, and the
-    error and force of that call. (A tuple underneath: one C call to create at each tick.)
+    Tuples per axis: whether the axis is in C, e_max, K_C, V_latch (the storage at the D -> C switch), the dead
+    zone delta of D, and the error and force of that call. (A tuple underneath: one C call to create at each tick.)
     """
 
     __slots__ = ()
 
     def __new__(cls, profile: ForceProfile, in_convergence: tuple[bool, ...], latched_max_errors: tuple[float, ...],
-                convergence_stiffness: tuple[float, ...], convergence_offset: tuple[float, ...],
-                errors: tuple[float, ...], forces: tuple[float, ...]) -> AttractorSnapshot:
+                convergence_stiffness: tuple[float, ...], latched_energies: tuple[float, ...],
+                dead_zones: tuple[float, ...], errors: tuple[float, ...],
+                forces: tuple[float, ...]) -> AttractorSnapshot:
         return tuple.__new__(cls, (profile, in_convergence, latched_max_errors, convergence_stiffness,
-                                   convergence_offset, errors, forces))
+                                   latched_energies, dead_zones, errors, forces))
 
     profile = property(itemgetter(0))
     in_convergence = property(itemgetter(1))
     latched_max_errors = property(itemgetter(2))
     convergence_stiffness = property(itemgetter(3))
-    convergence_offset = property(itemgetter(4))
-    errors = property(itemgetter(5))
-    forces = property(itemgetter(6))
+    latched_energies = property(itemgetter(4))
+    dead_zones = property(itemgetter(5))
+    errors = property(itemgetter(6))
+    forces = property(itemgetter(7))
 
     @property
     def phase(self) -> NDArray[np.int64]:
@@ -106,19 +141,25 @@ class AttractorSnapshot(tuple):
         return np.array(self.latched_max_errors, dtype=np.float64)
 
     @property
+    def dead_zone(self) -> NDArray[np.float64]:
+        return np.array(self.dead_zones, dtype=np.float64)
+
+    @property
     def last_force(self) -> NDArray[np.float64]:
         return np.array(self.forces, dtype=np.float64)
 
+    def storage_values(self) -> list[float]:
+        """The storage V per axis [J] as floats (V_D with its dead zone in D, V_C in C; module docstring)."""
+        profile = self[0]
+        return [convergence_storage(profile, latched, stiffness, latched_energy, error) if converging
+                else _divergence_storage(profile, zone, error)
+                for converging, latched, stiffness, latched_energy, zone, error in zip(
+                    self[1], self[2], self[3], self[4], self[5], self[6])]
+
     @property
     def stored_energy(self) -> NDArray[np.float64]:
-        """Energy stored in each axis's spring [J]: V_D in D, V_C in C (see the module docstring)."""
-        energy = self.profile._scalar_energy
-        return np.array([
-            0.5 * stiffness * (error - 0.5 * latched) * (error - 0.5 * latched) + offset if converging
-            else energy(error)
-            for converging, latched, stiffness, offset, error in zip(
-                self.in_convergence, self.latched_max_errors, self.convergence_stiffness, self.convergence_offset,
-                self.errors)], dtype=np.float64)
+        """The storage V per axis [J] (module docstring): >= 0, zero at rest at e = 0."""
+        return np.array(self.storage_values(), dtype=np.float64)
 
 
 class FractalAttractor:
@@ -135,9 +176,10 @@ class FractalAttractor:
         self.reset()
 
     def reset(self) -> None:
-        """Back to D on every axis, nothing latched, no force, no stored energy."""
+        """Back to D on every axis at e = 0, nothing latched, no dead zone, no force, no stored energy."""
         zeros = (0.0,) * self._axes
-        self._state = AttractorSnapshot(self._profile, (False,) * self._axes, zeros, zeros, zeros, zeros, zeros)
+        self._state = AttractorSnapshot(self._profile, (False,) * self._axes, zeros, zeros, zeros, zeros, zeros,
+                                        zeros)
 
     @property
     def profile(self) -> ForceProfile:
@@ -166,13 +208,18 @@ class FractalAttractor:
         return self._state.latched_max_error
 
     @property
+    def dead_zone(self) -> NDArray[np.float64]:
+        """The dead zone delta of each axis's D law (zero unless a C -> D switch needed one), a copy."""
+        return self._state.dead_zone
+
+    @property
     def last_force(self) -> NDArray[np.float64]:
         """The force returned by the last ``force`` call, a copy."""
         return self._state.last_force
 
     @property
     def stored_energy(self) -> NDArray[np.float64]:
-        """Energy stored in each axis's spring at the last ``force`` call [J] (see the module docstring)."""
+        """The storage V of each axis at the last ``force`` call [J] (see the module docstring)."""
         return self._state.stored_energy
 
     def force(self, error: ArrayLike, error_rate: ArrayLike) -> NDArray[np.float64]:
@@ -181,7 +228,8 @@ class FractalAttractor:
         Args:
             error: e = x_d - x per axis [m or rad], shape (axes,).
             error_rate: de/dt per axis [m/s or rad/s], shape (axes,), from the caller (e.g. desired minus
-                measured velocity), so no differencing happens here.
+                measured velocity), so no differencing happens here. It only chooses the phase: the storage
+                argument holds whatever it says.
         Returns:
             The force per axis [N or N m], shape (axes,).
         """
@@ -193,78 +241,103 @@ class FractalAttractor:
         """Eq. 2 on validated floats: the phase logic per axis, then the force; returns the forces.
 
         ``rates`` may be longer than ``errors`` (the extra values are ignored). This is the common tick, where no
-        axis enters C: e_max, K_C and c stay as they are (shared with the previous snapshot); a tick where an axis
-        enters C is handed to ``_step_entering``, before any state changes.
+        axis switches phase and no dead zone moves: e_max, K_C, V_latch and delta stay as they are (shared with
+        the previous snapshot); any other tick is handed to ``_step_switching``, before any state changes.
         """
         old = self._state
         profile = old[0]
         deadband = -self._rate_deadband
         linear_limit = profile._linear_limit
+        max_force = profile.max_force
         phases = []
         forces = []
-        for error, rate, converging, latched, stiffness in zip(errors, rates, old[1], old[2], old[3]):
+        for error, rate, converging, latched, stiffness, zone, previous in zip(
+                errors, rates, old[1], old[2], old[3], old[5], old[6]):
             # d|e|/dt = sign(e) * de/dt, with sign(0) = 0 as numpy.sign.
             if converging:
                 # Stay in C while |e| keeps decreasing on the same side of the target (sign(e) == sign(e_max)).
                 if (rate < 0.0 and latched > 0.0) if error > 0.0 else \
                         (error < 0.0 and -rate < 0.0 and latched < 0.0):
-                    force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
-                    limit = stiffness * 0.5 * abs(latched)  # |F_c(e_max)|
-                    forces.append(limit if force > limit else (-limit if force < -limit else force))
+                    force = stiffness * (error - 0.5 * latched)  # Eq. 2, C (K_C capped: module docstring)
+                    forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
                     phases.append(True)
                     continue
-            elif (rate if error > 0.0 else (-rate if error < 0.0 else 0.0)) < deadband:
-                return self._step_entering(errors, rates)  # enters C past the dead-band
+                return self._step_switching(errors, rates)  # C -> D
+            if (rate if error > 0.0 else (-rate if error < 0.0 else 0.0)) < deadband:
+                return self._step_switching(errors, rates)  # may enter C past the dead-band
             phases.append(False)
-            # Eq. 2, D (K0 e in the profile's linear region).
-            forces.append(profile.stiffness * error if -linear_limit <= error <= linear_limit
-                          else profile._scalar_force(error))
-        self._state = _new_snapshot(AttractorSnapshot, (profile, tuple(phases), old[2], old[3], old[4],
+            if zone == 0.0:
+                # Eq. 2, D (K0 e in the profile's linear region).
+                forces.append(profile.stiffness * error if -linear_limit <= error <= linear_limit
+                              else profile._scalar_force(error))
+                continue
+            if abs(previous) < zone:
+                return self._step_switching(errors, rates)  # the dead zone shrinks to |e_{k-1}|
+            magnitude = abs(error) - zone
+            force = profile._scalar_force(magnitude) if magnitude > 0.0 else 0.0
+            forces.append(force if error > 0.0 else -force)
+        self._state = _new_snapshot(AttractorSnapshot, (profile, tuple(phases), old[2], old[3], old[4], old[5],
                                                         tuple(errors), tuple(forces)))
         return forces
 
-    def _step_entering(self, errors: list[float], rates: list[float]) -> list[float]:
-        """``_step`` for a tick where an axis may enter C (latching e_max, K_C and c)."""
+    def _step_switching(self, errors: list[float], rates: list[float]) -> list[float]:
+        """``_step`` for a tick where an axis may switch phase or move its dead zone (module docstring)."""
         old = self._state
         profile = self._profile
         deadband = -self._rate_deadband
-        in_convergence = list(old.in_convergence)
-        latched_max_errors = list(old.latched_max_errors)
-        convergence_stiffness = list(old.convergence_stiffness)
-        convergence_offset = list(old.convergence_offset)
+        max_force = profile.max_force
+        smallest_latch = _SMALLEST_LATCH * profile.saturation_error
+        in_convergence = list(old[1])
+        latched_max_errors = list(old[2])
+        convergence_stiffness = list(old[3])
+        latched_energies = list(old[4])
+        dead_zones = list(old[5])
         forces = []
-        axis = 0
-        for error, rate in zip(errors, rates):
+        for axis, (error, rate, previous) in enumerate(zip(errors, rates, old[6])):
             # d|e|/dt = sign(e) * de/dt, with sign(0) = 0 as numpy.sign.
             magnitude_rate = rate if error > 0.0 else (-rate if error < 0.0 else 0.0)
             if in_convergence[axis]:
-                # Stay in C while |e| keeps decreasing on the same side of the target (sign(e) == sign(e_max)).
                 latched = latched_max_errors[axis]
-                converging = magnitude_rate < 0.0 and ((error > 0.0) == (latched > 0.0)) \
-                    and ((error < 0.0) == (latched < 0.0))
-            else:
-                # Enter C past the dead-band, latching e_max.
-                converging = magnitude_rate < deadband
-                if converging:
-                    stiffness = 2.0 * profile._scalar_secant_stiffness(error)  # K_C = 2*F_c(e_max)/e_max
-                    latched_max_errors[axis] = error
-                    convergence_stiffness[axis] = stiffness
-                    # V_C(e_max) = V_D(e_max): c = V_D(e_max) - K_C*e_max^2/8.
-                    convergence_offset[axis] = profile._scalar_energy(error) - stiffness * error * error / 8.0
-                in_convergence[axis] = converging
-            if converging:
-                stiffness = convergence_stiffness[axis]
-                latched = latched_max_errors[axis]
-                force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
-                limit = stiffness * 0.5 * abs(latched)  # |F_c(e_max)|
-                forces.append(limit if force > limit else (-limit if force < -limit else force))
-            else:
+                if magnitude_rate < 0.0 and ((error > 0.0) == (latched > 0.0)) and ((error < 0.0) == (latched < 0.0)):
+                    force = convergence_stiffness[axis] * (error - 0.5 * latched)  # Eq. 2, C
+                    forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
+                    continue
+                # C -> D: the D storage at e_{k-1} must not exceed the C storage there.
+                held = convergence_storage(profile, latched, convergence_stiffness[axis], latched_energies[axis],
+                                           previous)
+                magnitude = abs(previous)
+                dead_zones[axis] = 0.0 if profile._scalar_energy(magnitude) <= held else \
+                    magnitude - profile._scalar_energy_inverse(held)
                 in_convergence[axis] = False
-                forces.append(profile._scalar_force(error))  # Eq. 2, D
-            axis += 1
+            else:
+                zone = dead_zones[axis]
+                if zone > 0.0 and abs(previous) < zone:
+                    # V_D is zero at e_{k-1} with either zone: the zone closes in on the target for free.
+                    zone = dead_zones[axis] = abs(previous)
+                # D -> C past the dead-band, from a previous sample on the same side with a force there.
+                if magnitude_rate < deadband and previous * error > 0.0 and abs(previous) > smallest_latch + zone:
+                    reach = abs(previous) - zone
+                    latched_force = profile._scalar_force(reach)
+                    latched_energy = profile._scalar_energy(reach)
+                    magnitude = abs(previous)
+                    # K_C = min(2 F_latch/|e_max|, 8 V_latch/e_max^2): Eq. 2's force-continuous stiffness, capped
+                    # so that V_C >= 0 (the stored-energy sizing of the ROS 1 code).
+                    stiffness = min(2.0 * latched_force / magnitude, 8.0 * latched_energy / (magnitude * magnitude))
+                    in_convergence[axis] = True
+                    latched_max_errors[axis] = previous
+                    convergence_stiffness[axis] = stiffness
+                    latched_energies[axis] = latched_energy
+                    dead_zones[axis] = 0.0
+                    force = stiffness * (error - 0.5 * previous)  # Eq. 2, C
+                    forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
+                    continue
+            zone = dead_zones[axis]
+            magnitude = abs(error) - zone
+            force = profile._scalar_force(magnitude) if magnitude > 0.0 else 0.0  # Eq. 2, D (with its dead zone)
+            forces.append(force if error > 0.0 else -force)
         self._state = AttractorSnapshot(profile, tuple(in_convergence), tuple(latched_max_errors),
-                                        tuple(convergence_stiffness), tuple(convergence_offset), tuple(errors),
-                                        tuple(forces))
+                                        tuple(convergence_stiffness), tuple(latched_energies), tuple(dead_zones),
+                                        tuple(errors), tuple(forces))
         return forces
 
 

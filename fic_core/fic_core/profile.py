@@ -196,6 +196,44 @@ class ForceProfile:
         return self._linear_energy + self._linear_limit_force * beyond + self._force_span / _TANH_SPAN * tanh_integral
 
 
+    def energy_inverse(self, energy: float) -> float:
+        """The error magnitude a >= 0 with V_D(a) = energy, rounded towards the smaller storage [m or rad].
+
+        V_D is convex and increasing on a >= 0 (its slope F_c is non-decreasing and positive for a > 0), so the
+        inverse is unique. The attractor uses it to size the dead zone of a C -> D switch so that the storage does
+        not grow (attractor.py); the rounding direction matters there: V_D(result) <= energy up to rounding.
+        """
+        return self._scalar_energy_inverse(finite_scalar("energy", energy, minimum=0.0))
+
+    def _scalar_energy_inverse(self, energy: float) -> float:
+        if energy <= 0.0:
+            return 0.0
+        if energy <= self._linear_energy:
+            return math.sqrt(2.0 * energy / self.stiffness)  # the linear region: V_D = K0 a^2/2
+        # Newton's method from above: on a convex increasing V_D every iterate stays above the root and the
+        # sequence decreases to it quadratically. The start must be above the root: F_c >= F0 beyond xi x_b, so
+        # V_D(a) >= V_D(xi x_b) + F0 (a - xi x_b) and a0 = xi x_b + (energy - V_D(xi x_b))/F0 is above it when
+        # F0 > 0; with xi = 0 (F0 = 0) the start doubles from x_b until V_D there reaches the energy.
+        linear_limit = self._linear_limit
+        if self._linear_limit_force > 0.0:
+            magnitude = linear_limit + (energy - self._linear_energy) / self._linear_limit_force
+        else:
+            magnitude = self.saturation_error
+            while self._scalar_energy(magnitude) < energy:
+                magnitude *= 2.0
+        for _ in range(60):
+            excess = self._scalar_energy(magnitude) - energy
+            if excess <= 0.0:
+                break
+            step = excess / self._scalar_force(magnitude)
+            magnitude -= step
+            if step <= 1e-15 * magnitude:
+                break
+        # What Newton leaves above the root is far below this relative margin once it has converged: the result
+        # is on the side of the smaller storage.
+        return max(magnitude * (1.0 - 1e-12), linear_limit)
+
+
 def _scalar_log_cosh(u: float) -> float:
     magnitude = abs(u)
     return magnitude + math.log1p(math.exp(-2.0 * magnitude)) - _LOG_2
