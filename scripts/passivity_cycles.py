@@ -1,0 +1,68 @@
+#!/usr/bin/env python3
+"""10,000 random error cycles at dt = 1 ms through the FIC attractor, judged by an independent storage.
+
+Each cycle starts at rest at e = 0 and ends at rest there; its errors reverse inside C, carry noise, take both
+signs, are sometimes sampled and held at 10 Hz, and come with rates that are right, noisy, reversed or unrelated
+(test/core/passivity_oracle.py). Half the batches use the profiles shipped in config/, half random profiles.
+Prints and (with --json) writes min over all samples of W_k - (V_k - V_0) [J] (target >= -1e-6 J), the
+smallest closed-cycle work, the count of D -> C latches and of capped K_C.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "test" / "core"))
+
+from fic_core.attractor import FractalAttractor  # noqa: E402
+from passivity_oracle import judge, random_cycles, random_profile, shipped_profiles, storage_for  # noqa: E402
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cycles", type=int, default=10_000)
+    parser.add_argument("--axes", type=int, default=10, help="cycles run side by side on one profile")
+    parser.add_argument("--samples", type=int, default=1000, help="samples per cycle (dt = 1 ms)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", type=Path)
+    arguments = parser.parse_args()
+    rng = np.random.default_rng(arguments.seed)
+    shipped = list(shipped_profiles().values())
+    began = time.monotonic()
+    worst_margin = worst_scaled = worst_cycle = np.inf
+    latches = capped = batches = 0
+    shipped_worst = np.inf
+    while batches * arguments.axes < arguments.cycles:
+        use_shipped = batches % 2 == 0
+        profile = shipped[(batches // 2) % len(shipped)] if use_shipped else random_profile(rng)
+        errors, rates = random_cycles(rng, profile.saturation_error, arguments.axes, arguments.samples)
+        deadband = float(rng.choice([0.0, 0.005, 0.05])) * profile.saturation_error / 0.05
+        verdict = judge(FractalAttractor(profile, arguments.axes, deadband), errors, rates,
+                        storage_for(profile, errors))
+        scale = max(1.0, profile.max_force * profile.saturation_error)
+        worst_margin = min(worst_margin, verdict.min_margin)
+        worst_scaled = min(worst_scaled, verdict.min_margin / scale)
+        if use_shipped:
+            shipped_worst = min(shipped_worst, verdict.min_margin)
+        worst_cycle = min(worst_cycle, float(np.min(verdict.final_work)))
+        latches += verdict.latches
+        capped += verdict.capped_latches
+        batches += 1
+    result = {"cycles": batches * arguments.axes, "dt_s": 1e-3, "samples_per_cycle": arguments.samples,
+              "min_margin_j": worst_margin, "min_margin_shipped_profiles_j": shipped_worst,
+              "min_margin_per_max_force_x_b": worst_scaled, "min_closed_cycle_work_j": worst_cycle,
+              "latches": latches, "capped_latches": capped, "seconds": round(time.monotonic() - began, 1)}
+    print(json.dumps(result, indent=2))
+    if arguments.json:
+        arguments.json.write_text(json.dumps(result, indent=2) + "\n")
+    return 0 if worst_scaled >= -1e-6 and shipped_worst >= -1e-6 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
