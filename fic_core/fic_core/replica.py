@@ -69,6 +69,7 @@ from .limits import VIOLATION_TOLERANCE, LimitFlag, PandaLimits, violation_flags
 from .postural_optimisation import _FLAGS, _INSIDE, PosturalOptimisation
 from .posture import NullSpacePosture
 from .robot_model import RobotModel, checked_array
+from .torque_slew import TorqueSlew
 
 _ROTATION_TOLERANCE = 1e-6
 
@@ -133,11 +134,12 @@ class ReplicaCommand:
 
     __slots__ = ("torque", "unshaped_torque", "wrench", "rotation_error", "desired_rotation", "tcp_rotation",
                  "limit_shaping", "limit_violations", "torque_change", "tcp_speed", "controller_name", "solved_qp",
-                 "relaxed", "guard_clipped", "q", "qd", "previous_torque", "control_period", "limits",
+                 "relaxed", "guard_clipped", "q", "qd", "previous_torque", "control_period", "interval", "law_torque", "limits",
                  "feedforward_wrench", "_desired_position", "_tcp_position", "_tracking_error", "_jacobian",
                  "_posture_joint_torque", "_posture_task_force", "_controller_snapshot", "_dynamics", "_cache")
 
-    torque: NDArray[np.float64]              # the command [N m] (7,), inside the limits
+    torque: NDArray[np.float64]              # the command sent [N m] (7,): the law's, slewed (torque_slew.py)
+    law_torque: NDArray[np.float64]          # the postural optimisation's output before the slew (7,)
     unshaped_torque: NDArray[np.float64]     # tau_d of Eq. 7 before the postural optimisation (7,)
     wrench: NDArray[np.float64]              # FIC(x~_R) [N, N m] (6,), base frame (= the controller's force)
     rotation_error: NDArray[np.float64]      # log(R_d R^T) [rad] (3,), base frame
@@ -153,8 +155,9 @@ class ReplicaCommand:
     guard_clipped: bool                      # the last-guard clip acted
     q: NDArray[np.float64]                   # measured joint positions [rad] (7,)
     qd: NDArray[np.float64]                  # measured joint velocities [rad/s] (7,)
-    previous_torque: NDArray[np.float64] | None  # the command before this one (None for the first)
-    control_period: float                    # [s]
+    previous_torque: NDArray[np.float64] | None  # the command sent before this one (None for the first)
+    control_period: float                    # the law's period [s]
+    interval: float                          # time since the command before this one [s] (its rate bound)
     limits: PandaLimits
     feedforward_wrench: NDArray[np.float64] | None  # Lambda a_d [N, N m] (6,), None without a_d
 
@@ -162,8 +165,10 @@ class ReplicaCommand:
                  limit_shaping, limit_violations, torque_change, tcp_speed, controller_name, solved_qp, relaxed,
                  guard_clipped, q, qd, previous_torque, control_period, limits, feedforward_wrench,
                  desired_position, tcp_position, tracking_error, jacobian, posture_joint_torque,
-                 posture_task_force, controller_snapshot, dynamics) -> None:
+                 posture_task_force, controller_snapshot, dynamics, interval=None, law_torque=None) -> None:
         self.torque = torque
+        self.law_torque = torque if law_torque is None else law_torque
+        self.interval = control_period if interval is None else interval
         self.unshaped_torque = unshaped_torque
         self.wrench = wrench
         self.rotation_error = rotation_error
@@ -269,10 +274,11 @@ class ReplicaCommand:
 
     @property
     def torque_rate_ratio(self) -> NDArray[np.float64]:
-        """|tau_i - tau_prev_i| / (torque-rate limit * control period) (7,); zeros for the first command."""
+        """|tau_i - tau_prev_i| / (torque-rate limit * the interval since it) (7,) of the torque sent; zeros for
+        the first command."""
         if self.previous_torque is None:
             return np.zeros_like(self.torque)
-        return np.abs(self.torque - self.previous_torque) / (self.limits.torque_rate * self.control_period)
+        return np.abs(self.torque - self.previous_torque) / (self.limits.torque_rate * self.interval)
 
     @property
     def joint_velocity_ratio(self) -> NDArray[np.float64]:
@@ -357,6 +363,12 @@ class ReplicaController:
     ``control_period`` is the time between two ``command`` calls: it sets the torque-rate box (rate * period)
     and the prediction step. The first command after construction or ``reset()`` has no torque-rate bound
     (there is no previous command to rate against).
+
+    The torque it returns is the torque to send: the law's output approached from the last torque sent at the
+    torque-rate limit over the time since it (``TorqueSlew``; ``command_period`` is the shortest such time, the
+    joint-state period), and ``held_torque`` gives the torque to send at a joint state between two control
+    ticks. So the limit flags, the counters and the LimitStatus ratios describe what goes to the robot, and
+    |tau_k - tau_(k-1)| <= torque_rate * dt_k over the whole sequence sent.
     """
 
     def __init__(self, robot: RobotModel, controller: TaskController, limits: PandaLimits | None = None,
@@ -364,7 +376,8 @@ class ReplicaController:
                  optimisation: PosturalOptimisation | None = None,
                  feedforward_regularisation: float = DEFAULT_FEEDFORWARD_REGULARISATION,
                  joint_damping_compensation: bool = False,
-                 feedforward_limit: tuple[float, float] | None = None) -> None:
+                 feedforward_limit: tuple[float, float] | None = None,
+                 command_period: float | None = None) -> None:
         self.robot = robot
         self.controller = controller
         self.limits = PandaLimits.from_robot(robot) if limits is None else limits
@@ -375,7 +388,9 @@ class ReplicaController:
             if optimisation is None else optimisation
         if abs(self.optimisation.control_period - self.control_period) > 1e-12:
             raise FicInputError("the optimisation's control_period must equal the replica's control_period")
-        self._previous_torque: NDArray[np.float64] | None = None
+        self._slew = TorqueSlew(self.limits.torque_rate,
+                                self.control_period if command_period is None else command_period)
+        self._target: NDArray[np.float64] | None = None  # the law's last output, approached between ticks
         self._held_position: NDArray[np.float64] | None = None
         self._held_rotation: NDArray[np.float64] | None = None
         self.ticks = 0              # cumulative counters (LimitStatus ticks, shaped_ticks, violation_ticks)
@@ -412,26 +427,53 @@ class ReplicaController:
     @property
     def previous_torque(self) -> NDArray[np.float64] | None:
         """The last command (None before the first)."""
-        return None if self._previous_torque is None else self._previous_torque.copy()
+        previous = self._slew.last
+        return None if previous is None else previous.copy()
 
     def reset(self, previous_torque: ArrayLike | None = None) -> None:
         """Forget the controller state and the last desired pose; optionally state the torque now applied."""
         self.controller.reset()
-        self._previous_torque = None if previous_torque is None else \
+        torque = None if previous_torque is None else \
             finite_array("previous_torque", previous_torque, (self.robot.dof,)).copy()
-        self._previous_values = None if self._previous_torque is None else self._previous_torque.tolist()
+        self._slew.reset(torque)
+        self._target = torque
+        self._previous_values = None if torque is None else torque.tolist()
         self._held_position = None
         self._held_rotation = None
 
+    def continue_from(self, other: ReplicaController) -> None:
+        """Take over from the controller this one replaces (a change of parameters at run time): the torque it
+        sent last (so the torque-rate bound holds across the swap), its target, and its cumulative counters.
+        The task controller's own state starts afresh (its profile may have changed)."""
+        last = other._slew.last
+        self._slew.reset(last, other._slew.last_time)
+        self._target = None if other._target is None else other._target.copy()
+        self._previous_values = None if last is None else last.tolist()
+        self.ticks, self.shaped_ticks, self.violation_ticks = other.ticks, other.shaped_ticks, other.violation_ticks
+
+    def held_torque(self, time: float | None = None) -> NDArray[np.float64] | None:
+        """The torque to send at a joint state between control ticks (joint-state time ``time``; None:
+        unknown): the law's last output approached at the torque-rate limit. None before the first tick."""
+        if self._target is None:
+            return self.previous_torque
+        torque = self._slew.step(self._target, time)
+        self._previous_values = torque.tolist()
+        return torque.copy()
+
+    def repeat_torque(self) -> NDArray[np.float64] | None:
+        """The last torque sent, again (a joint state that could not be used: nothing moves)."""
+        return self.previous_torque
+
     def command(self, q: ArrayLike, qd: ArrayLike, desired_position: ArrayLike, desired_rotation: ArrayLike,
                 desired_twist: ArrayLike | None = None,
-                desired_acceleration: ArrayLike | None = None) -> ReplicaCommand:
+                desired_acceleration: ArrayLike | None = None, time: float | None = None) -> ReplicaCommand:
         """The torque for state (q, qd) toward the desired TCP pose (rotation: 3x3 matrix or quaternion x,y,z,w).
 
         ``desired_twist`` (6,) is the desired TCP twist [v; w] in the base frame (zero if omitted); the twist
         error handed to the controller is desired minus measured. ``desired_acceleration`` is the desired TCP
         acceleration in the base frame, (6,) [a; alpha] or (3,) a (then alpha = 0); if given, the inertial
         feedforward J^T Lambda a_d is added to tau_d before the postural optimisation (module docstring).
+        ``time``: the joint-state time the command answers, for the slew's interval (None: one command period).
         Raises FicInputError on NaN/Inf or bad shapes, before any state changes.
         """
         desired_position = finite_floats("desired_position", desired_position, 3)
@@ -505,7 +547,7 @@ class ReplicaController:
         tcp_acceleration = jacobian[:3].dot(acceleration).tolist()
         tcp_ahead = [velocity + horizon * value for velocity, value in zip(twist, tcp_acceleration)]
         tcp_ahead_squared = tcp_ahead[0] * tcp_ahead[0] + tcp_ahead[1] * tcp_ahead[1] + tcp_ahead[2] * tcp_ahead[2]
-        previous = self._previous_torque
+        previous = self._slew.last   # the torque sent last: the rate box is around it
         previous_values = self._previous_values
         desired_values = desired_torque.tolist()
         # One check for every term (NaN/Inf propagate into the sum; a sum that overflowed is checked in full).
@@ -528,16 +570,30 @@ class ReplicaController:
                 torque = desired_torque.copy()
             torque_values = torque.tolist()
             flags = _FLAGS[flags]
+        # The torque sent: the law's, slewed from the last one sent over the time since it (torque_slew.py).
+        law_torque = torque
+        self._target = law_torque
+        interval = self._slew.interval(time)
+        torque = self._slew.step(law_torque, time)
+        sent_values = torque.tolist()
+        slewed = sent_values != torque_values
+        if slewed:
+            flags = LimitFlag(int(flags) | LimitFlag.TORQUE_RATE.value)
+            torque_values = sent_values
+        else:
+            torque = law_torque
         velocity = twist[:3]
         tcp_speed = math.sqrt(velocity[0] * velocity[0] + velocity[1] * velocity[1] + velocity[2] * velocity[2])
         # An unshaped tau_d with |qd| and q inside their limits (the verdict says so, with the same limits) breaks
-        # none of SPEC 2.2's limits unless the TCP speed does; otherwise the full check on floats.
-        if (tcp_speed <= self._tcp_speed_bound if verdict >= _INSIDE and self._verdict_covers_violations
-                else self._violation_free(torque_values, qd_values, margins, tcp_speed)):
+        # none of the limits unless the TCP speed does (when it is sent as it is, a full period after the last
+        # command); otherwise the full check on floats, against the interval since the last command sent.
+        full_interval = interval >= self.control_period * (1.0 - 1e-9)
+        if (tcp_speed <= self._tcp_speed_bound
+                if verdict >= _INSIDE and self._verdict_covers_violations and not slewed and full_interval
+                else self._violation_free(torque_values, qd_values, margins, tcp_speed, interval)):
             violations = _NO_LIMIT
         else:
-            violations = self._violations(previous, torque, qd, np.array(margins), tcp_speed)
-        self._previous_torque = torque
+            violations = self._violations(previous, torque, qd, np.array(margins), tcp_speed, interval)
         self._previous_values = torque_values
         self.ticks += 1
         if flags:
@@ -551,7 +607,8 @@ class ReplicaController:
             torque_change, tcp_speed, controller.controller_name, solved_qp, relaxed, guard_clipped, q, qd,
             previous, self.control_period, limits, feedforward_wrench, desired_position, position, position_error,
             jacobian, posture_joint_torque, posture_task_force,
-            snapshot() if snapshot is not None else _EagerSnapshot(controller), self._report_dynamics)
+            snapshot() if snapshot is not None else _EagerSnapshot(controller), self._report_dynamics,
+            interval, law_torque)
 
     def _desired_rotation(self, value: ArrayLike) -> NDArray[np.float64]:
         """``_desired_rotation``, whose orthonormality test is skipped for a matrix equal to the last one that
@@ -575,7 +632,7 @@ class ReplicaController:
         return solution
 
     def _violation_free(self, torque: list[float], qd: list[float], position_margin: list[float],
-                        tcp_speed: float) -> bool:
+                        tcp_speed: float, interval: float) -> bool:
         """No SPEC 2.2 violation (the common tick), on floats; ``_violations`` names them otherwise."""
         limits = self.limits
         tolerance = VIOLATION_TOLERANCE
@@ -583,7 +640,7 @@ class ReplicaController:
             return False
         previous = self._previous_values
         if previous is not None:
-            step = limits.torque_rate * self.control_period + tolerance
+            step = limits.torque_rate * interval + tolerance
             for value, before in zip(torque, previous):
                 if not abs(value - before) <= step:
                     return False
@@ -595,19 +652,23 @@ class ReplicaController:
         return True
 
     def _violations(self, previous: NDArray[np.float64] | None, torque: NDArray[np.float64],
-                    qd: NDArray[np.float64], position_margin: NDArray[np.float64], tcp_speed: float) -> LimitFlag:
+                    qd: NDArray[np.float64], position_margin: NDArray[np.float64], tcp_speed: float,
+                    interval: float) -> LimitFlag:
         """SPEC 2.2's violation flags, with one fused test for the common all-clear tick."""
         limits = self.limits
         if previous is None:
             excess = (np.abs(np.concatenate((torque, qd))) - self._first_bounds).max()
         else:
-            excess = (np.abs(np.concatenate((torque, torque - previous, qd))) - self._bounds).max()
+            bounds = self._bounds if interval == self.control_period else np.concatenate(
+                (self.limits.torque_array, np.full(self.robot.dof, limits.torque_rate * interval),
+                 self.limits.joint_velocity_array))
+            excess = (np.abs(np.concatenate((torque, torque - previous, qd))) - bounds).max()
         if excess <= VIOLATION_TOLERANCE and position_margin.min() >= -VIOLATION_TOLERANCE \
                 and tcp_speed <= limits.tcp_speed + VIOLATION_TOLERANCE:
             return LimitFlag.NONE
-        return violation_flags(previous, torque, self.robot.q, qd, tcp_speed, self.control_period, limits)
+        return violation_flags(previous, torque, self.robot.q, qd, tcp_speed, interval, limits)
 
-    def hold(self, q: ArrayLike, qd: ArrayLike) -> ReplicaCommand:
+    def hold(self, q: ArrayLike, qd: ArrayLike, time: float | None = None) -> ReplicaCommand:
         """A safe hold: keep the last desired pose (or, before any, the current TCP pose), zero desired twist.
 
         The same law and the same limits as ``command``; only the target stops moving.
@@ -616,4 +677,4 @@ class ReplicaController:
             self.robot.update(q, qd)
             self._held_position = self.robot.tcp_position.tolist()
             self._held_rotation = self.robot.tcp_rotation.copy()
-        return self.command(q, qd, self._held_position, self._held_rotation)
+        return self.command(q, qd, self._held_position, self._held_rotation, time=time)

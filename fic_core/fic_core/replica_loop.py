@@ -1,0 +1,200 @@
+"""The replica's loop, one joint state at a time: what the replica node runs and the in-process runner steps.
+
+    joint state (q, qd at time t) --> ControlSchedule: a control tick?
+        tick:     DesiredPose x_d = x_d'' + x_d' --> DesiredVelocityFilter --> ReplicaController (paper Eq. 7,
+                  the postural optimisation, the torque slew) --> the torque to send
+        between:  the held torque, slewed (only if every state is answered, as lockstep needs)
+    teleoperation command (x_d'), planner pose and acceleration (x_d'') --> DesiredPose
+
+Two clocks, as on the robot: ``time`` is the joint state's stamp (the control grid, the slew, the status rates),
+``now`` the receiver's clock (the set-point holds, the watchdog); in lockstep both are simulated time. Before the
+first joint state nothing is sent; a joint state that cannot be used repeats the last torque sent. Inputs with
+NaN/Inf raise FicInputError and leave every value as it was (the caller logs them once, throttled).
+What the caller should say (a watchdog turning stale, commands back) comes back as ``notices``.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .control_schedule import ControlSchedule, RateGate
+from .desired_pose import DesiredPose, DesiredPoseParameters
+from .desired_velocity import DesiredVelocityFilter
+from .errors import FicInputError
+from .limits import PandaLimits
+from .replica import ReplicaCommand, ReplicaController, rotation_from_quaternion
+from .replica_parameters import build_replica_controller, checked
+from .robot_model import RobotModel
+
+COUNTERS = ("joint_states", "control_ticks", "teleop_commands", "planner_poses", "wrenches", "rejected_joint_states",
+            "rejected_teleop_commands", "rejected_planner_poses", "rejected_wrenches", "controller_errors")
+
+
+@dataclass
+class ReplicaStep:
+    """What one joint state produced."""
+
+    torque: NDArray[np.float64] | None = None     # the torque to send now (None: send nothing)
+    command: ReplicaCommand | None = None         # the control tick's report (None: no tick)
+    poses_due: bool = False                       # desired/TCP poses and F_R are due (pose_rate)
+    status_due: bool = False                      # FicState and LimitStatus are due (status_rate)
+    notices: list[tuple[str, str]] = field(default_factory=list)  # (level, text): info, warning, error
+
+
+def _desired_pose_parameters(p: Mapping[str, Any]) -> DesiredPoseParameters:
+    return DesiredPoseParameters(p["master_timeout"], p["resume_speed"], p["set_point_acceleration_filter"],
+                                 p["set_point_extrapolation"], p["planner_feedforward"], p["offset_feedforward"],
+                                 p["use_planner_orientation"])
+
+
+class ReplicaLoop:
+    """The replica's control logic for a parameter mapping (fic_core.replica_parameters; module docstring)."""
+
+    def __init__(self, values: Mapping[str, Any], robot: RobotModel | None = None) -> None:
+        self.robot = RobotModel() if robot is None else robot
+        self.limits = PandaLimits.from_robot(self.robot)
+        self.parameters = checked(values)
+        p = self.parameters
+        self.controller: ReplicaController = build_replica_controller(self.robot, self.limits, p)
+        self.desired = DesiredPose(_desired_pose_parameters(p))
+        self.velocity_filter = DesiredVelocityFilter(p["desired_velocity_filter"])
+        self.schedule = ControlSchedule(p["control_rate"], p["command_period"], p["tick_on_command"])
+        self._pose_gate = RateGate(p["pose_rate"], p["command_period"])
+        self._status_gate = RateGate(p["status_rate"], p["command_period"])
+        self.last_command: ReplicaCommand | None = None
+        self._shaping_since_status = 0      # LimitStatus flags OR-ed over the ticks since the last message
+        self._violations_since_status = 0
+        self.counts = {name: 0 for name in COUNTERS}
+
+    # --- parameters ------------------------------------------------------------------------------------------
+    def configure(self, changes: Mapping[str, Any]) -> dict[str, Any]:
+        """Change parameters at run time: all or none (FicInputError names the bad one). The new controller
+        takes over the torque sent, the counters and the control grid; returns the new full mapping."""
+        p = checked({**self.parameters, **changes})
+        controller = build_replica_controller(self.robot, self.limits, p)
+        schedule = ControlSchedule(p["control_rate"], p["command_period"], p["tick_on_command"])
+        desired = _desired_pose_parameters(p)
+        controller.continue_from(self.controller)
+        schedule.continue_from(self.schedule)
+        self.controller, self.schedule = controller, schedule
+        self.desired.parameters = desired
+        self.velocity_filter.time_constant = p["desired_velocity_filter"]
+        for gate, rate in ((self._pose_gate, p["pose_rate"]), (self._status_gate, p["status_rate"])):
+            gate.rate, gate.command_period = rate, p["command_period"]
+        self.parameters = p
+        return p
+
+    # --- inputs ----------------------------------------------------------------------------------------------
+    def _counted(self, counter: str, call, *args):
+        try:
+            result = call(*args)
+        except FicInputError:
+            self.counts["rejected_" + counter] += 1
+            raise
+        self.counts[counter] += 1
+        return result
+
+    def add_teleoperation(self, stamp_ns: int, offset: ArrayLike, now: float) -> str | None:
+        """x_d' of a teleoperation command; a notice when commands are back after a stale period."""
+        return self._counted("teleop_commands", self.desired.add_teleoperation, stamp_ns, offset, now)
+
+    def add_planner_pose(self, stamp_ns: int, position: ArrayLike, quaternion_xyzw: ArrayLike, now: float) -> None:
+        """x_d'' of the planner (orientation as a quaternion x, y, z, w)."""
+        def add() -> None:
+            self.desired.add_planner_pose(stamp_ns, position, rotation_from_quaternion(quaternion_xyzw), now)
+        self._counted("planner_poses", add)
+
+    def add_planner_acceleration(self, acceleration: ArrayLike, now: float) -> None:
+        try:
+            self.desired.add_planner_acceleration(acceleration, now)
+        except FicInputError:
+            self.counts["rejected_planner_poses"] += 1
+            raise
+
+    # --- the control step ------------------------------------------------------------------------------------
+    def skips(self, time: float) -> bool:
+        """Whether a joint state stamped ``time`` can be counted and dropped unread (no tick, no answer)."""
+        return not self.parameters["answer_every_state"] and self.schedule.last_tick is not None and \
+            not self.schedule.due(time, self.desired.command_unused)
+
+    def skip(self) -> None:
+        self.counts["joint_states"] += 1
+
+    def refuse_joint_state(self) -> NDArray[np.float64] | None:
+        """A joint state that cannot be used: the last torque sent, again (None before any)."""
+        self.counts["joint_states"] += 1
+        self.counts["rejected_joint_states"] += 1
+        return self.controller.repeat_torque()
+
+    def joint_state(self, time: float, now: float, q: NDArray[np.float64], qd: NDArray[np.float64]) -> ReplicaStep:
+        """One joint state (validated q, qd at joint-state time ``time``, received at ``now``)."""
+        self.counts["joint_states"] += 1
+        step = ReplicaStep()
+        if not self.desired.started:
+            self.robot.update(q, qd)
+            self.desired.start(self.robot.tcp_position, self.robot.tcp_rotation)
+            step.notices.append(("info", f"first joint state: holding the TCP at "
+                                         f"{np.round(self.desired.start_position, 4)} until the master and the "
+                                         "planner speak"))
+        if self.schedule.due(time, self.desired.command_unused):
+            step.command = self._control(q, qd, time, now, self.schedule.tick(time), step.notices)
+            step.torque = step.command.torque
+        elif self.parameters["answer_every_state"]:
+            step.torque = self.controller.held_torque(time)
+        step.poses_due = self._pose_gate.take(time)
+        step.status_due = self.last_command is not None and self._status_gate.take(time)
+        return step
+
+    def _control(self, q: NDArray[np.float64], qd: NDArray[np.float64], time: float, now: float, dt: float,
+                 notices: list[tuple[str, str]]) -> ReplicaCommand:
+        sample = self.desired.update(now, dt)
+        notices.extend(("warning", text) for text in sample.notices)
+        desired_twist = self.velocity_filter.update(sample.position, dt)
+        try:
+            command = self.controller.command(q, qd, sample.position, sample.rotation, desired_twist,
+                                              desired_acceleration=sample.acceleration, time=time)
+        except FicInputError as exc:  # only reachable through a bug upstream: hold, say why
+            self.counts["controller_errors"] += 1
+            notices.append(("error", f"control step refused its inputs: {exc}; holding"))
+            command = self.controller.hold(q, qd, time=time)
+        self.counts["control_ticks"] += 1
+        self.last_command = command
+        self._shaping_since_status |= int(command.limit_shaping)
+        self._violations_since_status |= int(command.limit_violations)
+        return command
+
+    def take_limit_flags(self) -> tuple[int, int]:
+        """(shaping, violations) OR-ed over the ticks since the last call (a LimitStatus message each)."""
+        flags = (self._shaping_since_status, self._violations_since_status)
+        self._shaping_since_status = self._violations_since_status = 0
+        return flags
+
+    # --- reports ---------------------------------------------------------------------------------------------
+    def watchdog_state(self) -> str:
+        desired = self.desired
+        if desired.master_stale:
+            return "stale (holding x_d')"
+        if desired.master_received is None:
+            return "no command yet"
+        return "resuming" if desired.resuming else "ok"
+
+    def statistics(self) -> dict[str, str]:
+        controller = self.controller
+        optimisation = controller.optimisation
+        values = {key: str(value) for key, value in self.counts.items()}
+        values.update({
+            "controller": self.parameters["controller"],
+            "master_watchdog": self.watchdog_state(),
+            "planner": "ok" if self.desired.has_planner else "no pose yet (holding the start pose)",
+            "ticks": str(controller.ticks),
+            "shaped_ticks": str(controller.shaped_ticks),
+            "violation_ticks": str(controller.violation_ticks),
+            "qp_solves": str(optimisation.qp_count),
+            "relaxed_solves": str(optimisation.relaxed_count),
+            "guard_clips": str(optimisation.guard_clips),
+        })
+        return values
