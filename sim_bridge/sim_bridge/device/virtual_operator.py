@@ -33,17 +33,15 @@ import yaml
 from numpy.typing import ArrayLike, NDArray
 
 from fic_core.errors import FicInputError, finite_array, finite_scalar
+from fic_core.operator_buttons import BUTTON_COUNT, BUTTON_NAMES, OperatorButton  # noqa: F401 (BUTTON_COUNT re-exported)
 
 Vector3 = NDArray[np.float64]
 
-# sensor_msgs/Joy button indices on /operator/joy (docs/CONVENTIONS.md). A press is edge-triggered: one
-# message with the button at 1, then messages with it at 0.
-BUTTON_TOGGLE_MODE = 0
-BUTTON_HAPTIC_GAIN_UP = 1
-BUTTON_HAPTIC_GAIN_DOWN = 2
-BUTTONS = {"toggle_mode": BUTTON_TOGGLE_MODE, "haptic_gain_up": BUTTON_HAPTIC_GAIN_UP,
-           "haptic_gain_down": BUTTON_HAPTIC_GAIN_DOWN}
-BUTTON_COUNT = 3
+# sensor_msgs/Joy button indices on /operator/joy: the one map is fic_core.operator_buttons (the master reads it).
+BUTTON_TOGGLE_MODE = int(OperatorButton.TOGGLE_MODE)
+BUTTON_HAPTIC_GAIN_UP = int(OperatorButton.HAPTIC_GAIN_UP)
+BUTTON_HAPTIC_GAIN_DOWN = int(OperatorButton.HAPTIC_GAIN_DOWN)
+BUTTONS = {name: int(button) for name, button in BUTTON_NAMES.items()}
 
 INTERPOLATIONS = ("linear", "smooth")
 
