@@ -1,0 +1,190 @@
+"""The teleoperation graph in one process: the same core objects the nodes wrap, stepped on one simulated clock.
+
+    scripted operator's hand + haptic device (device node, 250 Hz; button presses at 50 Hz)
+      -> fic_core.MasterStation (master node: force 250 Hz, x_d' 100 Hz)
+      -> Channel forward (channel node: delay, jitter, drop, blackouts, rate cap, seeded; delivered at 250 Hz)
+      -> fic_core.ReplicaLoop (replica node, every joint state answered as in lockstep)  <- HarmonicPlanner 100 Hz
+      -> PandaSimulation (robot node, 1 kHz; F/T at 250 Hz)  -> F_R at pose_rate -> Channel backward -> master
+
+Parameters come from config/*.yaml with the launcher's overrides for lockstep (control_rate 1000, every joint state
+answered, the operator script and the planner's circle on one origin), so a run here and
+``scripts/run_teleop.sh --time-mode lockstep`` execute the same laws at the same rates and delays. What differs:
+no DDS (a message is taken in at the millisecond it is sent, where a lockstep graph delivers it within a step or
+two), and the nodes' timers fire on exact multiples of their periods. Deterministic for a seed (the channel's
+draws and the bond thresholds are the only random elements).
+"""
+from __future__ import annotations
+
+import math
+import time as wall_clock
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from fic_core.master_station import MasterStation
+from fic_core.planner import HarmonicPlanner
+from fic_core.replica_loop import ReplicaLoop
+from fic_core.trajectories import Circle, FixedPoint
+from sim_bridge.channel.channel import Channel, ChannelConfig
+from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
+from sim_bridge.robot.mujoco_panda import PandaSimulation
+
+REPO = Path(__file__).resolve().parents[3]
+STEP = 0.001                     # the robot's physics step and joint-state period [s]
+SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
+PLANNER_LAG_S = 0.2
+JOY_RATE_HZ = 50.0               # the device node's button messages
+
+
+def _parameters(name: str) -> dict[str, Any]:
+    data = yaml.safe_load((REPO / "config" / name).read_text())
+    return dict(next(iter(data.values()))["ros__parameters"])
+
+
+@dataclass
+class RunConfig:
+    scene: str = "superimposition"
+    duration: float = 10.0
+    delay: float = 0.2
+    jitter: float = 0.0
+    drop: float = 0.0
+    blackout_windows: tuple[tuple[float, float], ...] = ()
+    rate_cap: float = 0.0
+    controller: str = "fic"
+    control_rate: float = 1000.0
+    trajectory: str | None = None      # None: the circle in E1, a fixed point elsewhere (the launcher's choice)
+    seed: int = 1
+    script_path: Path | None = None    # None: config/operator_scripts/<scene>.yaml
+    replica_overrides: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class RunResult:
+    time: np.ndarray                  # the replica's pose stamps [s] (pose_rate)
+    desired: np.ndarray               # x_d (n, 3)
+    tcp: np.ndarray                   # x_R (n, 3)
+    force: np.ndarray                 # F_R at those stamps (n, 3)
+    offset: np.ndarray                # x_d' in use at those stamps (n, 3)
+    objects: dict[str, tuple[np.ndarray, np.ndarray]]   # the scene's objects (position, quaternion) at the end
+    wall_s: float
+    simulated_s: float
+    limit_violations: int
+    shaped_ticks: int
+
+    @property
+    def tracking_error(self) -> np.ndarray:
+        return np.linalg.norm(self.desired - self.tcp, axis=1)
+
+    @property
+    def speed(self) -> float:
+        """Simulated seconds per wall second."""
+        return self.simulated_s / self.wall_s
+
+
+def _every(rate: float) -> int:
+    return max(1, int(round(1.0 / (rate * STEP))))
+
+
+def run(config: RunConfig) -> RunResult:
+    """One run of the graph (module docstring)."""
+    r, m, h = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("haptic_device.yaml")
+    pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
+    trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
+    replica = ReplicaLoop({**r, "controller": config.controller, "control_rate": config.control_rate,
+                           "answer_every_state": True, **config.replica_overrides})
+    master = MasterStation(m)
+    device = HapticDevice(HapticDeviceParameters(
+        mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
+        wall_stiffness=h["wall_stiffness"], wall_damping=h["wall_damping"], max_force=h["max_force"],
+        substep=h["substep"]))
+    hand = Hand(HandParameters(stiffness=h["hand_stiffness"], damping=h["hand_damping"],
+                               correction_rate=h["hand_correction_rate"], max_correction=h["hand_max_correction"],
+                               max_force=h["hand_max_force"]))
+    script = load_script(config.script_path or REPO / "config" / "operator_scripts" / f"{config.scene}.yaml")
+    script.check_workspace(device.parameters.half_extents)
+    operator = ScriptedOperator(script)
+    channel = dict(delay=config.delay, jitter=config.jitter, jitter_distribution=ch["jitter_distribution"],
+                   allow_reorder=ch["allow_reorder"], drop_probability=config.drop,
+                   blackout_windows=tuple(config.blackout_windows), rate_cap_hz=config.rate_cap)
+    forward = Channel(ChannelConfig(**channel, seed=config.seed))
+    backward = Channel(ChannelConfig(**channel, seed=config.seed + 1))
+    source = Circle(pl["circle_centre"], pl["circle_diameter"], pl["circle_period"], pl["circle_normal"],
+                    pl["circle_phase"]) if trajectory == "circle" else FixedPoint(pl["fixed_point"])
+    planner = HarmonicPlanner(pl["natural_frequency"], pl["max_velocity"])
+    planner.reset(source.point(0.0))
+    planner_origin = SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0
+    orientation = tuple(pl["orientation"])
+    sim = PandaSimulation(config.scene, config.seed)
+
+    device_every, master_every = _every(h["publish_rate_hz"]), _every(m["control_rate"])
+    network_every, planner_every = _every(m["network_rate"]), _every(pl["publish_rate"])
+    delivery_every, wrench_every = _every(ch["delivery_rate_hz"]), _every(250.0)
+    joy_every = _every(JOY_RATE_HZ)
+    device_command, command_time = np.zeros(3), None
+    buttons: deque[int] = deque()
+    button_down = False
+    ft_wrench = None
+    log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
+    steps = int(round(config.duration / STEP))
+    wall = wall_clock.perf_counter()
+    for k in range(steps):
+        now = k * STEP
+        ns = k * 1_000_000
+        # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
+        if k % device_every == 0:
+            hand.update(operator.target(now), device.position, device_every * STEP if k else 0.0)
+            buttons.extend(event.button for event in operator.poll_events(now))
+            fresh = command_time is not None and now - command_time <= h["command_timeout"]
+            state = device.step(device_command if fresh else np.zeros(3), hand.force, device_every * STEP if k else 0.0)
+            master.add_pose(state.position, (0.0, 0.0, 0.0, 1.0), now)
+            master.add_twist(state.velocity, now)
+        if k % joy_every == 0:
+            pressed = [0, 0, 0]
+            if not button_down and buttons:
+                pressed[buttons.popleft()] = 1
+                button_down = True
+            else:
+                button_down = False
+            master.press(pressed)
+        if k % master_every == 0:
+            force, _ = master.force(now)
+            if force is not None:
+                device_command, command_time = force, now
+        if k % network_every == 0:
+            offset = master.desired_offset(now)
+            if offset is not None:
+                forward.push((ns, offset), now, now)
+        if k % planner_every == 0:
+            if k:
+                planner.step(source.point(max(now - planner_origin, 0.0), position=planner.position),
+                             planner_every * STEP)
+            replica.add_planner_pose(ns, planner.position, orientation, now)
+            replica.add_planner_acceleration(planner.acceleration, now)
+        if k % delivery_every == 0:
+            for delivery in forward.pop_due(now):
+                stamp_ns, offset = delivery.payload
+                replica.add_teleoperation(stamp_ns, offset, now)
+            for delivery in backward.pop_due(now):
+                master.add_feedback(delivery.payload, now)
+        # Robot side: the joint state of step k, the replica's answer, the physics step.
+        if k % wrench_every == 0:
+            ft_wrench = sim.ft_wrench()[:3].copy()
+        result = replica.joint_state(now, now, sim.joint_positions, sim.joint_velocities)
+        if result.poses_due and replica.last_command is not None and ft_wrench is not None:
+            backward.push(ft_wrench, now, now)
+            command = replica.last_command
+            log_t.append(now)
+            log_d.append(command.desired_position)
+            log_r.append(command.tcp_position.copy())
+            log_f.append(ft_wrench)
+            log_o.append(replica.desired.offset)
+        sim.step(result.torque if result.torque is not None else sim.hold_torque())
+    wall = wall_clock.perf_counter() - wall
+    return RunResult(np.array(log_t), np.array(log_d), np.array(log_r), np.array(log_f), np.array(log_o),
+                     sim.object_poses(), wall, steps * STEP,
+                     replica.controller.violation_ticks, replica.controller.shaped_ticks)
