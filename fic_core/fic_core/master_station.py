@@ -40,7 +40,7 @@ MASTER_NUMBERS: dict[str, tuple[float, float, float, str, bool]] = {
     "stiffness": (100.0, 1.0, 5000.0, "K0 of the handle's FIC [N/m] (Eq. 1)", False),
     "saturation_error": (0.04, 1e-3, 1.0, "x_b of the handle's FIC [m]", False),
     "saturation_start": (0.5, 0.0, 0.99, "xi of the handle's FIC, in [0, 1)", False),
-    "max_force": (6.0, 0.1, 100.0, "F_max of the handle's FIC [N] (>= xi*K0*x_b)", False),
+    "max_force": (4.0, 0.1, 100.0, "F_max of the handle's FIC [N] (>= xi*K0*x_b)", False),
     "rate_deadband": (0.005, 0.0, 1.0, "dead-band on d|x_M|/dt for entering the convergence phase [m/s]", False),
     "haptic_gain": (0.5, 0.0, 10.0, "K_H: share of the replica force rendered on the handle (Eq. 3), in [0, 1]; "
                     "values above 1 are clamped to 1 with a warning", False),

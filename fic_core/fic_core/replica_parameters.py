@@ -26,7 +26,7 @@ REPLICA_NUMBERS: dict[str, tuple[float, str, float, float]] = {
     "translation_stiffness": (200.0, "FIC K0 of translation [N/m] (paper Sec. III: 200)", 1.0, 1.0e5),
     "translation_saturation_error": (0.05, "FIC x_b of translation [m] (paper: 0.05)", 1.0e-4, 1.0),
     "translation_saturation_start": (0.5, "FIC xi of translation, in [0, 1)", 0.0, 0.99),
-    "translation_max_force": (15.0, "FIC F_max of translation [N], >= xi*K0*x_b", 0.01, 500.0),
+    "translation_max_force": (10.0, "FIC F_max of translation [N], >= xi*K0*x_b", 0.01, 500.0),
     "rotation_stiffness": (20.0, "FIC K0 of rotation [N m/rad]", 0.1, 1.0e4),
     "rotation_saturation_error": (0.5, "FIC x_b of rotation [rad]", 1.0e-3, 3.14),
     "rotation_saturation_start": (0.5, "FIC xi of rotation, in [0, 1)", 0.0, 0.99),
