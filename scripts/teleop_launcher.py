@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
+import two_stations
 from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
 
 REPO = Path(__file__).resolve().parent.parent
@@ -168,9 +169,12 @@ class Graph:
         self.log_dir = log_dir
         self.processes: list[tuple[NodeSpec, subprocess.Popen, object]] = []
         self.scheduler = RealtimeScheduler()
+        self.wrap = None   # two stations: runs each node in its station's namespace (two_stations.py)
 
     def start(self, spec: NodeSpec) -> None:
         command = node_command(spec)
+        if self.wrap is not None:
+            command = self.wrap(spec.name, command)
         if spec.foreground:
             process = subprocess.Popen(command, preexec_fn=_prioritised(spec.niceness))
             log = None
@@ -346,6 +350,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                              "lower pipeline latency but on 2 cores the recorder can lose joint states "
                              "(scripts/realtime_scheduling.py); default: every node as the shell starts it")
     parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
+    two_stations.add_arguments(parser)
     return parser.parse_args(argv)
 
 
@@ -371,6 +376,14 @@ def main(argv: list[str] | None = None) -> int:
         # The recorder would refuse to overwrite it, and the report would then describe the old run.
         print(f"[run] refused: {bag_path} already holds a bag; give another --out", file=sys.stderr)
         return 2
+    try:
+        two_stations.check_arguments(args)
+    except two_stations.StationError as error:
+        print(f"[run] refused: {error}", file=sys.stderr)
+        return 2
+    if args.two_stations and not two_stations.inside_station():   # namespaces up, this launcher run inside one
+        return two_stations.run(list(sys.argv[1:] if argv is None else argv), args, run_dir)
+    stations = two_stations.inside_hooks(args, run_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
     if args.domain_id is not None:
         os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
@@ -400,8 +413,13 @@ def main(argv: list[str] | None = None) -> int:
         script_origin = next((spec.params["script_start_time"] for spec in specs
                               if "script_start_time" in spec.params), None)
         wall_origin = script_origin if args.time_mode == "realtime" else None
+        if stations is not None:
+            stations.adapt(specs, NodeSpec)
+            running.wrap = stations.wrap
         for spec in specs:
             running.start(spec)
+        if stations is not None:
+            stations.started(wall_origin or time.time())
         granted = running.prioritised()
         if granted:
             if all(granted.values()):
@@ -422,6 +440,8 @@ def main(argv: list[str] | None = None) -> int:
         if interrupted.is_set():
             print("\n[run] interrupted: stopping the graph and finalising the bag", flush=True)
         # Further Ctrl-Cs only set the flag again: they must not cut the bag's finalisation.
+        if stations is not None:
+            stations.stopped()   # the link up again before the nodes stop
         codes = running.stop()
         signal.signal(signal.SIGINT, signal.default_int_handler)
     wall = time.monotonic() - wall_start

@@ -1,0 +1,245 @@
+"""What a two-station run (scripts/two_stations.py) measured about its link: stations.json in the run folder.
+
+- traffic: bytes/s and RTPS samples/s per direction and topic crossing the veth (rtps_traffic.py), while the
+  script runs (from 2 s after its start to the link cut or the end) and before it (discovery, start-up);
+- link cut: when the link went down and up; the first teleoperation command the replica used after link-up
+  (FicState.master_stamp changing to a command it had not used before; FicState comes at status_rate, 100 Hz,
+  so 10 ms resolution) and whether that command was sent before the cut, during it (kept and resent by DDS) or
+  after; the first message of each link stream after link-up; the master's and the replica's log lines about
+  it; per station stream the longest gap between recorded messages inside and outside the cut (the recorder of
+  each station should lose nothing of its own station's streams); node logs with a traceback;
+- clocks: the master stamps the teleoperation command on its clock and the replica ages it on its own, so the
+  report's pipeline latency (FicState.master_age - held) holds the offset between the two clocks. Two figures do
+  not: the robot-station part (the control tick that first used a command minus its delivery by the robot-side
+  channel, both robot clock) and an offset estimate from the two directions (as NTP does): with
+  f = min(received - stamp) over the forward deliveries (robot clock - master clock) and
+  b = min(received - stamp) over the backward ones (master clock - robot clock), offset = (b - f) / 2 of the
+  master's clock ahead of the robot's, within +-(b + f) / 2 (both true transits are >= 0). The corrected
+  pipeline latency is the report's plus that offset.
+
+All times are host wall-clock seconds: both namespaces share the host's clock, unless --station-clock-offset
+shifted the master station's.
+"""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+RUNNING_FROM_S = 6.0
+DELIVERY_TOPICS = {"robot": "/channel/deliveries", "master": "/master_station/channel/deliveries"}
+ROBOT_STREAMS = ["/joint_states", "/clock", "/ft_sensor/wrench", "/replica/fic_state", "/replica/tcp_pose",
+                 "/planner/desired_pose", "/replica/teleop_command"]
+MASTER_STREAMS = ["/haptic/pose", "/master/teleop_command", "/haptic/wrench_command", "/master/feedback_wrench"]
+
+
+def _seconds(time_msg) -> float:
+    return time_msg.sec + 1e-9 * time_msg.nanosec
+
+
+def read_bag(bag: Path, decode: set[str]) -> dict:
+    """Per topic: receive (log) times [s]; for the topics in `decode`, the decoded messages too."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    files = sorted(bag.glob("*.mcap")) if bag.is_dir() else [bag]
+    logs: dict[str, list[float]] = {}
+    messages: dict[str, list] = {}
+    for path in files:
+        with open(path, "rb") as stream:
+            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+            for schema, channel, message in reader.iter_messages():
+                logs.setdefault(channel.topic, []).append(message.log_time * 1e-9)
+            stream.seek(0)
+            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+            if decode:
+                for schema, channel, message, decoded in reader.iter_decoded_messages(topics=sorted(decode)):
+                    messages.setdefault(channel.topic, []).append((message.log_time * 1e-9, decoded))
+    return {"logs": {k: np.sort(np.array(v)) for k, v in logs.items()}, "messages": messages}
+
+
+def traffic_summary(capture: dict, start: float | None, end: float | None) -> dict:
+    from rtps_traffic import summarise
+    summary = summarise(capture, start, end)
+    totals = {direction: round(sum(e["bytes"] for e in topics.values()) / max((end - start), 1e-9), 1)
+              if start is not None and end is not None else None for direction, topics in summary.items()}
+    return {"window_s": None if start is None or end is None else round(end - start, 2),
+            "per_topic": summary, "total_bytes_per_s": totals}
+
+
+def _gap_stats(times: np.ndarray, window: tuple[float, float] | None) -> dict:
+    if len(times) < 2:
+        return {"messages": int(len(times))}
+    gaps = np.diff(times)
+    result = {"messages": int(len(times)), "longest_gap_s": round(float(gaps.max()), 4)}
+    if window is not None:
+        inside = (times[1:] >= window[0]) & (times[:-1] <= window[1])
+        result["longest_gap_in_cut_s"] = round(float(gaps[inside].max()), 4) if inside.any() else None
+        result["longest_gap_outside_cut_s"] = round(float(gaps[~inside].max()), 4) if (~inside).any() else None
+        span = window[1] - window[0]
+        in_window = np.count_nonzero((times >= window[0]) & (times < window[1]))
+        result["rate_in_cut_hz"] = round(in_window / span, 1) if span > 0 else None
+        before = times[(times >= window[0] - span) & (times < window[0])]
+        result["rate_before_cut_hz"] = round(len(before) / span, 1) if span > 0 else None
+    return result
+
+
+def deliveries(bag: dict, topic_key: str, route_topic: str) -> tuple[np.ndarray, list[int]]:
+    """(stamp, received, held) of the channel's deliveries of one route [s], and their stamps in integer ns (the
+    key that FicState.master_stamp matches exactly; a float second of 1.7e9 is only good to 0.2 us)."""
+    rows, keys = [], []
+    for _, m in bag["messages"].get(topic_key, []):
+        if m.topic == route_topic:
+            rows.append((_seconds(m.header.stamp), _seconds(m.received), float(m.held)))
+            keys.append(m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec)
+    return (np.array(rows) if rows else np.empty((0, 3))), keys
+
+
+def clock_figures(robot: dict, master: dict, warmup_origin: float) -> dict:
+    """The robot-station latency, the offset estimate and the corrected pipeline latency (module docstring)."""
+    forward, forward_keys = deliveries(robot, DELIVERY_TOPICS["robot"], "/replica/teleop_command")
+    backward, _ = deliveries(master, DELIVERY_TOPICS["master"], "/master/feedback_wrench")
+    result: dict = {}
+    if len(forward):
+        result["forward_apparent_transit_ms"] = {"min": round(float((forward[:, 1] - forward[:, 0]).min()) * 1e3, 3),
+                                                 "p50": round(float(np.median(forward[:, 1] - forward[:, 0])) * 1e3, 3)}
+    if len(backward):
+        result["backward_apparent_transit_ms"] = {
+            "min": round(float((backward[:, 1] - backward[:, 0]).min()) * 1e3, 3),
+            "p50": round(float(np.median(backward[:, 1] - backward[:, 0])) * 1e3, 3)}
+    offset = None
+    if len(forward) and len(backward):
+        f = float((forward[:, 1] - forward[:, 0]).min())
+        b = float((backward[:, 1] - backward[:, 0]).min())
+        offset = (b - f) / 2.0
+        result["master_clock_ahead_estimate_ms"] = round(offset * 1e3, 3)
+        result["estimate_bound_ms"] = round((b + f) / 2.0 * 1e3, 3)
+    # The control tick that first used each command (FicState: master_stamp + master_age, robot clock).
+    delivered_at = {key: r + h for key, (s, r, h) in zip(forward_keys, forward)}
+    held_by = {key: h for key, (s, r, h) in zip(forward_keys, forward)}
+    robot_part, stamp_based = [], []
+    seen = set()
+    for _, state in robot["messages"].get("/replica/fic_state", []):
+        key = state.master_stamp.sec * 1_000_000_000 + state.master_stamp.nanosec
+        if key == 0 or key in seen:
+            continue
+        seen.add(key)
+        tick = _seconds(state.master_stamp) + state.master_age
+        if tick < warmup_origin or key not in delivered_at:
+            continue
+        robot_part.append(tick - delivered_at[key])
+        stamp_based.append(state.master_age - held_by[key])
+    if robot_part:
+        robot_part_ms, stamp_ms = np.array(robot_part) * 1e3, np.array(stamp_based) * 1e3
+        result["robot_station_latency_ms"] = {"p50": round(float(np.percentile(robot_part_ms, 50)), 3),
+                                              "p99": round(float(np.percentile(robot_part_ms, 99)), 3),
+                                              "samples": len(robot_part)}
+        result["stamp_based_latency_ms"] = {"p50": round(float(np.percentile(stamp_ms, 50)), 3),
+                                            "p99": round(float(np.percentile(stamp_ms, 99)), 3)}
+        if offset is not None:
+            corrected = stamp_ms + offset * 1e3
+            result["corrected_latency_ms"] = {"p50": round(float(np.percentile(corrected, 50)), 3),
+                                              "p99": round(float(np.percentile(corrected, 99)), 3)}
+    return result
+
+
+def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path) -> dict:
+    down, up = events["down_wall"], events["up_wall"]
+    result: dict = {"down_s": round(up - down, 3)}
+    states = [(s.header.stamp, s.master_stamp) for _, s in robot["messages"].get("/replica/fic_state", [])]
+    used_before = {ms.sec * 1_000_000_000 + ms.nanosec for stamp, ms in states if _seconds(stamp) < up}
+    last_before_cut = max((_seconds(ms) for stamp, ms in states if _seconds(stamp) < down), default=None)
+    for stamp, ms in sorted(states, key=lambda pair: _seconds(pair[0])):
+        key = ms.sec * 1_000_000_000 + ms.nanosec
+        if _seconds(stamp) >= up and key and key not in used_before:
+            command = _seconds(ms)
+            result["first_command_used_after_up_s"] = round(_seconds(stamp) - up, 3)
+            result["that_command_stamped_s_after_up"] = round(command - up, 3)
+            result["that_command_was"] = ("sent during the cut, kept and resent by DDS" if down <= command < up
+                                          else "sent after link-up" if command >= up else "sent before the cut")
+            break
+    if last_before_cut is not None:
+        result["last_command_before_cut_stamped_s_before_down"] = round(down - last_before_cut, 3)
+    for name, bag, topic in (("replica_teleop_command", robot, "/replica/teleop_command"),
+                             ("master_feedback_wrench", master, "/master/feedback_wrench")):
+        times = bag["logs"].get(topic, np.empty(0))
+        after = times[times >= up]
+        result[f"first_{name}_after_up_s"] = round(float(after[0] - up), 3) if len(after) else None
+    window = (down, up)
+    result["robot_station_streams"] = {t: _gap_stats(robot["logs"].get(t, np.empty(0)), window) for t in ROBOT_STREAMS}
+    result["master_station_streams"] = {t: _gap_stats(master["logs"].get(t, np.empty(0)), window)
+                                        for t in MASTER_STREAMS}
+    result["log_lines"] = _log_lines(run_dir / "logs")
+    return result
+
+
+LOG_PATTERNS = {"master": re.compile(r"feedback_wrench is stale.*"),
+                "replica": re.compile(r"(no teleoperation command for more than.*|teleoperation commands are back.*)")}
+
+
+def _log_lines(log_dir: Path) -> dict:
+    lines: dict = {}
+    for node, pattern in LOG_PATTERNS.items():
+        path = log_dir / f"{node}.log"
+        if path.exists():
+            lines[node] = [m.group(0)[:160] for m in pattern.finditer(path.read_text(errors="replace"))][:6]
+    crashed = [p.stem for p in log_dir.glob("*.log") if "Traceback (most recent call last)" in
+               p.read_text(errors="replace")]
+    lines["logs_with_a_traceback"] = crashed
+    return lines
+
+
+def analyse_run(run_dir: Path, outer_record: dict) -> str:
+    path = run_dir / "stations.json"
+    record = json.loads(path.read_text()) if path.exists() else {}
+    record.update(outer_record)
+    run = json.loads((run_dir / "run.json").read_text()) if (run_dir / "run.json").exists() else {}
+    origin = record.get("origin_wall")
+    duration = float(run.get("duration", 30.0))
+    capture_path = run_dir / "link_capture.json"
+    events = record.get("link_events") or {}
+    lines = [f"[stations] run folder {run_dir}"]
+    if capture_path.exists() and origin:
+        capture = json.loads(capture_path.read_text())
+        steady_end = events.get("down_wall", origin + duration)
+        # Running: from RUNNING_FROM_S after the script's start (on a loaded machine the nodes' discovery still
+        # goes on in the first seconds) to the cut or the end.
+        record["traffic"] = {"running": traffic_summary(capture, float(int(origin + RUNNING_FROM_S)),
+                                                        float(int(steady_end))),
+                             "before_the_script": traffic_summary(capture, None, float(int(origin))),
+                             "whole_capture": traffic_summary(capture, None, None)}
+        running = record["traffic"]["running"]
+        for direction in ("master->robot", "robot->master"):
+            topics = running["per_topic"].get(direction, {})
+            top = sorted(topics.items(), key=lambda item: -item[1].get("bytes_per_s", 0))[:4]
+            lines.append(f"[stations] {direction}: {running['total_bytes_per_s'].get(direction)} B/s; "
+                         + ", ".join(f"{name} {entry.get('bytes_per_s')} B/s" for name, entry in top))
+    robot_bag, master_bag = run_dir / "bag", run_dir / "bag_master"
+    if robot_bag.exists() and master_bag.exists():
+        robot = read_bag(robot_bag, {"/channel/deliveries", "/replica/fic_state"})
+        master = read_bag(master_bag, {DELIVERY_TOPICS["master"]})
+        record["clocks"] = clock_figures(robot, master, (origin or 0.0) + 2.0)
+        clocks = record["clocks"]
+        if "robot_station_latency_ms" in clocks:
+            lines.append(f"[stations] latency: stamp-based p50 {clocks['stamp_based_latency_ms']['p50']} ms, "
+                         f"robot-station part p50 {clocks['robot_station_latency_ms']['p50']} ms, master clock ahead "
+                         f"{clocks.get('master_clock_ahead_estimate_ms')} +- {clocks.get('estimate_bound_ms')} ms, "
+                         f"corrected p50 {clocks.get('corrected_latency_ms', {}).get('p50')} ms")
+        if "down_wall" in events and "up_wall" in events:
+            record["link_cut"] = link_cut_figures(robot, master, events, run_dir)
+            cut = record["link_cut"]
+            lines.append(f"[stations] link cut {cut['down_s']} s: first command used {cut.get('first_command_used_after_up_s')}"
+                         f" s after link-up ({cut.get('that_command_was')}); master: "
+                         f"{len(cut['log_lines'].get('master', []))} stale-feedback line(s); tracebacks: "
+                         f"{cut['log_lines']['logs_with_a_traceback'] or 'none'}")
+    metrics_path = run_dir / "report" / "metrics.json"
+    if metrics_path.exists():
+        metrics = json.loads(metrics_path.read_text())
+        record["metrics"] = {k: metrics.get(k) for k in (
+            "free_motion_error_max_m", "free_motion_error_rms_m", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
+            "real_time_factor", "delay_one_way_ms", "limit_violations", "master_stale_ticks", "peak_interaction_force_n")}
+    path.write_text(json.dumps(record, indent=2))
+    lines.append(f"[stations] {path}")
+    return "\n".join(lines)

@@ -1,0 +1,532 @@
+"""Two stations on one machine: the master station and the robot station, each in its own network namespace.
+
+`scripts/run_teleop.sh --two-stations` comes here (teleop_launcher.py hands over). What runs where
+(docs/DEPLOYMENT.md):
+
+- master station: the haptic device (or its driver) with the virtual operator, the master, the master-side
+  channel `channel_backward` (replica -> master: it takes /replica/feedback_wrench from the link and delays it),
+  and a recorder of the station's own topics (bag_master/);
+- robot station: the robot simulation (or its driver), the replica, the planner, the robot-side channel
+  `channel_forward` (master -> replica: it takes /master/teleop_command from the link), and the recorder whose
+  bag (bag/) the report reads.
+
+Each channel node sits on the receiving side of its direction, so it measures its hold on its own station's clock
+from the moment the message arrived over the link, and only the two streams the paper's architecture needs cross
+the link: the teleoperation command and the feedback wrench (plus DDS discovery and liveliness, measured in
+link_traffic.json). The master station's /diagnostics and /channel/deliveries are renamed under /master_station/,
+so that the robot station's recorder does not pull them across the link.
+
+The namespaces are `fic_teleop_<tag>_master` and `fic_teleop_<tag>_robot`, joined by a veth pair with addresses
+198.51.100.1 (master) and 198.51.100.2 (robot) of the documentation range; nothing is routed elsewhere. Discovery
+is Fast DDS's simple discovery by unicast to the two addresses, multicast off (config/fastdds_two_stations.xml).
+
+Process layout: this module's `run` (the outer process, in the host's namespace) checks root, removes a leftover
+pair of namespaces or refuses if one is in use, creates the pair, caps the bandwidth (tbf) if asked, starts the
+capture of the link traffic in the robot station, and runs the ordinary launcher inside the robot station with
+FIC_TWO_STATIONS set; that launcher starts the master station's nodes through `ip netns exec` (`wrap_command`)
+and cuts the link when asked (`LinkCut`). Whatever happens (the end of the run, Ctrl-C, an error), the `finally`
+of `run` stops the capture and deletes the namespaces, which takes the veth pair with them.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+INSIDE_ENV = "FIC_TWO_STATIONS"          # set in the launcher that runs inside the robot station
+FASTDDS_PROFILE = REPO / "config" / "fastdds_two_stations.xml"
+MASTER_ADDRESS, ROBOT_ADDRESS, PREFIX_LENGTH = "198.51.100.1", "198.51.100.2", 24
+NAMESPACE_PREFIX = "fic_teleop_"
+TAG_PATTERN = re.compile(r"^[a-z0-9]{1,8}$")
+
+# Which node runs where (by launcher node name); every other node runs on the robot station.
+MASTER_STATION_NODES = {"haptic_device", "master", "channel_backward", "keyboard_operator", "recorder_master"}
+# The master station's topics, recorded there (bag_master/); the robot station's recorder leaves them out.
+MASTER_STATION_TOPICS = ["/haptic/pose", "/haptic/twist", "/haptic/wrench_command", "/operator/joy",
+                         "/master/pose", "/master/teleop_command", "/master/feedback_wrench",
+                         "/master_station/diagnostics", "/master_station/channel/deliveries"]
+MASTER_STATION_REMAPS = {"/diagnostics": "/master_station/diagnostics",
+                         "/channel/deliveries": "/master_station/channel/deliveries"}
+# The robot station's recorder: the topic table less what the master station publishes (it would cross the link).
+ROBOT_STATION_EXCLUDED = set(MASTER_STATION_TOPICS) | {"/replica/master_pose"}
+
+
+@dataclass(frozen=True)
+class StationPair:
+    """Names of the two namespaces and the veth ends of one two-station run."""
+
+    tag: str = "run"
+
+    @property
+    def master_namespace(self) -> str:
+        return f"{NAMESPACE_PREFIX}{self.tag}_master"
+
+    @property
+    def robot_namespace(self) -> str:
+        return f"{NAMESPACE_PREFIX}{self.tag}_robot"
+
+    @property
+    def master_interface(self) -> str:       # interface names: at most 15 characters
+        return f"fic{self.tag}m"
+
+    @property
+    def robot_interface(self) -> str:
+        return f"fic{self.tag}r"
+
+    def namespace_of(self, node_name: str) -> str:
+        return self.master_namespace if node_name in MASTER_STATION_NODES else self.robot_namespace
+
+
+class StationError(RuntimeError):
+    """A two-station run cannot start; the message is the one line to print."""
+
+
+def _ip(*arguments: str, check: bool = True) -> subprocess.CompletedProcess:
+    result = subprocess.run(["ip", *arguments], capture_output=True, text=True)
+    if check and result.returncode != 0:
+        raise StationError(f"ip {' '.join(arguments)} failed: {result.stderr.strip()}")
+    return result
+
+
+def _tc(*arguments: str) -> None:
+    result = subprocess.run(["tc", *arguments], capture_output=True, text=True)
+    if result.returncode != 0:
+        raise StationError(f"tc {' '.join(arguments)} failed: {result.stderr.strip()}")
+
+
+def check_privileges() -> None:
+    """Namespaces, veth pairs, tbf and packet capture need root (CAP_NET_ADMIN and CAP_SYS_ADMIN)."""
+    if os.geteuid() != 0:
+        raise StationError("--two-stations needs root: it creates network namespaces and a veth pair "
+                           "(CAP_NET_ADMIN, CAP_SYS_ADMIN); run it as root, or run the single-host job without it")
+    for tool in ("ip", "tc"):
+        if shutil.which(tool) is None:
+            raise StationError(f"--two-stations needs `{tool}` (iproute2) on PATH")
+
+
+def namespaces() -> set[str]:
+    result = _ip("netns", "list", check=False)
+    return {line.split()[0] for line in result.stdout.splitlines() if line.strip()}
+
+
+def namespace_pids(namespace: str) -> list[int]:
+    result = _ip("netns", "pids", namespace, check=False)
+    return [int(token) for token in result.stdout.split() if token.isdigit()]
+
+
+def clear_leftovers(pair: StationPair) -> list[str]:
+    """Remove namespaces and a veth end of this pair left by a crashed run; refuse if processes still use them.
+
+    Returns the one-line notes of what was removed."""
+    notes = []
+    existing = namespaces()
+    for namespace in (pair.master_namespace, pair.robot_namespace):
+        if namespace not in existing:
+            continue
+        pids = namespace_pids(namespace)
+        if pids:
+            raise StationError(f"namespace {namespace} is in use by pid(s) {', '.join(map(str, pids[:8]))}: another "
+                               f"two-station run? Stop it, or give --stations-tag another name")
+        _ip("netns", "delete", namespace)
+        notes.append(f"removed namespace {namespace} left over from an earlier run")
+    for interface in (pair.master_interface, pair.robot_interface):
+        if _ip("link", "show", interface, check=False).returncode == 0:   # a veth end still in the host namespace
+            _ip("link", "delete", interface)
+            notes.append(f"removed interface {interface} left over from an earlier run")
+    return notes
+
+
+def create(pair: StationPair) -> None:
+    """The two namespaces, joined by one veth pair; loopback up in each (the nodes of a station talk over it)."""
+    _ip("netns", "add", pair.master_namespace)
+    _ip("netns", "add", pair.robot_namespace)
+    _ip("link", "add", pair.master_interface, "netns", pair.master_namespace, "type", "veth",
+        "peer", "name", pair.robot_interface, "netns", pair.robot_namespace)
+    for namespace, interface, address in ((pair.master_namespace, pair.master_interface, MASTER_ADDRESS),
+                                          (pair.robot_namespace, pair.robot_interface, ROBOT_ADDRESS)):
+        _ip("-n", namespace, "link", "set", "lo", "up")
+        _ip("-n", namespace, "addr", "add", f"{address}/{PREFIX_LENGTH}", "dev", interface)
+        _ip("-n", namespace, "link", "set", interface, "up")
+
+
+def remove(pair: StationPair) -> list[str]:
+    """Delete both namespaces (the veth pair goes with them). Processes still inside are ours: ended first."""
+    notes = []
+    existing = namespaces()
+    for namespace in (pair.master_namespace, pair.robot_namespace):
+        if namespace not in existing:
+            continue
+        for pid in namespace_pids(namespace):
+            try:
+                os.kill(pid, signal.SIGKILL)
+                notes.append(f"killed pid {pid} still running in {namespace}")
+            except ProcessLookupError:
+                pass
+        _ip("netns", "delete", namespace, check=False)
+    return notes
+
+
+def set_link(pair: StationPair, up: bool) -> None:
+    """Both ends of the veth down (as a pulled cable: no carrier either side) or up again."""
+    state = "up" if up else "down"
+    _ip("-n", pair.master_namespace, "link", "set", pair.master_interface, state)
+    _ip("-n", pair.robot_namespace, "link", "set", pair.robot_interface, state)
+
+
+def parse_rate(text: str) -> int:
+    """A tc rate ('64kbit', '10mbit', '1.5mbit') in bit/s."""
+    match = re.fullmatch(r"(\d+(?:\.\d+)?)\s*(bit|kbit|mbit|gbit)", text.strip().lower())
+    if not match:
+        raise StationError(f"--bandwidth {text!r}: give a rate such as 64kbit, 512kbit or 10mbit")
+    value = float(match.group(1)) * {"bit": 1, "kbit": 1e3, "mbit": 1e6, "gbit": 1e9}[match.group(2)]
+    if not 8e3 <= value <= 1e10:
+        raise StationError(f"--bandwidth {text!r}: between 8kbit and 10gbit")
+    return int(value)
+
+
+def cap_bandwidth(pair: StationPair, rate_bits: int) -> dict:
+    """A token bucket (tbf) on the egress of both veth ends: each direction gets `rate_bits`.
+
+    Bucket: 10 ms of the rate, at least one full-size frame (1514 B), so a datagram is never refused for its size
+    alone; queue: what 100 ms of the rate drains, at least 3 frames (beyond it tbf drops, as a congested link)."""
+    burst = max(1514, rate_bits // 8 // 100)
+    limit = max(3 * 1514, rate_bits // 8 // 10)
+    for namespace, interface in ((pair.master_namespace, pair.master_interface),
+                                 (pair.robot_namespace, pair.robot_interface)):
+        _tc("-n", namespace, "qdisc", "replace", "dev", interface, "root", "tbf",
+            "rate", f"{rate_bits}bit", "burst", str(burst), "limit", str(limit))
+    return {"rate_bit_s": rate_bits, "burst_bytes": burst, "queue_limit_bytes": limit}
+
+
+def qdisc_statistics(pair: StationPair) -> dict:
+    """tc's counters of both ends (sent bytes, drops, overlimits) for the record."""
+    stats = {}
+    for station, namespace, interface in (("master", pair.master_namespace, pair.master_interface),
+                                          ("robot", pair.robot_namespace, pair.robot_interface)):
+        result = subprocess.run(["tc", "-n", namespace, "-s", "qdisc", "show", "dev", interface],
+                                capture_output=True, text=True)
+        text = " ".join(result.stdout.split())
+        sent = re.search(r"Sent (\d+) bytes (\d+) pkt \(dropped (\d+), overlimits (\d+)", text)
+        stats[station] = ({"sent_bytes": int(sent.group(1)), "sent_packets": int(sent.group(2)),
+                           "dropped": int(sent.group(3)), "overlimits": int(sent.group(4))} if sent else text)
+    return stats
+
+
+# -- the hooks the launcher calls (inside the robot station) ----------------------------------------------------
+
+def station_environment() -> dict[str, str]:
+    """What every node of both stations needs in its environment: the shared Fast DDS profile and discovery."""
+    return {"FASTRTPS_DEFAULT_PROFILES_FILE": str(FASTDDS_PROFILE),
+            "FASTDDS_DEFAULT_PROFILES_FILE": str(FASTDDS_PROFILE),
+            # SUBNET: rmw_fastrtps leaves the profile's discovery (unicast to the two stations) as it is;
+            # LOCALHOST would pin every participant to 127.0.0.1.
+            "ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}
+
+
+def adapt_graph(specs: list, node_spec_class, run_dir: Path) -> None:
+    """Split the single-host graph: the robot station's recorder records its own station's topics, and the master
+    station gets a recorder for its own (first in the list, so it is stopped after the others)."""
+    from_recorder_node = None
+    for spec in specs:
+        if spec.name == "recorder":
+            from_recorder_node = spec
+    if from_recorder_node is None:
+        return
+    topics = from_recorder_node.params.get("topics") or _default_recorder_topics()
+    from_recorder_node.params["topics"] = [t for t in topics if t not in ROBOT_STATION_EXCLUDED]
+    specs.insert(0, node_spec_class("sim_bridge", "recorder_node", "recorder_master", None,
+                                    {"bag_path": str(run_dir / "bag_master"), "topics": MASTER_STATION_TOPICS}))
+
+
+def _default_recorder_topics() -> list[str]:
+    from sim_bridge.recorder_node import DEFAULT_TOPICS
+    return list(DEFAULT_TOPICS)
+
+
+def wrap_command(node_name: str, command: list[str], pair: StationPair, clock_offset_s: float = 0.0) -> list[str]:
+    """The node's command run in its station: `ip netns exec <ns> env ... <command>` (exec all the way down, so
+    the pid the launcher holds is the node's). Master-station nodes get their renamed topics and, for a clock
+    test, a shifted wall clock (libfaketime)."""
+    namespace = pair.namespace_of(node_name)
+    environment = [f"{key}={value}" for key, value in station_environment().items()]
+    if namespace == pair.master_namespace:
+        if clock_offset_s:
+            environment += faketime_environment(clock_offset_s)
+        remaps = []
+        for source, target in MASTER_STATION_REMAPS.items():
+            remaps += ["-r", f"{source}:={target}"]
+        command = command + remaps   # after the --ros-args the launcher already put in
+    return ["ip", "netns", "exec", namespace, "env", *environment, *command]
+
+
+FAKETIME_LIBRARY_CANDIDATES = ("/usr/lib/x86_64-linux-gnu/faketime/libfaketimeMT.so.1",
+                               "/usr/lib/aarch64-linux-gnu/faketime/libfaketimeMT.so.1",
+                               "/usr/lib/faketime/libfaketimeMT.so.1")
+
+
+def faketime_library() -> str | None:
+    return next((path for path in FAKETIME_LIBRARY_CANDIDATES if Path(path).exists()), None)
+
+
+def faketime_environment(offset_s: float) -> list[str]:
+    """CLOCK_REALTIME of the process shifted by offset_s (libfaketime, multithreaded build); the monotonic clocks,
+    which Fast DDS and the executors' waits use, stay true. ROS time off sim time is CLOCK_REALTIME."""
+    library = faketime_library()
+    if library is None:
+        raise StationError("--station-clock-offset needs libfaketime (apt-get install libfaketime)")
+    return [f"LD_PRELOAD={library}", f"FAKETIME={offset_s:+.6f}", "FAKETIME_DONT_FAKE_MONOTONIC=1",
+            "FAKETIME_DONT_RESET=1", "FAKETIME_NO_CACHE=1"]
+
+
+class LinkCut:
+    """Sets the veth down at `down_at` and up again `down_for` seconds later (wall time after `origin`)."""
+
+    def __init__(self, pair: StationPair, origin_wall: float, down_at: float, down_for: float,
+                 stop: threading.Event) -> None:
+        self.pair, self.origin, self.down_at, self.down_for, self.stop = pair, origin_wall, down_at, down_for, stop
+        self.events: dict[str, float] = {}
+        self.thread = threading.Thread(target=self._run, name="link_cut", daemon=True)
+
+    def start(self) -> None:
+        self.thread.start()
+
+    def _run(self) -> None:
+        if self.stop.wait(max(0.0, self.origin + self.down_at - time.time())):
+            return
+        set_link(self.pair, up=False)
+        self.events["down_wall"] = time.time()
+        print(f"[stations] link DOWN at {self.events['down_wall'] - self.origin:.2f} s (veth "
+              f"{self.pair.master_interface} <-> {self.pair.robot_interface})", flush=True)
+        # Up again even if the run is being stopped: the namespaces are deleted next, but never leave a cut link
+        # behind a run that was asked to restore it.
+        self.stop.wait(max(0.0, self.origin + self.down_at + self.down_for - time.time()))
+        set_link(self.pair, up=True)
+        self.events["up_wall"] = time.time()
+        print(f"[stations] link UP at {self.events['up_wall'] - self.origin:.2f} s", flush=True)
+
+
+def pair_from_environment() -> StationPair:
+    return StationPair(os.environ.get(INSIDE_ENV, "run"))
+
+
+def inside_station() -> bool:
+    return bool(os.environ.get(INSIDE_ENV))
+
+
+def add_arguments(parser) -> None:
+    """The two-station options of scripts/run_teleop.sh."""
+    group = parser.add_argument_group("two stations (root; docs/DEPLOYMENT.md)")
+    group.add_argument("--two-stations", action="store_true",
+                       help="run the master station and the robot station in two network namespaces joined by a "
+                            "veth pair (198.51.100.1 / .2), removed afterwards")
+    group.add_argument("--link-down-at", type=float, default=None, metavar="T",
+                       help="set the link between the stations down T seconds into the run (with --two-stations)")
+    group.add_argument("--link-down-for", type=float, default=5.0, metavar="S",
+                       help="... for S seconds, then up again (default 5)")
+    group.add_argument("--bandwidth", default=None, metavar="RATE",
+                       help="cap each direction of the link with tbf, e.g. 10mbit, 1mbit, 64kbit")
+    group.add_argument("--station-clock-offset", type=float, default=0.0, metavar="SECONDS",
+                       help="shift the master station's wall clock by this much (libfaketime), to test the clock "
+                            "handling of the latency figures")
+    group.add_argument("--print-station-commands", action="store_true",
+                       help="print what to start on each of two real machines (the nodes of this run, station by "
+                            "station) and exit; needs no root")
+    group.add_argument("--stations-tag", default="run",
+                       help="names the namespaces fic_teleop_<tag>_master/_robot (1-8 of a-z0-9; default run)")
+
+
+def check_arguments(args) -> None:
+    if not args.two_stations:
+        if args.link_down_at is not None or args.bandwidth or args.station_clock_offset:
+            raise StationError("--link-down-at, --bandwidth and --station-clock-offset need --two-stations (the "
+                               "single-host channel has --blackout-window for a simulated cut)")
+        return
+    if args.time_mode == "lockstep":
+        raise StationError("--two-stations runs in realtime only: lockstep would make the robot station's /clock and "
+                           "the peer barrier cross the link")
+    if not TAG_PATTERN.match(args.stations_tag):
+        raise StationError(f"--stations-tag {args.stations_tag!r}: 1-8 characters of a-z and 0-9")
+    if args.link_down_at is not None and (args.link_down_at < 0 or args.link_down_for <= 0
+                                          or args.link_down_at + args.link_down_for >= args.duration):
+        raise StationError("--link-down-at T --link-down-for S: T >= 0, S > 0 and the link back up before the end "
+                           "of --duration")
+    if args.bandwidth:
+        parse_rate(args.bandwidth)
+    if abs(args.station_clock_offset) > 3600:
+        raise StationError("--station-clock-offset: at most an hour either way")
+    if args.station_clock_offset and faketime_library() is None:
+        raise StationError("--station-clock-offset needs libfaketime (apt-get install libfaketime)")
+
+
+class InsideStation:
+    """The launcher's hooks when it runs inside the robot station (FIC_TWO_STATIONS set by `run`)."""
+
+    def __init__(self, args, run_dir: Path) -> None:
+        self.args, self.run_dir = args, run_dir
+        self.pair = pair_from_environment()
+        self.stop = threading.Event()
+        self.cut: LinkCut | None = None
+
+    def adapt(self, specs: list, node_spec_class) -> None:
+        adapt_graph(specs, node_spec_class, self.run_dir)
+        offset = self.args.station_clock_offset
+        for spec in specs:
+            # A wall-clock time given to a master-station node is read on that station's clock.
+            if offset and self.pair.namespace_of(spec.name) == self.pair.master_namespace \
+                    and "script_start_time" in spec.params:
+                spec.params["script_start_time"] += offset
+        stations = {spec.name: ("master" if self.pair.namespace_of(spec.name) == self.pair.master_namespace
+                                else "robot") for spec in specs}
+        print(f"[stations] master station ({self.pair.master_namespace}, {MASTER_ADDRESS}): "
+              f"{', '.join(n for n, s in stations.items() if s == 'master')}; robot station "
+              f"({self.pair.robot_namespace}, {ROBOT_ADDRESS}): {', '.join(n for n, s in stations.items() if s == 'robot')}",
+              flush=True)
+        self._record({"stations": stations})
+
+    def wrap(self, node_name: str, command: list[str]) -> list[str]:
+        return wrap_command(node_name, command, self.pair, self.args.station_clock_offset)
+
+    def started(self, origin_wall: float) -> None:
+        self._record({"origin_wall": origin_wall})
+        if self.args.link_down_at is not None:
+            self.cut = LinkCut(self.pair, origin_wall, self.args.link_down_at, self.args.link_down_for, self.stop)
+            self.cut.start()
+
+    def stopped(self) -> None:
+        self.stop.set()
+        if self.cut is not None:
+            self.cut.thread.join(timeout=5.0)
+            self._record({"link_events": self.cut.events})
+
+    def _record(self, values: dict) -> None:
+        path = self.run_dir / "stations.json"
+        record = json.loads(path.read_text()) if path.exists() else {}
+        record.update(values)
+        path.write_text(json.dumps(record, indent=2))
+
+
+def inside_hooks(args, run_dir: Path) -> InsideStation | None:
+    return InsideStation(args, run_dir) if args.two_stations and inside_station() else None
+
+
+def run(argv: list[str], args, run_dir: Path) -> int:
+    """The outer process: namespaces up, the launcher inside the robot station, namespaces down (always)."""
+    from datetime import datetime
+    if args.print_station_commands:
+        print(station_commands(args, run_dir))
+        return 0
+    try:
+        check_privileges()
+        check_arguments(args)
+    except StationError as error:
+        print(f"[stations] refused: {error}", file=sys.stderr)
+        return 2
+    pair = StationPair(args.stations_tag)
+    try:
+        for note in clear_leftovers(pair):
+            print(f"[stations] {note}")
+    except StationError as error:
+        print(f"[stations] refused: {error}", file=sys.stderr)
+        return 2
+    run_dir.mkdir(parents=True, exist_ok=True)
+    record: dict = {"pair": {"master_namespace": pair.master_namespace, "robot_namespace": pair.robot_namespace,
+                             "master_address": MASTER_ADDRESS, "robot_address": ROBOT_ADDRESS},
+                    "started": datetime.now().isoformat(timespec="seconds")}
+    interrupted = threading.Event()
+    inner: subprocess.Popen | None = None
+
+    def on_signal(signum, frame) -> None:
+        interrupted.set()
+        if inner is not None and inner.poll() is None:
+            inner.send_signal(signal.SIGINT)   # the launcher stops its graph in order and finalises the bags
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    capture = None
+    code = 1
+    try:
+        create(pair)
+        print(f"[stations] namespaces {pair.master_namespace} ({MASTER_ADDRESS}) and {pair.robot_namespace} "
+              f"({ROBOT_ADDRESS}) joined by veth {pair.master_interface} <-> {pair.robot_interface}", flush=True)
+        if args.bandwidth:
+            record["bandwidth"] = cap_bandwidth(pair, parse_rate(args.bandwidth))
+            print(f"[stations] link capped at {args.bandwidth} each way (tbf)", flush=True)
+        capture_file = run_dir / "link_capture.json"
+        capture = subprocess.Popen(
+            ["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(Path(__file__).with_name("rtps_traffic.py")),
+             "--interface", pair.robot_interface, "--out", str(capture_file),
+             "--name", f"{MASTER_ADDRESS}=master", "--name", f"{ROBOT_ADDRESS}=robot"],
+            stdout=open(run_dir / "link_capture.log", "wb"), stderr=subprocess.STDOUT, start_new_session=True)
+        time.sleep(0.5)   # the socket is open before the first participant announces itself (SEDP names topics)
+        environment = {**os.environ, **station_environment(), INSIDE_ENV: pair.tag}
+        launcher = Path(__file__).with_name("teleop_launcher.py")
+        inner = subprocess.Popen(["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(launcher), *argv,
+                                  "--out", str(run_dir)], env=environment)
+        if interrupted.is_set():
+            inner.send_signal(signal.SIGINT)
+        code = inner.wait()
+    except StationError as error:
+        print(f"[stations] failed: {error}", file=sys.stderr)
+        code = 1
+    finally:
+        if inner is not None and inner.poll() is None:
+            inner.send_signal(signal.SIGINT)
+            try:
+                inner.wait(timeout=90)
+            except subprocess.TimeoutExpired:
+                inner.kill()
+        if capture is not None:
+            capture.send_signal(signal.SIGINT)
+            try:
+                capture.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                capture.kill()
+        if namespaces() & {pair.master_namespace, pair.robot_namespace}:
+            record["qdisc"] = qdisc_statistics(pair)
+        for note in remove(pair):
+            print(f"[stations] {note}")
+        left = namespaces() & {pair.master_namespace, pair.robot_namespace}
+        print(f"[stations] namespaces removed" if not left else f"[stations] warning: could not remove {left}",
+              flush=True)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    try:
+        from station_analysis import analyse_run
+        summary = analyse_run(run_dir, record)
+        print(summary)
+    except Exception as error:   # the run itself is done; say why its analysis is missing
+        print(f"[stations] could not analyse the run: {error!r}", file=sys.stderr)
+        code = code or 1
+    return code
+
+
+def station_commands(args, run_dir: Path) -> str:
+    """The nodes of this run, station by station, as the commands to start on two real machines."""
+    import shlex
+    import teleop_launcher
+
+    specs = teleop_launcher.graph(args, run_dir / "bag")
+    adapt_graph(specs, teleop_launcher.NodeSpec, run_dir)
+    pair = StationPair(args.stations_tag)
+    environment = " ".join(f"{key}={value}" for key, value in station_environment().items())
+    lines = []
+    for station, namespace in (("master", pair.master_namespace), ("robot", pair.robot_namespace)):
+        address = MASTER_ADDRESS if station == "master" else ROBOT_ADDRESS
+        lines.append(f"# {station} station ({address}): source scripts/env.sh; export {environment} ROS_DOMAIN_ID=<d>")
+        for spec in specs:
+            if pair.namespace_of(spec.name) != namespace:
+                continue
+            command = teleop_launcher.node_command(spec)
+            if station == "master":
+                for source, target in MASTER_STATION_REMAPS.items():
+                    command += ["-r", f"{source}:={target}"]
+            lines.append(shlex.join(command) + " &")
+    return "\n".join(lines)
