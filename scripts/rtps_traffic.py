@@ -16,7 +16,10 @@ ones. The builtin entities are named by their role: SPDP (participant announceme
 announcements), WLP (liveliness), type lookup.
 
 Output (JSON, written at exit): per direction ("a->b" by IPv4 source and destination) and per second of wall time
-(int(time.time())), bytes and RTPS DATA submessages per topic; see `summarise` for windows.
+(int(time.time())), bytes and RTPS DATA submessages per topic; see `summarise` for windows. For the topics given
+with --stamps (header-stamped messages), also each sample's header stamp and the kernel's timestamp of the frame
+on this interface (SO_TIMESTAMPNS, this station's clock): when the message was on the wire, to set against the
+other station's clock (station_analysis.py, "clocks").
 """
 from __future__ import annotations
 
@@ -49,6 +52,7 @@ BUILTIN = {
 }
 SEDP_ANNOUNCERS = (0x000003C2, 0x000004C2)
 PID_SENTINEL, PID_TOPIC_NAME, PID_ENDPOINT_GUID = 0x0001, 0x0005, 0x005A
+SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)   # Linux: SCM_TIMESTAMPNS has the same value
 
 
 def ros_topic(dds_name: str) -> str:
@@ -90,7 +94,9 @@ def sedp_endpoint(payload: bytes) -> tuple[bytes, str] | None:
 class RtpsAccounting:
     """Bytes and DATA counts per (direction, topic, second), learning endpoint names from SEDP as it goes."""
 
-    def __init__(self) -> None:
+    def __init__(self, stamped_topics: set[str] | None = None) -> None:
+        self.stamped_topics = stamped_topics or set()
+        self.wire_times: dict[str, list[tuple[int, float]]] = defaultdict(list)   # topic -> (stamp ns, wire s)
         self.names: dict[bytes, str] = {}            # endpoint GUID (prefix + entity id) -> topic
         self.bytes: dict[tuple[str, str, int], float] = defaultdict(float)
         self.samples: dict[tuple[str, str, int], int] = defaultdict(int)
@@ -106,7 +112,7 @@ class RtpsAccounting:
         self.unnamed.add(label)
         return "unnamed endpoints (discovered before the capture started)"
 
-    def datagram(self, direction: str, second: int, wire_bytes: int, rtps: bytes) -> None:
+    def datagram(self, direction: str, second: int, wire_bytes: int, rtps: bytes, wire_time: float = 0.0) -> None:
         if len(rtps) < 20 or rtps[:4] != RTPS_MAGIC:
             self.bytes[(direction, "not RTPS", second)] += wire_bytes
             return
@@ -135,6 +141,10 @@ class RtpsAccounting:
                 charged.append((name, size, kind in (DATA, DATA_FRAG)))
                 if kind == DATA and writer in SEDP_ANNOUNCERS:
                     self._learn(body, flags)
+                elif kind == DATA and name in self.stamped_topics:
+                    stamp = self._header_stamp(body, flags)
+                    if stamp is not None and len(self.wire_times[name]) < 200_000:
+                        self.wire_times[name].append((stamp, wire_time))
             elif kind in READER_SIDE and len(body) >= 8:
                 reader, writer = struct.unpack_from(">II", body, 0)
                 remote = destination if destination != b"\0" * 12 else source
@@ -150,6 +160,31 @@ class RtpsAccounting:
             self.bytes[(direction, name, second)] += size + header / len(charged)
             if is_data:
                 self.samples[(direction, name, second)] += 1
+
+    @staticmethod
+    def _payload_start(body: bytes, flags: int) -> int:
+        """Where a DATA's serialized payload begins: after the fixed part and any inline QoS."""
+        order = "<" if flags & 1 else ">"
+        (to_inline_qos,) = struct.unpack_from(order + "H", body, 2)
+        start = 4 + to_inline_qos
+        if flags & 0x02:
+            while start + 4 <= len(body):
+                pid, length = struct.unpack_from(order + "HH", body, start)
+                start += 4 + length
+                if pid == PID_SENTINEL:
+                    break
+        return start
+
+    def _header_stamp(self, body: bytes, flags: int) -> int | None:
+        """The std_msgs/Header stamp [ns] at the start of a ROS message's CDR (after its 4-byte encapsulation)."""
+        if not flags & 0x04:
+            return None
+        start = self._payload_start(body, flags)
+        if start + 12 > len(body) or body[start] != 0:
+            return None
+        order = "<" if body[start + 1] & 1 else ">"
+        sec, nanosec = struct.unpack_from(order + "iI", body, start + 4)
+        return sec * 1_000_000_000 + nanosec
 
     def _learn(self, body: bytes, flags: int) -> None:
         # DATA: extraFlags(2) octetsToInlineQos(2) readerId(4) writerId(4) writerSN(8) [inline QoS] payload.
@@ -175,7 +210,9 @@ class RtpsAccounting:
             entry["seconds"].append(second)
             entry["bytes"].append(round(value, 1))
             entry["samples"].append(self.samples.get((direction, name, second), 0))
-        return {"directions": table, "named_endpoints": len(self.names), "unnamed": sorted(self.unnamed)[:50]}
+        return {"directions": table, "named_endpoints": len(self.names), "unnamed": sorted(self.unnamed)[:50],
+                "wire_times": {topic: [[stamp, round(t, 6)] for stamp, t in rows]
+                               for topic, rows in self.wire_times.items()}}
 
 
 class Reassembly:
@@ -209,7 +246,7 @@ class Reassembly:
         return None
 
 
-def capture(interface: str, out: str, names: dict[str, str]) -> int:
+def capture(interface: str, out: str, names: dict[str, str], stamped_topics: set[str]) -> int:
     stop = {"now": False}
 
     def on_signal(signum, frame) -> None:
@@ -219,17 +256,23 @@ def capture(interface: str, out: str, names: dict[str, str]) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETH_P_ALL))
     sock.bind((interface, 0))
+    sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
     sock.settimeout(0.2)
-    accounting, fragments = RtpsAccounting(), Reassembly()
+    accounting, fragments = RtpsAccounting(stamped_topics), Reassembly()
     packets = 0
     while not stop["now"]:
         try:
-            frame = sock.recv(65535)
+            frame, ancillary, _, _ = sock.recvmsg(65535, 64)
         except socket.timeout:
             continue
         except InterruptedError:
             continue
-        second = int(time.time())
+        wire_time = time.time()
+        for level, kind, data in ancillary:   # the kernel's time of the frame, not when this loop got to it
+            if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(data) >= 16:
+                seconds, nanoseconds = struct.unpack_from("qq", data)
+                wire_time = seconds + 1e-9 * nanoseconds
+        second = int(wire_time)
         packets += 1
         ethertype = struct.unpack_from(">H", frame, 12)[0]
         if ethertype != ETH_P_IP:
@@ -245,7 +288,7 @@ def capture(interface: str, out: str, names: dict[str, str]) -> int:
         if packet[9] != socket.IPPROTO_UDP or len(datagram) < 8:
             accounting.bytes[(direction, "IPv4 other than UDP", second)] += wire
             continue
-        accounting.datagram(direction, second, wire, datagram[8:])
+        accounting.datagram(direction, second, wire, datagram[8:], wire_time)
     result = accounting.as_json()
     result["interface"] = interface
     result["frames"] = packets
@@ -280,10 +323,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", required=True)
     parser.add_argument("--name", action="append", default=[], metavar="ADDRESS=NAME",
                         help="name an IPv4 address in the directions (e.g. 198.51.100.1=master)")
+    parser.add_argument("--stamps", nargs="*", default=[], metavar="TOPIC",
+                        help="header-stamped ROS topics whose samples' stamps and wire times are kept")
     args = parser.parse_args(argv)
     names = dict(item.split("=", 1) for item in args.name)
     try:
-        return capture(args.interface, args.out, names)
+        return capture(args.interface, args.out, names, set(args.stamps))
     except PermissionError:
         print("[traffic] refused: a packet capture needs root (CAP_NET_RAW)", file=sys.stderr)
         return 2

@@ -37,6 +37,8 @@ command -v "$PYTHON" >/dev/null || missing_debs+=(python3.11 python3.11-venv pyt
 command -v cmake >/dev/null || missing_debs+=(cmake)
 command -v g++ >/dev/null || missing_debs+=(g++ make)
 ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' || missing_debs+=(libegl1 libegl-mesa0 libgl1-mesa-dri)
+# libfaketime: the two-station clock test shifts one station's wall clock (docs/DEPLOYMENT.md "Clocks").
+if [[ $(id -u) == 0 ]] && ! ls /usr/lib/*/faketime/libfaketimeMT.so.1 >/dev/null 2>&1; then missing_debs+=(libfaketime); fi
 if ((${#missing_debs[@]})); then
   if [[ $(id -u) == 0 ]] && command -v apt-get >/dev/null; then
     printf 'installing %s ... ' "${missing_debs[*]}"

@@ -11,11 +11,15 @@
 - clocks: the master stamps the teleoperation command on its clock and the replica ages it on its own, so the
   report's pipeline latency (FicState.master_age - held) holds the offset between the two clocks. Two figures do
   not: the robot-station part (the control tick that first used a command minus its delivery by the robot-side
-  channel, both robot clock) and an offset estimate from the two directions (as NTP does): with
-  f = min(received - stamp) over the forward deliveries (robot clock - master clock) and
-  b = min(received - stamp) over the backward ones (master clock - robot clock), offset = (b - f) / 2 of the
-  master's clock ahead of the robot's, within +-(b + f) / 2 (both true transits are >= 0). The corrected
-  pipeline latency is the report's plus that offset.
+  channel, both robot clock) and an offset estimate from the two directions (as NTP does), with the packet
+  capture on the robot station's end of the link (kernel timestamps, robot clock) as the robot's side of both:
+  forward, the master stamps each command when it sends it, so f = min(wire time - stamp) = (shortest transit
+  master -> wire) - offset; backward, the master-side channel notes when each feedback wrench arrived, so
+  b = min(received - wire time) = (shortest transit wire -> master) + offset. (The wrench's own stamp is the F/T
+  sample's, which in realtime lags the robot's wall clock by however far the simulation fell behind, and the
+  robot recorder's receive time lagged by up to 1.4 s on a loaded machine: neither is a send time.) The offset
+  of the master's clock ahead of the robot's is (b - f) / 2, within +-(b + f) / 2 (both transits are >= 0).
+  The corrected pipeline latency is the report's plus that offset.
 
 All times are host wall-clock seconds: both namespaces share the host's clock, unless --station-clock-offset
 shifted the master station's.
@@ -28,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-RUNNING_FROM_S = 6.0
 DELIVERY_TOPICS = {"robot": "/channel/deliveries", "master": "/master_station/channel/deliveries"}
 ROBOT_STREAMS = ["/joint_states", "/clock", "/ft_sensor/wrench", "/replica/fic_state", "/replica/tcp_pose",
                  "/planner/desired_pose", "/replica/teleop_command"]
@@ -69,6 +72,12 @@ def traffic_summary(capture: dict, start: float | None, end: float | None) -> di
             "per_topic": summary, "total_bytes_per_s": totals}
 
 
+def _last_sedp_second(capture: dict, before: float) -> float:
+    seconds = [second for topics in capture.get("directions", {}).values() for name, entry in topics.items()
+               if name.startswith("discovery: SEDP") for second in entry["seconds"] if second < before]
+    return float(max(seconds)) if seconds else 0.0
+
+
 def _gap_stats(times: np.ndarray, window: tuple[float, float] | None) -> dict:
     if len(times) < 2:
         return {"messages": int(len(times))}
@@ -97,22 +106,33 @@ def deliveries(bag: dict, topic_key: str, route_topic: str) -> tuple[np.ndarray,
     return (np.array(rows) if rows else np.empty((0, 3))), keys
 
 
-def clock_figures(robot: dict, master: dict, warmup_origin: float) -> dict:
+def _first_wire_time(capture: dict, topic: str) -> dict[int, float]:
+    """Header stamp [ns] -> the first time a sample with it was on the wire (a resend comes later)."""
+    first: dict[int, float] = {}
+    for stamp, wire in capture.get("wire_times", {}).get(topic, []):
+        first.setdefault(int(stamp), float(wire))
+    return first
+
+
+def clock_figures(robot: dict, master: dict, capture: dict, warmup_origin: float) -> dict:
     """The robot-station latency, the offset estimate and the corrected pipeline latency (module docstring)."""
     forward, forward_keys = deliveries(robot, DELIVERY_TOPICS["robot"], "/replica/teleop_command")
-    backward, _ = deliveries(master, DELIVERY_TOPICS["master"], "/master/feedback_wrench")
-    result: dict = {}
-    if len(forward):
-        result["forward_apparent_transit_ms"] = {"min": round(float((forward[:, 1] - forward[:, 0]).min()) * 1e3, 3),
-                                                 "p50": round(float(np.median(forward[:, 1] - forward[:, 0])) * 1e3, 3)}
-    if len(backward):
-        result["backward_apparent_transit_ms"] = {
-            "min": round(float((backward[:, 1] - backward[:, 0]).min()) * 1e3, 3),
-            "p50": round(float(np.median(backward[:, 1] - backward[:, 0])) * 1e3, 3)}
+    backward, backward_keys = deliveries(master, DELIVERY_TOPICS["master"], "/master/feedback_wrench")
+    command_wire = _first_wire_time(capture, "/master/teleop_command")
+    wrench_wire = _first_wire_time(capture, "/replica/feedback_wrench")
+    forward_apparent = np.array([wire - key * 1e-9 for key, wire in command_wire.items()])
+    backward_apparent = np.array([r - wrench_wire[key] for key, (s_, r, h) in zip(backward_keys, backward)
+                                  if key in wrench_wire])
+    result: dict = {"forward_samples": int(len(forward_apparent)), "backward_samples": int(len(backward_apparent))}
+    if len(forward_apparent):
+        result["forward_apparent_transit_ms"] = {"min": round(float(forward_apparent.min()) * 1e3, 3),
+                                                 "p50": round(float(np.median(forward_apparent)) * 1e3, 3)}
+    if len(backward_apparent):
+        result["backward_apparent_transit_ms"] = {"min": round(float(backward_apparent.min()) * 1e3, 3),
+                                                  "p50": round(float(np.median(backward_apparent)) * 1e3, 3)}
     offset = None
-    if len(forward) and len(backward):
-        f = float((forward[:, 1] - forward[:, 0]).min())
-        b = float((backward[:, 1] - backward[:, 0]).min())
+    if len(forward_apparent) and len(backward_apparent):
+        f, b = float(forward_apparent.min()), float(backward_apparent.min())
         offset = (b - f) / 2.0
         result["master_clock_ahead_estimate_ms"] = round(offset * 1e3, 3)
         result["estimate_bound_ms"] = round((b + f) / 2.0 * 1e3, 3)
@@ -203,11 +223,12 @@ def analyse_run(run_dir: Path, outer_record: dict) -> str:
     lines = [f"[stations] run folder {run_dir}"]
     if capture_path.exists() and origin:
         capture = json.loads(capture_path.read_text())
-        steady_end = events.get("down_wall", origin + duration)
-        # Running: from RUNNING_FROM_S after the script's start (on a loaded machine the nodes' discovery still
-        # goes on in the first seconds) to the cut or the end.
-        record["traffic"] = {"running": traffic_summary(capture, float(int(origin + RUNNING_FROM_S)),
-                                                        float(int(steady_end))),
+        steady_end = float(int(min(events.get("down_wall", origin + duration), origin + duration)))
+        # Running: from the second after the last endpoint announcement (SEDP: discovery is over; on a loaded
+        # machine it goes on well into the script) to the cut or the end of the script.
+        steady_start = max(float(int(origin)), _last_sedp_second(capture, steady_end) + 1.0)
+        record["traffic"] = {"running": traffic_summary(capture, steady_start, steady_end) if steady_end > steady_start
+                             else {"window_s": 0, "per_topic": {}, "total_bytes_per_s": {}},
                              "before_the_script": traffic_summary(capture, None, float(int(origin))),
                              "whole_capture": traffic_summary(capture, None, None)}
         running = record["traffic"]["running"]
@@ -220,7 +241,8 @@ def analyse_run(run_dir: Path, outer_record: dict) -> str:
     if robot_bag.exists() and master_bag.exists():
         robot = read_bag(robot_bag, {"/channel/deliveries", "/replica/fic_state"})
         master = read_bag(master_bag, {DELIVERY_TOPICS["master"]})
-        record["clocks"] = clock_figures(robot, master, (origin or 0.0) + 2.0)
+        capture = json.loads(capture_path.read_text()) if capture_path.exists() else {}
+        record["clocks"] = clock_figures(robot, master, capture, (origin or 0.0) + 2.0)
         clocks = record["clocks"]
         if "robot_station_latency_ms" in clocks:
             lines.append(f"[stations] latency: stamp-based p50 {clocks['stamp_based_latency_ms']['p50']} ms, "

@@ -56,6 +56,8 @@ MASTER_STATION_TOPICS = ["/haptic/pose", "/haptic/twist", "/haptic/wrench_comman
                          "/master_station/diagnostics", "/master_station/channel/deliveries"]
 MASTER_STATION_REMAPS = {"/diagnostics": "/master_station/diagnostics",
                          "/channel/deliveries": "/master_station/channel/deliveries"}
+# The two streams the link is for (the architecture's only cross-station topics).
+LINK_STREAMS = ["/master/teleop_command", "/replica/feedback_wrench"]
 # The robot station's recorder: the topic table less what the master station publishes (it would cross the link).
 ROBOT_STATION_EXCLUDED = set(MASTER_STATION_TOPICS) | {"/replica/master_pose"}
 
@@ -463,7 +465,8 @@ def run(argv: list[str], args, run_dir: Path) -> int:
         capture = subprocess.Popen(
             ["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(Path(__file__).with_name("rtps_traffic.py")),
              "--interface", pair.robot_interface, "--out", str(capture_file),
-             "--name", f"{MASTER_ADDRESS}=master", "--name", f"{ROBOT_ADDRESS}=robot"],
+             "--name", f"{MASTER_ADDRESS}=master", "--name", f"{ROBOT_ADDRESS}=robot",
+             "--stamps", *LINK_STREAMS],
             stdout=open(run_dir / "link_capture.log", "wb"), stderr=subprocess.STDOUT, start_new_session=True)
         time.sleep(0.5)   # the socket is open before the first participant announces itself (SEDP names topics)
         environment = {**os.environ, **station_environment(), INSIDE_ENV: pair.tag}
