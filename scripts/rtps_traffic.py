@@ -24,6 +24,7 @@ other station's clock (station_analysis.py, "clocks").
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import signal
 import socket
@@ -267,6 +268,11 @@ def capture(interface: str, out: str, names: dict[str, str], stamped_topics: set
             continue
         except InterruptedError:
             continue
+        except OSError as error:
+            if error.errno in (errno.ENETDOWN, errno.ENXIO):   # the link is cut: wait for it to come back
+                time.sleep(0.05)
+                continue
+            raise
         wire_time = time.time()
         for level, kind, data in ancillary:   # the kernel's time of the frame, not when this loop got to it
             if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(data) >= 16:

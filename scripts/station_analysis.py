@@ -165,9 +165,11 @@ def clock_figures(robot: dict, master: dict, capture: dict, warmup_origin: float
     return result
 
 
-def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path) -> dict:
+def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path, master_ahead_s: float = 0.0) -> dict:
+    """`master_ahead_s`: the master station's clock offset (estimated), taken off its bag's receive times."""
     down, up = events["down_wall"], events["up_wall"]
-    result: dict = {"down_s": round(up - down, 3)}
+    result: dict = {"down_s": round(up - down, 3), "down_at_run_s": events.get("down_run_s")}
+    master = {"logs": {topic: times - master_ahead_s for topic, times in master["logs"].items()}}
     states = [(s.header.stamp, s.master_stamp) for _, s in robot["messages"].get("/replica/fic_state", [])]
     used_before = {ms.sec * 1_000_000_000 + ms.nanosec for stamp, ms in states if _seconds(stamp) < up}
     last_before_cut = max((_seconds(ms) for stamp, ms in states if _seconds(stamp) < down), default=None)
@@ -250,7 +252,8 @@ def analyse_run(run_dir: Path, outer_record: dict) -> str:
                          f"{clocks.get('master_clock_ahead_estimate_ms')} +- {clocks.get('estimate_bound_ms')} ms, "
                          f"corrected p50 {clocks.get('corrected_latency_ms', {}).get('p50')} ms")
         if "down_wall" in events and "up_wall" in events:
-            record["link_cut"] = link_cut_figures(robot, master, events, run_dir)
+            ahead = (clocks.get("master_clock_ahead_estimate_ms") or 0.0) * 1e-3
+            record["link_cut"] = link_cut_figures(robot, master, events, run_dir, ahead)
             cut = record["link_cut"]
             lines.append(f"[stations] link cut {cut['down_s']} s: first command used {cut.get('first_command_used_after_up_s')}"
                          f" s after link-up ({cut.get('that_command_was')}); master: "

@@ -230,7 +230,7 @@ def _interrupt(process: subprocess.Popen, timeout: float) -> int:
 
 
 def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event,
-                      wall_origin: float | None = None) -> float:
+                      wall_origin: float | None = None, progress=None) -> float:
     """Block until the simulation has run `duration` seconds of its own time (read from /clock), or `stop` is set.
 
     ``wall_origin`` (realtime, a scripted scene): the duration counts from the first /clock at or after this
@@ -267,6 +267,8 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
                 last_scheduling = time.monotonic()
                 graph_.scheduler.apply()
             elapsed = 0.0 if latest["start"] is None else latest["t"] - latest["start"]
+            if progress is not None and latest["start"] is not None:
+                progress(elapsed)   # two stations: the link cut counts run time as --duration does
             if elapsed >= duration or graph_.foreground_done():
                 break
             dead = graph_.dead()
@@ -432,7 +434,8 @@ def main(argv: list[str] | None = None) -> int:
         if not interrupted.is_set():
             sim_elapsed = wait_for_sim_time(args.duration, running, stop=interrupted,
                                             wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
-                                            wall_origin=wall_origin)
+                                            wall_origin=wall_origin,
+                                            progress=stations.progress if stations is not None else None)
         _report_scheduling(running, run_dir)
     except KeyboardInterrupt:  # only if a signal arrived before our handler was installed
         interrupted.set()

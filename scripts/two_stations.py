@@ -280,40 +280,42 @@ def faketime_library() -> str | None:
 
 
 def faketime_environment(offset_s: float) -> list[str]:
-    """CLOCK_REALTIME of the process shifted by offset_s (libfaketime, multithreaded build); the monotonic clocks,
-    which Fast DDS and the executors' waits use, stay true. ROS time off sim time is CLOCK_REALTIME."""
+    """CLOCK_REALTIME of the process shifted by offset_s (libfaketime, multithreaded build); ROS time off sim time is
+    CLOCK_REALTIME. The monotonic clocks are shifted by the same constant (FAKETIME_DONT_FAKE_MONOTONIC=1 would
+    keep them true, but libfaketime 0.9.10 then fails Python's absolute-time sleeps with EINVAL); only their
+    differences matter, within one station."""
     library = faketime_library()
     if library is None:
         raise StationError("--station-clock-offset needs libfaketime (apt-get install libfaketime)")
-    return [f"LD_PRELOAD={library}", f"FAKETIME={offset_s:+.6f}", "FAKETIME_DONT_FAKE_MONOTONIC=1",
+    return [f"LD_PRELOAD={library}", f"FAKETIME={offset_s:+.6f}",
             "FAKETIME_DONT_RESET=1", "FAKETIME_NO_CACHE=1"]
 
 
 class LinkCut:
-    """Sets the veth down at `down_at` and up again `down_for` seconds later (wall time after `origin`)."""
+    """Sets the veth down once the run has gone `down_at` seconds (counted as --duration counts them: simulated
+    time from the script's start, so a slow start-up on a loaded machine does not move the cut before the graph
+    runs) and up again `down_for` wall-clock seconds later: the link is real, its outage is wall time."""
 
-    def __init__(self, pair: StationPair, origin_wall: float, down_at: float, down_for: float,
-                 stop: threading.Event) -> None:
-        self.pair, self.origin, self.down_at, self.down_for, self.stop = pair, origin_wall, down_at, down_for, stop
+    def __init__(self, pair: StationPair, down_at: float, down_for: float, stop: threading.Event) -> None:
+        self.pair, self.down_at, self.down_for, self.stop = pair, down_at, down_for, stop
         self.events: dict[str, float] = {}
         self.thread = threading.Thread(target=self._run, name="link_cut", daemon=True)
 
-    def start(self) -> None:
-        self.thread.start()
+    def progress(self, elapsed: float) -> None:
+        if elapsed >= self.down_at and not self.thread.is_alive() and "down_wall" not in self.events:
+            self.events["down_run_s"] = round(elapsed, 3)
+            self.thread.start()
 
     def _run(self) -> None:
-        if self.stop.wait(max(0.0, self.origin + self.down_at - time.time())):
-            return
         set_link(self.pair, up=False)
         self.events["down_wall"] = time.time()
-        print(f"[stations] link DOWN at {self.events['down_wall'] - self.origin:.2f} s (veth "
+        print(f"[stations] link DOWN at {self.events['down_run_s']:.2f} s of the run (veth "
               f"{self.pair.master_interface} <-> {self.pair.robot_interface})", flush=True)
-        # Up again even if the run is being stopped: the namespaces are deleted next, but never leave a cut link
-        # behind a run that was asked to restore it.
-        self.stop.wait(max(0.0, self.origin + self.down_at + self.down_for - time.time()))
+        # Up again even if the run is being stopped: never leave a cut link behind.
+        self.stop.wait(self.down_for)
         set_link(self.pair, up=True)
         self.events["up_wall"] = time.time()
-        print(f"[stations] link UP at {self.events['up_wall'] - self.origin:.2f} s", flush=True)
+        print(f"[stations] link UP after {self.events['up_wall'] - self.events['down_wall']:.2f} s", flush=True)
 
 
 def pair_from_environment() -> StationPair:
@@ -400,13 +402,17 @@ class InsideStation:
     def started(self, origin_wall: float) -> None:
         self._record({"origin_wall": origin_wall})
         if self.args.link_down_at is not None:
-            self.cut = LinkCut(self.pair, origin_wall, self.args.link_down_at, self.args.link_down_for, self.stop)
-            self.cut.start()
+            self.cut = LinkCut(self.pair, self.args.link_down_at, self.args.link_down_for, self.stop)
+
+    def progress(self, elapsed: float) -> None:
+        if self.cut is not None:
+            self.cut.progress(elapsed)
 
     def stopped(self) -> None:
         self.stop.set()
         if self.cut is not None:
-            self.cut.thread.join(timeout=5.0)
+            if self.cut.thread.is_alive():
+                self.cut.thread.join(timeout=10.0)
             self._record({"link_events": self.cut.events})
 
     def _record(self, values: dict) -> None:
