@@ -72,10 +72,25 @@ def traffic_summary(capture: dict, start: float | None, end: float | None) -> di
             "per_topic": summary, "total_bytes_per_s": totals}
 
 
-def _last_sedp_second(capture: dict, before: float) -> float:
-    seconds = [second for topics in capture.get("directions", {}).values() for name, entry in topics.items()
-               if name.startswith("discovery: SEDP") for second in entry["seconds"] if second < before]
-    return float(max(seconds)) if seconds else 0.0
+def _seconds_with(capture: dict, match, samples_only: bool = False) -> set[int]:
+    return {second for topics in capture.get("directions", {}).values() for name, entry in topics.items()
+            if match(name) for second, samples in zip(entry["seconds"], entry["samples"])
+            if samples or not samples_only}
+
+
+def _steady_window(capture: dict, cut_wall: float | None) -> tuple[float, float]:
+    """[start, end) in whole wall seconds (see analyse_run); (0, 0) if there is none."""
+    command = _seconds_with(capture, lambda name: name == "/master/teleop_command", samples_only=True)
+    if not command:
+        return 0.0, 0.0
+    first, last = min(command), max(command)
+    if cut_wall is not None:
+        last = min(last, int(cut_wall) - 1)
+    sedp = sorted(second for second in _seconds_with(capture, lambda name: name.startswith("discovery: SEDP"))
+                  if first <= second <= last)
+    bounds = [first - 1] + sedp + [last + 1]
+    best = max(zip(bounds, bounds[1:]), key=lambda pair: pair[1] - pair[0])
+    return float(best[0] + 1), float(best[1])
 
 
 def _gap_stats(times: np.ndarray, window: tuple[float, float] | None) -> dict:
@@ -225,10 +240,11 @@ def analyse_run(run_dir: Path, outer_record: dict) -> str:
     lines = [f"[stations] run folder {run_dir}"]
     if capture_path.exists() and origin:
         capture = json.loads(capture_path.read_text())
-        steady_end = float(int(min(events.get("down_wall", origin + duration), origin + duration)))
-        # Running: from the second after the last endpoint announcement (SEDP: discovery is over; on a loaded
-        # machine it goes on well into the script) to the cut or the end of the script.
-        steady_start = max(float(int(origin)), _last_sedp_second(capture, steady_end) + 1.0)
+        # Running: the longest stretch of whole seconds, while the command crosses and before any cut, with no
+        # endpoint announcement (SEDP) in it: discovery is over and shutdown has not begun. On a loaded machine
+        # start-up discovery goes on well into the script, and the run goes on well past origin + duration of
+        # wall time (the simulation runs slower than real time).
+        steady_start, steady_end = _steady_window(capture, events.get("down_wall"))
         record["traffic"] = {"running": traffic_summary(capture, steady_start, steady_end) if steady_end > steady_start
                              else {"window_s": 0, "per_topic": {}, "total_bytes_per_s": {}},
                              "before_the_script": traffic_summary(capture, None, float(int(origin))),
