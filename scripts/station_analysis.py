@@ -43,23 +43,21 @@ def _seconds(time_msg) -> float:
 
 
 def read_bag(bag: Path, decode: set[str]) -> dict:
-    """Per topic: receive (log) times [s]; for the topics in `decode`, the decoded messages too."""
-    from mcap.reader import make_reader
+    """Per topic: receive (log) times [s]; for the topics in `decode`, the decoded messages too. Read with the
+    project's one sequential bag reader (sim_bridge.recording.bag_reader), so a torn bag reads up to its tail."""
     from mcap_ros2.decoder import DecoderFactory
+    from sim_bridge.recording.bag_reader import read_messages
 
-    files = sorted(bag.glob("*.mcap")) if bag.is_dir() else [bag]
+    factory, decoders = DecoderFactory(), {}
     logs: dict[str, list[float]] = {}
     messages: dict[str, list] = {}
-    for path in files:
-        with open(path, "rb") as stream:
-            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-            for schema, channel, message in reader.iter_messages():
-                logs.setdefault(channel.topic, []).append(message.log_time * 1e-9)
-            stream.seek(0)
-            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-            if decode:
-                for schema, channel, message, decoded in reader.iter_decoded_messages(topics=sorted(decode)):
-                    messages.setdefault(channel.topic, []).append((message.log_time * 1e-9, decoded))
+    for schema, channel, message in read_messages(bag):
+        log = message.log_time * 1e-9
+        logs.setdefault(channel.topic, []).append(log)
+        if channel.topic in decode and schema is not None:
+            if channel.id not in decoders:
+                decoders[channel.id] = factory.decoder_for(channel.message_encoding, schema)
+            messages.setdefault(channel.topic, []).append((log, decoders[channel.id](message.data)))
     return {"logs": {k: np.sort(np.array(v)) for k, v in logs.items()}, "messages": messages}
 
 

@@ -250,7 +250,7 @@ def adapt_graph(specs: list, node_spec_class, run_dir: Path) -> None:
 
 
 def _default_recorder_topics() -> list[str]:
-    from sim_bridge.recorder_node import DEFAULT_TOPICS
+    from sim_bridge.recording.recorder_node import DEFAULT_TOPICS
     return list(DEFAULT_TOPICS)
 
 
