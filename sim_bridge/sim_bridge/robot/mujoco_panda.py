@@ -79,9 +79,19 @@ def panda_urdf_for_mujoco() -> str:
     return text
 
 
-def build_panda_spec() -> mujoco.MjSpec:
-    """The robot alone, with the simulation settings, actuators, collision bits and TCP site."""
+def build_panda_spec(gravity_compensation: bool = False) -> mujoco.MjSpec:
+    """The robot alone, with the simulation settings, actuators, collision bits and TCP site.
+
+    ``gravity_compensation``: the arm compensates its own weight at every physics step, as a Franka under torque
+    control does (docs/HARDWARE.md): every robot body gets MuJoCo's ``gravcomp = 1``, a passive force
+    (qfrc_gravcomp) outside the actuators, so the torque command then means tau - G(q), and bodies that are not
+    the robot (a piece held by the adhesive bond) are not compensated, like a load the arm was not told about.
+    """
     spec = mujoco.MjSpec.from_string(panda_urdf_for_mujoco())
+    if gravity_compensation:
+        for body in spec.bodies:
+            if body.name != "world":
+                body.gravcomp = 1.0
     spec.option.timestep = TIMESTEP
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.gravity = [0.0, 0.0, -9.81]
@@ -105,9 +115,9 @@ def build_panda_spec() -> mujoco.MjSpec:
     return spec
 
 
-def build_model(scene: str) -> tuple[mujoco.MjModel, SceneLayout]:
-    """Compile the Panda with the named scene (scenes.SCENE_NAMES)."""
-    spec = build_panda_spec()
+def build_model(scene: str, gravity_compensation: bool = False) -> tuple[mujoco.MjModel, SceneLayout]:
+    """Compile the Panda with the named scene (scenes.SCENE_NAMES); see build_panda_spec for the gravity."""
+    spec = build_panda_spec(gravity_compensation)
     layout = add_scene(spec, scene)
     if layout.bond_piece_bodies:
         add_bond_welds(spec, HAND_FRAME, layout.bond_piece_bodies)
@@ -122,8 +132,10 @@ class PandaSimulation:
     """
 
     def __init__(self, scene: str, seed: int, initial_configuration: ArrayLike = NOMINAL_CONFIGURATION,
-                 bond_parameters: BondParameters = BondParameters()) -> None:
-        self._model, self.layout = build_model(scene)
+                 bond_parameters: BondParameters = BondParameters(), gravity_compensation: bool = False) -> None:
+        self._model, self.layout = build_model(scene, gravity_compensation)
+        #: The arm compensates its own gravity (a Franka's semantics): commands are tau - G(q).
+        self.gravity_compensation = gravity_compensation
         self._data = mujoco.MjData(self._model)
         self._initial_configuration = self._check_vector("initial_configuration", initial_configuration)
         self._arm_qpos = np.array([self._model.jnt_qposadr[self._model.joint(n).id] for n in ARM_JOINT_NAMES])
@@ -239,8 +251,12 @@ class PandaSimulation:
         return [] if self._bond is None else self._bond.drain_events()
 
     def hold_torque(self, damping: ArrayLike = HOLD_DAMPING) -> NDArray[np.float64]:
-        """Gravity and Coriolis compensation plus damping, -D qd: what the watchdog applies to hold the arm."""
-        return self._data.qfrc_bias[self._arm_dof] - np.asarray(damping, dtype=np.float64) * self.joint_velocities
+        """Gravity and Coriolis compensation plus damping, -D qd: what the watchdog applies to hold the arm (without
+        the gravity when the arm compensates it itself)."""
+        bias = self._data.qfrc_bias[self._arm_dof]
+        if self.gravity_compensation:
+            bias = bias - self._data.qfrc_gravcomp[self._arm_dof]
+        return bias - np.asarray(damping, dtype=np.float64) * self.joint_velocities
 
     def object_poses(self) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
         """Pose (position, quaternion w x y z) of every movable scene body."""
