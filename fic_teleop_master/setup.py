@@ -19,6 +19,7 @@ setup(
     entry_points={
         "console_scripts": [
             "master_node = fic_teleop_master.master_node:main",
+            "fd_adapter_node = fic_teleop_master.fd_adapter_node:main",
         ],
     },
 )

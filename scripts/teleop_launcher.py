@@ -23,6 +23,7 @@ from datetime import datetime
 from pathlib import Path
 
 import two_stations
+import hardware_twin
 from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
 
 REPO = Path(__file__).resolve().parent.parent
@@ -47,7 +48,7 @@ REALTIME_CONTROL_RATE_HZ = 500.0
 # here: the replica and the robot at 100 % of a core each under SCHED_FIFO).
 # Each step of niceness is about 1.25x the CPU share against a contending process at 0.
 PRIORITY_NICENESS = {"robot": -15, "replica": -12, "channel_forward": -10, "channel_backward": -10, "master": -10,
-                     "haptic_device": -10, "planner": -10}
+                     "haptic_device": -10, "planner": -10, "fd_adapter": -10}
 
 
 @dataclass
@@ -60,6 +61,8 @@ class NodeSpec:
     foreground: bool = False  # the interactive keyboard operator owns the terminal
     niceness: int | None = None  # negative: ahead of the recorder and planner (PRIORITY_NICENESS); None: unchanged
     fifo_priority: int | None = None  # SCHED_FIFO priority of its loop threads (realtime_scheduling.py); None: none
+    extra_params_files: list[str] = field(default_factory=list)  # after params_file (a driver profile, config/profiles)
+    remaps: dict[str, str] = field(default_factory=dict)         # topic remaps (a driver profile's remaps.yaml)
 
 
 def parameter_literal(value) -> str:
@@ -79,6 +82,10 @@ def node_command(spec: NodeSpec) -> list[str]:
     command += ["--ros-args", "-r", f"__node:={spec.name}"]
     if spec.params_file:
         command += ["--params-file", str(CONFIG / spec.params_file)]
+    for extra in spec.extra_params_files:
+        command += ["--params-file", str(CONFIG / extra)]
+    for source, target in spec.remaps.items():
+        command += ["-r", f"{source}:={target}"]
     for key, value in spec.params.items():
         command += ["-p", f"{key}:={parameter_literal(value)}"]
     return command
@@ -140,6 +147,8 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     ]
     if args.interactive:
         nodes.append(NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", None, {}, foreground=True))
+    if args.hardware_twin:
+        nodes = hardware_twin.twin_graph(nodes, lockstep, NodeSpec)
     if args.scheduling != "default":
         for spec in nodes:
             spec.niceness = PRIORITY_NICENESS.get(spec.name)
@@ -353,6 +362,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                              "(scripts/realtime_scheduling.py); default: every node as the shell starts it")
     parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
     two_stations.add_arguments(parser)
+    hardware_twin.add_arguments(parser)
     return parser.parse_args(argv)
 
 

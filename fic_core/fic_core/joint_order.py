@@ -28,9 +28,14 @@ class JointOrder:
                 index = np.array([key.index(name) for name in self.names])
             except ValueError:
                 index = None
-            if index is None or len(positions) != len(key) or len(velocities) != len(key):
-                raise FicInputError(f"expected positions and velocities of {', '.join(self.names)}, got names "
-                                    f"{list(key)}")
+            if index is None:
+                missing = [name for name in self.names if name not in key]
+                raise FicInputError(f"joint names do not match: expected {list(self.names)}, received {list(key)} "
+                                    f"(missing {missing}); set arm_type or joint_names to the driver's names")
+            if len(positions) != len(key) or len(velocities) != len(key):
+                raise FicInputError(f"joint state has {len(key)} names but {len(positions)} positions and "
+                                    f"{len(velocities)} velocities (expected {list(self.names)}, received "
+                                    f"{list(key)})")
             self._cache[key] = index
         if len(positions) != len(key) or len(velocities) != len(key):
             raise FicInputError(f"expected {len(key)} positions and velocities, got {len(positions)} and "

@@ -54,9 +54,11 @@ def _desired_pose_parameters(p: Mapping[str, Any]) -> DesiredPoseParameters:
 class ReplicaLoop:
     """The replica's control logic for a parameter mapping (fic_core.replica_parameters; module docstring)."""
 
-    def __init__(self, values: Mapping[str, Any], robot: RobotModel | None = None) -> None:
+    def __init__(self, values: Mapping[str, Any], robot: RobotModel | None = None,
+                 limits: PandaLimits | None = None) -> None:
         self.robot = RobotModel() if robot is None else robot
-        self.limits = PandaLimits.from_robot(self.robot)
+        # The arm's datasheet limits (fic_core.arm_profile: Panda by default, an FR3 behind franka_ros2).
+        self.limits = PandaLimits.from_robot(self.robot) if limits is None else limits
         self.parameters = checked(values)
         p = self.parameters
         self.controller: ReplicaController = build_replica_controller(self.robot, self.limits, p)

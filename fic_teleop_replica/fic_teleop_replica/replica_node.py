@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import gc
 import struct
+import time as time_module
 
 import numpy as np
 import pinocchio as pin
@@ -35,11 +36,13 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
+from rclpy.clock import Clock, ClockType
 
 from fic_core.errors import FicInputError
-from fic_core.joint_order import JointOrder
+from fic_core.robot_model import RobotModel
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import CONTROLLER_DESCRIPTION, REPLICA_NUMBERS, REPLICA_SWITCHES
+from fic_teleop_replica.driver_interface import DriverInterface
 
 # 1 kHz robot streams: RELIABLE, KEEP_LAST 50 (a recorder must lose none; a late command is superseded anyway).
 ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
@@ -56,7 +59,6 @@ TELEOP_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryP
 STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
 DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
 
-BASE_FRAME = "panda_link0"
 NODE_NAME = "replica"
 LOG_THROTTLE_S = 2.0
 # builtin_interfaces/Time (int32 sec, uint32 nanosec) at the start of a CDR message with a std_msgs/Header.
@@ -82,9 +84,15 @@ class ReplicaNode(Node):
             self.declare_parameter(name, default, ParameterDescriptor(description=description, floating_point_range=[
                 FloatingPointRange(from_value=low, to_value=high, step=0.0)]))
         names = ("controller", *REPLICA_SWITCHES, *REPLICA_NUMBERS)
-        self._loop = ReplicaLoop({name: self.get_parameter(name).value for name in names})  # FicInputError if bad
-        self._joints = JointOrder()
+        # The driver behind the topics: arm, joint names, gravity semantics, wrench frame, ramp-down (docs/HARDWARE.md).
+        self._driver = DriverInterface(self)
+        robot = RobotModel()
+        self._loop = ReplicaLoop({name: self.get_parameter(name).value for name in names}, robot,
+                                 self._driver.limits(robot))  # FicInputError if bad
+        self._joints = self._driver.joint_order
         self._wrench: WrenchStamped | None = None  # F_R as last received
+        self._published: np.ndarray | None = None  # the last command sent
+        self._refusal_logged: dict[str, float] = {}  # topic -> monotonic time of its last refusal line
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._command_pub = self.create_publisher(Float64MultiArray, "/effort_controller/commands", ROBOT_STREAM_QOS)
@@ -102,6 +110,11 @@ class ReplicaNode(Node):
         self.create_subscription(AccelStamped, "/planner/desired_accel", self._on_planner_accel, TELEOP_QOS)
         p = self._loop.parameters
         self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
+        # The joint-state watchdog runs on the steady clock: with a real driver, silence is wall time.
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        if self._driver.ramp is not None:
+            self.create_timer(0.01, self._check_joint_states, clock=self._steady)
+        self.get_logger().info(f"driver: {self._driver.describe()}")
         self.get_logger().info(f"replica ready: controller {p['controller']}, control_rate {p['control_rate']:g} Hz, "
                                f"master_timeout {p['master_timeout']:g} s; waiting for /joint_states")
 
@@ -122,9 +135,14 @@ class ReplicaNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _refuse(self, topic: str, exc: Exception) -> None:
-        self.get_logger().error(f"refusing {topic}: {exc}; keeping the last good value",
-                                throttle_duration_sec=LOG_THROTTLE_S)
+    def _refuse(self, topic: str, exc: Exception, consequence: str = "keeping the last good value") -> None:
+        """One error line per topic and LOG_THROTTLE_S (rclpy's throttle is per call site: one refused input
+        must not silence another's line)."""
+        now = time_module.monotonic()
+        last = self._refusal_logged.get(topic)
+        if last is None or now - last >= LOG_THROTTLE_S:
+            self._refusal_logged[topic] = now
+            self.get_logger().error(f"refusing {topic}: {exc}; {consequence}")
 
     def _on_teleop_command(self, message: TeleoperationCommand) -> None:
         try:
@@ -150,11 +168,22 @@ class ReplicaNode(Node):
             self._refuse("/planner/desired_accel", exc)
 
     def _on_wrench(self, message: WrenchStamped) -> None:
-        if not np.isfinite((*_xyz(message.wrench.force), *_xyz(message.wrench.torque))).all():
+        command = self._loop.last_command
+        try:  # the declared base frame, sign and reference point (fic_core.wrench_frame)
+            force, torque = self._driver.wrench_frame.at_tcp(
+                message.header.frame_id, _xyz(message.wrench.force), _xyz(message.wrench.torque),
+                None if command is None else command.tcp_rotation)
+        except FicInputError as exc:
+            # F_R goes to zero rather than stay at an old value: the operator feels nothing instead of a wrong push.
             self._loop.counts["rejected_wrenches"] += 1
-            return self._refuse("/ft_sensor/wrench", ValueError("the wrench is not finite"))
-        self._loop.counts["wrenches"] += 1
-        message.header.frame_id = BASE_FRAME
+            self._refuse("/ft_sensor/wrench", exc, "F_R = 0 until a valid one")
+            force = torque = np.zeros(3)
+        else:
+            self._loop.counts["wrenches"] += 1
+        wrench = message.wrench
+        wrench.force.x, wrench.force.y, wrench.force.z = (float(v) for v in force)
+        wrench.torque.x, wrench.torque.y, wrench.torque.z = (float(v) for v in torque)
+        message.header.frame_id = self._driver.base_frame
         self._wrench = message  # F_R: the F/T reading, with the sensor's stamp
 
     # --- the control step ------------------------------------------------------------------------------------
@@ -172,6 +201,9 @@ class ReplicaNode(Node):
             self._refuse("/joint_states", exc)
             return self._publish_torque(self._loop.refuse_joint_state())
         stamp = message.header.stamp
+        if self._driver.ramp is not None and self._driver.ramp.fresh(self._steady.now().nanoseconds * 1e-9):
+            self.get_logger().warning("joint states are back: the law takes over from the ramp (slewed at the "
+                                      "torque-rate limit)")
         step = self._loop.joint_state(_nanoseconds(stamp) * 1e-9, self._now(), q, qd)
         for level, text in step.notices:  # one call site per severity (rclpy's logger requires it)
             if level == "error":
@@ -192,8 +224,30 @@ class ReplicaNode(Node):
 
     # --- outputs ---------------------------------------------------------------------------------------------
     def _publish_torque(self, torque: np.ndarray | None) -> None:
+        """Send the loop's tau as the driver expects it: tau, or tau - G(q) when the robot adds G(q) itself
+        (G at the state of the last control tick)."""
+        if self._driver.ramp is not None and self._driver.ramp.stale:
+            return  # the ramp owns the command until a valid joint state comes (a refused one repeats nothing)
         if torque is not None:
-            self._command_pub.publish(Float64MultiArray(data=torque.tolist()))
+            command = self._driver.command(torque, self._loop.robot)
+            self._published = command
+            self._command_pub.publish(Float64MultiArray(data=command.tolist()))
+
+    def _check_joint_states(self) -> None:
+        """No valid joint state for joint_state_timeout: ramp the command to the gravity-only hold (a driver's
+        forward controller would hold the last torque forever; fic_core.stale_input_ramp)."""
+        ramp = self._driver.ramp
+        now = self._steady.now().nanoseconds * 1e-9
+        if ramp.check(now, self._published):
+            self._loop.counts["ramp_downs"] = self._loop.counts.get("ramp_downs", 0) + 1
+            self.get_logger().error(
+                f"no valid joint state for more than joint_state_timeout = {ramp.timeout:g} s: ramping the torque "
+                f"command to the gravity-only hold over {ramp.ramp_time:g} s")
+        rest = self._driver.rest_command()
+        if ramp.stale and rest is not None:
+            command = ramp.command(now, rest)  # at most 2 x 87 N m / ramp_time: inside the torque-rate limit
+            self._published = command
+            self._command_pub.publish(Float64MultiArray(data=command.tolist()))
 
     def _publish_status(self, command, stamp: Time) -> None:
         # FicState is stamped when it is published (the node clock); the pipeline latency (master sample -> the
@@ -206,7 +260,7 @@ class ReplicaNode(Node):
                          stored_energy=command.stored_energy.tolist(), total_energy=float(command.total_energy),
                          master_age=desired.master_first_use_age, master_stale=desired.master_stale)
         state.header.stamp = self.get_clock().now().to_msg()
-        state.header.frame_id = BASE_FRAME
+        state.header.frame_id = self._driver.base_frame
         used = desired.master_stamp_used_ns
         state.master_stamp = Time(sec=used // 1_000_000_000, nanosec=used % 1_000_000_000)
         self._fic_state_pub.publish(state)
@@ -220,13 +274,13 @@ class ReplicaNode(Node):
                              tcp_speed=float(command.tcp_speed), ticks=controller.ticks,
                              shaped_ticks=controller.shaped_ticks, violation_ticks=controller.violation_ticks)
         status.header.stamp = stamp
-        status.header.frame_id = BASE_FRAME
+        status.header.frame_id = self._driver.base_frame
         self._limit_status_pub.publish(status)
 
     def _publish_pose(self, publisher, stamp: Time, position: np.ndarray, rotation: np.ndarray) -> None:
         pose = PoseStamped()
         pose.header.stamp = stamp
-        pose.header.frame_id = BASE_FRAME
+        pose.header.frame_id = self._driver.base_frame
         pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = position.tolist()
         o = pose.pose.orientation
         o.x, o.y, o.z, o.w = pin.Quaternion(rotation).coeffs().tolist()

@@ -8,7 +8,7 @@ import pytest
 from fic_core.arm_profile import FR3, PANDA, arm_profile, resolve_joint_names
 from fic_core.errors import FicInputError
 from fic_core.haptic_device_mapping import DeviceFrameMapping, GraspGain, device_command
-from fic_core.joint_state_mapping import JointStateMapping
+from fic_core.joint_order import JointOrder
 from fic_core.limits import PandaLimits
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.robot_model import RobotModel
@@ -52,16 +52,16 @@ def test_joint_names_by_arm_prefix_or_list():
 
 
 def test_joint_state_mapping_orders_by_name_and_names_both_sides_when_refusing():
-    mapping = JointStateMapping(FR3.joint_names())
+    order = JointOrder(FR3.joint_names())
     shuffled = list(reversed(FR3.joint_names())) + ["fr3_finger_joint1"]
-    index = mapping.index(shuffled, 8, 8)
-    assert [shuffled[i] for i in index] == list(FR3.joint_names())
+    q, _ = order.pick(shuffled, [float(i) for i in range(8)], [0.0] * 8)
+    assert q.tolist() == [6.0, 5.0, 4.0, 3.0, 2.0, 1.0, 0.0]
     with pytest.raises(FicInputError) as refused:
-        mapping.index(list(PANDA.joint_names()), 7, 7)
+        order.pick(list(PANDA.joint_names()), [0.0] * 7, [0.0] * 7)
     text = str(refused.value)
-    assert "fr3_joint1" in text and "panda_joint1" in text and "expected" in text and "received" in text
+    assert "expected ['fr3_joint1'" in text and "received ['panda_joint1'" in text
     with pytest.raises(FicInputError, match="6 positions"):
-        mapping.index(list(FR3.joint_names()), 6, 7)
+        order.pick(list(FR3.joint_names()), [0.0] * 6, [0.0] * 7)
 
 
 def test_gravity_left_to_the_robot_removes_exactly_g(robot):

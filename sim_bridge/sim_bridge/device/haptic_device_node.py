@@ -22,9 +22,11 @@ from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Joy
+from sensor_msgs.msg import JointState, Joy
+from std_msgs.msg import Bool, Float64MultiArray
 
 from fic_core.errors import FicInputError
+from sim_bridge.driver_twins import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.spin import spin_until_shutdown
 from sim_bridge.device.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
@@ -94,6 +96,9 @@ class HapticDeviceNode(Node):
         self.declare_parameter("joy_timeout", 0.5, _range(0.01, 10.0,
                                "axes older than this count as zero (a crashed keyboard stops the hand) [s]"))
         self.declare_parameter("frame_id", "haptic_base", ParameterDescriptor(description="frame of pose/twist"))
+        self.declare_parameter("driver_interface", "sim", ParameterDescriptor(
+            description=f"topics to speak: one of {DEVICE_INTERFACES} (forcedimension: the twin of "
+                        "forcedimension_ros2, driver_twins.py; publish_rate_hz is then its update rate)"))
 
         value = lambda name: self.get_parameter(name).value  # noqa: E731
         parameters = HapticDeviceParameters(
@@ -112,9 +117,26 @@ class HapticDeviceNode(Node):
         if self.source not in OPERATOR_SOURCES:
             raise FicInputError(f"operator_source must be one of {OPERATOR_SOURCES}, got {self.source!r}")
 
-        self.pose_publisher = self.create_publisher(PoseStamped, "/haptic/pose", DEVICE_QOS)
-        self.twist_publisher = self.create_publisher(TwistStamped, "/haptic/twist", DEVICE_QOS)
-        self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_command, DEVICE_QOS)
+        self.interface = value("driver_interface")
+        if self.interface not in DEVICE_INTERFACES:
+            raise FicInputError(f"driver_interface must be one of {DEVICE_INTERFACES}, got {self.interface!r}")
+        self.fd = self.interface == "forcedimension"
+        if self.fd:
+            # The forcedimension_ros2 twin: its topics, types, QoS and frame; its effort controller holds the last
+            # force with no timeout (command_timeout does not apply) and renders NaN as zero force.
+            fd = FORCE_DIMENSION
+            self.frame_id = fd.frame
+            self.pose_publisher = self.create_publisher(PoseStamped, fd.ee_pose, SYSTEM_DEFAULTS_QOS)
+            self.fd_joint_publisher = self.create_publisher(JointState, fd.joint_states, SYSTEM_DEFAULTS_QOS)
+            self.fd_button_publisher = self.create_publisher(Bool, fd.button, SYSTEM_DEFAULTS_QOS)
+            self.fd_clutch_publisher = self.create_publisher(Bool, fd.clutch, SYSTEM_DEFAULTS_QOS)
+            self.create_subscription(Float64MultiArray, fd.command, self._on_fd_command, SYSTEM_DEFAULTS_QOS)
+            self.fd_joint_state = JointState(name=list(fd.joint_names))
+            self.fd_button_pressed = False
+        else:
+            self.pose_publisher = self.create_publisher(PoseStamped, "/haptic/pose", DEVICE_QOS)
+            self.twist_publisher = self.create_publisher(TwistStamped, "/haptic/twist", DEVICE_QOS)
+            self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_command, DEVICE_QOS)
         self.command_force = np.zeros(3)
         self.command_time: float | None = None
         self.stale_warned = False
@@ -164,6 +186,18 @@ class HapticDeviceNode(Node):
             self.get_logger().info("force commands are fresh again")
             self.stale_warned = False
 
+    def _on_fd_command(self, message: Float64MultiArray) -> None:
+        """forcedimension_ros2's write(): the first three entries are the force in fd_base; a NaN anywhere renders
+        zero force; the last command stays until another comes."""
+        data = list(message.data)
+        if len(data) < 3:
+            self.get_logger().error(f"refused {FORCE_DIMENSION.command}: {len(data)} values, need at least 3",
+                                    throttle_duration_sec=1.0)
+            return
+        force = np.array(data[:3], dtype=float)
+        self.command_force = force if np.all(np.isfinite(data)) else np.zeros(3)
+        self.command_time = self._now()
+
     def _on_joy(self, message: Joy) -> None:
         axes = list(message.axes[:3])
         if not all(math.isfinite(a) for a in axes):
@@ -174,6 +208,8 @@ class HapticDeviceNode(Node):
 
     # -- loop -----------------------------------------------------------------------------------------------
     def _current_command(self, now: float) -> np.ndarray:
+        if self.fd:
+            return self.command_force  # the driver's forward controller: held, no timeout
         if self.command_time is not None and now - self.command_time <= self.command_timeout:
             return self.command_force
         if self.command_time is not None and not self.stale_warned:
@@ -191,6 +227,8 @@ class HapticDeviceNode(Node):
         if self.scripted is not None:
             self.hand.update(self.scripted.target(now - self.script_origin), self.device.position, dt)
             self.button_queue.extend(event.button for event in self.scripted.poll_events(now - self.script_origin))
+            if self.fd:
+                self._fd_buttons()
             hand_force = self.hand.force
         elif self.joy_target is not None:
             axes = self.joy_axes if now - self.joy_time <= self.joy_timeout else []
@@ -204,11 +242,33 @@ class HapticDeviceNode(Node):
         pose.header.stamp, pose.header.frame_id = stamp, self.frame_id
         pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = (float(v) for v in state.position)
         pose.pose.orientation.w = 1.0        # translational device: the handle's orientation is not modelled
+        if self.fd:
+            self.pose_publisher.publish(pose)
+            joints = self.fd_joint_state
+            joints.header.stamp = stamp
+            joints.position = [float(v) for v in state.position]
+            joints.velocity = [float(v) for v in state.velocity]
+            joints.effort = [float(v) for v in command]
+            self.fd_joint_publisher.publish(joints)
+            self.fd_button_publisher.publish(Bool(data=self.fd_button_pressed))
+            self.fd_clutch_publisher.publish(Bool(data=True))  # workspace engaged (no clutch modelled)
+            return
         twist = TwistStamped()
         twist.header.stamp, twist.header.frame_id = stamp, self.frame_id
         twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = (float(v) for v in state.velocity)
         self.pose_publisher.publish(pose)
         self.twist_publisher.publish(twist)
+
+    def _fd_buttons(self) -> None:
+        """The device's one button carries the script's mode toggles (held for one publication, released for
+        the next, so two toggles stay two); the other scripted presses still go to /operator/joy."""
+        if self.fd_button_pressed:
+            self.fd_button_pressed = False
+            return
+        if self.button_queue and self.button_queue[0] == 0:
+            self.button_queue.popleft()
+            self.fd_button_pressed = True
+            self.get_logger().info("operator presses the device button")
 
     def _publish_buttons(self) -> None:
         """Edge-triggered presses: one Joy message with the button at 1, then one with all at 0, so two presses
@@ -217,7 +277,7 @@ class HapticDeviceNode(Node):
         message.header.stamp = self.get_clock().now().to_msg()
         message.axes = [0.0, 0.0, 0.0]
         message.buttons = [0] * BUTTON_COUNT
-        if not self.button_down and self.button_queue:
+        if not self.button_down and self.button_queue and not (self.fd and self.button_queue[0] == 0):
             button = self.button_queue.popleft()
             message.buttons[button] = 1
             self.button_down = True

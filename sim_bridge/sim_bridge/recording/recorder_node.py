@@ -204,6 +204,10 @@ class RecorderNode(Node):
             self._skipped.add(topic)
             return
         publishers = self.get_publishers_info_by_topic(topic)
+        if not publishers:
+            # Only readers known so far (a subscriber announces the topic too): without a publisher's QoS a
+            # reliable guess would never match a best-effort driver stream (franka_ros2's wrench); next discovery.
+            return
         reliable = all(p.qos_profile.reliability != ReliabilityPolicy.BEST_EFFORT for p in publishers)
         latched = bool(publishers) and all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
                                            for p in publishers)

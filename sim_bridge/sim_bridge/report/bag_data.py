@@ -34,6 +34,14 @@ STAMP_ONLY_TOPICS = ("/joint_states",)
 CLOCK_TOPIC = "/clock"
 # Forward direction of the channel (master -> replica): the one whose delay the latency metric subtracts.
 FORWARD_TOPICS = ("/replica/teleop_command", "/replica/master_pose")
+#: A driver's topic that stands in for one of ours (docs/HARDWARE.md): franka_ros2's 1 kHz joint states and its
+#: external-wrench estimate are read as /joint_states and /ft_sensor/wrench. When a bag holds both (franka_ros2's
+#: /joint_states is joint_state_publisher's 30 Hz merge), the driver's stream is used and ours is left out.
+HARDWARE_TOPIC_ALIASES = {
+    "/franka/joint_states": "/joint_states",
+    "/franka_robot_state_broadcaster/external_wrench_in_base_frame": "/ft_sensor/wrench",
+}
+_SHADOWED = "#shadowed"
 
 
 def _stamp(time_msg) -> float:
@@ -98,12 +106,17 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
         for _, channel, record in read_messages(path, status):
             topic = channel.topic
             counts[topic] += 1
+            store = topic  # the row key: a driver's stream under our name, ours aside until we know (see aliases)
+            if topic in HARDWARE_TOPIC_ALIASES:
+                topic = store = HARDWARE_TOPIC_ALIASES[topic]
+            elif topic in HARDWARE_TOPIC_ALIASES.values():
+                store = topic + _SHADOWED
             log = record.log_time * 1e-9
             first_log, last_log = min(first_log, log), max(last_log, log)
             if topic in STAMP_ONLY_TOPICS or topic == CLOCK_TOPIC:
                 stamp = _cdr_time_ns(record.data) * 1e-9
-                rows[topic].append((stamp, log))
-                if keyframe_interval and topic == "/joint_states" and (
+                rows[store].append((stamp, log))
+                if keyframe_interval and topic == "/joint_states" and store == topic and (
                         not key_joint_states or stamp >= key_joint_states[-1][0] + keyframe_interval):
                     joint_state = _decoder(factory, decoders, record.channel_id, channel, schemas)(record.data)
                     key_joint_states.append((stamp, list(joint_state.name), list(joint_state.position)))
@@ -113,10 +126,10 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
             msg = _decoder(factory, decoders, record.channel_id, channel, schemas)(record.data)
             if topic in POSE_TOPICS:
                 p = msg.pose.position
-                rows[topic].append((_stamp(msg.header.stamp), log, p.x, p.y, p.z))
+                rows[store].append((_stamp(msg.header.stamp), log, p.x, p.y, p.z))
             elif topic in WRENCH_TOPICS:
                 f = msg.wrench.force
-                rows[topic].append((_stamp(msg.header.stamp), log, f.x, f.y, f.z))
+                rows[store].append((_stamp(msg.header.stamp), log, f.x, f.y, f.z))
             elif topic in TELEOP_TOPICS:
                 h, d = msg.handle_position, msg.desired_offset
                 rows[topic].append((_stamp(msg.header.stamp), log, h.x, h.y, h.z, d.x, d.y, d.z, msg.haptic_gain))
@@ -137,6 +150,10 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
     if not status.complete and not counts and not schemas:
         raise BagReadError(f"{path}: not an MCAP file or empty ({status.stopped_by})")
 
+    for ours in HARDWARE_TOPIC_ALIASES.values():  # our own stream only where no driver stream stood in for it
+        shadowed = rows.pop(ours + _SHADOWED, None)
+        if shadowed and not rows.get(ours):
+            rows[ours] = shadowed
     columns = {
         "pose": ("x", "y", "z"),
         "wrench": ("fx", "fy", "fz"),

@@ -26,13 +26,24 @@ def render_key_frames(data: BagData, out: Path, scene: str, width: int = 640, he
     with OffscreenRenderer(model, default_view(scene), width, height) as renderer:
         for stamp, names, positions in data.key_joint_states:
             for name, position in zip(names, positions):
-                joint = model.joint(name) if name in _joint_names(model) else None
+                name = _model_joint_name(name, _joint_names(model))
+                joint = model.joint(name) if name is not None else None
                 if joint is not None:
                     state.qpos[joint.qposadr[0]] = position
             mujoco.mj_kinematics(model, state)
             mujoco.mj_camlight(model, state)
             written.append(save_png(renderer.render(state), out / f"key_frame_{stamp - t0:07.2f}s.png"))
     return written
+
+
+def _model_joint_name(name: str, names: set[str]) -> str | None:
+    """The model's joint for a recorded name: itself, or panda_joint<N> for another arm's <prefix>_joint<N>
+    (an FR3 behind franka_ros2 is drawn with the Panda model, docs/HARDWARE.md)."""
+    if name in names:
+        return name
+    stem, separator, number = name.rpartition("_joint")
+    candidate = f"panda_joint{number}"
+    return candidate if separator and stem and candidate in names else None
 
 
 def _joint_names(model) -> set[str]:

@@ -52,6 +52,7 @@ from std_msgs.msg import Float64, Float64MultiArray
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
 from sim_bridge.cdr_header import header_stamp, stamp_seconds
+from sim_bridge.driver_twins import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
 from sim_bridge.message_types import message_class
 from sim_bridge.os_thread import name_os_thread
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
@@ -95,7 +96,10 @@ class RobotNode(Node):
         super().__init__("robot_sim")
         p = self._declare_parameters()
         self._mode = p["mode"]
-        self._sim = PandaSimulation(p["scene"], p["seed"], p["initial_configuration"])
+        self._sim = PandaSimulation(p["scene"], p["seed"], p["initial_configuration"],
+                                    gravity_compensation=p["gravity_compensation"])
+        self._franka = p["driver_interface"] == "franka_ros2"
+        self._hold_on_stale = p["hold_on_stale_commands"]
         self._scene = p["scene"]
         self._lockstep_timeout = p["lockstep_timeout"]
         self._lockstep_subscribers = p["lockstep_subscribers"]
@@ -133,8 +137,17 @@ class RobotNode(Node):
         self._stop = threading.Event()
         self._wall_epoch_ns = self.get_clock().now().nanoseconds
 
-        self._joint_state_pub = self.create_publisher(JointState, "/joint_states", ROBOT_STREAM_QOS)
-        self._wrench_pub = self.create_publisher(WrenchStamped, "/ft_sensor/wrench", ROBOT_STREAM_QOS)
+        # The franka_ros2 twin (driver_twins.py): its topics, QoS and frames; the arm compensates its gravity.
+        franka = FRANKA_ROS2
+        self._joint_state_pub = self.create_publisher(
+            JointState, franka.joint_states if self._franka else "/joint_states",
+            SYSTEM_DEFAULTS_QOS if self._franka else ROBOT_STREAM_QOS)
+        self._wrench_pub = self.create_publisher(
+            WrenchStamped, franka.external_wrench if self._franka else "/ft_sensor/wrench",
+            FRANKA_CONVENIENCE_QOS if self._franka else ROBOT_STREAM_QOS)
+        self._slow_joint_state_pub = (self.create_publisher(JointState, franka.slow_joint_states, SYSTEM_DEFAULTS_QOS)
+                                      if self._franka else None)
+        self._slow_every = _every(franka.slow_joint_states_rate_hz)
         self._clock_pub = self.create_publisher(Clock, "/clock", ROBOT_STREAM_QOS)
         self._lateness_pub = self.create_publisher(Float64, "/sim/step_lateness", STATUS_QOS)
         self._object_poses_pub = self.create_publisher(PoseArray, "/sim/object_poses", STATUS_QOS)
@@ -142,22 +155,27 @@ class RobotNode(Node):
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         # Realtime: only the newest command matters (zero-order hold), and a reliable reader would hold every later
         # command back behind one lost sample until it is repaired. Lockstep: every answer counts, in order.
-        command_qos = ROBOT_STREAM_QOS if self._mode == "lockstep" else NEWEST_COMMAND_QOS
+        command_qos = ROBOT_STREAM_QOS if self._mode == "lockstep" else (
+            SYSTEM_DEFAULTS_QOS if self._franka else NEWEST_COMMAND_QOS)
         self.create_subscription(Float64MultiArray, "/effort_controller/commands", self._on_command, command_qos)
         self._unresolved_peers = list(self._barrier.topics) if self._barrier is not None else []
         if self._unresolved_peers:  # their types come from the graph, once their publishers are up
             self._peer_timer = self.create_timer(0.2, self._subscribe_peers)
 
         self._joint_state = JointState()
-        self._joint_state.header.frame_id = BASE_FRAME
-        self._joint_state.name = list(ARM_JOINT_NAMES)
+        self._joint_state.header.frame_id = franka.joint_states_frame if self._franka else BASE_FRAME
+        self._joint_state.name = ([f"{franka.joint_prefix}_joint{i}" for i in range(1, 8)] if self._franka
+                                  else list(ARM_JOINT_NAMES))
         self._wrench = WrenchStamped()
-        self._wrench.header.frame_id = BASE_FRAME
+        self._wrench.header.frame_id = franka.external_wrench_frame if self._franka else BASE_FRAME
 
         objects = ", ".join(self._sim.layout.movable_bodies) or "none"
         self.get_logger().info(
             f"robot_sim ready: scene {self._scene}, mode {self._mode}, seed {p['seed']}, watchdog "
-            f"{p['command_timeout']:.3f} s; /sim/object_poses order: {objects}")
+            f"{p['command_timeout']:.3f} s{'' if self._hold_on_stale else ' (off: commands held, as a forward controller does)'}; "
+            f"driver interface {p['driver_interface']}, gravity "
+            f"{'compensated by the arm' if p['gravity_compensation'] else 'in the command'}; "
+            f"/sim/object_poses order: {objects}")
         self._thread = threading.Thread(target=self._run, name=PHYSICS_THREAD_NAME, daemon=True)
         self._thread.start()
 
@@ -213,7 +231,17 @@ class RobotNode(Node):
             "snapshot_interval": number("snapshot_interval", 5.0, "simulated time between key frames [s]", 0.01, 3600.0),
             "viewer": self.declare_parameter("viewer", False, ParameterDescriptor(
                 description="open the live MuJoCo viewer (needs a display)")).value,
+            "gravity_compensation": self.declare_parameter("gravity_compensation", False, ParameterDescriptor(
+                description="the arm compensates its own gravity at every physics step, as a Franka under torque "
+                            "control: commands then mean tau - G(q) (mujoco_panda.build_panda_spec)")).value,
+            "driver_interface": text("driver_interface", "sim", "topics, QoS, frames and joint names to speak: "
+                                     f"one of {ROBOT_INTERFACES} (franka_ros2: its twin, driver_twins.py)"),
+            "hold_on_stale_commands": self.declare_parameter("hold_on_stale_commands", True, ParameterDescriptor(
+                description="replace stale commands by the hold torque (command_timeout); false: apply the last "
+                            "command until another comes, as ros2_control's forward controller does")).value,
         }
+        if values["driver_interface"] not in ROBOT_INTERFACES:
+            raise FicInputError(f"driver_interface must be one of {ROBOT_INTERFACES}, got {values['driver_interface']!r}")
         if values["scene"] not in SCENE_NAMES:
             raise FicInputError(f"scene must be one of {SCENE_NAMES}, got {values['scene']!r}")
         values["lockstep_peers"] = [topic for topic in values["lockstep_peers"] if topic]
@@ -289,7 +317,9 @@ class RobotNode(Node):
                 self._last_command_count = count
                 self._log_event(self._watchdog.command_received(arrival))
             self._log_event(self._watchdog.check(time.monotonic()))
-            self._sim.step(self._sim.hold_torque() if self._watchdog.holding else command)
+            # Before the first command there is none to hold: the hold torque, in both semantics.
+            held = command is None or (self._watchdog.holding and self._hold_on_stale)
+            self._sim.step(self._sim.hold_torque() if held else command)
             self._after_step(lateness)
 
     def _run_lockstep(self) -> None:
@@ -338,7 +368,8 @@ class RobotNode(Node):
                     self.get_logger().warning(
                         f"lockstep: peer {topic} held the simulation at t = {self._sim.time:.3f} s for more than "
                         f"lockstep_peer_timeout; not waiting for it until it catches up")
-            self._sim.step(self._sim.hold_torque() if self._watchdog.holding else self._last_command)
+            self._sim.step(self._sim.hold_torque() if self._watchdog.holding and self._hold_on_stale
+                           else self._last_command)
             self._after_step(None)
 
     def _after_step(self, lateness: float | None) -> None:
@@ -374,6 +405,8 @@ class RobotNode(Node):
         self._joint_state.velocity = self._sim.joint_velocities.tolist()
         self._joint_state.effort = self._sim.applied_torque.tolist()
         self._joint_state_pub.publish(self._joint_state)
+        if self._slow_joint_state_pub is not None and self._sim.steps % self._slow_every == 0:
+            self._slow_joint_state_pub.publish(self._joint_state)  # joint_state_publisher's 30 Hz copy
         if self._sim.steps % self._wrench_every:
             return
         wrench = self._sim.ft_wrench()

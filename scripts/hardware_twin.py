@@ -1,0 +1,70 @@
+"""``--hardware-twin``: the graph as it runs on the real drivers, against simulated twins of them.
+
+The simulated robot speaks franka_ros2 (robot_node ``driver_interface: franka_ros2``: /franka/joint_states,
+the external-wrench estimate best effort in frame ``base``, fr3_joint names, the arm compensating its own
+gravity, the last command held with no watchdog) and the simulated device speaks forcedimension_ros2
+(haptic_device_node ``driver_interface: forcedimension``: /fd/ee_pose in fd_base, /fd/joint_states,
+/fd/button_state, /fd/fd_clutch, /fd/fd_controller/commands, at the driver's 1 kHz). The replica then runs
+with the franka_ros2 profile (config/profiles/franka_ros2: parameters and remaps) and the master behind the
+forcedimension adapter (fd_adapter_node, config/profiles/forcedimension), exactly as on hardware; only what the
+twins cannot be is changed here, and said so (docs/HARDWARE.md, "Driver twins").
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import yaml
+
+CONFIG = Path(__file__).resolve().parent.parent / "config"
+FRANKA_PROFILE = "profiles/franka_ros2/replica.yaml"
+FRANKA_REMAPS = "profiles/franka_ros2/remaps.yaml"
+FD_PROFILE = "profiles/forcedimension/fd_adapter.yaml"
+#: franka_robot_state_broadcaster's convenience_publish_rate in the profile's controllers.yaml [Hz].
+FRANKA_WRENCH_RATE_HZ = 250.0
+#: forcedimension_ros2's controller-manager update_rate (fd_description/config/fd_controllers.yaml) [Hz].
+FD_UPDATE_RATE_HZ = 1000.0
+#: What the recorder takes besides its default topics: the drivers' streams.
+TWIN_TOPICS = ["/franka/joint_states", "/franka_robot_state_broadcaster/external_wrench_in_base_frame",
+               "/fd/ee_pose", "/fd/joint_states", "/fd/button_state", "/fd/fd_clutch", "/fd/fd_controller/commands"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--hardware-twin", action="store_true",
+                        help="run through the franka_ros2 and forcedimension_ros2 profiles against simulated twins "
+                             "of those drivers (scripts/hardware_twin.py, docs/HARDWARE.md)")
+
+
+def franka_remaps(node: str = "replica") -> dict[str, str]:
+    return dict(yaml.safe_load((CONFIG / FRANKA_REMAPS).read_text()).get(node) or {})
+
+
+def twin_graph(nodes: list, lockstep: bool, node_spec) -> list:
+    """The default graph's specs, turned into the twin run (``node_spec``: the launcher's NodeSpec)."""
+    from sim_bridge.recording.recorder_node import DEFAULT_TOPICS  # noqa: PLC0415  (only a twin run needs it)
+
+    by_name = {spec.name: spec for spec in nodes}
+    robot = by_name["robot"]
+    robot.params.update({"driver_interface": "franka_ros2", "gravity_compensation": True,
+                         # ros2_control's forward controller applies the last command until another comes.
+                         "hold_on_stale_commands": False, "wrench_rate_hz": FRANKA_WRENCH_RATE_HZ})
+    replica = by_name["replica"]
+    replica.extra_params_files.append(FRANKA_PROFILE)
+    replica.remaps.update(franka_remaps())
+    # The twin's arm is the simulated Panda, with its 0.5 N m s/rad joint friction: compensate it as the default
+    # run does (on a real FR3 the profile leaves it off).
+    replica.params["joint_damping_compensation"] = True
+    if lockstep:
+        # Lockstep holds the physics while the operator's side catches up (up to lockstep_peer_timeout, 1 s): no
+        # joint state comes then by design, which is not a driver fault.
+        replica.params["joint_state_timeout"] = 2.0
+    recorder = by_name["recorder"]
+    recorder.params.update({"joint_states_topic": "/franka/joint_states",
+                            "topics": [t for t in DEFAULT_TOPICS if t not in ("/joint_states", "/ft_sensor/wrench")]
+                            + TWIN_TOPICS})
+    device = by_name["haptic_device"]
+    device.params.update({"driver_interface": "forcedimension", "publish_rate_hz": FD_UPDATE_RATE_HZ})
+    adapter = node_spec("fic_teleop_master", "fd_adapter_node", "fd_adapter", FD_PROFILE,
+                        {"use_sim_time": bool(lockstep)})
+    index = nodes.index(device)
+    return nodes[:index] + [adapter] + nodes[index:]
