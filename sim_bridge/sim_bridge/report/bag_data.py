@@ -99,7 +99,7 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
     rows: dict[str, list] = defaultdict(list)
     deliveries: dict[str, dict[int, float]] = defaultdict(dict)
     controllers: Counter = Counter()
-    key_joint_states: list = []
+    key_lists: dict[str, list] = defaultdict(list)  # row key -> key frames (a driver's stream or ours, aliases)
     first_log, last_log = np.inf, -np.inf
     decoded = set(POSE_TOPICS + WRENCH_TOPICS + TELEOP_TOPICS + (FIC_STATE_TOPIC, LIMIT_STATUS_TOPIC, DELIVERY_TOPIC))
     try:
@@ -116,7 +116,8 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
             if topic in STAMP_ONLY_TOPICS or topic == CLOCK_TOPIC:
                 stamp = _cdr_time_ns(record.data) * 1e-9
                 rows[store].append((stamp, log))
-                if keyframe_interval and topic == "/joint_states" and store == topic and (
+                key_joint_states = key_lists[store]
+                if keyframe_interval and topic == "/joint_states" and (
                         not key_joint_states or stamp >= key_joint_states[-1][0] + keyframe_interval):
                     joint_state = _decoder(factory, decoders, record.channel_id, channel, schemas)(record.data)
                     key_joint_states.append((stamp, list(joint_state.name), list(joint_state.position)))
@@ -154,6 +155,8 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
         shadowed = rows.pop(ours + _SHADOWED, None)
         if shadowed and not rows.get(ours):
             rows[ours] = shadowed
+            key_lists[ours] = key_lists.pop(ours + _SHADOWED, [])
+    key_joint_states = key_lists.get("/joint_states", [])
     columns = {
         "pose": ("x", "y", "z"),
         "wrench": ("fx", "fy", "fz"),
