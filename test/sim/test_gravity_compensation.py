@@ -6,7 +6,7 @@ import numpy as np
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.robot_model import RobotModel
 from fic_core.torque_semantics import TorqueSemantics
-from sim_bridge.mujoco_panda import PandaSimulation
+from sim_bridge.robot.mujoco_panda import PandaSimulation
 
 
 def _run(sim: PandaSimulation, torque_of, steps: int) -> np.ndarray:
