@@ -311,29 +311,21 @@ def main(args: list[str] | None = None) -> None:
     node = None
     try:
         node = ReplicaNode()
-        # EventsExecutor spun in spin_once slices: its spin() from these rclpy 7.1 wheels busy-waits and never
-        # returns on SIGINT/SIGTERM, but spin_once is cheap (measured here with 1 kHz joint states and 250 Hz
-        # poses: 11 % of a core and 93 % of messages taken, against 28 % and 79 % for SingleThreadedExecutor).
-        # Under simulated time (lockstep) the EventsExecutor's timers do not follow /clock (measured on the
-        # master: bursts of ticks with one stamp, then silences); the wait-set executor checks them against it.
+        # EventsExecutor in slices (its spin() from these rclpy wheels never returns on SIGINT); under simulated
+        # time the wait-set executor (the EventsExecutor's timers do not follow /clock). The start-up heap is frozen
+        # out of the collector's reach (a full collection of it took 25 ms and stalled every loop).
         executor = SingleThreadedExecutor() if node.get_parameter("use_sim_time").value else EventsExecutor()
         executor.add_node(node)
-        # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
-        # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
         gc.collect()
         gc.freeze()
-        # A slice runs every callback due in it inside the executor, not one per Python call: a 1 kHz timer cost
-        # 77-82 us a tick here against 92-101 us with spin_once (the future never completes; the slice bounds the wait).
-        never = Future()
-        while rclpy.ok():  # short slices so that the signal handler's shutdown is seen promptly
+        never = Future()  # a slice runs every callback due in it inside the executor
+        while rclpy.ok():
             try:
                 executor.spin_until_future_complete(never, timeout_sec=0.1)
             except (KeyboardInterrupt, ExternalShutdownException):
                 break
             except Exception:
-                # Seen once in 4 long runs: the EventsExecutor of these wheels raised a pybind11 conversion error
-                # from a callback racing the context's shutdown. Only then is it not an error of ours.
-                if rclpy.ok():
+                if rclpy.ok():  # raised while the context shut down (seen once in 4 long runs): not ours
                     raise
                 break
     except (KeyboardInterrupt, ExternalShutdownException):

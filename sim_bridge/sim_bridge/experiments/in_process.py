@@ -188,3 +188,36 @@ def run(config: RunConfig) -> RunResult:
     return RunResult(np.array(log_t), np.array(log_d), np.array(log_r), np.array(log_f), np.array(log_o),
                      sim.object_poses(), wall, steps * STEP,
                      replica.controller.violation_ticks, replica.controller.shaped_ticks)
+
+
+@dataclass
+class Agreement:
+    """An in-process run against a recorded graph run, on the in-process pose stamps in [start, end]."""
+
+    samples: int
+    error_difference_max: float     # max | |e|_in-process - |e|_graph | [m], e = x_d - x_R
+    error_difference_rms: float     # [m]
+    tcp_difference_max: float       # max |x_R,in-process - x_R,graph| [m]
+    graph_error_rms: float          # [m]
+    in_process_error_rms: float     # [m]
+
+
+def agreement(bag: str | Path, result: RunResult, start: float = 0.5) -> Agreement:
+    """Compare ``result`` with the bag of a lockstep graph run of the same configuration (the report's tracking
+    error: x_d and x_R as the replica published them)."""
+    from sim_bridge.report.bag_data import load_bag
+    from sim_bridge.report.metrics import _tracking_error
+
+    data = load_bag(bag)
+    graph_time, graph_error, _ = _tracking_error(data)
+    tcp = data.series["/replica/tcp_pose"]
+    order = np.argsort(tcp.stamp, kind="stable")
+    window = (result.time >= start) & (result.time <= min(result.time[-1], graph_time[-1], tcp.stamp[order][-1]))
+    times = result.time[window]
+    graph = np.interp(times, graph_time, graph_error)
+    mine = result.tracking_error[window]
+    graph_tcp = np.column_stack([np.interp(times, tcp.stamp[order], tcp.values[a][order]) for a in "xyz"])
+    difference = np.abs(mine - graph)
+    return Agreement(int(window.sum()), float(difference.max()), float(np.sqrt(np.mean(difference ** 2))),
+                     float(np.linalg.norm(graph_tcp - result.tcp[window], axis=1).max()),
+                     float(np.sqrt(np.mean(graph ** 2))), float(np.sqrt(np.mean(mine ** 2))))
