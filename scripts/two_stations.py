@@ -49,7 +49,8 @@ NAMESPACE_PREFIX = "fic_teleop_"
 TAG_PATTERN = re.compile(r"^[a-z0-9]{1,8}$")
 
 # Which node runs where (by launcher node name); every other node runs on the robot station.
-MASTER_STATION_NODES = {"haptic_device", "master", "channel_backward", "keyboard_operator", "recorder_master"}
+MASTER_STATION_NODES = {"haptic_device", "fd_adapter", "master", "channel_backward", "keyboard_operator",
+                        "recorder_master"}
 # The master station's topics, recorded there (bag_master/); the robot station's recorder leaves them out.
 MASTER_STATION_TOPICS = ["/haptic/pose", "/haptic/twist", "/haptic/wrench_command", "/operator/joy",
                          "/master/pose", "/master/teleop_command", "/master/feedback_wrench",
