@@ -15,8 +15,10 @@ the torque the joints must apply. Who adds which term depends on the arm behind 
   the command in both semantics (computed with Pinocchio on the loaded model, docs/HARDWARE.md "Model").
 
 The postural optimisation bounds tau, the torque the motors then apply (command plus the robot's own gravity
-torque): that is the quantity the datasheet torque limits are about. The torque rate is bounded on the
-published command itself (the replica's slew), which is what libfranka's rate limiter checks.
+torque): that is the quantity the datasheet torque limits are about. The replica's slew (fic_core.torque_slew)
+bounds the rate of tau; the published tau - G(q) changes at that rate plus dG/dt, which the replica does not
+bound: franka_hardware passes effort commands through libfranka's limitRate(kMaxTorqueRate) when its rate
+limiter is on (docs/HARDWARE.md).
 """
 from __future__ import annotations
 
