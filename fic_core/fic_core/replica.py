@@ -19,7 +19,8 @@ acceleration is J qdd + Jdot qd, and with qdd = M^-1 J^T Lambda (a_d - Jdot qd) 
 no error needed to produce it. The full 6x6 Lambda (not its translation block) is used so that the angular
 acceleration demanded is alpha (zero for a 3-vector) rather than whatever the translation would drag along; on
 the circle the 3x3 translation-only variant barely helped, and Jdot qd (about as large as the circle's
-centripetal acceleration) matters: RMS 14 -> 5.5 mm with both (test_replica). This does not touch the
+centripetal acceleration) matters: RMS 14.5 -> 5.9 mm with both (the replica on the MuJoCo arm,
+test_replica_on_mujoco). This does not touch the
 FIC's stability argument, which is about the feedback part: the feedforward does not depend on the error, it is
 an external bounded input (like the operator's force), and with mu > 0 it is bounded by |a_d| / mu near the
 singularities. It is added before the postural optimisation, as part of tau_d, so every limit still holds

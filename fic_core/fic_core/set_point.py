@@ -10,7 +10,9 @@ two samples (taken from their stamps, so that network jitter in the arrival does
 most ``max_extrapolation`` seconds (a late or lost sample then holds the set-point still, it never runs away).
 The acceleration estimate, the difference of successive velocities low-pass filtered over
 ``acceleration_time_constant``, is what the replica feeds forward through J^T Lambda (replica.py). Samples
-further apart than ``max_sample_gap`` (a blackout, a restart) restart the estimates from rest. Bad timing must
+further apart than ``max_sample_gap`` (a blackout, a restart; and a stamp that far behind the last one, so that a
+single stamp far in the future cannot make every later sample look older) restart the estimates from rest there,
+and a jump too large for a float difference (1e308 against -1e308) is a step, never an Inf or a NaN. Bad timing must
 not become motion: a sample closer than ``min_sample_interval`` to the last one (a burst after a stalled sender,
 a duplicate) moves the hold but does not change the slope, and the estimates are clipped to ``max_speed`` and
 ``max_acceleration`` (a difference quotient over a short, jittery interval is where a huge velocity would come
@@ -94,23 +96,37 @@ class SampledSetPoint:
         stamp = finite_scalar("stamp", stamp)
         received = finite_scalar("received", received)
         position = finite_array("position", position, (self.dimension,)).copy()
-        # Where the hold had got to: the new sample's distance from it is blended out, not stepped.
-        self._jump = self.position(received) - position if self._stamp is not None and self.blend_time > 0.0 \
-            else np.zeros(self.dimension)
-        if self._stamp is not None and stamp - self._stamp >= self.min_sample_interval:
-            elapsed = stamp - self._stamp
-            if elapsed <= self.max_sample_gap:
-                velocity = _clipped((position - self._slope_position) / elapsed, self.max_speed)
+        # Where the hold had got to: the new sample's distance from it is blended out, not stepped (unless the
+        # distance is not even a float: a finite but huge sample, 1e308 against -1e308, is taken as a step).
+        jump = np.zeros(self.dimension)
+        if self._stamp is not None and self.blend_time > 0.0:
+            with np.errstate(over="ignore", invalid="ignore"):
+                jump = self.position(received) - position
+            if not np.isfinite(jump).all():
+                jump = np.zeros(self.dimension)
+        self._jump = jump
+        elapsed = None if self._stamp is None else stamp - self._stamp
+        if elapsed is not None and abs(elapsed) > self.max_sample_gap:
+            # A blackout, a restart, or a stamp far off ours (far ahead or far behind the last one): the
+            # estimates restart from rest at this sample. (Kept as the slope's reference, so that one stamp far in
+            # the future cannot make every later sample "older" and freeze the estimates for good.)
+            self._velocity[:] = 0.0
+            self._acceleration[:] = 0.0
+        elif elapsed is not None and elapsed >= self.min_sample_interval:
+            with np.errstate(over="ignore", invalid="ignore"):
+                velocity = (position - self._slope_position) / elapsed
+            if np.isfinite(velocity).all():
+                velocity = _clipped(velocity, self.max_speed)
                 # Low-pass of the velocity's difference quotient (backward Euler of a first-order lag).
                 blend = elapsed / (self.acceleration_time_constant + elapsed)
                 self._acceleration = _clipped(
                     self._acceleration + ((velocity - self._velocity) / elapsed - self._acceleration) * blend,
                     self.max_acceleration)
                 self._velocity = velocity
-            else:
+            else:  # a jump too large for a float difference says nothing about a slope: restart from rest
                 self._velocity[:] = 0.0
                 self._acceleration[:] = 0.0
-        if self._stamp is None or stamp - self._stamp >= self.min_sample_interval:
+        if elapsed is None or elapsed >= self.min_sample_interval or abs(elapsed) > self.max_sample_gap:
             self._stamp = stamp
             self._slope_position = position
         self._position = position
