@@ -102,7 +102,7 @@ def test_the_replica_law_refuses_or_answers_inside_the_limits(robot: RobotModel,
 def test_mujoco_arm_under_a_hostile_offset_stays_inside_its_limits(robot: RobotModel, hostile: float) -> None:
     """x_d = start + the hold of a hostile x_d' stream (one huge sample, then far-off stamps), ReplicaController on
     the MuJoCo arm for 1.5 s: every tick answers, and MuJoCo's joints stay inside every limit."""
-    from sim_bridge.mujoco_panda import PandaSimulation
+    from sim_bridge.robot.mujoco_panda import PandaSimulation
 
     limits = PandaLimits.from_robot(robot)
     sim = PandaSimulation("free_space", 0)

@@ -1,4 +1,4 @@
-"""ReplicaController closing the loop on the MuJoCo Panda (sim_bridge.mujoco_panda), in one process, at 1 kHz.
+"""ReplicaController closing the loop on the MuJoCo Panda (sim_bridge.robot.mujoco_panda), in one process, at 1 kHz.
 
 The controller's model is Pinocchio's; the plant here is MuJoCo's (its own integrator, implicit joint damping,
 armature, motor clamps), so the tracking claims of the replica (docs: README "Replica (Eq. 7)") are measured on a
@@ -20,7 +20,7 @@ from fic_core.limits import LimitFlag, PandaLimits
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel
-from sim_bridge.mujoco_panda import PandaSimulation
+from sim_bridge.robot.mujoco_panda import PandaSimulation
 
 DT = 0.001
 
