@@ -62,18 +62,48 @@ def ros_env(tmp_path: Path):
         yield isolated_env(tmp_path / "ros_log", domain)
 
 
+#: What a clean stop never prints: a Python traceback, or a line logged at FATAL severity.
+_UNCLEAN_MARKS = ("Traceback (most recent call last)", "[FATAL]")
+
+
+def unclean_exit(returncode: int | None, output: str, expected_returncode: int = 0) -> str:
+    """Why a process that has stopped did not stop clean ('' if it did): its exit code is not the expected one
+    (0 unless the test expects a refusal), or its output holds a traceback or a FATAL line."""
+    problems = []
+    if returncode != expected_returncode:
+        problems.append(f"exit code {returncode} (expected {expected_returncode})")
+    for mark in _UNCLEAN_MARKS:
+        if mark in output:
+            line = next(line for line in output.splitlines() if mark in line)
+            problems.append(f"output has {mark!r}: {line.strip()[:200]}")
+    return "; ".join(problems)
+
+
+def assert_stopped_clean(returncode: int | None, output: str, what: str, expected_returncode: int = 0) -> None:
+    """For processes a test starts by hand: the same check as the start_node fixture's teardown."""
+    problem = unclean_exit(returncode, output, expected_returncode)
+    assert not problem, f"{what} did not stop clean: {problem}\n--- its output (last 3000 characters) ---\n" \
+        f"{output[-3000:]}"
+
+
 class NodeProcess:
-    """A node started as its own process; its output goes to a file the test can read."""
+    """A node started as its own process; its output goes to a file the test can read.
+
+    The start_node fixture checks at teardown that it stopped clean (``unclean_exit``); a test that expects a
+    refusal sets ``expected_returncode``.
+    """
 
     def __init__(self, command: list[str], env: dict[str, str], log_path: Path) -> None:
         self.command = command
+        self.expected_returncode = 0
         self.log_path = log_path
         self._log = open(log_path, "wb")
         self.process = subprocess.Popen(command, env=env, stdout=self._log, stderr=subprocess.STDOUT,
                                         start_new_session=True)
 
     def output(self) -> str:
-        self._log.flush()
+        if not self._log.closed:
+            self._log.flush()
         return self.log_path.read_text(errors="replace")
 
     def wait_for_output(self, text: str, timeout: float) -> bool:
@@ -126,8 +156,16 @@ def start_node(ros_env: dict[str, str], tmp_path: Path):
         return node
 
     yield _start
+    # Every node stops clean: exit code 0 (or the refusal the test expects), no traceback, no FATAL line.
+    problems = []
     for node in started:
-        node.stop()
+        returncode = node.stop()
+        problem = unclean_exit(returncode, node.output(), node.expected_returncode)
+        if problem:
+            problems.append(f"{Path(node.command[0]).name} ({node.log_path.name}): {problem}\n"
+                            f"{node.output()[-2000:]}")
+    if problems:
+        pytest.fail("a node did not stop clean:\n" + "\n".join(problems), pytrace=False)
 
 
 def _parameter_literal(value) -> str:

@@ -24,6 +24,7 @@ from rcl_interfaces.srv import SetParameters  # noqa: E402
 from rclpy.experimental import EventsExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from conftest import unclean_exit  # noqa: E402
 
 pytestmark = pytest.mark.nodes
 
@@ -57,6 +58,7 @@ def graph(tmp_path, ros_env):
         return process
 
     yield context, start_channel, tmp_path
+    problems = []
     for process, log in processes:
         if process.poll() is None:
             process.send_signal(signal.SIGINT)
@@ -66,12 +68,17 @@ def graph(tmp_path, ros_env):
                 process.kill()
                 process.wait()
         log.close()
+        problem = unclean_exit(process.returncode, Path(log.name).read_text(errors="replace"))
+        if problem:
+            problems.append(f"{Path(log.name).name}: {problem}")
     rclpy.shutdown(context=context)
     for key, value in saved.items():
         if value is None:
             os.environ.pop(key, None)
         else:
             os.environ[key] = value
+    if problems:  # every channel stops clean: exit 0, no traceback, no FATAL line (test/conftest.py)
+        pytest.fail("a channel node did not stop clean: " + "; ".join(problems), pytrace=False)
 
 
 class Probe:

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import REPO, isolated_env, reserved_domain
+from conftest import REPO, assert_stopped_clean, isolated_env, reserved_domain, unclean_exit
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 pytestmark = pytest.mark.nodes
@@ -38,8 +38,19 @@ def blackout_run(tmp_path_factory) -> Path:
                           "--wall-limit", "400")
         output, _ = process.communicate(timeout=600)
     (out / "launcher_output.txt").write_text(output)
-    assert process.returncode == 0, output
+    assert_run_stopped_clean(process.returncode, output, out)
     return out
+
+
+def assert_run_stopped_clean(returncode: int | None, output: str, out: Path) -> None:
+    """The launcher exited 0 and every node of the graph stopped clean (no traceback, no FATAL line)."""
+    assert_stopped_clean(returncode, output, "the launcher")
+    logs = sorted((out / "logs").glob("*.log"))
+    assert logs, f"no node logs in {out / 'logs'}"
+    for log in logs:
+        text = log.read_text(errors="replace")
+        problem = unclean_exit(0, text)
+        assert not problem, f"{log.name}: {problem}\n{text[-2000:]}"
 
 
 def test_metrics_of_the_run_show_the_channel_delay_and_no_limit_violation(blackout_run: Path) -> None:

@@ -16,6 +16,7 @@ from geometry_msgs.msg import PoseStamped, WrenchStamped  # noqa: E402
 from rclpy.experimental import EventsExecutor  # noqa: E402
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import Joy  # noqa: E402
+from conftest import assert_stopped_clean  # noqa: E402
 
 pytestmark = pytest.mark.nodes
 
@@ -95,7 +96,7 @@ def test_force_command_moves_the_handle_nan_is_refused_and_stale_commands_go_lim
             else:
                 os.environ[key] = value
     output = log_path.read_text()
-    assert code == 0, output
+    assert_stopped_clean(code, output, "haptic_device_node")
     assert "refused /haptic/wrench_command with a non-finite force" in output
     assert output.count("force command stale") == 1
     assert "Traceback" not in output

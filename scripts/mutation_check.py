@@ -1,0 +1,254 @@
+#!/usr/bin/env python3
+"""Mutation check of the core laws: break each one on purpose and see which test catches it.
+
+Each mutation below is a small textual patch of one law in fic_core (a sign flip, a dropped term, a wrong
+switching condition, a limit loosened). For each, the script copies fic_core/fic_core to a temporary folder,
+applies the patch there (the work tree is never touched), and runs the core tests with that copy first on
+PYTHONPATH, stopping at the first failure. A mutation that no test catches is reported as SURVIVED, and the script
+exits 1 if any did: every deliberate break must be caught by at least one test.
+
+    source scripts/env.sh && python scripts/mutation_check.py            # all mutations
+    python scripts/mutation_check.py -k attractor                        # those whose name contains "attractor"
+    python scripts/mutation_check.py --list                              # names only
+
+A patch whose text is no longer found in the source (the code changed) is reported as STALE and also fails the
+check, so that the list is kept in step with the code.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+PACKAGE = REPO / "fic_core" / "fic_core"
+# The core's tests, and the replica closing the loop on the MuJoCo arm.
+TESTS = ["test/core", "test/sim/test_replica_on_mujoco.py"]
+
+
+@dataclass
+class Mutation:
+    name: str           # "<module>: what is broken"
+    module: str         # file in fic_core/fic_core
+    patches: list[tuple[str, str]]  # (old, new); each old must occur in the file (every occurrence is replaced)
+    first: list[str] = field(default_factory=list)  # test files likely to catch it, run first (faster)
+
+
+MUTATIONS = [
+    # --- the force profile F_c (paper Eq. 1) -------------------------------------------------------------------
+    Mutation("profile: linear region with the wrong sign", "profile.py",
+             [("        if magnitude <= self._linear_limit:\n            return self.stiffness * error",
+               "        if magnitude <= self._linear_limit:\n            return -self.stiffness * error"),
+              ("    return np.where(magnitude <= linear_limit, stiffness * error,",
+               "    return np.where(magnitude <= linear_limit, -stiffness * error,")],
+             ["test/core/test_profile.py"]),
+    Mutation("profile: tanh term not renormalised (the printed Eq. 1)", "profile.py",
+             [("math.tanh((magnitude - self.saturation_error) / self._width + math.pi) - _TANH_START) / _TANH_SPAN",
+               "math.tanh((magnitude - self.saturation_error) / self._width + math.pi) - 0.0) / 1.0"),
+              ("(np.tanh(argument) - _TANH_START) / _TANH_SPAN", "np.tanh(argument)")],
+             ["test/core/test_profile.py"]),
+    Mutation("profile: saturation starts at x_b instead of xi x_b", "profile.py",
+             [("        if magnitude <= self._linear_limit:\n            return self.stiffness * error",
+               "        if magnitude <= self.saturation_error:\n            return self.stiffness * error"),
+              ("    return np.where(magnitude <= linear_limit, stiffness * error,",
+               "    return np.where(magnitude <= saturation_error, stiffness * error,")],
+             ["test/core/test_profile.py"]),
+    # --- the attractor (paper Eq. 2) ----------------------------------------------------------------------------
+    Mutation("attractor: enters C while the error grows (switching condition inverted)", "attractor.py",
+             [("else 0.0)) < deadband:", "else 0.0)) > -deadband:"),
+              ("converging = magnitude_rate < deadband", "converging = magnitude_rate > -deadband")],
+             ["test/core/test_attractor.py"]),
+    Mutation("attractor: C law about -e_max/2 (sign flip of the mid-point)", "attractor.py",
+             [("force = stiffness * (error - 0.5 * latched)  # Eq. 2, C",
+               "force = stiffness * (error + 0.5 * latched)  # Eq. 2, C")],
+             ["test/core/test_attractor.py"]),
+    Mutation("attractor: K_C = F_c(e_max)/e_max (factor 2 dropped)", "attractor.py",
+             [("stiffness = 2.0 * profile._scalar_secant_stiffness(error)",
+               "stiffness = profile._scalar_secant_stiffness(error)")],
+             ["test/core/test_attractor.py"]),
+    Mutation("attractor: stays in C across the target (sign-change exit dropped)", "attractor.py",
+             [("if (rate < 0.0 and latched > 0.0) if error > 0.0 else \\\n"
+               "                        (error < 0.0 and -rate < 0.0 and latched < 0.0):",
+               "if (rate < 0.0) if error > 0.0 else \\\n"
+               "                        (-rate < 0.0 if error < 0.0 else True):"),
+              ("converging = magnitude_rate < 0.0 and ((error > 0.0) == (latched > 0.0)) \\\n"
+               "                    and ((error < 0.0) == (latched < 0.0))",
+               "converging = magnitude_rate < 0.0 or error * latched <= 0.0")],
+             ["test/core/test_attractor.py"]),
+    # --- the harmonic planner (paper Eqs. 5-6) ------------------------------------------------------------------
+    Mutation("planner: D law ignores a_max (Eq. 6)", "planner.py",
+             [("np.minimum(self._natural_frequency ** 2 * np.abs(error), self._max_acceleration)",
+               "(self._natural_frequency ** 2 * np.abs(error))"),
+              ("acceleration = np.clip(acceleration, -self._max_acceleration, self._max_acceleration)",
+               "acceleration = acceleration")],
+             ["test/core/test_planner.py"]),
+    Mutation("planner: C law about -x_T0/2 (sign flip)", "planner.py",
+             [("(error - 0.5 * self._latched_displacement) - viscous",
+               "(error + 0.5 * self._latched_displacement) - viscous")],
+             ["test/core/test_planner.py"]),
+    Mutation("planner: enters C while the error grows", "planner.py",
+             [("(magnitude_rate < -self._rate_deadband)", "(magnitude_rate > self._rate_deadband)")],
+             ["test/core/test_planner.py"]),
+    Mutation("planner: speed not clipped to v_d", "planner.py",
+             [("velocity = velocity * (self._max_velocity / speed)", "velocity = velocity")],
+             ["test/core/test_planner.py"]),
+    # --- the master (paper Eq. 3) -------------------------------------------------------------------------------
+    Mutation("master Eq. 3: K_H F_R with the wrong sign", "master.py",
+             [("+ self._haptic_gain * replica_force", "- self._haptic_gain * replica_force")],
+             ["test/core/test_master.py"]),
+    Mutation("master Eq. 3: FIC on +x_M (error sign)", "master.py",
+             [("self._attractor.force(-handle_position, -handle_velocity)",
+               "self._attractor.force(handle_position, -handle_velocity)")],
+             ["test/core/test_master.py"]),
+    Mutation("master Eq. 3: K_H not clamped to [0, 1]", "master.py",
+             [("self._haptic_gain = min(max(requested, 0.0), 1.0)", "self._haptic_gain = requested")],
+             ["test/core/test_master.py"]),
+    # --- the replica (paper Eq. 7) ------------------------------------------------------------------------------
+    Mutation("replica Eq. 7: C qd + G dropped", "replica.py",
+             [("desired_torque = nonlinear + drive", "desired_torque = drive + 0.0 * nonlinear")],
+             ["test/core/test_oracles.py"]),
+    Mutation("replica Eq. 7: J^T FIC with the wrong sign", "replica.py",
+             [("task_force = wrench - posture_task_force", "task_force = -wrench - posture_task_force")],
+             ["test/core/test_oracles.py"]),
+    Mutation("replica Eq. 7: posture not projected into the null space", "replica.py",
+             [("task_force = wrench - posture_task_force", "task_force = wrench + 0.0 * posture_task_force")],
+             ["test/core/test_oracles.py"]),
+    Mutation("replica: rotation error transposed (log(R R_d^T))", "replica.py",
+             [("rotation_error = pin.log3(desired_rotation.dot(rotation.T))",
+               "rotation_error = pin.log3(rotation.dot(desired_rotation.T))")],
+             ["test/core/test_oracles.py"]),
+    Mutation("replica feedforward: + Jdot qd instead of - Jdot qd", "replica.py",
+             [("desired_acceleration - robot.tcp_bias_acceleration",
+               "desired_acceleration + robot.tcp_bias_acceleration")],
+             ["test/core/test_oracles.py"]),
+    Mutation("replica friction compensation: - D qd_d", "replica.py",
+             [("drive += robot.joint_damping * desired_joint_velocity",
+               "drive -= robot.joint_damping * desired_joint_velocity")],
+             ["test/core/test_oracles.py"]),
+    Mutation("replica hold: follows the current TCP instead of the last desired pose", "replica.py",
+             [("if self._held_position is None or self._held_rotation is None:\n            self.robot.update(q, qd)",
+               "if True:\n            self.robot.update(q, qd)")],
+             ["test/core/test_replica.py"]),
+    # --- the postural optimisation's limits ---------------------------------------------------------------------
+    Mutation("postural optimisation: fast path admits every tau_d", "postural_optimisation.py",
+             [("        if self._far_from_limits:\n            if self._fast(",
+               "        return _INSIDE\n        if self._far_from_limits:\n            if self._fast(")],
+             ["test/core/test_postural_optimisation.py"]),
+    Mutation("postural optimisation: torque-rate step doubled", "postural_optimisation.py",
+             [("self._rate_step = limits.torque_rate * self.control_period",
+               "self._rate_step = 2.0 * limits.torque_rate * self.control_period")],
+             ["test/core/test_postural_optimisation.py"]),
+    Mutation("postural optimisation: Euclidean metric instead of M^-1 (Gauss)", "postural_optimisation.py",
+             [("        hessian = mass_matrix_inverse\n        linear = -minv_tau_d",
+               "        hessian = np.eye(7)\n        linear = -desired_torque")],
+             ["test/core/test_oracles.py"]),
+    Mutation("postural optimisation: braking curve without its lag", "postural_optimisation.py",
+             [("self._braking_lag = self.horizon + BRAKING_TORQUE_RAMP", "self._braking_lag = 0.0")],
+             ["test/core/test_postural_optimisation.py", "test/core/test_oracles.py"]),
+    Mutation("postural optimisation: next-sample range bound dropped", "postural_optimisation.py",
+             [("position_high = min((brake_high - velocity) / dt, (room_high / dt - velocity) / dt)",
+               "position_high = (brake_high - velocity) / dt"),
+              ("position_low = max((brake_low - velocity) / dt, (-room_low / dt - velocity) / dt)",
+               "position_low = (brake_low - velocity) / dt")],
+             ["test/core/test_postural_optimisation.py", "test/core/test_oracles.py"]),
+    Mutation("postural optimisation: velocity limit on one tick instead of the horizon", "postural_optimisation.py",
+             [("    velocity_high = (velocity_limit - velocity) / horizon\n"
+               "    velocity_low = (-velocity_limit - velocity) / horizon",
+               "    velocity_high = (velocity_limit - velocity) / dt\n"
+               "    velocity_low = (-velocity_limit - velocity) / dt"),
+              ("                a_lo.append((-velocity_limit - velocity) / horizon)\n"
+               "                a_hi.append((velocity_limit - velocity) / horizon)",
+               "                a_lo.append((-velocity_limit - velocity) / dt)\n"
+               "                a_hi.append((velocity_limit - velocity) / dt)"),
+              ("if not (-velocity_limit - velocity) / horizon <= qdd <= (velocity_limit - velocity) / horizon:",
+               "if not (-velocity_limit - velocity) / dt <= qdd <= (velocity_limit - velocity) / dt:")],
+             ["test/core/test_postural_optimisation.py", "test/core/test_oracles.py"]),
+    Mutation("postural optimisation: TCP speed cuts placed outside the limit", "postural_optimisation.py",
+             [("self.limits.tcp_speed * (1.0 - _TCP_CUT_SHRINK)", "self.limits.tcp_speed * 1.5")],
+             ["test/core/test_postural_optimisation.py"]),
+    # --- the set-point hold (first-order hold of x_d' and x_d'') -----------------------------------------------
+    Mutation("set-point hold: extrapolates without bound", "set_point.py",
+             [("return min(max(now - self._received, 0.0), self.max_extrapolation)",
+               "return max(now - self._received, 0.0)")],
+             ["test/core/test_set_point.py"]),
+    Mutation("set-point hold: acceleration with the wrong sign", "set_point.py",
+             [("((velocity - self._velocity) / elapsed - self._acceleration) * blend",
+               "((self._velocity - velocity) / elapsed - self._acceleration) * blend")],
+             ["test/core/test_set_point.py"]),
+    Mutation("set-point hold: a jump is stepped, not blended", "set_point.py",
+             [("position = position + self._jump * min(remaining, 1.0)", "position = position")],
+             ["test/core/test_set_point.py"]),
+    Mutation("set-point hold: far-off stamps freeze the slope again", "set_point.py",
+             [("if elapsed is not None and abs(elapsed) > self.max_sample_gap:",
+               "if elapsed is not None and elapsed > self.max_sample_gap:"),
+              ("or abs(elapsed) > self.max_sample_gap:\n", ":\n")],
+             ["test/core/test_hostile_values.py"]),
+]
+
+
+def run_mutation(mutation: Mutation, timeout: float) -> tuple[str, str, float]:
+    """(verdict, detail, seconds): CAUGHT with the first failing test, SURVIVED, STALE or ERROR."""
+    source = (PACKAGE / mutation.module).read_text()
+    patched = source
+    for old, new in mutation.patches:
+        if old not in patched:
+            return "STALE", f"patch text not found in {mutation.module}: {old[:60]!r}", 0.0
+        patched = patched.replace(old, new)
+    with tempfile.TemporaryDirectory(prefix="fic_mutation_") as folder:
+        copy = Path(folder) / "fic_core"
+        shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+        (copy / mutation.module).write_text(patched)
+        env = dict(os.environ)
+        env["PYTHONPATH"] = folder + os.pathsep + env.get("PYTHONPATH", "")
+        env["PYTHONDONTWRITEBYTECODE"] = "1"
+        command = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-x", "-q", "-rf", "--timeout=600",
+                   *mutation.first, *TESTS]
+        # The copy really is the one imported (else the check would pass vacuously).
+        probe = subprocess.run([sys.executable, "-c", "import fic_core; print(fic_core.__file__)"], env=env,
+                               capture_output=True, text=True, cwd=REPO)
+        if not probe.stdout.strip().startswith(folder):
+            return "ERROR", f"fic_core imported from {probe.stdout.strip()}, not the mutated copy", 0.0
+        started = time.monotonic()
+        try:
+            result = subprocess.run(command, env=env, capture_output=True, text=True, cwd=REPO, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return "CAUGHT", f"tests did not finish in {timeout:.0f} s (a hang counts as caught)", timeout
+        seconds = time.monotonic() - started
+    if result.returncode == 0:
+        return "SURVIVED", "every test passed", seconds
+    failed = re.findall(r"^(?:FAILED|ERROR) (\S+)", result.stdout, flags=re.MULTILINE)
+    if result.returncode in (1, 2) and failed:
+        return "CAUGHT", failed[0], seconds
+    tail = result.stdout.strip().splitlines()[-3:] + result.stderr.strip().splitlines()[-3:]
+    return "CAUGHT" if result.returncode == 1 else "ERROR", " | ".join(tail), seconds
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("-k", default="", help="only the mutations whose name contains this text")
+    parser.add_argument("--list", action="store_true", help="list the mutations and exit")
+    parser.add_argument("--timeout", type=float, default=900.0, help="seconds for the tests of one mutation")
+    arguments = parser.parse_args()
+    selected = [mutation for mutation in MUTATIONS if arguments.k in mutation.name]
+    if arguments.list:
+        for mutation in selected:
+            print(mutation.name)
+        return 0
+    bad = 0
+    for mutation in selected:
+        verdict, detail, seconds = run_mutation(mutation, arguments.timeout)
+        bad += verdict != "CAUGHT"
+        print(f"{verdict:8s} {mutation.name}\n         {detail} ({seconds:.0f} s)", flush=True)
+    print(f"{len(selected) - bad} of {len(selected)} mutations caught")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
