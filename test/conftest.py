@@ -68,11 +68,14 @@ _UNCLEAN_MARKS = ("Traceback (most recent call last)", "[FATAL]")
 
 def unclean_exit(returncode: int | None, output: str, expected_returncode: int = 0) -> str:
     """Why a process that has stopped did not stop clean ('' if it did): its exit code is not the expected one
-    (0 unless the test expects a refusal), or its output holds a traceback or a FATAL line."""
+    (0 unless the test expects a refusal), or its output holds a traceback or (for a stop that should be clean) a
+    FATAL line."""
     problems = []
     if returncode != expected_returncode:
         problems.append(f"exit code {returncode} (expected {expected_returncode})")
-    for mark in _UNCLEAN_MARKS:
+    # A refusal to start says why in one FATAL line; only a clean stop must have none.
+    marks = _UNCLEAN_MARKS if expected_returncode == 0 else _UNCLEAN_MARKS[:1]
+    for mark in marks:
         if mark in output:
             line = next(line for line in output.splitlines() if mark in line)
             problems.append(f"output has {mark!r}: {line.strip()[:200]}")
