@@ -118,31 +118,41 @@ def test_eq_7_recomputed_from_pinocchio_in_divergence(robot: RobotModel) -> None
 
 
 def test_eq_7_recomputed_through_a_convergence_swing(robot: RobotModel) -> None:
-    """Three ticks of one state sequence: an error decreasing faster than the dead-band enters C and latches
-    e_max (FIC = F_c(e_max) there), the next decreasing error is on the C line 2 F_c(e_max)/e_max (e - e_max/2),
-    and an error that grows again is back on F_c (Eq. 2). tau_d is recomputed from Pinocchio at each tick."""
+    """Four ticks of one state: an error that grows (D: F_c(e)), then decreases faster than the dead-band (enters C,
+    latching e_max = the previous sample's error, K_C = min(2 F_c(e_max)/e_max, 8 V_D(e_max)/e_max^2) with V_D the
+    integral of F_c: the C line K_C (e - e_max/2) of Eq. 2), keeps decreasing (stays on that line) and grows again
+    (back in D). tau_d is recomputed from Pinocchio at each tick; the storage integral by quadrature."""
+    from scipy.integrate import quad
+
     rng = np.random.default_rng(8)
     q, qd = random_state(rng)
     replica = ReplicaController(robot, PoseAttractor(ForceProfile(*TRANSLATION), ForceProfile(*ROTATION)))
     bias, minv, jacobian, _, position, rotation = written_out_dynamics(robot, q, qd)
     twist = jacobian @ qd
-    latched = np.array([0.04, -0.07, 0.02])  # inside and beyond xi x_b = 0.025 m
-    for tick, (errors, rate_sign) in enumerate(((latched, -1.0), (0.6 * latched, -1.0), (0.7 * latched, 1.0))):
+    latched = np.array([0.02, -0.04, 0.07])  # inside the linear region (xi x_b = 25 mm), in and beyond saturation
+    max_force = TRANSLATION[3]
+    stiffness = []
+    for e_max in latched:
+        force = abs(profile_force(e_max, *TRANSLATION))
+        storage = quad(lambda a: profile_force(a, *TRANSLATION), 0.0, abs(e_max), epsabs=1e-13, epsrel=1e-12)[0]
+        stiffness.append(min(2.0 * force / abs(e_max), 8.0 * storage / e_max ** 2))
+    stiffness = np.array(stiffness)
+    for tick, (errors, rate_sign) in enumerate(((latched, 1.0), (0.8 * latched, -1.0), (0.5 * latched, -1.0),
+                                                 (0.6 * latched, 1.0))):
         desired_twist = twist.copy()
-        desired_twist[:3] += rate_sign * np.sign(errors) * 0.1  # d|e|/dt = -0.1 (entering C) or +0.1 m/s
+        desired_twist[:3] += rate_sign * np.sign(errors) * 0.1  # d|e|/dt = +0.1 (growing) or -0.1 m/s
         command = replica.command(q, qd, position + errors, rotation, desired_twist)
-        if tick == 0:
-            force = [profile_force(e, *TRANSLATION) for e in errors]
-            phase = [1, 1, 1]
-        elif tick == 1:
-            force = [2.0 * profile_force(m, *TRANSLATION) / m * (e - 0.5 * m) for e, m in zip(errors, latched)]
+        if tick in (1, 2):
+            force = np.clip(stiffness * (errors - 0.5 * latched), -max_force, max_force)
             phase = [1, 1, 1]
         else:
-            force = [profile_force(e, *TRANSLATION) for e in errors]
+            force = np.array([profile_force(e, *TRANSLATION) for e in errors])
             phase = [0, 0, 0]
-        expected = bias + jacobian[:3].T @ np.array(force) + written_out_posture(replica, q, qd, jacobian, minv)
+        np.testing.assert_array_equal(command.phase[:3], phase, err_msg=f"tick {tick}")
+        if tick == 3:
+            break  # back in D, possibly with a dead zone that keeps the storage continuous (attractor.py)
+        expected = bias + jacobian[:3].T @ force + written_out_posture(replica, q, qd, jacobian, minv)
         np.testing.assert_allclose(command.unshaped_torque, expected, rtol=1e-7, atol=1e-7, err_msg=f"tick {tick}")
-        np.testing.assert_array_equal(command.phase[:3], phase)
 
 
 # ---------------------------------------------------------------------------------------------------------------
