@@ -41,9 +41,10 @@ def test_two_cell_lockstep_sweep_writes_the_summary(tmp_path: Path):
         assert row["stable"] in (True, False), row  # a verdict, whichever it is
         assert 0.0 <= row["max_error_last_half_m"] < 5.0
         assert row["violation_ticks"] == 0, row
-    # The physics of the FIC's cell (the E1 scene and delay, 4 s lockstep; one run under a load average of 30 on
-    # 2 cores, 2026-12-02: stable, free-motion error max 21.6 mm, RMS 11.8 mm, energy peak 0.23 J): stable, and the
-    # free-motion error within the FIC's x_b = 50 mm (about 2x), RMS within 25 mm.
+    # The physics of the FIC's cell (the E1 scene and delay, 4 s lockstep; two runs under a load average of 30 on
+    # 2 cores, 2026-12-02, the second with the passive attractor and F_max = 10 N: stable, free-motion error max
+    # 21.6 / 33.7 mm, RMS 11.8 / 12.6 mm): stable, the free-motion error within the FIC's x_b = 50 mm, RMS within
+    # 25 mm (2x).
     fic = next(row for row in table if row["controller"] == "fic")
     assert fic["stable"] is True, fic
     assert fic["max_error_last_half_m"] < 0.05, fic

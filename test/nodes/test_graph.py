@@ -105,15 +105,16 @@ def test_blackout_leaves_the_replica_stable_and_it_recovers(blackout_run: Path) 
     first_stale = int(np.argmax(stale))
     # (the very last states may be stale again: the launcher stops the master before the replica)
     assert not stale[first_stale:].all(), "the replica did not resume when the master came back"
-    # Physics of the run (one lockstep run under a load average of 30 on 2 cores, 2026-12-02: |x_d - x_R| at most
-    # 21 mm and energy at most 0.32 J outside the blackout and the 2 s after it, RMS 12 mm; the resume after the
-    # blackout peaks at 89 mm and 1.10 J). Bounds: x_b = 50 mm, the FIC's own saturation error, outside the loss
-    # and its recovery; RMS 25 mm (about 2x); energy 0.6 J there and 2 J over the run (about 2x).
+    # Physics of the run (lockstep runs under a load average of 30 on 2 cores, 2026-12-02; the second with the
+    # passive attractor and F_max = 10 N: |x_d - x_R| at most 21 / 38 mm and energy at most 0.32 / 0.29 J outside
+    # the blackout and the 2 s after it, RMS 12 / 12.5 mm; the resume after the blackout peaks at 89 / 97 mm and
+    # 1.10 / 0.96 J). Bounds: x_b = 50 mm, the FIC's own saturation error, outside the loss and its recovery; RMS
+    # 25 mm (about 2x); energy 0.6 J there and 2 J over the run (about 2x).
     times = np.array([s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec for s in states]) - start
     errors = np.array([np.linalg.norm(s.error[:3]) for s in states])
     energy = np.array([s.total_energy for s in states])
     settled = (times < BLACKOUT[0]) | (times > BLACKOUT[1] + 2.0)
-    assert settled.sum() > 0.5 * len(states)
+    assert settled.sum() > 0.4 * len(states)  # (measured 56 %)
     assert errors[settled].max() < 0.05, errors[settled].max()
     assert float(np.sqrt(np.mean(errors ** 2))) < 0.025
     assert np.all(np.isfinite(energy)) and energy.max() < 2.0, energy.max()
