@@ -31,6 +31,9 @@ REPO = Path(__file__).resolve().parent.parent
 PACKAGE = REPO / "fic_core" / "fic_core"
 # The core's tests, and the replica closing the loop on the MuJoCo arm.
 TESTS = ["test/core", "test/sim/test_replica_on_mujoco.py"]
+# Tests marked xfail(strict) for a defect not fixed yet: left out of the mutation runs.
+KNOWN_FAILING = ["test/core/test_hostile_values.py::"
+                 "test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits[1000.0]"]
 
 
 @dataclass
@@ -224,8 +227,9 @@ def run_mutation(mutation: Mutation, timeout: float) -> tuple[str, str, float]:
         env = dict(os.environ)
         env["PYTHONPATH"] = folder + os.pathsep + env.get("PYTHONPATH", "")
         env["PYTHONDONTWRITEBYTECODE"] = "1"
+        # A strict xfail that passes under a mutation is not a catch (it would stop -x before the real tests).
         command = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-x", "-q", "-rf", "--timeout=600",
-                   *mutation.first, *TESTS]
+                   *[f"--deselect={test}" for test in KNOWN_FAILING], *mutation.first, *TESTS]
         # The copy really is the one imported (else the check would pass vacuously).
         probe = subprocess.run([sys.executable, "-c", "import fic_core; print(fic_core.__file__)"], env=env,
                                capture_output=True, text=True, cwd=REPO)
