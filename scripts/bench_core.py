@@ -32,6 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from fic_core.attractor import FractalAttractor, PoseAttractor
+from fic_core.passivity_observer import PassivityObserver
 from fic_core.master import MasterLaw
 from fic_core.panda_description import JOINT_DAMPING, NOMINAL_CONFIGURATION
 from fic_core.planner import HarmonicPlanner
@@ -56,6 +57,7 @@ def bench_replica(ticks: int, feedforward: bool = False) -> dict[str, dict[str, 
     robot = RobotModel()
     controller = PoseAttractor(ForceProfile(200.0, 0.05, 0.5, 30.0), ForceProfile(20.0, 0.5, 0.5, 10.0))
     replica = ReplicaController(robot, controller, control_period=DT)
+    observer = PassivityObserver(6)
     model = robot.model
     data = model.createData()
     q, qd = NOMINAL_CONFIGURATION.copy(), np.zeros(7)
@@ -77,6 +79,7 @@ def bench_replica(ticks: int, feedforward: bool = False) -> dict[str, dict[str, 
             cpu_begin = time.thread_time()
             begin = time.perf_counter()
             command = replica.command(q, qd, target, rotation, None, acceleration)
+            observer.observe_snapshot(command.controller_snapshot)  # the node's passivity observer, every tick
             end = time.perf_counter()
             cpu.append(time.thread_time() - cpu_begin)
             if command.solved_qp:
@@ -97,6 +100,8 @@ def bench_replica(ticks: int, feedforward: bool = False) -> dict[str, dict[str, 
               "replica (CPU time)": statistics(cpu), "replica QP (CPU time)": statistics(cpu_solved)}
     result["replica"]["shaped_ticks"] = replica.shaped_ticks
     result["replica"]["violation_ticks"] = replica.violation_ticks
+    result["replica"]["passivity_violation_ticks"] = observer.violation_ticks
+    result["replica"]["passivity_margin_min_j"] = observer.min_margin
     return result
 
 

@@ -161,6 +161,10 @@ class AttractorSnapshot(tuple):
         """The storage V per axis [J] (module docstring): >= 0, zero at rest at e = 0."""
         return np.array(self.storage_values(), dtype=np.float64)
 
+    def port_values(self) -> tuple[tuple[float, ...], tuple[float, ...], list[float]]:
+        """(errors, forces, storages) per axis: what a passivity observer reads (passivity_observer.py)."""
+        return self[6], self[7], self.storage_values()
+
 
 class FractalAttractor:
     """Per-axis FIC attractor, paper Eq. 2, for ``axes`` independent axes sharing one force profile."""
@@ -365,6 +369,12 @@ class PoseAttractorSnapshot:
     @property
     def stored_energy(self) -> NDArray[np.float64]:
         return np.concatenate([self.translation.stored_energy, self.rotation.stored_energy])
+
+    def port_values(self) -> tuple[tuple[float, ...], tuple[float, ...], list[float]]:
+        """(errors, forces, storages) of the 6 axes: what a passivity observer reads (passivity_observer.py)."""
+        translation, rotation = self.translation, self.rotation
+        return (translation[6] + rotation[6], translation[7] + rotation[7],
+                translation.storage_values() + rotation.storage_values())
 
 
 class PoseAttractor:

@@ -57,6 +57,12 @@ class LinearImpedanceSnapshot:
         """K*e^2/2 per axis [J]."""
         return np.array([0.5 * k * e * e for k, e in zip(self.stiffness, self.errors)], dtype=np.float64)
 
+    def port_values(self) -> tuple[tuple[float, ...], tuple[float, ...], list[float]]:
+        """(errors, forces, storages K e^2/2) per axis, for a passivity observer (passivity_observer.py); the
+        damping term D de/dt adds work that the spring's storage does not hold (dissipation, when the rate
+        agrees with the errors' motion)."""
+        return self.errors, self.forces, [0.5 * k * e * e for k, e in zip(self.stiffness, self.errors)]
+
 
 class LinearImpedance:
     """Linear spring-damper in Cartesian space, per axis (no saturation, no phase)."""

@@ -199,6 +199,12 @@ class ReplicaCommand:
         self._dynamics = dynamics                        # (pin.Model, a Data of the replica's own) for the energy
         self._cache: dict[str, object] | None = None  # created on the first report read, not on the tick
 
+    @property
+    def controller_snapshot(self):
+        """The controller's state at this tick (phase, latched errors, storage; ``port_values()`` for a passivity
+        observer when the controller offers it)."""
+        return self._controller_snapshot
+
     def _cached(self, name: str, compute):
         cache = self._cache
         if cache is None:

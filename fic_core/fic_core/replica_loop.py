@@ -26,6 +26,7 @@ from .desired_pose import DesiredPose, DesiredPoseParameters
 from .desired_velocity import DesiredVelocityFilter
 from .errors import FicInputError
 from .limits import PandaLimits
+from .passivity_observer import PassivityObserver
 from .replica import ReplicaCommand, ReplicaController, rotation_from_quaternion
 from .replica_parameters import build_replica_controller, checked
 from .robot_model import RobotModel
@@ -68,6 +69,8 @@ class ReplicaLoop:
         self._pose_gate = RateGate(p["pose_rate"], p["command_period"])
         self._status_gate = RateGate(p["status_rate"], p["command_period"])
         self.last_command: ReplicaCommand | None = None
+        #: Port work and storage of the task-space controller, every control tick (fic_core.passivity_observer).
+        self.passivity = PassivityObserver(6)
         self._shaping_since_status = 0      # LimitStatus flags OR-ed over the ticks since the last message
         self._violations_since_status = 0
         self.counts = {name: 0 for name in COUNTERS}
@@ -83,6 +86,7 @@ class ReplicaLoop:
         controller.continue_from(self.controller)
         schedule.continue_from(self.schedule)
         self.controller, self.schedule = controller, schedule
+        self.passivity.restart_port()  # a new controller, a new storage
         self.desired.parameters = desired
         self.velocity_filter.time_constant = p["desired_velocity_filter"]
         for gate, rate in ((self._pose_gate, p["pose_rate"]), (self._status_gate, p["status_rate"])):
@@ -164,6 +168,9 @@ class ReplicaLoop:
             notices.append(("error", f"control step refused its inputs: {exc}; holding"))
             command = self.controller.hold(q, qd, time=time)
         self.counts["control_ticks"] += 1
+        snapshot = command.controller_snapshot
+        if hasattr(snapshot, "port_values"):
+            self.passivity.observe_snapshot(snapshot)
         self.last_command = command
         self._shaping_since_status |= int(command.limit_shaping)
         self._violations_since_status |= int(command.limit_violations)
@@ -195,6 +202,8 @@ class ReplicaLoop:
             "ticks": str(controller.ticks),
             "shaped_ticks": str(controller.shaped_ticks),
             "violation_ticks": str(controller.violation_ticks),
+            "passivity_margin_min_j": f"{self.passivity.min_margin:.3g}",
+            "passivity_violation_ticks": str(self.passivity.violation_ticks),
             "qp_solves": str(optimisation.qp_count),
             "relaxed_solves": str(optimisation.relaxed_count),
             "guard_clips": str(optimisation.guard_clips),

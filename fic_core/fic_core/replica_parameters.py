@@ -77,6 +77,10 @@ REPLICA_SWITCHES: dict[str, tuple[bool, str]] = {
                                "command is applied up to one control period sooner, for at most one extra tick per "
                                "command (the launcher sets it with --scheduling fifo; off, the law runs at "
                                "control_rate exactly, as the bandwidth sweep needs)"),
+    "paper_law": (False, "true: exactly paper Eq. 7 (C qd + G + J^T FIC) with the posture and the postural "
+                         "optimisation, nothing else: the planner and offset feedforward and the joint friction "
+                         "compensation are off whatever their own parameters say (docs/CONTROL_LAWS.md, 'Terms "
+                         "beyond Eq. 7')"),
     "planner_feedforward": (True, "feed the planner's acceleration (/planner/desired_accel) forward through the "
                                   "task-space inertia, J^T Lambda a_d (beyond paper Eq. 7: the FIC compensates no "
                                   "inertia)"),
@@ -121,6 +125,8 @@ def checked(values: Mapping[str, Any]) -> dict[str, Any]:
     for name in REPLICA_SWITCHES:
         if not isinstance(result[name], bool):
             raise FicInputError(f"{name} must be true or false, got {result[name]!r}")
+    if result["paper_law"]:  # Eq. 7 + posture + postural optimisation only
+        result.update(planner_feedforward=False, offset_feedforward=False, joint_damping_compensation=False)
     if result["controller"] not in CONTROLLERS:
         raise FicInputError(f"controller must be one of {CONTROLLERS}, got {result['controller']!r}")
     if 1.0 / result["control_rate"] < result["command_period"] * 0.999:

@@ -263,6 +263,9 @@ class ReplicaNode(Node):
         state.header.frame_id = self._driver.base_frame
         used = desired.master_stamp_used_ns
         state.master_stamp = Time(sec=used // 1_000_000_000, nanosec=used % 1_000_000_000)
+        passivity = self._loop.passivity
+        state.port_work, state.passivity_margin = passivity.port_work.tolist(), passivity.margin.tolist()
+        state.passivity_margin_min, state.passivity_violation_ticks = passivity.min_margin, passivity.violation_ticks
         self._fic_state_pub.publish(state)
         shaping, violations = self._loop.take_limit_flags()
         controller = self._loop.controller
@@ -292,9 +295,12 @@ class ReplicaNode(Node):
     def _publish_diagnostics(self) -> None:
         status = DiagnosticStatus(name="replica", hardware_id="fic_teleop_replica")
         stale = self._loop.desired.master_stale
-        if stale or self._loop.controller.violation_ticks:
+        limits_broken, passivity_broken = self._loop.controller.violation_ticks, self._loop.passivity.violation_ticks
+        if stale or limits_broken or passivity_broken:
             status.level = DiagnosticStatus.WARN
-            status.message = "master stale: holding x_d'" if stale else "limit violations seen"
+            status.message = "master stale: holding x_d'" if stale else ("limit violations seen" if limits_broken else
+                                                                          "passivity violated: the controller gave "
+                                                                          "out energy it did not take in")
         else:
             status.level = DiagnosticStatus.OK
             status.message = "running" if self._loop.desired.started else "waiting for /joint_states"

@@ -202,7 +202,8 @@ def judge(attractor: FractalAttractor, errors: np.ndarray, rates: np.ndarray,
             magnitude = np.abs(latched[entering])
             paper = 2.0 * latched_force / magnitude
             cap = 8.0 * latched_energy[entering] / magnitude ** 2
-            np.testing.assert_allclose(stiffness[entering], np.minimum(paper, cap), rtol=1e-6)
+            np.testing.assert_allclose(stiffness[entering], np.minimum(paper, cap), rtol=1e-6,
+                                       atol=1e-6 * profile.stiffness)
             latches += int(entering.sum())
             capped += int(np.sum(cap < paper * (1 - 1e-9)))
         # The force must be the force law of the state (so V below is its potential).

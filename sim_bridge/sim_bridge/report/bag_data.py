@@ -24,7 +24,7 @@ from sim_bridge.recording.bag_reader import BagReadError, ReadResult, mcap_file,
 
 # Topics decoded in full (everything else is only counted).
 POSE_TOPICS = ("/replica/desired_pose", "/replica/tcp_pose", "/planner/desired_pose", "/master/pose")
-WRENCH_TOPICS = ("/ft_sensor/wrench",)
+WRENCH_TOPICS = ("/ft_sensor/wrench", "/replica/feedback_wrench", "/master/feedback_wrench")
 TELEOP_TOPICS = ("/master/teleop_command", "/replica/teleop_command")
 FIC_STATE_TOPIC = "/replica/fic_state"
 LIMIT_STATUS_TOPIC = "/replica/limit_status"
@@ -139,7 +139,10 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
                 error = list(msg.error)[:3] + [np.nan] * (3 - min(3, len(msg.error)))
                 phase = list(msg.phase)[:3] + [-1] * (3 - min(3, len(msg.phase)))
                 rows[topic].append((_stamp(msg.header.stamp), log, *error, *phase, msg.total_energy,
-                                    _stamp_ns(msg.master_stamp), msg.master_age, float(msg.master_stale)))
+                                    _stamp_ns(msg.master_stamp), msg.master_age, float(msg.master_stale),
+                                    float(getattr(msg, "passivity_margin_min", np.nan)),
+                                    float(getattr(msg, "passivity_violation_ticks", 0)),
+                                    float(sum(getattr(msg, "port_work", []))), float(sum(msg.stored_energy))))
             elif topic == LIMIT_STATUS_TOPIC:
                 rows[topic].append((_stamp(msg.header.stamp), log, float(msg.shaping), float(msg.violations),
                                     float(getattr(msg, "violation_ticks", 0)), float(getattr(msg, "shaped_ticks", 0)),
@@ -162,7 +165,8 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
         "wrench": ("fx", "fy", "fz"),
         "teleop": ("handle_x", "handle_y", "handle_z", "offset_x", "offset_y", "offset_z", "haptic_gain"),
         "fic": ("ex", "ey", "ez", "phase_x", "phase_y", "phase_z", "total_energy", "master_stamp_ns",
-                "master_age", "master_stale"),
+                "master_age", "master_stale", "passivity_margin_min", "passivity_violation_ticks", "port_work",
+                "storage"),
         "limit": ("shaping", "violations", "violation_ticks", "shaped_ticks", "ticks"),
         "stamps": (),
     }

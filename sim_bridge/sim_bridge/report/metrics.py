@@ -46,6 +46,7 @@ TARGETS = {
     "pipeline_latency_p99_ms": ("<", 5.0),
     "real_time_factor": (">=", 0.95),
     "dropped_joint_states": ("==", 0),
+    "passivity_violation_ticks": ("==", 0),
 }
 
 
@@ -254,6 +255,14 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
         m["master_stale_ticks"] = int(np.count_nonzero(fic.values["master_stale"]))
         phases = np.column_stack([fic.values[f"phase_{a}"][after] for a in "xyz"])
         m["convergence_phase_fraction"] = _number((phases == 1).mean()) if after.any() else None
+        # The replica's passivity observer (fic_core/passivity_observer.py), cumulative over the run: the last
+        # message holds the run's figures (NaN margins: a bag from before the observer).
+        last = int(np.argmax(fic.stamp))
+        margin = fic.values["passivity_margin_min"][last]
+        m["passivity_margin_min_j"] = _number(margin) if np.isfinite(margin) else None
+        m["passivity_violation_ticks"] = int(fic.values["passivity_violation_ticks"][last]) \
+            if np.isfinite(margin) else None
+    m["channel_energy_generated_j"] = _number(channel_energy_generated(data))
     if data.has(LIMIT_STATUS_TOPIC):
         limits = series[LIMIT_STATUS_TOPIC]
         last = np.argmax(limits.stamp)
@@ -272,6 +281,51 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
                     for name, (op, value) in TARGETS.items()}
     return Analysis(metrics=m, t0=t0, error_t=error_t - t0, error=error, error_free=error_free,
                     contact_intervals=contact_intervals, latencies_ms=latencies_ms)
+
+
+def port_energy(position_t: np.ndarray, positions: np.ndarray, force_t: np.ndarray,
+                forces: np.ndarray) -> float:
+    """Energy a motion port passes on, sum_k -F(t_k) . (x_k - x_{k-1}) [J], F held from its latest sample at t_k
+    (zero before the first): the work the motion does against the force that comes back."""
+    if len(position_t) < 2:
+        return 0.0
+    order = np.argsort(position_t, kind="stable")
+    position_t, positions = position_t[order], positions[order]
+    held = np.zeros_like(positions)
+    if len(force_t):
+        force_order = np.argsort(force_t, kind="stable")
+        index = np.searchsorted(force_t[force_order], position_t, side="right") - 1
+        valid = index >= 0
+        held[valid] = forces[force_order][index[valid]]
+    return float(np.sum(-held[1:] * np.diff(positions, axis=0)))
+
+
+def channel_energy_generated(data: BagData) -> float | None:
+    """Energy the delay channel generated, time-domain-passivity style, at its two ports [J].
+
+    Master port: the offset x_d' the master sends (/master/teleop_command) against the force it receives
+    (/master/feedback_wrench). Replica port: x_d' as the replica receives it (/replica/teleop_command) against the
+    force the replica sends back (/replica/feedback_wrench). Each force is held from its latest sample, by log
+    time (when it was seen). Generated = what leaves at the replica port minus what entered at the master port:
+    positive when the delay turned less energy in into more energy out. None without those four topics.
+    """
+    series = data.series
+    topics = ("/master/teleop_command", "/master/feedback_wrench", "/replica/teleop_command",
+              "/replica/feedback_wrench")
+    if not all(data.has(topic) for topic in topics):
+        return None
+
+    def offset(topic: str) -> tuple[np.ndarray, np.ndarray]:
+        s = series[topic]
+        return s.log, np.column_stack([s.values[f"offset_{a}"] for a in "xyz"])
+
+    def force(topic: str) -> tuple[np.ndarray, np.ndarray]:
+        s = series[topic]
+        return s.log, np.column_stack([s.values[f"f{a}"] for a in "xyz"])
+
+    entered = port_energy(*offset("/master/teleop_command"), *force("/master/feedback_wrench"))
+    left = port_energy(*offset("/replica/teleop_command"), *force("/replica/feedback_wrench"))
+    return left - entered
 
 
 def _meets(value, op: str, target: float) -> bool | None:

@@ -132,7 +132,7 @@ def plot_fic(data: BagData, analysis: Analysis, out: Path) -> Path | None:
     if not data.has(FIC_STATE_TOPIC):
         return None
     t, v = _sorted(data.series[FIC_STATE_TOPIC], analysis.t0)
-    fig, (ax_phase, ax_energy) = plt.subplots(2, 1, sharex=True, figsize=(9, 5))
+    fig, (ax_phase, ax_energy, ax_passivity) = plt.subplots(3, 1, sharex=True, figsize=(9, 7))
     for k, a in enumerate(AXES):
         ax_phase.step(t, v[f"phase_{a}"] + 1.5 * k, where="post", color=COLOURS[a], lw=1, label=a)
     ax_phase.set_yticks([0, 1, 1.5, 2.5, 3, 4], ["x: D", "x: C", "y: D", "y: C", "z: D", "z: C"])
@@ -141,9 +141,17 @@ def plot_fic(data: BagData, analysis: Analysis, out: Path) -> Path | None:
     _shade_contacts(ax_energy, analysis)
     ax_energy.plot(t, v["total_energy"], color="tab:brown", lw=1.2, label="total energy")
     ax_energy.set_ylabel("energy [J]")
-    ax_energy.set_xlabel("time [s]")
     ax_energy.grid(alpha=0.3)
     ax_energy.legend(loc="upper right", fontsize=8)
+    # The passivity observer: work done on the FIC's port, its storage, and the run's smallest margin W - (V - V0).
+    ax_passivity.plot(t, v["port_work"], color="tab:blue", lw=1.0, label="port work W (sum of axes)")
+    ax_passivity.plot(t, v["storage"], color="tab:green", lw=1.0, label="storage V (sum of axes)")
+    ax_passivity.plot(t, v["passivity_margin_min"], color="tab:red", lw=1.0, label="min margin W - (V - V0)")
+    ax_passivity.axhline(0.0, color="k", lw=0.8)
+    ax_passivity.set_ylabel("energy [J]")
+    ax_passivity.set_xlabel("time [s]")
+    ax_passivity.grid(alpha=0.3)
+    ax_passivity.legend(loc="upper left", fontsize=8)
     return _save(fig, out / "fic_state.png")
 
 
