@@ -107,7 +107,8 @@ def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
             header=header(ns), controller="fic", phase=np.array([0, 1, 0, 0, 0, 0], dtype=np.uint8),
             error=np.zeros(6), latched_max_error=np.zeros(6), force=np.zeros(6), stored_energy=np.zeros(6),
             total_energy=0.25, master_stamp=time_of(master_ns), master_age=(first_use_ns - master_ns) * 1e-9,
-            master_stale=False)
+            master_stale=False, port_work=np.full(6, 0.5), passivity_margin=np.full(6, 0.25),
+            passivity_margin_min=0.002 if ns > BASE_NS else 0.0, passivity_violation_ticks=3)
 
     expected_latencies = []
     messages.append((BASE_NS, "/replica/fic_state", fic_state(BASE_NS, 0, 0)))  # no master sample yet
@@ -158,6 +159,9 @@ def test_metrics_of_a_known_session(synthetic_bag, tmp_path):
     assert m["free_motion_fraction"] == pytest.approx(7.8 / 9.0, abs=1e-9)
     assert m["peak_interaction_force_n"] == pytest.approx(12.0)
     assert m["limit_violations"] == 6 and m["limit_shaped_ticks"] == 14
+    # The passivity observer's run figures come from the newest FicState; no channel topics, no channel energy.
+    assert m["passivity_margin_min_j"] == pytest.approx(0.002) and m["passivity_violation_ticks"] == 3
+    assert m["targets"]["passivity_violation_ticks"]["met"] is False
     assert m["pipeline_latency_samples"] == len(truth["latencies"]) and m["pipeline_latency_unmatched"] == 0
     assert m["pipeline_latency_p50_ms"] == pytest.approx(np.percentile(truth["latencies"], 50), abs=1e-5)
     assert m["pipeline_latency_p50_ms"] == pytest.approx(1.5, abs=1e-5)
