@@ -24,6 +24,7 @@ from pathlib import Path
 
 import two_stations
 import hardware_twin
+from node_params import write_node_params
 from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
 
 REPO = Path(__file__).resolve().parent.parent
@@ -65,15 +66,9 @@ class NodeSpec:
     remaps: dict[str, str] = field(default_factory=dict)         # topic remaps (a driver profile's remaps.yaml)
 
 
-def parameter_literal(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (list, tuple)):
-        return "[" + ",".join(parameter_literal(item) for item in value) + "]"
-    return str(value)
-
-
-def node_command(spec: NodeSpec) -> list[str]:
+def node_command(spec: NodeSpec, run_params: Path | None = None) -> list[str]:
+    """The node's command line: its config file, then `run_params`, the launcher's own values for this run
+    (a params file written by params_files.write_node_params, so that each value keeps its Python type)."""
     executable = REPO / "install" / spec.package / "lib" / spec.package / spec.executable
     if shutil.which("ros2") and os.environ.get("FIC_TELEOP_NO_ROS2_CLI") != "1":
         command = ["ros2", "run", spec.package, spec.executable]
@@ -86,8 +81,8 @@ def node_command(spec: NodeSpec) -> list[str]:
         command += ["--params-file", str(CONFIG / extra)]
     for source, target in spec.remaps.items():
         command += ["-r", f"{source}:={target}"]
-    for key, value in spec.params.items():
-        command += ["-p", f"{key}:={parameter_literal(value)}"]
+    if run_params is not None:
+        command += ["--params-file", str(run_params)]
     return command
 
 
@@ -127,7 +122,9 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
                   # lockstep starts once the replica and the recorder both read /joint_states: no step unrecorded
                   **({"lockstep_subscribers": 2} if lockstep else {})}),
         NodeSpec("sim_bridge", "recorder_node", "recorder", None,
-                 {"bag_path": str(bag_path), **sim_time}),
+                 {"bag_path": str(bag_path), **sim_time,
+                  # --live: the recorder, which holds every topic's bytes already, serves the live view
+                  **({"live_port": args.live_port, "live_host": args.live_host} if args.live else {})}),
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
                  {"controller": args.controller, "control_rate": args.control_rate,
                   "answer_every_state": lockstep,
@@ -181,7 +178,7 @@ class Graph:
         self.wrap = None   # two stations: runs each node in its station's namespace (two_stations.py)
 
     def start(self, spec: NodeSpec) -> None:
-        command = node_command(spec)
+        command = node_command(spec, write_node_params(self.log_dir.parent / "params", spec.name, spec.params))
         if self.wrap is not None:
             command = self.wrap(spec.name, command)
         if spec.foreground:
@@ -363,6 +360,12 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
     two_stations.add_arguments(parser)
     hardware_twin.add_arguments(parser)
+    parser.add_argument("--live", action="store_true",
+                        help="serve every topic and the arm in 3D on a Foxglove WebSocket server while the run goes "
+                             "(open config/live_view.json in Foxglove or Lichtblick; docs/TOOLS.md)")
+    parser.add_argument("--live-port", type=int, default=8765, help="the live view's port (default 8765)")
+    parser.add_argument("--live-host", default="127.0.0.1",
+                        help="the address the live view binds to (default 127.0.0.1: this machine only)")
     return parser.parse_args(argv)
 
 
@@ -381,6 +384,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.delay < 0 or args.jitter < 0 or not 0.0 <= args.drop <= 1.0 or args.duration <= 0 or args.rate_cap < 0:
         print("[run] refused: delay, jitter, duration and rate cap must be >= 0 and drop in [0, 1]", file=sys.stderr)
         return 2
+    if args.live:
+        from sim_bridge.live_view import port_in_use
+        taken = port_in_use(args.live_host, args.live_port)
+        if taken:
+            print(f"[run] refused: the live view cannot use {args.live_host}:{args.live_port} ({taken}); "
+                  "give another --live-port", file=sys.stderr)
+            return 2
     run_dir = args.out or REPO / "runs" / datetime.now().strftime("%Y%m%d-%H%M%S")
     log_dir = run_dir / "logs"
     bag_path = run_dir / "bag"

@@ -42,7 +42,9 @@ from rclpy.task import Future
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from fic_core.errors import FicInputError
-from sim_bridge.recording.bag_writer import BagError, BagWriter, MessageDefinitionError, qos_profile_dict
+from sim_bridge.recording.bag_writer import BagError, BagWriter, MessageDefinitionError, full_type_name, message_definition, \
+    qos_profile_dict
+from sim_bridge.live_view import LiveView, LiveViewError
 from sim_bridge.message_types import message_class
 
 # The topic table of docs/CONVENTIONS.md: what a session is.
@@ -140,6 +142,13 @@ class RecorderNode(Node):
         self.declare_parameter("joint_states_period", 0.001, _descriptor(
             "seconds between consecutive joint-state stamps (the simulator's physics step)",
             float_range=(1e-6, 1.0)))
+        # The live view (sim_bridge/live_view.py): the recorded topics on a Foxglove WebSocket server.
+        self.declare_parameter("live_port", 0, _descriptor(
+            "TCP port of the live view's Foxglove WebSocket server; 0: no live view", int_range=(0, 65535)))
+        self.declare_parameter("live_host", "127.0.0.1", _descriptor(
+            "address the live view binds to (127.0.0.1: this machine only)"))
+        self.declare_parameter("live_rate", 30.0, _descriptor(
+            "most messages a second the live view sends of any one topic", float_range=(0.1, 1000.0)))
 
         bag_path = self.get_parameter("bag_path").value or \
             f"bags/rosbag2_{datetime.datetime.now().strftime('%Y_%m_%d-%H_%M_%S')}"
@@ -148,6 +157,14 @@ class RecorderNode(Node):
         self._exclude = [re.compile(p) for p in self.get_parameter("exclude").value or []]
         self._queue_depth = int(self.get_parameter("queue_depth").value)
         self._joint_states_topic = str(self.get_parameter("joint_states_topic").value)
+        # Before the bag folder exists: a port in use leaves nothing behind.
+        self.live = None
+        if self.get_parameter("live_port").value:
+            self.live = LiveView(host=str(self.get_parameter("live_host").value),
+                                 port=int(self.get_parameter("live_port").value),
+                                 view_rate=float(self.get_parameter("live_rate").value),
+                                 joint_states_topic=self._joint_states_topic)
+            self.get_logger().info(f"live view on ws://{self.get_parameter('live_host').value}:{self.live.port}")
 
         self.bag = BagWriter(Path(bag_path), chunk_size=int(self.get_parameter("chunk_size").value),
                              compression=str(self.get_parameter("compression").value),
@@ -239,7 +256,7 @@ class RecorderNode(Node):
 
     # -- writing (writer thread) ------------------------------------------------------------------------------
     def _write_loop(self) -> None:
-        queue, bag, counts = self._queue, self.bag, self._counts
+        queue, bag, counts, live = self._queue, self.bag, self._counts, self.live
         try:
             while True:
                 stopping = self._stop.is_set()
@@ -252,6 +269,8 @@ class RecorderNode(Node):
                         continue
                     bag.write(self._channel_ids[index], data, stamp)
                     counts[index] += 1
+                    if live is not None:
+                        live.offer(self._topic_names[index], data, stamp)
                     if self._topic_names[index] == self._joint_states_topic:
                         self.joint_states.add(data)
                 if stopping:
@@ -264,11 +283,14 @@ class RecorderNode(Node):
 
     def _add_topic(self, topic: str, type_name: str, offered: list[dict]) -> None:
         try:
-            channel_id = self.bag.add_topic(topic, type_name, offered_qos_profiles=offered or None)
+            definition = message_definition(full_type_name(type_name))
         except MessageDefinitionError as error:
             self.get_logger().warning(f"{topic}: {error}; recorded without a message definition")
-            channel_id = self.bag.add_topic(topic, type_name, offered_qos_profiles=offered or None, definition="")
+            definition = ""
+        channel_id = self.bag.add_topic(topic, type_name, offered_qos_profiles=offered or None, definition=definition)
         self._channel_ids.append(channel_id)
+        if self.live is not None:
+            self.live.add_topic(topic, self.bag.topics[topic].type, definition)
 
     # -- status and finishing ---------------------------------------------------------------------------------
     def counts(self) -> dict[str, int]:
@@ -312,6 +334,8 @@ class RecorderNode(Node):
             self._stop.set()
             self._writer.join()
             summary = self.bag.finish()
+            if self.live is not None:
+                self.live.stop()
             per_topic = ", ".join(f"{topic} {count}" for topic, count in sorted(summary.topics.items()))
             self._log_info(
                 f"finished bag {summary.bag_dir.resolve()}: {summary.message_count} messages on "
@@ -332,6 +356,9 @@ def main(args: list[str] | None = None) -> None:
             node = RecorderNode()
         except BagError as exc:  # an existing bag folder, an unwritable path: one clear line, not a traceback
             rclpy.logging.get_logger("recorder").fatal(f"cannot record: {exc}")
+            raise SystemExit(2) from exc
+        except LiveViewError as exc:  # the live view's port is taken: one line, and no bag was started
+            rclpy.logging.get_logger("recorder").fatal(str(exc))
             raise SystemExit(2) from exc
         executor = EventsExecutor()
         executor.add_node(node)
