@@ -385,7 +385,7 @@ def main(argv: list[str] | None = None) -> int:
         print("[run] refused: delay, jitter, duration and rate cap must be >= 0 and drop in [0, 1]", file=sys.stderr)
         return 2
     if args.live:
-        from sim_bridge.live_view import port_in_use
+        from sim_bridge.recording.live_view import port_in_use
         taken = port_in_use(args.live_host, args.live_port)
         if taken:
             print(f"[run] refused: the live view cannot use {args.live_host}:{args.live_port} ({taken}); "

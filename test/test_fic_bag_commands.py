@@ -9,7 +9,8 @@ import pytest
 from rclpy.serialization import serialize_message
 
 from conftest import REPO
-from sim_bridge.bag_writer import BagWriter, read_messages
+from sim_bridge.recording.bag_reader import read_messages
+from sim_bridge.recording.bag_writer import BagWriter
 
 FIC = REPO / "scripts" / "fic"
 STATES = 300

@@ -205,7 +205,7 @@ def test_recorder_loses_no_joint_state_while_it_serves_the_live_view(running_gra
     numpy to import) that compete with the recorder for the 2 cores, which says nothing about the view."""
     import struct
 
-    from sim_bridge.bag_writer import read_messages
+    from sim_bridge.recording.bag_reader import read_messages
 
     window = running_graph.get("client_window_ns")
     assert window is not None, "the live view test did not run first"

@@ -1,4 +1,4 @@
-"""bag info / recover / play, on the project's bag reader and writer (sim_bridge.bag_writer)."""
+"""bag info / recover / play, on the project's bag reader and writer (sim_bridge.recording)."""
 from __future__ import annotations
 
 import shutil
@@ -11,7 +11,9 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from fic_core.errors import FicInputError
-from sim_bridge.bag_writer import BagError, mcap_file, read_messages, recover, ReadResult
+from sim_bridge.recording.bag_reader import BagReadError, ReadResult, mcap_file, read_messages
+from sim_bridge.recording.bag_writer import BagError
+from sim_bridge.recording.recovery import recover
 from sim_bridge.cli.errors import CommandError
 from sim_bridge.message_types import message_class
 
@@ -21,7 +23,7 @@ def _existing_mcap(bag: str) -> Path:
         raise CommandError(f"bag {bag} does not exist")
     try:
         return mcap_file(bag)
-    except BagError as error:
+    except (BagError, BagReadError) as error:
         raise CommandError(f"{bag} is not a bag: {error}") from None
 
 
@@ -90,7 +92,7 @@ def bag_recover(source: str, destination: str) -> int:
     except BaseException as error:  # nothing half-written: a partial copy is worse than none
         if created:
             shutil.rmtree(target, ignore_errors=True)
-        if isinstance(error, (BagError, OSError, McapError)):
+        if isinstance(error, (BagError, BagReadError, OSError, McapError)):
             raise CommandError(f"cannot recover {source}: {error}") from None
         raise
     state = "was complete" if result.complete else f"was torn ({result.stopped_by})"

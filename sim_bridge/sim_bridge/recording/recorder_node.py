@@ -44,7 +44,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from fic_core.errors import FicInputError
 from sim_bridge.recording.bag_writer import BagError, BagWriter, MessageDefinitionError, full_type_name, message_definition, \
     qos_profile_dict
-from sim_bridge.live_view import LiveView, LiveViewError
+from sim_bridge.recording.live_view import LiveView, LiveViewError
 from sim_bridge.message_types import message_class
 
 # The topic table of docs/CONVENTIONS.md: what a session is.
