@@ -369,18 +369,23 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = parse_arguments(argv)
+def resolve_defaults(args: argparse.Namespace) -> None:
+    """The defaults that depend on other arguments (also what scripts/launch_file.py writes the launch file from)."""
     if args.control_rate is None:
         args.control_rate = 1000.0 if args.time_mode == "lockstep" else REALTIME_CONTROL_RATE_HZ
     if args.no_priority:
         args.scheduling = "default"
+    if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
+        args.trajectory = "circle" if args.scene == "superimposition" else "fixed"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_arguments(argv)
+    resolve_defaults(args)
     if args.scheduling == "fifo" and args.time_mode == "lockstep":
         print("[run] refused: --scheduling fifo is for realtime runs (lockstep waits for every answer and needs no "
               "pre-emption)", file=sys.stderr)
         return 2
-    if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
-        args.trajectory = "circle" if args.scene == "superimposition" else "fixed"
     if args.delay < 0 or args.jitter < 0 or not 0.0 <= args.drop <= 1.0 or args.duration <= 0 or args.rate_cap < 0:
         print("[run] refused: delay, jitter, duration and rate cap must be >= 0 and drop in [0, 1]", file=sys.stderr)
         return 2

@@ -1,0 +1,41 @@
+"""launch/teleop.launch.py (for apt ROS 2 users; launch_ros is not a wheel) is the launcher's own default graph."""
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+
+from conftest import REPO
+
+sys.path.insert(0, str(REPO / "scripts"))
+import teleop_launcher  # noqa: E402
+
+
+def test_the_launch_file_is_what_the_generator_writes() -> None:
+    result = subprocess.run([sys.executable, str(REPO / "scripts" / "launch_file.py"), "--check"],
+                            capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+
+
+def test_the_launch_file_starts_the_launchers_nodes_with_their_config_and_values() -> None:
+    tree = ast.parse((REPO / "launch" / "teleop.launch.py").read_text())
+    nodes = next(ast.literal_eval(node.value) for node in tree.body
+                 if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", "") == "NODES")
+    args = teleop_launcher.parse_arguments([])
+    teleop_launcher.resolve_defaults(args)
+    specs = teleop_launcher.graph(args, REPO / "bag")
+    assert [(n[0], n[1], n[2], n[3]) for n in nodes] == [(s.package, s.executable, s.name, s.params_file)
+                                                         for s in specs]
+    for (_, _, name, _, parameters), spec in zip(nodes, specs):
+        assert set(parameters) == set(spec.params), name
+        for key, value in parameters.items():
+            if key not in ("script_start_time", "start_time", "bag_path"):  # computed when launched
+                assert value == spec.params[key], (name, key)
+    for config in {n[3] for n in nodes if n[3]}:
+        assert (REPO / "config" / config).is_file()
+
+
+def test_the_live_view_layout_is_what_its_generator_writes() -> None:
+    result = subprocess.run([sys.executable, str(REPO / "scripts" / "live_view_layout.py"), "--check"],
+                            capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
