@@ -131,5 +131,19 @@ python -c 'import rclpy, fic_teleop_msgs.msg, fic_core, pinocchio, mujoco' 2>/tm
   || { cat /tmp/fic_setup_check.log >&2; fail "the workspace does not import" "rerun with --force"; }
 done_step "ok"
 
+# 8. Test-only: the official Foxglove protocol client the live view's test connects with (test/live_view_client).
+step "live view test client (npm, when node is installed)"
+client="$REPO/test/live_view_client"
+if ! command -v npm >/dev/null 2>&1; then
+  done_step "skipped (no npm: the live view test is skipped)"
+elif up_to_date live_view_client "$(inputs_hash "$client/package-lock.json")" && [[ -d "$client/node_modules" ]]; then
+  done_step "up to date"
+else
+  (cd "$client" && npm ci --no-audit --no-fund --ignore-scripts >/tmp/fic_setup_npm.log 2>&1) \
+    || { tail -20 /tmp/fic_setup_npm.log >&2; fail "npm ci failed (log: /tmp/fic_setup_npm.log)" "check the npm registry"; }
+  mark live_view_client "$(inputs_hash "$client/package-lock.json")"
+  done_step "installed"
+fi
+
 total=$(python3 -c "import sys; print(f'{float(sys.argv[2]) - float(sys.argv[1]):.1f}')" "$SETUP_START" "$(date +%s.%N)")
 echo "[setup] done in ${total}s; venv $(du -sh "$VENV" 2>/dev/null | cut -f1), workspace in $REPO/install"
