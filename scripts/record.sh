@@ -4,7 +4,7 @@
 #   without topics: every topic the graph discovery finds (except /rosout and /parameter_events);
 #   with topics: only those, subscribed as soon as they appear.
 # The bag folder must not exist yet. Ctrl-C (or SIGTERM) finishes the bag; after a SIGKILL the bag is still
-# readable up to its last chunk (python -c "from sim_bridge.recording.recovery import recover; recover('<bag>', '<new>')").
+# readable up to its last chunk: `scripts/fic bag recover <bag> <new bag>` rewrites it into a complete one.
 set -euo pipefail
 if [[ $# -lt 1 || "$1" == "-h" || "$1" == "--help" ]]; then
   echo "usage: $0 <bag_path> [topic ...]" >&2

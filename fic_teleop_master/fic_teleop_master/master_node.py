@@ -7,7 +7,7 @@ x_M -> x_d' -> /master/pose and /master/teleop_command at ``network_rate``. The 
 aligned with panda_link0's (the simulated device is set up that way), so F_R is added without rotation.
 
 Operator inputs: /operator/joy buttons (rising edges; fic_core.operator_buttons) 0: toggle OFFSET/VELOCITY,
-1: K_H + 0.1, 2: K_H - 0.1; /master/haptic_gain (std_msgs/Float64); or ``ros2 param set /master haptic_gain 0.3``.
+1: K_H + 0.1, 2: K_H - 0.1; /master/haptic_gain (std_msgs/Float64); or ``scripts/fic param set /master haptic_gain 0.3``.
 K_H outside [0, 1] is clamped to it with a warning; NaN is refused. This node is wiring: every rule is in fic_core.
 """
 from __future__ import annotations

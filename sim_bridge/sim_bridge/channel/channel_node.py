@@ -3,7 +3,8 @@
 Each route ``in_topic:out_topic:pkg/msg/Type`` is a raw (CDR bytes) subscription, a ``Channel`` and a raw
 publisher, so any message type passes untouched and its header stamp is preserved. Run one instance per
 direction (config/channel.yaml: ``channel_forward`` master -> replica, ``channel_backward`` replica -> master).
-Every link parameter can be changed at run time (``ros2 param set /channel_forward delay 0.5``); the change
+Every link parameter can be changed at run time (``scripts/fic param set /channel_forward delay 0.5``, or
+``ros2 param set`` with a full ROS 2 install); the change
 applies to all routes of this node. Time is the node clock, so with use_sim_time the delay is in simulated time
 and runs in lockstep with the simulator.
 """
