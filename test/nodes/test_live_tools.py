@@ -165,7 +165,7 @@ def test_live_view_serves_every_topic_to_the_official_client(running_graph) -> N
     summary = json.loads(output.stdout)
     topics = summary["topics"]
     # What the robot and the master publish, the recorder's own status, and the view's own topics.
-    for topic in ("/joint_states", "/ft_sensor/wrench", "/clock", "/haptic/pose", "/diagnostics",
+    for topic in ("/joint_states", "/ft_sensor/wrench", "/clock", "/sim/tcp_pose", "/diagnostics",
                   "/live/transforms", "/robot_description"):
         assert topic in topics, sorted(topics)
     # Every advertised schema was parsed into a decoder (an error otherwise), and every message that came was decoded.
