@@ -24,6 +24,9 @@ from pathlib import Path
 
 import two_stations
 import hardware_twin
+from launch_checks import ArgumentRefusal, check_options, domain_from_environment, prepare_run_folder
+from launch_isolation import DomainBusy, isolate
+from launch_supervision import EXIT_CODES, EXIT_REFUSED, die_with_launcher, failed_nodes, safety_verdict
 from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
 from sim_bridge.params_file import write_node_params
 
@@ -132,6 +135,8 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
                   # of 1.3 and 1.7 ms in two runs, against 1.8-2.6 ms in five without; under niceness the extra
                   # ticks only added load (A/B in one session: no gain).
                   "tick_on_command": args.scheduling == "fifo",
+                  # the channel's delay must fit inside the replica's command-age bound (input_guard.py)
+                  "max_command_age": 3.0 + args.delay + args.jitter,
                   **(PAPER_LAW if args.paper_law else {}), **sim_time}),
         NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml",
                  {"trajectory": args.trajectory, **planner_timing, **sim_time}),
@@ -174,20 +179,25 @@ class Graph:
     def __init__(self, log_dir: Path) -> None:
         self.log_dir = log_dir
         self.processes: list[tuple[NodeSpec, subprocess.Popen, object]] = []
+        self.early_exits: list[str] = []  # nodes that ended before the run did
         self.scheduler = RealtimeScheduler()
         self.wrap = None   # two stations: runs each node in its station's namespace (two_stations.py)
 
     def start(self, spec: NodeSpec) -> None:
         command = node_command(spec, write_node_params(self.log_dir.parent / "params", spec.name, spec.params))
+        # Every node gets SIGTERM if the launcher dies, however it dies (launch_supervision.py); our own executables
+        # start with the stop signals blocked until their handlers are in (a `ros2 run` wrapper would not unblock).
+        preexec = die_with_launcher(os.getpid(), then=_prioritised(spec.niceness),
+                                    block_stop_signals=command[0] != "ros2")
         if self.wrap is not None:
             command = self.wrap(spec.name, command)
         if spec.foreground:
-            process = subprocess.Popen(command, preexec_fn=_prioritised(spec.niceness))
+            process = subprocess.Popen(command, preexec_fn=preexec)
             log = None
         else:
             log = open(self.log_dir / f"{spec.name}.log", "wb")
             process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
-                                       preexec_fn=_prioritised(spec.niceness))
+                                       preexec_fn=preexec)
         self.processes.append((spec, process, log))
         if spec.fifo_priority is not None:
             self.scheduler.register(spec.name, process.pid, spec.fifo_priority)
@@ -278,6 +288,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
             if elapsed >= duration or graph_.foreground_done():
                 break
             dead = graph_.dead()
+            graph_.early_exits = dead
             if dead:
                 print(f"[run] node(s) exited early: {', '.join(dead)} (see their logs)", file=sys.stderr)
                 break
@@ -318,7 +329,9 @@ def _add_to_run_record(run_dir: Path, key: str, value) -> None:
 
 
 def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog="exit codes: " + "; ".join(f"{code} {text}" for code, text
+                                                                       in EXIT_CODES.items()))
     parser.add_argument("--scene", default="superimposition", choices=["superimposition", "shape_sorting", "free_space"])
     parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds to run (default 30)")
     parser.add_argument("--delay", type=float, default=0.2, help="one-way channel delay [s], both ways (default 0.2)")
@@ -346,7 +359,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--interactive", action="store_true", help="drive the operator's hand from the keyboard")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<date-time>)")
-    parser.add_argument("--domain-id", type=int, default=None, help="ROS_DOMAIN_ID for this run")
+    parser.add_argument("--domain-id", type=int, default=None,
+                        help="ROS_DOMAIN_ID for this run (0-101 or 215-232); default: ROS_DOMAIN_ID if set, else a "
+                             "domain reserved on this machine for the run; refused if another graph is heard on it")
     parser.add_argument("--wall-limit", type=float, default=None,
                         help="give up after this many wall-clock seconds (default max(120, 6 x duration); lockstep "
                              "on a loaded 2-core machine can run at 0.1x real time)")
@@ -386,9 +401,6 @@ def main(argv: list[str] | None = None) -> int:
         print("[run] refused: --scheduling fifo is for realtime runs (lockstep waits for every answer and needs no "
               "pre-emption)", file=sys.stderr)
         return 2
-    if args.delay < 0 or args.jitter < 0 or not 0.0 <= args.drop <= 1.0 or args.duration <= 0 or args.rate_cap < 0:
-        print("[run] refused: delay, jitter, duration and rate cap must be >= 0 and drop in [0, 1]", file=sys.stderr)
-        return 2
     if args.live:
         from sim_bridge.recording.live_view import port_in_use
         taken = port_in_use(args.live_host, args.live_port)
@@ -399,26 +411,31 @@ def main(argv: list[str] | None = None) -> int:
     run_dir = args.out or REPO / "runs" / datetime.now().strftime("%Y%m%d-%H%M%S")
     log_dir = run_dir / "logs"
     bag_path = run_dir / "bag"
-    if bag_path.exists() and any(bag_path.iterdir()):
-        # The recorder would refuse to overwrite it, and the report would then describe the old run.
-        print(f"[run] refused: {bag_path} already holds a bag; give another --out", file=sys.stderr)
-        return 2
-    try:
+    try:  # the options first: the outer two-station process and the launcher inside both refuse bad ones
+        check_options(args)
         two_stations.check_arguments(args)
-    except two_stations.StationError as error:
-        print(f"[run] refused: {error}", file=sys.stderr)
-        return 2
+    except (ArgumentRefusal, two_stations.StationError) as refusal:
+        print(f"[run] refused: {refusal}", file=sys.stderr)
+        return EXIT_REFUSED
     if args.two_stations and not two_stations.inside_station():   # namespaces up, this launcher run inside one
         return two_stations.run(list(sys.argv[1:] if argv is None else argv), args, run_dir)
     stations = two_stations.inside_hooks(args, run_dir)
-    log_dir.mkdir(parents=True, exist_ok=True)
-    if args.domain_id is not None:
-        os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     # numpy's OpenBLAS would start a worker per core that busy-waits after each call: the nodes' matrices are 7x7,
     # a worker only costs CPU here (and must never be a FIFO thread, realtime_scheduling.py).
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("ROS_LOG_DIR", str(log_dir / "ros"))
+    try:  # the rest the run needs, checked before anything starts (launch_checks.py, launch_isolation.py)
+        given = args.domain_id if args.domain_id is not None else domain_from_environment(os.environ.get("ROS_DOMAIN_ID"))
+        prepare_run_folder(run_dir)
+        domain = isolate(given)  # held until this process ends
+    except (ArgumentRefusal, DomainBusy) as refusal:
+        print(f"[run] refused: {refusal}", file=sys.stderr)
+        return EXIT_REFUSED
+    args.domain_id = domain.domain
+    os.environ["ROS_DOMAIN_ID"] = str(domain.domain)
+    if not domain.held:
+        print(f"[run] domain {domain.domain}: reserved by another process (no graph heard on it)")
     (run_dir / "run.json").write_text(json.dumps({k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()}, indent=2))
 
     running = Graph(log_dir)
@@ -432,7 +449,7 @@ def main(argv: list[str] | None = None) -> int:
     wall_start = time.monotonic()
     sim_elapsed = 0.0
     print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller}"
-          f" at {args.control_rate:g} Hz, {args.time_mode}; run folder {run_dir}")
+          f" at {args.control_rate:g} Hz, {args.time_mode}; ROS domain {domain.domain}; run folder {run_dir}")
     try:
         specs = graph(args, bag_path)
         # Realtime with a scripted operator: the run's duration counts from the script's start (its origin on the
@@ -473,19 +490,26 @@ def main(argv: list[str] | None = None) -> int:
         codes = running.stop()
         signal.signal(signal.SIGINT, signal.default_int_handler)
     wall = time.monotonic() - wall_start
-    failed = {name: code for name, code in codes.items() if code not in (0, -2, 130, None)}
+    failed = failed_nodes(codes)
     print(f"[run] graph stopped after {wall:.1f} s wall, {sim_elapsed:.1f} s simulated"
           + (f"; nodes with errors: {failed}" if failed else ""))
     print(f"[run] bag: {bag_path}")
-    if args.no_report:
-        return 0 if not failed else 1
-    report_dir = run_dir / "report"
-    command = [sys.executable, "-m", "sim_bridge.report", str(bag_path), "--out", str(report_dir)]
-    if not args.no_video:
-        command.append("--render")
-    result = subprocess.run(command)
-    print(f"[run] report: {report_dir}")
-    return 0 if result.returncode == 0 and not failed else 1
+    metrics, report_failed = None, False
+    if not args.no_report:
+        report_dir = run_dir / "report"
+        command = [sys.executable, "-m", "sim_bridge.report", str(bag_path), "--out", str(report_dir)]
+        if not args.no_video:
+            command.append("--render")
+        report_failed = subprocess.run(command).returncode != 0
+        print(f"[run] report: {report_dir}")
+        metrics_path = report_dir / "metrics.json"
+        metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else None
+    code, reasons = safety_verdict(metrics, codes, running.early_exits, report_failed, bag_path)
+    for reason in reasons:
+        print(f"[run] safety: {reason}", file=sys.stderr)
+    if code:
+        print(f"[run] exit {code}: {EXIT_CODES[code]}", file=sys.stderr)
+    return code
 
 
 if __name__ == "__main__":

@@ -1,1 +1,6 @@
 """Master side of FIC haptic teleoperation: the master FIC with online haptic gain and the teleoperation modes (paper Eq. 3)."""
+
+# SIGINT/SIGTERM at any moment of the start-up end the node cleanly (sim_bridge/stop_signals.py).
+from sim_bridge import stop_signals as _stop_signals  # noqa: E402
+
+_stop_signals.install_if_blocked()

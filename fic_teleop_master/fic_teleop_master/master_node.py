@@ -15,6 +15,8 @@ from __future__ import annotations
 import gc
 
 import rclpy
+from rclpy.signals import SignalHandlerOptions
+from sim_bridge import stop_signals
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
@@ -194,7 +196,8 @@ class MasterNode(Node):
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_publisher.publish(array)
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
+    stop_signals.install()
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
     node = None
     try:
         node = MasterNode()
@@ -219,7 +222,8 @@ def spin_until_shutdown(node: Node, slice_s: float = 0.1) -> None:
     gc.freeze()
     never = Future()  # a slice runs every callback due in it inside the executor
     try:
-        while rclpy.ok(context=node.context):
+        stop_signals.running()  # a signal now only asks the loop to stop; the node is destroyed before the context
+        while rclpy.ok(context=node.context) and not stop_signals.requested():
             try:
                 executor.spin_until_future_complete(never, timeout_sec=slice_s)
             except (KeyboardInterrupt, ExternalShutdownException):

@@ -21,6 +21,8 @@ import time as time_module
 import numpy as np
 import pinocchio as pin
 import rclpy
+from rclpy.signals import SignalHandlerOptions
+from sim_bridge import stop_signals
 from rclpy.serialization import deserialize_message
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -43,6 +45,7 @@ from fic_core.robot_model import RobotModel
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import CONTROLLER_DESCRIPTION, REPLICA_NUMBERS, REPLICA_SWITCHES
 from fic_teleop_replica.driver_interface import DriverInterface
+from fic_teleop_replica.input_guard import InputGuard
 
 # 1 kHz robot streams: RELIABLE, KEEP_LAST 50 (a recorder must lose none; a late command is superseded anyway).
 ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
@@ -93,6 +96,9 @@ class ReplicaNode(Node):
         self._wrench: WrenchStamped | None = None  # F_R as last received
         self._published: np.ndarray | None = None  # the last command sent
         self._refusal_logged: dict[str, float] = {}  # topic -> monotonic time of its last refusal line
+        # What an outside input may ask of the arm (fic_core.input_authority): bounded commands, one writer per
+        # robot stream; a breach holds the arm and is said at once on /diagnostics.
+        self._input_guard = InputGuard(self, on_hold=lambda: self._publish_diagnostics())
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._command_pub = self.create_publisher(Float64MultiArray, "/effort_controller/commands", ROBOT_STREAM_QOS)
@@ -145,9 +151,14 @@ class ReplicaNode(Node):
             self.get_logger().error(f"refusing {topic}: {exc}; {consequence}")
 
     def _on_teleop_command(self, message: TeleoperationCommand) -> None:
+        # None: refused (said there) or in the safe hold
+        offset = self._input_guard.teleop_offset(message, resuming=self._loop.desired.master_stale)
+        if offset is None:
+            self._loop.counts["rejected_teleop_commands"] += 1
+            return
         try:
-            notice = self._loop.add_teleoperation(_nanoseconds(message.header.stamp),
-                                                  _xyz(message.desired_offset), self._now())
+            notice = self._loop.add_teleoperation(_nanoseconds(message.header.stamp), tuple(offset.tolist()),
+                                                  self._now())
         except FicInputError as exc:
             return self._refuse("/replica/teleop_command", exc)
         if notice:
@@ -192,6 +203,10 @@ class ReplicaNode(Node):
         is needed; the others are counted and dropped unconverted (a JointState costs tens of microseconds)."""
         if len(data) >= 12:
             sec, nanosec = (STAMP_LITTLE_ENDIAN if data[1] == 1 else STAMP_BIG_ENDIAN).unpack_from(data, 4)
+            usable = self._input_guard.joint_state_usable(sec + 1e-9 * nanosec)  # not back in time, not from the future
+            if not usable or self._input_guard.held:  # held: no torque at all, the robot's own watchdog holds the arm
+                self._loop.counts["rejected_joint_states"] += 1
+                return
             if self._loop.skips(sec + 1e-9 * nanosec):
                 return self._loop.skip()
         message = deserialize_message(data, JointState)
@@ -290,13 +305,16 @@ class ReplicaNode(Node):
         publisher.publish(pose)
 
     def statistics(self) -> dict[str, str]:
-        return self._loop.statistics()
+        return {**self._input_guard.diagnostic_values(), **self._loop.statistics()}
 
     def _publish_diagnostics(self) -> None:
         status = DiagnosticStatus(name="replica", hardware_id="fic_teleop_replica")
         stale = self._loop.desired.master_stale
         limits_broken, passivity_broken = self._loop.controller.violation_ticks, self._loop.passivity.violation_ticks
-        if stale or limits_broken or passivity_broken:
+        if self._input_guard.held:
+            status.level = DiagnosticStatus.ERROR
+            status.message = f"safe hold: {self._input_guard.streams.reason}"
+        elif stale or limits_broken or passivity_broken:
             status.level = DiagnosticStatus.WARN
             status.message = "master stale: holding x_d'" if stale else ("limit violations seen" if limits_broken else
                                                                           "passivity violated: the controller gave "
@@ -310,7 +328,8 @@ class ReplicaNode(Node):
         self._diagnostics_pub.publish(array)
 def main(args: list[str] | None = None) -> None:
     try:
-        rclpy.init(args=args)
+        stop_signals.install()
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
     except RCLError as exc:  # e.g. a malformed --params-file: refuse to start, in one clear line
         rclpy.logging.get_logger(NODE_NAME).fatal(f"cannot start: bad ROS arguments or parameter file: {exc}")
         raise SystemExit(2) from None
@@ -325,7 +344,8 @@ def main(args: list[str] | None = None) -> None:
         gc.collect()
         gc.freeze()
         never = Future()  # a slice runs every callback due in it inside the executor
-        while rclpy.ok():
+        stop_signals.running()  # a signal now asks the loop to stop (sim_bridge/stop_signals.py)
+        while rclpy.ok() and not stop_signals.requested():  # short slices: a stop is seen promptly
             try:
                 executor.spin_until_future_complete(never, timeout_sec=0.1)
             except (KeyboardInterrupt, ExternalShutdownException):

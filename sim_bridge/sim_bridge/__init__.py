@@ -2,6 +2,11 @@
 
 import os as _os
 
+# SIGINT/SIGTERM at any moment of the start-up end the node cleanly (stop_signals.py): first, before the imports.
+from sim_bridge import stop_signals as _stop_signals
+
+_stop_signals.install_if_blocked()
+
 # MuJoCo chooses its OpenGL backend once, when it is first imported, and without a display only EGL works here
 # (Mesa llvmpipe; osmesa does not, see PLATFORM.md). Every sim_bridge module that imports mujoco goes through
 # this package first, so this is the one place where the choice is made before the import.

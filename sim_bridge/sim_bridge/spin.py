@@ -15,6 +15,8 @@ from rclpy.experimental import EventsExecutor
 from rclpy.task import Future
 from rclpy.node import Node
 
+from sim_bridge import stop_signals
+
 SLICE = 0.1   # [s] longest wait between two checks of the context
 
 
@@ -34,7 +36,8 @@ def spin_until_shutdown(node: Node) -> None:
         # A slice runs every callback due in it inside the executor, not one per Python call: a 1 kHz timer cost
         # 77-82 us a tick here against 92-101 us with spin_once (the future never completes; the slice bounds the wait).
         never = Future()
-        while rclpy.ok(context=node.context):
+        stop_signals.running()  # a signal now only asks the loop to stop; the node is destroyed before the context
+        while rclpy.ok(context=node.context) and not stop_signals.requested():
             try:
                 executor.spin_until_future_complete(never, timeout_sec=SLICE)
             except (KeyboardInterrupt, ExternalShutdownException):

@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 import rclpy
+from rclpy.signals import SignalHandlerOptions
+from sim_bridge import stop_signals
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
@@ -274,7 +276,8 @@ def route_seeds(seed: int | None, count: int) -> list[int | None]:
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
+    stop_signals.install()
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
     node = None
     try:
         node = ChannelNode()

@@ -13,6 +13,8 @@ import termios
 import tty
 
 import rclpy
+from rclpy.signals import SignalHandlerOptions
+from sim_bridge import stop_signals
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
@@ -79,7 +81,8 @@ def main(args: list[str] | None = None) -> None:
         raise SystemExit(1)
     fd = sys.stdin.fileno()
     saved = termios.tcgetattr(fd)
-    rclpy.init(args=args)
+    stop_signals.install()
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
     node = None
     try:
         # cbreak: keys arrive one at a time without Enter, and Ctrl-C still raises SIGINT for rclpy.

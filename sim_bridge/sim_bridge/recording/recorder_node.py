@@ -32,6 +32,8 @@ import time
 from pathlib import Path
 
 import rclpy
+from rclpy.signals import SignalHandlerOptions
+from sim_bridge import stop_signals
 from rclpy.clock import Clock, ClockType
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
@@ -349,7 +351,8 @@ class RecorderNode(Node):
 def main(args: list[str] | None = None) -> None:
     # rclpy's own handlers take SIGINT and SIGTERM and shut the context down; spin() then returns (or raises)
     # and the bag is finished below. A second signal during finishing is ignored so it cannot cut the footer.
-    rclpy.init(args=args)
+    stop_signals.install()
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
     node = None
     try:
         try:
@@ -370,7 +373,8 @@ def main(args: list[str] | None = None) -> None:
         # without a timeout busy-loop without ever running a timer; with a timeout they work.
         never = Future()
         try:
-            while rclpy.ok():
+            stop_signals.running()  # a signal now asks the loop to stop; the bag is finished below
+            while rclpy.ok() and not stop_signals.requested():
                 executor.spin_until_future_complete(never, timeout_sec=0.5)
         except (KeyboardInterrupt, ExternalShutdownException):
             pass

@@ -38,6 +38,8 @@ import time
 
 import numpy as np
 import rclpy
+from rclpy.signals import SignalHandlerOptions
+from sim_bridge import stop_signals
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Pose, PoseArray, PoseStamped, WrenchStamped
@@ -507,7 +509,8 @@ def main(args: list[str] | None = None) -> None:
     # Two threads share the GIL here (physics, and the executor receiving commands): the default 5 ms switch
     # interval would let a busy executor hold the physics thread past several 1 ms steps.
     sys.setswitchinterval(0.0002)
-    rclpy.init(args=args)
+    stop_signals.install()
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
     node = None
     try:
         node = RobotNode()

@@ -1,0 +1,225 @@
+"""What an input may ask of the replica arm: bounds on teleoperation commands, and one owner per robot stream.
+
+The replica's inputs arrive over DDS, where any process on the same domain can publish (docs/SECURITY.md). Before
+this module, one outside message with x_d' = (10, 10, 10) m drove the TCP at the Panda's 1.7 m/s speed limit,
+stamps 10^6 s in the future or at epoch 0 were used, nonsense modes and gains went through without a word, and a
+second /joint_states publisher with the right joint names took the arm. The postural optimisation keeps every
+torque inside the Panda's limits, but it cannot tell a real command from a hostile one; these checks bound what
+any single input can ask, before the law sees it.
+
+``CommandAuthority`` checks a teleoperation command (paper Eq. 3 and the two modes: mode, K_H, s_M, k_v, x_M, x_d'):
+- every field finite, the mode one of the two, K_H in [0, 1], s_M and k_v within the master's own parameter ranges:
+  otherwise the command is refused whole (it is malformed; the last good x_d' stays);
+- the stamp within ``future_tolerance`` ahead of the receiver's clock and at most ``max_age`` behind it (the
+  channel's delay is inside that age): otherwise refused;
+- x_d' inside the documented workspace box (``offset_lower`` to ``offset_upper``, relative to the pose the replica
+  started from): clamped onto the box;
+- x_d' moving no faster than ``max_offset_speed`` on the receiver's clock (a sender's stamps are its own to choose):
+  a token bucket of distance, refilled at that speed and holding at most ``max_offset_burst`` (the channel delivers
+  in bursts). A longer step is clamped: x_d' moves toward the commanded point by what the bucket holds, so a jump
+  (a hostile sender; a real one after a blackout or a restart) is approached at the bounded speed, never taken.
+Comparisons happen before any arithmetic on the values, and the clamp comes before the rate check, so finite but
+huge values (1e3 m, 1e308) never overflow into Inf or NaN.
+
+``RobotStreamGuard`` watches the robot-side streams (/joint_states in, the torque commands out): each must have
+exactly one publisher (the robot's driver; the replica), and joint-state stamps must not go back and not lie in
+the receiver's future. The first breach latches a safe hold: the replica sends no more torques, and the robot's
+own command watchdog holds the arm (the simulator: gravity compensation and damping after 50 ms without a command;
+a Franka arm: libfranka's communication reflex stops it). A law held on joint states cannot be trusted: a writer
+whose stamps run ahead of the robot's makes the robot's own states look old, so "the states that move forward" are
+the intruder's. A hold is not lifted on its own: once a second writer was seen, no later joint state can be trusted.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import FicInputError, finite_array, finite_scalar
+
+MODES = (0, 1)  # TeleoperationCommand MODE_OFFSET, MODE_VELOCITY
+
+
+@dataclass(frozen=True)
+class AuthorityBounds:
+    """The bounds of CommandAuthority (module docstring); defaults documented in docs/SECURITY.md."""
+
+    # The workspace of x_d' [m], per axis, about the replica's start pose: the Panda reaches 0.855 m from its base,
+    # and the paper's tasks move x_d' by at most about 0.3 m (E1 steers around obstacles 0.1-0.2 m off the circle).
+    offset_lower: tuple[float, float, float] = (-0.5, -0.5, -0.5)
+    offset_upper: tuple[float, float, float] = (0.5, 0.5, 0.5)
+    max_offset_speed: float = 1.0       # [m/s] below the Panda's 1.7 m/s TCP limit; a hand moves x_d' < 0.5 m/s
+    max_offset_burst: float = 0.05      # [m] x_d' may move this far at once (a burst of delayed commands)
+    future_tolerance: float = 0.5       # [s] a stamp this far ahead of our clock is refused (clock skew allowance)
+    max_age: float = 3.0                # [s] an older stamp is refused (the channel's delay must fit inside it)
+    haptic_gain: tuple[float, float] = (0.0, 1.0)        # K_H, paper Eq. 3
+    workspace_scale: tuple[float, float] = (0.01, 100.0)  # s_M, the master's parameter range
+    velocity_gain: tuple[float, float] = (0.0, 100.0)     # k_v [1/s], the master's parameter range
+    max_handle_position: float = 10.0   # [m] |x_M| per axis; a haptic handle moves a few cm
+
+    def __post_init__(self) -> None:
+        lower = finite_array("offset_lower", self.offset_lower, (3,))
+        upper = finite_array("offset_upper", self.offset_upper, (3,))
+        if np.any(lower >= upper):
+            raise FicInputError(f"offset_lower must be below offset_upper on every axis, got {lower} and {upper}")
+        finite_scalar("max_offset_speed", self.max_offset_speed, minimum=0.0, minimum_inclusive=False)
+        finite_scalar("max_offset_burst", self.max_offset_burst, minimum=0.0)
+        finite_scalar("future_tolerance", self.future_tolerance, minimum=0.0)
+        finite_scalar("max_age", self.max_age, minimum=0.0, minimum_inclusive=False)
+        for name in ("haptic_gain", "workspace_scale", "velocity_gain"):
+            low, high = getattr(self, name)
+            if not (math.isfinite(low) and math.isfinite(high) and low <= high):
+                raise FicInputError(f"{name} range must be finite with low <= high, got {(low, high)}")
+        finite_scalar("max_handle_position", self.max_handle_position, minimum=0.0, minimum_inclusive=False)
+
+
+@dataclass
+class CommandVerdict:
+    """What CommandAuthority made of one command: use ``offset`` if ``accepted``; ``reason`` says what was wrong
+    (refused, or clamped when accepted), empty for a clean command."""
+
+    accepted: bool
+    offset: NDArray[np.float64] | None
+    clamped: bool = False        # x_d' was outside the workspace box
+    rate_limited: bool = False   # x_d' moved toward the command by the rate bound only
+    reason: str = ""
+
+
+def _in_range(name: str, value: float, bounds: tuple[float, float]) -> str:
+    return "" if bounds[0] <= value <= bounds[1] else f"{name} {value:g} outside [{bounds[0]:g}, {bounds[1]:g}]"
+
+
+@dataclass
+class CommandAuthority:
+    """Checks teleoperation commands against AuthorityBounds (module docstring). Counts what it refused."""
+
+    bounds: AuthorityBounds = field(default_factory=AuthorityBounds)
+    accepted: int = 0
+    refused: int = 0
+    clamped: int = 0        # onto the workspace box
+    rate_limited: int = 0   # approached at max_offset_speed (normal after a restart; a flood of jumps is not)
+
+    def __post_init__(self) -> None:
+        self._lower = np.asarray(self.bounds.offset_lower, dtype=np.float64)
+        self._upper = np.asarray(self.bounds.offset_upper, dtype=np.float64)
+        self._last_received: float | None = None      # receiver's clock at the last accepted command
+        self._last_offset: NDArray[np.float64] | None = None
+        self._allowance = 0.0                          # distance x_d' may still move now [m]
+
+    def reset(self) -> None:
+        """Forget the last accepted command (the rate bound starts afresh)."""
+        self._last_received = self._last_offset = None
+        self._allowance = 0.0
+
+    def check(self, *, stamp: float, now: float, mode: int, haptic_gain: float, workspace_scale: float,
+              velocity_gain: float, handle_position: ArrayLike, desired_offset: ArrayLike) -> CommandVerdict:
+        """The verdict on one command. ``stamp``: its header stamp [s] (the sender's clock); ``now``: ours."""
+        verdict = self._judge(stamp, now, mode, haptic_gain, workspace_scale, velocity_gain, handle_position,
+                              desired_offset)
+        if verdict.accepted:
+            self.accepted += 1
+            self.clamped += int(verdict.clamped)
+            self.rate_limited += int(verdict.rate_limited)
+            self._last_received = now
+            self._last_offset = verdict.offset
+        else:
+            self.refused += 1
+        return verdict
+
+    def _judge(self, stamp: float, now: float, mode: int, haptic_gain: float, workspace_scale: float,
+               velocity_gain: float, handle_position: ArrayLike, desired_offset: ArrayLike) -> CommandVerdict:
+        bounds = self.bounds
+        handle = np.asarray(handle_position, dtype=np.float64)
+        offset = np.asarray(desired_offset, dtype=np.float64)
+        scalars = (stamp, haptic_gain, workspace_scale, velocity_gain)
+        if not (all(math.isfinite(v) for v in scalars) and np.all(np.isfinite(handle)) and np.all(np.isfinite(offset))):
+            return CommandVerdict(False, None, reason="a field is not finite")
+        if handle.shape != (3,) or offset.shape != (3,):
+            return CommandVerdict(False, None, reason="x_M and x_d' must be 3-vectors")
+        if mode not in MODES:
+            return CommandVerdict(False, None, reason=f"mode {mode} is neither offset (0) nor velocity (1)")
+        problems = [text for text in (_in_range("K_H", haptic_gain, bounds.haptic_gain),
+                                      _in_range("s_M", workspace_scale, bounds.workspace_scale),
+                                      _in_range("k_v", velocity_gain, bounds.velocity_gain)) if text]
+        if np.any(np.abs(handle) > bounds.max_handle_position):
+            problems.append(f"|x_M| above {bounds.max_handle_position:g} m")
+        if problems:
+            return CommandVerdict(False, None, reason="; ".join(problems))
+        # Compared, not subtracted first: with stamp = 1e308 the difference is still finite, and both comparisons
+        # are exact for any finite values.
+        if stamp > now + bounds.future_tolerance:
+            return CommandVerdict(False, None, reason=f"stamped {stamp - now:.3g} s in the receiver's future "
+                                                      f"(tolerance {bounds.future_tolerance:g} s)")
+        if stamp < now - bounds.max_age:
+            return CommandVerdict(False, None, reason=f"stamped {now - stamp:.3g} s in the past (at most "
+                                                      f"{bounds.max_age:g} s)")
+        clamped_offset = np.clip(offset, self._lower, self._upper)
+        outside = bool(np.any(clamped_offset != offset))
+        rate_limited = False
+        reasons = [f"x_d' {np.array2string(offset, precision=3)} m outside the workspace "
+                   f"[{self._lower.tolist()}, {self._upper.tolist()}]"] if outside else []
+        if self._last_offset is not None and self._last_received is not None:
+            # Both offsets lie in the box: the step is finite and at most the box's diagonal.
+            elapsed = max(now - self._last_received, 0.0)
+            self._allowance = min(self._allowance + bounds.max_offset_speed * elapsed, bounds.max_offset_burst)
+            step_vector = clamped_offset - self._last_offset
+            step = float(np.linalg.norm(step_vector))
+            if step > self._allowance:
+                reasons.append(f"x_d' jumps {step:.3g} m, beyond {bounds.max_offset_speed:g} m/s (burst "
+                               f"{bounds.max_offset_burst:g} m)")
+                clamped_offset = self._last_offset + step_vector * (self._allowance / step)
+                step = self._allowance
+                rate_limited = True
+            self._allowance -= step
+        if reasons:
+            return CommandVerdict(True, clamped_offset, outside, rate_limited, "; ".join(reasons) + ": clamped")
+        return CommandVerdict(True, clamped_offset)
+
+
+@dataclass
+class RobotStreamGuard:
+    """One owner per robot-side stream, and joint-state stamps that move forward (module docstring)."""
+
+    future_tolerance: float = 0.5   # [s] a joint state stamped further ahead of the receiver's clock is foreign
+    held: bool = False
+    reason: str = ""
+    skipped_states: int = 0         # joint states not used: stamps back in time or in the future
+
+    def __post_init__(self) -> None:
+        finite_scalar("future_tolerance", self.future_tolerance, minimum=0.0)
+        self._last_stamp: float | None = None
+
+    def _hold(self, reason: str) -> str:
+        """Latch the hold; the reason is returned once, for the one error line."""
+        if self.held:
+            return ""
+        self.held = True
+        self.reason = reason
+        return reason
+
+    def publishers(self, topic: str, writers: list[str]) -> str:
+        """The writers now on a robot-side ``topic`` (their node names); a second one latches the hold. Returns the
+        reason the first time, "" otherwise."""
+        if len(writers) > 1:
+            return self._hold(f"{len(writers)} publishers on {topic} ({', '.join(writers)}); one is the robot's")
+        return ""
+
+    def joint_state(self, stamp: float, now: float) -> tuple[bool, str]:
+        """Whether a joint state stamped ``stamp`` may be used (``now``: the receiver's clock), and the reason of a
+        hold it latched ("" if none). States stamped back in time or ahead of ``now`` are never used."""
+        if not math.isfinite(stamp):
+            self.skipped_states += 1
+            return False, self._hold("a joint state with a non-finite stamp")
+        if stamp > now + self.future_tolerance:
+            self.skipped_states += 1
+            return False, self._hold(f"a joint state stamped {stamp - now:.3g} s in the receiver's future")
+        last = self._last_stamp
+        # An equal stamp is the robot's own state again (lockstep republishes a step it has no answer to yet).
+        if last is not None and stamp < last:
+            self.skipped_states += 1
+            return False, self._hold(f"joint-state stamps went back by {last - stamp:.3g} s (a second writer, or a "
+                                     "restarted robot)")
+        self._last_stamp = stamp
+        return True, ""

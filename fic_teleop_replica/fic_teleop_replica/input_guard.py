@@ -1,0 +1,129 @@
+"""The replica node's hook to fic_core.input_authority: its parameters, its log lines and its diagnostics.
+
+Wiring only: the checks themselves are fic_core's (CommandAuthority, RobotStreamGuard). The replica node calls
+``teleop_offset`` for each teleoperation command, ``joint_state_usable`` for each joint state, and publishes
+``diagnostic_values`` with its /diagnostics (recorded in the bag, read back by the launcher's exit code). A safe
+hold is said in one error line and at once on /diagnostics (level ERROR).
+"""
+from __future__ import annotations
+
+import numpy as np
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rclpy.node import Node
+
+from fic_core.input_authority import AuthorityBounds, CommandAuthority, CommandVerdict, RobotStreamGuard
+
+LOG_THROTTLE_S = 2.0
+# Robot-side streams that must have exactly one writer: the robot's driver, and this node.
+ROBOT_STREAMS = ("/joint_states", "/effort_controller/commands")
+TELEOP_TOPIC = "/replica/teleop_command"
+PUBLISHER_CHECK_PERIOD_S = 0.5  # graph lookups are cheap; a new writer is discovered within about a second anyway
+
+# name: (default, description, low, high) -- config/replica.yaml holds the same defaults.
+PARAMETERS: dict[str, tuple[float, str, float, float]] = {
+    "offset_workspace": (0.5, "x_d' is clamped to +- this on each axis, about the start pose [m] "
+                              "(fic_core.input_authority)", 0.01, 2.0),
+    "max_offset_speed": (1.0, "x_d' moves toward a teleoperation command no faster than this, on this node's clock "
+                              "[m/s]", 0.01, 10.0),
+    "max_offset_burst": (0.05, "x_d' may move this far at once, for bursts of delayed commands [m]", 0.0, 1.0),
+    "command_future_tolerance": (0.5, "commands and joint states stamped further ahead of this node's clock are "
+                                      "refused [s]", 0.0, 10.0),
+    "max_command_age": (3.0, "teleoperation commands stamped longer ago are refused [s] (the channel's delay must "
+                             "fit inside it; the launcher raises it with --delay)", 0.05, 600.0),
+}
+
+
+class InputGuard:
+    """CommandAuthority and RobotStreamGuard on ``node``, with the node's parameters, logger and clock."""
+
+    def __init__(self, node: Node, on_hold) -> None:
+        self._node = node
+        self._on_hold = on_hold  # called once, when the safe hold latches (the node publishes diagnostics)
+        for name, (default, description, low, high) in PARAMETERS.items():
+            node.declare_parameter(name, default, ParameterDescriptor(
+                description=description,
+                floating_point_range=[FloatingPointRange(from_value=low, to_value=high, step=0.0)]))
+        value = {name: float(node.get_parameter(name).value) for name in PARAMETERS}
+        half = value["offset_workspace"]
+        self.authority = CommandAuthority(AuthorityBounds(
+            offset_lower=(-half, -half, -half), offset_upper=(half, half, half),
+            max_offset_speed=value["max_offset_speed"], max_offset_burst=value["max_offset_burst"],
+            future_tolerance=value["command_future_tolerance"],
+            max_age=value["max_command_age"]))
+        self.streams = RobotStreamGuard(future_tolerance=value["command_future_tolerance"])
+        node.create_timer(PUBLISHER_CHECK_PERIOD_S, self._check_publishers)
+
+    @property
+    def held(self) -> bool:
+        return self.streams.held
+
+    def _now(self) -> float:
+        return self._node.get_clock().now().nanoseconds * 1e-9
+
+    def teleop_offset(self, message, resuming: bool = False) -> np.ndarray | None:
+        """x_d' of a TeleoperationCommand as the replica may use it (clamped onto the workspace), or None: refused
+        (throttled error line) or the replica is in its safe hold. ``resuming``: the first command after the
+        replica's master watchdog fired; its jump is not rate-limited here, the replica gives it back at its own
+        resume_speed (0.1 m/s, slower than max_offset_speed)."""
+        if self.streams.held:
+            return None
+        if resuming:
+            self.authority.reset()
+        logger = self._node.get_logger()
+        # One writer: the channel (or the master, without a channel). While a second one is on the topic, no
+        # command can be told from the other's: x_d' is held, as when the master is silent.
+        writers = self._node.count_publishers(TELEOP_TOPIC)
+        if writers > 1:
+            self.authority.refused += 1
+            logger.error(f"refusing /replica/teleop_command: {writers} publishers on it, one is the channel's; holding "
+                         f"the last good x_d' while they last ({self.authority.refused} refused so far)",
+                         throttle_duration_sec=LOG_THROTTLE_S)
+            return None
+        stamp = message.header.stamp
+        handle, offset = message.handle_position, message.desired_offset
+        verdict: CommandVerdict = self.authority.check(
+            stamp=stamp.sec + 1e-9 * stamp.nanosec, now=self._now(), mode=int(message.mode),
+            haptic_gain=message.haptic_gain, workspace_scale=message.workspace_scale,
+            velocity_gain=message.velocity_gain, handle_position=(handle.x, handle.y, handle.z),
+            desired_offset=(offset.x, offset.y, offset.z))
+        if not verdict.accepted:
+            logger.error(f"refusing /replica/teleop_command: {verdict.reason}; keeping the last good x_d' "
+                         f"({self.authority.refused} refused so far)", throttle_duration_sec=LOG_THROTTLE_S)
+            return None
+        if verdict.clamped or verdict.rate_limited:
+            logger.warning(f"/replica/teleop_command: {verdict.reason} ({self.authority.clamped} outside the "
+                           f"workspace, {self.authority.rate_limited} rate-limited so far)",
+                           throttle_duration_sec=LOG_THROTTLE_S)
+        return verdict.offset
+
+    def joint_state_usable(self, stamp_seconds: float) -> bool:
+        """Whether the joint state stamped so may drive the law (stamps forward, not from the future)."""
+        usable, reason = self.streams.joint_state(stamp_seconds, self._now())
+        if reason:
+            self._hold(reason)
+        return usable
+
+    def _check_publishers(self) -> None:
+        if self.streams.held:
+            return
+        for topic in ROBOT_STREAMS:
+            writers = [f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+                       for info in self._node.get_publishers_info_by_topic(topic)]
+            reason = self.streams.publishers(topic, writers)
+            if reason:
+                self._hold(reason)
+                return
+
+    def _hold(self, reason: str) -> None:
+        self._node.get_logger().error(
+            f"SAFE HOLD: {reason}. The replica sends no more torques (no joint state can be trusted to be the "
+            "robot's): the robot's own command watchdog holds the arm, until the replica is restarted "
+            "(fic_core.input_authority)")
+        self._on_hold()
+
+    def diagnostic_values(self) -> dict[str, str]:
+        return {"input_safe_hold": self.streams.reason if self.streams.held else "no",
+                "refused_teleop_commands": str(self.authority.refused),
+                "clamped_teleop_commands": str(self.authority.clamped),
+                "rate_limited_teleop_commands": str(self.authority.rate_limited),
+                "skipped_joint_states": str(self.streams.skipped_states)}

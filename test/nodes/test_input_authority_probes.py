@@ -1,0 +1,193 @@
+"""The issue's hostile-input probes, from an outside process, against the real robot simulation and replica.
+
+The robot node (MuJoCo Panda, realtime) and the replica node run as processes; the test process plays the
+channel (a legitimate writer of /replica/teleop_command, x_d' = 0) and watches the simulator's ground-truth TCP
+(/sim/tcp_pose, which no input of the replica can fake) and /diagnostics. scripts/fault_probes.py is the outside
+process. Before fic_core.input_authority each of these moved the arm (0.37-0.6 m, docs/RESULTS.md).
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import CONFIG, REPO
+
+rclpy = pytest.importorskip("rclpy")
+pytestmark = pytest.mark.nodes
+
+PROBES = REPO / "scripts" / "fault_probes.py"
+
+
+class Watcher:
+    """Test side: the channel's legitimate x_d' = 0 (optional), the simulator's TCP and the replica's diagnostics."""
+
+    def __init__(self, context, channel: bool) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
+        from fic_teleop_msgs.msg import TeleoperationCommand
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+        from std_msgs.msg import Float64MultiArray
+
+        qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100)
+        self.node = rclpy.create_node("test_channel", context=context)
+        self.tcp: list[tuple[float, np.ndarray]] = []
+        self.torques: list[list[float]] = []
+        self.replica_status: list = []
+        self.node.create_subscription(PoseStamped, "/sim/tcp_pose", self._on_tcp, qos)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, qos)
+        self.node.create_subscription(Float64MultiArray, "/effort_controller/commands",
+                                      lambda m: self.torques.append(list(m.data)), qos)
+        if channel:
+            self._teleop = self.node.create_publisher(TeleoperationCommand, "/replica/teleop_command", qos)
+            self._message = TeleoperationCommand
+            self.node.create_timer(0.01, self._publish_teleop)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self._running = True
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        from rclpy.executors import ExternalShutdownException
+
+        while self._running:
+            try:
+                self.executor.spin_once(timeout_sec=0.02)
+            except ExternalShutdownException:  # the fixture shut the context down under a failed test
+                return
+
+    def stop(self) -> None:
+        self._running = False
+        self._thread.join(timeout=5.0)
+
+    def _publish_teleop(self) -> None:
+        message = self._message()
+        message.header.stamp = self.node.get_clock().now().to_msg()
+        message.haptic_gain, message.workspace_scale, message.velocity_gain = 0.5, 1.0, 2.0
+        self._teleop.publish(message)
+
+    def _on_tcp(self, message) -> None:
+        p = message.pose.position
+        self.tcp.append((time.monotonic(), np.array([p.x, p.y, p.z])))
+
+    def _on_diagnostics(self, message) -> None:
+        self.replica_status += [status for status in message.status if status.name == "replica"]
+
+    def displacement_since(self, start: float) -> float:
+        """Largest distance of the TCP from where it was at ``start`` (monotonic clock)."""
+        samples = [(t, p) for t, p in list(self.tcp)]
+        before = [p for t, p in samples if t <= start]
+        reference = before[-1] if before else samples[0][1]
+        return max(float(np.linalg.norm(p - reference)) for t, p in samples if t >= start)
+
+    def wait(self, condition, timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if condition():
+                return True
+            time.sleep(0.05)
+        return condition()
+
+
+def _probe(ros_env: dict[str, str], *arguments: str) -> str:
+    result = subprocess.run([sys.executable, str(PROBES), *arguments], env=ros_env, capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return result.stdout
+
+
+def _probed(ros_env: dict[str, str], watcher: Watcher, settle: float, *arguments: str) -> float:
+    """Run one probe, watch the arm ``settle`` seconds more, stop watching; the monotonic time it started."""
+    start = time.monotonic()
+    _probe(ros_env, *arguments)
+    time.sleep(settle)
+    watcher.stop()
+    return start
+
+
+def _arm(start_node, ros_env, rclpy_context, channel: bool):
+    env = dict(ros_env)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
+                                                      env.get("PYTHONPATH")]))
+    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
+                       params={"mode": "realtime", "scene": "free_space"})
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    watcher = Watcher(rclpy_context, channel)
+    assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
+    assert watcher.wait(lambda: len(watcher.tcp) > 50, 60.0), robot.output()
+    time.sleep(1.0)  # the arm settles under the replica's hold of its start pose
+    return robot, replica, watcher
+
+
+def test_a_second_teleop_writer_is_refused_and_the_arm_stays(start_node, ros_env, rclpy_context) -> None:
+    robot, replica, watcher = _arm(start_node, ros_env, rclpy_context, channel=True)
+    start = _probed(ros_env, watcher, 1.0, "teleop", "--offset", "10", "10", "10", "--seconds", "1.5")
+    moved = watcher.displacement_since(start)
+    print(f"[probe] the TCP moved {moved * 1000:.1f} mm")
+    log = replica.output()
+    assert moved < 0.01, f"the TCP moved {moved:.3f} m\n{log}"  # before: 0.6 m at the speed limit
+    refusals = log.count("publishers on it, one is the channel's")
+    assert 1 <= refusals <= 2, log  # one line (throttled to one per 2 s), not one per message
+    refused = max(int(value.value) for status in watcher.replica_status for value in status.values
+                  if value.key == "refused_teleop_commands")
+    assert refused >= 1  # counted on /diagnostics (under load the replica's depth-1 queue takes a fraction)
+
+
+@pytest.mark.parametrize("arguments, words", [
+    (("--stamp-offset", "1e6", "--offset", "0.3", "0.3", "0.3"), "in the receiver's future"),
+    (("--epoch-zero", "--offset", "0.3", "0.3", "0.3"), "in the past"),
+    (("--mode", "7", "--offset", "0.3", "0.3", "0.3"), "mode 7"),
+    (("--haptic-gain", "50", "--velocity-gain", "1e6", "--offset", "0.3", "0.3", "0.3"), "K_H 50"),
+])
+def test_mistimed_or_malformed_commands_of_the_only_writer_are_refused(start_node, ros_env, rclpy_context,
+                                                                        arguments, words) -> None:
+    robot, replica, watcher = _arm(start_node, ros_env, rclpy_context, channel=False)
+    start = _probed(ros_env, watcher, 0.5, "teleop", "--seconds", "1.0", *arguments)
+    moved = watcher.displacement_since(start)
+    print(f"[probe] the TCP moved {moved * 1000:.1f} mm")
+    log = replica.output()
+    assert moved < 0.01, f"the TCP moved {moved:.3f} m\n{log}"  # before: 0.37 m for the stamps
+    assert words in log, log
+    assert log.count("refusing /replica/teleop_command") == 1, log
+
+
+def test_a_huge_offset_is_clamped_to_the_workspace_and_approached_at_the_bounded_speed(start_node, ros_env,
+                                                                                      rclpy_context) -> None:
+    robot, replica, watcher = _arm(start_node, ros_env, rclpy_context, channel=False)
+    start = _probed(ros_env, watcher, 1.5, "teleop", "--offset", "1e308", "-1000.0", "0.0", "--seconds", "0.3")
+    log = replica.output()
+    assert "outside the workspace" in log and "clamped" in log, log
+    torques = np.array(watcher.torques[-200:])
+    assert np.all(np.isfinite(torques)), "a non-finite torque"
+    moved = watcher.displacement_since(start)
+    print(f"[probe] the TCP moved {moved * 1000:.1f} mm")
+    # 0.3 s of commands at 1 m/s and a 5 cm burst: x_d' moved at most 0.35 m toward the box corner, never 1e308
+    assert moved < 0.4, f"the TCP moved {moved:.3f} m"
+    samples = [(t, p) for t, p in watcher.tcp if t >= start]
+    speeds = [np.linalg.norm(b[1] - a[1]) / (b[0] - a[0]) for a, b in zip(samples[::10], samples[10::10])
+              if b[0] - a[0] > 0.02]
+    print(f"[probe] TCP speed at most {max(speeds):.2f} m/s")
+    assert max(speeds) < 1.5, f"TCP at {max(speeds):.2f} m/s"  # before: 1.70 m/s, the Panda's limit
+
+
+def test_a_second_joint_state_writer_puts_the_replica_into_its_safe_hold(start_node, ros_env, rclpy_context) -> None:
+    from diagnostic_msgs.msg import DiagnosticStatus
+
+    robot, replica, watcher = _arm(start_node, ros_env, rclpy_context, channel=True)
+    start = _probed(ros_env, watcher, 1.0, "joint-states", "--seconds", "2.0", "--rate", "500", "--shift", "0.3")
+    log = replica.output()
+    assert log.count("SAFE HOLD") == 1, log
+    held = [status for status in watcher.replica_status if status.message.startswith("safe hold")]
+    assert held and held[-1].level == DiagnosticStatus.ERROR  # on /diagnostics, on /diagnostics (recorded in a bag)
+    moved = watcher.displacement_since(start)
+    print(f"[probe] the TCP moved {moved * 1000:.1f} mm")
+    assert moved < 0.05, f"the TCP moved {moved:.3f} m\n{log}"  # before: 0.47 m

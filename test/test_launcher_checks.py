@@ -1,0 +1,82 @@
+"""The launcher refuses, in one line and before any node starts, every option the graph cannot run with."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import REPO
+
+LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
+sys.path.insert(0, str(REPO / "scripts"))
+
+from launch_supervision import EXIT_INPUT_REFUSED, EXIT_JOINT_STATES_LOST, EXIT_LIMIT_VIOLATIONS, EXIT_NODE_FAILED, \
+    EXIT_OK, EXIT_REFUSED, safety_verdict  # noqa: E402
+
+
+def _launch(tmp_path: Path, *arguments: str, out: Path | None = None) -> subprocess.CompletedProcess:
+    out_arguments = [] if "--out" in arguments else ["--out", str(out or tmp_path / "run")]
+    return subprocess.run([sys.executable, str(LAUNCHER), *out_arguments, *arguments], capture_output=True,
+                          text=True, timeout=120)
+
+
+@pytest.mark.parametrize("arguments, words", [
+    (("--duration", "inf"), "--duration [s] must be a finite number"),
+    (("--duration", "0"), "--duration [s] must be in (0, 86400]"),
+    (("--delay", "nan"), "--delay [s] must be a finite number"),
+    (("--delay", "-0.1"), "--delay [s] must be in [0, 60]"),
+    (("--jitter", "inf"), "--jitter [s] must be a finite number"),
+    (("--drop", "1.5"), "--drop (a probability) must be in [0, 1]"),
+    (("--rate-cap", "-1"), "--rate-cap [Hz] (0: none) must be in [0, 10000]"),
+    (("--control-rate", "0"), "--control-rate [Hz] must be in [1, 1000]"),
+    (("--control-rate", "nan"), "--control-rate [Hz] must be a finite number"),
+    (("--blackout-window", "5", "3"), "--blackout-window must end after it starts"),
+    (("--blackout-at", "nan"), "--blackout-at [s] must be a finite number"),
+    (("--wall-limit", "inf"), "--wall-limit [s] must be a finite number"),
+    (("--domain-id", "300"), "--domain-id must be 0-101 or 215-232"),
+    (("--domain-id", "-1"), "--domain-id must be 0-101 or 215-232"),
+    (("--seed", "-3"), "--seed must be in [0, 2^62)"),
+])
+def test_an_unusable_option_is_one_line_and_nothing_starts(tmp_path: Path, arguments, words) -> None:
+    result = _launch(tmp_path, *arguments)
+    assert result.returncode == EXIT_REFUSED, result.stdout + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert lines == [f"[run] refused: {words}" + lines[0].split(words, 1)[1]], result.stderr
+    assert "Traceback" not in result.stdout + result.stderr
+    assert not (tmp_path / "run").exists()  # checked before the run folder, the domain or any node
+
+
+@pytest.mark.parametrize("make_out", [
+    lambda tmp: (tmp / "file").write_text("") or tmp / "file",              # a file where the folder should be
+    lambda tmp: (tmp / "file").write_text("") or tmp / "file" / "run",      # below a file
+    lambda tmp: Path("/proc/fic_teleop_run"),                               # a file system that refuses folders
+])
+def test_an_unusable_out_is_one_line(tmp_path: Path, make_out) -> None:
+    out = make_out(tmp_path)
+    result = _launch(tmp_path, "--out", str(out), "--no-report")
+    assert result.returncode == EXIT_REFUSED, result.stdout + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"[run] refused: --out {out} cannot be the run folder"), \
+        result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_an_out_that_holds_a_bag_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "run" / "bag").mkdir(parents=True)
+    (tmp_path / "run" / "bag" / "old.mcap").write_bytes(b"x")
+    result = _launch(tmp_path, "--no-report")
+    assert result.returncode == EXIT_REFUSED and "already holds a bag" in result.stderr
+
+
+def test_the_verdict_names_each_broken_figure_worst_first() -> None:
+    clean = {"limit_violations": 0, "dropped_joint_states": 0}
+    assert safety_verdict(clean, {"robot": 0, "replica": -2}, [], False) == (EXIT_OK, [])
+    code, reasons = safety_verdict({"limit_violations": 22, "dropped_joint_states": 5}, {"robot": 0}, [], False)
+    assert code == EXIT_LIMIT_VIOLATIONS and reasons == ["22 limit-violation ticks", "5 joint states lost in the bag"]
+    code, _ = safety_verdict({"limit_violations": 0, "dropped_joint_states": 3}, {}, [], False)
+    assert code == EXIT_JOINT_STATES_LOST
+    code, reasons = safety_verdict(clean, {"haptic_device": 1}, ["haptic_device"], False)
+    assert code == EXIT_NODE_FAILED and "haptic_device (1)" in reasons[0]
+    assert EXIT_INPUT_REFUSED not in (EXIT_OK, EXIT_REFUSED, EXIT_NODE_FAILED, EXIT_LIMIT_VIOLATIONS)
