@@ -56,6 +56,8 @@ class Started:
 def _start(package: str, executable: str, params_file: str | None, params: dict, env: dict[str, str],
            log: Path) -> Started:
     command = [str(installed_executable(package, executable)), "--ros-args"]
+    if executable == "channel_node":  # config/channel.yaml holds the routes under the launcher's node names
+        command += ["-r", "__node:=channel_forward"]
     if params_file:
         command += ["--params-file", str(CONFIG / params_file)]
     for key, value in params.items():
