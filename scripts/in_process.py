@@ -26,7 +26,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--drop", type=float, default=0.0)
     parser.add_argument("--rate-cap", type=float, default=0.0)
     parser.add_argument("--blackout-window", type=float, nargs=2, action="append", default=[])
-    parser.add_argument("--controller", default="fic", choices=["fic", "linear"])
+    parser.add_argument("--controller", default="fic", choices=["fic", "linear", "linear_bounded"])
     parser.add_argument("--control-rate", type=float, default=1000.0)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--runs", type=int, default=1, help="repeat the run (speed figures; results must agree)")

@@ -10,6 +10,11 @@ defaults of ``make_baseline_like`` use a damping ratio zeta = 0.7 (near-critical
 Cartesian impedance controllers such as franka_ros's example) on the Panda's effective Cartesian mass of
 about 4 kg (3-5 kg over the workspace) and an effective rotational inertia of about 0.1 kg m^2:
 D = 2*zeta*sqrt(K*m). With K0 = 1000 N/m this gives D ~ 89 N s/m.
+
+Force bound: the FIC never pushes harder than F_max (paper Eq. 1's saturation); a linear spring does, so a
+comparison of the two at large errors would compare bounds, not laws. With ``max_force`` (translation [N],
+rotation [N m]) the spring-damper's force (and moment) vector is scaled back onto that norm bound -- the
+like-for-like baseline (the replica's controller ``linear_bounded``, with the FIC's F_max).
 """
 from __future__ import annotations
 
@@ -70,11 +75,17 @@ class LinearImpedance:
     controller_name = "linear"
 
     def __init__(self, translation_stiffness: float, rotation_stiffness: float, translation_damping: float,
-                 rotation_damping: float) -> None:
+                 rotation_damping: float, max_force: tuple[float, float] | None = None) -> None:
         translation_stiffness = finite_scalar("translation_stiffness", translation_stiffness, minimum=0.0)
         rotation_stiffness = finite_scalar("rotation_stiffness", rotation_stiffness, minimum=0.0)
         translation_damping = finite_scalar("translation_damping", translation_damping, minimum=0.0)
         rotation_damping = finite_scalar("rotation_damping", rotation_damping, minimum=0.0)
+        if max_force is not None:
+            max_force = (finite_scalar("max_force[0]", max_force[0], minimum=0.0, minimum_inclusive=False),
+                         finite_scalar("max_force[1]", max_force[1], minimum=0.0, minimum_inclusive=False))
+        self.max_force = max_force
+        if max_force is not None:
+            self.controller_name = "linear_bounded"
         # Plain floats per axis: the 6-vector arithmetic of one tick is cheaper without numpy's call overhead.
         self._stiffness_values = (translation_stiffness,) * 3 + (rotation_stiffness,) * 3
         self._damping_values = (translation_damping,) * 3 + (rotation_damping,) * 3
@@ -103,6 +114,11 @@ class LinearImpedance:
         """``wrench`` on floats its caller has validated (the replica's tick), as a list of 6 floats."""
         error = position_error + rotation_error
         forces = [k * e + d * r for k, e, d, r in zip(self._stiffness_values, error, self._damping_values, twist_error)]
+        if self.max_force is not None:
+            for start, bound in zip((0, 3), self.max_force):
+                norm = math.sqrt(sum(f * f for f in forces[start:start + 3]))
+                if norm > bound:
+                    forces[start:start + 3] = [f * bound / norm for f in forces[start:start + 3]]
         self._state = LinearImpedanceSnapshot(self._stiffness_values, tuple(error), tuple(forces))
         return forces
 

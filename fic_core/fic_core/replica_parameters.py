@@ -93,9 +93,10 @@ REPLICA_SWITCHES: dict[str, tuple[bool, str]] = {
                                        "orientation found at start (the planner plans positions, paper Eqs. 5-6)"),
 }
 
-CONTROLLERS = ("fic", "linear")
+CONTROLLERS = ("fic", "linear", "linear_bounded")
 CONTROLLER_DESCRIPTION = ("task-space law: 'fic' (the paper's Fractal Impedance Controller) or 'linear' (the "
-                          "baseline spring-damper with the same stiffness)")
+                          "baseline spring-damper with the same stiffness) or 'linear_bounded' (the same, its force bounded by the "
+                          "FIC's F_max: translation_max_force, rotation_max_force)")
 
 
 def replica_defaults() -> dict[str, Any]:
@@ -147,7 +148,9 @@ def build_replica_controller(robot: RobotModel, limits: PandaLimits, values: Map
             p["rate_deadband_translation"], p["rate_deadband_rotation"])
     else:
         controller = LinearImpedance(p["translation_stiffness"], p["rotation_stiffness"],
-                                     p["linear_translation_damping"], p["linear_rotation_damping"])
+                                     p["linear_translation_damping"], p["linear_rotation_damping"],
+                                     (p["translation_max_force"], p["rotation_max_force"])
+                                     if p["controller"] == "linear_bounded" else None)
     posture = NullSpacePosture(robot.lower_position_limit, robot.upper_position_limit,
                                stiffness=p["posture_stiffness"], damping=p["posture_damping"],
                                limit_band=p["posture_limit_band"], limit_stiffness=p["posture_limit_stiffness"])

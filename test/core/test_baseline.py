@@ -78,3 +78,18 @@ def test_non_finite_signals_are_rejected() -> None:
         baseline.wrench([0, 0, 0], [0, 0, 0], [0, 0, 0, 0, 0, math.nan])
     with pytest.raises(FicInputError, match="damping_ratio"):
         make_baseline_like(PoseAttractor(TRANSLATION, ROTATION), damping_ratio=math.nan)
+
+
+def test_bounded_baseline_stops_at_f_max_and_equals_the_spring_below_it():
+    """The like-for-like baseline: K e + D de/dt, its force vector scaled back onto |F| = F_max (10 N here)."""
+    from fic_core.baseline import LinearImpedance
+    free = LinearImpedance(200.0, 20.0, 39.6, 1.98)
+    bounded = LinearImpedance(200.0, 20.0, 39.6, 1.98, max_force=(10.0, 5.0))
+    small = ([0.01, -0.02, 0.0], [0.0, 0.05, 0.0], [0.01, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert np.allclose(bounded.wrench(*small), free.wrench(*small))
+    large = ([0.3, -0.4, 0.0], [1.0, 0.0, 0.0], [0.0] * 6)
+    wrench = bounded.wrench(*large)
+    assert np.linalg.norm(wrench[:3]) == pytest.approx(10.0)
+    assert np.allclose(wrench[:3] / 10.0, [0.6, -0.8, 0.0])       # same direction as K e (60, -80, 0) N
+    assert np.linalg.norm(wrench[3:]) == pytest.approx(5.0)
+    assert np.linalg.norm(free.wrench(*large)[:3]) == pytest.approx(100.0)

@@ -22,10 +22,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 import yaml
 
 from fic_core.master_station import MasterStation
+from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_core.planner import HarmonicPlanner
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.trajectories import Circle, FixedPoint
@@ -61,6 +63,11 @@ class RunConfig:
     seed: int = 1
     script_path: Path | None = None    # None: config/operator_scripts/<scene>.yaml
     replica_overrides: dict[str, Any] = field(default_factory=dict)
+    # Per-seed variation of the operator (docs/RESULTS.md "Seeds"): the script's clock is shifted by a draw in
+    # [-operator_timing_jitter, +operator_timing_jitter] s, the hand's stiffness and damping scaled by a draw in
+    # [1 - hand_impedance_jitter, 1 + hand_impedance_jitter]; both drawn from the seed, off by default.
+    operator_timing_jitter: float = 0.0
+    hand_impedance_jitter: float = 0.0
 
 
 @dataclass
@@ -75,6 +82,13 @@ class RunResult:
     simulated_s: float
     limit_violations: int
     shaped_ticks: int
+    # For the energy-and-motion verdict (sim_bridge.experiments.energy_verdict), at the same stamps:
+    master: np.ndarray | None = None               # x_M, the handle position (n, 3) [m]
+    planner: np.ndarray | None = None              # the planner's x_d (the commanded motion) (n, 3) [m]
+    arm_kinetic_energy: np.ndarray | None = None   # 1/2 qd^T M(q) qd of the arm's joints (n,) [J]
+    handle_kinetic_energy: np.ndarray | None = None  # 1/2 m_h |v_M|^2 (n,) [J]
+    operator_time_shift: float = 0.0               # [s] the draw of operator_timing_jitter
+    hand_scale: float = 1.0                        # the draw of hand_impedance_jitter
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -102,7 +116,10 @@ def run(config: RunConfig) -> RunResult:
         mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
         wall_stiffness=h["wall_stiffness"], wall_damping=h["wall_damping"], max_force=h["max_force"],
         substep=h["substep"]))
-    hand = Hand(HandParameters(stiffness=h["hand_stiffness"], damping=h["hand_damping"],
+    draws = np.random.default_rng([config.seed, 7919])   # apart from the channel's and the bond's streams
+    time_shift = float(draws.uniform(-1.0, 1.0)) * config.operator_timing_jitter
+    hand_scale = 1.0 + float(draws.uniform(-1.0, 1.0)) * config.hand_impedance_jitter
+    hand = Hand(HandParameters(stiffness=h["hand_stiffness"] * hand_scale, damping=h["hand_damping"] * hand_scale,
                                correction_rate=h["hand_correction_rate"], max_correction=h["hand_max_correction"],
                                max_force=h["hand_max_force"]))
     script = load_script(config.script_path or REPO / "config" / "operator_scripts" / f"{config.scene}.yaml")
@@ -130,6 +147,10 @@ def run(config: RunConfig) -> RunResult:
     button_down = False
     ft_wrench = None
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
+    log_m, log_arm, log_handle = [], [], []
+    arm_velocity, arm_momentum = np.zeros(sim.model.nv), np.zeros(sim.model.nv)
+    arm_dof = np.array([sim.model.jnt_dofadr[sim.model.joint(name).id] for name in ARM_JOINT_NAMES])
+    state = device.state
     steps = int(round(config.duration / STEP))
     wall = wall_clock.perf_counter()
     for k in range(steps):
@@ -137,8 +158,9 @@ def run(config: RunConfig) -> RunResult:
         ns = k * 1_000_000
         # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
         if k % device_every == 0:
-            hand.update(operator.target(now), device.position, device_every * STEP if k else 0.0)
-            buttons.extend(event.button for event in operator.poll_events(now))
+            script_time = max(now - time_shift, 0.0)
+            hand.update(operator.target(script_time), device.position, device_every * STEP if k else 0.0)
+            buttons.extend(event.button for event in operator.poll_events(script_time))
             fresh = command_time is not None and now - command_time <= h["command_timeout"]
             state = device.step(device_command if fresh else np.zeros(3), hand.force, device_every * STEP if k else 0.0)
             master.add_pose(state.position, (0.0, 0.0, 0.0, 1.0), now)
@@ -183,11 +205,18 @@ def run(config: RunConfig) -> RunResult:
             log_r.append(command.tcp_position.copy())
             log_f.append(ft_wrench)
             log_o.append(replica.desired.offset)
+            log_m.append(state.position)
+            log_handle.append(0.5 * device.parameters.mass * float(state.velocity @ state.velocity))
+            arm_velocity[arm_dof] = sim.joint_velocities
+            mujoco.mj_mulM(sim.model, sim.data, arm_momentum, arm_velocity)   # M(q) qd of the arm's joints
+            log_arm.append(0.5 * float(arm_velocity @ arm_momentum))
         sim.step(result.torque if result.torque is not None else sim.hold_torque())
     wall = wall_clock.perf_counter() - wall
-    return RunResult(np.array(log_t), np.array(log_d), np.array(log_r), np.array(log_f), np.array(log_o),
+    desired, offset = np.array(log_d), np.array(log_o)
+    return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
                      sim.object_poses(), wall, steps * STEP,
-                     replica.controller.violation_ticks, replica.controller.shaped_ticks)
+                     replica.controller.violation_ticks, replica.controller.shaped_ticks,
+                     np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale)
 
 
 @dataclass

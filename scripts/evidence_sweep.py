@@ -1,0 +1,120 @@
+#!/usr/bin/env python3
+"""Stability maps from the in-process runner, judged by energy and motion (docs/RESULTS.md).
+
+Cells: the one-way delay (E1 scene), the command bandwidth (the channel's rate cap, the law at full rate) and the
+whole torque loop's rate (the replica's control_rate, gravity included in the held torque), each run with the FIC
+and the linear baseline, over seeds (channel jitter, operator timing, hand impedance). Per run the verdict of
+sim_bridge.experiments.energy_verdict; per cell k/n stable with a 95 % Wilson interval, median/p95 of the error
+and the peak force (sim_bridge.experiments.cell_statistics). Writes <out>.json and <out>_map.png.
+
+    .venv/bin/python scripts/evidence_sweep.py --quick            # 4 cells x 2 controllers x 2 seeds, 20 s
+    .venv/bin/python scripts/evidence_sweep.py --seeds 5 --duration 30 --workers 2
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from sim_bridge.experiments.cell_statistics import cell_statistics
+from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S,
+                                                 judge)
+
+REPO = Path(__file__).resolve().parents[1]
+CONTROLLERS = ("fic", "linear")
+def cells(quick: bool) -> list[dict]:
+    """(id, label, what it lowers, runner options)."""
+    delays = (0.2, 1.0) if quick else (0.0, 0.2, 0.5, 1.0, 2.0)
+    command_rates = (10.0,) if quick else (1000.0, 50.0, 10.0, 5.0)
+    torque_rates = (10.0,) if quick else (1000.0, 50.0, 10.0, 5.0)
+    out = [dict(id=f"delay_{d:g}", family="delay (one way)", value=d, options=dict(delay=d)) for d in delays]
+    out += [dict(id=f"command_rate_{r:g}", family="command bandwidth: channel rate cap, law at 1 kHz", value=r,
+                 options=dict(delay=0.2, rate_cap=r)) for r in command_rates]
+    out += [dict(id=f"torque_loop_{r:g}", family="whole torque loop rate (gravity held too)", value=r,
+                 options=dict(delay=0.2, control_rate=r)) for r in torque_rates]
+    return out
+
+
+def stability_map(summary: list[dict], path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    ids = list(dict.fromkeys(row["cell"] for row in summary))
+    figure, axes = plt.subplots(figsize=(1.6 * len(ids) + 1.5, 0.9 * len(CONTROLLERS) + 1.2))
+    share = np.full((len(CONTROLLERS), len(ids)), np.nan)
+    for row in summary:
+        i, j = CONTROLLERS.index(row["controller"]), ids.index(row["cell"])
+        s = row["statistics"]
+        if s["assessed"]:
+            share[i, j] = s["stable"] / s["assessed"]
+        axes.text(j, i, f"{s['stable']}/{s['assessed']}" + ("" if s["assessed"] == s["runs"] else f" ({s['runs']})"),
+                  ha="center", va="center", fontsize=11)
+    axes.imshow(share, cmap="RdYlGn", vmin=0.0, vmax=1.0, aspect="auto")
+    axes.set_xticks(range(len(ids)), ids, rotation=30, ha="right")
+    axes.set_yticks(range(len(CONTROLLERS)), CONTROLLERS)
+    axes.set_title("stable k/n (energy-and-motion verdict)")
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--seeds", type=int, default=None)
+    parser.add_argument("--duration", type=float, default=None)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--only", nargs="*", default=None, help="cell ids to run")
+    parser.add_argument("--out", type=Path, default=None)
+    args = parser.parse_args(argv)
+    seeds = args.seeds or (2 if args.quick else 5)
+    duration = args.duration or (20.0 if args.quick else 30.0)
+    out = args.out or REPO / "results" / ("evidence_quick" if args.quick else "evidence")
+    chosen = [c for c in cells(args.quick) if args.only is None or c["id"] in args.only]
+    jobs = [(c, controller, seed, duration) for c in chosen for controller in CONTROLLERS for seed in range(1, seeds + 1)]
+    start = time.perf_counter()
+    runs = []
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        for done, row in enumerate(pool.map(judge, jobs), 1):
+            runs.append(row)
+            print(f"[{done}/{len(jobs)}] {row['cell']} {row['controller']} seed {row['seed']}: "
+                  f"{'stable' if row['stable'] else ('not assessed' if row['stable'] is None else 'UNSTABLE')} "
+                  f"err {row['error_rms_m'] * 1e3:.1f} mm rms, F {row['peak_force_n']:.1f} N, "
+                  f"{row['simulated_s'] / row['wall_s']:.2f} sim s/wall s", flush=True)
+    wall = time.perf_counter() - start
+    summary = []
+    for c in chosen:
+        for controller in CONTROLLERS:
+            mine = [r for r in runs if r["cell"] == c["id"] and r["controller"] == controller]
+            stats = cell_statistics([r["stable"] for r in mine], [r["error_rms_m"] for r in mine],
+                                    [r["error_max_m"] for r in mine], [r["peak_force_n"] for r in mine])
+            summary.append(dict(cell=c["id"], family=c["family"], value=c["value"], controller=controller,
+                                statistics=stats.as_dict()))
+    simulated = sum(r["simulated_s"] for r in runs)
+    document = dict(seeds=seeds, duration_s=duration, channel_jitter_s=CHANNEL_JITTER_S,
+                    operator_timing_jitter_s=OPERATOR_TIMING_JITTER_S, hand_impedance_jitter=HAND_IMPEDANCE_JITTER,
+                    workers=args.workers, wall_s=wall, simulated_s=simulated,
+                    sim_s_per_wall_s_per_run=float(np.median([r["simulated_s"] / r["wall_s"] for r in runs])),
+                    cells=summary, runs=runs)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.with_suffix(".json").write_text(json.dumps(document, indent=1))
+    stability_map(summary, out.parent / (out.name + "_map.png"))
+    for row in summary:
+        s = row["statistics"]
+        interval = s["stable_interval_95"]
+        print(f"{row['cell']:>20} {row['controller']:>7}: {s['stable']}/{s['assessed']} stable"
+              + (f" [{interval[0]:.2f}, {interval[1]:.2f}]" if interval else "")
+              + f", err median {s['error_median_m'] * 1e3:.1f} mm, p95 max {s['error_p95_m'] * 1e3:.1f} mm, "
+                f"F median {s['peak_force_median_n']:.1f} N p95 {s['peak_force_p95_n']:.1f} N")
+    print(f"{len(runs)} runs, {simulated:.0f} simulated s in {wall:.0f} wall s ({simulated / wall:.2f} sim s per wall s "
+          f"with {args.workers} workers)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,42 @@
+"""One run of an evidence cell on the in-process runner, judged by energy and motion (docs/RESULTS.md).
+
+The seed draws the channel's jitter, the operator's timing and the hand's impedance (RunConfig); the verdict is
+sim_bridge.experiments.energy_verdict's on the arm's and the handle's kinetic energy and on x_M, x_d and x_R with
+the planner's commanded motion removed; errors are taken after the first 2 s (start-up).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from sim_bridge.experiments.energy_verdict import EnergyMotionCriterion, assess_energy_motion
+from sim_bridge.experiments.in_process import RunConfig, run
+
+CHANNEL_JITTER_S = 0.005         # per-message delay jitter (seeded); the paper's link is a LAN with video
+OPERATOR_TIMING_JITTER_S = 0.1   # script clock shift, about half a human reaction time
+HAND_IMPEDANCE_JITTER = 0.2      # +-20 % on the hand's stiffness and damping
+
+
+def judge(job: tuple[dict, str, int, float]) -> dict:
+    """job: (cell {id, options: RunConfig fields}, controller, seed, duration [s]) -> one JSON-ready row."""
+    cell, controller, seed, duration = job
+    options = cell["options"]
+    config = RunConfig(duration=duration, controller=controller, seed=seed, jitter=CHANNEL_JITTER_S,
+                       operator_timing_jitter=OPERATOR_TIMING_JITTER_S, hand_impedance_jitter=HAND_IMPEDANCE_JITTER,
+                       **options)
+    result = run(config)
+    criterion = EnergyMotionCriterion(round_trip_delay=2.0 * options.get("delay", 0.2))
+    verdict = assess_energy_motion(
+        result.time, energy=result.arm_kinetic_energy + result.handle_kinetic_energy,
+        motion={"x_M": result.master, "x_d": result.desired - result.planner, "x_R": result.tcp - result.planner},
+        criterion=criterion)
+    after = result.time >= 2.0
+    error = result.tracking_error[after]
+    return dict(cell=cell["id"], controller=controller, seed=seed, stable=verdict.stable, assessed=verdict.assessed,
+                reasons=verdict.reasons, energy_window_peaks_j=verdict.energy_window_peaks,
+                energy_growth=verdict.as_dict()["energy_growth"],
+                oscillation={name: dict(amplitude_m=s.amplitude, periodicity=s.periodicity, period_s=s.period)
+                             for name, s in verdict.signals.items()},
+                error_rms_m=float(np.sqrt(np.mean(error ** 2))), error_max_m=float(error.max()),
+                peak_force_n=float(np.linalg.norm(result.force, axis=1).max()),
+                limit_violations=result.limit_violations, operator_time_shift_s=result.operator_time_shift,
+                hand_scale=result.hand_scale, simulated_s=result.simulated_s, wall_s=result.wall_s)
