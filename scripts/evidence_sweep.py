@@ -2,12 +2,12 @@
 """Stability maps from the in-process runner, judged by energy and motion (docs/RESULTS.md).
 
 Cells: the one-way delay (E1 scene), the command bandwidth (the channel's rate cap, the law at full rate) and the
-whole torque loop's rate (the replica's control_rate, gravity included in the held torque), each run with the FIC
-and the linear baseline, over seeds (channel jitter, operator timing, hand impedance). Per run the verdict of
+whole torque loop's rate (the replica's control_rate, gravity included in the held torque), each run with the FIC,
+the linear baseline and the linear baseline bounded at the FIC's F_max, over seeds (channel jitter, operator timing, hand impedance). Per run the verdict of
 sim_bridge.experiments.energy_verdict; per cell k/n stable with a 95 % Wilson interval, median/p95 of the error
 and the peak force (sim_bridge.experiments.cell_statistics). Writes <out>.json and <out>_map.png.
 
-    .venv/bin/python scripts/evidence_sweep.py --quick            # 4 cells x 2 controllers x 2 seeds, 20 s
+    .venv/bin/python scripts/evidence_sweep.py --quick            # 4 cells x 3 controllers x 2 seeds, 20 s
     .venv/bin/python scripts/evidence_sweep.py --seeds 5 --duration 30 --workers 2
 """
 from __future__ import annotations
@@ -26,7 +26,7 @@ from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANC
                                                  judge)
 
 REPO = Path(__file__).resolve().parents[1]
-CONTROLLERS = ("fic", "linear")
+CONTROLLERS = ("fic", "linear", "linear_bounded")
 def cells(quick: bool) -> list[dict]:
     """(id, label, what it lowers, runner options)."""
     delays = (0.2, 1.0) if quick else (0.0, 0.2, 0.5, 1.0, 2.0)
@@ -41,14 +41,15 @@ def cells(quick: bool) -> list[dict]:
 
 
 def stability_map(summary: list[dict], path: Path) -> None:
+    controllers = list(dict.fromkeys(row["controller"] for row in summary))
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     ids = list(dict.fromkeys(row["cell"] for row in summary))
-    figure, axes = plt.subplots(figsize=(1.6 * len(ids) + 1.5, 0.9 * len(CONTROLLERS) + 1.2))
-    share = np.full((len(CONTROLLERS), len(ids)), np.nan)
+    figure, axes = plt.subplots(figsize=(1.6 * len(ids) + 1.5, 0.9 * len(controllers) + 1.2))
+    share = np.full((len(controllers), len(ids)), np.nan)
     for row in summary:
-        i, j = CONTROLLERS.index(row["controller"]), ids.index(row["cell"])
+        i, j = controllers.index(row["controller"]), ids.index(row["cell"])
         s = row["statistics"]
         if s["assessed"]:
             share[i, j] = s["stable"] / s["assessed"]
@@ -56,11 +57,26 @@ def stability_map(summary: list[dict], path: Path) -> None:
                   ha="center", va="center", fontsize=11)
     axes.imshow(share, cmap="RdYlGn", vmin=0.0, vmax=1.0, aspect="auto")
     axes.set_xticks(range(len(ids)), ids, rotation=30, ha="right")
-    axes.set_yticks(range(len(CONTROLLERS)), CONTROLLERS)
+    axes.set_yticks(range(len(controllers)), controllers)
     axes.set_title("stable k/n (energy-and-motion verdict)")
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)
+
+
+def table(document: dict) -> str:
+    """The cells of a sweep's JSON as a markdown table (docs/RESULTS.md pastes it)."""
+    lines = ["| cell | lowers | controller | stable k/n | 95 % Wilson | error RMS median [mm] | error max p95 [mm] "
+             "| peak force median / p95 [N] |", "|---|---|---|---|---|---|---|---|"]
+    for row in document["cells"]:
+        s = row["statistics"]
+        interval = s["stable_interval_95"]
+        lines.append(f"| {row['cell']} | {row['family']} | {row['controller']} | {s['stable']}/{s['assessed']}"
+                     + ("" if s["assessed"] == s["runs"] else f" ({s['runs']} run)")
+                     + f" | {'-' if interval is None else f'{interval[0]:.2f}-{interval[1]:.2f}'}"
+                     f" | {s['error_median_m'] * 1e3:.1f} | {s['error_p95_m'] * 1e3:.1f}"
+                     f" | {s['peak_force_median_n']:.1f} / {s['peak_force_p95_n']:.1f} |")
+    return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -70,13 +86,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=None)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--only", nargs="*", default=None, help="cell ids to run")
+    parser.add_argument("--controllers", nargs="*", default=list(CONTROLLERS), choices=CONTROLLERS)
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--table-from", type=Path, default=None, help="print the markdown table of a sweep's JSON")
     args = parser.parse_args(argv)
+    if args.table_from is not None:
+        print(table(json.loads(args.table_from.read_text())), end="")
+        return 0
     seeds = args.seeds or (2 if args.quick else 5)
     duration = args.duration or (20.0 if args.quick else 30.0)
     out = args.out or REPO / "results" / ("evidence_quick" if args.quick else "evidence")
     chosen = [c for c in cells(args.quick) if args.only is None or c["id"] in args.only]
-    jobs = [(c, controller, seed, duration) for c in chosen for controller in CONTROLLERS for seed in range(1, seeds + 1)]
+    jobs = [(c, controller, seed, duration) for c in chosen for controller in args.controllers for seed in range(1, seeds + 1)]
     start = time.perf_counter()
     runs = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
@@ -89,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     wall = time.perf_counter() - start
     summary = []
     for c in chosen:
-        for controller in CONTROLLERS:
+        for controller in args.controllers:
             mine = [r for r in runs if r["cell"] == c["id"] and r["controller"] == controller]
             stats = cell_statistics([r["stable"] for r in mine], [r["error_rms_m"] for r in mine],
                                     [r["error_max_m"] for r in mine], [r["peak_force_n"] for r in mine])
@@ -104,6 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     out.with_suffix(".json").write_text(json.dumps(document, indent=1))
     stability_map(summary, out.parent / (out.name + "_map.png"))
+    (out.parent / (out.name + "_table.md")).write_text(table(document))
     for row in summary:
         s = row["statistics"]
         interval = s["stable_interval_95"]
