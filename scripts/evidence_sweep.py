@@ -3,11 +3,11 @@
 
 Cells: the one-way delay (E1 scene), the command bandwidth (the channel's rate cap, the law at full rate) and the
 whole torque loop's rate (the replica's control_rate, gravity included in the held torque), each run with the FIC,
-the linear baseline and the linear baseline bounded at the FIC's F_max, over seeds (channel jitter, operator timing, hand impedance). Per run the verdict of
+the FIC as the paper writes it (paper_law), the linear baseline and the linear baseline bounded at the FIC's F_max, over seeds (channel jitter, operator timing, hand impedance). Per run the verdict of
 sim_bridge.experiments.energy_verdict; per cell k/n stable with a 95 % Wilson interval, median/p95 of the error
 and the peak force (sim_bridge.experiments.cell_statistics). Writes <out>.json and <out>_map.png.
 
-    .venv/bin/python scripts/evidence_sweep.py --quick            # 4 cells x 3 controllers x 2 seeds, 20 s
+    .venv/bin/python scripts/evidence_sweep.py --quick            # 4 cells x 4 controllers x 2 seeds, 20 s
     .venv/bin/python scripts/evidence_sweep.py --seeds 5 --duration 30 --workers 2
 """
 from __future__ import annotations
@@ -22,11 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from sim_bridge.experiments.cell_statistics import cell_statistics
-from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S,
-                                                 judge)
+from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, HAND_IMPEDANCE_JITTER,
+                                                 OPERATOR_TIMING_JITTER_S, judge)
 
 REPO = Path(__file__).resolve().parents[1]
-CONTROLLERS = ("fic", "linear", "linear_bounded")
 def cells(quick: bool) -> list[dict]:
     """(id, label, what it lowers, runner options)."""
     delays = (0.2, 1.0) if quick else (0.0, 0.2, 0.5, 1.0, 2.0)

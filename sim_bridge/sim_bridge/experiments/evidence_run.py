@@ -14,13 +14,18 @@ from sim_bridge.experiments.in_process import RunConfig, run
 CHANNEL_JITTER_S = 0.005         # per-message delay jitter (seeded); the paper's link is a LAN with video
 OPERATOR_TIMING_JITTER_S = 0.1   # script clock shift, about half a human reaction time
 HAND_IMPEDANCE_JITTER = 0.2      # +-20 % on the hand's stiffness and damping
+#: The sweep's controllers: the replica's own, and the FIC as the paper writes it (Eq. 7 + posture + postural
+#: optimisation, without the feedforward and friction terms: the replica's paper_law).
+CONTROLLERS = ("fic", "fic_paper_law", "linear", "linear_bounded")
 
 
 def judge(job: tuple[dict, str, int, float]) -> dict:
     """job: (cell {id, options: RunConfig fields}, controller, seed, duration [s]) -> one JSON-ready row."""
     cell, controller, seed, duration = job
     options = cell["options"]
-    config = RunConfig(duration=duration, controller=controller, seed=seed, jitter=CHANNEL_JITTER_S,
+    paper_law = controller == "fic_paper_law"
+    config = RunConfig(duration=duration, controller="fic" if paper_law else controller, seed=seed,
+                       replica_overrides={"paper_law": True} if paper_law else {}, jitter=CHANNEL_JITTER_S,
                        operator_timing_jitter=OPERATOR_TIMING_JITTER_S, hand_impedance_jitter=HAND_IMPEDANCE_JITTER,
                        **options)
     result = run(config)
@@ -38,5 +43,7 @@ def judge(job: tuple[dict, str, int, float]) -> dict:
                              for name, s in verdict.signals.items()},
                 error_rms_m=float(np.sqrt(np.mean(error ** 2))), error_max_m=float(error.max()),
                 peak_force_n=float(np.linalg.norm(result.force, axis=1).max()),
-                limit_violations=result.limit_violations, operator_time_shift_s=result.operator_time_shift,
+                limit_violations=result.limit_violations,
+                passivity_margin_min_j=float(result.passivity_margin_min_j),
+                passivity_violation_ticks=int(result.passivity_violation_ticks), operator_time_shift_s=result.operator_time_shift,
                 hand_scale=result.hand_scale, simulated_s=result.simulated_s, wall_s=result.wall_s)

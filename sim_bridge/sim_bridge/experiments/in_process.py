@@ -89,6 +89,8 @@ class RunResult:
     handle_kinetic_energy: np.ndarray | None = None  # 1/2 m_h |v_M|^2 (n,) [J]
     operator_time_shift: float = 0.0               # [s] the draw of operator_timing_jitter
     hand_scale: float = 1.0                        # the draw of hand_impedance_jitter
+    passivity_margin_min_j: float = 0.0            # the task-space port's smallest W - (V - V0) (passivity observer)
+    passivity_violation_ticks: int = 0
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -216,7 +218,8 @@ def run(config: RunConfig) -> RunResult:
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
                      sim.object_poses(), wall, steps * STEP,
                      replica.controller.violation_ticks, replica.controller.shaped_ticks,
-                     np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale)
+                     np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale,
+                     replica.passivity.min_margin, replica.passivity.violation_ticks)
 
 
 @dataclass
