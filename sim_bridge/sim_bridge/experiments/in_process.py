@@ -89,6 +89,7 @@ class RunResult:
     handle_kinetic_energy: np.ndarray | None = None  # 1/2 m_h |v_M|^2 (n,) [J]
     operator_time_shift: float = 0.0               # [s] the draw of operator_timing_jitter
     hand_scale: float = 1.0                        # the draw of hand_impedance_jitter
+    operator_target: np.ndarray | None = None      # the script's handle target at those stamps (n, 3) [m]
     passivity_margin_min_j: float = 0.0            # the task-space port's smallest W - (V - V0) (passivity observer)
     passivity_violation_ticks: int = 0
 
@@ -149,7 +150,8 @@ def run(config: RunConfig) -> RunResult:
     button_down = False
     ft_wrench = None
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
-    log_m, log_arm, log_handle = [], [], []
+    log_m, log_arm, log_handle, log_target = [], [], [], []
+    target = np.zeros(3)
     arm_velocity, arm_momentum = np.zeros(sim.model.nv), np.zeros(sim.model.nv)
     arm_dof = np.array([sim.model.jnt_dofadr[sim.model.joint(name).id] for name in ARM_JOINT_NAMES])
     state = device.state
@@ -161,7 +163,8 @@ def run(config: RunConfig) -> RunResult:
         # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
         if k % device_every == 0:
             script_time = max(now - time_shift, 0.0)
-            hand.update(operator.target(script_time), device.position, device_every * STEP if k else 0.0)
+            target = operator.target(script_time)
+            hand.update(target, device.position, device_every * STEP if k else 0.0)
             buttons.extend(event.button for event in operator.poll_events(script_time))
             fresh = command_time is not None and now - command_time <= h["command_timeout"]
             state = device.step(device_command if fresh else np.zeros(3), hand.force, device_every * STEP if k else 0.0)
@@ -208,6 +211,7 @@ def run(config: RunConfig) -> RunResult:
             log_f.append(ft_wrench)
             log_o.append(replica.desired.offset)
             log_m.append(state.position)
+            log_target.append(np.asarray(target, dtype=float).copy())
             log_handle.append(0.5 * device.parameters.mass * float(state.velocity @ state.velocity))
             arm_velocity[arm_dof] = sim.joint_velocities
             mujoco.mj_mulM(sim.model, sim.data, arm_momentum, arm_velocity)   # M(q) qd of the arm's joints
@@ -218,7 +222,7 @@ def run(config: RunConfig) -> RunResult:
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
                      sim.object_poses(), wall, steps * STEP,
                      replica.controller.violation_ticks, replica.controller.shaped_ticks,
-                     np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale,
+                     np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale, np.array(log_target),
                      replica.passivity.min_margin, replica.passivity.violation_ticks)
 
 
