@@ -99,3 +99,14 @@ def test_bad_input_is_refused():
     with pytest.raises(VerdictInputError):
         assess_energy_motion(np.array([0.0, 1.0, 1.0, 2.0] * 3), energy=np.zeros(12), motion={},
                              criterion=EnergyMotionCriterion(round_trip_delay=0.4))
+
+
+def test_a_bounded_runaway_is_unstable_by_its_error():
+    """Flat energy, no repetition, but the replica 0.3 m from its set point: the error bound (4 x_b) says no."""
+    t = np.arange(0.0, 30.0, 0.01)
+    error = np.column_stack([np.full(t.size, 0.3), 0 * t, 0 * t])
+    verdict = assess_energy_motion(t, energy=np.full(t.size, 1.0), motion={"x_R": np.zeros(t.size)},
+                                   criterion=EnergyMotionCriterion(round_trip_delay=0.4), error=error)
+    assert verdict.stable is False and "tracking error 300 mm" in verdict.reasons[0]
+    assert assess_energy_motion(t, energy=np.full(t.size, 1.0), motion={"x_R": np.zeros(t.size)},
+                                criterion=EnergyMotionCriterion(round_trip_delay=0.4), error=error / 3).stable

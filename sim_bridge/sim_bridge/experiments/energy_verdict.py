@@ -49,6 +49,7 @@ class EnergyMotionCriterion:
     periodicity: float = 0.5                # autocorrelation peak that makes a motion periodic
     min_period: float = 0.2                 # [s] faster "oscillation" is contact chatter, judged by test 1 only
     energy_bound: float = 50.0              # [J] beyond it the run has run away whatever the windows say
+    error_bound: float = 0.20               # [m] |x_d - x_R| over the judged span; 4 x_b (x_b = 0.05 m)
 
     @property
     def window(self) -> float:
@@ -156,9 +157,11 @@ def _oscillation(time: NDArray, values: NDArray, edges: NDArray, criterion: Ener
 
 
 def assess_energy_motion(time: ArrayLike, *, energy: ArrayLike, motion: dict[str, ArrayLike],
-                         criterion: EnergyMotionCriterion) -> EnergyMotionVerdict:
+                         criterion: EnergyMotionCriterion, error: ArrayLike | None = None) -> EnergyMotionVerdict:
     """Judge one run (module docstring). time (n,) [s] on a near-uniform grid; energy (n,) [J], the loop's
-    mechanical energy (plus port storage); motion: name -> (n, k) positions [m] with commanded motion removed."""
+    mechanical energy (plus port storage); motion: name -> (n, k) positions [m] with commanded motion removed;
+    error (n, 3) [m], x_d - x_R, optional: beyond ``error_bound`` in the judged span the replica has run away (a
+    bounded runaway -- an arm held against the scene by a 10 Hz torque loop -- neither grows nor repeats)."""
     time = _time(time)
     energy_values = _rows("energy", time, energy)[:, 0]
     signals = {name: _rows(name, time, values) for name, values in motion.items()}
@@ -190,6 +193,11 @@ def assess_energy_motion(time: ArrayLike, *, energy: ArrayLike, motion: dict[str
     if window_peaks[-1] > criterion.energy_floor and growth > criterion.growth_ratio:
         reasons.append(f"mechanical energy growing: window peak {window_peaks[-1] * 1e3:.3g} mJ is {growth:.1f}x "
                        f"the first judged window's (limit {criterion.growth_ratio:g}x)")
+    if error is not None:
+        magnitude = np.linalg.norm(_rows("error", time, error), axis=1)[time >= judged_from]
+        if float(magnitude.max()) > criterion.error_bound:
+            reasons.append(f"tracking error {magnitude.max() * 1e3:.0f} mm in the judged span, above the bound "
+                           f"{criterion.error_bound * 1e3:.0f} mm")
     oscillations = {name: _oscillation(time, values, edges, criterion) for name, values in signals.items()}
     for name, result in oscillations.items():
         if result.sustained:

@@ -40,7 +40,7 @@ def judge(job: tuple[dict, str, int, float]) -> dict:
         result.time, energy=result.arm_kinetic_energy + result.handle_kinetic_energy,
         motion={"x_M": result.master - result.operator_target, "x_d": result.desired - result.planner - intended,
                 "x_R": result.tcp - result.planner - intended},
-        criterion=criterion)
+        criterion=criterion, error=result.desired - result.tcp)
     after = result.time >= 2.0
     error = result.tracking_error[after]
     return dict(cell=cell["id"], controller=controller, seed=seed, stable=verdict.stable, assessed=verdict.assessed,

@@ -41,6 +41,11 @@ STEP = 0.001                     # the robot's physics step and joint-state peri
 SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
 PLANNER_LAG_S = 0.2
 JOY_RATE_HZ = 50.0               # the device node's button messages
+#: config/replica.yaml's keys of the node's input authority (fic_teleop_replica.input_guard), not of ReplicaLoop.
+#: Not modelled here: this process is the only writer and stamps its own messages, so the refusals cannot fire,
+#: and its clamp of x_d' (+-offset_workspace, max_offset_speed) is not applied.
+INPUT_AUTHORITY_PARAMETERS = ("offset_workspace", "max_offset_speed", "max_offset_burst", "command_future_tolerance",
+                              "max_command_age")
 
 
 def _parameters(name: str) -> dict[str, Any]:
@@ -110,6 +115,7 @@ def _every(rate: float) -> int:
 def run(config: RunConfig) -> RunResult:
     """One run of the graph (module docstring)."""
     r, m, h = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("haptic_device.yaml")
+    r = {name: value for name, value in r.items() if name not in INPUT_AUTHORITY_PARAMETERS}
     pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
     replica = ReplicaLoop({**r, "controller": config.controller, "control_rate": config.control_rate,
