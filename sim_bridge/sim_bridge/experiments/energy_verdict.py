@@ -16,8 +16,11 @@ while counting the operator's fast moves as oscillation. This one judges what an
    linear trend, an axis whose amplitude (half the peak-to-peak) exceeds ``oscillation_amplitude`` AND whose
    normalised autocorrelation has a peak above ``periodicity`` at a lag in [``min_period``, 4 x round-trip delay]
    means a self-sustained periodic motion (the autocorrelation is taken over the whole judged span, so a period
-   of 4 round trips has a full period of overlap; the amplitude must be there in every window). An operator's aperiodic moves do not repeat at one lag; a limit cycle
-   does, and a limit cycle that does not grow (saturated by F_max, say) is caught here when test 1 passes.
+   of 4 round trips has a full period of overlap; the amplitude must be there in every window). An operator's
+   aperiodic moves do not repeat at one lag; a limit cycle does, and a limit cycle that does not grow (saturated
+   by F_max, say) is caught here when test 1 passes.
+3. ERROR (when given): |x_d - x_R| stays within ``error_bound`` (4 x_b) over the judged span; a bounded runaway
+   neither grows nor repeats.
 
 Windows: W = max(``min_window``, 4 x the round-trip delay), long enough to hold one full period of the slowest
 oscillation a loop through that delay shows (a delay-induced oscillation has a period of at most about 4 round
