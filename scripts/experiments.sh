@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The paper's experiments E1-E4 (SPEC 3, issue 6) on the real graph, in lockstep unless told otherwise, with a
+# The paper's experiments E1-E4 (docs/EXPERIMENTS.md) on the real graph, in lockstep unless told otherwise, with a
 # progress bar; results (JSON + PNG) to results/. `--quick` runs two short E4 cells; `--help` lists the options.
 set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

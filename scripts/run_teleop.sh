@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The main job: the paper's superimposition experiment end to end (SPEC 3, E1). With no arguments: the
+# The main job: the paper's superimposition experiment end to end (E1, docs/EXPERIMENTS.md). With no arguments: the
 # superimposition scene, the scripted operator, 200 ms one-way delay both ways, 30 s, headless; records every
 # topic to an MCAP bag and writes a report (plots, key frames, metrics.json). `--help` lists the options.
 set -euo pipefail

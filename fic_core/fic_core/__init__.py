@@ -10,7 +10,7 @@ from fic_core.teleoperation import TeleoperationCommandIntegrator, Teleoperation
 from fic_core.planner import HarmonicPlanner
 from fic_core.trajectories import Circle, FixedPoint, ViaPoints
 from fic_core.set_point import SampledSetPoint, ShrinkingOffset
-# Replica (paper Eq. 7, SPEC 1.5): Pinocchio model, Panda limits, null-space posture, postural optimisation.
+# Replica (paper Eq. 7, docs/CONTROL_LAWS.md): Pinocchio model, Panda limits, null-space posture, postural optimisation.
 from fic_core.robot_model import RobotModel
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.posture import NullSpacePosture

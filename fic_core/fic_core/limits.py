@@ -1,4 +1,4 @@
-"""The Panda's physical limits (SPEC 1.5) and the limit-violation check of SPEC 2.2.
+"""The Panda's physical limits and the limit-violation check (docs/CONTROL_LAWS.md, "The limits").
 
 Datasheet values of the Franka Emika Panda; the joint position limits come from the URDF through
 ``RobotModel``, so the controller and the simulator agree on them.
@@ -44,7 +44,7 @@ def _vector(name: str, value: ArrayLike) -> tuple[float, ...]:
 
 @dataclass(frozen=True)
 class PandaLimits:
-    """Limits the replica must never command outside of (SPEC 1.5).
+    """Limits the replica must never command outside of (docs/CONTROL_LAWS.md).
 
     Build it with ``PandaLimits.from_robot(robot)`` to take the joint position limits from the URDF.
     """
@@ -102,7 +102,7 @@ def _frozen(values: tuple[float, ...]) -> NDArray[np.float64]:
 
 def limit_violations(previous_torque: ArrayLike | None, torque: ArrayLike, q: ArrayLike, qd: ArrayLike,
                      tcp_speed: float, dt: float, limits: PandaLimits) -> LimitFlag:
-    """Limits that a command or a measured state breaks (SPEC 2.2).
+    """Limits that a command or a measured state breaks (docs/CONTROL_LAWS.md, "The limits").
 
     ``torque`` is the command, ``previous_torque`` the command before it (``None`` for the first command: no
     torque rate is defined), ``dt`` the time between the two commands; ``q``, ``qd`` and ``tcp_speed`` are the

@@ -1,4 +1,4 @@
-"""The master controller (paper Eq. 3, SPEC 1.3): the handle's own FIC plus the scaled replica force.
+"""The master controller (paper Eq. 3, docs/CONTROL_LAWS.md): the handle's own FIC plus the scaled replica force.
 
     f = FIC(-x_M) + K_H * F_R ,   K_H in [0, 1]
 

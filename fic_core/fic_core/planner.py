@@ -1,4 +1,4 @@
-"""The harmonic trajectory planner (paper Eqs. 5 and 6, SPEC 1.4): the autonomous part x_d'' of the command.
+"""The harmonic trajectory planner (paper Eqs. 5 and 6, docs/CONTROL_LAWS.md): the autonomous part x_d'' of the command.
 
 Per axis, with the next trajectory point x_t(t) and x~_t = x_t(t) - x_d''(t-1)::
 
@@ -7,13 +7,13 @@ Per axis, with the next trajectory point x_t(t) and x~_t = x_t(t) - x_d''(t-1)::
     v = clip(integral a) ;  x_d'' = integral v                                         (Eq. 5)
     v_max = v_p * min(v_d, w_n*|d|) ,  a_max = 2*d*(v_max/|d|)^2 ,  v_p = 1.595 ,  mu = 0.01*w_n   (Eq. 6)
 
-Reading of the C line (SPEC 1.4 leaves it open). The printed ``2*A_max/x~_T0 * (x_d''(t-1) - x~_T0/2)`` mixes
+Reading of the C line (open in the paper). The printed ``2*A_max/x~_T0 * (x_d''(t-1) - x~_T0/2)`` mixes
 an absolute position with a displacement. It is read as Eq. 2's mid-point law written on the error to the
 target: ``x~_T0`` is the error x~_t latched when the axis enters C (the largest displacement of the D phase
 that just ended) and ``A_max = min(w_n^2*|x~_T0|, a_max)`` is the D acceleration there, so the acceleration is
 continuous at D->C. From rest at x~_T0 this is a harmonic swing about x~_T0/2 that arrives at x~_t = 0 with zero
 velocity (and, with a_max binding, peaks at exactly v_max: that is why Eq. 6 has the factor 2). The phase
-logic is the attractor's (SPEC 1.2): an axis enters C when |x~_t| decreases faster than ``rate_deadband``
+logic is the attractor's (Eq. 2): an axis enters C when |x~_t| decreases faster than ``rate_deadband``
 (default 0: the planner's signal is noise-free), stays while it keeps decreasing on the same side of the
 target, and returns to D otherwise. d|x~_t|/dt uses the target's velocity estimated by differencing x_t.
 

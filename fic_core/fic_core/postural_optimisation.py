@@ -1,6 +1,6 @@
 """The postural optimisation: keep the replica's torque inside the Panda's limits by trading tracking accuracy.
 
-The paper's headline feature (Sec. I, point 1) without a formula in the paper; this is our design (SPEC 1.5).
+The paper's headline feature (Sec. I, point 1) without a formula in the paper; our design (docs/CONTROL_LAWS.md).
 
 Each tick, given the desired torque tau_d of Eq. 7 (compensation + J^T FIC + null-space posture), solve
 

@@ -1,7 +1,7 @@
 """Null-space posture of the replica: the tau_posture term added to paper Eq. 7.
 
 The arm has 7 joints for a 6-D task, so one motion (the elbow's self-motion) is not held by the Cartesian FIC;
-left alone it wanders (PLATFORM.md) and drifts toward the joint limits. This term pulls the arm toward
+left alone it wanders (seen here) and drifts toward the joint limits. This term pulls the arm toward
 ``NOMINAL_CONFIGURATION`` (Franka's well-conditioned "ready" pose), damps the self-motion, and pushes joints
 away from their URDF limits inside a band near them.
 
@@ -11,7 +11,7 @@ Projection: dynamically consistent (Khatib). The torque is filtered by
 
 so that it produces no TCP acceleration at all: J M^-1 tau_posture = 0. The simpler projector
 I - J^T (J^T)^+ only makes the torque orthogonal to J^T's range; through the inertia coupling it would still
-accelerate the TCP and so inject energy into the task space, where the FIC's energy bound is argued (SPEC 1.2).
+accelerate the TCP and so inject energy into the task space, where the FIC's energy bound is argued (Eq. 2).
 With the consistent projector the FIC's task-space behaviour is exactly that of Eq. 2, whatever the posture does.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The FIC force profile F_c (paper Eq. 1, with SPEC 1.1's errata).
+"""The FIC force profile F_c (paper Eq. 1, with the errata of docs/CONTROL_LAWS.md).
 
 Per axis, for an error ``e = x_d - x`` with ``a = |e|`` and ``s = sign(e)``::
 
@@ -6,7 +6,7 @@ Per axis, for an error ``e = x_d - x`` with ``a = |e|`` and ``s = sign(e)``::
     F_c(e) = K0*e                                                           if a <= xi*x_b
            = s * (F0 + dF * (tanh((a - x_b)/S + pi) - tanh(-pi)) / (1 - tanh(-pi)))   otherwise
 
-Two errata of the printed Eq. 1 are applied (SPEC 1.1):
+Two errata of the printed Eq. 1 are applied (docs/CONTROL_LAWS.md):
 
 * the tanh argument is ``(a - x_b)/S + pi`` (the paper divides by ``S*x_b``, which has units of m^2), so
   that it runs from -pi at ``a = xi*x_b`` to +pi at ``a = x_b``;
@@ -99,7 +99,7 @@ class ForceProfile:
 
     @property
     def saturation_width(self) -> float:
-        """S = (1 - xi)*x_b/(2*pi) [m]: the tanh's length scale (SPEC 1.1 erratum on units)."""
+        """S = (1 - xi)*x_b/(2*pi) [m]: the tanh's length scale (the erratum on units of Eq. 1)."""
         return self._width
 
     def force(self, error: ArrayLike) -> NDArray[np.float64]:
@@ -245,7 +245,7 @@ _LOG_COSH_START = _scalar_log_cosh(-math.pi)
 
 def force_profile(error: ArrayLike, *, stiffness: float, saturation_error: float, saturation_start: float,
                   max_force: float) -> NDArray[np.float64]:
-    """F_c(error) of paper Eq. 1 with SPEC 1.1's errata, elementwise; odd, continuous, tends to max_force.
+    """F_c(error) of paper Eq. 1 with its errata (docs/CONTROL_LAWS.md), elementwise; odd, continuous, tends to max_force.
 
     Args:
         error: e = x_d - x per axis [m or rad], any shape.

@@ -1,9 +1,9 @@
-"""The two teleoperation modes (paper Sec. II-C, SPEC 1.3): the teleoperated offset x_d' from the handle x_M.
+"""The two teleoperation modes (paper Sec. II-C, Eq. 3): the teleoperated offset x_d' from the handle x_M.
 
     offset:   x_d' = s_M * x_M                                (better dexterity, master's workspace only)
     velocity: x_d'(t) = x_d'(t - dt) + k_v * x_M * dt         (re-centres the workspace)
 
-Bumpless switching (SPEC 1.3: switching must not make x_d' jump). The offset mode keeps an anchor
+Bumpless switching (docs/CONTROL_LAWS.md: switching must not make x_d' jump). The offset mode keeps an anchor
 ``(x_M_anchor, x_d'_anchor)`` and computes ``x_d' = x_d'_anchor + s_M * (x_M - x_M_anchor)``. The anchor is
 (0, 0) after ``reset()`` (so this is exactly ``x_d' = s_M * x_M``), and is re-taken as the current
 ``(x_M, x_d')`` whenever the offset mode is entered or ``workspace_scale`` changes: x_d' continues from its

@@ -1,4 +1,4 @@
-"""FIC attractor (paper Eq. 2, SPEC 1.2): phase logic, continuity, the harmonic swing, energy on unit masses."""
+"""FIC attractor (paper Eq. 2): phase logic, continuity, the harmonic swing, energy on unit masses."""
 from __future__ import annotations
 
 import math

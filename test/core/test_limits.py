@@ -1,4 +1,4 @@
-"""PandaLimits (datasheet + URDF), LimitFlag (same bits as the message), and SPEC 2.2's violation check."""
+"""PandaLimits (datasheet + URDF), LimitFlag (same bits as the message), and the limit-violation check."""
 from __future__ import annotations
 
 import dataclasses

@@ -1,4 +1,4 @@
-"""Force profile F_c (paper Eq. 1, SPEC 1.1): continuity, oddness, Lipschitz bound, saturation, energy."""
+"""Force profile F_c (paper Eq. 1, docs/CONTROL_LAWS.md): continuity, oddness, Lipschitz bound, saturation, energy."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""Teleoperation modes (SPEC 1.3): offset x_d' = s_M*x_M, velocity x_d' += k_v*x_M*dt, bumpless switching."""
+"""Teleoperation modes (paper Sec. II-C): offset x_d' = s_M*x_M, velocity x_d' += k_v*x_M*dt, bumpless switching."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""The delay/dropout channel between master and replica (SPEC 2, issue 4 item 6), without any ROS in it.
+"""The delay/dropout channel between master and replica (docs/CONVENTIONS.md), without any ROS in it.
 
 A ``Channel`` holds opaque payloads (the node gives it raw CDR bytes, so it works for every message type) and
 releases each one when it is due. What it can do to the traffic, each switchable at run time:

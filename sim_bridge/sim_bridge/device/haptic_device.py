@@ -1,4 +1,4 @@
-"""A sigma.7-class haptic device: the master's handle as a 3-DoF translational mass (issue 4 item 5).
+"""A sigma.7-class haptic device: the master's handle as a 3-DoF translational mass.
 
 The handle is a point mass ``m`` with viscous damping ``b`` inside a box workspace with soft walls:
 

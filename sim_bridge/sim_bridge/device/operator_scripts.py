@@ -1,4 +1,4 @@
-"""Scenario scripts for the virtual operator, one generator per scene (paper Sec. III; SPEC 3).
+"""Scenario scripts for the virtual operator, one generator per scene (paper Sec. III; docs/EXPERIMENTS.md).
 
 Each generator turns a few scene numbers (obstacle angles, piece and hole positions, the master's velocity gain)
 into an ``OperatorScript`` of timed handle targets and button presses. The checked-in YAML files in
@@ -7,7 +7,7 @@ regenerate it with other numbers:
 
     python -m sim_bridge.device.operator_scripts --write config/operator_scripts
 
-Conventions every script relies on (they are the master's, SPEC 1.3):
+Conventions every script relies on (they are the master's, docs/CONTROL_LAWS.md):
 - haptic_base axes are the robot base axes and the workspace scale s_M is 1, so a handle offset is a
   replica offset;
 - the master starts in OFFSET mode, and every ``toggle_mode`` press is made with the handle back at its origin,
@@ -228,7 +228,7 @@ def _ramp_area(displacement: float, deadband: float, ramp: float) -> float:
 
 
 def _velocity_leg(builder: _ScriptBuilder, travel: np.ndarray, p: Mapping[str, Any]) -> None:
-    """One straight travel in VELOCITY mode: a handle excursion whose area is travel / k_v (SPEC 1.3)."""
+    """One straight travel in VELOCITY mode: a handle excursion whose area is travel / k_v (the velocity mode, docs/CONTROL_LAWS.md)."""
     distance = float(np.linalg.norm(travel))
     if distance < 1e-6:
         return

@@ -1,4 +1,4 @@
-"""The virtual operator: a human hand on the haptic handle, pulled toward a target (issue 4 item 5).
+"""The virtual operator: a human hand on the haptic handle, pulled toward a target.
 
 The hand is a spring-damper between a target and the handle (``Hand``):
 

@@ -1,4 +1,4 @@
-"""Experiment machinery for SPEC 3 (E1-E4, issue 6): the sweep stability criterion and bag time series.
+"""Experiment machinery for E1-E4 (docs/EXPERIMENTS.md): the sweep stability criterion and bag time series.
 
 Pure Python (numpy, mcap): nothing here imports rclpy, so the criterion can be tested on synthetic signals and
 applied to any recorded bag. The driver that runs the graph is scripts/experiments.py, a thin CLI over runner.py and plots.py.

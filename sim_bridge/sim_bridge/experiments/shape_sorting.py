@@ -1,4 +1,4 @@
-"""E2 outcome from a bag: which pieces ended inside the sorting box (SPEC 3, paper Fig. 4).
+"""E2 outcome from a bag: which pieces ended inside the sorting box (paper Fig. 4).
 
 A piece SUCCEEDED when its last recorded position (/sim/object_poses, the robot sim's ground truth) is inside the
 box: within the inner walls in x and y and below the underside of the top plate (so through its hole and

@@ -1,6 +1,6 @@
 """The MuJoCo Panda: the same URDF Pinocchio loads (fic_core.panda_description), effort-controlled at 1 kHz.
 
-Model recipe (PLATFORM.md): MuJoCo 4.0 neither resolves ``package://`` nor reads .dae, and would give the fingers
+Model recipe: MuJoCo 4.0 neither resolves ``package://`` nor reads .dae, and would give the fingers
 free prismatic joints that the controller's 7-DoF model locks; so the URDF text is rewritten (absolute mesh
 paths, finger joints fixed, ``<mimic>`` dropped, a ``<mujoco><compiler>`` element that discards the .dae visuals
 and keeps the massless ``panda_hand_tcp`` body), then edited as an ``MjSpec``: 1 ms implicitfast steps, the joint
