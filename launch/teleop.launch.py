@@ -24,6 +24,7 @@ NODES = [('sim_bridge', 'robot_node', 'robot', 'robot.yaml', {'scene': 'superimp
    'control_rate': 500.0,
    'answer_every_state': False,
    'tick_on_command': False,
+   'max_command_age': 3.2,
    'use_sim_time': False}),
  ('fic_teleop_planner',
   'planner_node',

@@ -66,8 +66,10 @@ def test_two_runs_started_together_each_match_a_solo_run(solo_run: dict, tmp_pat
         assert metrics["message_counts"]["/joint_states"] == pytest.approx(
             solo_run["message_counts"]["/joint_states"], rel=0.05)
         assert metrics["duration_s"] == pytest.approx(solo_run["duration_s"], abs=0.3)
-        # Lockstep with the peer barrier: the same run, to within what the machine's load changes in it.
-        assert metrics["free_motion_error_max_m"] == pytest.approx(solo_run["free_motion_error_max_m"], abs=0.01)
+        # Lockstep with the peer barrier: the same run, to within what the machine's load changes in it. Two runs
+        # sharing 2 cores skip more barrier waits than a solo run: 29.5 against 19.4 mm measured in one fresh-clone
+        # suite; cross-talk gave errors of 1.3 m, so 25 mm still tells them apart by a factor of 50.
+        assert metrics["free_motion_error_max_m"] == pytest.approx(solo_run["free_motion_error_max_m"], abs=0.025)
 
 
 def test_a_domain_that_carries_a_graph_is_refused_in_one_line(tmp_path: Path) -> None:
