@@ -32,6 +32,7 @@ import struct
 import sys
 import time
 from collections import defaultdict
+from pathlib import Path
 
 ETH_P_ALL = 0x0003
 ETH_P_IP = 0x0800
@@ -247,7 +248,7 @@ class Reassembly:
         return None
 
 
-def capture(interface: str, out: str, names: dict[str, str], stamped_topics: set[str]) -> int:
+def capture(interface: str, out: str, names: dict[str, str], stamped_topics: set[str], ready: str | None = None) -> int:
     stop = {"now": False}
 
     def on_signal(signum, frame) -> None:
@@ -259,6 +260,8 @@ def capture(interface: str, out: str, names: dict[str, str], stamped_topics: set
     sock.bind((interface, 0))
     sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
     sock.settimeout(0.2)
+    if ready:   # the socket is bound: whoever started the capture may now start the participants
+        Path(ready).write_text("capturing\n")
     accounting, fragments = RtpsAccounting(stamped_topics), Reassembly()
     packets = 0
     while not stop["now"]:
@@ -331,10 +334,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="name an IPv4 address in the directions (e.g. 198.51.100.1=master)")
     parser.add_argument("--stamps", nargs="*", default=[], metavar="TOPIC",
                         help="header-stamped ROS topics whose samples' stamps and wire times are kept")
+    parser.add_argument("--ready", metavar="FILE", help="written once the capture socket is bound")
     args = parser.parse_args(argv)
     names = dict(item.split("=", 1) for item in args.name)
     try:
-        return capture(args.interface, args.out, names, set(args.stamps))
+        return capture(args.interface, args.out, names, set(args.stamps), args.ready)
     except PermissionError:
         print("[traffic] refused: a packet capture needs root (CAP_NET_RAW)", file=sys.stderr)
         return 2

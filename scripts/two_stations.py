@@ -427,6 +427,18 @@ def inside_hooks(args, run_dir: Path) -> InsideStation | None:
     return InsideStation(args, run_dir) if args.two_stations and inside_station() else None
 
 
+def wait_for_capture(capture: subprocess.Popen, ready: Path, timeout_s: float = 30.0) -> None:
+    """Until the capture's socket is bound: a participant that announces itself (SEDP) before that leaves its
+    topics unnamed in the traffic table."""
+    deadline = time.monotonic() + timeout_s
+    while not ready.exists():
+        if capture.poll() is not None:
+            raise StationError(f"the link capture exited with code {capture.returncode} (see link_capture.log)")
+        if time.monotonic() > deadline:
+            raise StationError(f"the link capture did not start within {timeout_s:.0f} s")
+        time.sleep(0.05)
+
+
 def run(argv: list[str], args, run_dir: Path) -> int:
     """The outer process: namespaces up, the launcher inside the robot station, namespaces down (always)."""
     from datetime import datetime
@@ -473,9 +485,9 @@ def run(argv: list[str], args, run_dir: Path) -> int:
             ["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(Path(__file__).with_name("rtps_traffic.py")),
              "--interface", pair.robot_interface, "--out", str(capture_file),
              "--name", f"{MASTER_ADDRESS}=master", "--name", f"{ROBOT_ADDRESS}=robot",
-             "--stamps", *LINK_STREAMS],
+             "--stamps", *LINK_STREAMS, "--ready", str(run_dir / "link_capture.ready")],
             stdout=open(run_dir / "link_capture.log", "wb"), stderr=subprocess.STDOUT, start_new_session=True)
-        time.sleep(0.5)   # the socket is open before the first participant announces itself (SEDP names topics)
+        wait_for_capture(capture, run_dir / "link_capture.ready")
         environment = {**os.environ, **station_environment(), INSIDE_ENV: pair.tag}
         launcher = Path(__file__).with_name("teleop_launcher.py")
         inner = subprocess.Popen(["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(launcher), *argv,

@@ -110,10 +110,13 @@ def test_blackout_leaves_the_replica_stable_and_it_recovers(blackout_run: Path) 
     # the blackout and the 2 s after it, RMS 12 / 12.5 mm; the resume after the blackout peaks at 89 / 97 mm and
     # 1.10 / 0.96 J). Bounds: x_b = 50 mm, the FIC's own saturation error, outside the loss and its recovery; RMS
     # 25 mm (about 2x); energy 0.6 J there and 2 J over the run (about 2x).
+    # The loss and its recovery are the replica's own: from its first stale state to 2 s after it resumed (the
+    # channel's clock origin is only known to within its first delivery).
     times = np.array([s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec for s in states]) - start
     errors = np.array([np.linalg.norm(s.error[:3]) for s in states])
     energy = np.array([s.total_energy for s in states])
-    settled = (times < BLACKOUT[0]) | (times > BLACKOUT[1] + 2.0)
+    resumed = first_stale + int(np.argmin(stale[first_stale:]))
+    settled = (times < times[first_stale]) | (times > times[resumed] + 2.0)
     assert settled.sum() > 0.4 * len(states)  # (measured 56 %)
     assert errors[settled].max() < 0.05, errors[settled].max()
     assert float(np.sqrt(np.mean(errors ** 2))) < 0.025

@@ -194,6 +194,9 @@ def test_split_run_crosses_the_link_with_the_two_streams_and_survives_a_cut(tmp_
     crossing = {name for direction in ("master->robot", "robot->master") for name in whole.get(direction, {})
                 if name.startswith("/")}
     assert crossing <= ALLOWED_ACROSS, crossing
+    named = {direction: sorted(whole.get(direction, {})) for direction in ("master->robot", "robot->master")}
+    assert "/master/teleop_command" in whole.get("master->robot", {}), named
+    assert "/replica/feedback_wrench" in whole.get("robot->master", {}), named
     assert whole["master->robot"]["/master/teleop_command"]["samples"] > 100
     assert whole["robot->master"]["/replica/feedback_wrench"]["samples"] > 50
 
