@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmarks of the whole system (the README's "Results"); prints a table and writes results/bench.json.
+"""Benchmarks of the whole system (docs/EXPERIMENTS.md, "Benchmarks"); prints a table and writes results/bench.json.
 
     scripts/bench.sh [--duration 30] [--lockstep-duration 10] [--out results/bench.json]
 

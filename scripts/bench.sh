@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Benchmarks (the README's "Results"): replica tick compute, the default main job (timed; pipeline latency, real-time
+# Benchmarks (docs/EXPERIMENTS.md, "Benchmarks"): replica tick compute, the default main job (timed; pipeline latency, real-time
 # factor, realtime step lateness, CPU and peak RSS per node) and lockstep steps per second; prints a table and
 # writes results/bench.json. `--help` lists the options.
 set -euo pipefail

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The paper's experiments E1-E4 (SPEC 3, issue 6), run through the main job's launcher on the real graph.
+"""The paper's experiments E1-E4 (docs/EXPERIMENTS.md), run through the main job's launcher on the real graph.
 
     scripts/experiments.sh                      # everything, lockstep, results to results/
     scripts/experiments.sh --only E4            # one experiment (E1, E2, E3, E4; comma-separated)
@@ -8,7 +8,7 @@
 
 Every cell is one call of scripts/teleop_launcher.py (what scripts/run_teleop.sh runs): the whole graph as real
 processes over DDS, recorded to an MCAP bag under --runs. Each cell is then analysed from its bag: the report's
-SPEC 2.2 metrics (sim_bridge.report, computed in-process), the sweep stability criterion
+metrics (sim_bridge.report, computed in-process), the sweep stability criterion
 (sim_bridge/experiments/stability.py: judged on the last half of the run), and per experiment:
 
 - E1 superimposition at 200 ms: the default run (superimposition scene, scripted operator, 200 ms each way) with the

@@ -95,7 +95,7 @@ LOCKSTEP_PEERS = ["/haptic/pose", "/master/teleop_command", "/planner/desired_po
 
 
 def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
-    """The paper's architecture (SPEC 2): device -> master -> channel -> replica -> robot, and back."""
+    """The paper's architecture (README.md, "Architecture"): device -> master -> channel -> replica -> robot, and back."""
     lockstep = args.time_mode == "lockstep"
     sim_time = {"use_sim_time": lockstep}
     channel = {

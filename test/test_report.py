@@ -1,4 +1,4 @@
-"""sim_bridge.report on a synthetic bag with known answers (SPEC 2.2 metric definitions).
+"""sim_bridge.report on a synthetic bag with known answers (the metric definitions of docs/EXPERIMENTS.md).
 
 The bag is written with rosbags' own rosbag2 writer and serialiser (not ours), so this also shows that the report
 reads any rosbag2 MCAP bag. Scenario (sim time, t = 0 at the first joint state, warm-up 1 s):

@@ -380,7 +380,7 @@ class PoseAttractorSnapshot:
 class PoseAttractor:
     """The replica's Cartesian FIC: a 3-axis translational and a 3-axis rotational FractalAttractor.
 
-    Translation runs Eq. 2 on the position error per base-frame axis; beyond the paper (SPEC 1.2), rotation runs
+    Translation runs Eq. 2 on the position error per base-frame axis; beyond the paper (docs/CONTROL_LAWS.md), rotation runs
     it on the rotation-vector (log map) error per axis. The 6-vectors are ordered x, y, z, rx, ry, rz.
     """
 

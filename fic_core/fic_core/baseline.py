@@ -1,4 +1,4 @@
-"""The experiments' baseline: a linear Cartesian impedance with the FIC's stiffness K0 (SPEC 3, E4).
+"""The experiments' baseline: a linear Cartesian impedance with the FIC's stiffness K0 (E4, docs/EXPERIMENTS.md).
 
     wrench = K*e + D*de/dt ,   e = x_d - x per axis (translation, then rotation vector)
 

@@ -1,4 +1,4 @@
-"""The replica's torque law (paper Eq. 7) followed by the postural optimisation (SPEC 1.5).
+"""The replica's torque law (paper Eq. 7) followed by the postural optimisation (docs/CONTROL_LAWS.md).
 
     tau_d = C(q, qd) qd + G(q) + J(q)^T (FIC(x~_R) + Lambda a_d) + tau_posture ,   x~_R = x_d - x_R ,
                                                                                    x_d = x_d' + x_d''
@@ -46,7 +46,7 @@ caps the effective mass of any task direction at 1/mu = 1000 kg: near a singular
 Lambda stays finite (a damped least-squares inverse), and away from one (the Panda's effective masses are a few
 kg, eigenvalues of J M^-1 J^T above 0.1) it changes Lambda by less than 1 %.
 
-Cost (the 1 kHz budget, issue 3 item 8): the tick validates every public input once (one sum of Python floats
+Cost (the 1 kHz budget, docs/RESULTS.md): the tick validates every public input once (one sum of Python floats
 per signal: NaN and Inf propagate into it; a desired rotation matrix equal to the last one checked is not
 checked for orthonormality again), runs the per-axis FIC logic and the postural optimisation's admissibility
 test on plain floats (one pass that also tells whether the measured state is inside its limits, which settles
@@ -423,7 +423,7 @@ class ReplicaController:
         self._previous_values: list[float] | None = None
         self._tcp_speed_bound = self.limits.tcp_speed + VIOLATION_TOLERANCE
         # An unshaped tau_d passed the optimisation's torque and torque-rate tests: with the same limits (and a
-        # rate step no larger than the violation check's), it is inside SPEC 2.2's torque and rate limits too.
+        # rate step no larger than the violation check's), it is inside the violation check's torque and rate limits too.
         self._verdict_covers_violations = self.optimisation.limits == self.limits and \
             self.optimisation._rate_step <= self.limits.torque_rate * self.control_period + VIOLATION_TOLERANCE
         self._valid_rotation_rows: list[list[float]] | None = None  # the last desired rotation matrix checked
@@ -640,7 +640,7 @@ class ReplicaController:
 
     def _violation_free(self, torque: list[float], qd: list[float], position_margin: list[float],
                         tcp_speed: float, interval: float) -> bool:
-        """No SPEC 2.2 violation (the common tick), on floats; ``_violations`` names them otherwise."""
+        """No limit violation (docs/CONTROL_LAWS.md; the common tick), on floats; ``_violations`` names them otherwise."""
         limits = self.limits
         tolerance = VIOLATION_TOLERANCE
         if tcp_speed > limits.tcp_speed + tolerance:
@@ -661,7 +661,7 @@ class ReplicaController:
     def _violations(self, previous: NDArray[np.float64] | None, torque: NDArray[np.float64],
                     qd: NDArray[np.float64], position_margin: NDArray[np.float64], tcp_speed: float,
                     interval: float) -> LimitFlag:
-        """SPEC 2.2's violation flags, with one fused test for the common all-clear tick."""
+        """The limit-violation flags (docs/CONTROL_LAWS.md), with one fused test for the common all-clear tick."""
         limits = self.limits
         if previous is None:
             excess = (np.abs(np.concatenate((torque, qd))) - self._first_bounds).max()

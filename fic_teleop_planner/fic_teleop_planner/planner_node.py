@@ -1,4 +1,4 @@
-"""Planner node: the autonomous part x_d'' of the replica's command (paper Eqs. 5-6, SPEC 1.4).
+"""Planner node: the autonomous part x_d'' of the replica's command (paper Eqs. 5-6, docs/CONTROL_LAWS.md).
 
 A trajectory source (fic_core.trajectories: the paper's circle, a fixed point or via-points, chosen by the
 ``trajectory`` parameter) gives the next trajectory point x_t(t); fic_core.HarmonicPlanner turns it into x_d'',

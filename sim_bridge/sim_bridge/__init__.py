@@ -8,7 +8,7 @@ from sim_bridge import stop_signals as _stop_signals
 _stop_signals.install_if_blocked()
 
 # MuJoCo chooses its OpenGL backend once, when it is first imported, and without a display only EGL works here
-# (Mesa llvmpipe; osmesa does not, see PLATFORM.md). Every sim_bridge module that imports mujoco goes through
+# (Mesa llvmpipe; osmesa does not, docs/CONVENTIONS.md). Every sim_bridge module that imports mujoco goes through
 # this package first, so this is the one place where the choice is made before the import.
 if not _os.environ.get("DISPLAY") and not _os.environ.get("WAYLAND_DISPLAY"):
     _os.environ.setdefault("MUJOCO_GL", "egl")

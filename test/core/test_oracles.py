@@ -1,7 +1,7 @@
 """Independent oracles for the replica's torque law (paper Eq. 7) and the postural optimisation.
 
 Every expected value here is computed by the test itself: the dynamics from Pinocchio calls of its own, the FIC
-force profile (paper Eq. 1 with the errata of docs/CONVENTIONS.md) and the attractor's laws (paper Eq. 2) written
+force profile (paper Eq. 1 with the errata of docs/CONTROL_LAWS.md) and the attractor's laws (paper Eq. 2) written
 out below, the null-space posture and the feedforward written out, and the postural optimisation's QP built from
 its definition and solved by a second solver (quadprog, Goldfarb-Idnani dual active set) that the code does not
 use. Nothing is read back from the command but the torque under test.

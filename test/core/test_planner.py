@@ -1,4 +1,4 @@
-"""Harmonic planner (paper Eqs. 5-6, SPEC 1.4): fixed targets without overshoot, within v_d and a_max."""
+"""Harmonic planner (paper Eqs. 5-6, docs/CONTROL_LAWS.md): fixed targets without overshoot, within v_d and a_max."""
 from __future__ import annotations
 
 import math

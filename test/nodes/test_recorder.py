@@ -1,4 +1,4 @@
-"""The recorder node as a real process over DDS (issue 5 items 3 and 6).
+"""The recorder node as a real process over DDS.
 
 A publisher process sends /joint_states at 1 kHz with stamps 1 ms apart (a few stamps deliberately skipped, so
 the gap count has something to find) and our own messages on four other topics; the recorder is stopped with

@@ -1,7 +1,7 @@
 """ReplicaController closing the loop on the MuJoCo Panda (sim_bridge.robot.mujoco_panda), in one process, at 1 kHz.
 
 The controller's model is Pinocchio's; the plant here is MuJoCo's (its own integrator, implicit joint damping,
-armature, motor clamps), so the tracking claims of the replica (docs: README "Replica (Eq. 7)") are measured on a
+armature, motor clamps), so the tracking claims of the replica (docs/CONTROL_LAWS.md, "Replica (Eq. 7)") are measured on a
 plant the controller does not simulate itself. Errors are taken from MuJoCo's TCP site, limits from MuJoCo's state,
 and energy as the work the controller's wrench does on the arm (the integral of F . v), not the code's own
 stored-energy function. Figures of 2026-12-02 (deterministic: MuJoCo and the law are both deterministic):

@@ -136,7 +136,7 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
 
 
 def report_metrics(bag: Path) -> dict:
-    """The report's metrics (the README's "Results", sim_bridge.report), computed in-process without plots."""
+    """The report's metrics (docs/EXPERIMENTS.md, "Metrics"; sim_bridge.report), computed in-process without plots."""
     from sim_bridge.report.bag_data import load_bag
     from sim_bridge.report.metrics import ReportSettings, analyse
     from sim_bridge.report.report import replica_config_defaults

@@ -1,10 +1,10 @@
-"""The sweep stability criterion of SPEC 2.2 ("stable (for sweeps)"), stated precisely and computed from time series.
+"""The sweep stability criterion (docs/EXPERIMENTS.md), stated precisely and computed from time series.
 
 A run is judged on its LAST HALF, ``[T/2, T]`` with ``T`` the last sample time (the first half is left to start-up
 transients). It is STABLE when all four tests pass:
 
 1. No limit violation: the replica's cumulative ``LimitStatus.violation_ticks`` counter does not increase over the
-   last half (a tick whose command or measured state broke a Panda limit, SPEC 1.5 / 2.2).
+   last half (a tick whose command or measured state broke a Panda limit, docs/CONTROL_LAWS.md).
 2. Bounded tracking error: ``max |e(t)| <= error_bound`` over the last half, with ``e = x_d - x_R`` the TCP
    position error (x_d including the planner's motion). Default bound 0.20 m = 4 x_b (x_b = 0.05 m, paper
    Sec. III): the scripted tasks never command the TCP more than about 0.11 m into a rigid obstacle (half an
@@ -24,7 +24,7 @@ transients). It is STABLE when all four tests pass:
    the error, which the detrending turns into ONE alternation, not an oscillation. With force data, only the
    free-motion windows of each quarter are compared when each quarter has at least 2 (an impact burst in the
    last quarter of a contact task is the environment's doing); otherwise all windows.
-4. No sustained oscillation IN FREE MOTION: among the last half's windows spent in free motion (SPEC 2.2: the F/T
+4. No sustained oscillation IN FREE MOTION: among the last half's windows spent in free motion (docs/EXPERIMENTS.md: the F/T
    force below 1 N and for 0.2 s; a window is free when 80 % of it is), the oscillation amplitude ``max |e_osc|`` exceeds
    ``oscillation_amplitude`` (5 mm = x_b/10) in fewer than ``sustained_fraction`` (90 %) of the last half's
    windows (it persists through the last half: contact chatter while the task presses on an obstacle stops
@@ -68,7 +68,7 @@ class StabilityCriterion:
     growth_ratio: float = 2.0            # fourth-quarter / third-quarter median window energy
     min_cycles: int = 3                  # oscillation cycles that make a growth or a sustained oscillation
     min_alternation_rate: float = 1.0    # [1/s] sign alternations a second of a sustained oscillation
-    free_force: float = 1.0              # [N] SPEC 2.2 free motion: |F| below this ...
+    free_force: float = 1.0              # [N] free motion: |F| below this ...
     free_hold: float = 0.2               # [s] ... for this long
     free_window_share: float = 0.8       # a window is a free-motion window when this share of it is free
     stiffness: float = 200.0             # [N/m] K0 of the replica
@@ -200,7 +200,7 @@ def _alternations(grid: NDArray, oscillation: NDArray, start: float, stop: float
 
 
 def _free_motion(time: NDArray, magnitude: NDArray, criterion: StabilityCriterion) -> NDArray:
-    """SPEC 2.2: a sample is free motion when the force has been below free_force for at least free_hold."""
+    """A sample is free motion (docs/EXPERIMENTS.md) when the force has been below free_force for at least free_hold."""
     below = magnitude < criterion.free_force
     free = np.zeros(time.size, dtype=bool)
     since = None

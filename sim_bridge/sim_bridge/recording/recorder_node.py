@@ -1,4 +1,4 @@
-"""Recorder node: every topic of the teleoperation graph to a rosbag2-layout MCAP bag (SPEC 4; issue 5 item 3).
+"""Recorder node: every topic of the teleoperation graph to a rosbag2-layout MCAP bag (README.md, "What the demo shows").
 
 Wiring only; the file format is sim_bridge.recording.bag_writer. The subscriptions are raw (CDR bytes, never
 deserialised) and their callbacks only append (topic index, bytes, receive time) to a deque; a writer thread

@@ -1,4 +1,4 @@
-"""Turn a recorded session (rosbag2-layout MCAP bag) into metrics.json and the paper-style plots (the README's "Results").
+"""Turn a recorded session (rosbag2-layout MCAP bag) into metrics.json and the paper-style plots (docs/EXPERIMENTS.md, "Metrics").
 
     python -m sim_bridge.report <bag folder or .mcap> [--out DIR] [--warmup 2.0] [--f-max 15]
 

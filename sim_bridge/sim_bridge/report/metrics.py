@@ -1,4 +1,4 @@
-"""The SPEC 2.2 metrics of a recorded session (issue 5 item 4), as implemented here.
+"""The metrics of a recorded session (defined in docs/EXPERIMENTS.md, "Metrics"), as implemented here.
 
 Time base: header stamps (sim time in lockstep mode); t0 = the first /joint_states stamp (else the earliest
 stamp of any decoded topic). Warm-up: samples stamped before t0 + warmup_s (default 2 s: the arm settling, DDS
@@ -38,7 +38,7 @@ import numpy as np
 
 from .bag_data import DELIVERY_TOPIC, FIC_STATE_TOPIC, FORWARD_TOPICS, LIMIT_STATUS_TOPIC, BagData
 
-# Targets of the default run (issue 5 item 5): metric -> (comparison, value).
+# Targets of the default run (docs/EXPERIMENTS.md, "Metrics"): metric -> (comparison, value).
 TARGETS = {
     "free_motion_error_max_m": ("<", 0.05),
     "free_motion_error_rms_m": ("<", 0.01),
@@ -53,7 +53,7 @@ TARGETS = {
 @dataclass
 class ReportSettings:
     warmup_s: float = 2.0                 # left out of error/force/latency figures
-    free_force_threshold_n: float = 1.0   # SPEC 2.2: free motion when |F| < 1 N ...
+    free_force_threshold_n: float = 1.0   # free motion when |F| < 1 N ...
     free_hold_s: float = 0.2              # ... and has been for 0.2 s
     error_bound_m: float = 0.05           # x_b, the paper's bound (plotted)
     max_force_n: float | None = None      # F_max of the controller (plotted when known)
@@ -100,7 +100,7 @@ def _tracking_error(data: BagData) -> tuple[np.ndarray, np.ndarray, str]:
 
 
 def free_motion_flags(ft_t: np.ndarray, force: np.ndarray, threshold: float, hold: float) -> np.ndarray:
-    """Per F/T sample: |F| < threshold now and at every sample of the last `hold` seconds (SPEC 2.2).
+    """Per F/T sample: |F| < threshold now and at every sample of the last `hold` seconds (docs/EXPERIMENTS.md).
 
     The first `hold` seconds of the stream count as contact (not yet known to be free)."""
     if len(ft_t) == 0:
@@ -139,7 +139,7 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
     cut = t0 + settings.warmup_s
     m: dict = {}
 
-    # Tracking error and free motion (SPEC 2.2).
+    # Tracking error and free motion (docs/EXPERIMENTS.md, "Metrics").
     error_t, error, source = _tracking_error(data)
     if data.has("/ft_sensor/wrench"):
         ft = series["/ft_sensor/wrench"]
