@@ -542,7 +542,10 @@ class ReplicaController:
             # + D qd_d, qd_d = M^-1 J^T Lambda xd_d: the friction of the desired motion (module docstring).
             desired_joint_velocity = j_minv.T.dot(self._feedforward_wrench(task_inverse_inertia,
                                                                            np.array(desired_twist)))
-            drive += robot.joint_damping * desired_joint_velocity
+            # Bounded by the friction at the joints' own speed limits: a faster desired motion is one the arm
+            # cannot make, so its friction is never there to cancel (|D qd_d| <= D qd_max per joint).
+            velocity_limit = self.limits.joint_velocity_array
+            drive += robot.joint_damping * np.clip(desired_joint_velocity, -velocity_limit, velocity_limit)
         desired_torque = nonlinear + drive
 
         # Postural optimisation: M qdd = tau - (C qd + g) - D qd in the prediction (the arm's joint damping).

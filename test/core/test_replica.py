@@ -221,6 +221,31 @@ def test_joint_damping_compensation_adds_the_friction_of_the_desired_motion(robo
                                                                                  rotation).unshaped_torque)
 
 
+def test_joint_damping_compensation_is_bounded_by_the_friction_at_the_joint_speed_limits(robot: RobotModel) -> None:
+    """A desired twist no arm can follow (50 m/s, 200 rad/s) adds at most D qd_max per joint; the same term as an
+    unclipped expression would exceed it, so the clip is what bounds it."""
+    from fic_core.limits import PANDA_JOINT_VELOCITY_LIMIT
+    rng = np.random.default_rng(8)
+    position, rotation = nominal_pose(robot)
+    bound = JOINT_DAMPING * np.array(PANDA_JOINT_VELOCITY_LIMIT)
+    data = robot.model.createData()
+    for _ in range(10):
+        q = NOMINAL_CONFIGURATION + rng.normal(scale=0.2, size=7)
+        qd = rng.normal(scale=0.5, size=7)
+        twist = np.concatenate((rng.normal(scale=50.0, size=3), rng.normal(scale=200.0, size=3)))
+        plain = ReplicaController(robot, paper_fic()).command(q, qd, position, rotation, twist)
+        compensated = ReplicaController(robot, paper_fic(), joint_damping_compensation=True).command(
+            q, qd, position, rotation, twist)
+        added = compensated.unshaped_torque - plain.unshaped_torque
+        assert np.all(np.abs(added) <= bound + 1e-9), (added, bound)
+        minv = pin.computeMinverse(robot.model, data, q)
+        minv = np.triu(minv) + np.triu(minv, 1).T
+        jacobian = pin.computeFrameJacobian(robot.model, data, q, robot.tcp_frame_id, pin.LOCAL_WORLD_ALIGNED)
+        inertia = np.linalg.inv(jacobian @ minv @ jacobian.T + 1e-3 * np.eye(6))
+        unclipped = JOINT_DAMPING * (minv @ jacobian.T @ inertia @ twist)
+        assert np.any(np.abs(unclipped) > bound)
+
+
 def test_feedforward_produces_the_desired_task_acceleration(robot: RobotModel) -> None:
     """J M^-1 (J^T Lambda (a_d - Jdot qd)) + Jdot qd = a_d up to the regularisation, at random states; a 3-vector
     means zero angular acceleration; the feedforward is part of tau_d."""
