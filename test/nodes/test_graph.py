@@ -147,3 +147,51 @@ def test_ctrl_c_still_finishes_the_bag_and_the_report(tmp_path: Path, ros_env: d
         summary = make_reader(stream).get_summary()  # a finished bag has its summary and footer
     assert summary is not None and summary.statistics.message_count > 1000
     assert (out / "report" / "metrics.json").exists()
+
+
+#: Metrics of a replayed bag that are not the run's but the replay's: wall time, the pace of the replay, and what
+#: the report counts of /diagnostics (its publishers were not replayed at their own rate).
+REPLAY_DEPENDENT = ("real_time_factor", "wall_duration_s", "bag")
+
+
+def test_bag_played_into_the_recorder_gives_the_report_the_same_metrics(blackout_run: Path, tmp_path: Path) -> None:
+    """`scripts/fic bag play` puts the recorded bag back on the topics, the project's recorder records it again,
+    and the report of the second bag gives the run's metrics: every message came through, contents unchanged."""
+    original = json.loads((blackout_run / "report" / "metrics.json").read_text())
+    replayed_bag = tmp_path / "replayed"
+    with reserved_domain() as domain:
+        env = isolated_env(tmp_path / "ros_log", domain)
+        recorder = subprocess.Popen(
+            [str(REPO / "install" / "sim_bridge" / "lib" / "sim_bridge" / "recorder_node"), "--ros-args",
+             "-r", "__node:=recorder", "-p", f"bag_path:={replayed_bag}", "-p", "all:=true",
+             "-p", "discovery_period:=0.1"],
+            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+        try:
+            time.sleep(3.0)   # the recorder is up before the publishers appear (it subscribes as they do)
+            play = subprocess.run([str(REPO / "scripts" / "fic"), "bag", "play", str(blackout_run / "bag"),
+                                   "--wait-for-subscribers", "10"],
+                                  env=env, capture_output=True, text=True, timeout=300)
+            assert play.returncode == 0, play.stdout + play.stderr
+            time.sleep(2.0)   # the last messages reach the recorder
+        finally:
+            recorder.send_signal(signal.SIGINT)
+            recorder_output, _ = recorder.communicate(timeout=60)
+    assert recorder.returncode == 0, recorder_output[-3000:]
+    out = tmp_path / "report"
+    result = subprocess.run([sys.executable, "-m", "sim_bridge.report", str(replayed_bag), "--out", str(out)],
+                            env=env, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    replayed = json.loads((out / "metrics.json").read_text())
+    differing = {}
+    counts, replayed_counts = original.pop("message_counts"), replayed.pop("message_counts")
+    for topic, count in counts.items():
+        if topic not in ("/diagnostics", "/rosout", "/parameter_events") and replayed_counts.get(topic) != count:
+            differing[f"message_counts[{topic}]"] = (count, replayed_counts.get(topic))
+    for key, value in original.items():
+        if key in REPLAY_DEPENDENT or "diagnostic" in key:
+            continue
+        other = replayed.get(key)
+        same = (other == pytest.approx(value, rel=1e-6, abs=1e-9)) if isinstance(value, float) else other == value
+        if not same:
+            differing[key] = (value, other)
+    assert not differing, "\n".join(f"{key}: {pair[0]} against {pair[1]}" for key, pair in differing.items())
