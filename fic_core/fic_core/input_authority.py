@@ -32,7 +32,9 @@ the intruder's. A hold is not lifted on its own: once a second writer was seen, 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -58,6 +60,17 @@ class AuthorityBounds:
     workspace_scale: tuple[float, float] = (0.01, 100.0)  # s_M, the master's parameter range
     velocity_gain: tuple[float, float] = (0.0, 100.0)     # k_v [1/s], the master's parameter range
     max_handle_position: float = 10.0   # [m] |x_M| per axis; a haptic handle moves a few cm
+
+    @classmethod
+    def from_parameters(cls, values: Mapping[str, Any]) -> AuthorityBounds:
+        """The bounds from the replica's parameters (config/replica.yaml): ``offset_workspace`` (half the box's
+        side), ``max_offset_speed``, ``max_offset_burst``, ``command_future_tolerance``, ``max_command_age``."""
+        half = float(values["offset_workspace"])
+        return cls(offset_lower=(-half, -half, -half), offset_upper=(half, half, half),
+                   max_offset_speed=float(values["max_offset_speed"]),
+                   max_offset_burst=float(values["max_offset_burst"]),
+                   future_tolerance=float(values["command_future_tolerance"]),
+                   max_age=float(values["max_command_age"]))
 
     def __post_init__(self) -> None:
         lower = finite_array("offset_lower", self.offset_lower, (3,))

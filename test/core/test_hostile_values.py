@@ -9,16 +9,24 @@ from __future__ import annotations
 
 import warnings
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+import yaml
 
 from fic_core.attractor import PoseAttractor
 from fic_core.errors import FicInputError
+from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.limits import LimitFlag, PandaLimits
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel
 from fic_core.set_point import SampledSetPoint
+
+#: The replica's shipped parameters (the input authority's bounds among them).
+REPLICA_DEFAULTS = yaml.safe_load((Path(__file__).resolve().parents[2] / "config" / "replica.yaml").read_text()
+                                  )["/**"]["ros__parameters"]
 
 HOSTILE_OFFSETS = (1e3, -1e3, 1e308, -1e308, 1.7e308)
 DT = 0.001
@@ -143,16 +151,13 @@ def test_mujoco_arm_under_a_hostile_offset_stays_inside_its_limits(robot: RobotM
 
 @pytest.mark.filterwarnings("ignore:overflow encountered in reduce:RuntimeWarning")
 @pytest.mark.parametrize("hostile", [
-    # Fails today (2026-12-02): x_d' = 1e3 m reaches the law unbounded, the arm is driven at its velocity limits
-    # toward it and MuJoCo's joint 6 reaches 2.6106 rad/s against 2.61 (the prediction's model mismatch). What the
-    # replica's input authority (bounding x_d' to the workspace and its speed before the law) must fix; strict, so
-    # the marker has to go when it does.
-    pytest.param(1e3, marks=pytest.mark.xfail(strict=True, reason="x_d' is not bounded before the replica loop")),
-    1e308])
+    # Without the input authority in front of the loop, x_d' = 1e3 m reached the law unbounded, the arm was driven
+    # at its velocity limits toward it and MuJoCo's joint 6 reached 2.6106 rad/s against 2.61 (2026-12-02).
+    1e3, 1e308])
 def test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits(robot: RobotModel,
                                                                                   hostile: float) -> None:
-    """The replica node's whole logic (fic_core.replica_loop.ReplicaLoop, what the node wires to its topics, with
-    the node's defaults) closing the loop on the MuJoCo arm at 1 kHz for 2 s, fed 100 Hz teleoperation commands:
+    """The replica node's whole logic (fic_core.input_authority.CommandAuthority in front of
+    fic_core.replica_loop.ReplicaLoop, what the node wires to its topics, with the node's defaults) closing the loop on the MuJoCo arm at 1 kHz for 2 s, fed 100 Hz teleoperation commands:
     normal ones, then a hostile offset, its negative, stamps 1e9 s ahead, at epoch 0 and 1e308, and normal ones
     again. Every joint state is answered with a finite torque (a refused command raises FicInputError only at its
     input), MuJoCo's arm stays inside every limit, and the offset feedforward works again at the end."""
@@ -162,6 +167,7 @@ def test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits(
     limits = PandaLimits.from_robot(robot)
     sim = PandaSimulation("free_space", 0)
     loop = ReplicaLoop({"answer_every_state": True}, robot)
+    authority = CommandAuthority(AuthorityBounds.from_parameters(REPLICA_DEFAULTS))
     base = 1000.0
     hostile_commands = {60: (hostile, 0.0), 61: (-hostile, 0.0), 62: (0.0, 1e9), 63: (0.0, -base),
                         64: (0.0, 1e308 - base), 65: (hostile, 1e9)}
@@ -172,8 +178,15 @@ def test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits(
         if tick % 10 == 0:
             command = tick // 10
             value, stamp_shift = hostile_commands.get(command, (0.0005 * command, 0.0))
+            stamp_ns = int(min((time + stamp_shift) * 1e9, 2 ** 63 - 1))
+            verdict = authority.check(stamp=stamp_ns * 1e-9, now=time, mode=0, haptic_gain=0.5, workspace_scale=1.0,
+                                      velocity_gain=2.0, handle_position=(0.0, 0.0, 0.0),
+                                      desired_offset=(value, 0.0, 0.0))
+            if not verdict.accepted:
+                refused += 1
+                continue
             try:
-                loop.add_teleoperation(int(min((time + stamp_shift) * 1e9, 2 ** 63 - 1)), [value, 0.0, 0.0], time)
+                loop.add_teleoperation(stamp_ns, verdict.offset, time)
             except FicInputError:
                 refused += 1
         step = loop.joint_state(time, time, sim.joint_positions, sim.joint_velocities)

@@ -138,3 +138,19 @@ def test_a_joint_state_from_the_future_is_not_used() -> None:
     used, reason = guard.joint_state(NOW + 1.0e6, NOW)
     assert not used and guard.held and "future" in reason
     assert guard.joint_state(NOW, NOW) == (True, "")  # the future stamp did not become the reference
+
+
+def test_bounds_from_the_replica_parameters_are_the_shipped_ones() -> None:
+    """The node and the in-process runner build the authority from config/replica.yaml through one constructor."""
+    from pathlib import Path
+
+    import yaml
+
+    values = yaml.safe_load((Path(__file__).resolve().parents[2] / "config" / "replica.yaml").read_text()
+                            )["/**"]["ros__parameters"]
+    bounds = AuthorityBounds.from_parameters(values)
+    half = values["offset_workspace"]
+    assert bounds.offset_lower == (-half, -half, -half) and bounds.offset_upper == (half, half, half)
+    assert (bounds.max_offset_speed, bounds.max_offset_burst, bounds.future_tolerance, bounds.max_age) == (
+        values["max_offset_speed"], values["max_offset_burst"], values["command_future_tolerance"],
+        values["max_command_age"])

@@ -26,6 +26,7 @@ import mujoco
 import numpy as np
 import yaml
 
+from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_core.planner import HarmonicPlanner
@@ -41,9 +42,9 @@ STEP = 0.001                     # the robot's physics step and joint-state peri
 SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
 PLANNER_LAG_S = 0.2
 JOY_RATE_HZ = 50.0               # the device node's button messages
-#: config/replica.yaml's keys of the node's input authority (fic_teleop_replica.input_guard), not of ReplicaLoop.
-#: Not modelled here: this process is the only writer and stamps its own messages, so the refusals cannot fire,
-#: and its clamp of x_d' (+-offset_workspace, max_offset_speed) is not applied.
+#: config/replica.yaml's keys of the node's input authority (fic_core.input_authority), not of ReplicaLoop. The
+#: same CommandAuthority judges every delivered command here as in the node (the workspace clamp of x_d' and its
+#: speed bound); the node's one-writer and stream checks have nothing to check in one process.
 INPUT_AUTHORITY_PARAMETERS = ("offset_workspace", "max_offset_speed", "max_offset_burst", "command_future_tolerance",
                               "max_command_age")
 
@@ -115,6 +116,7 @@ def _every(rate: float) -> int:
 def run(config: RunConfig) -> RunResult:
     """One run of the graph (module docstring)."""
     r, m, h = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("haptic_device.yaml")
+    authority = CommandAuthority(AuthorityBounds.from_parameters(r))
     r = {name: value for name, value in r.items() if name not in INPUT_AUTHORITY_PARAMETERS}
     pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
@@ -191,7 +193,10 @@ def run(config: RunConfig) -> RunResult:
         if k % network_every == 0:
             offset = master.desired_offset(now)
             if offset is not None:
-                forward.push((ns, offset), now, now)
+                integrator = master.integrator
+                forward.push((ns, offset, int(integrator.mode.value), master.law.haptic_gain,
+                              integrator.workspace_scale, integrator.velocity_gain, master.handle_position.copy()),
+                             now, now)
         if k % planner_every == 0:
             if k:
                 planner.step(source.point(max(now - planner_origin, 0.0), position=planner.position),
@@ -200,8 +205,14 @@ def run(config: RunConfig) -> RunResult:
             replica.add_planner_acceleration(planner.acceleration, now)
         if k % delivery_every == 0:
             for delivery in forward.pop_due(now):
-                stamp_ns, offset = delivery.payload
-                replica.add_teleoperation(stamp_ns, offset, now)
+                stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle = delivery.payload
+                if replica.desired.master_stale:   # as the node: the resume's jump is the replica's to give back
+                    authority.reset()
+                verdict = authority.check(stamp=stamp_ns * 1e-9, now=now, mode=mode, haptic_gain=haptic_gain,
+                                          workspace_scale=workspace_scale, velocity_gain=velocity_gain,
+                                          handle_position=handle, desired_offset=offset)
+                if verdict.accepted:
+                    replica.add_teleoperation(stamp_ns, verdict.offset, now)
             for delivery in backward.pop_due(now):
                 master.add_feedback(delivery.payload, now)
         # Robot side: the joint state of step k, the replica's answer, the physics step.
