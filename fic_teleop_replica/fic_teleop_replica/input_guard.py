@@ -51,6 +51,9 @@ class InputGuard:
             future_tolerance=value["command_future_tolerance"],
             max_age=value["max_command_age"]))
         self.streams = RobotStreamGuard(future_tolerance=value["command_future_tolerance"])
+        # The names after the node's remaps (a driver profile renames /joint_states): count the writers there.
+        self._robot_streams = tuple(node.resolve_topic_name(topic) for topic in ROBOT_STREAMS)
+        self._teleop_topic = node.resolve_topic_name(TELEOP_TOPIC)
         node.create_timer(PUBLISHER_CHECK_PERIOD_S, self._check_publishers)
 
     @property
@@ -72,7 +75,7 @@ class InputGuard:
         logger = self._node.get_logger()
         # One writer: the channel (or the master, without a channel). While a second one is on the topic, no
         # command can be told from the other's: x_d' is held, as when the master is silent.
-        writers = self._node.count_publishers(TELEOP_TOPIC)
+        writers = self._node.count_publishers(self._teleop_topic)
         if writers > 1:
             self.authority.refused += 1
             logger.error(f"refusing /replica/teleop_command: {writers} publishers on it, one is the channel's; holding "
@@ -106,7 +109,7 @@ class InputGuard:
     def _check_publishers(self) -> None:
         if self.streams.held:
             return
-        for topic in ROBOT_STREAMS:
+        for topic in self._robot_streams:
             writers = [f"{info.node_namespace.rstrip('/')}/{info.node_name}"
                        for info in self._node.get_publishers_info_by_topic(topic)]
             reason = self.streams.publishers(topic, writers)

@@ -158,6 +158,20 @@ def test_replica_under_the_franka_profile(start_node, ros_env, rclpy_context) ->
     publish_states(0.3)
     assert replica.wait_for_output("joint states are back", timeout=5.0), replica.output()
 
+    # A second writer on the profile's joint-state topic (after the remap, not /joint_states): the safe hold.
+    from rclpy.node import Node
+
+    intruder = Node("test_intruder", context=rclpy_context)
+    intruder.create_publisher(JointState, "/franka/joint_states", _qos(True, 10))
+    try:
+        deadline = time.monotonic() + 15.0
+        while time.monotonic() < deadline and "SAFE HOLD" not in replica.output():
+            publish_states(0.2)
+        line = next((line for line in replica.output().splitlines() if "SAFE HOLD" in line), "")
+        assert "/franka/joint_states" in line, replica.output()[-3000:]
+    finally:
+        intruder.destroy_node()
+
 
 def test_fd_adapter(start_node, ros_env, rclpy_context) -> None:
     from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
