@@ -1,7 +1,7 @@
 # Source this file to get a shell where the fic_teleop workspace runs: `source scripts/env.sh`.
 # It activates the venv (ROS 2 Jazzy from wheels) and overlays our colcon install/ on it through colcon's own
 # local_setup (which also puts the symlinked Python sources on PYTHONPATH). With an existing ROS 2 Jazzy
-# install, source /opt/ros/jazzy/setup.bash and install/setup.bash instead (see README).
+# install, source /opt/ros/jazzy/setup.bash and install/setup.bash instead (docs/TOOLS.md).
 _fic_repo="$(cd "$(dirname "${BASH_SOURCE[0]:-$0}")/.." && pwd)"
 _fic_venv="${FIC_VENV:-$_fic_repo/.venv}"
 # shellcheck source=/dev/null

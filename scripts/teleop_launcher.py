@@ -316,7 +316,7 @@ def _report_scheduling(running: Graph, run_dir: Path) -> None:
         print(f"[run] SCHED_FIFO: {', '.join(applied)}")
     if refused:
         print(f"[run] warning: SCHED_FIFO refused for {', '.join(refused)} ({next(iter(refused.values()))}; needs root "
-              "or CAP_SYS_NICE): they run at their niceness, and the pipeline latency is longer (README)",
+              "or CAP_SYS_NICE): they run at their niceness, and the pipeline latency is longer (docs/RESULTS.md)",
               file=sys.stderr)
     _add_to_run_record(run_dir, "realtime_scheduling", summary)
 

@@ -6,7 +6,7 @@ Paper Eq. 2::
     C (convergence): FIC(e) = 2*F_c(e_max)/e_max * (e - e_max/2)
 
 The switching reading (when an axis is in D or C) is the one the project has always used
-(docs/CONTROL_LAWS.md, "The attractor's phases"):
+(docs/CONTROL_LAWS.md, "The attractor (Eq. 2)"):
 
 * An axis **enters C** when ``|e|`` is decreasing faster than the dead-band: ``sign(e)*de/dt < -rate_deadband``.
 * It **stays in C** while ``|e|`` keeps decreasing (``sign(e)*de/dt < 0``) and ``e`` keeps the sign of ``e_max``;

@@ -1,5 +1,5 @@
 """Per-cell statistics over seeds: the stable count k/n with its 95 % Wilson score interval, and the median and
-95th percentile of the tracking error and of the peak force (docs/RESULTS.md "Statistics").
+95th percentile of the tracking error and of the peak force (docs/RESULTS.md, "Seeds and statistics").
 
 Wilson (1927), "Probable inference, the law of succession, and statistical inference", JASA 22: for k successes
 in n trials and z the normal quantile (1.959964 for 95 %),
