@@ -49,7 +49,7 @@ from sim_bridge.recording.bag_writer import BagError, BagWriter, MessageDefiniti
 from sim_bridge.recording.live_view import LiveView, LiveViewError
 from sim_bridge.message_types import message_class
 
-# The topic table of docs/CONVENTIONS.md: what a session is.
+# The topic table of docs/INTERFACES.md: what a session is.
 DEFAULT_TOPICS = [
     "/haptic/pose", "/haptic/twist", "/haptic/wrench_command", "/operator/joy",
     "/master/pose", "/master/teleop_command", "/master/feedback_wrench",
@@ -62,7 +62,7 @@ DEFAULT_TOPICS = [
     "/sim/object_poses", "/sim/tcp_pose",
 ]
 # Subscriber QoS: RELIABLE so that DDS resends what a busy recorder missed, KEEP_LAST deep enough to absorb a
-# 1 s stall of the writer at 1 kHz (CONVENTIONS asks publishers for depth 50; a deeper reader queue is free).
+# 1 s stall of the writer at 1 kHz (docs/CONVENTIONS.md, "QoS": the robot keeps 1000 too; a deeper reader queue is free).
 # BEST_EFFORT / TRANSIENT_LOCAL only when every publisher offers it (a reliable reader cannot match a
 # best-effort writer; transient-local gets the latched sample).
 DEFAULT_QUEUE_DEPTH = 1000
@@ -121,7 +121,7 @@ class RecorderNode(Node):
             "bag folder to create (rosbag2 layout: <bag_path>/<name>_0.mcap + metadata.yaml); "
             "empty: bags/rosbag2_<date>-<time> in the working directory"))
         self.declare_parameter("topics", DEFAULT_TOPICS, _descriptor(
-            "topics to record as they appear in the graph (default: the topic table of docs/CONVENTIONS.md)",
+            "topics to record as they appear in the graph (default: the topic table of docs/INTERFACES.md)",
             type_=ParameterType.PARAMETER_STRING_ARRAY))
         self.declare_parameter("all", False, _descriptor(
             "record every topic the graph discovery finds (besides `topics`), except `exclude`"))
