@@ -1,13 +1,16 @@
 #!/usr/bin/env python3
 """Stability maps from the in-process runner, judged by energy and motion (docs/RESULTS.md).
 
-Cells: the one-way delay (E1 scene), the command bandwidth (the channel's rate cap, the law at full rate) and the
-whole torque loop's rate (the replica's control_rate, gravity included in the held torque), each run with the FIC,
-the FIC as the paper writes it (paper_law), the linear baseline and the linear baseline bounded at the FIC's F_max, over seeds (channel jitter, operator timing, hand impedance). Per run the verdict of
+Cells: the one-way delay (E1 scene); three bandwidth sweeps, each named for what it lowers: (a) the command
+bandwidth (the channel's rate cap, the law at full rate), (b) the FIC feedback rate (the Cartesian law J^T FIC +
+posture at control_rate while the arm's gravity and C qd are compensated at the 1 kHz physics rate, as on a Franka)
+and (c) the whole torque loop's rate (gravity included in the held torque); each run with the FIC, the FIC as the
+paper writes it (paper_law), the linear baseline, the linear baseline bounded at the FIC's F_max and that one made
+passive at the channel's ports (linear_tdpa), over seeds (channel jitter, operator timing, hand impedance). Per run the verdict of
 sim_bridge.experiments.energy_verdict; per cell k/n stable with a 95 % Wilson interval, median/p95 of the error
 and the peak force (sim_bridge.experiments.cell_statistics). Writes <out>.json and <out>_map.png.
 
-    .venv/bin/python scripts/evidence_sweep.py --quick            # 4 cells x 4 controllers x 2 seeds, 20 s
+    .venv/bin/python scripts/evidence_sweep.py --quick            # 5 cells x 5 controllers x 2 seeds, 20 s
     .venv/bin/python scripts/evidence_sweep.py --seeds 5 --duration 30 --workers 2
 """
 from __future__ import annotations
@@ -31,9 +34,12 @@ def cells(quick: bool) -> list[dict]:
     delays = (0.2, 1.0) if quick else (0.0, 0.2, 0.5, 1.0, 2.0)
     command_rates = (10.0,) if quick else (1000.0, 50.0, 10.0, 5.0)
     torque_rates = (10.0,) if quick else (1000.0, 50.0, 10.0, 5.0)
+    feedback_rates = (10.0,) if quick else (1000.0, 50.0, 10.0, 5.0)
     out = [dict(id=f"delay_{d:g}", family="delay (one way)", value=d, options=dict(delay=d)) for d in delays]
     out += [dict(id=f"command_rate_{r:g}", family="command bandwidth: channel rate cap, law at 1 kHz", value=r,
                  options=dict(delay=0.2, rate_cap=r)) for r in command_rates]
+    out += [dict(id=f"feedback_rate_{r:g}", family="FIC feedback rate: J^T FIC + posture, C qd + G at 1 kHz", value=r,
+                 options=dict(delay=0.2, control_rate=r, dynamics_at_physics_rate=True)) for r in feedback_rates]
     out += [dict(id=f"torque_loop_{r:g}", family="whole torque loop rate (gravity held too)", value=r,
                  options=dict(delay=0.2, control_rate=r)) for r in torque_rates]
     return out
@@ -63,10 +69,18 @@ def stability_map(summary: list[dict], path: Path) -> None:
     plt.close(figure)
 
 
+def ports_summary(runs: list[dict]) -> dict:
+    """The channel's passivity figures of a cell's runs: median generated energy, the observers' smallest W."""
+    return dict(channel_generated_median_j=float(np.median([r["ports"]["channel_generated_total_j"] for r in runs])),
+                observer_min_j=float(min(min(r["channel_observer_min_j"].values()) for r in runs)),
+                offset_drift_max_m=float(max(r["offset_drift_max_m"] for r in runs)))
+
+
 def table(document: dict) -> str:
     """The cells of a sweep's JSON as a markdown table (docs/RESULTS.md pastes it)."""
     lines = ["| cell | lowers | controller | stable k/n | 95 % Wilson | error RMS median [mm] | error max p95 [mm] "
-             "| peak force median / p95 [N] |", "|---|---|---|---|---|---|---|---|"]
+             "| peak force median / p95 [N] | channel generated median [J] | observer W min [J] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for row in document["cells"]:
         s = row["statistics"]
         interval = s["stable_interval_95"]
@@ -74,7 +88,9 @@ def table(document: dict) -> str:
                      + ("" if s["assessed"] == s["runs"] else f" ({s['runs']} run)")
                      + f" | {'-' if interval is None else f'{interval[0]:.2f}-{interval[1]:.2f}'}"
                      f" | {s['error_median_m'] * 1e3:.1f} | {s['error_p95_m'] * 1e3:.1f}"
-                     f" | {s['peak_force_median_n']:.1f} / {s['peak_force_p95_n']:.1f} |")
+                     f" | {s['peak_force_median_n']:.1f} / {s['peak_force_p95_n']:.1f}"
+                     + (f" | {row['ports']['channel_generated_median_j']:.3f} | {row['ports']['observer_min_j']:.3f} |"
+                        if "ports" in row else " | - | - |"))
     return "\n".join(lines) + "\n"
 
 
@@ -114,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
             stats = cell_statistics([r["stable"] for r in mine], [r["error_rms_m"] for r in mine],
                                     [r["error_max_m"] for r in mine], [r["peak_force_n"] for r in mine])
             summary.append(dict(cell=c["id"], family=c["family"], value=c["value"], controller=controller,
-                                statistics=stats.as_dict()))
+                                statistics=stats.as_dict(), ports=ports_summary(mine)))
     simulated = sum(r["simulated_s"] for r in runs)
     document = dict(seeds=seeds, duration_s=duration, channel_jitter_s=CHANNEL_JITTER_S,
                     operator_timing_jitter_s=OPERATOR_TIMING_JITTER_S, hand_impedance_jitter=HAND_IMPEDANCE_JITTER,
@@ -128,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     for row in summary:
         s = row["statistics"]
         interval = s["stable_interval_95"]
-        print(f"{row['cell']:>20} {row['controller']:>7}: {s['stable']}/{s['assessed']} stable"
+        print(f"{row['cell']:>20} {row['controller']:>14}: {s['stable']}/{s['assessed']} stable"
               + (f" [{interval[0]:.2f}, {interval[1]:.2f}]" if interval else "")
               + f", err median {s['error_median_m'] * 1e3:.1f} mm, p95 max {s['error_p95_m'] * 1e3:.1f} mm, "
                 f"F median {s['peak_force_median_n']:.1f} N p95 {s['peak_force_p95_n']:.1f} N")

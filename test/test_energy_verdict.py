@@ -22,13 +22,17 @@ DT = 0.001
 HANDLE_MASS, REPLICA_MASS, COUPLING = 0.5, 4.0, 200.0
 
 
-def bilateral(damping: float, delay: float, duration: float = 30.0):
-    """Semi-implicit Euler of the loop above; the operator pushes the handle with 2 N for 0.5 s, then lets go."""
+def bilateral(damping: float, delay: float, duration: float = 30.0, ports: bool = False):
+    """Semi-implicit Euler of the loop above; the operator pushes the handle with 2 N for 0.5 s, then lets go.
+    ``ports``: also the energy the delayed coupling generated so far, the coupling forces' work on the two masses
+    minus the coupling's storage (the two delayed springs hold K/4 of their squares each: one spring K without
+    delay)."""
     steps, lag = int(round(duration / DT)), int(round(delay / DT))
     t = np.arange(steps) * DT
     x_master, x_replica = np.zeros(steps), np.zeros(steps)
     position, velocity = np.zeros(2), np.zeros(2)
-    energy = np.zeros(steps)
+    energy, generated = np.zeros(steps), np.zeros(steps)
+    work = 0.0
     mass = np.array([HANDLE_MASS, REPLICA_MASS])
     for k in range(steps):
         x_master[k], x_replica[k] = position
@@ -37,12 +41,16 @@ def bilateral(damping: float, delay: float, duration: float = 30.0):
         hand = 2.0 if 0.5 <= t[k] < 1.0 else 0.0
         force = np.array([COUPLING * (seen_replica - position[0]) + hand,
                           COUPLING * (seen_master - position[1])]) - damping * velocity
+        coupling = np.array([COUPLING * (seen_replica - position[0]), COUPLING * (seen_master - position[1])])
         velocity = velocity + force / mass * DT
         position = position + velocity * DT
-        energy[k] = 0.5 * float(mass @ velocity ** 2) + 0.5 * COUPLING * (
-            (seen_replica - position[0]) ** 2 + (seen_master - position[1]) ** 2)
+        work += float(coupling @ velocity) * DT
+        squares = (seen_replica - position[0]) ** 2 + (seen_master - position[1]) ** 2
+        energy[k] = 0.5 * float(mass @ velocity ** 2) + 0.5 * COUPLING * squares
+        # The two delayed springs are one spring K without delay: each holds half of it, K/4 of its square.
+        generated[k] = work - 0.25 * COUPLING * squares
     motion = {"x_M": np.column_stack([x_master, 0 * t, 0 * t]), "x_R": np.column_stack([x_replica, 0 * t, 0 * t])}
-    return t, energy, motion
+    return (t, energy, motion, generated) if ports else (t, energy, motion)
 
 
 def test_delayed_position_position_without_damping_is_unstable():
@@ -110,3 +118,23 @@ def test_a_bounded_runaway_is_unstable_by_its_error():
     assert verdict.stable is False and "tracking error 300 mm" in verdict.reasons[0]
     assert assess_energy_motion(t, energy=np.full(t.size, 1.0), motion={"x_R": np.zeros(t.size)},
                                 criterion=EnergyMotionCriterion(round_trip_delay=0.4), error=error / 3).stable
+
+
+def test_the_channels_generated_energy_tells_the_two_loops_apart():
+    """Test 4 alone (flat energy and no motion given): the undamped loop's delay generates more every cycle, the
+    loop with the damping margin's generation settles; both are reported."""
+    for damping, stable in ((2.0, False), (1.5 * COUPLING * 1.0, True)):
+        t, energy, motion, generated = bilateral(damping=damping, delay=1.0, ports=True)
+        verdict = assess_energy_motion(t, energy=np.zeros(t.size), motion={}, channel_generated=generated,
+                                       passivity_margin=np.zeros(t.size),
+                                       criterion=EnergyMotionCriterion(round_trip_delay=2.0))
+        assert verdict.stable is stable, (damping, verdict.reasons, verdict.ports)
+        windows = verdict.ports["channel_generated_window_peaks_j"]
+        assert len(windows) == 2 and verdict.ports["passivity_margin_min_j"] == 0.0
+        if not stable:
+            assert windows[-1] > 2.0 * windows[0] > 0.0
+            assert any("generated energy growing" in reason for reason in verdict.reasons)
+        # With the motion and energy as well, the verdict is the one the other tests give.
+        assert assess_energy_motion(t, energy=energy, motion=motion, channel_generated=generated,
+                                    criterion=EnergyMotionCriterion(round_trip_delay=2.0)).stable is stable
+

@@ -15,7 +15,7 @@ the channel gives out at that port:
   it drifts from the received one by what was dissipated; the drift is reported, not corrected).
 
 Both act only on a tick that lets energy out (P < 0) and never dissipate more than that tick lets out, so a
-positive W leaves the signal untouched (damping zero). A bound on the damping (the damper) or on the offset
+positive W leaves the signal untouched (damping zero). With ``enabled`` False a controller only books its observer (the signal passes unchanged). A bound on the damping (the damper) or on the offset
 correction per tick (the motion side) keeps a near-zero v or F from asking for an unbounded gain; a tick that hits
 it leaves the rest of the deficit in W, for the next ticks to take out.
 """
@@ -45,7 +45,9 @@ def _dissipation(observer: ChannelPortObserver, power: float, dt: float) -> floa
 class ForcePortPassivityController:
     """The variable damper at the side where the channel gives out a force (module docstring)."""
 
-    def __init__(self, max_damping: float = math.inf) -> None:
+    def __init__(self, max_damping: float = math.inf, enabled: bool = True) -> None:
+        #: False: the observer books the port and the force passes unchanged (the channel's energy, watched only).
+        self.enabled = bool(enabled)
         self.max_damping = finite_scalar("max_damping", max_damping, minimum=0.0) if math.isfinite(max_damping) \
             else math.inf
         self.observer = ChannelPortObserver()
@@ -63,7 +65,7 @@ class ForcePortPassivityController:
         dt = finite_scalar("dt", dt, minimum=0.0)
         power = -float(force @ velocity)
         square = float(velocity @ velocity)
-        needed = _dissipation(self.observer, power, dt)
+        needed = _dissipation(self.observer, power, dt) if self.enabled else 0.0
         self.damping = min(needed / square, self.max_damping) if needed > 0.0 and square > NEGLIGIBLE_SQUARE else 0.0
         damped = force - self.damping * velocity
         self.observer.observe(-float(damped @ velocity), dt)
@@ -73,7 +75,9 @@ class ForcePortPassivityController:
 class MotionPortPassivityController:
     """The correction at the side where the channel gives out a motion (module docstring)."""
 
-    def __init__(self, max_correction: float) -> None:
+    def __init__(self, max_correction: float, enabled: bool = True) -> None:
+        #: False: the observer books the port and the offset passes unchanged (the channel's energy, watched only).
+        self.enabled = bool(enabled)
         #: Bound on |beta F dt|, the offset correction of one tick [m].
         self.max_correction = finite_scalar("max_correction", max_correction, minimum=0.0)
         self.observer = ChannelPortObserver()
@@ -103,11 +107,13 @@ class MotionPortPassivityController:
             self._received, self._delivered = received, received.copy()
         if dt == 0.0:   # the first call, or a repeat at the same instant: no rate to book
             self.gain = 0.0
+            if not self.enabled:
+                self._received, self._delivered = received, received.copy()
             return self._delivered.copy()
         velocity = (received - self._received) / dt
         power = float(force @ velocity)
         square = float(force @ force)
-        needed = _dissipation(self.observer, power, dt)
+        needed = _dissipation(self.observer, power, dt) if self.enabled else 0.0
         gain = needed / square if needed > 0.0 and square > NEGLIGIBLE_SQUARE else 0.0
         correction = gain * dt * math.sqrt(square)
         if correction > self.max_correction:
@@ -116,5 +122,6 @@ class MotionPortPassivityController:
         delivered_velocity = velocity + gain * force
         self.observer.observe(float(force @ delivered_velocity), dt)
         self._received = received
-        self._delivered = self._delivered + delivered_velocity * dt
+        # Disabled, it delivers the received offset exactly (no sum of rates rounding away from it).
+        self._delivered = self._delivered + delivered_velocity * dt if self.enabled else received.copy()
         return self._delivered.copy()

@@ -25,8 +25,8 @@ HANDLE_MASS, REPLICA_MASS, COUPLING, DAMPING = 0.5, 4.0, 200.0, 2.0
 def position_force_loop(passivity_control: bool, duration: float = 30.0) -> dict[str, np.ndarray]:
     """Semi-implicit Euler of the module docstring's loop; the hand pushes the handle with 2 N for 0.5 s."""
     steps, lag = int(round(duration / DT)), int(round(DELAY / DT))
-    master = ForcePortPassivityController()
-    replica = MotionPortPassivityController(max_correction=0.01)
+    master = ForcePortPassivityController(enabled=passivity_control)
+    replica = MotionPortPassivityController(max_correction=0.01, enabled=passivity_control)
     x_m = v_m = x_r = v_r = 0.0
     forward: list[tuple[float, float]] = []     # (x_M, E_in of the master port) as sent
     backward: list[tuple[float, float]] = []    # (F, E_in of the replica port) as sent
@@ -36,24 +36,14 @@ def position_force_loop(passivity_control: bool, duration: float = 30.0) -> dict
         # Replica side: the channel delivers x_M one delay ago (and the master's E_in with it).
         received, master_input = forward[k - lag] if k >= lag else (0.0, 0.0)
         replica.observer.receive(master_input)
-        if passivity_control:
-            desired = float(replica.step([received], [sent_force], DT if k else 0.0)[0])
-        else:   # the observer alone: the same bookkeeping, nothing changed
-            if k:
-                replica.observer.observe(sent_force * (received - previous_received) / DT, DT)
-            desired = received
-        previous_received = received
+        desired = float(replica.step([received], [sent_force], DT if k else 0.0)[0])
         coupling = COUPLING * (desired - x_r)
         sent_force = -coupling                        # the replica's reaction, sent back
         backward.append((sent_force, replica.observer.input_energy))
         # Master side: the channel delivers the replica's force one delay ago.
         force, replica_input = backward[k - lag] if k >= lag else (0.0, 0.0)
         master.observer.receive(replica_input)
-        if passivity_control:
-            rendered = float(master.step([force], [v_m], DT)[0])
-        else:
-            master.observer.observe(-force * v_m, DT)
-            rendered = force
+        rendered = float(master.step([force], [v_m], DT)[0])
         forward.append((x_m, master.observer.input_energy))
         hand = 2.0 if 0.5 <= k * DT < 1.0 else 0.0
         v_m += (rendered - DAMPING * v_m + hand) / HANDLE_MASS * DT
@@ -78,6 +68,7 @@ def with_control() -> dict[str, np.ndarray]:
 
 
 def test_without_passivity_control_the_loop_gains_energy_and_the_observers_go_negative(without) -> None:
+    assert without["damping"].max() == 0.0 and without["gain"].max() == 0.0   # the observers only watched
     energy = without["energy"]
     assert energy[-5000:].max() > 10 * energy[1000:2000].max()
     assert min(without["master_w"].min(), without["replica_w"].min()) < -0.1

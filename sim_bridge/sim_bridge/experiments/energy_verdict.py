@@ -21,6 +21,14 @@ while counting the operator's fast moves as oscillation. This one judges what an
    by F_max, say) is caught here when test 1 passes.
 3. ERROR (when given): |x_d - x_R| stays within ``error_bound`` (4 x_b) over the judged span; a bounded runaway
    neither grows nor repeats.
+4. PORTS (when given). The channel's generated energy (what left it at both ports minus what entered, the
+   time-domain passivity observers' sum, sim_bridge.experiments.channel_ports) is taken as its peak per judged
+   window: a delay that feeds a loop more energy every cycle shows peaks that grow, so a last window's peak
+   above ``growth_ratio`` times the first window's (or the ``energy_floor``, whichever is larger) is unstable. A
+   steady generation (a delayed loop driven by its operator, the surplus damped away) grows by the windows'
+   length over the run's, far below that ratio; it is reported, not judged. The task-space port's
+   passivity margin (fic_core.passivity_observer) is reported (its smallest value and its fall over the judged
+   span), not judged: the linear baselines' margin falls by design (their damping's work is not in their storage).
 
 Windows: W = max(``min_window``, 4 x the round-trip delay), long enough to hold one full period of the slowest
 oscillation a loop through that delay shows (a delay-induced oscillation has a period of at most about 4 round
@@ -83,6 +91,7 @@ class EnergyMotionVerdict:
     energy_peak: float                      # [J] over the run
     signals: dict[str, SignalOscillation] = field(default_factory=dict)
     criterion: dict = field(default_factory=dict)
+    ports: dict = field(default_factory=dict)   # test 4's figures (module docstring); empty when not given
 
     def as_dict(self) -> dict:
         values = asdict(self)
@@ -159,12 +168,33 @@ def _oscillation(time: NDArray, values: NDArray, edges: NDArray, criterion: Ener
                              any(per_axis))
 
 
+def _ports(time: NDArray, edges: NDArray, channel_generated: ArrayLike | None, passivity_margin: ArrayLike | None
+           ) -> dict:
+    """Test 4's figures: the channel's generation per judged window and its growth, the margin's minimum and fall."""
+    ports: dict = {}
+    if channel_generated is not None:
+        generated = _rows("channel_generated", time, channel_generated)[:, 0]
+        peaks = [float(generated[(time >= low) & (time < high)].max()) for low, high in zip(edges[:-1], edges[1:])]
+        ports.update(channel_generated_total_j=float(generated[-1]), channel_generated_window_peaks_j=peaks,
+                     channel_generation_growth=peaks[-1] / peaks[0] if peaks[0] > 0.0 else None)
+    if passivity_margin is not None:
+        margin = _rows("passivity_margin", time, passivity_margin)[:, 0]
+        span = margin[time >= edges[0]]
+        ports.update(passivity_margin_min_j=float(margin.min()),
+                     passivity_margin_fall_in_judged_span_j=float(span[0] - span.min()))
+    return ports
+
+
 def assess_energy_motion(time: ArrayLike, *, energy: ArrayLike, motion: dict[str, ArrayLike],
-                         criterion: EnergyMotionCriterion, error: ArrayLike | None = None) -> EnergyMotionVerdict:
+                         criterion: EnergyMotionCriterion, error: ArrayLike | None = None,
+                         channel_generated: ArrayLike | None = None,
+                         passivity_margin: ArrayLike | None = None) -> EnergyMotionVerdict:
     """Judge one run (module docstring). time (n,) [s] on a near-uniform grid; energy (n,) [J], the loop's
     mechanical energy (plus port storage); motion: name -> (n, k) positions [m] with commanded motion removed;
     error (n, 3) [m], x_d - x_R, optional: beyond ``error_bound`` in the judged span the replica has run away (a
-    bounded runaway -- an arm held against the scene by a 10 Hz torque loop -- neither grows nor repeats)."""
+    bounded runaway -- an arm held against the scene by a 10 Hz torque loop -- neither grows nor repeats);
+    channel_generated (n,) [J], the channel's generated energy so far, and passivity_margin (n,) [J], the
+    task-space port's margin, optional (test 4)."""
     time = _time(time)
     energy_values = _rows("energy", time, energy)[:, 0]
     signals = {name: _rows(name, time, values) for name, values in motion.items()}
@@ -201,10 +231,16 @@ def assess_energy_motion(time: ArrayLike, *, energy: ArrayLike, motion: dict[str
         if float(magnitude.max()) > criterion.error_bound:
             reasons.append(f"tracking error {magnitude.max() * 1e3:.0f} mm in the judged span, above the bound "
                            f"{criterion.error_bound * 1e3:.0f} mm")
+    ports = _ports(time, edges, channel_generated, passivity_margin)
+    if channel_generated is not None:
+        peaks = ports["channel_generated_window_peaks_j"]
+        if peaks[-1] > criterion.growth_ratio * max(peaks[0], criterion.energy_floor):
+            reasons.append(f"the channel's generated energy growing: window peak {peaks[-1] * 1e3:.3g} mJ against "
+                           f"{peaks[0] * 1e3:.3g} mJ in the first judged window (limit {criterion.growth_ratio:g}x)")
     oscillations = {name: _oscillation(time, values, edges, criterion) for name, values in signals.items()}
     for name, result in oscillations.items():
         if result.sustained:
             reasons.append(f"sustained oscillation of {name}: amplitude {min(result.amplitude) * 1e3:.1f} mm or more, "
                            f"periodic at {result.period:.2f} s (autocorrelation {result.periodicity:.2f}) in every {window:.2f} s window")
     return EnergyMotionVerdict(True, not reasons, reasons, window, float(judged_from), window_peaks, float(growth),
-                               peak, oscillations, asdict(criterion))
+                               peak, oscillations, asdict(criterion), ports)

@@ -15,8 +15,9 @@ CHANNEL_JITTER_S = 0.005         # per-message delay jitter (seeded); the paper'
 OPERATOR_TIMING_JITTER_S = 0.1   # script clock shift, about half a human reaction time
 HAND_IMPEDANCE_JITTER = 0.2      # +-20 % on the hand's stiffness and damping
 #: The sweep's controllers: the replica's own, and the FIC as the paper writes it (Eq. 7 + posture + postural
-#: optimisation, without the feedforward and friction terms: the replica's paper_law).
-CONTROLLERS = ("fic", "fic_paper_law", "linear", "linear_bounded")
+#: optimisation, without the feedforward and friction terms: the replica's paper_law), the linear baselines, and
+#: the bounded one made passive at the channel's ports by time-domain passivity (in_process: linear_tdpa).
+CONTROLLERS = ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa")
 
 
 def judge(job: tuple[dict, str, int, float]) -> dict:
@@ -40,7 +41,8 @@ def judge(job: tuple[dict, str, int, float]) -> dict:
         result.time, energy=result.arm_kinetic_energy + result.handle_kinetic_energy,
         motion={"x_M": result.master - result.operator_target, "x_d": result.desired - result.planner - intended,
                 "x_R": result.tcp - result.planner - intended},
-        criterion=criterion, error=result.desired - result.tcp)
+        criterion=criterion, error=result.desired - result.tcp, channel_generated=result.port_energy[:, 2],
+        passivity_margin=result.port_energy[:, 3])
     after = result.time >= 2.0
     error = result.tracking_error[after]
     return dict(cell=cell["id"], controller=controller, seed=seed, stable=verdict.stable, assessed=verdict.assessed,
@@ -52,5 +54,8 @@ def judge(job: tuple[dict, str, int, float]) -> dict:
                 peak_force_n=float(np.linalg.norm(result.force, axis=1).max()),
                 limit_violations=result.limit_violations,
                 passivity_margin_min_j=float(result.passivity_margin_min_j),
-                passivity_violation_ticks=int(result.passivity_violation_ticks), operator_time_shift_s=result.operator_time_shift,
+                passivity_violation_ticks=int(result.passivity_violation_ticks), ports=verdict.ports,
+                channel_observer_min_j=dict(master=float(result.port_energy[:, 0].min()),
+                                            replica=float(result.port_energy[:, 1].min())),
+                offset_drift_max_m=float(result.port_energy[:, 4].max()), operator_time_shift_s=result.operator_time_shift,
                 hand_scale=result.hand_scale, simulated_s=result.simulated_s, wall_s=result.wall_s)

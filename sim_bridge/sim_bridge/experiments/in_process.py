@@ -33,6 +33,7 @@ from fic_core.planner import HarmonicPlanner
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.trajectories import Circle, FixedPoint
 from sim_bridge.channel.channel import Channel, ChannelConfig
+from sim_bridge.experiments.channel_ports import ChannelPorts
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
 from sim_bridge.robot.mujoco_panda import PandaSimulation
@@ -65,6 +66,10 @@ class RunConfig:
     rate_cap: float = 0.0
     controller: str = "fic"
     control_rate: float = 1000.0
+    # True: the arm compensates its gravity (MuJoCo's gravcomp, the robot node's gravity_compensation) and the
+    # runner adds C(q, qd) qd at every physics step in place of the replica's, so control_rate lowers the rate of
+    # the Cartesian law alone (J^T FIC + posture), as on a Franka arm (docs/EXPERIMENTS.md "Bandwidth sweeps").
+    dynamics_at_physics_rate: bool = False
     trajectory: str | None = None      # None: the circle in E1, a fixed point elsewhere (the launcher's choice)
     seed: int = 1
     script_path: Path | None = None    # None: config/operator_scripts/<scene>.yaml
@@ -98,6 +103,9 @@ class RunResult:
     operator_target: np.ndarray | None = None      # the script's handle target at those stamps (n, 3) [m]
     passivity_margin_min_j: float = 0.0            # the task-space port's smallest W - (V - V0) (passivity observer)
     passivity_violation_ticks: int = 0
+    # Per stamp (n, 5): the channel's master-side and replica-side observers W [J], the energy the channel generated
+    # so far [J] (channel_ports.py), the task-space port's smallest passivity margin [J], |offset drift| [m].
+    port_energy: np.ndarray | None = None
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -120,7 +128,10 @@ def run(config: RunConfig) -> RunResult:
     r = {name: value for name, value in r.items() if name not in INPUT_AUTHORITY_PARAMETERS}
     pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
-    replica = ReplicaLoop({**r, "controller": config.controller, "control_rate": config.control_rate,
+    # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (channel_ports.py).
+    tdpa = config.controller == "linear_tdpa"
+    replica = ReplicaLoop({**r, "controller": "linear_bounded" if tdpa else config.controller,
+                           "control_rate": config.control_rate,
                            "answer_every_state": True, **config.replica_overrides})
     master = MasterStation(m)
     device = HapticDevice(HapticDeviceParameters(
@@ -147,7 +158,11 @@ def run(config: RunConfig) -> RunResult:
     planner.reset(source.point(0.0))
     planner_origin = SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0
     orientation = tuple(pl["orientation"])
-    sim = PandaSimulation(config.scene, config.seed)
+    sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
+    ports = ChannelPorts(tdpa, h["mass"], 1.0 / m["control_rate"])
+    feedback, feedback_time, sent_force = np.zeros(3), None, np.zeros(3)
+    tick_dynamics, no_damping = np.zeros(7), np.zeros(7)
+    log_ports = []
 
     device_every, master_every = _every(h["publish_rate_hz"]), _every(m["control_rate"])
     network_every, planner_every = _every(m["network_rate"]), _every(pl["publish_rate"])
@@ -187,6 +202,15 @@ def run(config: RunConfig) -> RunResult:
                 button_down = False
             master.press(pressed)
         if k % master_every == 0:
+            # The channel's master port (channel_ports.py): booked, and for linear_tdpa damped, before Eq. 3.
+            feedback_fresh = feedback_time is not None and now - feedback_time <= master.feedback_timeout
+            integrator = master.integrator
+            velocity = np.zeros(3) if master.handle_position is None else ports.port_velocity(
+                integrator.mode, integrator.workspace_scale, integrator.velocity_gain, master.handle_position,
+                master.handle_velocity)
+            rendered = ports.master_tick(feedback if feedback_fresh else np.zeros(3), velocity, master_every * STEP)
+            if tdpa and feedback_fresh:
+                master.add_feedback(rendered, feedback_time)
             force, _ = master.force(now)
             if force is not None:
                 device_command, command_time = force, now
@@ -195,8 +219,8 @@ def run(config: RunConfig) -> RunResult:
             if offset is not None:
                 integrator = master.integrator
                 forward.push((ns, offset, int(integrator.mode.value), master.law.haptic_gain,
-                              integrator.workspace_scale, integrator.velocity_gain, master.handle_position.copy()),
-                             now, now)
+                              integrator.workspace_scale, integrator.velocity_gain, master.handle_position.copy(),
+                              ports.master_input_energy), now, now)
         if k % planner_every == 0:
             if k:
                 planner.step(source.point(max(now - planner_origin, 0.0), position=planner.position),
@@ -205,7 +229,9 @@ def run(config: RunConfig) -> RunResult:
             replica.add_planner_acceleration(planner.acceleration, now)
         if k % delivery_every == 0:
             for delivery in forward.pop_due(now):
-                stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle = delivery.payload
+                stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle, energy = delivery.payload
+                ports.replica.observer.receive(energy)
+                offset = ports.replica_delivery(offset, sent_force, now)
                 if replica.desired.master_stale:   # as the node: the resume's jump is the replica's to give back
                     authority.reset()
                 verdict = authority.check(stamp=stamp_ns * 1e-9, now=now, mode=mode, haptic_gain=haptic_gain,
@@ -214,13 +240,17 @@ def run(config: RunConfig) -> RunResult:
                 if verdict.accepted:
                     replica.add_teleoperation(stamp_ns, verdict.offset, now)
             for delivery in backward.pop_due(now):
-                master.add_feedback(delivery.payload, now)
+                feedback, energy = delivery.payload
+                feedback_time = now
+                ports.master.observer.receive(energy)
+                master.add_feedback(feedback, now)
         # Robot side: the joint state of step k, the replica's answer, the physics step.
         if k % wrench_every == 0:
             ft_wrench = sim.ft_wrench()[:3].copy()
         result = replica.joint_state(now, now, sim.joint_positions, sim.joint_velocities)
         if result.poses_due and replica.last_command is not None and ft_wrench is not None:
-            backward.push(ft_wrench, now, now)
+            backward.push((ft_wrench, ports.replica_input_energy), now, now)
+            sent_force = ft_wrench
             command = replica.last_command
             log_t.append(now)
             log_d.append(command.desired_position)
@@ -233,14 +263,23 @@ def run(config: RunConfig) -> RunResult:
             arm_velocity[arm_dof] = sim.joint_velocities
             mujoco.mj_mulM(sim.model, sim.data, arm_momentum, arm_velocity)   # M(q) qd of the arm's joints
             log_arm.append(0.5 * float(arm_velocity @ arm_momentum))
-        sim.step(result.torque if result.torque is not None else sim.hold_torque())
+            drift = ports.replica.drift
+            log_ports.append((ports.master.observer.energy, ports.replica.observer.energy, ports.generated_energy,
+                              float(replica.passivity.margin.min()), float(np.linalg.norm(drift)) if drift.size else 0.0))
+        torque = result.torque
+        if config.dynamics_at_physics_rate and torque is not None:
+            # The law's torque held, its C qd + G(q) of the tick swapped for the arm's own at this step.
+            if result.command is not None:
+                tick_dynamics = replica.robot.nonlinear_effects.copy()
+            torque = torque - tick_dynamics + sim.hold_torque(no_damping)
+        sim.step(torque if torque is not None else sim.hold_torque())
     wall = wall_clock.perf_counter() - wall
     desired, offset = np.array(log_d), np.array(log_o)
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
                      sim.object_poses(), wall, steps * STEP,
                      replica.controller.violation_ticks, replica.controller.shaped_ticks,
                      np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale, np.array(log_target),
-                     replica.passivity.min_margin, replica.passivity.violation_ticks)
+                     replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports))
 
 
 @dataclass
