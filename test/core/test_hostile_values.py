@@ -108,6 +108,19 @@ def test_the_replica_law_refuses_or_answers_inside_the_limits(robot: RobotModel,
         assert np.all(np.abs(command.torque) <= limits.torque_array + 1e-9)
 
 
+def _assert_inside_limits(sim, limits: PandaLimits, previous_torque: np.ndarray | None) -> np.ndarray:
+    """MuJoCo's applied torque inside the torque and torque-rate limits, its joints inside position and velocity
+    limits, after one step; returns the torque (the next step's ``previous_torque``)."""
+    torque = sim.applied_torque
+    assert np.all(np.abs(torque) <= limits.torque_array + 1e-9)
+    if previous_torque is not None:
+        assert np.all(np.abs(torque - previous_torque) <= limits.torque_rate * DT + 1e-6)
+    q, qd = sim.joint_positions, sim.joint_velocities
+    assert np.all(q >= limits.lower_array - 1e-6) and np.all(q <= limits.upper_array + 1e-6)
+    assert np.all(np.abs(qd) <= limits.joint_velocity_array + 1e-6)
+    return torque.copy()
+
+
 @pytest.mark.parametrize("hostile", [1e3, 1e308])
 def test_mujoco_arm_under_a_hostile_offset_stays_inside_its_limits(robot: RobotModel, hostile: float) -> None:
     """x_d = start + the hold of a hostile x_d' stream (one huge sample, then far-off stamps), ReplicaController on
@@ -138,14 +151,7 @@ def test_mujoco_arm_under_a_hostile_offset_stays_inside_its_limits(robot: RobotM
             refused += 1
             command = replica.hold(sim.joint_positions, sim.joint_velocities)
         sim.step(command.torque)
-        torque = sim.applied_torque
-        assert np.all(np.abs(torque) <= limits.torque_array + 1e-9)
-        if previous_torque is not None:
-            assert np.all(np.abs(torque - previous_torque) <= limits.torque_rate * DT + 1e-6)
-        previous_torque = torque.copy()
-        q, qd = sim.joint_positions, sim.joint_velocities
-        assert np.all(q >= limits.lower_array - 1e-6) and np.all(q <= limits.upper_array + 1e-6)
-        assert np.all(np.abs(qd) <= limits.joint_velocity_array + 1e-6)
+        previous_torque = _assert_inside_limits(sim, limits, previous_torque)
     assert refused == 0
 
 
@@ -192,13 +198,6 @@ def test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits(
         step = loop.joint_state(time, time, sim.joint_positions, sim.joint_velocities)
         assert step.torque is not None and np.all(np.isfinite(step.torque))
         sim.step(step.torque)
-        torque = sim.applied_torque
-        assert np.all(np.abs(torque) <= limits.torque_array + 1e-9)
-        if previous is not None:
-            assert np.all(np.abs(torque - previous) <= limits.torque_rate * DT + 1e-6)
-        previous = torque.copy()
-        q, qd = sim.joint_positions, sim.joint_velocities
-        assert np.all(q >= limits.lower_array - 1e-6) and np.all(q <= limits.upper_array + 1e-6)
-        assert np.all(np.abs(qd) <= limits.joint_velocity_array + 1e-6)
+        previous = _assert_inside_limits(sim, limits, previous)
     assert loop.counts["control_ticks"] > 0
     assert refused <= len(hostile_commands)
