@@ -12,6 +12,7 @@ and the peak force (sim_bridge.experiments.cell_statistics). Writes <out>.json a
 
     .venv/bin/python scripts/evidence_sweep.py --quick            # 5 cells x 5 controllers x 2 seeds, 20 s
     .venv/bin/python scripts/evidence_sweep.py --seeds 5 --duration 30 --workers 2
+    .venv/bin/python scripts/evidence_sweep.py --operator closed_loop   # the operator watching the delayed video
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ import numpy as np
 from sim_bridge.experiments.cell_statistics import cell_statistics
 from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, HAND_IMPEDANCE_JITTER,
                                                  OPERATOR_TIMING_JITTER_S, judge)
+from sim_bridge.experiments.in_process import OPERATORS
 
 REPO = Path(__file__).resolve().parents[1]
 def cells(quick: bool) -> list[dict]:
@@ -102,6 +104,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--only", nargs="*", default=None, help="cell ids to run")
     parser.add_argument("--controllers", nargs="*", default=list(CONTROLLERS), choices=CONTROLLERS)
+    parser.add_argument("--operator", default="scripted", choices=OPERATORS,
+                        help="scripted: the E1 script timed for each cell's delay; closed_loop: timed from the "
+                             "delayed video (docs/EXPERIMENTS.md)")
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--table-from", type=Path, default=None, help="print the markdown table of a sweep's JSON")
     args = parser.parse_args(argv)
@@ -111,7 +116,8 @@ def main(argv: list[str] | None = None) -> int:
     seeds = args.seeds or (2 if args.quick else 5)
     duration = args.duration or (20.0 if args.quick else 30.0)
     out = args.out or REPO / "results" / ("evidence_quick" if args.quick else "evidence")
-    chosen = [c for c in cells(args.quick) if args.only is None or c["id"] in args.only]
+    chosen = [{**c, "options": {**c["options"], "operator": args.operator}}
+              for c in cells(args.quick) if args.only is None or c["id"] in args.only]
     jobs = [(c, controller, seed, duration) for c in chosen for controller in args.controllers for seed in range(1, seeds + 1)]
     start = time.perf_counter()
     runs = []
@@ -132,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
             summary.append(dict(cell=c["id"], family=c["family"], value=c["value"], controller=controller,
                                 statistics=stats.as_dict(), ports=ports_summary(mine)))
     simulated = sum(r["simulated_s"] for r in runs)
-    document = dict(seeds=seeds, duration_s=duration, channel_jitter_s=CHANNEL_JITTER_S,
+    document = dict(seeds=seeds, duration_s=duration, operator=args.operator, channel_jitter_s=CHANNEL_JITTER_S,
                     operator_timing_jitter_s=OPERATOR_TIMING_JITTER_S, hand_impedance_jitter=HAND_IMPEDANCE_JITTER,
                     workers=args.workers, wall_s=wall, simulated_s=simulated,
                     sim_s_per_wall_s_per_run=float(np.median([r["simulated_s"] / r["wall_s"] for r in runs])),

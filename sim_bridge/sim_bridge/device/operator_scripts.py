@@ -206,6 +206,11 @@ def superimposition_script(overrides: Mapping[str, Any] | None = None) -> Operat
                     (t + hold + push_hold, outside), (t + hold + push_hold + ramp, np.zeros(3))])
     builder = _ScriptBuilder()
     for action in sorted(actions, key=lambda a: a[0][0]):
+        # At a long delay the first lap's moves would start before the run: the part before t = 0 is left out
+        # (the hand moves from rest at t = 0 to the move's first point after it).
+        action = [(time, position) for time, position in action if time > 0.0]
+        if not action:
+            continue
         start_time, start_position = action[0]
         last = builder.waypoints[-1]
         if start_time <= last.time and not start_position.any() and not last.position.any():

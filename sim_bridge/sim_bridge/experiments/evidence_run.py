@@ -58,4 +58,6 @@ def judge(job: tuple[dict, str, int, float]) -> dict:
                 channel_observer_min_j=dict(master=float(result.port_energy[:, 0].min()),
                                             replica=float(result.port_energy[:, 1].min())),
                 offset_drift_max_m=float(result.port_energy[:, 4].max()), operator_time_shift_s=result.operator_time_shift,
-                hand_scale=result.hand_scale, simulated_s=result.simulated_s, wall_s=result.wall_s)
+                hand_scale=result.hand_scale, simulated_s=result.simulated_s, wall_s=result.wall_s,
+                operator=config.operator, fixed_obstacle_contact_s=float(
+                    np.sum(result.obstacle_contact[after]) * np.median(np.diff(result.time))))

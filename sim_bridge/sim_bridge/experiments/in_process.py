@@ -1,6 +1,7 @@
 """The teleoperation graph in one process: the same core objects the nodes wrap, stepped on one simulated clock.
 
-    scripted operator's hand + haptic device (device node, 250 Hz; button presses at 50 Hz)
+    operator's hand + haptic device (device node, 250 Hz; button presses at 50 Hz): a script, or in E1 the
+    closed-loop operator watching the camera frames that come back through the channel (30 Hz, backward delay)
       -> fic_core.MasterStation (master node: force 250 Hz, x_d' 100 Hz)
       -> Channel forward (channel node: delay, jitter, drop, blackouts, rate cap, seeded; delivered at 250 Hz)
       -> fic_core.ReplicaLoop (replica node, every joint state answered as in lockstep)  <- HarmonicPlanner 100 Hz
@@ -35,6 +36,8 @@ from fic_core.trajectories import Circle, FixedPoint
 from sim_bridge.channel.channel import Channel, ChannelConfig
 from sim_bridge.experiments.channel_ports import ChannelPorts
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
+from sim_bridge.device.operator_scripts import superimposition_script
 from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
 from sim_bridge.robot.mujoco_panda import PandaSimulation
 
@@ -43,6 +46,8 @@ STEP = 0.001                     # the robot's physics step and joint-state peri
 SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
 PLANNER_LAG_S = 0.2
 JOY_RATE_HZ = 50.0               # the device node's button messages
+CAMERA_RATE_HZ = 30.0            # the closed-loop operator's video frames (a webcam's rate)
+OPERATORS = ("scripted", "closed_loop")
 #: config/replica.yaml's keys of the node's input authority (fic_core.input_authority), not of ReplicaLoop. The
 #: same CommandAuthority judges every delivered command here as in the node (the workspace clamp of x_d' and its
 #: speed bound); the node's one-writer and stream checks have nothing to check in one process.
@@ -72,7 +77,13 @@ class RunConfig:
     dynamics_at_physics_rate: bool = False
     trajectory: str | None = None      # None: the circle in E1, a fixed point elsewhere (the launcher's choice)
     seed: int = 1
-    script_path: Path | None = None    # None: config/operator_scripts/<scene>.yaml
+    script_path: Path | None = None    # None: config/operator_scripts/<scene>.yaml (E1: generated, script_delay)
+    # The operator (docs/EXPERIMENTS.md "Operators"): "scripted" plays a script; "closed_loop" (E1 only) times
+    # its moves from the delayed video (sim_bridge.device.closed_loop_operator). The E1 script's timing is
+    # generated for ``script_delay`` (None: the cell's delay, as an expert who practised at it).
+    operator: str = "scripted"
+    script_delay: float | None = None
+    reaction_time: float = 0.25        # [s] the closed-loop operator's; operator_timing_jitter is added to it
     replica_overrides: dict[str, Any] = field(default_factory=dict)
     # Per-seed variation of the operator (docs/RESULTS.md "Seeds"): the script's clock is shifted by a draw in
     # [-operator_timing_jitter, +operator_timing_jitter] s, the hand's stiffness and damping scaled by a draw in
@@ -106,6 +117,8 @@ class RunResult:
     # Per stamp (n, 5): the channel's master-side and replica-side observers W [J], the energy the channel generated
     # so far [J] (channel_ports.py), the task-space port's smallest passivity margin [J], |offset drift| [m].
     port_energy: np.ndarray | None = None
+    obstacle_contact: np.ndarray | None = None     # the robot touches E1's fixed obstacle at those stamps (n,)
+    operator_moves: list[tuple[str, float, float]] = field(default_factory=list)  # closed loop: (move, start, passing)
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -144,14 +157,30 @@ def run(config: RunConfig) -> RunResult:
     hand = Hand(HandParameters(stiffness=h["hand_stiffness"] * hand_scale, damping=h["hand_damping"] * hand_scale,
                                correction_rate=h["hand_correction_rate"], max_correction=h["hand_max_correction"],
                                max_force=h["hand_max_force"]))
-    script = load_script(config.script_path or REPO / "config" / "operator_scripts" / f"{config.scene}.yaml")
+    if config.operator not in OPERATORS:
+        raise ValueError(f"operator must be one of {OPERATORS}, got {config.operator!r}")
+    if config.operator == "closed_loop" and config.scene != "superimposition":
+        raise ValueError(f"the closed-loop operator drives the superimposition scene only, not {config.scene!r}")
+    if config.script_path is None and config.scene == "superimposition":
+        script = superimposition_script({"one_way_delay": config.delay if config.script_delay is None
+                                         else config.script_delay})
+    else:
+        script = load_script(config.script_path or REPO / "config" / "operator_scripts" / f"{config.scene}.yaml")
     script.check_workspace(device.parameters.half_extents)
     operator = ScriptedOperator(script)
+    watcher = None
+    if config.operator == "closed_loop":
+        # The seed's timing draw is the reaction time's spread here (the script's clock is not played).
+        reaction = max(config.reaction_time + time_shift, 0.0)
+        watcher = ClosedLoopOperator(ClosedLoopParameters.from_script_parameters(
+            script.parameters, reaction_time=reaction, assumed_one_way_delay=config.delay))
     channel = dict(delay=config.delay, jitter=config.jitter, jitter_distribution=ch["jitter_distribution"],
                    allow_reorder=ch["allow_reorder"], drop_probability=config.drop,
                    blackout_windows=tuple(config.blackout_windows), rate_cap_hz=config.rate_cap)
     forward = Channel(ChannelConfig(**channel, seed=config.seed))
     backward = Channel(ChannelConfig(**channel, seed=config.seed + 1))
+    # The video shares the backward link (delay, jitter, drops, blackouts) but not the command's rate cap.
+    video = Channel(ChannelConfig(**{**channel, "rate_cap_hz": 0.0}, seed=config.seed + 2))
     source = Circle(pl["circle_centre"], pl["circle_diameter"], pl["circle_period"], pl["circle_normal"],
                     pl["circle_phase"]) if trajectory == "circle" else FixedPoint(pl["fixed_point"])
     planner = HarmonicPlanner(pl["natural_frequency"], pl["max_velocity"])
@@ -167,7 +196,9 @@ def run(config: RunConfig) -> RunResult:
     device_every, master_every = _every(h["publish_rate_hz"]), _every(m["control_rate"])
     network_every, planner_every = _every(m["network_rate"]), _every(pl["publish_rate"])
     delivery_every, wrench_every = _every(ch["delivery_rate_hz"]), _every(250.0)
-    joy_every = _every(JOY_RATE_HZ)
+    joy_every, camera_every = _every(JOY_RATE_HZ), _every(CAMERA_RATE_HZ)
+    fixed_obstacle = sim.model.geom("fixed_obstacle").id if config.scene == "superimposition" else -1
+    log_contact = []
     device_command, command_time = np.zeros(3), None
     buttons: deque[int] = deque()
     button_down = False
@@ -186,7 +217,7 @@ def run(config: RunConfig) -> RunResult:
         # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
         if k % device_every == 0:
             script_time = max(now - time_shift, 0.0)
-            target = operator.target(script_time)
+            target = operator.target(script_time) if watcher is None else watcher.target(now)
             hand.update(target, device.position, device_every * STEP if k else 0.0)
             buttons.extend(event.button for event in operator.poll_events(script_time))
             fresh = command_time is not None and now - command_time <= h["command_timeout"]
@@ -227,6 +258,11 @@ def run(config: RunConfig) -> RunResult:
                              planner_every * STEP)
             replica.add_planner_pose(ns, planner.position, orientation, now)
             replica.add_planner_acceleration(planner.acceleration, now)
+        if watcher is not None and k % camera_every == 0:
+            video.push(Frame(now, sim.tcp_pose[0], sim.object_poses()["pushable_obstacle"][0]), now, now)
+        if watcher is not None and k % delivery_every == 0:
+            for delivery in video.pop_due(now):
+                watcher.see(now, delivery.payload)
         if k % delivery_every == 0:
             for delivery in forward.pop_due(now):
                 stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle, energy = delivery.payload
@@ -266,6 +302,7 @@ def run(config: RunConfig) -> RunResult:
             drift = ports.replica.drift
             log_ports.append((ports.master.observer.energy, ports.replica.observer.energy, ports.generated_energy,
                               float(replica.passivity.margin.min()), float(np.linalg.norm(drift)) if drift.size else 0.0))
+            log_contact.append(_touches(sim, fixed_obstacle))
         torque = result.torque
         if config.dynamics_at_physics_rate and torque is not None:
             # The law's torque held, its C qd + G(q) of the tick swapped for the arm's own at this step.
@@ -279,7 +316,18 @@ def run(config: RunConfig) -> RunResult:
                      sim.object_poses(), wall, steps * STEP,
                      replica.controller.violation_ticks, replica.controller.shaped_ticks,
                      np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale, np.array(log_target),
-                     replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports))
+                     replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports),
+                     obstacle_contact=np.array(log_contact, dtype=bool),
+                     operator_moves=list(watcher.moves_started) if watcher is not None else [])
+
+
+def _touches(sim: PandaSimulation, geom: int) -> bool:
+    """Whether any contact of this step involves ``geom`` (E1's fixed obstacle touches nothing but the robot:
+    static bodies do not collide with the table)."""
+    if geom < 0:
+        return False
+    contacts = sim.data.contact[:sim.data.ncon]
+    return bool(np.any((contacts.geom1 == geom) | (contacts.geom2 == geom))) if sim.data.ncon else False
 
 
 @dataclass

@@ -1,0 +1,39 @@
+"""The closed-loop operator in the in-process E1 run (sim_bridge.experiments.in_process, operator="closed_loop").
+
+At 1 s one-way delay the operator times its avoid move from the delayed video and the replica passes the fixed
+obstacle on the second lap without touching it, where the E1 script timed for 0.2 s touches it on that lap (its
+moves reach the replica 0.8 s late). The first lap is not judged: the robot starts its circle at 1.8 s and at 1 s
+delay the operator first sees it move at 2.8 s, after its move had to start. Measured (seed 1, 11 s): closed loop
+0.00 s of contact on lap 2, script at 0.2 s timing 0.45 s, script timed for 1 s 0.00 s.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from sim_bridge.experiments.in_process import RunConfig, run
+
+SECOND_LAP = (5.5, 10.5)    # [s] around the second passing of the fixed obstacle (x_d there at 8.25 s)
+
+
+def contact_seconds(result, start: float, end: float) -> float:
+    window = (result.time >= start) & (result.time < end)
+    return float(np.sum(result.obstacle_contact[window]) * np.median(np.diff(result.time)))
+
+
+def test_at_one_second_delay_the_closed_loop_operator_clears_the_obstacle_where_the_short_delay_script_does_not():
+    closed = run(RunConfig(delay=1.0, duration=SECOND_LAP[1], operator="closed_loop", seed=1))
+    assert [name for name, _, passing in closed.operator_moves if SECOND_LAP[0] < passing < SECOND_LAP[1]] \
+        == ["avoid"]
+    assert contact_seconds(closed, *SECOND_LAP) == 0.0
+    late = run(RunConfig(delay=1.0, duration=SECOND_LAP[1], operator="scripted", script_delay=0.2, seed=1))
+    assert contact_seconds(late, *SECOND_LAP) > 0.1
+
+
+def test_a_closed_loop_run_is_the_same_for_a_seed_and_not_for_another():
+    options = dict(delay=0.5, duration=4.0, operator="closed_loop", jitter=0.005, operator_timing_jitter=0.1,
+                   hand_impedance_jitter=0.2)
+    first, again, other = (run(RunConfig(seed=seed, **options)) for seed in (3, 3, 4))
+    assert first.operator_moves == again.operator_moves and first.operator_moves
+    np.testing.assert_array_equal(first.master, again.master)
+    np.testing.assert_array_equal(first.tcp, again.tcp)
+    assert not np.array_equal(first.master, other.master)
