@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import shutil
 import signal
@@ -116,7 +117,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     planner_timing, operator_timing = {}, {}
     if args.scene == "superimposition" and args.trajectory == "circle" and not args.interactive:
         origin = 0.0 if lockstep else time.time() + REALTIME_START_MARGIN_S
-        operator_timing = {"script_start_time": origin}
+        operator_timing = {"script_start_time": origin, **_script_for_delay(args.delay, bag_path.parent)}
         planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
@@ -157,6 +158,18 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
             if args.scheduling == "fifo":
                 spec.fifo_priority = REALTIME_PRIORITIES.get(spec.name)
     return nodes
+
+
+def _script_for_delay(delay: float, run_dir: Path) -> dict[str, str]:
+    """The E1 script timed for the run's one-way delay (the checked-in one anticipates its own, 0.2 s): written
+    into the run folder and given to the device node; nothing at the checked-in delay."""
+    from sim_bridge.device.operator_scripts import SUPERIMPOSITION_DEFAULTS, superimposition_script, write_script
+
+    if math.isclose(delay, float(SUPERIMPOSITION_DEFAULTS["one_way_delay"])):
+        return {}
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = write_script(superimposition_script({"one_way_delay": delay}), run_dir / "operator_script.yaml")
+    return {"script_file": str(path.resolve())}
 
 
 def _prioritised(niceness: int | None):

@@ -39,3 +39,19 @@ def test_the_live_view_layout_is_what_its_generator_writes() -> None:
     result = subprocess.run([sys.executable, str(REPO / "scripts" / "live_view_layout.py"), "--check"],
                             capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+def test_the_e1_script_the_device_plays_is_timed_for_the_runs_delay(tmp_path) -> None:
+    from sim_bridge.device.virtual_operator import load_script
+
+    def device(delay: float) -> dict:
+        args = teleop_launcher.parse_arguments(["--scene", "superimposition", "--delay", str(delay)])
+        teleop_launcher.resolve_defaults(args)
+        specs = teleop_launcher.graph(args, tmp_path / f"run_{delay:g}" / "bag")
+        return next(spec.params for spec in specs if spec.name == "haptic_device")
+
+    assert "script_file" not in device(0.2)          # the checked-in script anticipates 0.2 s
+    script = load_script(device(1.0)["script_file"])
+    assert script.parameters["one_way_delay"] == 1.0
+    # Its first move starts 0.8 s earlier than the checked-in one's (1.6 s at 0.2 s delay).
+    assert script.waypoints[1].time == 0.8
