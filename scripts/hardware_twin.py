@@ -41,7 +41,7 @@ def franka_remaps(node: str = "replica") -> dict[str, str]:
 
 def twin_graph(nodes: list, lockstep: bool, node_spec) -> list:
     """The default graph's specs, turned into the twin run (``node_spec``: the launcher's NodeSpec)."""
-    from sim_bridge.recording.recorder_node import DEFAULT_TOPICS  # noqa: PLC0415  (only a twin run needs it)
+    from sim_bridge.recording.recorder_node import default_topics  # noqa: PLC0415  (only a twin run needs it)
 
     by_name = {spec.name: spec for spec in nodes}
     robot = by_name["robot"]
@@ -60,7 +60,7 @@ def twin_graph(nodes: list, lockstep: bool, node_spec) -> list:
         replica.params["joint_state_timeout"] = 2.0
     recorder = by_name["recorder"]
     recorder.params.update({"joint_states_topic": "/franka/joint_states",
-                            "topics": [t for t in DEFAULT_TOPICS if t not in ("/joint_states", "/ft_sensor/wrench")]
+                            "topics": [t for t in default_topics() if t not in ("/joint_states", "/ft_sensor/wrench")]
                             + TWIN_TOPICS})
     device = by_name["haptic_device"]
     device.params.update({"driver_interface": "forcedimension", "publish_rate_hz": FD_UPDATE_RATE_HZ})

@@ -46,7 +46,7 @@ def die_with_launcher(launcher_pid: int, then: Callable[[], None] | None = None,
     child leaves at once instead of running unsupervised.
 
     ``block_stop_signals``: the child starts with SIGINT and SIGTERM blocked (kept across exec); our nodes unblock
-    them once their handlers are in (sim_bridge/stop_signals.py), so a stop during the interpreter's start waits a
+    them once their handlers are in (fic_teleop_runtime.stop_signals), so a stop during the interpreter's start waits a
     moment instead of killing the node mid-import. Only for our own executables: a wrapper that does not unblock
     them (``ros2 run``) would never see a stop."""
 

@@ -106,7 +106,9 @@ fi
 step "colcon build (fic_teleop_msgs and the node packages)"
 ws_files=$(cd "$REPO" && find fic_teleop_msgs fic_teleop_master fic_teleop_replica fic_teleop_planner sim_bridge \
   \( -name package.xml -o -name CMakeLists.txt -o -name '*.msg' -o -name setup.py -o -name setup.cfg \) | sort)
-ws_hash=$(cd "$REPO" && { echo "$ws_files"; inputs_hash $ws_files; } | sha256sum | cut -d' ' -f1)
+# The runtime's modules by name only: a new one must be linked into install/ (symlinked, so edits are live anyway).
+runtime_modules=$(cd "$REPO" && find fic_teleop_msgs/fic_teleop_runtime -name '*.py' | sort)
+ws_hash=$(cd "$REPO" && { echo "$ws_files"; echo "$runtime_modules"; inputs_hash $ws_files; } | sha256sum | cut -d' ' -f1)
 if up_to_date workspace "$ws_hash" && [[ -d "$REPO/install/fic_teleop_msgs" ]]; then
   done_step "up to date"
 else

@@ -29,7 +29,7 @@ from launch_checks import ArgumentRefusal, check_options, domain_from_environmen
 from launch_isolation import DomainBusy, isolate
 from launch_supervision import EXIT_CODES, EXIT_REFUSED, die_with_launcher, failed_nodes, safety_verdict
 from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
-from sim_bridge.params_file import write_node_params
+from fic_teleop_runtime.params_file import write_node_params
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "config"
@@ -72,7 +72,7 @@ class NodeSpec:
 
 def node_command(spec: NodeSpec, run_params: Path | None = None) -> list[str]:
     """The node's command line: its config file, then `run_params`, the launcher's own values for this run
-    (a params file written by sim_bridge.params_file.write_node_params, so that each value keeps its Python type)."""
+    (a params file written by fic_teleop_runtime.params_file.write_node_params, so that each value keeps its Python type)."""
     executable = REPO / "install" / spec.package / "lib" / spec.package / spec.executable
     if shutil.which("ros2") and os.environ.get("FIC_TELEOP_NO_ROS2_CLI") != "1":
         command = ["ros2", "run", spec.package, spec.executable]

@@ -251,8 +251,8 @@ def adapt_graph(specs: list, node_spec_class, run_dir: Path) -> None:
 
 
 def _default_recorder_topics() -> list[str]:
-    from sim_bridge.recording.recorder_node import DEFAULT_TOPICS
-    return list(DEFAULT_TOPICS)
+    from sim_bridge.recording.recorder_node import default_topics
+    return default_topics()
 
 
 def wrap_command(node_name: str, command: list[str], pair: StationPair, clock_offset_s: float = 0.0) -> list[str]:

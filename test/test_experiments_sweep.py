@@ -82,7 +82,7 @@ def _header_stamps(bag: Path, topics) -> dict[str, list[float]]:
 
     sys.path.insert(0, str(REPO / "sim_bridge"))
     from sim_bridge.recording.bag_reader import mcap_file
-    from sim_bridge.cdr_header import header_stamp, stamp_seconds
+    from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 
     stamps: dict[str, list[float]] = {topic: [] for topic in topics}
     with open(mcap_file(bag), "rb") as stream:

@@ -34,27 +34,27 @@ INTEGRATOR_PARAMETERS = ("workspace_scale", "velocity_gain", "velocity_deadband"
 READ_ONLY = ("control_rate", "network_rate", "diagnostics_rate", "frame_id")
 Notice = tuple[str, str]
 
-#: The master's numeric parameters, name: (default, low, high, description, read-only); config/master.yaml
-#: holds the same defaults.
-MASTER_NUMBERS: dict[str, tuple[float, float, float, str, bool]] = {
-    "stiffness": (100.0, 1.0, 5000.0, "K0 of the handle's FIC [N/m] (Eq. 1)", False),
-    "saturation_error": (0.04, 1e-3, 1.0, "x_b of the handle's FIC [m]", False),
-    "saturation_start": (0.5, 0.0, 0.99, "xi of the handle's FIC, in [0, 1)", False),
-    "max_force": (4.0, 0.1, 100.0, "F_max of the handle's FIC [N] (>= xi*K0*x_b)", False),
-    "rate_deadband": (0.005, 0.0, 1.0, "dead-band on d|x_M|/dt for entering the convergence phase [m/s]", False),
-    "haptic_gain": (0.5, 0.0, 10.0, "K_H: share of the replica force rendered on the handle (Eq. 3), in [0, 1]; "
+#: The master's numeric parameters, name: (low, high, description, read-only); their values are config/master.yaml's
+#: alone (one home for each value).
+MASTER_NUMBERS: dict[str, tuple[float, float, str, bool]] = {
+    "stiffness": (1.0, 5000.0, "K0 of the handle's FIC [N/m] (Eq. 1)", False),
+    "saturation_error": (1e-3, 1.0, "x_b of the handle's FIC [m]", False),
+    "saturation_start": (0.0, 0.99, "xi of the handle's FIC, in [0, 1)", False),
+    "max_force": (0.1, 100.0, "F_max of the handle's FIC [N] (>= xi*K0*x_b)", False),
+    "rate_deadband": (0.0, 1.0, "dead-band on d|x_M|/dt for entering the convergence phase [m/s]", False),
+    "haptic_gain": (0.0, 10.0, "K_H: share of the replica force rendered on the handle (Eq. 3), in [0, 1]; "
                     "values above 1 are clamped to 1 with a warning", False),
-    "max_device_force": (20.0, 0.0, 1000.0, "norm limit of the device force [N] (sigma.7: ~20 N continuous); "
+    "max_device_force": (0.0, 1000.0, "norm limit of the device force [N] (sigma.7: ~20 N continuous); "
                          "0: no limit", False),
-    "workspace_scale": (1.0, 0.01, 100.0, "s_M: offset-mode scale", False),
-    "velocity_gain": (2.0, 0.0, 100.0, "k_v: velocity-mode gain [1/s]", False),
-    "velocity_deadband": (0.005, 0.0, 0.1, "velocity mode ignores |x_M| below this [m] so a resting hand does not "
+    "workspace_scale": (0.01, 100.0, "s_M: offset-mode scale", False),
+    "velocity_gain": (0.0, 100.0, "k_v: velocity-mode gain [1/s]", False),
+    "velocity_deadband": (0.0, 0.1, "velocity mode ignores |x_M| below this [m] so a resting hand does not "
                           "drift", False),
-    "feedback_timeout": (0.5, 0.001, 60.0, "F_R older than this (receipt time) is treated as zero [s]", False),
-    "pose_timeout": (0.1, 0.001, 60.0, "no /haptic/pose for this long: the wrench command is zero [s]", False),
-    "control_rate": (500.0, 1.0, 5000.0, "/haptic/wrench_command rate [Hz]", True),
-    "network_rate": (100.0, 1.0, 5000.0, "/master/pose and /master/teleop_command rate [Hz]", True),
-    "diagnostics_rate": (1.0, 0.01, 100.0, "/diagnostics rate [Hz]", True),
+    "feedback_timeout": (0.001, 60.0, "F_R older than this (receipt time) is treated as zero [s]", False),
+    "pose_timeout": (0.001, 60.0, "no /haptic/pose for this long: the wrench command is zero [s]", False),
+    "control_rate": (1.0, 5000.0, "/haptic/wrench_command rate [Hz]", True),
+    "network_rate": (1.0, 5000.0, "/master/pose and /master/teleop_command rate [Hz]", True),
+    "diagnostics_rate": (0.01, 100.0, "/diagnostics rate [Hz]", True),
 }
 
 

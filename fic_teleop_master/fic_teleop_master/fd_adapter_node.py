@@ -24,66 +24,62 @@ import math
 import numpy as np
 import rclpy
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Joy
 from std_msgs.msg import Bool, Float64, Float64MultiArray
 
 from fic_core.errors import FicInputError
 from fic_core.haptic_device_mapping import DeviceFrameMapping, GraspGain, device_command
 from fic_core.stale_input_ramp import StaleInputRamp
-from fic_teleop_master.master_node import JOY_QOS, STREAM_QOS, spin_until_shutdown
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
 
 NODE_NAME = "fd_adapter"
-#: What forcedimension_ros2's broadcasters and its effort controller use: rclcpp::SystemDefaultsQoS()
-#: (reliable, keep last 10).
-DRIVER_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
-#: The adapter's own view of the 1 kHz driver streams: only the newest matters (best effort matches reliable).
-NEWEST_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=1)
+#: What forcedimension_ros2's broadcasters and its effort controller use: rclcpp::SystemDefaultsQoS(); the
+#: adapter's own view of the 1 kHz driver streams: only the newest matters (best effort matches reliable); the
+#: master's streams and buttons as the master reads them.
+DRIVER_QOS, NEWEST_QOS, STREAM_QOS, JOY_QOS = qos.SYSTEM_DEFAULTS, qos.NEWEST, qos.STREAM, qos.EVENTS
 JOY_BUTTON_COUNT = 3
 LOG_THROTTLE_S = 2.0
 
 
-def _number(low: float, high: float, text: str) -> ParameterDescriptor:
-    return ParameterDescriptor(description=text, read_only=True, floating_point_range=[
-        FloatingPointRange(from_value=low, to_value=high, step=0.0)])
+#: Every parameter is fixed at start (the device does not change under a running adapter); their values are the
+#: profile's, config/profiles/forcedimension/fd_adapter.yaml.
+SCHEMA = Schema(
+    "profiles/forcedimension/fd_adapter.yaml",
+    text("device_frame", "frame_id of /fd/ee_pose (the driver's)", read_only=True),
+    text("master_frame", "frame_id of /haptic/pose and /haptic/twist", read_only=True),
+    numbers("rotation", "quaternion x, y, z, w of haptic_base <- fd_base (identity: the SDK's axes are the "
+                        "master's)", read_only=True),
+    numbers("workspace_centre", "the handle position that is x_M = 0, in fd_base [m] (the SDK's origin is the "
+                                "workspace centre)", read_only=True),
+    texts("translation_joints", "names of the handle's translation joints in /fd/joint_states (their velocities "
+                                "are xd_M)", read_only=True),
+    text("grasp_joint", "joint of /fd/joint_states whose angle sets K_H (an Omega.7's gripper: fd_clutch); "
+                        "empty: none", read_only=True),
+    number("grasp_open_angle", -10.0, 10.0, "gripper angle giving K_H = 0 [rad]", True),
+    number("grasp_closed_angle", -10.0, 10.0, "angle giving grasp_max_gain [rad]", True),
+    number("grasp_max_gain", 0.0, 1.0, "K_H with the gripper closed", True),
+    number("clutch_haptic_gain", 0.0, 1.0, "K_H while /fd/fd_clutch is true (workspace engaged); released: 0", True),
+    switch("use_clutch", "map /fd/fd_clutch to K_H (an Omega.6/7's clutch)", read_only=True),
+    integer("command_size", 3, 7, "entries of the driver's effort controller (its joints: 3 fd_x..z, 6 with the "
+                                  "wrist, 7 with the gripper); force first, zeros after", True),
+    number("max_force", 0.0, 100.0, "device force norm bound [N]; 0: none", True),
+    number("publish_rate_hz", 1.0, 2000.0, "/haptic/pose and /haptic/twist rate (newest values) [Hz]", True),
+    number("pose_timeout", 0.001, 10.0, "no /fd/ee_pose for this long: stop forwarding x_M, ramp the force to "
+                                        "zero [s]", True),
+    number("command_timeout", 0.001, 10.0, "no /haptic/wrench_command for this long: ramp the force to zero [s]",
+           True),
+    number("force_ramp_time", 0.0, 10.0, "duration of the ramp to zero force [s]", True),
+)
 
 
 class FdAdapterNode(Node):
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
-        fixed = lambda text: ParameterDescriptor(description=text, read_only=True)  # noqa: E731
-        self.declare_parameter("device_frame", "fd_base", fixed("frame_id of /fd/ee_pose (the driver's)"))
-        self.declare_parameter("master_frame", "haptic_base", fixed("frame_id of /haptic/pose and /haptic/twist"))
-        self.declare_parameter("rotation", [0.0, 0.0, 0.0, 1.0], fixed(
-            "quaternion x, y, z, w of haptic_base <- fd_base (identity: the SDK's axes are the master's)"))
-        self.declare_parameter("workspace_centre", [0.0, 0.0, 0.0], fixed(
-            "the handle position that is x_M = 0, in fd_base [m] (the SDK's origin is the workspace centre)"))
-        self.declare_parameter("translation_joints", ["fd_x", "fd_y", "fd_z"], fixed(
-            "names of the handle's translation joints in /fd/joint_states (their velocities are xd_M)"))
-        self.declare_parameter("grasp_joint", "", fixed(
-            "joint of /fd/joint_states whose angle sets K_H (an Omega.7's gripper: fd_clutch); empty: none"))
-        self.declare_parameter("grasp_open_angle", 0.5, _number(-10.0, 10.0, "gripper angle giving K_H = 0 [rad]"))
-        self.declare_parameter("grasp_closed_angle", 0.05, _number(-10.0, 10.0, "angle giving grasp_max_gain [rad]"))
-        self.declare_parameter("grasp_max_gain", 1.0, _number(0.0, 1.0, "K_H with the gripper closed"))
-        self.declare_parameter("clutch_haptic_gain", 0.5, _number(0.0, 1.0,
-                               "K_H while /fd/fd_clutch is true (workspace engaged); released: 0"))
-        self.declare_parameter("use_clutch", False, fixed("map /fd/fd_clutch to K_H (an Omega.6/7's clutch)"))
-        self.declare_parameter("command_size", 3, ParameterDescriptor(
-            description="entries of the driver's effort controller (its joints: 3 fd_x..z, 6 with the wrist, 7 "
-                        "with the gripper); force first, zeros after", read_only=True,
-            integer_range=[IntegerRange(from_value=3, to_value=7, step=1)]))
-        self.declare_parameter("max_force", 12.0, _number(0.0, 100.0, "device force norm bound [N]; 0: none"))
-        self.declare_parameter("publish_rate_hz", 250.0, _number(1.0, 2000.0,
-                               "/haptic/pose and /haptic/twist rate (newest values) [Hz]"))
-        self.declare_parameter("pose_timeout", 0.1, _number(0.001, 10.0,
-                               "no /fd/ee_pose for this long: stop forwarding x_M, ramp the force to zero [s]"))
-        self.declare_parameter("command_timeout", 0.1, _number(0.001, 10.0,
-                               "no /haptic/wrench_command for this long: ramp the force to zero [s]"))
-        self.declare_parameter("force_ramp_time", 0.2, _number(0.0, 10.0, "duration of the ramp to zero force [s]"))
-        value = lambda name: self.get_parameter(name).value  # noqa: E731
+        values = declare(self, SCHEMA)  # every row with its profile value; unknown keys refused
+        value = values.__getitem__
         self._device_frame = value("device_frame")
         self._master_frame = value("master_frame")
         self._mapping = DeviceFrameMapping(value("rotation"), value("workspace_centre"))
@@ -254,21 +250,8 @@ class FdAdapterNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = FdAdapterNode()
-        spin_until_shutdown(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except FicInputError as exc:
-        rclpy.logging.get_logger(NODE_NAME).fatal(f"cannot start: {exc}")
-        raise SystemExit(2) from exc
-    finally:
-        if node is not None:
-            rclpy.logging.get_logger(NODE_NAME).info(f"fd adapter stopped: {node.counts}")
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(FdAdapterNode, NODE_NAME, args, stopped=lambda node: rclpy.logging.get_logger(NODE_NAME).info(
+        f"fd adapter stopped: {node.counts}"))
 
 
 if __name__ == "__main__":

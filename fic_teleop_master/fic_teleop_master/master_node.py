@@ -12,20 +12,11 @@ K_H outside [0, 1] is clamped to it with a warning; NaN is refused. This node is
 """
 from __future__ import annotations
 
-import gc
-
-import rclpy
-from rclpy.signals import SignalHandlerOptions
-from sim_bridge import stop_signals
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.experimental import EventsExecutor
-from rclpy.task import Future
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Joy
 from std_msgs.msg import Float64
 
@@ -33,36 +24,29 @@ from std_msgs.msg import Float64
 # namespace package first (the editable install resolves submodules only).
 from fic_core.errors import FicInputError
 from fic_core.master_station import MASTER_NUMBERS, MasterStation, clamped_haptic_gain
-from fic_core.teleoperation import TeleoperationMode
 from fic_teleop_msgs.msg import TeleoperationCommand
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.geometry import xyz, xyzw
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import Schema, declare, integer, number, text
 
-# Device streams and teleoperation streams through the channel (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 20; the
-# channel is where loss is injected on purpose, DDS itself should add none.
-STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
-# Button presses are events: a lost toggle would invert the mode for the rest of the run.
-JOY_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
-DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
-
-
-def _xyz(message) -> tuple[float, float, float]:
-    return message.x, message.y, message.z
+# Device and teleoperation streams RELIABLE (the channel alone loses on purpose); button presses are events: a lost
+# toggle would invert the mode for the rest of the run (fic_teleop_runtime.qos).
+STREAM_QOS, JOY_QOS, DIAGNOSTICS_QOS = qos.STREAM, qos.EVENTS, qos.DIAGNOSTICS
+SCHEMA = Schema("master.yaml", (number(name, low, high, description, read_only)
+                                for name, (low, high, description, read_only) in MASTER_NUMBERS.items()),
+                integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
+                                      "(x_d' += k_v*x_M*dt)"),
+                text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True))
 
 
 class MasterNode(Node):
     def __init__(self) -> None:
         super().__init__("master")
-        for name, (default, low, high, text, read_only) in MASTER_NUMBERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=text, read_only=read_only,
-                                   floating_point_range=[FloatingPointRange(from_value=low, to_value=high, step=0.0)]))
-        self.declare_parameter("mode", int(TeleoperationMode.OFFSET), ParameterDescriptor(
-            description="teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity (x_d' += k_v*x_M*dt)",
-            integer_range=[IntegerRange(from_value=0, to_value=1, step=1)]))
-        self.declare_parameter("frame_id", "haptic_base", ParameterDescriptor(
-            description="frame of /master/pose and /haptic/wrench_command", read_only=True))
-        value = lambda name: self.get_parameter(name).value  # noqa: E731
-        self._station = MasterStation({name: value(name) for name in (*MASTER_NUMBERS, "mode", "frame_id")})
-        self._log(self._station.set_haptic_gain(value("haptic_gain"), "parameter"))
-        self._frame_id = value("frame_id")
+        values = declare(self, SCHEMA)  # every row with its config/master.yaml value; unknown keys refused
+        self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, "mode", "frame_id")})
+        self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
+        self._frame_id = values["frame_id"]
         self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_QOS)
         self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_QOS)
         self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command", STREAM_QOS)
@@ -74,14 +58,14 @@ class MasterNode(Node):
         self.create_subscription(Float64, "/master/haptic_gain", self._on_haptic_gain, STREAM_QOS)
         self.add_pre_set_parameters_callback(self._clamp_haptic_gain)
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        if value("haptic_gain") != self._station.law.haptic_gain:  # clamped at start: make `param get` show it
+        if values["haptic_gain"] != self._station.law.haptic_gain:  # clamped at start: make `param get` show it
             self._sync_haptic_gain_parameter()
-        self.create_timer(1.0 / value("control_rate"), self._control_tick)
-        self.create_timer(1.0 / value("network_rate"), self._network_tick)
-        self.create_timer(1.0 / value("diagnostics_rate"), self._publish_diagnostics)
+        self.create_timer(1.0 / values["control_rate"], self._control_tick)
+        self.create_timer(1.0 / values["network_rate"], self._network_tick)
+        self.create_timer(1.0 / values["diagnostics_rate"], self._publish_diagnostics)
         self.get_logger().info(
             f"master up: K_H = {self._station.law.haptic_gain:.2f}, mode {self._station.integrator.mode.name}, "
-            f"control {value('control_rate'):.0f} Hz, network {value('network_rate'):.0f} Hz")
+            f"control {values['control_rate']:.0f} Hz, network {values['network_rate']:.0f} Hz")
 
     def _log(self, notices) -> None:
         for level, text in notices:  # one call site per severity (rclpy's logger requires it)
@@ -120,22 +104,21 @@ class MasterNode(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _on_pose(self, message: PoseStamped) -> None:
-        o = message.pose.orientation
         try:
-            self._station.add_pose(_xyz(message.pose.position), (o.x, o.y, o.z, o.w), self._now())
+            self._station.add_pose(xyz(message.pose.position), xyzw(message.pose.orientation), self._now())
         except FicInputError:
             self.get_logger().error("refused /haptic/pose with non-finite values; holding the last good pose",
                                     throttle_duration_sec=1.0)
 
     def _on_twist(self, message: TwistStamped) -> None:
         try:
-            self._station.add_twist(_xyz(message.twist.linear), self._now())
+            self._station.add_twist(xyz(message.twist.linear), self._now())
         except FicInputError:
             self.get_logger().error("refused /haptic/twist with non-finite values", throttle_duration_sec=1.0)
 
     def _on_feedback(self, message: WrenchStamped) -> None:
         try:
-            self._log(self._station.add_feedback(_xyz(message.wrench.force), self._now()))
+            self._log(self._station.add_feedback(xyz(message.wrench.force), self._now()))
         except FicInputError:
             self.get_logger().error("refused /master/feedback_wrench with non-finite values",
                                     throttle_duration_sec=1.0)
@@ -195,45 +178,10 @@ class MasterNode(Node):
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_publisher.publish(array)
+
+
 def main(args: list[str] | None = None) -> None:
-    stop_signals.install()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
-    node = None
-    try:
-        node = MasterNode()
-        spin_until_shutdown(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-
-
-def spin_until_shutdown(node: Node, slice_s: float = 0.1) -> None:
-    """Spin in short slices until Ctrl-C / SIGTERM / external shutdown (EventsExecutor.spin() from the rclpy
-    wheels does not return after SIGINT; sim_bridge/spin.py). Under simulated time the EventsExecutor's timers do
-    not follow /clock (the 100 Hz timer fired in bursts): the wait-set executor is used then. The start-up heap is
-    frozen out of the collector's reach (a full collection of it took 25 ms and stalled every loop)."""
-    executor = (SingleThreadedExecutor(context=node.context) if node.get_parameter("use_sim_time").value
-                else EventsExecutor(context=node.context))
-    executor.add_node(node)
-    gc.collect()
-    gc.freeze()
-    never = Future()  # a slice runs every callback due in it inside the executor
-    try:
-        stop_signals.running()  # a signal now only asks the loop to stop; the node is destroyed before the context
-        while rclpy.ok(context=node.context) and not stop_signals.requested():
-            try:
-                executor.spin_until_future_complete(never, timeout_sec=slice_s)
-            except (KeyboardInterrupt, ExternalShutdownException):
-                break
-            except Exception:
-                if rclpy.ok(context=node.context):  # raised while the context shut down: not the node's fault
-                    raise
-                break
-    finally:
-        executor.shutdown(timeout_sec=1.0)
+    run_node(MasterNode, "master", args)
 
 
 if __name__ == "__main__":

@@ -15,33 +15,26 @@ restarts the planner at its current position, at rest.
 """
 from __future__ import annotations
 
-import gc
 import math
 
 import numpy as np
-import rclpy
-from rclpy.signals import SignalHandlerOptions
-from sim_bridge import stop_signals
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
-from rclpy.exceptions import ParameterUninitializedException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.experimental import EventsExecutor
-from rclpy.task import Future
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
 from fic_core.errors import FicInputError
 from fic_core.planner import HarmonicPlanner
 from fic_core.trajectories import Circle, FixedPoint, ViaPoints
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import Schema, declare, number, numbers, switch, text
+from fic_teleop_runtime.parameters import values as parameter_values
 
-# Poses (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 20.
-POSE_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
-DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+POSE_QOS, DIAGNOSTICS_QOS = qos.STREAM, qos.DIAGNOSTICS  # docs/CONVENTIONS.md: RELIABLE, KEEP_LAST 20
 
 TRAJECTORIES = ("circle", "fixed", "via_points")
 TRAJECTORY_PARAMETERS = ("trajectory", "circle_centre", "circle_diameter", "circle_period", "circle_normal",
@@ -50,9 +43,34 @@ PLANNER_PARAMETERS = ("natural_frequency", "max_velocity")
 READ_ONLY = ("publish_rate", "diagnostics_rate", "frame_id", "start_position", "start_delay", "start_time")
 
 
-def _number(low: float, high: float, text: str, read_only: bool = False) -> ParameterDescriptor:
-    return ParameterDescriptor(description=text, read_only=read_only, floating_point_range=[
-        FloatingPointRange(from_value=low, to_value=high, step=0.0)])
+SCHEMA = Schema(
+    "planner.yaml",
+    text("trajectory", f"trajectory source: one of {TRAJECTORIES}"),
+    numbers("circle_centre", "centre of the circle [m] in panda_link0 (config: the E1 scene's, between the "
+                             "obstacles)"),
+    number("circle_diameter", 0.001, 2.0, "circle diameter [m] (paper: 0.20)"),
+    number("circle_period", 0.1, 600.0, "circle period [s] (paper: 5)"),
+    numbers("circle_normal", "normal of the circle's plane (+z: horizontal, counter-clockwise from above)"),
+    number("circle_phase", -2 * math.pi, 2 * math.pi, "start angle [rad]"),
+    numbers("fixed_point", "target of the fixed trajectory [m] in panda_link0"),
+    numbers("via_points", "via-points as a flat list x0, y0, z0, x1, ... [m] in panda_link0"),
+    number("via_dwell", 0.0, 600.0, "time a via-point is held once reached before the next [s]"),
+    number("via_tolerance", 1e-5, 1.0, "a via-point is reached within this [m]"),
+    switch("via_loop", "start the via-points again after the last one"),
+    number("natural_frequency", 0.1, 100.0, "w_n of the planner [rad/s] (Eq. 5)"),
+    number("max_velocity", 0.001, 1.7, "v_d: desired tangential velocity and speed limit [m/s] (Eq. 6); Panda "
+                                       "TCP <= 1.7"),
+    numbers("orientation", "fixed desired orientation [x, y, z, w] in panda_link0 (gripper down: a rotation of pi "
+                           "about x, as in the Panda's ready pose)"),
+    numbers("start_position", "x_d'' at start [m]; unset or empty: the trajectory's first point", read_only=True,
+            optional=True),
+    number("start_delay", 0.0, 3600.0, "the trajectory's clock starts this long after the node [s]", True),
+    number("start_time", -1.0, 1e10, "node-clock time at which the trajectory's clock starts [s] (sim time with "
+                                     "use_sim_time); negative: start_delay after the node starts", True),
+    number("publish_rate", 1.0, 5000.0, "/planner/desired_pose rate [Hz]", True),
+    number("diagnostics_rate", 0.01, 100.0, "/diagnostics rate [Hz]", True),
+    text("frame_id", "frame of /planner/desired_pose", read_only=True),
+)
 
 
 def make_source(values: dict) -> Circle | FixedPoint | ViaPoints:
@@ -79,12 +97,12 @@ def unit_quaternion(values) -> tuple[float, float, float, float]:
 class PlannerNode(Node):
     def __init__(self) -> None:
         super().__init__("planner")
-        self._declare_parameters()
+        declare(self, SCHEMA)  # every row with its config/planner.yaml value; unknown keys refused
         value = self._value
         self._source = make_source({name: value(name) for name in TRAJECTORY_PARAMETERS})
         self._orientation = unit_quaternion(value("orientation"))
         self._planner = HarmonicPlanner(value("natural_frequency"), value("max_velocity"))
-        start = list(value("start_position"))
+        start = list(value("start_position") or [])
         self._planner.reset(start if start else self._source.point(0.0))
         self._frame_id = value("frame_id")
         # The trajectory's clock: an absolute start time lets another node (the operator script, which plans its
@@ -107,49 +125,9 @@ class PlannerNode(Node):
             f"v_d = {value('max_velocity')} m/s, start {np.round(self._planner.position, 4).tolist()}")
 
     # -- parameters -----------------------------------------------------------------------------------------
-    def _declare_parameters(self) -> None:
-        self.declare_parameter("trajectory", "circle", ParameterDescriptor(
-            description=f"trajectory source: one of {TRAJECTORIES}"))
-        self.declare_parameter("circle_centre", [0.45, 0.0, 0.35], ParameterDescriptor(
-            description="centre of the circle [m] in panda_link0 (default: the E1 scene's, between the obstacles)"))
-        self.declare_parameter("circle_diameter", 0.20, _number(0.001, 2.0, "circle diameter [m] (paper: 0.20)"))
-        self.declare_parameter("circle_period", 5.0, _number(0.1, 600.0, "circle period [s] (paper: 5)"))
-        self.declare_parameter("circle_normal", [0.0, 0.0, 1.0], ParameterDescriptor(
-            description="normal of the circle's plane (default +z: horizontal, counter-clockwise from above)"))
-        self.declare_parameter("circle_phase", 0.0, _number(-2 * math.pi, 2 * math.pi, "start angle [rad]"))
-        self.declare_parameter("fixed_point", [0.45, 0.0, 0.35], ParameterDescriptor(
-            description="target of the fixed trajectory [m] in panda_link0"))
-        self.declare_parameter("via_points", [0.45, 0.1, 0.35, 0.45, -0.1, 0.35], ParameterDescriptor(
-            description="via-points as a flat list x0, y0, z0, x1, ... [m] in panda_link0"))
-        self.declare_parameter("via_dwell", 1.0, _number(0.0, 600.0,
-                               "time a via-point is held once reached before the next [s]"))
-        self.declare_parameter("via_tolerance", 0.002, _number(1e-5, 1.0, "a via-point is reached within this [m]"))
-        self.declare_parameter("via_loop", True, ParameterDescriptor(
-            description="start the via-points again after the last one"))
-        self.declare_parameter("natural_frequency", 8.0, _number(0.1, 100.0, "w_n of the planner [rad/s] (Eq. 5)"))
-        self.declare_parameter("max_velocity", 0.25, _number(0.001, 1.7,
-                               "v_d: desired tangential velocity and speed limit [m/s] (Eq. 6); Panda TCP <= 1.7"))
-        self.declare_parameter("orientation", [1.0, 0.0, 0.0, 0.0], ParameterDescriptor(
-            description="fixed desired orientation [x, y, z, w] in panda_link0 (default: gripper down, a rotation "
-                        "of pi about x as in the Panda's ready pose)"))
-        self.declare_parameter("start_position", Parameter.Type.DOUBLE_ARRAY, ParameterDescriptor(
-            description="x_d'' at start [m]; unset or empty: the trajectory's first point", read_only=True))
-        self.declare_parameter("start_delay", 0.0, _number(0.0, 3600.0,
-                               "the trajectory's clock starts this long after the node [s]", True))
-        self.declare_parameter("start_time", -1.0, _number(-1.0, 1e10,
-                               "node-clock time at which the trajectory's clock starts [s] (sim time with "
-                               "use_sim_time); negative: start_delay after the node starts", True))
-        self.declare_parameter("publish_rate", 250.0, _number(1.0, 5000.0, "/planner/desired_pose rate [Hz]", True))
-        self.declare_parameter("diagnostics_rate", 1.0, _number(0.01, 100.0, "/diagnostics rate [Hz]", True))
-        self.declare_parameter("frame_id", "panda_link0", ParameterDescriptor(
-            description="frame of /planner/desired_pose", read_only=True))
-
     def _value(self, name: str):
         """A parameter's value; an array declared without a default and left unset reads as empty."""
-        try:
-            return self.get_parameter(name).value
-        except ParameterUninitializedException:
-            return []
+        return parameter_values(self, SCHEMA, (name,))[name]
 
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         changed = {p.name: p.value for p in parameters}
@@ -230,55 +208,7 @@ class PlannerNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    stop_signals.install()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
-    node = None
-    try:
-        node = PlannerNode()
-        spin_until_shutdown(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-
-
-def spin_until_shutdown(node: Node, slice_s: float = 0.1) -> None:
-    """Spin on the EventsExecutor in short slices until Ctrl-C / SIGTERM / external shutdown.
-
-    ``EventsExecutor.spin()`` from the rclpy wheels does not return after SIGINT (see sim_bridge/spin.py);
-    checking the context between short ``spin_once`` slices exits within one slice.
-    """
-    # Under simulated time (lockstep) the EventsExecutor's timers do not follow /clock: measured here, the master's
-    # 100 Hz timer fired in bursts (10 commands with one stamp) and then fell silent for 100 ms of simulated time.
-    # The wait-set executor checks timers against the node's clock, so timer ticks land on simulated time.
-    executor = (SingleThreadedExecutor(context=node.context) if node.get_parameter("use_sim_time").value
-                else EventsExecutor(context=node.context))
-    executor.add_node(node)
-    # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
-    # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
-    gc.collect()
-    gc.freeze()
-    try:
-        # A slice runs every callback due in it inside the executor, not one per Python call: a 1 kHz timer cost
-        # 77-82 us a tick here against 92-101 us with spin_once (the future never completes; the slice bounds the wait).
-        never = Future()
-        stop_signals.running()  # a signal now only asks the loop to stop; the node is destroyed before the context
-        while rclpy.ok(context=node.context) and not stop_signals.requested():
-            try:
-                executor.spin_until_future_complete(never, timeout_sec=slice_s)
-            except (KeyboardInterrupt, ExternalShutdownException):
-                break
-            except Exception:
-                # A callback that ran while the signal handler was shutting the context down (a timer's publish
-                # on the invalidated context, a pybind11 conversion error in a take) is not a fault of the node.
-                if rclpy.ok(context=node.context):
-                    raise
-                break
-    finally:
-        executor.shutdown(timeout_sec=1.0)
+    run_node(PlannerNode, "planner", args)
 
 
 if __name__ == "__main__":

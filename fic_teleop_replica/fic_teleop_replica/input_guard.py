@@ -7,11 +7,14 @@ hold is said in one error line and at once on /diagnostics (level ERROR).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.node import Node
 
 from fic_core.input_authority import AuthorityBounds, CommandAuthority, CommandVerdict, RobotStreamGuard
+from fic_teleop_runtime.parameters import number
 
 LOG_THROTTLE_S = 2.0
 # Robot-side streams that must have exactly one writer: the robot's driver, and this node.
@@ -19,31 +22,28 @@ ROBOT_STREAMS = ("/joint_states", "/effort_controller/commands")
 TELEOP_TOPIC = "/replica/teleop_command"
 PUBLISHER_CHECK_PERIOD_S = 0.5  # graph lookups are cheap; a new writer is discovered within about a second anyway
 
-# name: (default, description, low, high) -- config/replica.yaml holds the same defaults.
-PARAMETERS: dict[str, tuple[float, str, float, float]] = {
-    "offset_workspace": (0.5, "x_d' is clamped to +- this on each axis, about the start pose [m] "
-                              "(fic_core.input_authority)", 0.01, 2.0),
-    "max_offset_speed": (1.0, "x_d' moves toward a teleoperation command no faster than this, on this node's clock "
-                              "[m/s]", 0.01, 10.0),
-    "max_offset_burst": (0.05, "x_d' may move this far at once, for bursts of delayed commands [m]", 0.0, 1.0),
-    "command_future_tolerance": (0.5, "commands and joint states stamped further ahead of this node's clock are "
-                                      "refused [s]", 0.0, 10.0),
-    "max_command_age": (3.0, "teleoperation commands stamped longer ago are refused [s] (the channel's delay must "
-                             "fit inside it; the launcher raises it with --delay)", 0.05, 600.0),
-}
+#: What an outside input may ask of the arm (config/replica.yaml holds the values).
+AUTHORITY_PARAMETERS = (
+    number("offset_workspace", 0.01, 2.0, "x_d' is clamped to +- this on each axis, about the start pose [m] "
+                                          "(fic_core.input_authority)"),
+    number("max_offset_speed", 0.01, 10.0, "x_d' moves toward a teleoperation command no faster than this, on "
+                                           "this node's clock [m/s]"),
+    number("max_offset_burst", 0.0, 1.0, "x_d' may move this far at once, for bursts of delayed commands [m]"),
+    number("command_future_tolerance", 0.0, 10.0, "commands and joint states stamped further ahead of this node's "
+                                                  "clock are refused [s]"),
+    number("max_command_age", 0.05, 600.0, "teleoperation commands stamped longer ago are refused [s] (the "
+                                           "channel's delay must fit inside it; the launcher raises it with "
+                                           "--delay)"),
+)
 
 
 class InputGuard:
     """CommandAuthority and RobotStreamGuard on ``node``, with the node's parameters, logger and clock."""
 
-    def __init__(self, node: Node, on_hold) -> None:
+    def __init__(self, node: Node, values: Mapping[str, Any], on_hold) -> None:
         self._node = node
         self._on_hold = on_hold  # called once, when the safe hold latches (the node publishes diagnostics)
-        for name, (default, description, low, high) in PARAMETERS.items():
-            node.declare_parameter(name, default, ParameterDescriptor(
-                description=description,
-                floating_point_range=[FloatingPointRange(from_value=low, to_value=high, step=0.0)]))
-        value = {name: float(node.get_parameter(name).value) for name in PARAMETERS}
+        value = {row.name: float(values[row.name]) for row in AUTHORITY_PARAMETERS}
         half = value["offset_workspace"]
         self.authority = CommandAuthority(AuthorityBounds(
             offset_lower=(-half, -half, -half), offset_upper=(half, half, half),

@@ -14,28 +14,18 @@ refused (throttled error log) and the last good value is kept; parameters are ch
 """
 from __future__ import annotations
 
-import gc
-import struct
 import time as time_module
 
 import numpy as np
 import pinocchio as pin
 import rclpy
-from rclpy.signals import SignalHandlerOptions
-from sim_bridge import stop_signals
 from rclpy.serialization import deserialize_message
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 from geometry_msgs.msg import AccelStamped, PoseStamped, WrenchStamped
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
-from rclpy._rclpy_pybind11 import RCLError
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.experimental import EventsExecutor
-from rclpy.task import Future
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from rclpy.clock import Clock, ClockType
@@ -43,54 +33,34 @@ from rclpy.clock import Clock, ClockType
 from fic_core.errors import FicInputError
 from fic_core.robot_model import RobotModel
 from fic_core.replica_loop import ReplicaLoop
-from fic_core.replica_parameters import CONTROLLER_DESCRIPTION, REPLICA_NUMBERS, REPLICA_SWITCHES
+from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
 from fic_teleop_replica.driver_interface import DriverInterface
 from fic_teleop_replica.input_guard import InputGuard
+from fic_teleop_replica.schema import SCHEMA
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
+from fic_teleop_runtime.geometry import xyz, xyzw
+from fic_teleop_runtime.stamps import nanoseconds, seconds, time_message
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import declare
 
-# 1 kHz robot streams: RELIABLE, KEEP_LAST 50 (a recorder must lose none; a late command is superseded anyway).
-ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
-# The replica's own view of the robot: only the newest state matters. A deep reader queue would, on a busy
-# machine, hand the control law a backlog of old states and send torques computed for the past (measured: the arm
-# was thrown about under overload). BEST_EFFORT (it matches the robot's RELIABLE writer): a reliable reader
-# delivers in order, so one sample lost between processes held every later state back until the writer's heartbeat
-# repaired it (50-90 ms without joint states); a newer state is worth more than a repaired old one.
-NEWEST_STATE_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=1)
-# Set-points (x_d' through the channel, x_d'' from the planner): RELIABLE (no loss but the channel's), depth 1: only
-# the newest is used, and a deeper queue behind a busy replica handed it commands up to depth x period old
-# (measured: a pipeline-latency p99 of about 200 ms with depth 20 at 100 Hz).
-TELEOP_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1)
-STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
-DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+# The robot-side QoS (fic_teleop_runtime.qos): the command RELIABLE for the recorder, joint states and F_R the
+# newest only (no backlog of old states to the law), set-points depth 1 (only the newest is used).
+ROBOT_STREAM_QOS, NEWEST_STATE_QOS, TELEOP_QOS = qos.ROBOT_STREAM, qos.NEWEST, qos.SET_POINT
+STATUS_QOS, DIAGNOSTICS_QOS = qos.STREAM, qos.DIAGNOSTICS
 
 NODE_NAME = "replica"
 LOG_THROTTLE_S = 2.0
-# builtin_interfaces/Time (int32 sec, uint32 nanosec) at the start of a CDR message with a std_msgs/Header.
-STAMP_LITTLE_ENDIAN = struct.Struct("<iI")
-STAMP_BIG_ENDIAN = struct.Struct(">iI")
-
-
-def _nanoseconds(stamp: Time) -> int:
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
-
-
-def _xyz(vector) -> tuple[float, float, float]:
-    return vector.x, vector.y, vector.z
 
 
 class ReplicaNode(Node):
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
-        self.declare_parameter("controller", "fic", ParameterDescriptor(description=CONTROLLER_DESCRIPTION))
-        for name, (default, description) in REPLICA_SWITCHES.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=description))
-        for name, (default, description, low, high) in REPLICA_NUMBERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=description, floating_point_range=[
-                FloatingPointRange(from_value=low, to_value=high, step=0.0)]))
-        names = ("controller", *REPLICA_SWITCHES, *REPLICA_NUMBERS)
+        values = declare(self, SCHEMA)  # every row with its config/replica.yaml value; unknown keys refused
         # The driver behind the topics: arm, joint names, gravity semantics, wrench frame, ramp-down (docs/HARDWARE.md).
-        self._driver = DriverInterface(self)
+        self._driver = DriverInterface(values)
         robot = RobotModel()
-        self._loop = ReplicaLoop({name: self.get_parameter(name).value for name in names}, robot,
+        self._loop = ReplicaLoop({name: values[name] for name in REPLICA_LOOP_PARAMETERS}, robot,
                                  self._driver.limits(robot))  # FicInputError if bad
         self._joints = self._driver.joint_order
         self._wrench: WrenchStamped | None = None  # F_R as last received
@@ -98,7 +68,7 @@ class ReplicaNode(Node):
         self._refusal_logged: dict[str, float] = {}  # topic -> monotonic time of its last refusal line
         # What an outside input may ask of the arm (fic_core.input_authority): bounded commands, one writer per
         # robot stream; a breach holds the arm and is said at once on /diagnostics.
-        self._input_guard = InputGuard(self, on_hold=lambda: self._publish_diagnostics())
+        self._input_guard = InputGuard(self, values, on_hold=lambda: self._publish_diagnostics())
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._command_pub = self.create_publisher(Float64MultiArray, "/effort_controller/commands", ROBOT_STREAM_QOS)
@@ -157,7 +127,7 @@ class ReplicaNode(Node):
             self._loop.counts["rejected_teleop_commands"] += 1
             return
         try:
-            notice = self._loop.add_teleoperation(_nanoseconds(message.header.stamp), tuple(offset.tolist()),
+            notice = self._loop.add_teleoperation(nanoseconds(message.header.stamp), tuple(offset.tolist()),
                                                   self._now())
         except FicInputError as exc:
             return self._refuse("/replica/teleop_command", exc)
@@ -165,16 +135,15 @@ class ReplicaNode(Node):
             self.get_logger().warning(notice)
 
     def _on_planner_pose(self, message: PoseStamped) -> None:
-        o = message.pose.orientation
         try:
-            self._loop.add_planner_pose(_nanoseconds(message.header.stamp), _xyz(message.pose.position),
-                                        (o.x, o.y, o.z, o.w), self._now())
+            self._loop.add_planner_pose(nanoseconds(message.header.stamp), xyz(message.pose.position),
+                                        xyzw(message.pose.orientation), self._now())
         except FicInputError as exc:
             self._refuse("/planner/desired_pose", exc)
 
     def _on_planner_accel(self, message: AccelStamped) -> None:
         try:
-            self._loop.add_planner_acceleration(_xyz(message.accel.linear), self._now())
+            self._loop.add_planner_acceleration(xyz(message.accel.linear), self._now())
         except FicInputError as exc:
             self._refuse("/planner/desired_accel", exc)
 
@@ -182,7 +151,7 @@ class ReplicaNode(Node):
         command = self._loop.last_command
         try:  # the declared base frame, sign and reference point (fic_core.wrench_frame)
             force, torque = self._driver.wrench_frame.at_tcp(
-                message.header.frame_id, _xyz(message.wrench.force), _xyz(message.wrench.torque),
+                message.header.frame_id, xyz(message.wrench.force), xyz(message.wrench.torque),
                 None if command is None else command.tcp_rotation)
         except FicInputError as exc:
             # F_R goes to zero rather than stay at an old value: the operator feels nothing instead of a wrong push.
@@ -201,15 +170,17 @@ class ReplicaNode(Node):
     def _on_joint_state_bytes(self, data: bytes) -> None:
         """The joint state as CDR bytes: its header stamp (right after the 4-byte encapsulation) tells whether it
         is needed; the others are counted and dropped unconverted (a JointState costs tens of microseconds)."""
-        if len(data) >= 12:
-            sec, nanosec = (STAMP_LITTLE_ENDIAN if data[1] == 1 else STAMP_BIG_ENDIAN).unpack_from(data, 4)
-            usable = self._input_guard.joint_state_usable(sec + 1e-9 * nanosec)  # not back in time, not from the future
-            if not usable or self._input_guard.held:  # held: no torque at all, the robot's own watchdog holds the arm
-                self._loop.counts["rejected_joint_states"] += 1
-                return
-            if self._loop.skips(sec + 1e-9 * nanosec):
-                return self._loop.skip()
-        message = deserialize_message(data, JointState)
+        raw_stamp = header_stamp(data)  # None: not plain CDR, the stamp is read from the message instead
+        message = deserialize_message(data, JointState) if raw_stamp is None else None
+        stamp_s = stamp_seconds(raw_stamp) if raw_stamp is not None else seconds(message.header.stamp)
+        usable = self._input_guard.joint_state_usable(stamp_s)  # not back in time, not from the future
+        if not usable or self._input_guard.held:  # held: no torque at all, the robot's own watchdog holds the arm
+            self._loop.counts["rejected_joint_states"] += 1
+            return
+        if self._loop.skips(stamp_s):
+            return self._loop.skip()
+        if message is None:
+            message = deserialize_message(data, JointState)
         try:
             q, qd = self._joints.pick(message.name, message.position, message.velocity)
         except FicInputError as exc:
@@ -219,7 +190,7 @@ class ReplicaNode(Node):
         if self._driver.ramp is not None and self._driver.ramp.fresh(self._steady.now().nanoseconds * 1e-9):
             self.get_logger().warning("joint states are back: the law takes over from the ramp (slewed at the "
                                       "torque-rate limit)")
-        step = self._loop.joint_state(_nanoseconds(stamp) * 1e-9, self._now(), q, qd)
+        step = self._loop.joint_state(nanoseconds(stamp) * 1e-9, self._now(), q, qd)
         for level, text in step.notices:  # one call site per severity (rclpy's logger requires it)
             if level == "error":
                 self.get_logger().error(text, throttle_duration_sec=LOG_THROTTLE_S)
@@ -277,7 +248,7 @@ class ReplicaNode(Node):
         state.header.stamp = self.get_clock().now().to_msg()
         state.header.frame_id = self._driver.base_frame
         used = desired.master_stamp_used_ns
-        state.master_stamp = Time(sec=used // 1_000_000_000, nanosec=used % 1_000_000_000)
+        state.master_stamp = time_message(used)
         passivity = self._loop.passivity
         state.port_work, state.passivity_margin = passivity.port_work.tolist(), passivity.margin.tolist()
         state.passivity_margin_min, state.passivity_violation_ticks = passivity.min_margin, passivity.violation_ticks
@@ -326,44 +297,11 @@ class ReplicaNode(Node):
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(array)
+
+
 def main(args: list[str] | None = None) -> None:
-    try:
-        stop_signals.install()
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
-    except RCLError as exc:  # e.g. a malformed --params-file: refuse to start, in one clear line
-        rclpy.logging.get_logger(NODE_NAME).fatal(f"cannot start: bad ROS arguments or parameter file: {exc}")
-        raise SystemExit(2) from None
-    node = None
-    try:
-        node = ReplicaNode()
-        # EventsExecutor in slices (its spin() from these rclpy wheels never returns on SIGINT); under simulated
-        # time the wait-set executor (the EventsExecutor's timers do not follow /clock). The start-up heap is frozen
-        # out of the collector's reach (a full collection of it took 25 ms and stalled every loop).
-        executor = SingleThreadedExecutor() if node.get_parameter("use_sim_time").value else EventsExecutor()
-        executor.add_node(node)
-        gc.collect()
-        gc.freeze()
-        never = Future()  # a slice runs every callback due in it inside the executor
-        stop_signals.running()  # a signal now asks the loop to stop (sim_bridge/stop_signals.py)
-        while rclpy.ok() and not stop_signals.requested():  # short slices: a stop is seen promptly
-            try:
-                executor.spin_until_future_complete(never, timeout_sec=0.1)
-            except (KeyboardInterrupt, ExternalShutdownException):
-                break
-            except Exception:
-                if rclpy.ok():  # raised while the context shut down (seen once in 4 long runs): not ours
-                    raise
-                break
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (FicInputError, ParameterException) as exc:  # out-of-range, NaN or wrongly typed parameters
-        rclpy.logging.get_logger(NODE_NAME).fatal(f"cannot start: {exc}")
-        raise SystemExit(2) from None
-    finally:
-        if node is not None:
-            node.get_logger().info(f"replica stopped: {node.statistics()}")
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(ReplicaNode, NODE_NAME, args, stopped=lambda node: rclpy.logging.get_logger(NODE_NAME).info(
+        f"replica stopped: {node.statistics()}"))
 
 
 if __name__ == "__main__":

@@ -2,10 +2,9 @@
 
 import os as _os
 
-# SIGINT/SIGTERM at any moment of the start-up end the node cleanly (stop_signals.py): first, before the imports.
-from sim_bridge import stop_signals as _stop_signals
-
-_stop_signals.install_if_blocked()
+# SIGINT/SIGTERM at any moment of the start-up end the node cleanly: the node runtime takes them on import
+# (fic_teleop_runtime/stop_signals.py), first, before the imports.
+import fic_teleop_runtime  # noqa: F401
 
 # MuJoCo chooses its OpenGL backend once, when it is first imported, and without a display only EGL works here
 # (Mesa llvmpipe; osmesa does not, docs/CONVENTIONS.md). Every sim_bridge module that imports mujoco goes through

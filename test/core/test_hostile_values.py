@@ -9,11 +9,8 @@ from __future__ import annotations
 
 import warnings
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-import yaml
 
 from fic_core.attractor import PoseAttractor
 from fic_core.errors import FicInputError
@@ -24,9 +21,10 @@ from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel
 from fic_core.set_point import SampledSetPoint
 
+from config_values import config_values, replica_loop_values
+
 #: The replica's shipped parameters (the input authority's bounds among them).
-REPLICA_DEFAULTS = yaml.safe_load((Path(__file__).resolve().parents[2] / "config" / "replica.yaml").read_text()
-                                  )["/**"]["ros__parameters"]
+REPLICA_DEFAULTS = config_values("replica.yaml")
 
 HOSTILE_OFFSETS = (1e3, -1e3, 1e308, -1e308, 1.7e308)
 DT = 0.001
@@ -172,7 +170,7 @@ def test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits(
 
     limits = PandaLimits.from_robot(robot)
     sim = PandaSimulation("free_space", 0)
-    loop = ReplicaLoop({"answer_every_state": True}, robot)
+    loop = ReplicaLoop(replica_loop_values(answer_every_state=True), robot)
     authority = CommandAuthority(AuthorityBounds.from_parameters(REPLICA_DEFAULTS))
     base = 1000.0
     hostile_commands = {60: (hostile, 0.0), 61: (-hostile, 0.0), 62: (0.0, 1e9), 63: (0.0, -base),

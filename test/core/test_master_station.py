@@ -6,11 +6,13 @@ import numpy as np
 import pytest
 
 from fic_core.errors import FicInputError
-from fic_core.master_station import MASTER_NUMBERS, MasterStation
+from fic_core.master_station import MasterStation
 from fic_core.operator_buttons import ButtonEdges, OperatorButton
 from fic_core.teleoperation import TeleoperationMode
 
-DEFAULTS = {**{name: entry[0] for name, entry in MASTER_NUMBERS.items()}, "mode": 0, "frame_id": "haptic_base"}
+from config_values import config_values
+
+DEFAULTS = config_values("master.yaml")  # the master node starts from these
 
 
 def test_edges_are_presses_not_held_buttons() -> None:

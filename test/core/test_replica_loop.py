@@ -14,8 +14,10 @@ from fic_core.errors import FicInputError
 from fic_core.limits import PANDA_TORQUE_RATE_LIMIT, LimitFlag
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
-from fic_core.replica_parameters import checked, replica_defaults
+from fic_core.replica_parameters import checked
 from fic_core.torque_slew import TorqueSlew
+
+from config_values import replica_loop_values
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
 QD0 = np.zeros(7)
@@ -173,7 +175,7 @@ def test_the_sent_torque_is_what_the_limit_status_describes(control_rate) -> Non
     """Lockstep (every state answered), a 10 cm step of x_d' and a hot swap of the controller in the middle: every
     torque sent is within rate x 1 ms of the one before (the slew is inside the controller), and the torque-rate
     ratio the LimitStatus reports is of that torque, so it never exceeds 1."""
-    loop = ReplicaLoop({"control_rate": control_rate, "answer_every_state": True})
+    loop = ReplicaLoop(replica_loop_values(control_rate=control_rate, answer_every_state=True))
     steps = run_loop(loop, 300, offset=[0.1, 0.0, 0.0])
     loop.configure({"controller": "linear", "translation_stiffness": 2000.0})
     steps += run_loop(loop, 300, start=0.3, offset=[-0.1, 0.0, 0.0])
@@ -190,7 +192,7 @@ def test_the_sent_torque_is_what_the_limit_status_describes(control_rate) -> Non
 
 
 def test_between_ticks_realtime_sends_nothing_and_lets_states_be_skipped() -> None:
-    loop = ReplicaLoop({"control_rate": 250.0})
+    loop = ReplicaLoop(replica_loop_values(control_rate=250.0))
     steps = run_loop(loop, 8)
     assert [step.torque is not None for step in steps] == [True, False, False, False] * 2
     assert loop.skips(0.006) and not loop.skips(0.008)
@@ -198,19 +200,21 @@ def test_between_ticks_realtime_sends_nothing_and_lets_states_be_skipped() -> No
 
 
 def test_status_and_pose_gates_and_or_ed_flags() -> None:
-    loop = ReplicaLoop({"status_rate": 100.0, "pose_rate": 50.0})
+    loop = ReplicaLoop(replica_loop_values(status_rate=100.0, pose_rate=50.0))
     steps = run_loop(loop, 100)
     assert sum(step.status_due for step in steps) == 10 and sum(step.poses_due for step in steps) == 5
     assert loop.take_limit_flags() == (int(LimitFlag.NONE), int(LimitFlag.NONE))
 
 
 def test_a_bad_parameter_changes_nothing() -> None:
-    loop = ReplicaLoop({})
+    loop = ReplicaLoop(replica_loop_values())
     controller = loop.controller
     with pytest.raises(FicInputError, match="translation_stiffness"):
         loop.configure({"translation_stiffness": -1.0})
     with pytest.raises(FicInputError, match="control_rate"):
         loop.configure({"control_rate": 1000.0, "command_period": 0.01})
     with pytest.raises(FicInputError, match="unknown"):
-        checked({"translation_stifness": 1.0})
-    assert loop.controller is controller and loop.parameters == checked(replica_defaults())
+        checked(replica_loop_values(translation_stifness=1.0))
+    with pytest.raises(FicInputError, match="missing: translation_stiffness"):
+        checked({name: value for name, value in replica_loop_values().items() if name != "translation_stiffness"})
+    assert loop.controller is controller and loop.parameters == checked(replica_loop_values())

@@ -1,5 +1,6 @@
-"""A malformed or mistyped parameter file: the replica refuses to start with one clear log line, and the robot,
-left without commands, holds the arm still (its watchdog) instead of letting it fall."""
+"""A malformed, mistyped or misspelt parameter file: the replica refuses to start with one clear log line (exit 2,
+the launcher's "refused before anything started"), and the robot, left without commands, holds the arm still (its
+watchdog) instead of letting it fall."""
 from __future__ import annotations
 
 import time
@@ -12,9 +13,13 @@ pytestmark = pytest.mark.nodes
 
 MALFORMED = "/**:\n  ros__parameters:\n    translation_stiffness: [oops\n"
 MISTYPED = "/**:\n  ros__parameters:\n    translation_stiffness: \"stiff\"\n"
+# rclpy alone would ignore a key nobody declares: the arm would run at the default stiffness without a word.
+MISSPELT = "/**:\n  ros__parameters:\n    translaton_stiffness: 400.0\n"
 
 
-@pytest.mark.parametrize("content, complaint", [(MALFORMED, "parameter file"), (MISTYPED, "translation_stiffness")])
+@pytest.mark.parametrize("content, complaint", [
+    (MALFORMED, "parameter file"), (MISTYPED, "translation_stiffness"),
+    (MISSPELT, "unknown parameter 'translaton_stiffness' for node replica; did you mean 'translation_stiffness'?")])
 def test_replica_refuses_a_bad_parameter_file_and_the_robot_holds(content, complaint, start_node, rclpy_context,
                                                                    tmp_path: Path) -> None:
     import rclpy
@@ -29,7 +34,8 @@ def test_replica_refuses_a_bad_parameter_file_and_the_robot_holds(content, compl
     replica.expected_returncode = 2  # the refusal is the clean stop here (the fixture checks the rest)
     replica.process.wait(timeout=60)
     assert replica.process.returncode == 2
-    assert "cannot start" in replica.output() and complaint in replica.output()
+    fatal = [line for line in replica.output().splitlines() if "FATAL" in line]
+    assert len(fatal) == 1 and "cannot start" in fatal[0] and complaint in fatal[0], replica.output()
     assert "Traceback" not in replica.output()
 
     node = rclpy.create_node("observer", context=rclpy_context)

@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from conftest import CONFIG, REPO, NodeProcess, installed_executable, isolated_env, reserved_domain
-from sim_bridge.params_file import write_node_params
+from fic_teleop_runtime.params_file import write_node_params
 
 pytestmark = pytest.mark.nodes
 FIC = REPO / "scripts" / "fic"

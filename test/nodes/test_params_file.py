@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from sim_bridge.params_file import params_file_text, write_node_params
+from fic_teleop_runtime.params_file import params_file_text, write_node_params
 
 pytestmark = pytest.mark.nodes
 VALUES = {"as_text_true": "true", "as_text_number": "1e3", "empty_text": "", "count": 3, "gain": 1e3,

@@ -192,7 +192,7 @@ def test_every_message_is_delivered_once_or_counted_as_dropped(delay, jitter, p,
 def test_header_stamp_is_read_from_cdr_bytes():
     import struct
 
-    from sim_bridge.cdr_header import header_stamp
+    from fic_teleop_runtime.cdr_header import header_stamp
 
     body = struct.pack("<iI", 1_700_000_123, 456_789_000) + struct.pack("<I", 11) + b"panda_link0\x00"
     assert header_stamp(b"\x00\x01\x00\x00" + body) == (1_700_000_123, 456_789_000)

@@ -17,23 +17,20 @@ from typing import Any
 
 import numpy as np
 import rclpy
-from rclpy.signals import SignalHandlerOptions
-from sim_bridge import stop_signals
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                SetParametersResult)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import ParameterUninitializedException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from fic_core.errors import FicInputError
-from sim_bridge.cdr_header import header_stamp, stamp_seconds
 from sim_bridge.channel.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
-from sim_bridge.message_types import message_class
-from sim_bridge.spin import spin_until_shutdown
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
+from fic_teleop_runtime.message_types import message_class
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
 
 try:
     from fic_teleop_msgs.msg import ChannelDelivery
@@ -42,14 +39,38 @@ except ImportError:          # the message package is not built: the channel sti
 
 # Teleoperation streams through the channel (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 20. The channel is where
 # loss is injected on purpose; DDS itself should add none.
-CHANNEL_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+CHANNEL_QOS = qos.STREAM
 # One ChannelDelivery per forwarded message, read by the recorder: deep enough for a 1 kHz burst.
-DELIVERY_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100)
-DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+DELIVERY_QOS = qos.reliable(100)
+DIAGNOSTICS_QOS = qos.DIAGNOSTICS
 
 # Parameters that reconfigure the links at run time; ``routes`` and the timer rates are fixed at start.
 LINK_PARAMETERS = ("delay", "jitter", "jitter_distribution", "allow_reorder", "drop_probability",
                    "blackout_windows", "lost_from", "rate_cap_hz", "seed", "time_reference")
+
+
+SCHEMA = Schema(
+    "channel.yaml",
+    texts("routes", "in_topic:out_topic:pkg/msg/Type for each forwarded stream", read_only=True, optional=True),
+    number("delay", 0.0, 10.0, "fixed one-way delay [s]"),
+    number("jitter", 0.0, 1.0, "bound on the deviation from delay [s]"),
+    text("jitter_distribution", f"one of {JITTER_DISTRIBUTIONS} (normal: sigma = jitter/3, truncated at +-jitter)"),
+    switch("allow_reorder", "let jitter reorder messages (false: FIFO, a message waits for its predecessor)"),
+    number("drop_probability", 0.0, 1.0, "independent loss probability"),
+    numbers("blackout_windows", "link-down windows as a flat list of doubles t0,t1,t0,t1,... [s] (see "
+                                "time_reference); unset: none; to clear at run time set [0.0, 0.0] (an empty window)",
+            optional=True),
+    number("lost_from", -1e9, 1e9, "link lost for good from this time [s] (see time_reference); negative: never"),
+    number("rate_cap_hz", 0.0, 10000.0, "at most this many deliveries a second per route, newest first; 0: no cap"),
+    integer("seed", -1, 2 ** 31 - 1, "seed of the random draws; negative: from the OS"),
+    text("time_reference", "'start': blackout_windows and lost_from are relative to the node clock at node start "
+                           "(with use_sim_time and no /clock yet that is sim time 0); 'clock': absolute node clock"),
+    number("delivery_rate_hz", 10.0, 10000.0, "how often due messages are released [Hz]; sets the delay "
+                                              "resolution"),
+    number("statistics_rate_hz", 0.01, 100.0, "/diagnostics rate [Hz]"),
+    switch("publish_deliveries", "publish fic_teleop_msgs/ChannelDelivery on /channel/deliveries for each "
+                                 "delivery"),
+)
 
 
 @dataclass
@@ -87,7 +108,7 @@ def _time_msg(seconds: float) -> Time:
 class ChannelNode(Node):
     def __init__(self) -> None:
         super().__init__("channel")
-        self._declare_parameters()
+        declare(self, SCHEMA)  # every row with its config/channel.yaml value; unknown keys refused
         self._origin = self._now()           # "start" time reference: blackout/lost_from relative to this
         config = self._config_from({name: self._parameter(name) for name in LINK_PARAMETERS})
         specs = self._route_specs()
@@ -117,39 +138,6 @@ class ChannelNode(Node):
         self.get_logger().info(f"channel up: {self._describe(config)}")
 
     # -- parameters -------------------------------------------------------------------------------------------
-    def _declare_parameters(self) -> None:
-        def number(low: float, high: float, text: str) -> ParameterDescriptor:
-            return ParameterDescriptor(description=text, floating_point_range=[
-                FloatingPointRange(from_value=low, to_value=high, step=0.0)])
-
-        self.declare_parameter("routes", Parameter.Type.STRING_ARRAY, ParameterDescriptor(
-            description="in_topic:out_topic:pkg/msg/Type for each forwarded stream", read_only=True))
-        self.declare_parameter("delay", 0.0, number(0.0, 10.0, "fixed one-way delay [s]"))
-        self.declare_parameter("jitter", 0.0, number(0.0, 1.0, "bound on the deviation from delay [s]"))
-        self.declare_parameter("jitter_distribution", "uniform", ParameterDescriptor(
-            description=f"one of {JITTER_DISTRIBUTIONS} (normal: sigma = jitter/3, truncated at +-jitter)"))
-        self.declare_parameter("allow_reorder", False, ParameterDescriptor(
-            description="let jitter reorder messages (false: FIFO, a message waits for its predecessor)"))
-        self.declare_parameter("drop_probability", 0.0, number(0.0, 1.0, "independent loss probability"))
-        self.declare_parameter("blackout_windows", Parameter.Type.DOUBLE_ARRAY, ParameterDescriptor(
-            description="link-down windows as a flat list of doubles t0,t1,t0,t1,... [s] (see time_reference); "
-                        "unset: none; to clear at run time set [0.0, 0.0] (an empty window)"))
-        self.declare_parameter("lost_from", -1.0, number(-1e9, 1e9,
-                               "link lost for good from this time [s] (see time_reference); negative: never"))
-        self.declare_parameter("rate_cap_hz", 0.0, number(0.0, 10000.0,
-                               "at most this many deliveries a second per route, newest first; 0: no cap"))
-        self.declare_parameter("seed", -1, ParameterDescriptor(
-            description="seed of the random draws; negative: from the OS",
-            integer_range=[IntegerRange(from_value=-1, to_value=2 ** 31 - 1, step=1)]))
-        self.declare_parameter("time_reference", "start", ParameterDescriptor(
-            description="'start': blackout_windows and lost_from are relative to the node clock at node start "
-                        "(with use_sim_time and no /clock yet that is sim time 0); 'clock': absolute node clock"))
-        self.declare_parameter("delivery_rate_hz", 1000.0, number(10.0, 10000.0,
-                               "how often due messages are released [Hz]; sets the delay resolution"))
-        self.declare_parameter("statistics_rate_hz", 1.0, number(0.01, 100.0, "/diagnostics rate [Hz]"))
-        self.declare_parameter("publish_deliveries", True, ParameterDescriptor(
-            description="publish fic_teleop_msgs/ChannelDelivery on /channel/deliveries for each delivery"))
-
     def _parameter(self, name: str) -> Parameter:
         """The parameter, or an unset one (value None) for an array declared without a default."""
         try:
@@ -276,25 +264,8 @@ def route_seeds(seed: int | None, count: int) -> list[int | None]:
 
 
 def main(args: list[str] | None = None) -> None:
-    stop_signals.install()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
-    node = None
-    try:
-        node = ChannelNode()
-        spin_until_shutdown(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except FicInputError as exc:
-        # A bad parameter at start: say which and why, and exit non-zero instead of a traceback.
-        if node is None:
-            rclpy.logging.get_logger("channel").fatal(f"cannot start: {exc}")
-        raise SystemExit(2) from exc
-    finally:
-        if node is not None:
-            # Not the node logger: after a signal the context is gone and /rosout cannot take the message.
-            rclpy.logging.get_logger(node.get_name()).info(f"channel stopped: {node.summary()}")
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(ChannelNode, "channel", args, stopped=lambda node: rclpy.logging.get_logger(node.get_name()).info(
+        f"channel stopped: {node.summary()}"))
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ from sim_bridge.recording.bag_reader import BagReadError, ReadResult, mcap_file,
 from sim_bridge.recording.bag_writer import BagError
 from sim_bridge.recording.recovery import recover
 from sim_bridge.cli.errors import CommandError
-from sim_bridge.message_types import message_class
+from fic_teleop_runtime.message_types import message_class
 
 
 def _existing_mcap(bag: str) -> Path:

@@ -9,7 +9,7 @@ from rclpy.parameter_client import AsyncParameterClient
 
 from sim_bridge.cli.errors import CommandError
 from sim_bridge.cli.graph import fully_qualified, graph_node
-from sim_bridge.params_file import params_file_text
+from fic_teleop_runtime.params_file import params_file_text
 
 TYPE_NAMES = {ParameterType.PARAMETER_BOOL: "Boolean", ParameterType.PARAMETER_INTEGER: "Integer",
               ParameterType.PARAMETER_DOUBLE: "Double", ParameterType.PARAMETER_STRING: "String",

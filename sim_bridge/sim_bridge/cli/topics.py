@@ -16,7 +16,7 @@ from rclpy.serialization import deserialize_message
 from fic_core.errors import FicInputError
 from sim_bridge.cli.errors import CommandError
 from sim_bridge.cli.graph import graph_node, settle, topic_type
-from sim_bridge.message_types import message_class
+from fic_teleop_runtime.message_types import message_class
 
 # Best effort matches every publisher (a reliable reader would not match a best-effort writer); a deep queue so
 # that a 1 kHz topic is not thinned by the reader while it is being printed.

@@ -16,28 +16,24 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
-import rclpy
-from rclpy.signals import SignalHandlerOptions
-from sim_bridge import stop_signals
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Joy
 from std_msgs.msg import Bool, Float64MultiArray
 
 from fic_core.errors import FicInputError
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
 from sim_bridge.driver_twins import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
-from sim_bridge.spin import spin_until_shutdown
 from sim_bridge.device.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
                                          load_script)
 
 # Device streams at 500 Hz (docs/CONVENTIONS.md): RELIABLE KEEP_LAST 20, like the other status streams.
-DEVICE_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+DEVICE_QOS = qos.STREAM
 # Button presses must not be lost (a lost toggle inverts the mode for the rest of the run): RELIABLE, deep.
-JOY_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
+JOY_QOS = qos.EVENTS
 
 OPERATOR_SOURCES = ("scripted", "joy", "none")
 SCENES = ("superimposition", "shape_sorting", "free_space")
@@ -45,9 +41,35 @@ JOY_RATE_HZ = 50.0
 LONGEST_STEP = 0.05      # [s] a clock jump (pause, sim restart) is integrated as at most this much time
 
 
-def _range(low: float, high: float, text: str) -> ParameterDescriptor:
-    return ParameterDescriptor(description=text, floating_point_range=[
-        FloatingPointRange(from_value=low, to_value=high, step=0.0)])
+SCHEMA = Schema(
+    "haptic_device.yaml",
+    number("publish_rate_hz", 10.0, 2000.0, "pose/twist rate and loop rate [Hz]"),
+    number("substep", 1e-4, 0.005, "physics substep [s] (1 kHz default)"),
+    number("mass", 0.01, 10.0, "effective moving mass at the handle [kg]"),
+    number("damping", 0.0, 100.0, "mechanism viscous damping [N s/m]"),
+    numbers("half_extents", "workspace box half-sizes x, y, z [m] around the local origin (sigma.7: 0.19 x 0.13 m)"),
+    number("wall_stiffness", 0.0, 20000.0, "soft wall [N/m]"),
+    number("wall_damping", 0.0, 500.0, "soft wall [N s/m]"),
+    number("max_force", 0.0, 100.0, "command force saturation [N]"),
+    number("command_timeout", 0.001, 10.0, "a force command older than this is stale: zero force until a fresh one "
+                                           "[s]"),
+    text("operator_source", f"the hand on the handle: one of {OPERATOR_SOURCES}"),
+    text("scene", f"scene whose operator script is played: one of {SCENES}"),
+    text("script_file", "operator script YAML; empty: config/operator_scripts/<scene>.yaml"),
+    number("script_start_time", -1.0, 1e10, "node-clock time of the script's t = 0 [s]; negative: when the node "
+                                            "starts"),
+    number("hand_stiffness", 1.0, 5000.0, "operator hand [N/m]"),
+    number("hand_damping", 0.0, 200.0, "operator hand [N s/m]"),
+    number("hand_correction_rate", 0.0, 50.0, "how fast the operator leans in to put the handle on target [1/s]; "
+                                              "0: never"),
+    number("hand_max_correction", 0.0, 0.5, "bound on lean-in [m]"),
+    number("hand_max_force", 0.1, 200.0, "strongest hand push [N]"),
+    number("joy_max_speed", 0.0, 2.0, "hand target speed at full axis [m/s]"),
+    number("joy_timeout", 0.01, 10.0, "axes older than this count as zero (a crashed keyboard stops the hand) [s]"),
+    text("frame_id", "frame of pose/twist"),
+    text("driver_interface", f"topics to speak: one of {DEVICE_INTERFACES} (forcedimension: the twin of "
+                             "forcedimension_ros2, driver_twins.py; publish_rate_hz is then its update rate)"),
+)
 
 
 def default_script_path(scene: str) -> Path:
@@ -67,42 +89,8 @@ def default_script_path(scene: str) -> Path:
 class HapticDeviceNode(Node):
     def __init__(self) -> None:
         super().__init__("haptic_device")
-        d = HapticDeviceParameters()
-        h = HandParameters()
-        self.declare_parameter("publish_rate_hz", 500.0, _range(10.0, 2000.0, "pose/twist rate and loop rate [Hz]"))
-        self.declare_parameter("substep", d.substep, _range(1e-4, 0.005, "physics substep [s] (1 kHz default)"))
-        self.declare_parameter("mass", d.mass, _range(0.01, 10.0, "effective moving mass at the handle [kg]"))
-        self.declare_parameter("damping", d.damping, _range(0.0, 100.0, "mechanism viscous damping [N s/m]"))
-        self.declare_parameter("half_extents", list(d.half_extents), ParameterDescriptor(
-            description="workspace box half-sizes x, y, z [m] around the local origin (sigma.7: 0.19 x 0.13 m)"))
-        self.declare_parameter("wall_stiffness", d.wall_stiffness, _range(0.0, 20000.0, "soft wall [N/m]"))
-        self.declare_parameter("wall_damping", d.wall_damping, _range(0.0, 500.0, "soft wall [N s/m]"))
-        self.declare_parameter("max_force", d.max_force, _range(0.0, 100.0, "command force saturation [N]"))
-        self.declare_parameter("command_timeout", 0.1, _range(0.001, 10.0,
-                               "a force command older than this is stale: zero force until a fresh one [s]"))
-        self.declare_parameter("operator_source", "scripted", ParameterDescriptor(
-            description=f"the hand on the handle: one of {OPERATOR_SOURCES}"))
-        self.declare_parameter("scene", "free_space", ParameterDescriptor(
-            description=f"scene whose operator script is played: one of {SCENES}"))
-        self.declare_parameter("script_file", "", ParameterDescriptor(
-            description="operator script YAML; empty: config/operator_scripts/<scene>.yaml"))
-        self.declare_parameter("script_start_time", -1.0, _range(-1.0, 1e10,
-                               "node-clock time of the script's t = 0 [s]; negative: when the node starts"))
-        self.declare_parameter("hand_stiffness", h.stiffness, _range(1.0, 5000.0, "operator hand [N/m]"))
-        self.declare_parameter("hand_damping", h.damping, _range(0.0, 200.0, "operator hand [N s/m]"))
-        self.declare_parameter("hand_correction_rate", h.correction_rate, _range(0.0, 50.0,
-                               "how fast the operator leans in to put the handle on target [1/s]; 0: never"))
-        self.declare_parameter("hand_max_correction", h.max_correction, _range(0.0, 0.5, "bound on lean-in [m]"))
-        self.declare_parameter("hand_max_force", h.max_force, _range(0.1, 200.0, "strongest hand push [N]"))
-        self.declare_parameter("joy_max_speed", 0.10, _range(0.0, 2.0, "hand target speed at full axis [m/s]"))
-        self.declare_parameter("joy_timeout", 0.5, _range(0.01, 10.0,
-                               "axes older than this count as zero (a crashed keyboard stops the hand) [s]"))
-        self.declare_parameter("frame_id", "haptic_base", ParameterDescriptor(description="frame of pose/twist"))
-        self.declare_parameter("driver_interface", "sim", ParameterDescriptor(
-            description=f"topics to speak: one of {DEVICE_INTERFACES} (forcedimension: the twin of "
-                        "forcedimension_ros2, driver_twins.py; publish_rate_hz is then its update rate)"))
-
-        value = lambda name: self.get_parameter(name).value  # noqa: E731
+        values = declare(self, SCHEMA)  # every row with its config/haptic_device.yaml value; unknown keys refused
+        value = values.__getitem__
         parameters = HapticDeviceParameters(
             mass=value("mass"), damping=value("damping"), half_extents=tuple(value("half_extents")),
             wall_stiffness=value("wall_stiffness"), wall_damping=value("wall_damping"),
@@ -290,21 +278,7 @@ class HapticDeviceNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    stop_signals.install()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
-    node = None
-    try:
-        node = HapticDeviceNode()
-        spin_until_shutdown(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except FicInputError as exc:
-        rclpy.logging.get_logger("haptic_device").fatal(f"cannot start: {exc}")
-        raise SystemExit(2) from exc
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(HapticDeviceNode, "haptic_device", args)
 
 
 if __name__ == "__main__":

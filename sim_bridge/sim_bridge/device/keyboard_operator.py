@@ -13,37 +13,32 @@ import termios
 import tty
 
 import rclpy
-from rclpy.signals import SignalHandlerOptions
-from sim_bridge import stop_signals
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Joy
 
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import Schema, declare, number
 from sim_bridge.device.keyboard_teleop import HELP, KeyboardState, split_keys
-from sim_bridge.spin import spin_until_shutdown
 
 # Same QoS as the scripted operator's buttons: a lost toggle would invert the mode for the rest of the run.
-JOY_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
+JOY_QOS = qos.EVENTS
+SCHEMA = Schema("keyboard_operator.yaml",
+                number("rate_hz", 1.0, 500.0, "Joy publishing rate [Hz]"),
+                number("hold_time", 0.05, 5.0, "an axis stays on this long after the key's last auto-repeat [s]"))
 MODE_NAMES = ("OFFSET", "VELOCITY")
 
 
 class KeyboardOperator(Node):
     def __init__(self, stdin_fd: int) -> None:
         super().__init__("keyboard_operator")
-        self.declare_parameter("rate_hz", 50.0, ParameterDescriptor(
-            description="Joy publishing rate [Hz]", floating_point_range=[
-                FloatingPointRange(from_value=1.0, to_value=500.0, step=0.0)]))
-        self.declare_parameter("hold_time", 0.6, ParameterDescriptor(
-            description="an axis stays on this long after the key's last auto-repeat [s]", floating_point_range=[
-                FloatingPointRange(from_value=0.05, to_value=5.0, step=0.0)]))
+        values = declare(self, SCHEMA)  # config/keyboard_operator.yaml; unknown keys refused
         self.fd = stdin_fd
-        self.state = KeyboardState(hold_time=self.get_parameter("hold_time").value)
+        self.state = KeyboardState(hold_time=values["hold_time"])
         self.mode = 0                  # what the master should be in if it started in OFFSET (display only)
         self.gain_presses = 0
         self.publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
-        self.create_timer(1.0 / self.get_parameter("rate_hz").value, self._tick)
+        self.create_timer(1.0 / values["rate_hz"], self._tick)
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -81,23 +76,18 @@ def main(args: list[str] | None = None) -> None:
         raise SystemExit(1)
     fd = sys.stdin.fileno()
     saved = termios.tcgetattr(fd)
-    stop_signals.install()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
-    node = None
-    try:
-        # cbreak: keys arrive one at a time without Enter, and Ctrl-C still raises SIGINT for rclpy.
+
+    def make_node() -> KeyboardOperator:
+        # cbreak: keys arrive one at a time without Enter, and Ctrl-C still raises SIGINT.
         tty.setcbreak(fd)
         print(HELP)
-        node = KeyboardOperator(fd)
-        spin_until_shutdown(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        return KeyboardOperator(fd)
+
+    try:
+        run_node(make_node, "keyboard_operator", args)
     finally:
         termios.tcsetattr(fd, termios.TCSADRAIN, saved)
         print("\nkeyboard operator stopped, terminal restored.")
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
 
 
 if __name__ == "__main__":

@@ -32,6 +32,7 @@ from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_core.planner import HarmonicPlanner
 from fic_core.replica_loop import ReplicaLoop
+from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
 from fic_core.trajectories import Circle, FixedPoint
 from sim_bridge.channel.channel import Channel, ChannelConfig
 from sim_bridge.experiments.channel_ports import ChannelPorts
@@ -48,11 +49,10 @@ PLANNER_LAG_S = 0.2
 JOY_RATE_HZ = 50.0               # the device node's button messages
 CAMERA_RATE_HZ = 30.0            # the closed-loop operator's video frames (a webcam's rate)
 OPERATORS = ("scripted", "closed_loop")
-#: config/replica.yaml's keys of the node's input authority (fic_core.input_authority), not of ReplicaLoop. The
-#: same CommandAuthority judges every delivered command here as in the node (the workspace clamp of x_d' and its
-#: speed bound); the node's one-writer and stream checks have nothing to check in one process.
-INPUT_AUTHORITY_PARAMETERS = ("offset_workspace", "max_offset_speed", "max_offset_burst", "command_future_tolerance",
-                              "max_command_age")
+#: config/replica.yaml also holds the node's input authority (fic_core.input_authority) and driver keys, not
+#: ReplicaLoop's: only REPLICA_LOOP_PARAMETERS go to the loop. The same CommandAuthority judges every delivered
+#: command here as in the node (the workspace clamp of x_d' and its speed bound); the node's one-writer and stream
+#: checks have nothing to check in one process.
 
 
 def _parameters(name: str) -> dict[str, Any]:
@@ -138,7 +138,7 @@ def run(config: RunConfig) -> RunResult:
     """One run of the graph (module docstring)."""
     r, m, h = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("haptic_device.yaml")
     authority = CommandAuthority(AuthorityBounds.from_parameters(r))
-    r = {name: value for name, value in r.items() if name not in INPUT_AUTHORITY_PARAMETERS}
+    r = {name: value for name, value in r.items() if name in REPLICA_LOOP_PARAMETERS}
     pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
     # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (channel_ports.py).

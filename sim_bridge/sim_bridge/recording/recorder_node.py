@@ -21,63 +21,60 @@ the writer thread then drains the queue and the bag gets its summary, footer and
 """
 from __future__ import annotations
 
-import gc
 import collections
 import datetime
 import re
-import signal
-import struct
 import threading
 import time
 from pathlib import Path
 
 import rclpy
-from rclpy.signals import SignalHandlerOptions
-from sim_bridge import stop_signals
 from rclpy.clock import Clock, ClockType
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
-from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from rclpy.task import Future
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from fic_core.errors import FicInputError
 from sim_bridge.recording.bag_writer import BagError, BagWriter, MessageDefinitionError, full_type_name, message_definition, \
     qos_profile_dict
 from sim_bridge.recording.live_view import LiveView, LiveViewError
-from sim_bridge.message_types import message_class
+from fic_teleop_runtime.cdr_header import header_stamp
+from fic_teleop_runtime.message_types import message_class
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import Schema, declare, defaults_for, integer, number, switch, text, texts
 
-# The topic table of docs/INTERFACES.md: what a session is.
-DEFAULT_TOPICS = [
-    "/haptic/pose", "/haptic/twist", "/haptic/wrench_command", "/operator/joy",
-    "/master/pose", "/master/teleop_command", "/master/feedback_wrench",
-    "/replica/master_pose", "/replica/teleop_command", "/replica/feedback_wrench",
-    "/planner/desired_pose", "/planner/desired_accel", "/replica/desired_pose", "/replica/tcp_pose",
-    "/replica/fic_state", "/replica/limit_status",
-    "/joint_states", "/ft_sensor/wrench", "/clock", "/effort_controller/commands",
-    "/channel/deliveries", "/diagnostics", "/sim/step_lateness",
-    # The robot sim's ground truth (robot_node, 50 Hz): where the E2 pieces ended (success), the true TCP pose.
-    "/sim/object_poses", "/sim/tcp_pose",
-]
 # Subscriber QoS: RELIABLE so that DDS resends what a busy recorder missed, KEEP_LAST deep enough to absorb a
 # 1 s stall of the writer at 1 kHz (docs/CONVENTIONS.md, "QoS": the robot keeps 1000 too; a deeper reader queue is free).
 # BEST_EFFORT / TRANSIENT_LOCAL only when every publisher offers it (a reliable reader cannot match a
 # best-effort writer; transient-local gets the latched sample).
-DEFAULT_QUEUE_DEPTH = 1000
+SCHEMA = Schema(
+    "recorder.yaml",
+    text("bag_path", "bag folder to create (rosbag2 layout: <bag_path>/<name>_0.mcap + metadata.yaml); empty: "
+                     "bags/rosbag2_<date>-<time> in the working directory"),
+    texts("topics", "topics to record as they appear in the graph (config: the topic table of "
+                    "docs/INTERFACES.md)"),
+    switch("all", "record every topic the graph discovery finds (besides `topics`), except `exclude`"),
+    texts("exclude", "regular expressions of topics that `all` leaves out"),
+    number("discovery_period", 0.05, 60.0, "seconds between graph discoveries of new topics"),
+    integer("queue_depth", 1, 100000, "KEEP_LAST depth of every subscription"),
+    integer("chunk_size", 1024, 64 * 1024 * 1024, "MCAP chunk size in bytes (uncompressed): a chunk is closed when "
+                                                  "it reaches this size"),
+    number("flush_period", 0.01, 60.0, "seconds between forced chunk closes: the most a SIGKILL can lose"),
+    text("compression", "chunk compression: zstd, lz4 or none"),
+    number("status_period", 0.1, 60.0, "seconds between recorder status messages on /diagnostics"),
+    text("joint_states_topic", "topic whose header stamps are checked for gaps"),
+    number("joint_states_period", 1e-6, 1.0, "seconds between consecutive joint-state stamps (the simulator's "
+                                             "physics step)"),
+    # The live view (sim_bridge/recording/live_view.py): the recorded topics on a Foxglove WebSocket server.
+    integer("live_port", 0, 65535, "TCP port of the live view's Foxglove WebSocket server; 0: no live view"),
+    text("live_host", "address the live view binds to (127.0.0.1: this machine only)"),
+    number("live_rate", 0.1, 1000.0, "most messages a second the live view sends of any one topic"),
+)
 
 
-def _descriptor(description: str, *, type_: int | None = None, float_range: tuple[float, float] | None = None,
-                int_range: tuple[int, int] | None = None) -> ParameterDescriptor:
-    descriptor = ParameterDescriptor(description=description)
-    if type_ is not None:
-        descriptor.type = type_
-    if float_range is not None:
-        descriptor.floating_point_range = [FloatingPointRange(from_value=float_range[0], to_value=float_range[1])]
-    if int_range is not None:
-        descriptor.integer_range = [IntegerRange(from_value=int_range[0], to_value=int_range[1], step=1)]
-    return descriptor
+def default_topics() -> list[str]:
+    """The topics a session records (config/recorder.yaml: the topic table of docs/INTERFACES.md)."""
+    return list(defaults_for(SCHEMA, "recorder")["topics"])
 
 
 class JointStateGapCounter:
@@ -93,10 +90,11 @@ class JointStateGapCounter:
         self._last_ns: int | None = None
 
     def add(self, cdr: bytes) -> None:
-        # CDR: 4-byte encapsulation header (byte 1: 1 = little endian), then std_msgs/Header.stamp (int32, uint32).
-        sec, nanosec = struct.unpack_from("<iI" if cdr[1] & 1 else ">iI", cdr, 4)
-        stamp = sec * 1_000_000_000 + nanosec
         self.received += 1
+        parsed = header_stamp(cdr)  # std_msgs/Header.stamp right after the CDR encapsulation
+        if parsed is None:
+            return  # not a stamp: nothing to place on the step grid
+        stamp = parsed[0] * 1_000_000_000 + parsed[1]
         offset = stamp % self.period_ns
         if min(offset, self.period_ns - offset) > 1000:  # more than 1 us off a step: not a sim-time stamp
             self.off_grid += 1
@@ -117,41 +115,7 @@ class JointStateGapCounter:
 class RecorderNode(Node):
     def __init__(self) -> None:
         super().__init__("recorder")
-        self.declare_parameter("bag_path", "", _descriptor(
-            "bag folder to create (rosbag2 layout: <bag_path>/<name>_0.mcap + metadata.yaml); "
-            "empty: bags/rosbag2_<date>-<time> in the working directory"))
-        self.declare_parameter("topics", DEFAULT_TOPICS, _descriptor(
-            "topics to record as they appear in the graph (default: the topic table of docs/INTERFACES.md)",
-            type_=ParameterType.PARAMETER_STRING_ARRAY))
-        self.declare_parameter("all", False, _descriptor(
-            "record every topic the graph discovery finds (besides `topics`), except `exclude`"))
-        self.declare_parameter("exclude", ["/rosout", "/parameter_events"], _descriptor(
-            "regular expressions of topics that `all` leaves out", type_=ParameterType.PARAMETER_STRING_ARRAY))
-        self.declare_parameter("discovery_period", 0.5, _descriptor(
-            "seconds between graph discoveries of new topics", float_range=(0.05, 60.0)))
-        self.declare_parameter("queue_depth", DEFAULT_QUEUE_DEPTH, _descriptor(
-            "KEEP_LAST depth of every subscription", int_range=(1, 100000)))
-        self.declare_parameter("chunk_size", 256 * 1024, _descriptor(
-            "MCAP chunk size in bytes (uncompressed): a chunk is closed when it reaches this size",
-            int_range=(1024, 64 * 1024 * 1024)))
-        self.declare_parameter("flush_period", 0.5, _descriptor(
-            "seconds between forced chunk closes: the most a SIGKILL can lose", float_range=(0.01, 60.0)))
-        self.declare_parameter("compression", "zstd", _descriptor("chunk compression: zstd, lz4 or none"))
-        self.declare_parameter("status_period", 1.0, _descriptor(
-            "seconds between recorder status messages on /diagnostics", float_range=(0.1, 60.0)))
-        self.declare_parameter("joint_states_topic", "/joint_states", _descriptor(
-            "topic whose header stamps are checked for gaps"))
-        self.declare_parameter("joint_states_period", 0.001, _descriptor(
-            "seconds between consecutive joint-state stamps (the simulator's physics step)",
-            float_range=(1e-6, 1.0)))
-        # The live view (sim_bridge/live_view.py): the recorded topics on a Foxglove WebSocket server.
-        self.declare_parameter("live_port", 0, _descriptor(
-            "TCP port of the live view's Foxglove WebSocket server; 0: no live view", int_range=(0, 65535)))
-        self.declare_parameter("live_host", "127.0.0.1", _descriptor(
-            "address the live view binds to (127.0.0.1: this machine only)"))
-        self.declare_parameter("live_rate", 30.0, _descriptor(
-            "most messages a second the live view sends of any one topic", float_range=(0.1, 1000.0)))
-
+        declare(self, SCHEMA)  # every row with its config/recorder.yaml value; unknown keys refused
         bag_path = self.get_parameter("bag_path").value or \
             f"bags/rosbag2_{datetime.datetime.now().strftime('%Y_%m_%d-%H_%M_%S')}"
         self._topics = list(self.get_parameter("topics").value or [])
@@ -349,42 +313,15 @@ class RecorderNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    # rclpy's own handlers take SIGINT and SIGTERM and shut the context down; spin() then returns (or raises)
-    # and the bag is finished below. A second signal during finishing is ignored so it cannot cut the footer.
-    stop_signals.install()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
-    node = None
-    try:
-        try:
-            node = RecorderNode()
-        except BagError as exc:  # an existing bag folder, an unwritable path: one clear line, not a traceback
-            rclpy.logging.get_logger("recorder").fatal(f"cannot record: {exc}")
-            raise SystemExit(2) from exc
-        except LiveViewError as exc:  # the live view's port is taken: one line, and no bag was started
-            rclpy.logging.get_logger("recorder").fatal(str(exc))
-            raise SystemExit(2) from exc
-        executor = EventsExecutor()
-        executor.add_node(node)
-        # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
-        # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
-        gc.collect()
-        gc.freeze()
-        # Spin in bounded slices: with the rclpy 7.1 wheels, EventsExecutor.spin() and spin_until_future_complete
-        # without a timeout busy-loop without ever running a timer; with a timeout they work.
-        never = Future()
-        try:
-            stop_signals.running()  # a signal now asks the loop to stop; the bag is finished below
-            while rclpy.ok() and not stop_signals.requested():
-                executor.spin_until_future_complete(never, timeout_sec=0.5)
-        except (KeyboardInterrupt, ExternalShutdownException):
-            pass
-    finally:
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(signum, signal.SIG_IGN)
-        if node is not None:
-            node.finish()
-            node.destroy_node()
-        rclpy.try_shutdown()
+    # Spin in bounded slices of 0.5 s on the EventsExecutor even under simulated time: the recorder's timers need
+    # not land on simulated time, and it takes every 1 kHz stream (fic_teleop_runtime.spin). The bag is finished
+    # after the spin, with a second Ctrl-C ignored so it cannot cut the footer (fic_teleop_runtime.node_main).
+    run_node(RecorderNode, "recorder", args, refusals=(BagError, LiveViewError), stopped=_finish, slice_s=0.5,
+             follow_sim_time=False)
+
+
+def _finish(node: RecorderNode) -> None:
+    node.finish()
 
 
 if __name__ == "__main__":

@@ -38,46 +38,83 @@ import time
 
 import numpy as np
 import rclpy
-from rclpy.signals import SignalHandlerOptions
-from sim_bridge import stop_signals
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Pose, PoseArray, PoseStamped, WrenchStamped
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
 from fic_core.errors import FicInputError
-from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
-from sim_bridge.cdr_header import header_stamp, stamp_seconds
+from fic_core.panda_description import ARM_JOINT_NAMES
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
+from fic_teleop_runtime.message_types import message_class
+from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
 from sim_bridge.driver_twins import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
-from sim_bridge.message_types import message_class
 from sim_bridge.os_thread import name_os_thread
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.peer_barrier import PeerBarrier
 from sim_bridge.robot.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
 from sim_bridge.robot.scenes import SCENE_NAMES
-from sim_bridge.spin import spin_until_shutdown
 from sim_bridge.robot.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
 from sim_bridge.robot.watchdog import CommandWatchdog, WatchdogEvent
 
 # 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 1000. A reliable writer overwrites samples a
 # slow reader has not acknowledged once its history is full, so a deep history (one second, only memory) is what
 # lets a recorder on a busy machine lose none; a late command is superseded by the next one anyway.
-ROBOT_STREAM_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
-NEWEST_COMMAND_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=1)
-STATUS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
+ROBOT_STREAM_QOS = qos.reliable(1000)
+NEWEST_COMMAND_QOS, STATUS_QOS, DIAGNOSTICS_QOS = qos.NEWEST, qos.STREAM, qos.DIAGNOSTICS
 # Peers' stamps: only the newest matters; best effort matches reliable and best-effort publishers alike.
-PEER_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=10)
-DIAGNOSTICS_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+PEER_QOS = qos.best_effort(10)
 
 BASE_FRAME = "panda_link0"
 SUBSCRIBER_WAIT_S = 60.0  # lockstep: longest wall-clock wait for the /joint_states readers before the first step
 STEPS_PER_SECOND = round(1.0 / TIMESTEP)
+
+SCHEMA = Schema(
+    "robot.yaml",
+    text("scene", f"scene to build: one of {', '.join(SCENE_NAMES)}"),
+    integer("seed", 0, 2 ** 31 - 1, "seed of the scene's random elements (adhesive bond break thresholds)"),
+    text("mode", "realtime: wall-clock paced 1 kHz; lockstep: step on each command"),
+    number("lockstep_timeout", 0.001, 10.0, "lockstep: longest wall-clock wait for the command of a step before "
+                                            "stepping on the last one (counted) [s]"),
+    texts("lockstep_peers", "lockstep: header-stamped topics of nodes that follow /clock (device, master, planner); "
+                            "no step past t until each has published a stamp >= t - lockstep_peer_lag (empty: none)"),
+    integer("lockstep_subscribers", 0, 100, "lockstep: the simulation starts once /joint_states has this many "
+                                            "readers (the replica, a recorder), or after "
+                                            f"{SUBSCRIBER_WAIT_S:g} s with a warning"),
+    number("lockstep_peer_lag", 0.0, 10.0, "lockstep: how far a peer's newest stamp may trail the simulation (at "
+                                           "least its own period) [s]"),
+    number("lockstep_peer_timeout", 0.001, 60.0, "lockstep: a peer that holds a step longer than this (wall) is "
+                                                 "declared stalled and not waited for until it catches up [s]"),
+    number("command_timeout", 0.002, 10.0, "watchdog: commands older than this are replaced by the hold torque "
+                                           "(wall s in realtime, simulated s in lockstep) [s]"),
+    number("realtime_clock_rate_hz", 0.0, 1000.0, "realtime: /clock publication rate (lockstep publishes every "
+                                                  "step) [Hz]"),
+    number("wrench_rate_hz", 1.0, 1000.0, "/ft_sensor/wrench publication rate, a divisor of 1000 (the sample of "
+                                          "that step) [Hz]"),
+    number("lateness_rate_hz", 0.0, 1000.0, "/sim/step_lateness publication rate [Hz]"),
+    number("object_pose_rate_hz", 0.0, 1000.0, "/sim/object_poses and /sim/tcp_pose publication rate [Hz]"),
+    number("diagnostics_rate_hz", 0.0, 100.0, "/diagnostics publication rate [Hz]"),
+    numbers("initial_configuration", "joint positions at start, panda_joint1..7 [rad]"),
+    text("render_video_path", "write the run to this .gif (or .mp4) at the end; empty: no video"),
+    text("snapshot_dir", "write PNG key frames of the run here at the end; empty: none"),
+    number("video_frame_rate_hz", 0.1, 60.0, "frames per simulated second taped for the video and key frames [Hz]"),
+    number("snapshot_interval", 0.01, 3600.0, "simulated time between key frames [s]"),
+    switch("viewer", "open the live MuJoCo viewer (needs a display)"),
+    switch("gravity_compensation", "the arm compensates its own gravity at every physics step, as a Franka under "
+                                   "torque control: commands then mean tau - G(q) (mujoco_panda.build_panda_spec)"),
+    text("driver_interface", f"topics, QoS, frames and joint names to speak: one of {ROBOT_INTERFACES} "
+                             "(franka_ros2: its twin, driver_twins.py)"),
+    switch("hold_on_stale_commands", "replace stale commands by the hold torque (command_timeout); false: apply "
+                                     "the last command until another comes, as ros2_control's forward controller "
+                                     "does"),
+)
+
+
 # The physics thread's name as the OS shows it (top -H, /proc): the launcher gives it real-time priority by it.
 PHYSICS_THREAD_NAME = "physics"
 
@@ -183,65 +220,7 @@ class RobotNode(Node):
 
     # --- parameters --------------------------------------------------------------------------------------------
     def _declare_parameters(self) -> dict:
-        def number(name, default, description, low, high):
-            descriptor = ParameterDescriptor(description=description, floating_point_range=[
-                FloatingPointRange(from_value=low, to_value=high)])
-            return self.declare_parameter(name, default, descriptor).value
-
-        def text(name, default, description):
-            return self.declare_parameter(name, default, ParameterDescriptor(description=description)).value
-
-        values = {
-            "scene": text("scene", "superimposition", f"scene to build: one of {', '.join(SCENE_NAMES)}"),
-            "seed": self.declare_parameter("seed", 0, ParameterDescriptor(
-                description="seed of the scene's random elements (adhesive bond break thresholds)",
-                integer_range=[IntegerRange(from_value=0, to_value=2**31 - 1)])).value,
-            "mode": text("mode", "realtime", "realtime: wall-clock paced 1 kHz; lockstep: step on each command"),
-            "lockstep_timeout": number("lockstep_timeout", 0.05, "lockstep: longest wall-clock wait for the "
-                                       "command of a step before stepping on the last one (counted) [s]", 0.001, 10.0),
-            "lockstep_peers": self.declare_parameter("lockstep_peers", [""], ParameterDescriptor(
-                description="lockstep: header-stamped topics of nodes that follow /clock (device, master, planner); "
-                            "no step past t until each has published a stamp >= t - lockstep_peer_lag "
-                            "(empty: none)")).value,
-            "lockstep_subscribers": self.declare_parameter("lockstep_subscribers", 1, ParameterDescriptor(
-                description="lockstep: the simulation starts once /joint_states has this many readers (the replica, "
-                            f"a recorder), or after {SUBSCRIBER_WAIT_S:g} s with a warning",
-                integer_range=[IntegerRange(from_value=0, to_value=100)])).value,
-            "lockstep_peer_lag": number("lockstep_peer_lag", 0.03, "lockstep: how far a peer's newest stamp may "
-                                        "trail the simulation (at least its own period) [s]", 0.0, 10.0),
-            "lockstep_peer_timeout": number("lockstep_peer_timeout", 1.0, "lockstep: a peer that holds a step "
-                                            "longer than this (wall) is declared stalled and not waited for "
-                                            "until it catches up [s]", 0.001, 60.0),
-            "command_timeout": number("command_timeout", 0.05, "watchdog: commands older than this are replaced "
-                                      "by the hold torque (wall s in realtime, simulated s in lockstep) [s]", 0.002, 10.0),
-            "realtime_clock_rate_hz": number("realtime_clock_rate_hz", 100.0, "realtime: /clock publication rate "
-                                             "(lockstep publishes every step) [Hz]", 0.0, 1000.0),
-            "wrench_rate_hz": number("wrench_rate_hz", 250.0, "/ft_sensor/wrench publication rate, a divisor of "
-                                     "1000 (the sample of that step) [Hz]", 1.0, 1000.0),
-            "lateness_rate_hz": number("lateness_rate_hz", 10.0, "/sim/step_lateness publication rate [Hz]", 0.0, 1000.0),
-            "object_pose_rate_hz": number("object_pose_rate_hz", 50.0, "/sim/object_poses and /sim/tcp_pose "
-                                          "publication rate [Hz]", 0.0, 1000.0),
-            "diagnostics_rate_hz": number("diagnostics_rate_hz", 1.0, "/diagnostics publication rate [Hz]", 0.0, 100.0),
-            "initial_configuration": self.declare_parameter(
-                "initial_configuration", NOMINAL_CONFIGURATION.tolist(),
-                ParameterDescriptor(description="joint positions at start, panda_joint1..7 [rad]")).value,
-            "render_video_path": text("render_video_path", "", "write the run to this .gif (or .mp4) at the end; "
-                                      "empty: no video"),
-            "snapshot_dir": text("snapshot_dir", "", "write PNG key frames of the run here at the end; empty: none"),
-            "video_frame_rate_hz": number("video_frame_rate_hz", 10.0, "frames per simulated second taped for "
-                                          "the video and key frames [Hz]", 0.1, 60.0),
-            "snapshot_interval": number("snapshot_interval", 5.0, "simulated time between key frames [s]", 0.01, 3600.0),
-            "viewer": self.declare_parameter("viewer", False, ParameterDescriptor(
-                description="open the live MuJoCo viewer (needs a display)")).value,
-            "gravity_compensation": self.declare_parameter("gravity_compensation", False, ParameterDescriptor(
-                description="the arm compensates its own gravity at every physics step, as a Franka under torque "
-                            "control: commands then mean tau - G(q) (mujoco_panda.build_panda_spec)")).value,
-            "driver_interface": text("driver_interface", "sim", "topics, QoS, frames and joint names to speak: "
-                                     f"one of {ROBOT_INTERFACES} (franka_ros2: its twin, driver_twins.py)"),
-            "hold_on_stale_commands": self.declare_parameter("hold_on_stale_commands", True, ParameterDescriptor(
-                description="replace stale commands by the hold torque (command_timeout); false: apply the last "
-                            "command until another comes, as ros2_control's forward controller does")).value,
-        }
+        values = declare(self, SCHEMA)  # every row with its config/robot.yaml value; unknown keys refused
         if values["driver_interface"] not in ROBOT_INTERFACES:
             raise FicInputError(f"driver_interface must be one of {ROBOT_INTERFACES}, got {values['driver_interface']!r}")
         if values["scene"] not in SCENE_NAMES:
@@ -509,25 +488,12 @@ def main(args: list[str] | None = None) -> None:
     # Two threads share the GIL here (physics, and the executor receiving commands): the default 5 ms switch
     # interval would let a busy executor hold the physics thread past several 1 ms steps.
     sys.setswitchinterval(0.0002)
-    stop_signals.install()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)  # our handlers: stop_signals.py
-    node = None
-    try:
-        node = RobotNode()
-        spin_until_shutdown(node)  # spin_once slices: EventsExecutor.spin() ignores SIGINT in these wheels
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except FicInputError as exc:
-        # A bad parameter at start: say which and why, and exit non-zero instead of a traceback.
-        rclpy.logging.get_logger("robot_sim").fatal(f"cannot start: {exc}")
-        raise SystemExit(2) from exc
-    finally:
-        if node is not None:
-            node.stop()
-            # Not node.get_logger(): after a signal the context is gone and the node logger's /rosout fails.
-            rclpy.logging.get_logger("sim_bridge.robot.robot_node").info(f"robot_sim stopped: {node.statistics()}")
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(RobotNode, "robot_sim", args, stopped=_stopped)
+
+
+def _stopped(node: RobotNode) -> None:
+    node.stop()
+    rclpy.logging.get_logger("sim_bridge.robot.robot_node").info(f"robot_sim stopped: {node.statistics()}")
 
 
 if __name__ == "__main__":

@@ -11,9 +11,10 @@ Two causes, two answers:
   between slices; the node is then destroyed and only then the context shut down.
 - Before the node spins there is nothing to finish: a signal then ends the process with ``SystemExit(0)``, which
   runs the ``finally`` blocks on its way out. To cover the interpreter's own start, before any of our code runs,
-  the launcher starts each node with SIGINT and SIGTERM blocked (launch_supervision.py); a blocked signal waits,
-  and ``install()`` (run by the node's package on import) installs these handlers and unblocks them, so a signal
-  sent at any moment is handled here. A node started by hand gets them when its ``main()`` calls ``install()``.
+  the launcher starts each node with SIGINT and SIGTERM blocked (scripts/launch_supervision.py); a blocked signal
+  waits, and ``install()`` (run when fic_teleop_runtime is imported, first thing in each node package) installs
+  these handlers and unblocks them, so a signal sent at any moment is handled here. A node started by hand gets
+  them when ``run_node`` calls ``install()``.
 """
 from __future__ import annotations
 
@@ -52,3 +53,10 @@ def running() -> None:
 
 def requested() -> bool:
     return _state["requested"]
+
+
+def ignore() -> None:
+    """From now on a stop signal does nothing: the node is cleaning up (a recorder finishing its bag), and a second
+    Ctrl-C must not cut that short."""
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)

@@ -15,18 +15,22 @@ from rclpy.experimental import EventsExecutor
 from rclpy.task import Future
 from rclpy.node import Node
 
-from sim_bridge import stop_signals
+from fic_teleop_runtime import stop_signals
 
 SLICE = 0.1   # [s] longest wait between two checks of the context
 
 
-def spin_until_shutdown(node: Node) -> None:
-    """Run ``node``'s callbacks until the process is asked to stop. Returns normally on Ctrl-C / SIGTERM."""
+def spin_until_shutdown(node: Node, slice_s: float = SLICE, follow_sim_time: bool = True) -> None:
+    """Run ``node``'s callbacks until the process is asked to stop. Returns normally on Ctrl-C / SIGTERM.
+
+    ``follow_sim_time=False``: the EventsExecutor even under simulated time, for a node whose timers need not land
+    on simulated time and which takes the 1 kHz streams (the recorder: the wait-set executor costs more a message).
+    """
     # Under simulated time (lockstep) the EventsExecutor's timers do not follow /clock: measured here, the master's
     # 100 Hz timer fired in bursts (10 commands with one stamp) and then fell silent for 100 ms of simulated time.
     # The wait-set executor checks timers against the node's clock, so timer ticks land on simulated time.
-    executor = (SingleThreadedExecutor(context=node.context) if node.get_parameter("use_sim_time").value
-                else EventsExecutor(context=node.context))
+    sim_time = follow_sim_time and node.get_parameter("use_sim_time").value
+    executor = SingleThreadedExecutor(context=node.context) if sim_time else EventsExecutor(context=node.context)
     executor.add_node(node)
     # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
     # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
@@ -39,7 +43,7 @@ def spin_until_shutdown(node: Node) -> None:
         stop_signals.running()  # a signal now only asks the loop to stop; the node is destroyed before the context
         while rclpy.ok(context=node.context) and not stop_signals.requested():
             try:
-                executor.spin_until_future_complete(never, timeout_sec=SLICE)
+                executor.spin_until_future_complete(never, timeout_sec=slice_s)
             except (KeyboardInterrupt, ExternalShutdownException):
                 break
             except Exception:

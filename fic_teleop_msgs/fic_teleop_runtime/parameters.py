@@ -1,0 +1,290 @@
+"""Each node's parameters as one declarative table (``Declared`` rows), the one place a node declares them from.
+
+One source for each value: a row holds the name, type, description, range and whether it is fixed at start; the
+default lives only in the node's file under config/ (``config/<node>.yaml``, or the one the row table names).
+``declare`` reads the node's section of that file (``/**`` then the node's own name, as rcl applies a params file)
+and declares every row with it, so ``param describe`` shows the description and range and a value outside the range
+is refused by rclpy itself; a params file or ``-p`` given at start still overrides it.
+
+Why the nodes read config/ rather than the config files being generated from the tables: the files are what an
+operator edits and what the launcher passes, with their comments on why each value is what it is; a generator
+would either lose those or need them copied into code, a second home for the same words. The tables hold what the
+code must know (type, range, meaning); test/test_parameter_schemas.py loads every file under config/ against them
+(every key declared, of its type and inside its range, every declared key given by the node's own file).
+
+A key that no row declares is refused at start, in one line naming it and the nearest declared key: rclpy would
+otherwise ignore it, and a misspelt ``translaton_stiffness`` would leave the arm at the default stiffness without
+a word. An empty list has no type in a params file (rcl reads ``lockstep_peers: []`` as no value): the row is
+declared by its own type and read back as an empty list.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterUninitializedException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from fic_core.errors import FicInputError
+
+Type = Parameter.Type
+#: Parameters rclpy itself declares or reads on every node; a params file may give them.
+_RCLPY_OWN_PREFIXES = ("qos_overrides.",)
+_ARRAY_TYPES = (Type.BOOL_ARRAY, Type.INTEGER_ARRAY, Type.DOUBLE_ARRAY, Type.STRING_ARRAY, Type.BYTE_ARRAY)
+
+
+@dataclass(frozen=True)
+class Declared:
+    """One parameter of a node: ``low``/``high`` bound a number (inclusive); ``read_only``: fixed at start;
+    ``optional``: may be left unset (declared by type only, value None), e.g. a list whose absence means none."""
+
+    name: str
+    type: Type
+    description: str
+    low: float | None = None
+    high: float | None = None
+    read_only: bool = False
+    optional: bool = False
+
+    def descriptor(self) -> ParameterDescriptor:
+        descriptor = ParameterDescriptor(description=self.description, read_only=self.read_only)
+        if self.low is not None and self.type in (Type.DOUBLE, Type.DOUBLE_ARRAY):
+            descriptor.floating_point_range = [FloatingPointRange(from_value=float(self.low),
+                                                                  to_value=float(self.high), step=0.0)]
+        elif self.low is not None and self.type in (Type.INTEGER, Type.INTEGER_ARRAY):
+            descriptor.integer_range = [IntegerRange(from_value=int(self.low), to_value=int(self.high), step=1)]
+        return descriptor
+
+
+def number(name: str, low: float, high: float, description: str, read_only: bool = False) -> Declared:
+    return Declared(name, Type.DOUBLE, description, low, high, read_only)
+
+
+def integer(name: str, low: int, high: int, description: str, read_only: bool = False) -> Declared:
+    return Declared(name, Type.INTEGER, description, low, high, read_only)
+
+
+def switch(name: str, description: str, read_only: bool = False) -> Declared:
+    return Declared(name, Type.BOOL, description, read_only=read_only)
+
+
+def text(name: str, description: str, read_only: bool = False) -> Declared:
+    return Declared(name, Type.STRING, description, read_only=read_only)
+
+
+def numbers(name: str, description: str, read_only: bool = False, optional: bool = False) -> Declared:
+    return Declared(name, Type.DOUBLE_ARRAY, description, read_only=read_only, optional=optional)
+
+
+def texts(name: str, description: str, read_only: bool = False, optional: bool = False) -> Declared:
+    return Declared(name, Type.STRING_ARRAY, description, read_only=read_only, optional=optional)
+
+
+@dataclass(frozen=True)
+class Schema:
+    """A node's rows and the file under config/ that holds their defaults."""
+
+    config_file: str
+    rows: tuple[Declared, ...]
+
+    def __init__(self, config_file: str, *rows: Declared | Iterable[Declared]) -> None:
+        flat: list[Declared] = []
+        for row in rows:
+            flat.extend([row] if isinstance(row, Declared) else row)
+        names = [row.name for row in flat]
+        duplicates = sorted({name for name in names if names.count(name) > 1})
+        if duplicates:
+            raise ValueError(f"parameters declared twice: {duplicates}")
+        object.__setattr__(self, "config_file", config_file)
+        object.__setattr__(self, "rows", tuple(flat))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(row.name for row in self.rows)
+
+    def row(self, name: str) -> Declared:
+        return next(row for row in self.rows if row.name == name)
+
+
+# --- the config files --------------------------------------------------------------------------------------------
+class _RclLoader(yaml.SafeLoader):
+    """YAML read as rcl reads a params file: ``1.0e6`` and ``1e3`` are doubles (PyYAML's YAML 1.1 wants a signed
+    exponent and a point, and would give the strings '1.0e6' and '1e3')."""
+
+
+_RclLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?|[0-9][0-9_]*[eE][-+]?[0-9]+|\.[0-9_]+"
+               r"(?:[eE][-+]?[0-9]+)?)$"),
+    list("-+0123456789."))
+
+
+def config_folder() -> Path:
+    """The repository's config/ (FIC_TELEOP_ROOT, set by scripts/env.sh), else the copy installed with this
+    package (share/fic_teleop_msgs/config, for an install sourced without env.sh)."""
+    root = os.environ.get("FIC_TELEOP_ROOT")
+    if root:
+        return Path(root) / "config"
+    from ament_index_python.packages import get_package_share_directory
+
+    return Path(get_package_share_directory("fic_teleop_msgs")) / "config"
+
+
+def _flat(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested mappings as rcl names them: ``a: {b: 1}`` is parameter ``a.b``."""
+    result: dict[str, Any] = {}
+    for key, value in values.items():
+        if isinstance(value, Mapping):
+            result.update(_flat(value, f"{prefix}{key}."))
+        else:
+            result[f"{prefix}{key}"] = value
+    return result
+
+
+def file_sections(path: Path) -> dict[str, dict[str, Any]]:
+    """Each node section of a params file (``/**``, ``name`` or ``/name``) -> its flat parameter values."""
+    try:
+        data = yaml.load(path.read_text(), Loader=_RclLoader) or {}  # noqa: S506 - a SafeLoader
+    except (OSError, yaml.YAMLError) as exc:
+        raise FicInputError(f"cannot read {path}: {exc}") from None
+    if not isinstance(data, Mapping):
+        raise FicInputError(f"{path}: not a params file (node names to ros__parameters)")
+    sections = {}
+    for key, section in data.items():
+        parameters = section.get("ros__parameters") if isinstance(section, Mapping) else None
+        if not isinstance(parameters, Mapping):
+            raise FicInputError(f"{path}: section {key!r} has no ros__parameters mapping")
+        sections[str(key)] = _flat(parameters)
+    return sections
+
+
+def node_values(sections: Mapping[str, Mapping[str, Any]], node_name: str) -> dict[str, Any] | None:
+    """The values a node named ``node_name`` takes from a file's sections, the wildcard first and its own name
+    over it; None if no section applies to it."""
+    wildcard = [values for key, values in sections.items() if key in ("/**", "**")]
+    own = [values for key, values in sections.items() if key.lstrip("/") == node_name.lstrip("/")]
+    if not wildcard and not own:
+        return None
+    result: dict[str, Any] = {}
+    for values in (*wildcard, *own):
+        result.update(values)
+    return result
+
+
+def typed(row: Declared, value: Any, where: str) -> Any:
+    """``value`` checked against the row: of its type as rcl reads a params file (a double is written with a
+    point, ``200.0``: rcl reads ``200`` as an integer and rclpy then refuses it for a double) and inside its range;
+    FicInputError names the parameter."""
+    def fail(expected: str) -> FicInputError:
+        return FicInputError(f"{where}: {row.name} must be {expected}, got {value!r}")
+
+    def one_number(item: Any) -> float:
+        if not isinstance(item, float):
+            raise fail("a number with a decimal point (a double)")
+        return item
+
+    kind = row.type
+    if kind == Type.DOUBLE:
+        value = one_number(value)
+    elif kind == Type.INTEGER:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise fail("an integer")
+    elif kind == Type.BOOL:
+        if not isinstance(value, bool):
+            raise fail("true or false")
+    elif kind == Type.STRING:
+        if not isinstance(value, str):
+            raise fail("a string")
+    elif kind == Type.DOUBLE_ARRAY:
+        if not isinstance(value, (list, tuple)):
+            raise fail("a list of numbers")
+        value = [one_number(item) for item in value]
+    elif kind == Type.STRING_ARRAY:
+        if not isinstance(value, (list, tuple)) or not all(isinstance(item, str) for item in value):
+            raise fail("a list of strings")
+        value = list(value)
+    elif kind == Type.INTEGER_ARRAY:
+        if not isinstance(value, (list, tuple)) or not all(isinstance(i, int) and not isinstance(i, bool)
+                                                           for i in value):
+            raise fail("a list of integers")
+        value = list(value)
+    if row.low is not None:
+        items = value if isinstance(value, list) else [value]
+        if not all(math.isfinite(item) and row.low <= item <= row.high for item in items):
+            raise fail(f"in [{row.low:g}, {row.high:g}]")
+    return value
+
+
+def unknown_key_error(name: str, known: Sequence[str], node_name: str) -> FicInputError:
+    """The refusal of a key no row declares, naming the nearest declared one."""
+    close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+    hint = f"; did you mean {close[0]!r}?" if close else f"; declared: {', '.join(sorted(known))}"
+    return FicInputError(f"unknown parameter {name!r} for node {node_name}{hint}")
+
+
+def check_keys(given: Iterable[str], schema: Schema, node_name: str, also_known: Iterable[str] = ()) -> None:
+    """Every key of ``given`` is declared by ``schema`` (or by rclpy itself: ``also_known``, qos_overrides)."""
+    known = set(schema.names) | set(also_known)
+    for name in given:
+        if name not in known and not name.startswith(_RCLPY_OWN_PREFIXES):
+            raise unknown_key_error(name, schema.names, node_name)
+
+
+# --- declaring on a node -----------------------------------------------------------------------------------------
+def defaults_for(schema: Schema, node_name: str, folder: Path | None = None) -> dict[str, Any]:
+    """The node's defaults from its config file, typed and checked; every row not ``optional`` must be there."""
+    path = (folder or config_folder()) / schema.config_file
+    values = node_values(file_sections(path), node_name)
+    if values is None:
+        raise FicInputError(f"{path} has no section for node {node_name} (nor /**)")
+    where = f"{path.name} [{node_name}]"
+    check_keys(values, schema, node_name)
+    missing = [row.name for row in schema.rows if row.name not in values and not row.optional]
+    if missing:
+        raise FicInputError(f"{where} gives no value for {', '.join(missing)}")
+    return {row.name: typed(row, values[row.name], where) for row in schema.rows if row.name in values}
+
+
+def declare(node: Node, schema: Schema) -> dict[str, Any]:
+    """Declare every row of ``schema`` on ``node`` with its default from config/, after refusing any key given at
+    start that no row declares; returns name -> value (``values``). Raises FicInputError or rclpy's
+    ParameterException (wrong type, out of range), which run_node turns into one FATAL line."""
+    # Overrides are what the params files and -p gave this node; rclpy keeps them on the node (and has no public
+    # accessor for them). Parameters rclpy declared itself (use_sim_time, ...) are declared before ours.
+    overrides = dict(node._parameter_overrides)  # noqa: SLF001
+    check_keys(overrides, schema, node.get_name(), also_known=node._parameters)  # noqa: SLF001
+    defaults = defaults_for(schema, node.get_name())
+    for row in schema.rows:
+        default = defaults.get(row.name)
+        if default is None or default == []:
+            # No value, or an empty list: rcl reads ``[]`` in a params file as a value of no type, and rclpy would
+            # type an empty default as a byte array. Declared by the row's type and left unset: ``values`` reads
+            # an unset list as empty.
+            node.declare_parameter(row.name, row.type, row.descriptor())
+        else:
+            node.declare_parameter(row.name, default, row.descriptor())
+    result = values(node, schema)
+    unset = [row.name for row in schema.rows if result[row.name] is None and not row.optional]
+    if unset:
+        raise FicInputError(f"no value for {', '.join(unset)} (an empty entry in a params file?)")
+    return result
+
+
+def values(node: Node, schema: Schema, names: Iterable[str] | None = None) -> dict[str, Any]:
+    """name -> the node's current value; a list declared by type and never set is empty, any other such row None."""
+    result = {}
+    for name in schema.names if names is None else names:
+        try:
+            result[name] = node.get_parameter(name).value
+        except ParameterUninitializedException:
+            result[name] = [] if schema.row(name).type in _ARRAY_TYPES else None
+    return result

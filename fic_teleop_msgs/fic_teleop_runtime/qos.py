@@ -1,0 +1,41 @@
+"""The QoS profiles of the graph's topics, in one place so a writer and its readers cannot drift apart
+(docs/INTERFACES.md lists which topic uses which).
+
+Why each is what it is:
+- ``STREAM``: device streams, set-points on their way through the channel, status topics: RELIABLE, KEEP_LAST 20.
+  The channel is where loss is injected on purpose; DDS itself should add none.
+- ``EVENTS``: button presses. A lost toggle would invert the teleoperation mode for the rest of the run.
+- ``ROBOT_STREAM``: 1 kHz robot streams (the replica's torque command): a recorder must lose none, and a late
+  command is superseded anyway.
+- ``NEWEST``: a reader for which only the newest sample matters (the replica's joint states, the F/T reading). A
+  deep reader queue on a busy machine handed the control law a backlog of old states (measured: the arm was thrown
+  about under overload); BEST_EFFORT because a reliable reader delivers in order, and one sample lost between
+  processes held every later state back until the writer's heartbeat repaired it (50-90 ms without joint states).
+- ``SET_POINT``: x_d' through the channel and x_d'' from the planner at the replica: no loss but the channel's,
+  depth 1. A deeper queue behind a busy replica handed it commands up to depth x period old (measured: a pipeline
+  latency p99 of about 200 ms with depth 20 at 100 Hz).
+- ``DIAGNOSTICS``: /diagnostics, also rclcpp::SystemDefaultsQoS() as the RMW resolves it (``SYSTEM_DEFAULTS``,
+  what the real drivers use: reliable, volatile, keep last 10).
+"""
+from __future__ import annotations
+
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+
+def reliable(depth: int) -> QoSProfile:
+    """RELIABLE, volatile, KEEP_LAST ``depth``."""
+    return QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=depth)
+
+
+def best_effort(depth: int) -> QoSProfile:
+    """BEST_EFFORT, volatile, KEEP_LAST ``depth``."""
+    return QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=depth)
+
+
+STREAM = reliable(20)
+EVENTS = reliable(50)
+ROBOT_STREAM = reliable(50)
+NEWEST = best_effort(1)
+SET_POINT = reliable(1)
+DIAGNOSTICS = reliable(10)
+SYSTEM_DEFAULTS = reliable(10)

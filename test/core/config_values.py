@@ -1,0 +1,22 @@
+"""A node's values from its file under config/ (the ``/**`` section): the one home of the defaults, which the core
+tests start from as the nodes do."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
+
+CONFIG = Path(__file__).resolve().parents[2] / "config"
+
+
+def config_values(file_name: str) -> dict[str, Any]:
+    return dict(yaml.safe_load((CONFIG / file_name).read_text())["/**"]["ros__parameters"])
+
+
+def replica_loop_values(**changes: Any) -> dict[str, Any]:
+    """config/replica.yaml's ReplicaLoop parameters (not the node's driver or input-authority keys), changed."""
+    values = {name: value for name, value in config_values("replica.yaml").items() if name in REPLICA_LOOP_PARAMETERS}
+    return {**values, **changes}
