@@ -107,6 +107,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--operator", default="scripted", choices=OPERATORS,
                         help="scripted: the E1 script timed for each cell's delay; closed_loop: timed from the "
                              "delayed video (docs/EXPERIMENTS.md)")
+    parser.add_argument("--script-delay", type=float, default=None,
+                        help="time the scripted E1 operator for this one-way delay [s] in every cell (default: each "
+                             "cell's own delay); results/evidence_baselines used 0.2")
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--table-from", type=Path, default=None, help="print the markdown table of a sweep's JSON")
     args = parser.parse_args(argv)
@@ -116,7 +119,8 @@ def main(argv: list[str] | None = None) -> int:
     seeds = args.seeds or (2 if args.quick else 5)
     duration = args.duration or (20.0 if args.quick else 30.0)
     out = args.out or REPO / "results" / ("evidence_quick" if args.quick else "evidence")
-    chosen = [{**c, "options": {**c["options"], "operator": args.operator}}
+    timing = {} if args.script_delay is None else {"script_delay": args.script_delay}
+    chosen = [{**c, "options": {**c["options"], "operator": args.operator, **timing}}
               for c in cells(args.quick) if args.only is None or c["id"] in args.only]
     jobs = [(c, controller, seed, duration) for c in chosen for controller in args.controllers for seed in range(1, seeds + 1)]
     start = time.perf_counter()
