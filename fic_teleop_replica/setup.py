@@ -19,6 +19,7 @@ setup(
     entry_points={
         "console_scripts": [
             "replica_node = fic_teleop_replica.replica_node:main",
+            "command_relay_node = fic_teleop_replica.command_relay_node:main",
         ],
     },
 )

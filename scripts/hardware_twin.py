@@ -66,5 +66,10 @@ def twin_graph(nodes: list, lockstep: bool, node_spec) -> list:
     device.params.update({"driver_interface": "forcedimension", "publish_rate_hz": FD_UPDATE_RATE_HZ})
     adapter = node_spec("fic_teleop_master", "fd_adapter_node", "fd_adapter", FD_PROFILE,
                         {"use_sim_time": bool(lockstep)})
+    # The replica's torque reaches the arm through the relay, as on hardware (the profile's remap). Lockstep holds
+    # the replica's commands while the operator's side catches up, as it holds the joint states: same allowance.
+    relay = node_spec("fic_teleop_replica", "command_relay_node", "command_relay", "command_relay.yaml",
+                      {"timeout": 2.0} if lockstep else {})
+    nodes = nodes[:nodes.index(replica) + 1] + [relay] + nodes[nodes.index(replica) + 1:]
     index = nodes.index(device)
     return nodes[:index] + [adapter] + nodes[index:]

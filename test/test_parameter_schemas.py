@@ -16,6 +16,7 @@ CONFIG = REPO / "config"
 def _schemas() -> dict[str, object]:
     from fic_teleop_master import fd_adapter_node, master_node
     from fic_teleop_planner import planner_node
+    from fic_teleop_replica import command_relay_node
     from fic_teleop_replica import schema as replica
     from sim_bridge.channel import channel_node
     from sim_bridge.device import haptic_device_node, keyboard_operator
@@ -25,7 +26,7 @@ def _schemas() -> dict[str, object]:
     return {"replica": replica.SCHEMA, "master": master_node.SCHEMA, "fd_adapter": fd_adapter_node.SCHEMA,
             "planner": planner_node.SCHEMA, "channel": channel_node.SCHEMA, "robot": robot_node.SCHEMA,
             "haptic_device": haptic_device_node.SCHEMA, "recorder": recorder_node.SCHEMA,
-            "keyboard_operator": keyboard_operator.SCHEMA}
+            "keyboard_operator": keyboard_operator.SCHEMA, "command_relay": command_relay_node.SCHEMA}
 
 
 #: Each params file -> (the node table its keys are checked against, the node names it is loaded for).
@@ -38,6 +39,7 @@ FILES = {
     "haptic_device.yaml": ("haptic_device", ["haptic_device"]),
     "recorder.yaml": ("recorder", ["recorder"]),
     "keyboard_operator.yaml": ("keyboard_operator", ["keyboard_operator"]),
+    "command_relay.yaml": ("command_relay", ["command_relay"]),
     "profiles/forcedimension/fd_adapter.yaml": ("fd_adapter", ["fd_adapter"]),
     "profiles/franka_ros2/replica.yaml": ("replica", ["replica"]),  # loaded after replica.yaml: a partial overlay
 }

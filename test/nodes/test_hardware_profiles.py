@@ -273,3 +273,49 @@ def test_franka_twin_holds_the_arm_through_the_profile(start_node, ros_env, rclp
     # Gravity once, by the arm: it neither falls nor is pushed up (also through ramp-downs, which a loaded machine's
     # gaps in the simulated 1 kHz stream can trigger: the ramp ends at the same gravity-free hold).
     assert drift < 2e-3, drift
+
+
+def test_the_command_relay_ramps_the_arm_to_rest_when_the_replica_dies(start_node, ros_env, rclpy_context) -> None:
+    """The franka twin (the last command held forever, as ros2_control's forward controller does) behind the
+    command relay: the replica is killed with SIGKILL mid-run; the relay says so once, ramps the command to zero
+    inside the ramp's rate and holds it, and the arm (compensating its own gravity) stays where it was."""
+    import os
+    import signal
+
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+
+    robot = start_node("sim_bridge", "robot_node", name="robot", params_file=CONFIG / "robot.yaml",
+                       params={"scene": "free_space", "driver_interface": "franka_ros2",
+                               "gravity_compensation": True, "hold_on_stale_commands": False})
+    assert robot.wait_for_output("robot_sim ready", timeout=60.0), robot.output()
+    relay = start_node("fic_teleop_replica", "command_relay_node", params_file=CONFIG / "command_relay.yaml")
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         ros_args=_replica_ros_args() + ["-r", "/effort_controller/commands:=/replica/effort_command"],
+                         env=replica_env(ros_env), params={"control_rate": 500.0})
+    peer = Peer(rclpy_context, "test_relay")
+    commands: list[tuple[float, np.ndarray]] = []
+    states: list[JointState] = []
+    peer.node.create_subscription(Float64MultiArray, "/effort_controller/commands",
+                                  lambda m: commands.append((time.monotonic(), np.array(m.data))), _qos(True, 5000))
+    peer.node.create_subscription(JointState, "/franka/joint_states", states.append, _qos(False, 1))
+    assert peer.spin_until(lambda: len(commands) > 200 and len(states) > 50, 60.0), \
+        replica.output() + relay.output() + robot.output()
+    # Forwarded: the replica is the relay's only source, and the arm holds still under it.
+    assert "no replica command" not in relay.output(), relay.output()
+    before = np.array(states[-1].position)
+
+    os.killpg(replica.process.pid, signal.SIGKILL)
+    killed = time.monotonic()
+    replica.process.wait(timeout=10)
+    replica.expected_returncode = -signal.SIGKILL
+    assert relay.wait_for_output("no replica command for 50 ms", timeout=5.0), relay.output()
+    peer.spin(1.5)   # the 0.5 s ramp and a second of hold
+    after = [(t, c) for t, c in commands if t > killed]
+    assert after, "the relay sent nothing after the replica died"
+    np.testing.assert_allclose(after[-1][1], 0.0, atol=1e-12)
+    steps = [np.abs(b - a).max() for (_, a), (_, b) in zip(after, after[1:])]
+    assert max(steps) <= 2 * 87.0 / 0.5 * (1 / 250.0) + 1e-9, max(steps)   # the ramp's rate, 250 Hz steps
+    assert relay.output().count("no replica command for") == 1
+    drift = np.abs(np.array(states[-1].position) - before).max()
+    assert drift < 0.02, drift   # the arm floats where it was (without the relay it keeps the last torque)
