@@ -60,4 +60,18 @@ def judge(job: tuple[dict, str, int, float]) -> dict:
                 offset_drift_max_m=float(result.port_energy[:, 4].max()), operator_time_shift_s=result.operator_time_shift,
                 hand_scale=result.hand_scale, simulated_s=result.simulated_s, wall_s=result.wall_s,
                 operator=config.operator, fixed_obstacle_contact_s=float(
-                    np.sum(result.obstacle_contact[after]) * np.median(np.diff(result.time))))
+                    np.sum(result.obstacle_contact[after]) * np.median(np.diff(result.time))),
+                fixed_obstacle_contact_per_lap_s=contact_per_lap(result.time, result.obstacle_contact))
+
+
+#: E1's laps for the contact count: 5 s each, centred on the planner's passings of the fixed obstacle (3.25 s + 5 k).
+LAP_S, FIRST_LAP_START_S = 5.0, 0.75
+
+
+def contact_per_lap(time: np.ndarray, contact: np.ndarray) -> list[float]:
+    """Seconds of fixed-obstacle contact in each whole lap of the run."""
+    step = float(np.median(np.diff(time)))
+    laps = int((time[-1] - FIRST_LAP_START_S) // LAP_S)
+    return [round(float(np.sum(contact[(time >= FIRST_LAP_START_S + k * LAP_S)
+                                       & (time < FIRST_LAP_START_S + (k + 1) * LAP_S)]) * step), 4)
+            for k in range(laps)]
