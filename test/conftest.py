@@ -62,11 +62,10 @@ def ros_env(tmp_path: Path):
         yield isolated_env(tmp_path / "ros_log", domain)
 
 
-#: What a clean stop never prints: a Python traceback, or a line logged at FATAL severity. The FATAL check is off
-#: until the nodes' SIGINT stop is clean: on 2026-12-02 the master and the planner logged "[FATAL] Exception in
-#: 'subscriptions' / 'timers' callback" on every SIGINT (a callback interrupted while the context shut down); the
-#: node runtime that only asks the loop to stop fixes it. Then set FATAL_IS_UNCLEAN = True.
-FATAL_IS_UNCLEAN = False
+#: What a clean stop never prints: a Python traceback, or a line logged at FATAL severity. (Before the node runtime
+#: only asked the spin loop to stop, the master and the planner logged "[FATAL] Exception in 'subscriptions' /
+#: 'timers' callback" on every SIGINT; a FATAL line in a stop is a defect again.)
+FATAL_IS_UNCLEAN = True
 _UNCLEAN_MARKS = ("Traceback (most recent call last)", "[FATAL]")
 
 
