@@ -28,6 +28,7 @@ from fic_teleop_msgs.msg import TeleoperationCommand
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
 from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.notices import log_notices
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, text
 
 # Device and teleoperation streams RELIABLE (the channel alone loses on purpose); button presses are events: a lost
@@ -68,13 +69,7 @@ class MasterNode(Node):
             f"control {values['control_rate']:.0f} Hz, network {values['network_rate']:.0f} Hz")
 
     def _log(self, notices) -> None:
-        for level, text in notices:  # one call site per severity (rclpy's logger requires it)
-            if level == "info":
-                self.get_logger().info(text)
-            elif level == "warning":
-                self.get_logger().warning(text)
-            else:
-                self.get_logger().warning(text, throttle_duration_sec=1.0)
+        log_notices(self.get_logger(), notices, throttle_s=1.0)  # repeated warnings at most once a second
 
     # -- parameters -----------------------------------------------------------------------------------------
     def _clamp_haptic_gain(self, parameters: list[Parameter]) -> list[Parameter]:

@@ -18,7 +18,9 @@ Two causes, two answers:
 """
 from __future__ import annotations
 
+import os
 import signal
+import sys
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _state = {"requested": False, "running": False, "installed": False}
@@ -30,11 +32,26 @@ def _on_signal(signum: int, frame) -> None:  # noqa: ARG001 - signal handler sig
         raise SystemExit(0)  # still starting: nothing to finish, leave through the finally blocks
 
 
+def _on_uncaught(kind, value, traceback) -> None:
+    """An exception nobody caught, after a stop came during the start: the stop's doing, exit 0 without a
+    traceback. A signal inside a C extension's initialisation (measured: SIGTERM during ``import mujoco`` on a
+    loaded machine) turns our SystemExit into "ImportError: initialization failed" on its way up."""
+    if _state["requested"] and not _state["running"]:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)
+    _previous_hook(kind, value, traceback)
+
+
+_previous_hook = sys.excepthook
+
+
 def install() -> None:
     """Take SIGINT and SIGTERM (idempotent), then unblock them: a signal that waited while blocked lands here."""
     if not _state["installed"]:
         for signum in STOP_SIGNALS:
             signal.signal(signum, _on_signal)
+        sys.excepthook = _on_uncaught
         _state["installed"] = True
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
 

@@ -28,8 +28,10 @@ from rclpy.parameter import Parameter
 # namespace package first (the editable install resolves submodules only).
 from fic_core.errors import FicInputError
 from fic_core.planner import HarmonicPlanner
+from fic_core.planner_schedule import PlannerSchedule
 from fic_core.trajectories import Circle, FixedPoint, ViaPoints
 from fic_teleop_runtime import qos
+from fic_teleop_runtime.geometry import set_pose, set_xyz
 from fic_teleop_runtime.node_main import run_node
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, switch, text
 from fic_teleop_runtime.parameters import values as parameter_values
@@ -99,19 +101,18 @@ class PlannerNode(Node):
         super().__init__("planner")
         declare(self, SCHEMA)  # every row with its config/planner.yaml value; unknown keys refused
         value = self._value
-        self._source = make_source({name: value(name) for name in TRAJECTORY_PARAMETERS})
         self._orientation = unit_quaternion(value("orientation"))
-        self._planner = HarmonicPlanner(value("natural_frequency"), value("max_velocity"))
+        planner = HarmonicPlanner(value("natural_frequency"), value("max_velocity"))
+        source = make_source({name: value(name) for name in TRAJECTORY_PARAMETERS})
         start = list(value("start_position") or [])
-        self._planner.reset(start if start else self._source.point(0.0))
+        planner.reset(start if start else source.point(0.0))
         self._frame_id = value("frame_id")
         # The trajectory's clock: an absolute start time lets another node (the operator script, which plans its
         # moves around the circle's obstacles) share the same origin; otherwise start_delay after this node.
         start_time = value("start_time")
-        self._trajectory_origin = start_time if start_time >= 0.0 else self._now() + value("start_delay")
-        self._last_step_time: float | None = None
-        self._nominal_period = 1.0 / value("publish_rate")
-        self._target = self._planner.position
+        origin = start_time if start_time >= 0.0 else self._now() + value("start_delay")
+        # Stepped in periods no longer than publish_rate's, whatever the timer does (fic_core.planner_schedule).
+        self._schedule = PlannerSchedule(planner, source, origin, 1.0 / value("publish_rate"))
         self._published = 0
 
         self._publisher = self.create_publisher(PoseStamped, "/planner/desired_pose", POSE_QOS)
@@ -122,7 +123,7 @@ class PlannerNode(Node):
         self.create_timer(1.0 / value("diagnostics_rate"), self._publish_diagnostics)
         self.get_logger().info(
             f"planner up: trajectory {value('trajectory')}, w_n = {value('natural_frequency')} rad/s, "
-            f"v_d = {value('max_velocity')} m/s, start {np.round(self._planner.position, 4).tolist()}")
+            f"v_d = {value('max_velocity')} m/s, start {np.round(planner.position, 4).tolist()}")
 
     # -- parameters -----------------------------------------------------------------------------------------
     def _value(self, name: str):
@@ -146,12 +147,10 @@ class PlannerNode(Node):
         except (FicInputError, ValueError, TypeError) as error:
             return SetParametersResult(successful=False, reason=str(error))
         if source is not None:
-            self._source = source
-            self._trajectory_origin = self._now()
+            self._schedule.restart_trajectory(source, self._now())
             self.get_logger().info(f"trajectory changed to {values['trajectory']}: its clock restarts")
         if planner is not None:
-            planner.reset(self._planner.position)
-            self._planner = planner
+            self._schedule.retune(planner)
             self.get_logger().info(f"planner retuned: w_n = {values['natural_frequency']} rad/s, "
                                    f"v_d = {values['max_velocity']} m/s (restarts at rest where it is)")
         if orientation is not None:
@@ -163,42 +162,27 @@ class PlannerNode(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _tick(self) -> None:
-        now = self._now()
-        if self._last_step_time is not None and now > self._last_step_time:
-            # A late timer (a loaded machine, a slow sim clock) must not change the planner's dynamics: integrate
-            # in steps no longer than the nominal period, sampling the trajectory at each.
-            elapsed = now - self._last_step_time
-            steps = max(1, math.ceil(elapsed / self._nominal_period - 1e-9))
-            for k in range(1, steps + 1):
-                sample_time = self._last_step_time + elapsed * k / steps
-                trajectory_time = max(sample_time - self._trajectory_origin, 0.0)
-                self._target = self._source.point(trajectory_time, position=self._planner.position)
-                self._planner.step(self._target, elapsed / steps)
-        if self._last_step_time is None or now > self._last_step_time:
-            self._last_step_time = now
-        position = self._planner.position
+        position = self._schedule.advance(self._now())
         message = PoseStamped()
         message.header.stamp = self.get_clock().now().to_msg()
         message.header.frame_id = self._frame_id
-        message.pose.position.x, message.pose.position.y, message.pose.position.z = (float(p) for p in position)
-        (message.pose.orientation.x, message.pose.orientation.y, message.pose.orientation.z,
-         message.pose.orientation.w) = self._orientation
+        set_pose(message.pose, position, self._orientation)
         self._publisher.publish(message)
-        accel = AccelStamped()
-        accel.header = message.header
-        accel.accel.linear.x, accel.accel.linear.y, accel.accel.linear.z = (float(a) for a in self._planner.acceleration)
+        accel = AccelStamped(header=message.header)
+        set_xyz(accel.accel.linear, self._schedule.planner.acceleration)
         self._accel_publisher.publish(accel)
         self._published += 1
 
     def _publish_diagnostics(self) -> None:
+        planner, target = self._schedule.planner, self._schedule.target
         status = DiagnosticStatus(name="planner", hardware_id="planner", level=DiagnosticStatus.OK, message="ok")
         status.values = [
             KeyValue(key="trajectory", value=str(self.get_parameter("trajectory").value)),
-            KeyValue(key="target", value=" ".join(f"{v:.4f}" for v in self._target)),
-            KeyValue(key="position", value=" ".join(f"{v:.4f}" for v in self._planner.position)),
-            KeyValue(key="tracking_lag_m", value=f"{np.linalg.norm(self._target - self._planner.position):.4f}"),
-            KeyValue(key="speed_m_s", value=f"{np.linalg.norm(self._planner.velocity):.4f}"),
-            KeyValue(key="phase", value=" ".join(str(int(p)) for p in self._planner.phase)),
+            KeyValue(key="target", value=" ".join(f"{v:.4f}" for v in target)),
+            KeyValue(key="position", value=" ".join(f"{v:.4f}" for v in planner.position)),
+            KeyValue(key="tracking_lag_m", value=f"{np.linalg.norm(target - planner.position):.4f}"),
+            KeyValue(key="speed_m_s", value=f"{np.linalg.norm(planner.velocity):.4f}"),
+            KeyValue(key="phase", value=" ".join(str(int(p)) for p in planner.phase)),
             KeyValue(key="published", value=str(self._published)),
         ]
         array = DiagnosticArray()

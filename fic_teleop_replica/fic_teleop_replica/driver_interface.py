@@ -61,6 +61,7 @@ class DriverInterface:
         timeout = float(values["joint_state_timeout"])
         self.ramp = StaleInputRamp(timeout, float(values["torque_ramp_time"])) if timeout > 0.0 else None
         self._rest = None
+        self.published: np.ndarray | None = None  # the last command sent
 
     def limits(self, robot: RobotModel) -> PandaLimits:
         return self.profile.limits_for(robot.lower_position_limit, robot.upper_position_limit)
@@ -74,9 +75,23 @@ class DriverInterface:
             return self.semantics.command(torque, gravity)
         return torque
 
-    def rest_command(self) -> np.ndarray | None:
-        """The gravity-only hold at the last state (None before the first tick)."""
-        return self._rest
+    def command_to_send(self, torque: np.ndarray | None, robot: RobotModel) -> np.ndarray | None:
+        """The command for the loop's tau (``command``), or None: no tau, or the ramp owns the command until a
+        valid joint state comes (a refused one repeats nothing)."""
+        if torque is None or (self.ramp is not None and self.ramp.stale):
+            return None
+        self.published = self.command(torque, robot)
+        return self.published
+
+    def ramp_command(self, now: float) -> tuple[np.ndarray | None, bool]:
+        """The ramp's command toward the gravity-only hold at the last state (None: nothing to send), and whether
+        the ramp-down started now. A driver's forward controller would hold the last torque forever
+        (fic_core.stale_input_ramp); at most 2 x 87 N m / ramp_time: inside the torque-rate limit."""
+        started = self.ramp.check(now, self.published)
+        if self.ramp.stale and self._rest is not None:
+            self.published = self.ramp.command(now, self._rest)
+            return self.published, started
+        return None, started
 
     def describe(self) -> str:
         gravity = "left to the robot (tau - G)" if self.semantics.gravity_compensated_by_robot else "in the command"
