@@ -67,6 +67,10 @@ class Watcher:
     def stop(self) -> None:
         self._running = False
         self._thread.join(timeout=5.0)
+        # Leave the graph at once: a node left to the context's end can linger in DDS discovery and count as a
+        # second writer of /replica/teleop_command in the next test.
+        self.executor.remove_node(self.node)
+        self.node.destroy_node()
 
     def _publish_teleop(self) -> None:
         message = self._message()
@@ -123,6 +127,10 @@ def _arm(start_node, ros_env, rclpy_context, channel: bool):
                          params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
     watcher = Watcher(rclpy_context, channel)
     assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
+    # The probe must be the only other writer: wait out any writer of an earlier test still in discovery.
+    expected_writers = 1 if channel else 0
+    assert watcher.wait(lambda: watcher.node.count_publishers("/replica/teleop_command") == expected_writers, 30.0), \
+        f"{watcher.node.count_publishers('/replica/teleop_command')} writers of /replica/teleop_command before the probe"
     assert watcher.wait(lambda: len(watcher.tcp) > 50, 60.0), robot.output()
     time.sleep(1.0)  # the arm settles under the replica's hold of its start pose
     return robot, replica, watcher
