@@ -159,7 +159,7 @@ def _step_lateness(bag: Path) -> np.ndarray:
             values.append(struct.unpack_from("<d" if little else ">d", message.data, 4)[0])  # std_msgs/Float64
     return np.asarray(values)
 
-#: The targets of the default main job on this machine (docs/RESULTS.md, "CPU budget"): per run, and how many of
+#: The targets of the default main job on this machine (module docstring, 2.): per run, and how many of
 #: the runs must meet each.
 TARGETS = {
     "latency p99 < 5 ms": (lambda run: (run["pipeline_latency_p99_ms"] or float("inf")) < 5.0, 0.8),

@@ -142,12 +142,9 @@ def test_a_joint_state_from_the_future_is_not_used() -> None:
 
 def test_bounds_from_the_replica_parameters_are_the_shipped_ones() -> None:
     """The node and the in-process runner build the authority from config/replica.yaml through one constructor."""
-    from pathlib import Path
+    from config_values import config_values
 
-    import yaml
-
-    values = yaml.safe_load((Path(__file__).resolve().parents[2] / "config" / "replica.yaml").read_text()
-                            )["/**"]["ros__parameters"]
+    values = config_values("replica.yaml")
     bounds = AuthorityBounds.from_parameters(values)
     half = values["offset_workspace"]
     assert bounds.offset_lower == (-half, -half, -half) and bounds.offset_upper == (half, half, half)

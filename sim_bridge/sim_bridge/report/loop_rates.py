@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
+from fic_teleop_runtime.parameters import file_sections
 
 from sim_bridge.recording.bag_reader import read_messages
 
@@ -48,12 +48,11 @@ LOOPS = (
 
 
 def _parameters(path: Path) -> dict:
-    if not path.exists():
-        return {}
+    """Every section's values of a params file, read as rcl reads it (none if there is no such file)."""
     merged: dict = {}
-    for section in (yaml.safe_load(path.read_text()) or {}).values():
-        if isinstance(section, dict):
-            merged.update(section.get("ros__parameters") or {})
+    if path.exists():
+        for values in file_sections(path).values():
+            merged.update(values)
     return merged
 
 
