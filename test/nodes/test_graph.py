@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import REPO, assert_stopped_clean, isolated_env, reserved_domain, unclean_exit
+from conftest import REPO, assert_stopped_clean, installed_executable, isolated_env, reserved_domain, unclean_exit
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 pytestmark = pytest.mark.nodes
@@ -162,7 +162,7 @@ def test_bag_played_into_the_recorder_gives_the_report_the_same_metrics(blackout
     with reserved_domain() as domain:
         env = isolated_env(tmp_path / "ros_log", domain)
         recorder = subprocess.Popen(
-            [str(REPO / "install" / "sim_bridge" / "lib" / "sim_bridge" / "recorder_node"), "--ros-args",
+            [str(installed_executable("sim_bridge", "recorder_node")), "--ros-args",
              "-r", "__node:=recorder", "-p", f"bag_path:={replayed_bag}", "-p", "all:=true",
              "-p", "discovery_period:=0.1"],
             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
