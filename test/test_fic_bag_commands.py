@@ -38,6 +38,14 @@ def _write(bag: Path, finish: bool, extra_type: str | None = None) -> None:
         writer.finish()
 
 
+def _decoded(message) -> tuple:
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import JointState
+
+    state = deserialize_message(message.data, JointState)
+    return message.log_time, state.header.stamp.nanosec, tuple(state.name), tuple(state.position)
+
+
 @pytest.fixture
 def bags(tmp_path: Path) -> dict[str, Path]:
     paths = {"finished": tmp_path / "finished", "torn": tmp_path / "torn"}
@@ -69,8 +77,10 @@ def test_a_torn_bag_is_named_torn_and_recovered_whole_chunks(bags, tmp_path) -> 
     readable = [message for _, _, message in read_messages(recovered)]
     # Every message up to the flush at the middle survives (and whole 4 KiB chunks after it); the open chunk does not.
     assert STATES // 2 + 1 <= len(readable) < STATES
-    finished = [message.data for _, _, message in read_messages(bags["finished"])]
-    assert [message.data for message in readable] == finished[:len(readable)]
+    # Compared decoded, not byte for byte: CDR's alignment padding is not zeroed by the serializer, so two
+    # serializations of one message may differ there (one fresh-clone run differed at message 34).
+    finished = [_decoded(message) for _, _, message in read_messages(bags["finished"])]
+    assert [_decoded(message) for message in readable] == finished[:len(readable)]
     assert fic("bag", "info", str(recovered)).returncode == 0
 
     again = fic("bag", "recover", str(bags["torn"]), str(recovered))  # never over a bag

@@ -44,6 +44,11 @@ def _finish(process: subprocess.Popen, out: Path) -> dict:
     return metrics
 
 
+def _joint_state_rate(metrics: dict) -> float:
+    """Joint states in the bag per simulated second (its /clock span)."""
+    return metrics["message_counts"]["/joint_states"] / metrics["duration_s"]
+
+
 @pytest.fixture(scope="module")
 def solo_run(tmp_path_factory) -> dict:
     out = tmp_path_factory.mktemp("solo") / "run"
@@ -63,9 +68,11 @@ def test_two_runs_started_together_each_match_a_solo_run(solo_run: dict, tmp_pat
         assert metrics["joint_states_out_of_order"] <= max(10, 2 * solo_run["joint_states_out_of_order"])
         assert metrics["dropped_joint_states"] == 0
         assert metrics["limit_violations"] == 0
-        assert metrics["message_counts"]["/joint_states"] == pytest.approx(
-            solo_run["message_counts"]["/joint_states"], rel=0.05)
-        assert metrics["duration_s"] == pytest.approx(solo_run["duration_s"], abs=0.3)
+        # A second run's joint states in this bag would double their rate per simulated second. The count itself
+        # is no measure: the bag runs on past the requested 3 s while the launcher stops the graph, and how far
+        # depends on the load (3092 against a solo 3775 with two runs on 2 cores, CI).
+        assert metrics["duration_s"] >= 3.0 - 0.05
+        assert _joint_state_rate(metrics) == pytest.approx(_joint_state_rate(solo_run), rel=0.05)
         # Lockstep with the peer barrier: the same run, to within what the machine's load changes in it. Two runs
         # sharing 2 cores skip more barrier waits than a solo run: 29.5 against 19.4 mm measured in one fresh-clone
         # suite; cross-talk gave errors of 1.3 m, so 25 mm still tells them apart by a factor of 50.
