@@ -54,6 +54,9 @@ def check_options(args: argparse.Namespace) -> None:
         _number("--wall-limit [s]", args.wall_limit, 0.0, 7 * 86400.0, low_open=True)
     if not SEED_RANGE[0] <= args.seed < SEED_RANGE[1]:
         raise ArgumentRefusal(f"--seed must be in [0, 2^62), got {args.seed}")
+    if getattr(args, "operator", "scripted") == "closed-loop" and (args.scene != "superimposition" or args.interactive):
+        raise ArgumentRefusal("--operator closed-loop drives the superimposition scene's scripted run only "
+                              f"(got --scene {args.scene}{' --interactive' if args.interactive else ''})")
     if args.domain_id is not None and not valid_domain(args.domain_id):
         ranges = " or ".join(f"{low}-{high}" for low, high in VALID_DOMAIN_RANGES)
         raise ArgumentRefusal(f"--domain-id must be {ranges} (the ROS 2 domains with valid DDS ports), "

@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
+import yaml
+
 import two_stations
 import hardware_twin
 from launch_checks import ArgumentRefusal, check_options, domain_from_environment, prepare_run_folder
@@ -30,6 +32,7 @@ from launch_isolation import DomainBusy, isolate
 from launch_supervision import EXIT_CODES, EXIT_REFUSED, die_with_launcher, failed_nodes, safety_verdict
 from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
 from fic_teleop_runtime.params_file import write_node_params
+from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "config"
@@ -90,6 +93,13 @@ def node_command(spec: NodeSpec, run_params: Path | None = None) -> list[str]:
     return command
 
 
+OPERATORS = ("scripted", "closed-loop")
+# The closed-loop operator's video (sim_bridge/device/haptic_device_node.py reads it), after channel_backward's own
+# routes (config/channel.yaml).
+VIDEO_ROUTES = ["/sim/tcp_pose:/master/video/tcp_pose:geometry_msgs/msg/PoseStamped",
+                "/sim/object_poses:/master/video/object_poses:geometry_msgs/msg/PoseArray"]
+
+
 # Lockstep: the simulation also waits for the nodes that only follow /clock (sim_bridge/robot/peer_barrier.py), by the
 # stamps of what each publishes: the device's handle pose, the master's command, the planner's pose.
 LOCKSTEP_PEERS = ["/haptic/pose", "/master/teleop_command", "/planner/desired_pose"]
@@ -109,7 +119,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     }
     if args.blackout_window:
         channel["blackout_windows"] = [float(t) for t in args.blackout_window]
-    operator = "joy" if args.interactive else "scripted"
+    operator = "joy" if args.interactive else args.operator.replace("-", "_")
     # One origin for the operator script and the planner's circle: the script steers around the obstacles where
     # the circle will be (its circle_start_time, 2 s, less the harmonic planner's lag of about 0.2 s behind its
     # source at the circle's speed, measured). Sim time starts at 0 in lockstep; in realtime, a few seconds
@@ -119,9 +129,14 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         origin = 0.0 if lockstep else time.time() + REALTIME_START_MARGIN_S
         operator_timing = {"script_start_time": origin, **_script_for_delay(args.delay, bag_path.parent)}
         planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
+    closed_loop = operator == "closed_loop"
+    # The closed-loop operator's video: the robot's poses at a webcam's 30 Hz, over the backward link.
+    video = {"object_pose_rate_hz": VIDEO_RATE_HZ} if closed_loop else {}
+    backward_routes = {"routes": [*_configured_routes("channel_backward"), *VIDEO_ROUTES]} if closed_loop else {}
+    watcher = {"assumed_one_way_delay": args.delay} if closed_loop else {}
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
-                 {"scene": args.scene, "mode": args.time_mode, "seed": args.seed,
+                 {"scene": args.scene, "mode": args.time_mode, "seed": args.seed, **video,
                   **({"lockstep_peers": LOCKSTEP_PEERS} if lockstep and not args.no_peer_barrier else {}),
                   # lockstep starts once the replica and the recorder both read /joint_states: no step unrecorded
                   **({"lockstep_subscribers": 2} if lockstep else {})}),
@@ -143,10 +158,10 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
                  {"trajectory": args.trajectory, **planner_timing, **sim_time}),
         NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {**channel, **sim_time}),
         NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml",
-                 {**channel, "seed": args.seed + 1, **sim_time}),  # its own random stream
+                 {**channel, "seed": args.seed + 1, **backward_routes, **sim_time}),  # its own random stream
         NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml", {**sim_time}),
         NodeSpec("sim_bridge", "haptic_device_node", "haptic_device", "haptic_device.yaml",
-                 {"scene": args.scene, "operator_source": operator, **operator_timing, **sim_time}),
+                 {"scene": args.scene, "operator_source": operator, **operator_timing, **watcher, **sim_time}),
     ]
     if args.interactive:
         nodes.append(NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", None, {}, foreground=True))
@@ -158,6 +173,11 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
             if args.scheduling == "fifo":
                 spec.fifo_priority = REALTIME_PRIORITIES.get(spec.name)
     return nodes
+
+
+def _configured_routes(node: str) -> list[str]:
+    """A channel node's routes as config/channel.yaml gives them."""
+    return list(yaml.safe_load((CONFIG / "channel.yaml").read_text())[node]["ros__parameters"]["routes"])
 
 
 def _script_for_delay(delay: float, run_dir: Path) -> dict[str, str]:
@@ -370,6 +390,10 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--time-mode", default="realtime", choices=["realtime", "lockstep"],
                         help="realtime: wall-clock paced; lockstep: the sim waits for each command (deterministic)")
     parser.add_argument("--interactive", action="store_true", help="drive the operator's hand from the keyboard")
+    parser.add_argument("--operator", default="scripted", choices=OPERATORS,
+                        help="superimposition: scripted (the E1 script, timed for --delay) or closed-loop (times its "
+                             "moves from the replica's video after the backward channel, docs/EXPERIMENTS.md "
+                             "\"Operators\")")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<date-time>)")
     parser.add_argument("--domain-id", type=int, default=None,

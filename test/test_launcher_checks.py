@@ -38,6 +38,8 @@ def _launch(tmp_path: Path, *arguments: str, out: Path | None = None) -> subproc
     (("--domain-id", "300"), "--domain-id must be 0-101 or 215-232"),
     (("--domain-id", "-1"), "--domain-id must be 0-101 or 215-232"),
     (("--seed", "-3"), "--seed must be in [0, 2^62)"),
+    (("--operator", "closed-loop", "--scene", "free_space"),
+     "--operator closed-loop drives the superimposition scene's scripted run only"),
 ])
 def test_an_unusable_option_is_one_line_and_nothing_starts(tmp_path: Path, arguments, words) -> None:
     result = _launch(tmp_path, *arguments)

@@ -45,6 +45,8 @@ from numpy.typing import NDArray
 from fic_core.errors import finite_array, finite_scalar
 
 Vector3 = NDArray[np.float64]
+#: The video's frame rate [Hz]: a webcam's.
+VIDEO_RATE_HZ = 30.0
 
 
 class Frame(NamedTuple):

@@ -4,9 +4,12 @@ Speaks what a Force Dimension driver speaks, so a real sigma.7 can take its plac
 x_M (/haptic/pose, frame haptic_base) and twist (/haptic/twist), takes the force command
 (/haptic/wrench_command, force only). The loop is closed: the command moves the handle, integrated at the
 device's 1 kHz substep between publications. The hand on the handle is the virtual operator: a scripted one
-(config/operator_scripts/<scene>.yaml, which also presses buttons on /operator/joy for the master), one steered by
-/operator/joy axes (keyboard_operator or a joystick), or none (the handle is free). Time is the node clock, so
-use_sim_time runs the device in the simulator's time.
+(config/operator_scripts/<scene>.yaml, which also presses buttons on /operator/joy for the master), a closed-loop
+one that times its moves from the delayed video of the replica (closed_loop_operator.py: the robot's
+/sim/tcp_pose and /sim/object_poses after the backward channel, on /master/video/tcp_pose and
+/master/video/object_poses; the script still presses the buttons), one steered by /operator/joy axes
+(keyboard_operator or a joystick), or none (the handle is free). Time is the node clock, so use_sim_time runs the
+device in the simulator's time.
 """
 from __future__ import annotations
 
@@ -16,7 +19,7 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
-from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
+from geometry_msgs.msg import PoseArray, PoseStamped, TwistStamped, WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, Joy
 from std_msgs.msg import Bool, Float64MultiArray
@@ -25,6 +28,8 @@ from fic_core.errors import FicInputError
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.node_main import run_node
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
+from fic_teleop_runtime.stamps import nanoseconds
+from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.driver_twins import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
@@ -35,7 +40,15 @@ DEVICE_QOS = qos.STREAM
 # Button presses must not be lost (a lost toggle inverts the mode for the rest of the run): RELIABLE, deep.
 JOY_QOS = qos.EVENTS
 
-OPERATOR_SOURCES = ("scripted", "joy", "none")
+OPERATOR_SOURCES = ("scripted", "closed_loop", "joy", "none")
+# The video the closed-loop operator watches: the robot's poses after the backward channel (the launcher adds the
+# two routes to channel_backward). Both carry the capture's stamp; a frame is a TCP pose and an object array of
+# one stamp.
+VIDEO_TCP_TOPIC = "/master/video/tcp_pose"
+VIDEO_OBJECTS_TOPIC = "/master/video/object_poses"
+VIDEO_QOS = qos.STREAM
+PUSHABLE_OBSTACLE_INDEX = 0   # superimposition scene: /sim/object_poses holds the pushable obstacle alone
+VIDEO_PAIRING_WINDOW_NS = 1_000_000_000  # a half frame older than this has lost its other half
 SCENES = ("superimposition", "shape_sorting", "free_space")
 JOY_RATE_HZ = 50.0
 LONGEST_STEP = 0.05      # [s] a clock jump (pause, sim restart) is integrated as at most this much time
@@ -54,6 +67,9 @@ SCHEMA = Schema(
     number("command_timeout", 0.001, 10.0, "a force command older than this is stale: zero force until a fresh one "
                                            "[s]"),
     text("operator_source", f"the hand on the handle: one of {OPERATOR_SOURCES}"),
+    number("reaction_time", 0.0, 2.0, "closed_loop: a video frame is used this long after it arrived [s]"),
+    number("assumed_one_way_delay", 0.0, 10.0, "closed_loop: the link latency the operator has learnt [s] (the "
+                                               "launcher gives it the run's delay)"),
     text("scene", f"scene whose operator script is played: one of {SCENES}"),
     text("script_file", "operator script YAML; empty: config/operator_scripts/<scene>.yaml"),
     number("script_start_time", -1.0, 1e10, "node-clock time of the script's t = 0 [s]; negative: when the node "
@@ -132,17 +148,30 @@ class HapticDeviceNode(Node):
         self.stale_warned = False
 
         self.scripted: ScriptedOperator | None = None
+        self.watcher: ClosedLoopOperator | None = None
+        self.video_halves: dict[tuple[str, int], np.ndarray] = {}
         self.joy_target: JoyTarget | None = None
         self.joy_axes: list[float] = []
         self.joy_time = -math.inf
         self.button_queue: deque[int] = deque()
         self.button_down = False
-        if self.source == "scripted":
+        if self.source in ("scripted", "closed_loop"):
             scene = value("scene")
+            if self.source == "closed_loop" and scene != "superimposition":
+                raise FicInputError(f"operator_source closed_loop drives the superimposition scene only, not {scene!r}")
             path = Path(value("script_file")) if value("script_file") else default_script_path(scene)
             script = load_script(path)
             script.check_workspace(parameters.half_extents)
-            self.scripted = ScriptedOperator(script)
+            self.scripted = ScriptedOperator(script)   # closed_loop: its button presses and its moves' numbers
+            if self.source == "closed_loop":
+                self.watcher = ClosedLoopOperator(ClosedLoopParameters.from_script_parameters(
+                    script.parameters, reaction_time=value("reaction_time"),
+                    assumed_one_way_delay=value("assumed_one_way_delay")))
+                self.create_subscription(PoseStamped, VIDEO_TCP_TOPIC, self._on_video_tcp, VIDEO_QOS)
+                self.create_subscription(PoseArray, VIDEO_OBJECTS_TOPIC, self._on_video_objects, VIDEO_QOS)
+                self.get_logger().info(
+                    f"closed-loop operator: watches {VIDEO_TCP_TOPIC} and {VIDEO_OBJECTS_TOPIC}, reaction "
+                    f"{value('reaction_time'):.2f} s, assumed one-way delay {value('assumed_one_way_delay'):.2f} s")
             self.joy_publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
             self.create_timer(1.0 / JOY_RATE_HZ, self._publish_buttons)
             self.get_logger().info(f"scripted operator: {path} ({script.name}, {script.duration:.1f} s, "
@@ -188,6 +217,32 @@ class HapticDeviceNode(Node):
         self.command_force = force if np.all(np.isfinite(data)) else np.zeros(3)
         self.command_time = self._now()
 
+    def _on_video_tcp(self, message: PoseStamped) -> None:
+        p = message.pose.position
+        self._video_half("tcp", nanoseconds(message.header.stamp), np.array([p.x, p.y, p.z]))
+
+    def _on_video_objects(self, message: PoseArray) -> None:
+        if len(message.poses) <= PUSHABLE_OBSTACLE_INDEX:
+            self.get_logger().error(f"refused {VIDEO_OBJECTS_TOPIC} with {len(message.poses)} poses: the "
+                                    "superimposition scene has the pushable obstacle", throttle_duration_sec=1.0)
+            return
+        p = message.poses[PUSHABLE_OBSTACLE_INDEX].position
+        self._video_half("objects", nanoseconds(message.header.stamp), np.array([p.x, p.y, p.z]))
+
+    def _video_half(self, kind: str, stamp_ns: int, position: np.ndarray) -> None:
+        """A frame is shown once both halves of one capture have arrived (the channel delivers them apart)."""
+        if not np.all(np.isfinite(position)):
+            self.get_logger().error(f"refused a video {kind} pose that is not finite", throttle_duration_sec=1.0)
+            return
+        other = self.video_halves.pop(("objects" if kind == "tcp" else "tcp", stamp_ns), None)
+        if other is None:
+            self.video_halves[(kind, stamp_ns)] = position
+            for key in [key for key in self.video_halves if key[1] < stamp_ns - VIDEO_PAIRING_WINDOW_NS]:
+                del self.video_halves[key]
+            return
+        tcp, obstacle = (position, other) if kind == "tcp" else (other, position)
+        self.watcher.see(self._now(), Frame(stamp_ns * 1e-9, tcp, obstacle))
+
     def _on_joy(self, message: Joy) -> None:
         axes = list(message.axes[:3])
         if not all(math.isfinite(a) for a in axes):
@@ -215,7 +270,9 @@ class HapticDeviceNode(Node):
         self.last_time = now
         command = self._current_command(now)
         if self.scripted is not None:
-            self.hand.update(self.scripted.target(now - self.script_origin), self.device.position, dt)
+            target = (self.scripted.target(now - self.script_origin) if self.watcher is None
+                      else self._watched_target(now))
+            self.hand.update(target, self.device.position, dt)
             self.button_queue.extend(event.button for event in self.scripted.poll_events(now - self.script_origin))
             if self.fd:
                 self._fd_buttons()
@@ -248,6 +305,14 @@ class HapticDeviceNode(Node):
         twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = (float(v) for v in state.velocity)
         self.pose_publisher.publish(pose)
         self.twist_publisher.publish(twist)
+
+    def _watched_target(self, now: float) -> np.ndarray:
+        started = len(self.watcher.moves_started)
+        target = self.watcher.target(now)
+        for move, start, passing in self.watcher.moves_started[started:]:
+            self.get_logger().info(f"closed-loop operator starts its {move} move at {start:.2f} s for the "
+                                   f"passing it predicts at {passing:.2f} s")
+        return target
 
     def _fd_buttons(self) -> None:
         """The device's one button carries the script's mode toggles (held for one publication, released for

@@ -37,7 +37,7 @@ from fic_core.trajectories import Circle, FixedPoint
 from sim_bridge.channel.channel import Channel, ChannelConfig
 from sim_bridge.experiments.channel_ports import ChannelPorts
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
-from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
+from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.operator_scripts import superimposition_script
 from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
 from sim_bridge.robot.mujoco_panda import PandaSimulation
@@ -47,7 +47,7 @@ STEP = 0.001                     # the robot's physics step and joint-state peri
 SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
 PLANNER_LAG_S = 0.2
 JOY_RATE_HZ = 50.0               # the device node's button messages
-CAMERA_RATE_HZ = 30.0            # the closed-loop operator's video frames (a webcam's rate)
+CAMERA_RATE_HZ = VIDEO_RATE_HZ    # the closed-loop operator's video frames
 OPERATORS = ("scripted", "closed_loop")
 #: config/replica.yaml also holds the node's input authority (fic_core.input_authority) and driver keys, not
 #: ReplicaLoop's: only REPLICA_LOOP_PARAMETERS go to the loop. The same CommandAuthority judges every delivered
