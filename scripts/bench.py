@@ -25,6 +25,7 @@ import argparse
 import json
 import os
 import re
+import shlex
 import subprocess
 import sys
 import threading
@@ -57,9 +58,9 @@ class NodeSampler(threading.Thread):
             command = process.cmdline()
         except (psutil.NoSuchProcess, psutil.AccessDenied):
             return None
-        for item in command:
-            if item.startswith("__node:="):
-                return item.split("=", 1)[1]
+        names = [item.split("=", 1)[1] for item in command if item.startswith("__node:=")]
+        if names:
+            return "+".join(names)   # several: a group of nodes in one process (the launcher's --group)
         if any("sim_bridge.report" in item for item in command):
             return "report"
         return None
@@ -100,6 +101,7 @@ class NodeSampler(threading.Thread):
             span = entry["last_t"] - entry["first_t"]
             table[name] = {"cpu_percent_of_one_core": round(100.0 * (entry["last_cpu"] - entry["first_cpu"]) / span, 1)
                            if span > 1.0 else None,
+                           "cpu_s": round(entry["last_cpu"] - entry["first_cpu"], 2),
                            "peak_rss_mb": round(entry["peak_rss"] / 2 ** 20, 1), "sampled_s": round(span, 1)}
         return table
 
@@ -171,11 +173,13 @@ TARGETS = {
 }
 
 
-def default_run(run_dir: Path, log_path: Path) -> dict:
-    """One default main job (module docstring, 2.) with the loop rates of its bag."""
+def default_run(run_dir: Path, log_path: Path, launcher_args: list[str] = ()) -> dict:
+    """One default main job (module docstring, 2.) with the loop rates of its bag; ``launcher_args`` for an A/B
+    (e.g. --group)."""
     from sim_bridge.report.loop_rates import loop_rates
 
-    command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), "--domain-id", str(free_domain_id())]
+    command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), "--domain-id", str(free_domain_id()),
+               *launcher_args]
     cpu_before, load_before = psutil.cpu_times(), list(os.getloadavg())
     code, wall, nodes = run_sampled(command, log_path)
     machine = machine_shares(cpu_before, psutil.cpu_times())
@@ -228,7 +232,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-default", action="store_true", help="skip the default main job")
     parser.add_argument("--skip-lockstep", action="store_true")
     parser.add_argument("--markdown", action="store_true", help="only print --out as markdown tables (no runs)")
+    parser.add_argument("--launcher-args", default="", help="more launcher options for the default and lockstep "
+                                                            "runs, one string (an A/B: e.g. \"--group a,b\")")
     args = parser.parse_args(argv)
+    launcher_args = shlex.split(args.launcher_args)
     if args.markdown:
         print(markdown(json.loads(args.out.read_text())))
         return 0
@@ -238,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
     runs_dir.mkdir(parents=True, exist_ok=True)
     result: dict = {"generated": datetime.now().isoformat(timespec="seconds"),
                     "machine": {"cpus": os.cpu_count(), "load_average_at_start": list(os.getloadavg())},
-                    "commands": {}}
+                    "commands": {}, "launcher_args": launcher_args}
 
     print("[bench] replica tick compute (scripts/bench_core.py) ...", flush=True)
     core = bench_core(args.ticks, runs_dir)
@@ -252,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
         for index in range(args.runs):
             name = "default" if args.runs == 1 else f"default-{index + 1}"
             print(f"[bench] default main job {index + 1}/{args.runs} ...", flush=True)
-            result["default_runs"].append(default_run(runs_dir / name, runs_dir / f"{name}.log"))
+            result["default_runs"].append(default_run(runs_dir / name, runs_dir / f"{name}.log", launcher_args))
         result["default_main_job"] = result["default_runs"][0]
         result["default_summary"] = summary(result["default_runs"])
         result["commands"]["default_main_job"] = "time scripts/run_teleop.sh"
@@ -261,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
         run_dir = runs_dir / "lockstep"
         command = [sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--time-mode", "lockstep",
                    "--duration", f"{args.lockstep_duration:g}", "--no-report", "--no-video", "--out", str(run_dir),
-                   "--domain-id", str(free_domain_id())]
+                   "--domain-id", str(free_domain_id()), *launcher_args]
         print(f"[bench] lockstep graph: {' '.join(command[1:])} ...", flush=True)
         code, wall, nodes = run_sampled(command, runs_dir / "lockstep.log")
         from sim_bridge.experiments.runner import report_metrics

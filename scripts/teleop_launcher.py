@@ -27,6 +27,7 @@ import yaml
 
 import two_stations
 import hardware_twin
+import node_groups
 from launch_checks import ArgumentRefusal, check_options, domain_from_environment, prepare_run_folder
 from launch_isolation import DomainBusy, isolate
 from launch_supervision import EXIT_CODES, EXIT_REFUSED, die_with_launcher, failed_nodes, safety_verdict
@@ -71,6 +72,7 @@ class NodeSpec:
     fifo_priority: int | None = None  # SCHED_FIFO priority of its loop threads (realtime_scheduling.py); None: none
     extra_params_files: list[str] = field(default_factory=list)  # after params_file (a driver profile, config/profiles)
     remaps: dict[str, str] = field(default_factory=dict)         # topic remaps (a driver profile's remaps.yaml)
+    members: list["NodeSpec"] = field(default_factory=list)      # --group: the nodes sharing this process
 
 
 def node_command(spec: NodeSpec, run_params: Path | None = None) -> list[str]:
@@ -217,7 +219,12 @@ class Graph:
         self.wrap = None   # two stations: runs each node in its station's namespace (two_stations.py)
 
     def start(self, spec: NodeSpec) -> None:
-        command = node_command(spec, write_node_params(self.log_dir.parent / "params", spec.name, spec.params))
+        params_dir = self.log_dir.parent / "params"
+        if spec.members:
+            command = node_groups.group_command(spec, node_command,
+                                                lambda name, params: write_node_params(params_dir, name, params))
+        else:
+            command = node_command(spec, write_node_params(params_dir, spec.name, spec.params))
         # Every node gets SIGTERM if the launcher dies, however it dies (launch_supervision.py); our own executables
         # start with the stop signals blocked until their handlers are in (a `ros2 run` wrapper would not unblock).
         preexec = die_with_launcher(os.getpid(), then=_prioritised(spec.niceness),
@@ -412,6 +419,10 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
     two_stations.add_arguments(parser)
     hardware_twin.add_arguments(parser)
+    parser.add_argument("--group", action="append", metavar="NODE,NODE[,...]",
+                        help="run these nodes in one process, each still its own node (repeatable; e.g. "
+                             "channel_forward,channel_backward); fewer processes, less isolation (docs/RESULTS.md, "
+                             "\"Node grouping\")")
     parser.add_argument("--live", action="store_true",
                         help="serve every topic and the arm in 3D on a Foxglove WebSocket server while the run goes "
                              "(open config/live_view.json in Foxglove or Lichtblick; docs/TOOLS.md)")
@@ -451,6 +462,8 @@ def main(argv: list[str] | None = None) -> int:
     try:  # the options first: the outer two-station process and the launcher inside both refuse bad ones
         check_options(args)
         two_stations.check_arguments(args)
+        groups = node_groups.parse_groups(args.group)
+        node_groups.check_groups(groups, args)
     except (ArgumentRefusal, two_stations.StationError) as refusal:
         print(f"[run] refused: {refusal}", file=sys.stderr)
         return EXIT_REFUSED
@@ -488,11 +501,15 @@ def main(argv: list[str] | None = None) -> int:
     print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller}"
           f" at {args.control_rate:g} Hz, {args.time_mode}; ROS domain {domain.domain}; run folder {run_dir}")
     try:
-        specs = graph(args, bag_path)
+        try:
+            specs = node_groups.grouped(graph(args, bag_path), groups)
+        except ArgumentRefusal as refusal:   # a node name this graph does not have: nothing started yet
+            print(f"[run] refused: {refusal}", file=sys.stderr)
+            return EXIT_REFUSED
         # Realtime with a scripted operator: the run's duration counts from the script's start (its origin on the
         # wall clock), so that the script's last moves are not cut by the nodes' start-up time.
-        script_origin = next((spec.params["script_start_time"] for spec in specs
-                              if "script_start_time" in spec.params), None)
+        script_origin = next((node.params["script_start_time"] for spec in specs for node in (spec.members or [spec])
+                              if "script_start_time" in node.params), None)
         wall_origin = script_origin if args.time_mode == "realtime" else None
         if stations is not None:
             stations.adapt(specs, NodeSpec)

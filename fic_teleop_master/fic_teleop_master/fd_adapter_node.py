@@ -32,7 +32,7 @@ from fic_core.errors import FicInputError
 from fic_core.haptic_device_mapping import DeviceFrameMapping, GraspGain, device_command
 from fic_core.stale_input_ramp import StaleInputRamp
 from fic_teleop_runtime import qos
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
 
 NODE_NAME = "fd_adapter"
@@ -76,8 +76,8 @@ SCHEMA = Schema(
 
 
 class FdAdapterNode(Node):
-    def __init__(self) -> None:
-        super().__init__(NODE_NAME)
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__(NODE_NAME, **node_options)
         values = declare(self, SCHEMA)  # every row with its profile value; unknown keys refused
         value = values.__getitem__
         self._device_frame = value("device_frame")
@@ -250,8 +250,11 @@ class FdAdapterNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    run_node(FdAdapterNode, NODE_NAME, args, stopped=lambda node: rclpy.logging.get_logger(NODE_NAME).info(
-        f"fd adapter stopped: {node.counts}"))
+    run_entry(ENTRY, args)
+
+
+ENTRY = NodeEntry(FdAdapterNode, NODE_NAME, stopped=lambda node: rclpy.logging.get_logger(NODE_NAME).info(
+    f"fd adapter stopped: {node.counts}"))
 
 
 if __name__ == "__main__":

@@ -27,7 +27,7 @@ from fic_core.master_station import MASTER_NUMBERS, MasterStation, clamped_hapti
 from fic_teleop_msgs.msg import TeleoperationCommand
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, text
 
@@ -42,8 +42,8 @@ SCHEMA = Schema("master.yaml", (number(name, low, high, description, read_only)
 
 
 class MasterNode(Node):
-    def __init__(self) -> None:
-        super().__init__("master")
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__("master", **node_options)
         values = declare(self, SCHEMA)  # every row with its config/master.yaml value; unknown keys refused
         self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, "mode", "frame_id")})
         self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
@@ -176,7 +176,10 @@ class MasterNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    run_node(MasterNode, "master", args)
+    run_entry(ENTRY, args)
+
+
+ENTRY = NodeEntry(MasterNode, "master")
 
 
 if __name__ == "__main__":

@@ -15,7 +15,9 @@ params file; the fd adapter kept rclpy's own signal handlers):
 """
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import TypeVar
 
 import rclpy
@@ -44,6 +46,20 @@ def refuse(name: str, reason: object) -> None:
     raise SystemExit(EXIT_REFUSED)
 
 
+@dataclass(frozen=True)
+class NodeEntry:
+    """What it takes to run one node: ``make(**options)`` builds it (``options``: rclpy Node keywords, e.g. the
+    ``cli_args`` of a node that shares its process, node_group.py); the rest as for ``run_node``."""
+
+    make: Callable[..., Node]
+    name: str
+    refusals: tuple[type[BaseException], ...] = ()
+    stopped: Callable[[Node], None] | None = None
+    slice_s: float = SLICE
+    follow_sim_time: bool = True
+    switch_interval: float | None = None  # [s] the interpreter's thread switch interval (sys.setswitchinterval)
+
+
 def run_node(make_node: Callable[[], N], name: str, args: Sequence[str] | None = None, *,
              refusals: tuple[type[BaseException], ...] = (), stopped: Callable[[N], None] | None = None,
              slice_s: float = SLICE, follow_sim_time: bool = True) -> None:
@@ -54,24 +70,47 @@ def run_node(make_node: Callable[[], N], name: str, args: Sequence[str] | None =
     second Ctrl-C must not cut a bag's footer or the final statistics short); log through
     ``rclpy.logging.get_logger``, as after a signal the context may be gone and /rosout with it.
     ``slice_s``, ``follow_sim_time``: see spin.spin_until_shutdown."""
+    run_entries([NodeEntry(make_node, name, refusals, stopped, slice_s, follow_sim_time)], args)
+
+
+def run_entry(entry: NodeEntry, args: Sequence[str] | None = None) -> None:
+    """A node module's ``main()``: its one entry in a process of its own."""
+    run_entries([entry], args)
+
+
+def run_entries(entries: Sequence[NodeEntry], args: Sequence[str] | None = None,
+                node_arguments: Sequence[Sequence[str]] | None = None) -> None:
+    """Run the nodes of ``entries`` in one process, on one executor, until stopped (``run_node`` for each).
+
+    ``node_arguments[i]``: the ``--ros-args ...`` of the i-th node alone (its name, params files, remaps), when
+    several share the process; None: the process's own arguments are the one node's. A refusal of any node refuses
+    the process. On the way out each node's ``stopped`` runs, last started first, then the nodes are destroyed."""
+    intervals = [entry.switch_interval for entry in entries if entry.switch_interval is not None]
+    if intervals:
+        sys.setswitchinterval(min(intervals))
     stop_signals.install()
     try:
         rclpy.init(args=list(args) if args is not None else None, signal_handler_options=SignalHandlerOptions.NO)
     except RCLError as exc:  # e.g. a malformed --params-file
-        refuse(name, f"bad ROS arguments or parameter file: {exc}")
-    node: N | None = None
+        refuse(entries[0].name, f"bad ROS arguments or parameter file: {exc}")
+    nodes: list[tuple[NodeEntry, Node]] = []
     try:
-        try:
-            node = make_node()
-        except (*INPUT_ERRORS, *refusals) as exc:
-            refuse(name, exc)
-        spin_until_shutdown(node, slice_s, follow_sim_time)
+        for index, entry in enumerate(entries):
+            options = {} if node_arguments is None else {"cli_args": list(node_arguments[index])}
+            try:
+                nodes.append((entry, entry.make(**options)))
+            except RCLError as exc:  # a member's own malformed --params-file
+                refuse(entry.name, f"bad ROS arguments or parameter file: {exc}")
+            except (*INPUT_ERRORS, *entry.refusals) as exc:
+                refuse(entry.name, exc)
+        spin_until_shutdown([node for _, node in nodes], min(entry.slice_s for entry in entries),
+                            any(entry.follow_sim_time for entry in entries))
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
         stop_signals.ignore()
-        if node is not None:
-            if stopped is not None:
-                stopped(node)
+        for entry, node in reversed(nodes):
+            if entry.stopped is not None:
+                entry.stopped(node)
             node.destroy_node()
         rclpy.try_shutdown()

@@ -8,6 +8,7 @@ one slice and costs nothing measurable.
 from __future__ import annotations
 
 import gc
+from collections.abc import Sequence
 
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -20,18 +21,22 @@ from fic_teleop_runtime import stop_signals
 SLICE = 0.1   # [s] longest wait between two checks of the context
 
 
-def spin_until_shutdown(node: Node, slice_s: float = SLICE, follow_sim_time: bool = True) -> None:
-    """Run ``node``'s callbacks until the process is asked to stop. Returns normally on Ctrl-C / SIGTERM.
+def spin_until_shutdown(nodes: Node | Sequence[Node], slice_s: float = SLICE, follow_sim_time: bool = True) -> None:
+    """Run the callbacks of ``nodes`` (one node, or several sharing this process) until the process is asked to
+    stop. Returns normally on Ctrl-C / SIGTERM.
 
     ``follow_sim_time=False``: the EventsExecutor even under simulated time, for a node whose timers need not land
     on simulated time and which takes the 1 kHz streams (the recorder: the wait-set executor costs more a message).
     """
+    nodes = [nodes] if isinstance(nodes, Node) else list(nodes)
+    node = nodes[0]
     # Under simulated time (lockstep) the EventsExecutor's timers do not follow /clock: measured here, the master's
     # 100 Hz timer fired in bursts (10 commands with one stamp) and then fell silent for 100 ms of simulated time.
     # The wait-set executor checks timers against the node's clock, so timer ticks land on simulated time.
-    sim_time = follow_sim_time and node.get_parameter("use_sim_time").value
+    sim_time = follow_sim_time and any(member.get_parameter("use_sim_time").value for member in nodes)
     executor = SingleThreadedExecutor(context=node.context) if sim_time else EventsExecutor(context=node.context)
-    executor.add_node(node)
+    for member in nodes:
+        executor.add_node(member)
     # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a
     # full collection of it took 25 ms here, and with it every loop in the graph stalled every few seconds.
     gc.collect()

@@ -32,7 +32,7 @@ from fic_core.planner_schedule import PlannerSchedule
 from fic_core.trajectories import Circle, FixedPoint, ViaPoints
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import set_pose, set_xyz
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, switch, text
 from fic_teleop_runtime.parameters import values as parameter_values
 
@@ -97,8 +97,8 @@ def unit_quaternion(values) -> tuple[float, float, float, float]:
 
 
 class PlannerNode(Node):
-    def __init__(self) -> None:
-        super().__init__("planner")
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__("planner", **node_options)
         declare(self, SCHEMA)  # every row with its config/planner.yaml value; unknown keys refused
         value = self._value
         self._orientation = unit_quaternion(value("orientation"))
@@ -192,7 +192,10 @@ class PlannerNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    run_node(PlannerNode, "planner", args)
+    run_entry(ENTRY, args)
+
+
+ENTRY = NodeEntry(PlannerNode, "planner")
 
 
 if __name__ == "__main__":

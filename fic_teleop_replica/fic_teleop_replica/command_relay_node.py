@@ -13,7 +13,7 @@ one writer of /effort_controller/commands, as the replica's input authority expe
 from __future__ import annotations
 
 import numpy as np
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, switch
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -45,8 +45,8 @@ STATE_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=Histor
 
 
 class CommandRelayNode(Node):
-    def __init__(self) -> None:
-        super().__init__(NODE_NAME)
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__(NODE_NAME, **node_options)
         value = declare(self, SCHEMA)
         semantics = TorqueSemantics(bool(value["gravity_compensated_by_robot"]))
         self._watchdog = CommandWatchdog(value["timeout"], value["ramp_time"], semantics)
@@ -110,7 +110,10 @@ def _stopped(node: CommandRelayNode) -> None:
 
 
 def main(args: list[str] | None = None) -> None:
-    run_node(CommandRelayNode, NODE_NAME, args, stopped=_stopped, follow_sim_time=False)
+    run_entry(ENTRY, args)
+
+
+ENTRY = NodeEntry(CommandRelayNode, NODE_NAME, stopped=_stopped, follow_sim_time=False)
 
 
 if __name__ == "__main__":

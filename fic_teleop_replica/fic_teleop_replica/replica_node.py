@@ -38,7 +38,7 @@ from fic_teleop_replica.schema import SCHEMA
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.geometry import set_xyz, xyz, xyzw
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import RefusalLog, log_notices
 from fic_teleop_runtime.parameters import declare
 from fic_teleop_runtime.stamps import nanoseconds, seconds
@@ -47,8 +47,8 @@ NODE_NAME = "replica"
 
 
 class ReplicaNode(Node):
-    def __init__(self) -> None:
-        super().__init__(NODE_NAME)
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__(NODE_NAME, **node_options)
         values = declare(self, SCHEMA)  # every row with its config/replica.yaml value; unknown keys refused
         # The driver behind the topics: arm, joint names, gravity semantics, wrench frame, ramp-down (docs/HARDWARE.md).
         self._driver = DriverInterface(values)
@@ -221,8 +221,11 @@ class ReplicaNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    run_node(ReplicaNode, NODE_NAME, args, stopped=lambda node: rclpy.logging.get_logger(NODE_NAME).info(
-        f"replica stopped: {node.statistics()}"))
+    run_entry(ENTRY, args)
+
+
+ENTRY = NodeEntry(ReplicaNode, NODE_NAME, stopped=lambda node: rclpy.logging.get_logger(NODE_NAME).info(
+    f"replica stopped: {node.statistics()}"))
 
 
 if __name__ == "__main__":

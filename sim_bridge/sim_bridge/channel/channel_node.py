@@ -29,7 +29,7 @@ from sim_bridge.channel.channel import JITTER_DISTRIBUTIONS, Channel, ChannelCon
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.message_types import message_class
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
 
 try:
@@ -106,8 +106,8 @@ def _time_msg(seconds: float) -> Time:
 
 
 class ChannelNode(Node):
-    def __init__(self) -> None:
-        super().__init__("channel")
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__("channel", **node_options)
         declare(self, SCHEMA)  # every row with its config/channel.yaml value; unknown keys refused
         self._origin = self._now()           # "start" time reference: blackout/lost_from relative to this
         config = self._config_from({name: self._parameter(name) for name in LINK_PARAMETERS})
@@ -264,8 +264,11 @@ def route_seeds(seed: int | None, count: int) -> list[int | None]:
 
 
 def main(args: list[str] | None = None) -> None:
-    run_node(ChannelNode, "channel", args, stopped=lambda node: rclpy.logging.get_logger(node.get_name()).info(
-        f"channel stopped: {node.summary()}"))
+    run_entry(ENTRY, args)
+
+
+ENTRY = NodeEntry(ChannelNode, "channel", stopped=lambda node: rclpy.logging.get_logger(node.get_name()).info(
+    f"channel stopped: {node.summary()}"))
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ from std_msgs.msg import Bool, Float64MultiArray
 
 from fic_core.errors import FicInputError
 from fic_teleop_runtime import qos
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
 from fic_teleop_runtime.stamps import nanoseconds
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
@@ -103,8 +103,8 @@ def default_script_path(scene: str) -> Path:
 
 
 class HapticDeviceNode(Node):
-    def __init__(self) -> None:
-        super().__init__("haptic_device")
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__("haptic_device", **node_options)
         values = declare(self, SCHEMA)  # every row with its config/haptic_device.yaml value; unknown keys refused
         value = values.__getitem__
         parameters = HapticDeviceParameters(
@@ -343,7 +343,10 @@ class HapticDeviceNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    run_node(HapticDeviceNode, "haptic_device", args)
+    run_entry(ENTRY, args)
+
+
+ENTRY = NodeEntry(HapticDeviceNode, "haptic_device")
 
 
 if __name__ == "__main__":

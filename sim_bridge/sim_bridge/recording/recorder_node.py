@@ -40,7 +40,7 @@ from sim_bridge.recording.bag_writer import BagError, BagWriter, MessageDefiniti
 from sim_bridge.recording.live_view import LiveView, LiveViewError
 from fic_teleop_runtime.cdr_header import header_stamp
 from fic_teleop_runtime.message_types import message_class
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, defaults_for, integer, number, switch, text, texts
 
 # Subscriber QoS: RELIABLE so that DDS resends what a busy recorder missed, KEEP_LAST deep enough to absorb a
@@ -113,8 +113,8 @@ class JointStateGapCounter:
 
 
 class RecorderNode(Node):
-    def __init__(self) -> None:
-        super().__init__("recorder")
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__("recorder", **node_options)
         declare(self, SCHEMA)  # every row with its config/recorder.yaml value; unknown keys refused
         bag_path = self.get_parameter("bag_path").value or \
             f"bags/rosbag2_{datetime.datetime.now().strftime('%Y_%m_%d-%H_%M_%S')}"
@@ -316,12 +316,14 @@ def main(args: list[str] | None = None) -> None:
     # Spin in bounded slices of 0.5 s on the EventsExecutor even under simulated time: the recorder's timers need
     # not land on simulated time, and it takes every 1 kHz stream (fic_teleop_runtime.spin). The bag is finished
     # after the spin, with a second Ctrl-C ignored so it cannot cut the footer (fic_teleop_runtime.node_main).
-    run_node(RecorderNode, "recorder", args, refusals=(BagError, LiveViewError), stopped=_finish, slice_s=0.5,
-             follow_sim_time=False)
+    run_entry(ENTRY, args)
 
 
 def _finish(node: RecorderNode) -> None:
     node.finish()
+
+
+ENTRY = NodeEntry(RecorderNode, "recorder", refusals=(BagError, LiveViewError), stopped=_finish, slice_s=0.5, follow_sim_time=False)
 
 
 if __name__ == "__main__":

@@ -32,7 +32,6 @@ Commands with NaN/Inf or a length other than 7 are rejected with an error log an
 """
 from __future__ import annotations
 
-import sys
 import threading
 import time
 
@@ -51,7 +50,7 @@ from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.message_types import message_class
-from fic_teleop_runtime.node_main import run_node
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
 from sim_bridge.driver_twins import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
 from sim_bridge.os_thread import name_os_thread
@@ -131,8 +130,8 @@ def _every(rate_hz: float) -> int:
 
 
 class RobotNode(Node):
-    def __init__(self) -> None:
-        super().__init__("robot_sim")
+    def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
+        super().__init__("robot_sim", **node_options)
         p = self._declare_parameters()
         self._mode = p["mode"]
         self._sim = PandaSimulation(p["scene"], p["seed"], p["initial_configuration"],
@@ -485,15 +484,17 @@ def _pose(position: np.ndarray, quaternion_wxyz: np.ndarray) -> Pose:
 
 
 def main(args: list[str] | None = None) -> None:
-    # Two threads share the GIL here (physics, and the executor receiving commands): the default 5 ms switch
-    # interval would let a busy executor hold the physics thread past several 1 ms steps.
-    sys.setswitchinterval(0.0002)
-    run_node(RobotNode, "robot_sim", args, stopped=_stopped)
+    run_entry(ENTRY, args)
 
 
 def _stopped(node: RobotNode) -> None:
     node.stop()
     rclpy.logging.get_logger("sim_bridge.robot.robot_node").info(f"robot_sim stopped: {node.statistics()}")
+
+
+# Two threads share the GIL here (physics, and the executor receiving commands): the default 5 ms switch interval
+# would let a busy executor hold the physics thread past several 1 ms steps.
+ENTRY = NodeEntry(RobotNode, "robot_sim", stopped=_stopped, switch_interval=0.0002)
 
 
 if __name__ == "__main__":

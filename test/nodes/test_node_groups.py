@@ -1,0 +1,108 @@
+"""`--group`: nodes that share one process (fic_teleop_runtime.node_group) are still the graph's nodes: each keeps
+its name, parameters and topics, the run keeps its figures, and every member stops clean."""
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import REPO, assert_stopped_clean, isolated_env, reserved_domain, unclean_exit
+
+sys.path.insert(0, str(REPO / "scripts"))
+import node_groups  # noqa: E402
+from launch_checks import ArgumentRefusal  # noqa: E402
+from teleop_launcher import NodeSpec, node_command  # noqa: E402
+
+LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
+GROUPS = ("channel_forward,channel_backward", "haptic_device,master")
+
+
+def _specs() -> list[NodeSpec]:
+    return [NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml"),
+            NodeSpec("sim_bridge", "recorder_node", "recorder"),
+            NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {"seed": 1}, niceness=-10),
+            NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml", {"seed": 2}),
+            NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml")]
+
+
+def test_a_group_folds_its_members_into_one_process_at_the_first_members_place(tmp_path: Path) -> None:
+    specs = node_groups.grouped(_specs(), node_groups.parse_groups(["channel_forward, channel_backward"]))
+    assert [spec.name for spec in specs] == ["robot", "recorder", "channel_forward+channel_backward", "master"]
+    group = specs[2]
+    assert [member.name for member in group.members] == ["channel_forward", "channel_backward"]
+    assert group.niceness == -10   # the most favoured member's
+    written = {}
+
+    def write(name: str, params: dict) -> Path:
+        written[name] = params
+        return tmp_path / f"{name}.yaml"
+
+    command = node_groups.group_command(group, node_command, write)
+    assert command[:3] == [sys.executable, "-m", "fic_teleop_runtime.node_group"]
+    assert written == {"channel_forward": {"seed": 1}, "channel_backward": {"seed": 2}}   # each its own values
+    nodes = [i for i, item in enumerate(command) if item == "--node"]
+    assert [command[i + 1] for i in nodes] == ["sim_bridge/channel_node"] * 2
+    second = command[nodes[1]:]
+    assert "__node:=channel_backward" in second and str(tmp_path / "channel_backward.yaml") in second
+    assert "__node:=channel_forward" not in second
+
+
+@pytest.mark.parametrize("values, words", [
+    (["master"], "--group needs at least two node names"),
+    (["master,replica", "replica,planner"], "node 'replica' is named twice"),
+])
+def test_bad_group_values_are_refused(values, words) -> None:
+    with pytest.raises(ArgumentRefusal, match=words):
+        node_groups.parse_groups(values)
+
+
+@pytest.mark.parametrize("group, words", [
+    ("master,recorder", "recorder cannot share a process"),
+    ("master,nosuch", "no node 'nosuch' in this graph"),
+])
+def test_ungroupable_or_unknown_nodes_are_refused(group, words) -> None:
+    with pytest.raises(ArgumentRefusal, match=words):
+        node_groups.grouped(_specs(), node_groups.parse_groups([group]))
+
+
+def test_group_with_fifo_scheduling_is_refused() -> None:
+    args = argparse.Namespace(scheduling="fifo", two_stations=False)
+    with pytest.raises(ArgumentRefusal, match="--scheduling fifo"):
+        node_groups.check_groups([["master", "planner"]], args)
+
+
+def test_the_node_group_refuses_an_unknown_executable_in_one_line() -> None:
+    result = subprocess.run([sys.executable, "-m", "fic_teleop_runtime.node_group", "--node", "sim_bridge/nothing"],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert result.stderr.splitlines()[0] == "node_group: no executable 'nothing' in package 'sim_bridge'"
+
+
+@pytest.mark.nodes
+def test_a_grouped_lockstep_run_keeps_its_nodes_and_its_figures(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    arguments = [arg for group in GROUPS for arg in ("--group", group)]
+    with reserved_domain() as domain:
+        process = subprocess.run([sys.executable, str(LAUNCHER), "--out", str(out), "--duration", "5",
+                                  "--time-mode", "lockstep", "--no-video", "--wall-limit", "400", *arguments],
+                                 env=isolated_env(tmp_path / "ros_log", domain), capture_output=True, text=True,
+                                 timeout=600)
+    assert_stopped_clean(process.returncode, process.stdout + process.stderr, "the launcher")
+    logs = {log.name: log.read_text(errors="replace") for log in (out / "logs").glob("*.log")}
+    assert {"channel_forward+channel_backward.log", "haptic_device+master.log"} <= set(logs)
+    assert "channel_forward.log" not in logs and "master.log" not in logs   # one process a group
+    for name, text in logs.items():
+        assert not unclean_exit(0, text), f"{name}: {unclean_exit(0, text)}"
+    shared = logs["channel_forward+channel_backward.log"]
+    for node in ("channel_forward", "channel_backward"):   # each its own node, routes and stop line
+        assert f"[{node}]: channel up" in shared and f"[{node}]: channel stopped" in shared
+    assert "[master]" in logs["haptic_device+master.log"] and "[haptic_device]" in logs["haptic_device+master.log"]
+    metrics = json.loads((out / "report" / "metrics.json").read_text())
+    assert metrics["delay_one_way_ms"] == pytest.approx(200.0, abs=5.0)
+    assert metrics["limit_violations"] == 0 and metrics["dropped_joint_states"] == 0
+    # A grouped 6 s lockstep run (2026-12-02 16:00): 34 mm; the FIC saturates beyond x_b = 50 mm.
+    assert metrics["free_motion_error_max_m"] < 0.05
