@@ -111,6 +111,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="time the scripted E1 operator for this one-way delay [s] in every cell (default: each "
                              "cell's own delay); results/evidence_baselines used 0.2")
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--series", type=Path, default=None,
+                        help="directory for every run's time series (evidence_run.save_series)")
+    parser.add_argument("--reuse-series", action="store_true",
+                        help="judge the runs already in --series from their files instead of simulating them")
     parser.add_argument("--table-from", type=Path, default=None, help="print the markdown table of a sweep's JSON")
     args = parser.parse_args(argv)
     if args.table_from is not None:
@@ -122,7 +126,9 @@ def main(argv: list[str] | None = None) -> int:
     timing = {} if args.script_delay is None else {"script_delay": args.script_delay}
     chosen = [{**c, "options": {**c["options"], "operator": args.operator, **timing}}
               for c in cells(args.quick) if args.only is None or c["id"] in args.only]
-    jobs = [(c, controller, seed, duration) for c in chosen for controller in args.controllers for seed in range(1, seeds + 1)]
+    if args.reuse_series and args.series is None:
+        parser.error("--reuse-series needs --series")
+    jobs = [(c, controller, seed, duration, args.series, args.reuse_series) for c in chosen for controller in args.controllers for seed in range(1, seeds + 1)]
     start = time.perf_counter()
     runs = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
