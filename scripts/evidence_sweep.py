@@ -72,8 +72,10 @@ def stability_map(summary: list[dict], path: Path) -> None:
 
 
 def ports_summary(runs: list[dict]) -> dict:
-    """The channel's passivity figures of a cell's runs: median generated energy, the observers' smallest W."""
-    return dict(channel_generated_median_j=float(np.median([r["ports"]["channel_generated_total_j"] for r in runs])),
+    """The channel's passivity figures of a cell's runs: median generated energy (of the assessed runs: a run too
+    short to judge has no port figures), the observers' smallest W."""
+    generated = [r["ports"]["channel_generated_total_j"] for r in runs if "channel_generated_total_j" in r["ports"]]
+    return dict(channel_generated_median_j=float(np.median(generated)) if generated else None,
                 observer_min_j=float(min(min(r["channel_observer_min_j"].values()) for r in runs)),
                 offset_drift_max_m=float(max(r["offset_drift_max_m"] for r in runs)))
 
@@ -92,7 +94,7 @@ def table(document: dict) -> str:
                      f" | {s['error_median_m'] * 1e3:.1f} | {s['error_p95_m'] * 1e3:.1f}"
                      f" | {s['peak_force_median_n']:.1f} / {s['peak_force_p95_n']:.1f}"
                      + (f" | {row['ports']['channel_generated_median_j']:.3f} | {row['ports']['observer_min_j']:.3f} |"
-                        if "ports" in row else " | - | - |"))
+                        if row.get("ports", {}).get("channel_generated_median_j") is not None else " | - | - |"))
     return "\n".join(lines) + "\n"
 
 
@@ -151,6 +153,10 @@ def main(argv: list[str] | None = None) -> int:
     document = dict(seeds=seeds, duration_s=duration, operator=args.operator, channel_jitter_s=CHANNEL_JITTER_S,
                     operator_timing_jitter_s=OPERATOR_TIMING_JITTER_S, hand_impedance_jitter=HAND_IMPEDANCE_JITTER,
                     workers=args.workers, wall_s=wall, simulated_s=simulated,
+                    # Runs judged from kept series (--reuse-series) were simulated earlier: wall_s is then mostly
+                    # judging, and the runs' own wall_s sum is the simulation's.
+                    runs_from_series=sum(1 for r in runs if r["from_series"]),
+                    runs_wall_s_sum=float(sum(r["wall_s"] for r in runs)),
                     sim_s_per_wall_s_per_run=float(np.median([r["simulated_s"] / r["wall_s"] for r in runs])),
                     cells=summary, runs=runs)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -165,7 +171,8 @@ def main(argv: list[str] | None = None) -> int:
               + f", err median {s['error_median_m'] * 1e3:.1f} mm, p95 max {s['error_p95_m'] * 1e3:.1f} mm, "
                 f"F median {s['peak_force_median_n']:.1f} N p95 {s['peak_force_p95_n']:.1f} N")
     print(f"{len(runs)} runs, {simulated:.0f} simulated s in {wall:.0f} wall s ({simulated / wall:.2f} sim s per wall s "
-          f"with {args.workers} workers)")
+          f"with {args.workers} workers)" + (f"; {document['runs_from_series']} judged from kept series"
+                                             if document["runs_from_series"] else ""))
     return 0
 
 

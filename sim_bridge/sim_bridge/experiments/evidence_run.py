@@ -69,13 +69,15 @@ def judge(job: tuple) -> dict:
     reuse = bool(job[5]) if len(job) > 5 else False
     config = run_config(cell, controller, seed, duration)
     path = series_path(directory, cell, controller, seed, duration) if directory is not None else None
-    if path is not None and reuse and path.exists():
+    reused = path is not None and reuse and path.exists()
+    if reused:
         result = load_series(path)
     else:
         result = run(config)
         if path is not None:
             save_series(path, result)
-    return row(cell, controller, seed, config, result)
+    # wall_s stays the simulation's own (kept in the file); from_series says this row did not simulate it now.
+    return {**row(cell, controller, seed, config, result), "from_series": reused}
 
 
 def row(cell: dict, controller: str, seed: int, config: RunConfig, result: RunResult) -> dict:
