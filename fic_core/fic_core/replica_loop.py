@@ -4,7 +4,8 @@
         tick:     DesiredPose x_d = x_d'' + x_d' --> DesiredVelocityFilter --> ReplicaController (paper Eq. 7,
                   the postural optimisation, the torque slew) --> the torque to send
         between:  the held torque, slewed (only if every state is answered, as lockstep needs)
-    teleoperation command (x_d'), planner pose and acceleration (x_d'') --> DesiredPose
+    teleoperation command --> CommandAuthority (fic_core.input_authority) --> x_d' --> DesiredPose
+    planner pose and acceleration (x_d'') --> DesiredPose
 
 Two clocks, as on the robot: ``time`` is the joint state's stamp (the control grid, the slew, the status rates),
 ``now`` the receiver's clock (the set-point holds, the watchdog); in lockstep both are simulated time. Before the
@@ -25,6 +26,7 @@ from .control_schedule import ControlSchedule, RateGate
 from .desired_pose import DesiredPose, DesiredPoseParameters
 from .desired_velocity import DesiredVelocityFilter
 from .errors import FicInputError
+from .input_authority import CommandAuthority, CommandVerdict
 from .limits import PandaLimits
 from .passivity_observer import PassivityObserver
 from .replica import ReplicaCommand, ReplicaController, rotation_from_quaternion
@@ -56,8 +58,10 @@ class ReplicaLoop:
     """The replica's control logic for a parameter mapping (fic_core.replica_parameters; module docstring)."""
 
     def __init__(self, values: Mapping[str, Any], robot: RobotModel | None = None,
-                 limits: PandaLimits | None = None) -> None:
+                 limits: PandaLimits | None = None, authority: CommandAuthority | None = None) -> None:
         self.robot = RobotModel() if robot is None else robot
+        #: What a teleoperation command may ask (fic_core.input_authority; None: its documented default bounds).
+        self.authority = CommandAuthority() if authority is None else authority
         # The arm's datasheet limits (fic_core.arm_profile: Panda by default, an FR3 behind franka_ros2).
         self.limits = PandaLimits.from_robot(self.robot) if limits is None else limits
         self.parameters = checked(values)
@@ -107,6 +111,26 @@ class ReplicaLoop:
     def add_teleoperation(self, stamp_ns: int, offset: ArrayLike, now: float) -> str | None:
         """x_d' of a teleoperation command; a notice when commands are back after a stale period."""
         return self._counted("teleop_commands", self.desired.add_teleoperation, stamp_ns, offset, now)
+
+    def teleoperation_command(self, stamp_ns: int, now: float, *, mode: int, haptic_gain: float,
+                              workspace_scale: float, velocity_gain: float, handle_position: ArrayLike,
+                              desired_offset: ArrayLike) -> tuple[CommandVerdict, str | None]:
+        """A whole teleoperation command: the authority's verdict on it and, if accepted, its (bounded) x_d'
+        taken in. Returns the verdict and add_teleoperation's notice. FicInputError as add_teleoperation.
+
+        On the first command after a loss (the master watchdog stale) the authority forgets the last command
+        first: the jump from the held x_d' is DesiredPose's to give back at resume_speed (0.1 m/s, slower than
+        the authority's max_offset_speed), and the rate bound measured against a command from before the loss
+        would take it out a second time."""
+        if self.desired.master_stale:
+            self.authority.reset()
+        verdict = self.authority.check(stamp=stamp_ns * 1e-9, now=now, mode=mode, haptic_gain=haptic_gain,
+                                       workspace_scale=workspace_scale, velocity_gain=velocity_gain,
+                                       handle_position=handle_position, desired_offset=desired_offset)
+        if not verdict.accepted:
+            self.counts["rejected_teleop_commands"] += 1
+            return verdict, None
+        return verdict, self.add_teleoperation(stamp_ns, verdict.offset, now)
 
     def add_planner_pose(self, stamp_ns: int, position: ArrayLike, quaternion_xyzw: ArrayLike, now: float) -> None:
         """x_d'' of the planner (orientation as a quaternion x, y, z, w)."""

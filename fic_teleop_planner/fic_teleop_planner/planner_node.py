@@ -27,7 +27,7 @@ from rclpy.parameter import Parameter
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
 from fic_core.errors import FicInputError
-from fic_core.planner import HarmonicPlanner
+from fic_core.planner import HarmonicPlanner, unit_quaternion
 from fic_core.planner_schedule import PlannerSchedule
 from fic_core.trajectories import Circle, FixedPoint, ViaPoints
 from fic_teleop_runtime import qos
@@ -86,14 +86,6 @@ def make_source(values: dict) -> Circle | FixedPoint | ViaPoints:
     if kind == "via_points":
         return ViaPoints(values["via_points"], values["via_dwell"], values["via_tolerance"], values["via_loop"])
     raise FicInputError(f"trajectory must be one of {TRAJECTORIES}, got {kind!r}")
-
-
-def unit_quaternion(values) -> tuple[float, float, float, float]:
-    quaternion = np.asarray(values, dtype=float)
-    if quaternion.shape != (4,) or not np.all(np.isfinite(quaternion)) or np.linalg.norm(quaternion) < 1e-6:
-        raise FicInputError(f"orientation must be a finite non-zero quaternion [x, y, z, w], got {list(values)}")
-    quaternion = quaternion / np.linalg.norm(quaternion)
-    return tuple(float(q) for q in quaternion)
 
 
 class PlannerNode(Node):

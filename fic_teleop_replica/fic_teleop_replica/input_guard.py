@@ -1,7 +1,9 @@
 """The replica node's hook to fic_core.input_authority: its parameters, its log lines and its diagnostics.
 
-Wiring only: the checks themselves are fic_core's (CommandAuthority, RobotStreamGuard). The replica node calls
-``teleop_offset`` for each teleoperation command, ``joint_state_usable`` for each joint state, and publishes
+Wiring only: the checks themselves are fic_core's (CommandAuthority, RobotStreamGuard); the replica loop
+(fic_core.replica_loop) puts each teleoperation command through the authority. The replica node asks
+``admits_teleop_command`` before each command (the safe hold, one writer on the topic), logs the loop's verdict
+with ``report``, calls ``joint_state_usable`` for each joint state, and publishes
 ``diagnostic_values`` with its /diagnostics (recorded in the bag, read back by the launcher's exit code). A safe
 hold is said in one error line and at once on /diagnostics (level ERROR).
 """
@@ -10,10 +12,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-import numpy as np
 from rclpy.node import Node
 
-from fic_core.input_authority import AuthorityBounds, CommandAuthority, CommandVerdict, RobotStreamGuard
+from fic_core.input_authority import CommandAuthority, CommandVerdict, RobotStreamGuard
 from fic_teleop_runtime.parameters import number
 
 LOG_THROTTLE_S = 2.0
@@ -40,17 +41,12 @@ AUTHORITY_PARAMETERS = (
 class InputGuard:
     """CommandAuthority and RobotStreamGuard on ``node``, with the node's parameters, logger and clock."""
 
-    def __init__(self, node: Node, values: Mapping[str, Any], on_hold) -> None:
+    def __init__(self, node: Node, values: Mapping[str, Any], authority: CommandAuthority, on_hold) -> None:
+        """``authority``: the replica loop's (built from AUTHORITY_PARAMETERS by AuthorityBounds.from_parameters)."""
         self._node = node
         self._on_hold = on_hold  # called once, when the safe hold latches (the node publishes diagnostics)
-        value = {row.name: float(values[row.name]) for row in AUTHORITY_PARAMETERS}
-        half = value["offset_workspace"]
-        self.authority = CommandAuthority(AuthorityBounds(
-            offset_lower=(-half, -half, -half), offset_upper=(half, half, half),
-            max_offset_speed=value["max_offset_speed"], max_offset_burst=value["max_offset_burst"],
-            future_tolerance=value["command_future_tolerance"],
-            max_age=value["max_command_age"]))
-        self.streams = RobotStreamGuard(future_tolerance=value["command_future_tolerance"])
+        self.authority = authority
+        self.streams = RobotStreamGuard(future_tolerance=float(values["command_future_tolerance"]))
         # The names after the node's remaps (a driver profile renames /joint_states): count the writers there.
         self._robot_streams = tuple(node.resolve_topic_name(topic) for topic in ROBOT_STREAMS)
         self._teleop_topic = node.resolve_topic_name(TELEOP_TOPIC)
@@ -63,41 +59,32 @@ class InputGuard:
     def _now(self) -> float:
         return self._node.get_clock().now().nanoseconds * 1e-9
 
-    def teleop_offset(self, message, resuming: bool = False) -> np.ndarray | None:
-        """x_d' of a TeleoperationCommand as the replica may use it (clamped onto the workspace), or None: refused
-        (throttled error line) or the replica is in its safe hold. ``resuming``: the first command after the
-        replica's master watchdog fired; its jump is not rate-limited here, the replica gives it back at its own
-        resume_speed (0.1 m/s, slower than max_offset_speed)."""
+    def admits_teleop_command(self) -> bool:
+        """Whether a teleoperation command may go to the loop at all: not in the safe hold, and one writer on the
+        topic (the channel, or the master without one). While a second one is on it, no command can be told from
+        the other's: x_d' is held, as when the master is silent (refused, with a throttled error line)."""
         if self.streams.held:
-            return None
-        if resuming:
-            self.authority.reset()
-        logger = self._node.get_logger()
-        # One writer: the channel (or the master, without a channel). While a second one is on the topic, no
-        # command can be told from the other's: x_d' is held, as when the master is silent.
+            return False
         writers = self._node.count_publishers(self._teleop_topic)
         if writers > 1:
             self.authority.refused += 1
-            logger.error(f"refusing /replica/teleop_command: {writers} publishers on it, one is the channel's; holding "
-                         f"the last good x_d' while they last ({self.authority.refused} refused so far)",
-                         throttle_duration_sec=LOG_THROTTLE_S)
-            return None
-        stamp = message.header.stamp
-        handle, offset = message.handle_position, message.desired_offset
-        verdict: CommandVerdict = self.authority.check(
-            stamp=stamp.sec + 1e-9 * stamp.nanosec, now=self._now(), mode=int(message.mode),
-            haptic_gain=message.haptic_gain, workspace_scale=message.workspace_scale,
-            velocity_gain=message.velocity_gain, handle_position=(handle.x, handle.y, handle.z),
-            desired_offset=(offset.x, offset.y, offset.z))
+            self._node.get_logger().error(
+                f"refusing /replica/teleop_command: {writers} publishers on it, one is the channel's; holding the "
+                f"last good x_d' while they last ({self.authority.refused} refused so far)",
+                throttle_duration_sec=LOG_THROTTLE_S)
+            return False
+        return True
+
+    def report(self, verdict: CommandVerdict) -> None:
+        """The authority's verdict on a command, logged (throttled): refused, clamped or rate-limited."""
+        logger = self._node.get_logger()
         if not verdict.accepted:
             logger.error(f"refusing /replica/teleop_command: {verdict.reason}; keeping the last good x_d' "
                          f"({self.authority.refused} refused so far)", throttle_duration_sec=LOG_THROTTLE_S)
-            return None
-        if verdict.clamped or verdict.rate_limited:
+        elif verdict.clamped or verdict.rate_limited:
             logger.warning(f"/replica/teleop_command: {verdict.reason} ({self.authority.clamped} outside the "
                            f"workspace, {self.authority.rate_limited} rate-limited so far)",
                            throttle_duration_sec=LOG_THROTTLE_S)
-        return verdict.offset
 
     def joint_state_usable(self, stamp_seconds: float) -> bool:
         """Whether the joint state stamped so may drive the law (stamps forward, not from the future)."""

@@ -28,6 +28,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from fic_core.errors import FicInputError
+from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
 from fic_core.robot_model import RobotModel
@@ -53,13 +54,14 @@ class ReplicaNode(Node):
         # The driver behind the topics: arm, joint names, gravity semantics, wrench frame, ramp-down (docs/HARDWARE.md).
         self._driver = DriverInterface(values)
         robot = RobotModel()
+        # What an outside input may ask of the arm (fic_core.input_authority): bounded commands (the loop's
+        # authority), one writer per robot stream (the guard's); a breach holds the arm, said at once on /diagnostics.
+        authority = CommandAuthority(AuthorityBounds.from_parameters(values))
         self._loop = ReplicaLoop({name: values[name] for name in REPLICA_LOOP_PARAMETERS}, robot,
-                                 self._driver.limits(robot))  # FicInputError if bad
+                                 self._driver.limits(robot), authority)  # FicInputError if bad
         self._wrench: WrenchStamped | None = None  # F_R as last received
         self._refusals = RefusalLog(self.get_logger())
-        # What an outside input may ask of the arm (fic_core.input_authority): bounded commands, one writer per
-        # robot stream; a breach holds the arm and is said at once on /diagnostics.
-        self._input_guard = InputGuard(self, values, on_hold=lambda: self._publish_diagnostics())
+        self._input_guard = InputGuard(self, values, authority, on_hold=lambda: self._publish_diagnostics())
         self.add_on_set_parameters_callback(self._on_set_parameters)
         # The robot-side QoS (fic_teleop_runtime.qos): the command RELIABLE for the recorder; joint states and F_R
         # the newest only (no backlog of old states for the law); set-points depth 1 (only the newest is used).
@@ -108,16 +110,18 @@ class ReplicaNode(Node):
         return self._steady.now().nanoseconds * 1e-9
 
     def _on_teleop_command(self, message: TeleoperationCommand) -> None:
-        # None: refused (said there) or in the safe hold
-        offset = self._input_guard.teleop_offset(message, resuming=self._loop.desired.master_stale)
-        if offset is None:
+        if not self._input_guard.admits_teleop_command():  # the safe hold, or a second writer (said there)
             self._loop.counts["rejected_teleop_commands"] += 1
             return
         try:
-            notice = self._loop.add_teleoperation(nanoseconds(message.header.stamp), tuple(offset.tolist()),
-                                                  self._now())
+            verdict, notice = self._loop.teleoperation_command(
+                nanoseconds(message.header.stamp), self._now(), mode=int(message.mode),
+                haptic_gain=message.haptic_gain, workspace_scale=message.workspace_scale,
+                velocity_gain=message.velocity_gain, handle_position=xyz(message.handle_position),
+                desired_offset=xyz(message.desired_offset))
         except FicInputError as exc:
             return self._refusals.refuse("/replica/teleop_command", exc)
+        self._input_guard.report(verdict)
         if notice:
             self.get_logger().warning(notice)
 

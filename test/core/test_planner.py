@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from fic_core.attractor import Phase
 from fic_core.errors import FicInputError
-from fic_core.planner import HarmonicPlanner
+from fic_core.planner import HarmonicPlanner, unit_quaternion
 from fic_core.trajectories import Circle
 
 
@@ -134,3 +134,14 @@ def test_invalid_inputs_are_rejected() -> None:
         planner.step([0.0, 0.0, 0.0], math.inf)
     with pytest.raises(FicInputError, match="position"):
         planner.reset([math.inf, 0.0, 0.0])
+
+
+def test_the_fixed_orientation_is_normalised_and_bad_ones_refused() -> None:
+    """What the planner node publishes and the in-process runner feeds the replica: a unit quaternion."""
+    assert unit_quaternion([0.0, 0.0, 0.0, 2.0]) == (0.0, 0.0, 0.0, 1.0)
+    x, y, z, w = unit_quaternion([0.7071, 0.0, 0.0, 0.7071])
+    assert math.isclose(x * x + y * y + z * z + w * w, 1.0, rel_tol=1e-15) and math.isclose(x, w)
+    for bad in ([0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [math.nan, 0.0, 0.0, 1.0], [math.inf, 0.0, 0.0, 1.0],
+                ["a", 0.0, 0.0, 1.0], None):
+        with pytest.raises(FicInputError, match="orientation"):
+            unit_quaternion(bad)

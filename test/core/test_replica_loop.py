@@ -3,6 +3,8 @@ grid, the torque slew inside the controller, and the run-time swap of parameters
 modules it composes). Properties, checked on a real Pinocchio Panda model at rest (no simulator needed)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import Phase, given, settings, strategies as st
@@ -11,6 +13,7 @@ from fic_core.control_schedule import ControlSchedule
 from fic_core.desired_pose import DesiredPose, DesiredPoseParameters
 from fic_core.desired_velocity import DesiredVelocityFilter
 from fic_core.errors import FicInputError
+from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.limits import PANDA_TORQUE_RATE_LIMIT, LimitFlag
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
@@ -204,6 +207,44 @@ def test_status_and_pose_gates_and_or_ed_flags() -> None:
     steps = run_loop(loop, 100)
     assert sum(step.status_due for step in steps) == 10 and sum(step.poses_due for step in steps) == 5
     assert loop.take_limit_flags() == (int(LimitFlag.NONE), int(LimitFlag.NONE))
+
+
+def _command(loop: ReplicaLoop, now: float, offset) -> tuple:
+    return loop.teleoperation_command(int(round(now * 1e9)), now, mode=0, haptic_gain=0.5, workspace_scale=1.0,
+                                      velocity_gain=2.0, handle_position=(0.0, 0.0, 0.0), desired_offset=offset)
+
+
+@pytest.mark.parametrize("silence", [0.0, 0.8])
+def test_the_authority_forgets_its_last_command_at_a_resume_only(silence: float) -> None:
+    """A command 0.3 m from the last one: in a stream, the authority's rate bound (1 m/s, 0.05 m burst) lets x_d'
+    move by the burst and 1 m/s of the 10 ms since; after a loss (master_timeout 0.5 s passed, the watchdog
+    stale) it is accepted whole, since DesiredPose gives the jump back at resume_speed (0.1 m/s) instead."""
+    loop = ReplicaLoop(replica_loop_values(master_timeout=0.5, answer_every_state=True),
+                       authority=CommandAuthority(AuthorityBounds(max_offset_speed=1.0, max_offset_burst=0.05)))
+    now = 0.0
+    for tick in range(300 + int(silence * 1000)):
+        now = tick * 0.001
+        if tick % 10 == 0 and tick < 300:
+            verdict, _ = _command(loop, now, (0.0, 0.0, 0.0))
+            assert verdict.accepted and not verdict.rate_limited
+        loop.joint_state(now, now, Q0, QD0)
+    assert loop.desired.master_stale == (silence > 0.0)
+    now += 0.01
+    verdict, notice = _command(loop, now, (0.3, 0.0, 0.0))
+    assert verdict.accepted
+    if silence:
+        assert not verdict.rate_limited and verdict.offset[0] == 0.3 and "back" in notice
+    else:
+        assert verdict.rate_limited and verdict.offset[0] == pytest.approx(0.05, abs=1e-9) and notice is None
+    assert loop.counts["rejected_teleop_commands"] == 0
+
+
+def test_a_refused_command_is_counted_and_changes_nothing() -> None:
+    loop = ReplicaLoop(replica_loop_values(answer_every_state=True))
+    loop.joint_state(0.0, 0.0, Q0, QD0)
+    verdict, notice = _command(loop, 0.001, (math.nan, 0.0, 0.0))
+    assert not verdict.accepted and notice is None and loop.authority.refused == 1
+    assert loop.counts["rejected_teleop_commands"] == 1 and loop.desired.master_received is None
 
 
 def test_a_bad_parameter_changes_nothing() -> None:

@@ -30,7 +30,7 @@ import yaml
 from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
-from fic_core.planner import HarmonicPlanner
+from fic_core.planner import HarmonicPlanner, unit_quaternion
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
 from fic_core.trajectories import Circle, FixedPoint
@@ -50,9 +50,10 @@ JOY_RATE_HZ = 50.0               # the device node's button messages
 CAMERA_RATE_HZ = VIDEO_RATE_HZ    # the closed-loop operator's video frames
 OPERATORS = ("scripted", "closed_loop")
 #: config/replica.yaml also holds the node's input authority (fic_core.input_authority) and driver keys, not
-#: ReplicaLoop's: only REPLICA_LOOP_PARAMETERS go to the loop. The same CommandAuthority judges every delivered
-#: command here as in the node (the workspace clamp of x_d' and its speed bound); the node's one-writer and stream
-#: checks have nothing to check in one process.
+#: ReplicaLoop's: only REPLICA_LOOP_PARAMETERS go to the loop, the authority's bounds to the loop's CommandAuthority,
+#: which judges every delivered command here as in the node (ReplicaLoop.teleoperation_command: the workspace clamp
+#: of x_d', its speed bound, forgotten at a resume); the node's one-writer and stream checks have nothing to check
+#: in one process.
 
 
 def _parameters(name: str) -> dict[str, Any]:
@@ -145,7 +146,7 @@ def run(config: RunConfig) -> RunResult:
     tdpa = config.controller == "linear_tdpa"
     replica = ReplicaLoop({**r, "controller": "linear_bounded" if tdpa else config.controller,
                            "control_rate": config.control_rate,
-                           "answer_every_state": True, **config.replica_overrides})
+                           "answer_every_state": True, **config.replica_overrides}, authority=authority)
     master = MasterStation(m)
     device = HapticDevice(HapticDeviceParameters(
         mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
@@ -186,7 +187,7 @@ def run(config: RunConfig) -> RunResult:
     planner = HarmonicPlanner(pl["natural_frequency"], pl["max_velocity"])
     planner.reset(source.point(0.0))
     planner_origin = SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0
-    orientation = tuple(pl["orientation"])
+    orientation = unit_quaternion(pl["orientation"])   # as the planner node publishes it
     sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
     ports = ChannelPorts(tdpa, h["mass"], 1.0 / m["control_rate"])
     feedback, feedback_time, sent_force = np.zeros(3), None, np.zeros(3)
@@ -268,13 +269,9 @@ def run(config: RunConfig) -> RunResult:
                 stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle, energy = delivery.payload
                 ports.replica.observer.receive(energy)
                 offset = ports.replica_delivery(offset, sent_force, now)
-                if replica.desired.master_stale:   # as the node: the resume's jump is the replica's to give back
-                    authority.reset()
-                verdict = authority.check(stamp=stamp_ns * 1e-9, now=now, mode=mode, haptic_gain=haptic_gain,
-                                          workspace_scale=workspace_scale, velocity_gain=velocity_gain,
-                                          handle_position=handle, desired_offset=offset)
-                if verdict.accepted:
-                    replica.add_teleoperation(stamp_ns, verdict.offset, now)
+                replica.teleoperation_command(stamp_ns, now, mode=mode, haptic_gain=haptic_gain,
+                                              workspace_scale=workspace_scale, velocity_gain=velocity_gain,
+                                              handle_position=handle, desired_offset=offset)
             for delivery in backward.pop_due(now):
                 feedback, energy = delivery.payload
                 feedback_time = now
