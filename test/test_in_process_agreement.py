@@ -1,7 +1,28 @@
 """The in-process runner against the real graph: one short E1 run (superimposition scene, 200 ms delay both ways)
-in lockstep over DDS and the same seconds in one process must give the same tracking-error trace within
-TOLERANCE_M, and the runner must be deterministic per seed. The longer figures (10 s, the speed) come from
-scripts/in_process.py."""
+in lockstep over DDS and the same seconds in one process, and the runner deterministic per seed. The longer
+figures (10 s, the speed) come from scripts/in_process.py.
+
+What can be compared, and how closely (docs/EXPERIMENTS.md, "In-process runner"; measured 2026-12-02 15:18-15:27
+against three lockstep runs of this test's launcher command at load averages 4.2, 8.7 and 8.7 on 2 cores, with
+this test's agreement calls):
+
+* Until the operator's first move reaches the replica (sent from about 1.7 s, at the replica from 1.9 s) the
+  graph runs are the runner's to within 0.48 mm max and 0.20 mm RMS of |x_d - x_R|, the same figure in all three:
+  the replica's law, the planner, the start and the physics agree. A runner that differs there in one term is
+  well outside PRE_MOVE_TOLERANCE_M (1.5 mm) or its RMS bound (0.6 mm): the linear baseline in place of the FIC
+  5.3 / 2.6 mm, no joint-damping compensation 3.2 / 2.2 mm, no desired-velocity filter 4.9 / 2.2 mm, a fixed
+  point in place of the circle 4.6 / 2.4 mm, K0 doubled 8.2 / 3.9 mm. Not seen there: the offset and planner
+  feedforward (nothing to feed forward yet) and a 250 Hz control rate (0.89 / 0.52 mm).
+* After it the graph's own timing decides: the device, master and planner timers may trail the simulation by
+  the peer barrier's 30 ms and the channel nodes by more (held 202 ms at the median, up to 353 ms), and the law
+  amplifies a few milliseconds of timing in the x_d' stream (its stamps are the master's 100 Hz ticks, its
+  content the 250 Hz handle pose before them; the offset-acceleration estimate alternates by about 1 m/s^2).
+  The runner against itself with the delay 201 instead of 200 ms (RunConfig(delay=0.201, script_delay=0.2)):
+  16.7 mm max, 5.0 mm RMS of |e|; against the graph 9.4 / 2.9 mm at load 4 and 30.0 / 6.4 mm at load 8.7
+  (27-35 / 6-8 mm in earlier CI runs). Held commands do not matter (7 % of steps on a held torque: 0.12 mm).
+  So the whole run is held to x_d only, within DESIRED_TOLERANCE_M: 10-39 mm apart measured; 81-104 mm with
+  the channel's delay at 1 s, with no x_d' at all, or with a fixed point in place of the circle.
+"""
 from __future__ import annotations
 
 import subprocess
@@ -14,19 +35,12 @@ from conftest import REPO, isolated_env, reserved_domain
 
 pytestmark = pytest.mark.nodes
 DURATION_S = 3.0
-#: Largest difference of |x_d - x_R| between the two runs over [0.5 s, end] [m] (docs/EXPERIMENTS.md, "In-process
-#: runner"): the graph delivers each message a step or two later than the runner, and on a loaded machine a
-#: lockstep wait that times out steps the robot on a held command (271 of 4055 steps in the run that set these).
-TOLERANCE_M = 0.025
-TOLERANCE_RMS_M = 0.006
+PRE_MOVE_END_S = 1.9             # [s] the operator's first move reaches the replica (200 ms after it is sent)
+PRE_MOVE_TOLERANCE_M = 0.0015    # max | |e|_in-process - |e|_graph | before it (measured 0.48 mm)
+PRE_MOVE_TOLERANCE_RMS_M = 0.0006  # (measured 0.20 mm)
+DESIRED_TOLERANCE_M = 0.060      # max |x_d,in-process - x_d,graph| over the run (measured up to 39 mm)
 
 
-# Known defect, kept visible: on main at 764430f, on a quiet machine, the traces differed by 35.3 mm max and 7.9 mm
-# RMS (graph 11.3 mm RMS, runner 8.3 mm). With the input authority in the runner too (2026-12-02 13:10, load
-# average 8): 27.3 mm max, 5.97 mm RMS (graph 9.8 mm RMS, runner 8.3 mm). The authority does not explain the gap
-# (E1's x_d' stays far inside its bounds); the cause is not known yet.
-@pytest.mark.xfail(reason="runner and lockstep graph differ by up to 27-35 mm since the passive attractor "
-                          "landed; cause not yet found", strict=False)
 def test_in_process_run_agrees_with_a_lockstep_graph_run(tmp_path) -> None:
     from sim_bridge.experiments.in_process import RunConfig, agreement, run
 
@@ -41,7 +55,10 @@ def test_in_process_run_agrees_with_a_lockstep_graph_run(tmp_path) -> None:
     result = run(RunConfig(duration=DURATION_S))
     again = run(RunConfig(duration=DURATION_S))
     np.testing.assert_array_equal(result.tcp, again.tcp)  # deterministic per seed
-    figures = agreement(out / "bag", result)
-    assert figures.samples > 0.8 * (DURATION_S - 0.5) * 100, figures
-    assert figures.error_difference_max <= TOLERANCE_M, figures
-    assert figures.error_difference_rms <= TOLERANCE_RMS_M, figures
+    before = agreement(out / "bag", result, end=PRE_MOVE_END_S)
+    assert before.samples > 0.8 * (PRE_MOVE_END_S - 0.5) * 100, before
+    assert before.error_difference_max <= PRE_MOVE_TOLERANCE_M, before
+    assert before.error_difference_rms <= PRE_MOVE_TOLERANCE_RMS_M, before
+    whole = agreement(out / "bag", result)
+    assert whole.samples > 0.8 * (DURATION_S - 0.5) * 100, whole
+    assert whole.desired_difference_max <= DESIRED_TOLERANCE_M, whole

@@ -335,26 +335,38 @@ class Agreement:
     error_difference_max: float     # max | |e|_in-process - |e|_graph | [m], e = x_d - x_R
     error_difference_rms: float     # [m]
     tcp_difference_max: float       # max |x_R,in-process - x_R,graph| [m]
+    desired_difference_max: float   # max |x_d,in-process - x_d,graph| [m]
     graph_error_rms: float          # [m]
     in_process_error_rms: float     # [m]
 
 
-def agreement(bag: str | Path, result: RunResult, start: float = 0.5) -> Agreement:
+def agreement(bag: str | Path, result: RunResult, start: float = 0.5, end: float | None = None) -> Agreement:
     """Compare ``result`` with the bag of a lockstep graph run of the same configuration (the report's tracking
-    error: x_d and x_R as the replica published them)."""
+    error: x_d and x_R as the replica published them), from ``start`` to ``end`` (None: the end of both)."""
     from sim_bridge.report.bag_data import load_bag
     from sim_bridge.report.metrics import _tracking_error
 
     data = load_bag(bag)
     graph_time, graph_error, _ = _tracking_error(data)
-    tcp = data.series["/replica/tcp_pose"]
-    order = np.argsort(tcp.stamp, kind="stable")
-    window = (result.time >= start) & (result.time <= min(result.time[-1], graph_time[-1], tcp.stamp[order][-1]))
+
+    def positions(topic: str) -> tuple[np.ndarray, np.ndarray]:
+        series = data.series[topic]
+        order = np.argsort(series.stamp, kind="stable")
+        return series.stamp[order], np.column_stack([series.values[axis][order] for axis in "xyz"])
+
+    tcp_time, tcp = positions("/replica/tcp_pose")
+    desired_time, desired = positions("/replica/desired_pose")
+    last = min(result.time[-1], graph_time[-1], tcp_time[-1], desired_time[-1])
+    window = (result.time >= start) & (result.time <= (last if end is None else min(end, last)))
     times = result.time[window]
     graph = np.interp(times, graph_time, graph_error)
     mine = result.tracking_error[window]
-    graph_tcp = np.column_stack([np.interp(times, tcp.stamp[order], tcp.values[a][order]) for a in "xyz"])
+
+    def apart(stamps: np.ndarray, values: np.ndarray, ours: np.ndarray) -> float:
+        theirs = np.column_stack([np.interp(times, stamps, values[:, axis]) for axis in range(3)])
+        return float(np.linalg.norm(theirs - ours[window], axis=1).max())
+
     difference = np.abs(mine - graph)
     return Agreement(int(window.sum()), float(difference.max()), float(np.sqrt(np.mean(difference ** 2))),
-                     float(np.linalg.norm(graph_tcp - result.tcp[window], axis=1).max()),
+                     apart(tcp_time, tcp, result.tcp), apart(desired_time, desired, result.desired),
                      float(np.sqrt(np.mean(graph ** 2))), float(np.sqrt(np.mean(mine ** 2))))
