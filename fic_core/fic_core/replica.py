@@ -545,7 +545,8 @@ class ReplicaController:
             # Bounded by the friction at the joints' own speed limits: a faster desired motion is one the arm
             # cannot make, so its friction is never there to cancel (|D qd_d| <= D qd_max per joint).
             velocity_limit = self.limits.joint_velocity_array
-            drive += robot.joint_damping * np.clip(desired_joint_velocity, -velocity_limit, velocity_limit)
+            drive += robot.joint_damping * np.minimum(np.maximum(desired_joint_velocity, -velocity_limit),
+                                                      velocity_limit)  # np.clip, without its dispatch
         desired_torque = nonlinear + drive
 
         # Postural optimisation: M qdd = tau - (C qd + g) - D qd in the prediction (the arm's joint damping).

@@ -53,7 +53,7 @@ class TorqueSlew:
             sent = np.array(target, dtype=float)
         else:
             step = self.torque_rate * self.interval(time)
-            sent = previous + np.clip(target - previous, -step, step)
+            sent = previous + np.minimum(np.maximum(target - previous, -step), step)  # np.clip, without its dispatch
         self._sent = sent
         if time is not None:
             self._time = time
