@@ -15,7 +15,7 @@ The same loop driven by a task (``lap_loop``): the operator's hand, a spring-dam
 target that repeats every 5 s (E1's lap: an avoidance move of 30 mm on every lap). With the damping margin the loop
 stays stable and its answer to the lap -- the handle giving way, the replica lagging its delayed command --
 repeats at the lap: the motion test without the task's period takes that for a sustained oscillation (the defect
-the lap mean removes); with too little damping an oscillation at the loop's own period grows on top of the lap.
+the lap median removes); with too little damping an oscillation at the loop's own period grows on top of the lap.
 """
 from __future__ import annotations
 
@@ -123,7 +123,7 @@ def test_the_same_loop_with_the_damping_margin_is_stable(delay: float):
 @pytest.mark.parametrize("delay", [1.0, 2.0])
 def test_a_stable_loop_driven_by_the_lap_is_stable(delay: float):
     """The damping margin's loop on the 5 s lap at 1 and 2 s: energy flat, its answer to the lap 15-17 mm and
-    periodic at the lap. Judged without the task's period (the criterion before the lap mean) that is a
+    periodic at the lap. Judged without the task's period (the criterion before the lap median) that is a
     'sustained oscillation'; with it, what is left differs from lap to lap by under 1 mm, and the loop is stable."""
     t, energy, motion = lap_loop(damping=1.5 * COUPLING * delay, delay=delay)
     before = assess_energy_motion(t, energy=energy, motion=motion,
@@ -136,7 +136,7 @@ def test_a_stable_loop_driven_by_the_lap_is_stable(delay: float):
                                    criterion=EnergyMotionCriterion(round_trip_delay=2.0 * delay, task_period=LAP_S))
     assert verdict.assessed and verdict.stable is True, verdict.reasons
     assert max(max(signal.amplitude) for signal in verdict.signals.values()) < 0.002
-    assert verdict.laps_in_lap_mean * LAP_S == pytest.approx(22.0 if delay == 1.0 else 20.0, abs=0.05)
+    assert verdict.laps_in_lap_median * LAP_S == pytest.approx(22.0 if delay == 1.0 else 20.0, abs=0.05)
 
 
 def test_a_growing_oscillation_riding_on_the_lap_is_unstable():
@@ -168,7 +168,7 @@ def test_a_growing_oscillation_on_the_lap_with_flat_energy_is_caught_by_the_moti
 @pytest.mark.parametrize("task_period", [None, LAP_S])
 def test_a_limit_cycle_that_does_not_grow_is_unstable(task_period: float | None):
     """Constant energy, constant amplitude: test 1 passes, the motion test must not. Period 7 s = 3.5 round trips;
-    with the task's 5 s lap as well (on the lap's mean motion, which the lap mean takes away)."""
+    with the task's 5 s lap as well (on the lap's typical (median) motion, which the lap median takes away)."""
     t = np.arange(0.0, 30.0, 0.01)
     swing = 0.02 * np.sin(2 * np.pi * t / 7.0) + (0.0 if task_period is None else lap_target(t))
     motion = {"x_R": np.column_stack([swing, 0 * t, 0 * t])}
@@ -177,7 +177,7 @@ def test_a_limit_cycle_that_does_not_grow_is_unstable(task_period: float | None)
                                    criterion=EnergyMotionCriterion(round_trip_delay=2.0, task_period=task_period))
     assert verdict.stable is False
     assert any("sustained oscillation of x_R" in reason for reason in verdict.reasons)
-    assert verdict.signals["x_R"].period == pytest.approx(7.0, abs=0.1 if task_period is None else 0.2)
+    assert verdict.signals["x_R"].period == pytest.approx(7.0, abs=0.1 if task_period is None else 0.35)
 
 
 def test_an_operators_aperiodic_moves_are_not_oscillation():
@@ -211,7 +211,7 @@ def test_a_slow_wander_with_a_ripple_is_not_a_period(seed: int):
 
 
 def test_too_short_a_run_is_not_assessed():
-    """At 1 s each way the windows are 8 s: 1 s of settling and 1.5 windows need 13 s; the lap mean over 2 laps after
+    """At 1 s each way the windows are 8 s: 1 s of settling and 1.5 windows need 13 s; the lap median over 2 laps after
     one lap and one round trip needs 18 s."""
     for duration, task_period, assessed in ((10.0, None, False), (13.5, None, True), (13.5, LAP_S, False),
                                             (18.5, LAP_S, True)):

@@ -15,8 +15,8 @@ while counting the operator's fast moves as oscillation. This one judges what an
    later in x_d and x_R: a commanded circle is not an oscillation), must not oscillate in a sustained way. A loop
    driven by a periodic task answers it with a motion that is not its command (the hand gives way to the force it
    feels, the replica lags the delayed command) and, when the loop is stable, repeats at the task's period: with
-   ``task_period`` set (E1's 5 s lap) the motion judged is what differs from lap to lap, the motion minus its mean at
-   the same phase of the lap (sim_bridge.experiments.lap_mean), over the span after settling, one lap and one round
+   ``task_period`` set (E1's 5 s lap) the motion judged is what differs from lap to lap, the motion minus its median
+   at the same phase of the lap (sim_bridge.experiments.lap_median), over the span after settling, one lap and one round
    trip (EnergyMotionCriterion.lap_start) and only when that span holds ``min_laps`` laps. Then in EVERY judged
    window, after removing the window's linear trend, an axis whose amplitude (half the peak-to-peak) exceeds
    ``oscillation_amplitude`` AND whose normalised autocorrelation has a peak above ``periodicity`` at a lag in
@@ -55,7 +55,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sim_bridge.experiments.lap_mean import without_lap_mean
+from sim_bridge.experiments.lap_median import without_lap_median
 
 
 class VerdictInputError(ValueError):
@@ -66,12 +66,12 @@ class VerdictInputError(ValueError):
 class EnergyMotionCriterion:
     round_trip_delay: float                 # [s] forward + backward delay of the channel
     # [s] the task's own period (E1's 5 s lap), None for an aperiodic task: the motion test judges the motion minus
-    # its mean at the same phase of the lap (sim_bridge.experiments.lap_mean), the task's forced response removed.
+    # its median at the same phase of the lap (sim_bridge.experiments.lap_median), the task's forced response removed.
     task_period: float | None = None
     min_window: float = 2.0                 # [s] the shortest window (fast loops)
     judged_windows: int = 2                 # windows at the end of the run that are judged
     min_span_windows: float = 1.5           # the energy span must hold this many windows (they overlap below 2)
-    min_laps: float = 2.0                   # laps the lap mean is taken over (fewer: the mean is the motion itself)
+    min_laps: float = 2.0                   # laps the lap median is taken over (fewer: the median is the motion itself)
     settle: float = 1.0                     # [s] start-up left out before the judged span may begin
     growth_ratio: float = 2.0               # last window's energy peak over the first judged window's
     energy_floor: float = 2.5e-3            # [J] below it nothing counts as growing (1/2 200 N/m (5 mm)^2)
@@ -122,7 +122,7 @@ class EnergyMotionVerdict:
     motion_judged_from: float = float("nan")   # [s] start of the motion span (test 2)
     windows_overlap: float = 0.0            # [s] the judged windows overlap by this much (a run under 2 windows)
     max_period_judged: float = 0.0          # [s] longest period the motion span's autocorrelation reaches
-    laps_in_lap_mean: float = 0.0           # laps the task's mean motion was taken over (0: no task period)
+    laps_in_lap_median: float = 0.0           # laps the task's typical motion was taken over (0: no task period)
 
     def as_dict(self) -> dict:
         values = asdict(self)
@@ -277,7 +277,7 @@ def assess_energy_motion(time: ArrayLike, *, energy: ArrayLike, motion: dict[str
     if signals and criterion.task_period is not None:
         laps = (end - criterion.lap_start(float(time[0]))) / criterion.task_period
         if laps < criterion.min_laps:
-            short.append(f"the task's lap mean over {criterion.min_laps:g} laps of {criterion.task_period:g} s after "
+            short.append(f"the task's lap median over {criterion.min_laps:g} laps of {criterion.task_period:g} s after "
                          f"{criterion.lap_start(0.0):.2f} s needs "
                          f"{criterion.lap_start(0.0) + criterion.min_laps * criterion.task_period:.2f} s")
     if signals and end - motion_from < window:
@@ -312,7 +312,7 @@ def assess_energy_motion(time: ArrayLike, *, energy: ArrayLike, motion: dict[str
     motion_windows = _windows(motion_from, end, criterion)
     if criterion.task_period is not None:
         lap_from = criterion.lap_start(float(time[0]))
-        signals = {name: without_lap_mean(time, values, criterion.task_period, lap_from)
+        signals = {name: without_lap_median(time, values, criterion.task_period, lap_from)
                    for name, values in signals.items()}
     oscillations = {name: _oscillation(time, values, motion_windows, criterion) for name, values in signals.items()}
     what = "lap-to-lap motion" if criterion.task_period is not None else "motion"
@@ -326,4 +326,4 @@ def assess_energy_motion(time: ArrayLike, *, energy: ArrayLike, motion: dict[str
         True, not reasons, reasons, window, float(judged_from), window_peaks, float(growth), peak, oscillations,
         asdict(criterion), ports, motion_judged_from=float(motion_from),
         windows_overlap=max(0.0, windows[0][1] - windows[1][0]) if len(windows) > 1 else 0.0,
-        max_period_judged=min(criterion.max_period, 0.5 * motion_span), laps_in_lap_mean=float(laps))
+        max_period_judged=min(criterion.max_period, 0.5 * motion_span), laps_in_lap_median=float(laps))

@@ -2,7 +2,7 @@
 
 The seed draws the channel's jitter, the operator's timing and the hand's impedance (RunConfig); the verdict is
 sim_bridge.experiments.energy_verdict's on the arm's and the handle's kinetic energy, the channel's generated
-energy, and on x_M, x_d and x_R with the commanded motion and the lap's mean motion removed; errors are taken after
+energy, and on x_M, x_d and x_R with the commanded motion and the lap's typical (median) motion removed; errors are taken after
 the first 2 s (start-up). A run's time series can be kept (``save_series``) and judged again without simulating it.
 """
 from __future__ import annotations
@@ -87,7 +87,7 @@ def row(cell: dict, controller: str, seed: int, config: RunConfig, result: RunRe
     # every 5 s lap, and the scene's handle coordinates are the replica's offset (offset mode), so x_M is judged
     # against the hand's target and x_d, x_R against the planner plus that target one delay later. What the loop
     # does in answer to that command (the hand giving way to the force it feels, the replica lagging) repeats at
-    # the lap when the loop is stable: the verdict removes the lap's mean motion too (task_period, lap_mean.py).
+    # the lap when the loop is stable: the verdict removes the lap's typical (median) motion too (task_period, lap_median.py).
     criterion = EnergyMotionCriterion(round_trip_delay=2.0 * options.get("delay", 0.2), task_period=LAP_S)
     delay = options.get("delay", 0.2)
     intended = np.column_stack([np.interp(result.time - delay, result.time, result.operator_target[:, axis])
@@ -104,7 +104,7 @@ def row(cell: dict, controller: str, seed: int, config: RunConfig, result: RunRe
                 reasons=verdict.reasons, energy_window_peaks_j=verdict.energy_window_peaks,
                 energy_growth=verdict.as_dict()["energy_growth"], windows_overlap_s=verdict.windows_overlap,
                 motion_judged_from_s=verdict.as_dict()["motion_judged_from"],
-                max_period_judged_s=verdict.max_period_judged, laps_in_lap_mean=verdict.laps_in_lap_mean,
+                max_period_judged_s=verdict.max_period_judged, laps_in_lap_median=verdict.laps_in_lap_median,
                 oscillation={name: dict(amplitude_m=s.amplitude, periodicity=s.periodicity, period_s=s.period)
                              for name, s in verdict.signals.items()},
                 error_rms_m=float(np.sqrt(np.mean(error ** 2))), error_max_m=float(error.max()),
