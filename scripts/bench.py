@@ -5,7 +5,7 @@
 
 1. Replica tick compute (median, p99): scripts/bench_core.py (the control law alone, in process).
 2. The default main job, timed end to end: `scripts/run_teleop.sh` with its defaults (superimposition, 200 ms, 30 s,
-   realtime, report included; only --out and a free --domain-id are added). While it runs, every node process the
+   realtime, report included; only --out is added, the launcher reserves the domain). While it runs, every node process the
    launcher started is sampled with psutil every 0.5 s: CPU share (CPU seconds / wall seconds, 100 % = one core)
    and peak resident memory (RSS). From its metrics.json: pipeline latency (median, p99) and real-time factor; from
    its bag: the realtime step lateness of the robot sim (/sim/step_lateness, the worst step of each 0.1 s, and the
@@ -40,7 +40,7 @@ REPO = Path(__file__).resolve().parent.parent
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
 from sim_bridge.experiments.bag_series import read_run  # noqa: E402
-from sim_bridge.experiments.runner import free_domain_id, write_json  # noqa: E402
+from sim_bridge.experiments.runner import write_json  # noqa: E402
 
 
 class NodeSampler(threading.Thread):
@@ -178,8 +178,8 @@ def default_run(run_dir: Path, log_path: Path, launcher_args: list[str] = ()) ->
     (e.g. --group)."""
     from sim_bridge.report.loop_rates import loop_rates
 
-    command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), "--domain-id", str(free_domain_id()),
-               *launcher_args]
+    # No --domain-id: the launcher reserves one no other run or test holds (scripts/launch_isolation.py).
+    command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), *launcher_args]
     cpu_before, load_before = psutil.cpu_times(), list(os.getloadavg())
     code, wall, nodes = run_sampled(command, log_path)
     machine = machine_shares(cpu_before, psutil.cpu_times())
@@ -268,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
         run_dir = runs_dir / "lockstep"
         command = [sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--time-mode", "lockstep",
                    "--duration", f"{args.lockstep_duration:g}", "--no-report", "--no-video", "--out", str(run_dir),
-                   "--domain-id", str(free_domain_id()), *launcher_args]
+                   *launcher_args]
         print(f"[bench] lockstep graph: {' '.join(command[1:])} ...", flush=True)
         code, wall, nodes = run_sampled(command, runs_dir / "lockstep.log")
         from sim_bridge.experiments.runner import report_metrics
