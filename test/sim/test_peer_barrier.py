@@ -12,9 +12,8 @@ from sim_bridge.robot.peer_barrier import PeerBarrier
 
 def test_a_peer_that_has_not_published_is_not_waited_for() -> None:
     barrier = PeerBarrier(["/master/teleop_command"], max_lag=0.03, timeout=5.0)
-    started = time.monotonic()
     assert barrier.wait(10.0) == []
-    assert time.monotonic() - started < 1.0 and barrier.waits == 0
+    assert barrier.waits == 0 and barrier.wait_time == 0.0  # counted, not timed: a loaded machine stretches time
 
 
 def test_the_step_waits_until_the_peer_catches_up() -> None:
@@ -22,28 +21,35 @@ def test_the_step_waits_until_the_peer_catches_up() -> None:
     barrier.stamp("/a", 0.5)
     barrier.stamp("/b", 0.995)
 
+    released = threading.Event()
+    released_by: list[float | None] = []
+
     def publisher() -> None:  # /a catches up in steps, from another thread, as a subscriber callback would
-        for stamp in (0.8, 0.9, 0.96, 0.98):
+        for stamp in (0.8, 0.9, 0.96):
             time.sleep(0.05)
             barrier.stamp("/a", stamp)
+        released.wait(0.05)  # a step released by 0.96 (wrongly) is seen with 0.96 as /a's newest
+        barrier.stamp("/a", 0.98)
 
     thread = threading.Thread(target=publisher)
     started = time.monotonic()
     thread.start()
     assert barrier.wait(1.0) == []   # released by 0.98 >= 1.0 - 0.03, not by 0.96
+    released_by.append(barrier.newest("/a"))
+    released.set()
     waited = time.monotonic() - started
     thread.join()
-    assert 0.15 <= waited < 2.0, waited
-    assert barrier.waits == 1 and barrier.wait_time == pytest.approx(waited, abs=0.05)
+    assert released_by == [0.98]
+    # The publisher slept 3 x 50 ms before its last stamps; the barrier's own wait lies inside the test's.
+    assert barrier.waits == 1 and 0.15 <= barrier.wait_time <= waited, (barrier.wait_time, waited)
     assert barrier.newest("/a") == 0.98
 
 
 def test_a_peer_within_its_lag_does_not_hold_the_step() -> None:
     barrier = PeerBarrier(["/a"], max_lag=0.03, timeout=5.0)
     barrier.stamp("/a", 0.975)
-    started = time.monotonic()
     assert barrier.wait(1.0) == []
-    assert time.monotonic() - started < 0.5 and barrier.waits == 0
+    assert barrier.waits == 0 and barrier.wait_time == 0.0
 
 
 def test_a_dead_peer_costs_one_timeout_then_is_not_waited_for_until_it_catches_up() -> None:
@@ -52,13 +58,12 @@ def test_a_dead_peer_costs_one_timeout_then_is_not_waited_for_until_it_catches_u
     barrier.stamp("/alive", 1.0)
     started = time.monotonic()
     assert barrier.wait(1.0) == ["/dead"]
-    assert 0.15 <= time.monotonic() - started < 2.0
-    assert barrier.stalled == ("/dead",) and barrier.stalls == 1
-    started = time.monotonic()
+    assert time.monotonic() - started >= 0.2 and barrier.wait_time >= 0.2  # one whole timeout
+    assert barrier.stalled == ("/dead",) and barrier.stalls == 1 and barrier.waits == 1
     for step in range(1, 200):   # the next steps do not wait for it
         barrier.stamp("/alive", 1.0 + step * 0.001)
         assert barrier.wait(1.0 + step * 0.001) == []
-    assert time.monotonic() - started < 1.0
+    assert barrier.waits == 1 and barrier.stalls == 1
     # It comes back and catches up: it is waited for again.
     barrier.stamp("/dead", 1.2)
     assert barrier.wait(1.2) == [] and barrier.stalled == ()
@@ -71,9 +76,8 @@ def test_interrupt_wakes_a_waiting_step() -> None:
     barrier = PeerBarrier(["/a"], max_lag=0.0, timeout=30.0)
     barrier.stamp("/a", 0.0)
     threading.Timer(0.1, barrier.interrupt).start()
-    started = time.monotonic()
-    assert barrier.wait(5.0) == []
-    assert time.monotonic() - started < 5.0
+    assert barrier.wait(5.0) == []   # a timeout would have named /a as stalled (30 s)
+    assert barrier.waits == 1 and barrier.stalls == 0 and barrier.stalled == ()
 
 
 @pytest.mark.parametrize("topics, lag, timeout", [(["/a", "/a"], 0.03, 1.0), ([""], 0.03, 1.0),

@@ -36,7 +36,7 @@ def _lockstep_run(scene: str, seed: int) -> np.ndarray:
         with ready:
             published.append((sim.joint_positions, sim.joint_velocities, sim.hold_torque()))
             ready.notify_all()
-        command, fresh = gate.wait(timeout=2.0)
+        command, fresh = gate.wait(timeout=30.0)  # returns at the answer: the bound only ends a hung run
         assert fresh
         sim.step(command)
         trace[k] = np.concatenate([sim.joint_positions, sim.joint_velocities, sim.ft_wrench(), [sim.time]])
@@ -67,7 +67,7 @@ def test_lockstep_gate_times_out_and_a_late_answer_is_not_taken_for_the_next_sta
     gate.deliver(answer)  # answer to state 1: still one behind
     assert gate.wait(timeout=0.0)[1] is False
     threading.Timer(0.005, gate.deliver, args=(answer,)).start()  # answer to state 2, from another thread
-    command, fresh = gate.wait(timeout=1.0)
+    command, fresh = gate.wait(timeout=30.0)  # returns at the answer, however late a loaded machine runs the timer
     assert fresh and command is answer and gate.answered_steps == 1
 
 
@@ -86,7 +86,24 @@ def test_lockstep_gate_resync_after_a_burst():
     assert gate.wait(timeout=0.0)[1] is True
 
 
-def test_realtime_pacer_keeps_a_1khz_grid_and_measures_lateness():
+class SimulatedClock:
+    """A clock for the pacer that moves only when it sleeps (by what it asked plus ``oversleep``) or is told to."""
+
+    def __init__(self, oversleep: float = 0.0) -> None:
+        self.now = 100.0
+        self.oversleep = oversleep
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds + self.oversleep
+
+
+def test_realtime_pacer_keeps_a_1khz_grid_on_the_wall_clock():
+    """On the wall clock, bounds that hold under any load: never ahead of its grid, its rate measured over a span
+    inside the test's. (How close to 1 kHz it gets depends on the machine's load: a speed, measured by
+    scripts/bench_sim.py, not asserted here.)"""
     pacer = RealtimePacer(period=0.001)
     started = time.monotonic()
     for _ in range(300):
@@ -94,22 +111,35 @@ def test_realtime_pacer_keeps_a_1khz_grid_and_measures_lateness():
     elapsed = time.monotonic() - started
     summary = pacer.summary()
     assert summary.count == 300
-    assert elapsed >= 0.299  # never runs ahead of the wall clock
+    assert elapsed >= 0.299  # never runs ahead of the wall clock (a restart after a stall only comes later)
     assert 0.0 <= summary.p50 <= summary.p99 <= summary.max
-    assert summary.achieved_rate == pytest.approx(299 / elapsed, rel=0.1)
-    # (How close to 1 kHz it gets depends on the machine's load: a speed, measured by scripts/bench_sim.py.)
+    assert 299 / elapsed <= summary.achieved_rate <= 1000.0 * (1 + 1e-9)
+
+
+def test_realtime_pacer_measures_lateness_against_its_grid():
+    clock = SimulatedClock(oversleep=0.0002)  # every sleep ends 0.2 ms late
+    pacer = RealtimePacer(period=0.001, clock=clock, sleep=clock.sleep)
+    lateness = [pacer.wait_next() for _ in range(301)]
+    assert lateness[0] == 0.0 and lateness[1:] == pytest.approx([0.0002] * 300, abs=1e-12)
+    summary = pacer.summary()
+    assert summary.count == 301 and summary.overruns == 0
+    assert summary.p50 == pytest.approx(0.0002, abs=1e-12) and summary.max == pytest.approx(0.0002, abs=1e-12)
+    # Late steps do not shift the grid: 300 periods from the first step to the last (plus the last one's lateness).
+    assert summary.achieved_rate == pytest.approx(300 / (0.3 + 0.0002), rel=1e-9)
 
 
 def test_realtime_pacer_restarts_its_grid_after_a_stall_instead_of_bursting():
-    pacer = RealtimePacer(period=0.001, max_backlog=0.05)
+    clock = SimulatedClock()
+    pacer = RealtimePacer(period=0.001, max_backlog=0.05, clock=clock, sleep=clock.sleep)
     pacer.wait_next()
-    time.sleep(0.12)  # a stall: 120 deadlines missed
-    pacer.wait_next()
+    clock.now += 0.12  # a stall: 120 deadlines missed
+    assert pacer.wait_next() == 0.0  # the grid restarts at this step
     assert pacer.overruns == 1
-    started = time.monotonic()
+    started = clock.now
     for _ in range(20):
         pacer.wait_next()
-    assert time.monotonic() - started >= 0.019  # paced again, not 120 steps at once
+    assert pacer.overruns == 1
+    assert clock.now - started == pytest.approx(0.020, abs=1e-12)  # paced again, not 120 steps at once
 
 
 def test_zero_order_hold_keeps_the_last_command_and_counts_them():
