@@ -123,3 +123,93 @@ def test_observer_bookkeeping_and_bad_input() -> None:
         observer.receive(-1.0)
     with pytest.raises(FicInputError):
         ForcePortPassivityController().step([1.0, 0.0], [1.0], 0.001)
+
+
+def written_out_force_port(forces, velocities, received, dt, max_damping):
+    """The force port's damper tick by tick, written out from its definition (module docstring of
+    fic_core.passivity_controller, Ryu and Hannaford's time-domain passivity): P = -F v into the channel; a tick
+    that lets energy out and would take W = E_in,other - E_out below zero is damped by alpha = min(deficit, what
+    the tick lets out) / (dt |v|^2), at most ``max_damping``; the damped force's power is booked."""
+    output_energy = 0.0
+    rendered, dampings, energies = [], [], []
+    for force, velocity, other_input in zip(forces, velocities, received):
+        power = -force * velocity
+        let_out = max(-power, 0.0) * dt
+        deficit = -(other_input - output_energy - let_out)
+        needed = min(deficit, let_out) / dt if power < 0.0 and deficit > 0.0 else 0.0
+        alpha = min(needed / velocity ** 2, max_damping) if needed > 0.0 and velocity ** 2 > 1e-18 else 0.0
+        damped = force - alpha * velocity
+        output_energy += max(damped * velocity, 0.0) * dt
+        rendered.append(damped)
+        dampings.append(alpha)
+        energies.append(other_input - output_energy)
+    return np.array(rendered), np.array(dampings), np.array(energies)
+
+
+def written_out_motion_port(offsets, forces, received, dt, max_correction):
+    """The motion port's correction, written out likewise: P = F v with v the received offset's rate; the
+    delivered rate v + beta F with beta = min(deficit, what the tick lets out) / (dt |F|^2), scaled down so
+    that |beta F dt| <= ``max_correction``; the delivered offset is the sum of the delivered rates."""
+    output_energy = 0.0
+    delivered = [offsets[0]]
+    gains, energies = [0.0], [received[0]]
+    for k in range(1, len(offsets)):
+        velocity = (offsets[k] - offsets[k - 1]) / dt
+        force = forces[k]
+        power = force * velocity
+        let_out = max(-power, 0.0) * dt
+        deficit = -(received[k] - output_energy - let_out)
+        needed = min(deficit, let_out) / dt if power < 0.0 and deficit > 0.0 else 0.0
+        beta = needed / force ** 2 if needed > 0.0 and force ** 2 > 1e-18 else 0.0
+        if beta * dt * abs(force) > max_correction:
+            beta = max_correction / (dt * abs(force))
+        rate = velocity + beta * force
+        output_energy += max(-force * rate, 0.0) * dt
+        delivered.append(delivered[-1] + rate * dt)
+        gains.append(beta)
+        energies.append(received[k] - output_energy)
+    return np.array(delivered), np.array(gains), np.array(energies)
+
+
+def test_the_force_port_damper_follows_its_written_out_law_with_a_bounded_damping() -> None:
+    """Random ticks against the written-out law, with a damping bound that leaves deficits behind: the next
+    ticks take out at most what each lets out (the force is damped to zero at most, never reversed against the
+    motion to pay for an older deficit)."""
+    rng = np.random.default_rng(3)
+    steps, dt, bound = 3000, 0.001, 2.0
+    forces = rng.normal(scale=3.0, size=steps)
+    velocities = rng.normal(scale=0.2, size=steps)
+    received = np.cumsum(rng.uniform(0.0, 2e-4, size=steps))   # the other side's E_in, never decreasing
+    controller = ForcePortPassivityController(max_damping=bound)
+    rendered, dampings = [], []
+    for force, velocity, other_input in zip(forces, velocities, received):
+        controller.observer.receive(other_input)
+        rendered.append(float(controller.step([force], [velocity], dt)[0]))
+        dampings.append(controller.damping)
+    expected, expected_damping, expected_energy = written_out_force_port(forces, velocities, received, dt, bound)
+    assert np.any(expected_damping == bound) and np.any((expected_damping > 0.0) & (expected_damping < bound))
+    np.testing.assert_allclose(rendered, expected, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(dampings, expected_damping, rtol=1e-9, atol=1e-12)
+    assert controller.observer.energy == pytest.approx(expected_energy[-1], abs=1e-12)
+    # Damped toward zero, never past it: |F'| <= |F| and F' F >= 0 on every tick.
+    assert np.all(np.abs(rendered) <= np.abs(forces) + 1e-12) and np.all(np.array(rendered) * forces >= -1e-12)
+
+
+def test_the_motion_port_correction_follows_its_written_out_law() -> None:
+    rng = np.random.default_rng(4)
+    steps, dt, bound = 3000, 0.001, 2e-5
+    offsets = np.cumsum(rng.normal(scale=1e-3, size=steps))
+    forces = rng.normal(scale=5.0, size=steps)
+    received = np.cumsum(rng.uniform(0.0, 1e-4, size=steps))
+    controller = MotionPortPassivityController(max_correction=bound)
+    delivered, gains = [], []
+    for k in range(steps):
+        controller.observer.receive(received[k])
+        delivered.append(float(controller.step([offsets[k]], [forces[k]], dt if k else 0.0)[0]))
+        gains.append(controller.gain)
+    expected, expected_gain, expected_energy = written_out_motion_port(offsets, forces, received, dt, bound)
+    corrections = expected_gain * dt * np.abs(forces)
+    assert np.any(np.isclose(corrections, bound)) and np.any((corrections > 0.0) & (corrections < 0.99 * bound))
+    np.testing.assert_allclose(delivered, expected, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(gains, expected_gain, rtol=1e-9, atol=1e-15)
+    assert controller.observer.energy == pytest.approx(expected_energy[-1], abs=1e-12)

@@ -252,3 +252,34 @@ def test_float_shortcut_agrees_with_the_flag_computation(robot, limits) -> None:
         np.testing.assert_allclose(first.torque, second.torque, atol=1e-9)
         unshaped += not first.solved_qp and not first.fast_path
     assert unshaped > 50  # the shortcut was exercised
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_a_joint_past_its_limit_is_pulled_back_at_the_return_speed(robot, limits, side: float) -> None:
+    """Past a position limit the joint's bound is the return velocity on the horizon T (module docstring):
+    qd + T qdd must reach (q_limit - q) / T, back inside. Written out for joint 4 at rest 2 mrad past its upper
+    (lower) limit with tau_d pushing it further out: qdd_4 <= ((q_max - q) / T - qd) / T < 0 (>= for the lower
+    limit), with qdd = M^-1 (tau - C qd - g - D qd) from Pinocchio calls of the test."""
+    import pinocchio as pin
+
+    optimisation = PosturalOptimisation(limits, DT)
+    q = NOMINAL_CONFIGURATION.copy()
+    limit = limits.joint_position_upper[3] if side > 0 else limits.joint_position_lower[3]
+    q[3] = limit + side * 0.002
+    qd = np.zeros(7)
+    robot.update(q, qd)
+    outward = np.zeros(7)
+    outward[3] = side * 2.0
+    result, _ = shape(optimisation, robot, q, qd, robot.nonlinear_effects + outward, None)
+    assert result.solved_qp and not result.relaxed
+    assert result.flags & LimitFlag.JOINT_POSITION
+    model = robot.model
+    data = model.createData()
+    mass = pin.crba(model, data, q)
+    mass = np.triu(mass) + np.triu(mass, 1).T
+    bias = pin.rnea(model, data, q, qd, np.zeros(model.nv)) + robot.joint_damping * qd
+    acceleration = np.linalg.solve(mass, result.torque - bias)
+    horizon = optimisation.horizon
+    bound = ((limit - q[3]) / horizon - qd[3]) / horizon   # -0.8 rad/s^2 (upper) or +0.8 (lower) for T = 0.05 s
+    assert side * bound < 0.0
+    assert side * acceleration[3] <= side * bound + PREDICTION_TOLERANCE / horizon, (acceleration[3], bound)
