@@ -38,6 +38,7 @@ class Robot:
     """Test side: publishes /joint_states of an arm at rest and records what the replica publishes."""
 
     def __init__(self, context) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
         from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
@@ -61,15 +62,59 @@ class Robot:
                                       lambda m: self.commands.append(list(m.data)), record)
         self.node.create_subscription(FicState, "/replica/fic_state", self.fic_states.append, record)
         self.node.create_subscription(LimitStatus, "/replica/limit_status", self.limit_status.append, record)
+        #: (stamp [ns], the replica's statistics) of each /diagnostics message (the replica is its only writer here)
+        self.diagnostics: list[tuple[int, dict[str, str]]] = []
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, record)
+        self.state_stamps: list[int] = []    # [ns] of every joint state published
+        self.teleop_stamps: list[int] = []   # [ns] of every teleoperation command published
         self.JointState = JointState
         self.TeleoperationCommand = TeleoperationCommand
         # Shuffled joint order (and an extra finger joint): the replica must reorder by name.
         self.names = [ARM_JOINT_NAMES[i] for i in (3, 0, 6, 1, 5, 2, 4)] + ["panda_finger_joint1"]
 
+    def _on_diagnostics(self, message) -> None:
+        for status in message.status:
+            if status.name == "replica":
+                stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+                self.diagnostics.append((stamp, {value.key: value.value for value in status.values}))
+
     def spin(self, seconds: float) -> None:
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             self.executor.spin_once(timeout_sec=0.01)
+
+    def spin_until(self, condition, timeout: float) -> bool:
+        """Spin until ``condition()`` holds or ``timeout`` [s] has passed; whether it holds."""
+        deadline = time.monotonic() + timeout
+        while not condition() and time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.01)
+        return condition()
+
+    def wait_for_replica(self, timeout: float = 30.0) -> None:
+        """Until discovery has matched this side's writers and readers with the replica's (a message sent
+        before that is lost, which a count asserted afterwards would read as the replica's doing)."""
+        topics = ("/effort_controller/commands", "/replica/fic_state", "/replica/limit_status", "/diagnostics")
+        assert self.spin_until(lambda: self.joint_state_pub.get_subscription_count() >= 1
+                               and self.teleop_pub.get_subscription_count() >= 1
+                               and all(self.node.count_publishers(topic) >= 1 for topic in topics), timeout), \
+            "the replica's topics were not matched"
+
+    def publish_until(self, condition, timeout: float = 30.0, **joint_states) -> bool:
+        """Joint states (``publish_joint_states`` arguments) in 0.1 s slices until ``condition()`` holds or
+        ``timeout`` [s] has passed: what the replica answers takes the time the machine's load gives it."""
+        deadline = time.monotonic() + timeout
+        while not condition() and time.monotonic() < deadline:
+            self.publish_joint_states(0.1, **joint_states)
+        return condition()
+
+    def replica_ticks_when_quiet(self, since_ns: int, timeout: float = 30.0) -> int:
+        """The replica's control-tick count once it has answered every joint state it got: two /diagnostics
+        messages stamped after ``since_ns`` (when this side stopped publishing) that report the same count."""
+        def quiet() -> bool:
+            after = [values["ticks"] for stamp, values in self.diagnostics if stamp > since_ns]
+            return len(after) >= 2 and after[-1] == after[-2]
+        assert self.spin_until(quiet, timeout), self.diagnostics[-3:]
+        return int(self.diagnostics[-1][1]["ticks"])
 
     def publish_joint_states(self, seconds: float, period: float = 0.004, teleop_offset=None,
                              teleop_period: float = 0.004) -> None:
@@ -84,6 +129,7 @@ class Robot:
             next_state += period
             message = self.JointState()
             message.header.stamp = self.node.get_clock().now().to_msg()
+            self.state_stamps.append(message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec)
             message.name = self.names
             message.position = [position[name] for name in self.names]
             message.velocity = [0.0] * len(self.names)
@@ -95,6 +141,7 @@ class Robot:
     def publish_teleop(self, offset) -> None:
         message = self.TeleoperationCommand()
         message.header.stamp = self.node.get_clock().now().to_msg()
+        self.teleop_stamps.append(message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec)
         message.desired_offset.x, message.desired_offset.y, message.desired_offset.z = (float(v) for v in offset)
         message.haptic_gain = 0.5
         message.workspace_scale = 1.0
@@ -129,14 +176,13 @@ def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     limits = PandaLimits.from_robot(RobotModel())
     torque_max = np.array(limits.torque)
 
-    # Before the first joint state: nothing.
-    robot.spin(1.5)
+    # Before the first joint state: nothing (matched first, so that nothing could have been lost on the way).
+    robot.wait_for_replica()
+    robot.spin(1.0)
     assert robot.commands == [] and robot.fic_states == []
 
     # At rest, no master, no planner: it holds the arm where it is (gravity compensation, nothing to shape).
-    robot.publish_joint_states(2.0)
-    robot.spin(0.3)
-    assert len(robot.commands) > 20, replica.output()  # about 500 published; fewer under heavy load
+    assert robot.publish_until(lambda: len(robot.commands) > 20 and robot.limit_status), replica.output()
     commands = np.array(robot.commands)
     assert commands.shape[1] == 7
     assert np.all(np.isfinite(commands))
@@ -152,41 +198,48 @@ def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     # A NaN teleoperation command is refused, with a log line; the replica keeps going.
     count = len(robot.commands)
     robot.publish_teleop([math.nan, 0.0, 0.0])
-    robot.publish_joint_states(0.5)
-    assert replica.wait_for_output("refusing /replica/teleop_command", timeout=5.0), replica.output()
-    assert len(robot.commands) > count
+    assert robot.publish_until(lambda: "refusing /replica/teleop_command" in replica.output()
+                               and len(robot.commands) > count), replica.output()
     assert np.all(np.isfinite(np.array(robot.commands)))
     assert abs(robot.fic_states[-1].error[0]) < 1e-6  # the NaN did not move x_d
 
     # A good command: x_d' approaches it at resume_speed (0.1 m/s), no jump; the torque stays in its limits.
-    robot.fic_states.clear()
-    deadline = time.monotonic() + 20.0  # the pace depends on the machine's load: run until x_d' got there
-    while time.monotonic() < deadline and not (robot.fic_states and robot.fic_states[-1].error[0] > 0.015):
-        robot.publish_joint_states(0.5, teleop_offset=[0.02, 0.0, 0.0])
-    errors = np.array([state.error[0] for state in robot.fic_states])
-    computed = np.array([state.header.stamp.sec + 1e-9 * state.header.stamp.nanosec for state in robot.fic_states])
+    # Judged on joint-state time, the clock of the law's dt: each tick's FicState (x_d - x) is paired with its
+    # LimitStatus (the joint state's stamp, the tick count), both published by that tick, in that order.
+    assert robot.spin_until(lambda: len(robot.fic_states) == len(robot.limit_status), 30.0)
+    start = len(robot.fic_states)
+    assert robot.publish_until(lambda: robot.fic_states[start:] and robot.fic_states[-1].error[0] > 0.015,
+                               teleop_offset=[0.02, 0.0, 0.0]), replica.output()
+    assert robot.spin_until(lambda: len(robot.fic_states) == len(robot.limit_status), 30.0), \
+        (len(robot.fic_states), len(robot.limit_status))
+    errors = np.array([state.error[0] for state in robot.fic_states[start:]])
+    stamps = np.array([_stamp_ns(status.header.stamp) for status in robot.limit_status[start:]]) * 1e-9
+    ticks = np.array([status.ticks for status in robot.limit_status[start:]])
     assert errors.max() > 0.015, errors[-5:]
     assert errors.max() <= 0.02 + 1e-9
-    # No jump: x_d' moves at resume_speed = 0.1 m/s of the joint states' clock (the control dt comes from their
-    # stamps; this test sends one every 4 ms, so about 0.4 mm a tick). A tick's step may exceed 0.1 m/s times the
-    # gap between the replica's own compute stamps by one joint-state period of scheduling jitter, never more.
+    # No jump: each tick gives back resume_speed times its dt, the interval between the joint-state stamps of two
+    # ticks (raised to half a period when shorter: the schedule's floor), so between two reports x_d' moves at
+    # most 0.1 m/s times the stamps' interval plus 0.5 ms for each tick in between.
     steps = np.diff(errors)
+    allowed = 0.1 * (np.diff(stamps) + 0.0005 * np.diff(ticks))
     assert np.all(steps >= -1e-9), steps.min()
-    assert np.all(steps <= 0.1 * (np.diff(computed) + 0.004) + 1e-9), (steps.max(), np.diff(computed).max())
-    # Over the whole approach, not faster than resume_speed (one joint-state period of slack at each end).
+    assert np.all(steps <= allowed + 1e-9), (steps.max(), (steps - allowed).max())
+    # Over the whole approach, likewise: not faster than resume_speed.
     first, arrived = np.argmax(errors > 1e-6), np.argmax(errors > 0.015)
-    travelled, took = errors[arrived] - errors[first], computed[arrived] - computed[first]
-    assert took >= travelled / 0.1 - 0.008, (travelled, took)
+    travelled = errors[arrived] - errors[first]
+    assert travelled <= 0.1 * (stamps[arrived] - stamps[first] + 0.0005 * (ticks[arrived] - ticks[first])) + 1e-9
     commands = np.array(robot.commands)
     assert np.all(np.abs(commands) <= torque_max + 1e-9)
     assert np.all(np.abs(np.diff(commands, axis=0)) <= limits.torque_rate * 0.001 + 1e-9)
 
     # The master goes silent: after master_timeout the watchdog holds x_d' and says so once.
-    robot.publish_joint_states(1.0)
-    assert replica.wait_for_output("holding the last desired offset", timeout=5.0), replica.output()
+    def held_states() -> list[float]:
+        return [state.error[0] for state in robot.fic_states if state.master_stale]
+    assert robot.publish_until(lambda: "holding the last desired offset" in replica.output()
+                               and len(held_states()) > 10), replica.output()
     assert robot.fic_states[-1].master_stale
     assert replica.output().count("holding the last desired offset") == 1
-    held = [state.error[0] for state in robot.fic_states if state.master_stale]
+    held = held_states()
     assert len(held) > 10 and max(held) - min(held) < 1e-9  # x_d' held still while stale, not dropped
     assert errors[-1] - 1e-9 <= held[0] <= 0.02 + 1e-9
 
@@ -205,27 +258,38 @@ def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     assert "replica stopped" in replica.log_path.read_text()
 
 
+def _stamp_ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
 def test_replica_below_the_joint_state_rate(start_node, ros_env, rclpy_context) -> None:
     """Realtime rates: a 250 Hz law on 1 kHz joint states answers only at control ticks (the robot holds in
-    between), and its 50 Hz status still counts every tick (cumulative counters)."""
+    between), and its 50 Hz status still counts every tick (cumulative counters). Counted against the joint
+    states' stamps, the replica's clock for its grid (not the test's wall time, which a loaded machine
+    stretches)."""
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 250.0, "status_rate": 50.0, "answer_every_state": False},
-                         env=replica_env(ros_env))
+                         params={"control_rate": 250.0, "status_rate": 50.0, "answer_every_state": False,
+                                 "diagnostics_rate": 10.0}, env=replica_env(ros_env))
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     robot = Robot(rclpy_context)
-    robot.spin(1.0)
-    started = time.monotonic()
+    robot.wait_for_replica()
     robot.publish_joint_states(3.0, period=0.001)
-    robot.spin(1.0)
-    published_for = time.monotonic() - started - 1.0
-    assert robot.commands, replica.output()
-    # One command a control tick: at most one per 4 ms of joint-state time (plus the first), never one a state.
-    assert len(robot.commands) <= published_for * 250 * 1.1 + 2, (len(robot.commands), published_for)
-    assert robot.limit_status and robot.fic_states
-    assert len(robot.fic_states) <= published_for * 50 * 1.2 + 2
-    # Every control tick is counted although only about one in five is published.
-    assert abs(robot.limit_status[-1].ticks - len(robot.commands)) <= 5, (robot.limit_status[-1].ticks,
-                                                                         len(robot.commands))
+    ticks = robot.replica_ticks_when_quiet(robot.state_stamps[-1])
+    # Every tick sends one command and nothing else does: all of them here once the reliable stream delivered.
+    assert robot.spin_until(lambda: len(robot.commands) >= ticks and len(robot.fic_states) == len(robot.limit_status),
+                            30.0), (ticks, len(robot.commands), replica.output())
+    assert len(robot.commands) == ticks > 0
+    # The grid on joint-state time: ticks at least 1/250 s apart less half a command period (the slack of the
+    # schedule), the status at least 1/50 s less that slack; never one command a state.
+    span = (robot.state_stamps[-1] - robot.state_stamps[0]) * 1e-9
+    assert ticks <= span / (1.0 / 250.0 - 0.0005) + 1, (ticks, span)
+    assert ticks < 0.5 * len(robot.state_stamps), (ticks, len(robot.state_stamps))
+    assert robot.limit_status and len(robot.fic_states) <= span / (1.0 / 50.0 - 0.0005) + 1
+    stamps = np.array([_stamp_ns(status.header.stamp) for status in robot.limit_status]) * 1e-9
+    assert np.all(np.diff(stamps) >= 1.0 / 50.0 - 0.0005 - 1e-9), np.diff(stamps).min()
+    # Every control tick is counted although only about one in five is published: after the last status at most
+    # the five ticks 4 ms apart that fit before the next one was due.
+    assert 0 <= ticks - robot.limit_status[-1].ticks <= 5, (ticks, robot.limit_status[-1].ticks)
     assert robot.limit_status[-1].ticks > 2 * len(robot.limit_status)
     assert replica.stop(timeout=15.0) == 0, replica.log_path.read_text()
 
@@ -233,35 +297,55 @@ def test_replica_below_the_joint_state_rate(start_node, ros_env, rclpy_context) 
 @pytest.mark.parametrize("tick_on_command", [True, False])
 def test_a_new_command_is_used_at_the_next_joint_state(start_node, ros_env, rclpy_context, tick_on_command) -> None:
     """tick_on_command: a 50 Hz law (20 ms grid) on 1 kHz joint states uses each new 30 Hz teleoperation command at
-    the next joint state, not at the next tick of its grid: the command's age at first use (FicState.master_age)
-    stays within a few ms, for at most one extra tick per command. Off, the law keeps its grid: the age is spread
-    over the 20 ms period (the 33 ms command period sweeps every phase of it; commands at the grid's own period
-    would all meet it at one phase) and the tick count is the grid's."""
+    the next joint state, not at the next tick of its grid: the ticks off the grid are those that first use a new
+    command, at most one per command, and most commands get one. Off, the law keeps its grid: every tick is at
+    least one period (less the schedule's slack) of joint-state time after the one before, commands or not.
+
+    Read per tick from the replica's own reports, not from wall-clock ages: with status_rate above the control
+    rate every tick publishes a LimitStatus (the joint state's stamp and the cumulative tick count) and a FicState
+    (the stamp of the command the tick used), in that callback, in that order."""
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 50.0, "status_rate": 100.0, "answer_every_state": False,
-                                 "tick_on_command": tick_on_command}, env=replica_env(ros_env))
+                         params={"control_rate": 50.0, "status_rate": 1000.0, "answer_every_state": False,
+                                 "tick_on_command": tick_on_command, "diagnostics_rate": 10.0},
+                         env=replica_env(ros_env))
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     robot = Robot(rclpy_context)
-    robot.spin(1.0)
+    robot.wait_for_replica()
     robot.publish_joint_states(0.5, period=0.001)  # started, holding, before the commands
-    started_ticks = robot.limit_status[-1].ticks if robot.limit_status else 0
-    started = time.monotonic()
     robot.publish_joint_states(4.0, period=0.001, teleop_offset=(0.0, 0.0, 0.0), teleop_period=1.0 / 30.0)
-    published_for = time.monotonic() - started
-    robot.spin(1.0)
-    first_use_age = {}
-    for state in robot.fic_states:
-        stamp = state.master_stamp.sec * 1_000_000_000 + state.master_stamp.nanosec
-        if stamp:
-            first_use_age.setdefault(stamp, state.master_age)
-    ages_ms = np.array(list(first_use_age.values())) * 1e3
-    assert len(ages_ms) > 0.5 * published_for * 30, (len(ages_ms), replica.output())
-    ticks_per_s = (robot.limit_status[-1].ticks - started_ticks) / published_for
+    sent = len(robot.teleop_stamps)
+    last_command = robot.teleop_stamps[-1]
+    # Joint states go on until a tick has used the last command (the next one, or the next tick of the grid).
+    assert robot.publish_until(lambda: any(_stamp_ns(state.master_stamp) == last_command
+                                           for state in robot.fic_states[-50:]), period=0.001), replica.output()
+    ticks = robot.replica_ticks_when_quiet(robot.state_stamps[-1])
+    # A tick less than half a command period after the one before sends no status (at most one such, the last).
+    assert robot.spin_until(lambda: len(robot.fic_states) == len(robot.limit_status)
+                            and robot.limit_status and robot.limit_status[-1].ticks >= ticks - 1, 30.0), \
+        (ticks, len(robot.fic_states), len(robot.limit_status))
+    grid_period = 1.0 / 50.0 - 0.0005   # the schedule's grid: one period less half a command period of slack
+    pairs = off_grid = first_uses = off_grid_first_uses = 0
+    used = set()
+    for (before, state_before), (after, state_after) in zip(
+            zip(robot.limit_status, robot.fic_states), zip(robot.limit_status[1:], robot.fic_states[1:])):
+        used.add(_stamp_ns(state_after.master_stamp))
+        if after.ticks != before.ticks + 1:
+            continue   # a tick without its status in between: not a pair of consecutive ticks
+        pairs += 1
+        on_grid = (_stamp_ns(after.header.stamp) - _stamp_ns(before.header.stamp)) * 1e-9 >= grid_period - 1e-9
+        first_use = _stamp_ns(state_after.master_stamp) not in (0, _stamp_ns(state_before.master_stamp))
+        off_grid += not on_grid
+        first_uses += first_use
+        off_grid_first_uses += first_use and not on_grid
+        # The schedule's law, tick by tick: a tick off the grid is one that a new command started.
+        assert on_grid or (tick_on_command and first_use), (tick_on_command, after.ticks)
+    used.discard(0)
+    assert pairs > 100, (pairs, len(robot.limit_status), ticks)
+    assert len(used) > 0.5 * sent, (len(used), sent)   # every command is used (fewer if the replica coalesced)
     if tick_on_command:
-        assert np.median(ages_ms) < 4.0, np.percentile(ages_ms, [50, 90])
-        # The tick comes sooner and the grid restarts from it: at most one extra tick per command.
-        assert 0.9 * 50 < ticks_per_s < 1.15 * (50 + 30), ticks_per_s
+        # Commands start ticks of their own (one that arrives as the grid is due is used by the grid's tick: 91 of
+        # 120 started their own at a load of 10 on 2 cores; off, none can).
+        assert off_grid_first_uses >= 0.25 * first_uses > 0, (off_grid_first_uses, first_uses)
     else:
-        assert np.median(ages_ms) > 5.0, np.percentile(ages_ms, [50, 90])
-        assert ticks_per_s < 1.15 * 50, ticks_per_s
+        assert off_grid == 0 and first_uses > 0, (off_grid, first_uses)
     assert replica.stop(timeout=15.0) == 0, replica.log_path.read_text()
