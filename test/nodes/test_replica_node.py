@@ -298,7 +298,7 @@ def test_replica_below_the_joint_state_rate(start_node, ros_env, rclpy_context) 
 def test_a_new_command_is_used_at_the_next_joint_state(start_node, ros_env, rclpy_context, tick_on_command) -> None:
     """tick_on_command: a 50 Hz law (20 ms grid) on 1 kHz joint states uses each new 30 Hz teleoperation command at
     the next joint state, not at the next tick of its grid: the ticks off the grid are those that first use a new
-    command, at most one per command, and most commands get one. Off, the law keeps its grid: every tick is at
+    command, at most one per command, and commands get one. Off, the law keeps its grid: every tick is at
     least one period (less the schedule's slack) of joint-state time after the one before, commands or not.
 
     Read per tick from the replica's own reports, not from wall-clock ages: with status_rate above the control
