@@ -120,7 +120,7 @@ MUTATIONS = [
              [("forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))",
                "forces.append(force)")],
              ["test/core/test_attractor.py"]),
-    Mutation("attractor: D law with a dead zone on |e| (delta ignored)", "attractor.py",
+    Mutation("attractor: D law with a dead zone on the whole error (delta ignored)", "attractor.py",
              [("            magnitude = abs(error) - zone\n", "            magnitude = abs(error)\n")],
              ["test/core/test_passivity.py"]),
     # --- the passivity observer of one FIC port (docs/CONTROL_LAWS.md, "Passivity of the attractor") -----------
@@ -408,6 +408,14 @@ def run_mutation(mutation: Mutation, timeout: float) -> tuple[str, str, float]:
     return "CAUGHT" if result.returncode == 1 else "ERROR", " | ".join(tail), seconds
 
 
+def compact(detail: str) -> str:
+    """A failing test's id as the table shows it: file stem and test name, without the parameters."""
+    if "::" not in detail:
+        return detail.replace("|", "/")
+    path, test = detail.split("::", 1)
+    return f"`{Path(path).stem}::{test.split('[')[0]}`"
+
+
 def stale_patch(mutation: Mutation) -> str:
     """The first patch text not found in the module ("" if every one applies)."""
     patched = (PACKAGE / mutation.module).read_text()
@@ -449,7 +457,7 @@ def main() -> int:
     if arguments.table:
         print("\n| mutation | verdict | first failing test | s |\n|---|---|---|---|")
         for name, verdict, detail, seconds in rows:
-            print(f"| {name} | {verdict} | `{detail}` | {seconds:.0f} |")
+            print(f"| {name} | {verdict} | {compact(detail)} | {seconds:.0f} |")
     return 1 if bad else 0
 
 
