@@ -17,12 +17,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from config_values import config_values
 from conftest import CONFIG, REPO
 
 rclpy = pytest.importorskip("rclpy")
 pytestmark = pytest.mark.nodes
 
 PROBES = REPO / "scripts" / "fault_probes.py"
+POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
 
 
 class Watcher:
@@ -108,11 +110,20 @@ def _probe(ros_env: dict[str, str], *arguments: str) -> str:
     return result.stdout
 
 
+def _watch_poses(watcher: Watcher, seconds: float) -> None:
+    """Watch the arm for ``seconds`` of its own time: that many seconds of /sim/tcp_pose at the robot's pose rate
+    (a loaded machine stretches them in wall time; a fixed sleep would then watch less of the arm)."""
+    wanted = len(watcher.tcp) + int(round(seconds * POSE_RATE_HZ))
+    assert watcher.wait(lambda: len(watcher.tcp) >= wanted, 60.0 + 10.0 * seconds), \
+        f"{len(watcher.tcp)} of {wanted} TCP poses: the robot stopped publishing"
+
+
 def _probed(ros_env: dict[str, str], watcher: Watcher, settle: float, *arguments: str) -> float:
-    """Run one probe, watch the arm ``settle`` seconds more, stop watching; the monotonic time it started."""
+    """Run one probe, watch the arm ``settle`` seconds more of its time, stop watching; the monotonic time the
+    probe started."""
     start = time.monotonic()
     _probe(ros_env, *arguments)
-    time.sleep(settle)
+    _watch_poses(watcher, settle)
     watcher.stop()
     return start
 
@@ -132,7 +143,7 @@ def _arm(start_node, ros_env, rclpy_context, channel: bool):
     assert watcher.wait(lambda: watcher.node.count_publishers("/replica/teleop_command") == expected_writers, 30.0), \
         f"{watcher.node.count_publishers('/replica/teleop_command')} writers of /replica/teleop_command before the probe"
     assert watcher.wait(lambda: len(watcher.tcp) > 50, 60.0), robot.output()
-    time.sleep(1.0)  # the arm settles under the replica's hold of its start pose
+    _watch_poses(watcher, 1.0)  # the arm settles under the replica's hold of its start pose
     return robot, replica, watcher
 
 

@@ -9,7 +9,7 @@ import yaml
 
 from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
 
-CONFIG = Path(__file__).resolve().parents[2] / "config"
+CONFIG = Path(__file__).resolve().parents[1] / "config"
 
 
 def config_values(file_name: str) -> dict[str, Any]:
