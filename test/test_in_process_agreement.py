@@ -8,8 +8,8 @@ with this test's agreement calls; the test itself then passed at loads 9.4, 6.7 
 
 * Until the operator's first move reaches the replica (sent from about 1.7 s, at the replica from 1.9 s) the
   graph runs are the runner's to within 0.48 mm max and 0.20 mm RMS of |x_d - x_R| in the first three, 0.65 /
-  0.27 mm at load 10: the replica's law, the planner, the start and the physics agree. A runner that differs there in one term is
-  well outside PRE_MOVE_TOLERANCE_M (1.5 mm) or its RMS bound (0.6 mm): the linear baseline in place of the FIC
+  0.27 mm at load 10, 1.64 / 0.71 mm in a fresh-clone suite at load 5-7: the replica's law, the planner, the start and the physics agree. A runner that differs there in one term is
+  outside PRE_MOVE_TOLERANCE_M (2.5 mm) or its RMS bound (1.2 mm): the linear baseline in place of the FIC
   5.3 / 2.6 mm, no joint-damping compensation 3.2 / 2.2 mm, no desired-velocity filter 4.9 / 2.2 mm, a fixed
   point in place of the circle 4.6 / 2.4 mm, K0 doubled 8.2 / 3.9 mm. Not seen there: the offset and planner
   feedforward (nothing to feed forward yet) and a 250 Hz control rate (0.89 / 0.52 mm).
@@ -36,8 +36,8 @@ from conftest import REPO, isolated_env, reserved_domain
 pytestmark = pytest.mark.nodes
 DURATION_S = 3.0
 PRE_MOVE_END_S = 1.9             # [s] the operator's first move reaches the replica (200 ms after it is sent)
-PRE_MOVE_TOLERANCE_M = 0.0015    # max | |e|_in-process - |e|_graph | before it (measured 0.48-0.65 mm)
-PRE_MOVE_TOLERANCE_RMS_M = 0.0006  # (measured 0.20-0.27 mm)
+PRE_MOVE_TOLERANCE_M = 0.0025    # max | |e|_in-process - |e|_graph | before it (measured 0.48-1.64 mm)
+PRE_MOVE_TOLERANCE_RMS_M = 0.0012  # (measured 0.20-0.71 mm)
 DESIRED_TOLERANCE_M = 0.060      # max |x_d,in-process - x_d,graph| over the run (measured up to 39 mm)
 
 
