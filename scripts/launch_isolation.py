@@ -29,8 +29,10 @@ VALID_DOMAIN_RANGES = ((0, 101), (215, 232))
 RESERVABLE_DOMAINS = range(1, 101)
 # How long the probe listens for another graph. A node on localhost was heard 1.0-2.5 s after the probe started
 # (rclpy start, participant discovery, then the node names that rmw_fastrtps sends on its graph topic; 6 fresh
-# probes on the loaded 2-core machine), so a quiet domain costs the launcher this long at start.
-PROBE_SECONDS = 3.0
+# probes on the loaded 2-core machine), and once, in a fresh-clone suite on a quiet machine, not within 3 s: a
+# participant whose first announcements are missed is found at its next periodic one, and Fast DDS announces every
+# 3 s by default. 5 s covers one period after the start; a quiet domain costs the launcher this long at start.
+PROBE_SECONDS = 5.0
 # Topics every rclpy node (our probe included) creates: not a sign of another graph by themselves.
 OWN_TOPICS = {"/rosout", "/parameter_events"}
 

@@ -171,15 +171,17 @@ def test_delay_is_never_early_and_about_200ms_stamps_are_kept_and_a_negative_del
         median, p99 = float(np.median(ages)), float(np.percentile(ages, 99))
         print(f"\nchannel delay through DDS at 250 Hz, set 200 ms: p50 {median * 1e3:.2f} ms, "
               f"p99 {p99 * 1e3:.2f} ms, min {ages.min() * 1e3:.2f} ms")
-        # Load can only make a delivery late, never early: the lower bound is strict, the upper one only says the
-        # delay is the one set and not another (ten times the 5 ms the idle machine shows; measured p50 200-203 ms).
+        # Load can only make a delivery late, never early: the lower bound is strict. That the delay is the one set
+        # and not another is read from the earliest delivery, which a loaded machine does not move: of ~750 some
+        # come out at the first delivery tick after they are due (one 4 ms period; measured min 200.9 ms, p50
+        # 201.6 ms on a quiet machine, 2026-12-02 17:22; the median moves later under load, the minimum hardly).
         assert ages.min() >= 0.2 - 1e-3                  # never early
-        assert median < 0.2 + 0.05
+        assert ages.min() < 0.2 + 0.02
         # One ChannelDelivery per message, carrying the message's own stamp (read from its CDR bytes).
         assert sorted(stamp for stamp, _, _ in probe.deliveries) == pytest.approx(sorted(sent.values()), abs=1e-9)
         assert {topic for _, topic, _ in probe.deliveries} == {OUT_TOPIC}
         held = np.array([held for _, _, held in probe.deliveries])
-        assert held.min() >= 0.2 - 1e-3 and float(np.median(held)) < 0.2 + 0.05  # the channel's own hold, as above
+        assert held.min() >= 0.2 - 1e-3 and held.min() < 0.2 + 0.02  # the channel's own hold, as above
 
         results = probe.set_parameters(Parameter("delay", Parameter.Type.DOUBLE, -0.1))
         assert not results[0].successful and "delay" in results[0].reason
@@ -198,7 +200,7 @@ def test_delay_is_never_early_and_about_200ms_stamps_are_kept_and_a_negative_del
                 time.monotonic() < deadline:
             probe.spin_for(0.05)
         ages = np.array([receipt - stamp for receipt, stamp, _ in probe.received[50:]])
-        assert ages.min() >= 0.05 - 1e-3 and float(np.median(ages)) < 0.05 + 0.05  # never early; 50 ms, not 200
+        assert ages.min() >= 0.05 - 1e-3 and ages.min() < 0.05 + 0.02  # never early; 50 ms, not 200
     finally:
         probe.close()
     channel.send_signal(signal.SIGINT)
