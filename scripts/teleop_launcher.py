@@ -23,8 +23,6 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-import yaml
-
 import two_stations
 import hardware_twin
 import node_groups
@@ -33,6 +31,7 @@ from launch_isolation import DomainBusy, isolate
 from launch_supervision import EXIT_CODES, EXIT_REFUSED, die_with_launcher, failed_nodes, safety_verdict
 from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
 from fic_teleop_runtime.params_file import write_node_params
+from fic_teleop_runtime.parameters import file_sections
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
 
 REPO = Path(__file__).resolve().parent.parent
@@ -179,7 +178,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
 
 def _configured_routes(node: str) -> list[str]:
     """A channel node's routes as config/channel.yaml gives them."""
-    return list(yaml.safe_load((CONFIG / "channel.yaml").read_text())[node]["ros__parameters"]["routes"])
+    return list(file_sections(CONFIG / "channel.yaml")[node]["routes"])
 
 
 def _script_for_delay(delay: float, run_dir: Path) -> dict[str, str]:
