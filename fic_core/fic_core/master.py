@@ -10,6 +10,8 @@ clamped and the clamp is reported to the caller, who logs it.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -86,7 +88,7 @@ class MasterLaw:
         force = self._attractor.force(-handle_position, -handle_velocity) + self._haptic_gain * replica_force
         self.device_force_saturated = False
         if self._max_device_force is not None:
-            magnitude = float(np.linalg.norm(force))
+            magnitude = math.sqrt(float(force.dot(force)))  # np.linalg.norm, without its dispatch
             if magnitude > self._max_device_force:
                 # Scale the vector (not per axis) so the direction the operator feels is kept.
                 force = force * (self._max_device_force / magnitude)

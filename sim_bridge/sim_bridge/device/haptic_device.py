@@ -94,7 +94,7 @@ class HapticDevice:
     def saturate(self, command_force: ArrayLike) -> Vector3:
         """The force the motors actually produce for a command: its norm limited to ``max_force``."""
         force = finite_array("command_force", command_force, shape=(3,))
-        norm = float(np.linalg.norm(force))
+        norm = math.sqrt(float(force.dot(force)))  # np.linalg.norm on a 3-vector, without its dispatch
         if norm > self.parameters.max_force:
             force = force * (self.parameters.max_force / norm)
         return force

@@ -24,6 +24,7 @@ Targets come from:
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, NamedTuple, Sequence
@@ -78,7 +79,7 @@ class Hand:
         parameters = self.parameters
         if parameters.correction_rate > 0.0:
             self.correction = self.correction + parameters.correction_rate * dt * (self.target - position)
-            norm = float(np.linalg.norm(self.correction))
+            norm = math.sqrt(float(self.correction.dot(self.correction)))  # np.linalg.norm, without its dispatch
             if norm > parameters.max_correction:
                 self.correction *= parameters.max_correction / norm
 
@@ -87,7 +88,7 @@ class Hand:
         parameters = self.parameters
         force = (parameters.stiffness * (self.target + self.correction - position)
                  - parameters.damping * velocity)
-        norm = float(np.linalg.norm(force))
+        norm = math.sqrt(float(force.dot(force)))  # np.linalg.norm, without its dispatch
         if norm > parameters.max_force:
             force = force * (parameters.max_force / norm)
         return force
