@@ -12,6 +12,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import finite_array, finite_scalar
 
+_ZERO_ANGULAR = np.zeros(3)  # the twist's angular part (concatenate copies it: the twist is always a new array)
+
 
 class DesiredVelocityFilter:
     """Low-pass filtered velocity of the desired position, as a 6-D twist [v; 0] (module docstring)."""
@@ -40,4 +42,4 @@ class DesiredVelocityFilter:
         dt = finite_scalar("dt", dt, minimum=0.0, minimum_inclusive=False)
         raw = (position - previous) / dt
         self._velocity = self._velocity + (raw - self._velocity) * (dt / (self.time_constant + dt))
-        return np.concatenate((self._velocity, np.zeros(3)))
+        return np.concatenate((self._velocity, _ZERO_ANGULAR))

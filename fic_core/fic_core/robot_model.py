@@ -77,6 +77,8 @@ class RobotModel:
                       self.urdf_effort_limit, self.joint_damping):
             array.flags.writeable = False
         self._updated = False
+        self._zero_acceleration = np.zeros(self.dof)  # qdd = 0 of Jdot qd, made once (read-only to Pinocchio)
+        self._zero_acceleration.flags.writeable = False
         # A reference into data.oMf (never resized), fetched once: indexing the vector costs a microsecond a tick.
         self._tcp_placement = self.data.oMf[self.tcp_frame_id]
 
@@ -181,7 +183,7 @@ class RobotModel:
             model, data = self.model, self.data
             # Overwrites data's placements, velocities and accelerations only (not nle or Minv, which the
             # accessors return views of); the pose and Jacobian were kept as arrays of their own.
-            pin.forwardKinematics(model, data, self._q, self._qd, np.zeros(self.dof))
+            pin.forwardKinematics(model, data, self._q, self._qd, self._zero_acceleration)
             self._bias_acceleration = pin.getFrameClassicalAcceleration(model, data, self.tcp_frame_id,
                                                                         _LOCAL_WORLD_ALIGNED).vector.copy()
         return self._bias_acceleration
