@@ -7,7 +7,6 @@ import os
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import pytest
@@ -125,13 +124,12 @@ def test_the_launcher_refuses_to_overwrite_a_bag(tmp_path: Path) -> None:
     bag = tmp_path / "run" / "bag"
     bag.mkdir(parents=True)
     (bag / "old_0.mcap").write_bytes(b"old")
-    started = time.monotonic()
     result = subprocess.run([sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--out",
-                             str(tmp_path / "run"), "--duration", "1"], capture_output=True, text=True, timeout=60)
+                             str(tmp_path / "run"), "--duration", "1"], capture_output=True, text=True, timeout=120)
     assert result.returncode == 2
     assert "already holds a bag" in result.stderr
     assert not (tmp_path / "run" / "logs").exists()  # refused before any node started
-    assert time.monotonic() - started < 30
+    assert (bag / "old_0.mcap").read_bytes() == b"old"
 
 
 def test_the_launcher_refuses_fifo_in_lockstep(tmp_path: Path) -> None:

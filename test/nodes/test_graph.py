@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import REPO, assert_stopped_clean, installed_executable, isolated_env, reserved_domain, unclean_exit
+from conftest import (REPO, NodeProcess, assert_stopped_clean, installed_executable, isolated_env, recorded_so_far,
+                      reserved_domain, unclean_exit)
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 pytestmark = pytest.mark.nodes
@@ -129,25 +130,26 @@ def test_blackout_leaves_the_replica_stable_and_it_recovers(blackout_run: Path) 
     assert "teleoperation commands are back" in log
 
 
+#: Messages on the bag's flushed chunks before the Ctrl-C (the finished bag must then hold more).
+INTERRUPT_AFTER_MESSAGES = 2000
+
+
 def test_ctrl_c_still_finishes_the_bag_and_the_report(tmp_path: Path, ros_env: dict[str, str]) -> None:
     from mcap.reader import make_reader
 
     out = tmp_path / "run"
     process = _launch(ros_env, out, "--duration", "60", "--time-mode", "lockstep", "--no-video")
     deadline = time.monotonic() + 240
-    fic_state_seen = False
-    while time.monotonic() < deadline and not fic_state_seen:  # wait until the graph is really running
-        time.sleep(1.0)
-        log = out / "logs" / "replica.log"
-        fic_state_seen = log.exists() and "first joint state" in log.read_text()
-    time.sleep(3.0)
+    while recorded_so_far(out / "bag") < INTERRUPT_AFTER_MESSAGES:  # the graph is really running and recording
+        assert time.monotonic() < deadline and process.poll() is None, "the run never recorded enough to interrupt"
+        time.sleep(0.5)
     process.send_signal(signal.SIGINT)
     output, _ = process.communicate(timeout=300)
     assert "interrupted" in output, output
     mcap_file = next((out / "bag").glob("*.mcap"))
     with open(mcap_file, "rb") as stream:
         summary = make_reader(stream).get_summary()  # a finished bag has its summary and footer
-    assert summary is not None and summary.statistics.message_count > 1000
+    assert summary is not None and summary.statistics.message_count >= INTERRUPT_AFTER_MESSAGES
     assert (out / "report" / "metrics.json").exists()
 
 
@@ -163,22 +165,22 @@ def test_bag_played_into_the_recorder_gives_the_report_the_same_metrics(blackout
     replayed_bag = tmp_path / "replayed"
     with reserved_domain() as domain:
         env = isolated_env(tmp_path / "ros_log", domain)
-        recorder = subprocess.Popen(
+        recorder = NodeProcess(
             [str(installed_executable("sim_bridge", "recorder_node")), "--ros-args",
              "-r", "__node:=recorder", "-p", f"bag_path:={replayed_bag}", "-p", "all:=true",
-             "-p", "discovery_period:=0.1"],
-            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+             "-p", "discovery_period:=0.1"], env, tmp_path / "recorder.log")
         try:
-            time.sleep(3.0)   # the recorder is up before the publishers appear (it subscribes as they do)
+            # The recorder subscribes as publishers appear; play waits for a reader on each topic, and at the end
+            # for every reliable reader's acknowledgement of what it was sent.
+            assert recorder.wait_for_output("recording to", timeout=120), recorder.output()
             play = subprocess.run([str(REPO / "scripts" / "fic"), "bag", "play", str(blackout_run / "bag"),
-                                   "--wait-for-subscribers", "10"],
+                                   "--wait-for-subscribers", "30"],
                                   env=env, capture_output=True, text=True, timeout=300)
             assert play.returncode == 0, play.stdout + play.stderr
-            time.sleep(2.0)   # the last messages reach the recorder
+            assert "not acknowledged" not in play.stderr, play.stderr
         finally:
-            recorder.send_signal(signal.SIGINT)
-            recorder_output, _ = recorder.communicate(timeout=60)
-    assert recorder.returncode == 0, recorder_output[-3000:]
+            returncode = recorder.stop(timeout=60)
+    assert_stopped_clean(returncode, recorder.output(), "recorder")
     out = tmp_path / "report"
     result = subprocess.run([sys.executable, "-m", "sim_bridge.report", str(replayed_bag), "--out", str(out)],
                             env=env, capture_output=True, text=True, timeout=300)

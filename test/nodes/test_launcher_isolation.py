@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, isolated_env, reserved_domain
+from conftest import REPO, isolated_env, recorded_so_far, reserved_domain
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 pytestmark = pytest.mark.nodes
@@ -83,9 +83,10 @@ def test_a_domain_that_carries_a_graph_is_refused_in_one_line(tmp_path: Path) ->
     with reserved_domain() as domain:
         env = isolated_env(tmp_path / "ros_log", domain)
         intruder = subprocess.Popen([sys.executable, "-c", "import rclpy; rclpy.init(); "
-                                     "rclpy.spin(rclpy.create_node('intruder'))"], env=env)
+                                     "node = rclpy.create_node('intruder'); print('up', flush=True); rclpy.spin(node)"],
+                                    env=env, stdout=subprocess.PIPE, text=True)
         try:
-            time.sleep(2.0)  # the intruder is up before the launcher listens
+            assert intruder.stdout.readline().strip() == "up"  # its node exists before the launcher listens
             for arguments, environment in ((("--domain-id", str(domain)), _environment(tmp_path)), ((), env)):
                 result = subprocess.run([sys.executable, str(LAUNCHER), "--out", str(tmp_path / "run"), *arguments],
                                         env=environment, capture_output=True, text=True, timeout=120)
@@ -132,8 +133,12 @@ def test_sigkill_of_the_launcher_leaves_no_node_and_a_finished_bag(tmp_path: Pat
     while time.monotonic() < deadline and not (replica_log.exists() and "first joint state" in replica_log.read_text()):
         assert launcher.poll() is None, launcher.communicate()[0]
         time.sleep(0.5)
-    time.sleep(2.0)
     nodes = _descendants(launcher.pid)
+    # Every node process has started and the bag holds enough of the run to check what the kill leaves of it.
+    while (len(nodes) < 8 or recorded_so_far(out / "bag") < 1000) and time.monotonic() < deadline:
+        assert launcher.poll() is None, launcher.communicate()[0]
+        time.sleep(0.2)
+        nodes = _descendants(launcher.pid)
     assert len(nodes) >= 8, nodes
     launcher.kill()
     launcher.wait()

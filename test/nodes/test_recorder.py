@@ -22,12 +22,14 @@ pytestmark = pytest.mark.nodes
 PUBLISHER = r'''
 import sys, time
 import rclpy
+from rclpy.duration import Duration
 from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
 from sensor_msgs.msg import JointState
 from geometry_msgs.msg import PoseStamped
 from fic_teleop_msgs.msg import ChannelDelivery, FicState, LimitStatus
 
 count, skip = int(sys.argv[1]), {int(s) for s in sys.argv[2].split(",") if s}
+wait_for_acks = sys.argv[3] == "1"  # not when the test kills the recorder on purpose
 rclpy.init()
 node = rclpy.create_node("test_publisher")
 # Deep writer history: a reliable KEEP_LAST writer overwrites samples not yet acknowledged once its history is
@@ -74,8 +76,10 @@ for k in range(count):
         pose.publish(p)
     if k % 250 == 0:
         print(f"progress {published}", flush=True)
+for publisher in publishers if wait_for_acks else []:  # the recorder has acknowledged every message
+    if not publisher.wait_for_all_acked(Duration(seconds=30)):
+        sys.exit(f"not acknowledged: {publisher.topic_name}")
 print(f"published {published}", flush=True)
-time.sleep(0.5)
 node.destroy_node()
 rclpy.shutdown()
 '''
@@ -92,12 +96,13 @@ SKIPPED = [1200, 1201, 1202, 2500]  # stamps the publisher leaves out: 4 "droppe
 
 
 class Publisher:
-    def __init__(self, tmp_path: Path, env: dict, count: int, skip: list[int]) -> None:
+    def __init__(self, tmp_path: Path, env: dict, count: int, skip: list[int], wait_for_acks: bool = True) -> None:
         script = tmp_path / "publisher.py"
         script.write_text(PUBLISHER)
         self.log_path = tmp_path / "publisher.log"
         self._log = open(self.log_path, "wb")
-        self.process = subprocess.Popen([sys.executable, str(script), str(count), ",".join(map(str, skip))],
+        self.process = subprocess.Popen([sys.executable, str(script), str(count), ",".join(map(str, skip)),
+                                         "1" if wait_for_acks else "0"],
                                         env=env, stdout=self._log, stderr=subprocess.STDOUT)
 
     def output(self) -> str:
@@ -127,7 +132,6 @@ def _record(start_node, tmp_path, ros_env, params: dict, stop_signal: int):
     publisher = Publisher(tmp_path, ros_env, COUNT, SKIPPED)
     assert publisher.wait(timeout=40) == 0, publisher.output() + recorder.output()
     assert f"published {COUNT - len(SKIPPED)}" in publisher.output()
-    time.sleep(0.5)
     recorder.process.send_signal(stop_signal)
     assert recorder.process.wait(timeout=20) == 0, recorder.output()
     return bag, recorder.output()
@@ -206,7 +210,7 @@ def test_recorder_bag_survives_sigkill(start_node, tmp_path, ros_env):
     bag = tmp_path / "bag"
     recorder = start_node("sim_bridge", "recorder_node",
                           params={"bag_path": str(bag), "topics": list(RECORDED), "flush_period": 0.2})
-    publisher = Publisher(tmp_path, ros_env, 6000, [])
+    publisher = Publisher(tmp_path, ros_env, 6000, [], wait_for_acks=False)
     deadline = time.monotonic() + 40
     while publisher.progress() < 2500 and time.monotonic() < deadline and publisher.process.poll() is None:
         time.sleep(0.02)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import shutil
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +17,9 @@ from sim_bridge.recording.bag_writer import BagError
 from sim_bridge.recording.recovery import recover
 from sim_bridge.cli.errors import CommandError
 from fic_teleop_runtime.message_types import message_class
+
+#: How long `bag play` waits, after the last message, for each reliable reader to acknowledge what it was sent.
+ACK_TIMEOUT_S = 10.0
 
 
 def _existing_mcap(bag: str) -> Path:
@@ -118,6 +122,7 @@ def bag_play(bag: str, rate: float, topics: list[str] | None, wait_for_subscribe
             raise CommandError(f"cannot play {topic}: its type {type_name} is not installed here ({error})") from None
 
     import rclpy
+    from rclpy.duration import Duration
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     from sim_bridge.cli.graph import graph_node
@@ -154,9 +159,14 @@ def bag_play(bag: str, rate: float, topics: list[str] | None, wait_for_subscribe
             publisher.publish(message.data)
             played += 1
         wall = time.monotonic() - wall_start
-        # Let reliable readers take the last messages before the publishers go away.
-        rclpy.spin_once(node, timeout_sec=0.5)
+        # Reliable readers have the last messages only once they acknowledged them: wait for that (a fixed pause
+        # would lose the tail on a loaded machine), at most ACK_TIMEOUT_S a topic.
+        unacknowledged = [topic for topic, publisher in publishers.items()
+                          if not publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT_S))]
     print(f"played {played} messages on {len(publishers)} topics in {wall:.1f} s at rate {rate:g} "
           f"({late} more than 10 ms late)")
+    if unacknowledged:
+        print(f"warning: not acknowledged by every reader within {ACK_TIMEOUT_S:g} s: {', '.join(unacknowledged)}",
+              file=sys.stderr)
     return 0
 
