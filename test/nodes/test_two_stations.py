@@ -212,4 +212,5 @@ def test_split_run_crosses_the_link_with_the_two_streams_and_survives_a_cut(tmp_
     # the cut and 1.88 s outside it; a stream the cut stopped would show the cut's whole length in it alone.
     for topic in ("/joint_states", "/replica/fic_state"):
         streams = cut["robot_station_streams"][topic]
+        assert streams["longest_gap_in_cut_s"] is not None, (topic, streams)  # samples before and after the cut
         assert streams["longest_gap_in_cut_s"] < max(1.0, streams["longest_gap_outside_cut_s"] or 0.0), streams
