@@ -10,13 +10,12 @@ clamped and the clamp is reported to the caller, who logs it.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fic_core.attractor import FractalAttractor
 from fic_core.errors import FicInputError, finite_array, finite_scalar
+from fic_core.norm_bound import norm_bounded
 
 
 class MasterLaw:
@@ -88,11 +87,10 @@ class MasterLaw:
         force = self._attractor.force(-handle_position, -handle_velocity) + self._haptic_gain * replica_force
         self.device_force_saturated = False
         if self._max_device_force is not None:
-            magnitude = math.sqrt(float(force.dot(force)))  # np.linalg.norm, without its dispatch
-            if magnitude > self._max_device_force:
-                # Scale the vector (not per axis) so the direction the operator feels is kept.
-                force = force * (self._max_device_force / magnitude)
-                self.device_force_saturated = True
+            # Scale the vector (not per axis) so the direction the operator feels is kept.
+            bounded = norm_bounded(force, self._max_device_force)
+            self.device_force_saturated = bounded is not force
+            force = bounded
         return force
 
     def reset(self) -> None:

@@ -35,11 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import FicInputError, finite_array, finite_scalar
-
-
-def _clipped(vector: NDArray[np.float64], bound: float) -> NDArray[np.float64]:
-    norm = math.sqrt(float(vector.dot(vector)))
-    return vector * (bound / norm) if norm > bound else vector
+from .norm_bound import norm_bounded
 
 
 class SampledSetPoint:
@@ -116,10 +112,10 @@ class SampledSetPoint:
             with np.errstate(over="ignore", invalid="ignore"):
                 velocity = (position - self._slope_position) / elapsed
             if np.isfinite(velocity).all():
-                velocity = _clipped(velocity, self.max_speed)
+                velocity = norm_bounded(velocity, self.max_speed)
                 # Low-pass of the velocity's difference quotient (backward Euler of a first-order lag).
                 blend = elapsed / (self.acceleration_time_constant + elapsed)
-                self._acceleration = _clipped(
+                self._acceleration = norm_bounded(
                     self._acceleration + ((velocity - self._velocity) / elapsed - self._acceleration) * blend,
                     self.max_acceleration)
                 self._velocity = velocity

@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fic_core.errors import FicInputError, finite_array, finite_scalar
+from fic_core.norm_bound import norm_bounded
 
 Vector3 = NDArray[np.float64]
 # The hand force may be a constant for the whole step, or a function of the handle state evaluated at every
@@ -94,10 +95,7 @@ class HapticDevice:
     def saturate(self, command_force: ArrayLike) -> Vector3:
         """The force the motors actually produce for a command: its norm limited to ``max_force``."""
         force = finite_array("command_force", command_force, shape=(3,))
-        norm = math.sqrt(float(force.dot(force)))  # np.linalg.norm on a 3-vector, without its dispatch
-        if norm > self.parameters.max_force:
-            force = force * (self.parameters.max_force / norm)
-        return force
+        return norm_bounded(force, self.parameters.max_force)
 
     def wall_force(self, position: Vector3, velocity: Vector3) -> Vector3:
         """Soft-wall force: spring-damper on each axis beyond the workspace, only ever pushing back inside."""

@@ -24,7 +24,6 @@ Targets come from:
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, NamedTuple, Sequence
@@ -34,6 +33,7 @@ import yaml
 from numpy.typing import ArrayLike, NDArray
 
 from fic_core.errors import FicInputError, finite_array, finite_scalar
+from fic_core.norm_bound import norm_bounded
 from fic_core.operator_buttons import BUTTON_COUNT, BUTTON_NAMES, OperatorButton  # noqa: F401 (BUTTON_COUNT re-exported)
 
 Vector3 = NDArray[np.float64]
@@ -79,19 +79,14 @@ class Hand:
         parameters = self.parameters
         if parameters.correction_rate > 0.0:
             self.correction = self.correction + parameters.correction_rate * dt * (self.target - position)
-            norm = math.sqrt(float(self.correction.dot(self.correction)))  # np.linalg.norm, without its dispatch
-            if norm > parameters.max_correction:
-                self.correction *= parameters.max_correction / norm
+            self.correction = norm_bounded(self.correction, parameters.max_correction)
 
     def force(self, position: Vector3, velocity: Vector3) -> Vector3:
         """Force of the hand on the handle at the given handle state (called at every device substep)."""
         parameters = self.parameters
         force = (parameters.stiffness * (self.target + self.correction - position)
                  - parameters.damping * velocity)
-        norm = math.sqrt(float(force.dot(force)))  # np.linalg.norm, without its dispatch
-        if norm > parameters.max_force:
-            force = force * (parameters.max_force / norm)
-        return force
+        return norm_bounded(force, parameters.max_force)
 
 
 class Waypoint(NamedTuple):
