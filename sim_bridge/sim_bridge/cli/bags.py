@@ -18,7 +18,8 @@ from sim_bridge.recording.recovery import recover
 from sim_bridge.cli.errors import CommandError
 from fic_teleop_runtime.message_types import message_class
 
-#: How long `bag play` waits, after the last message, for each reliable reader to acknowledge what it was sent.
+#: How long `bag play` waits in all, after the last message, for the reliable readers to acknowledge what they
+#: were sent.
 ACK_TIMEOUT_S = 10.0
 
 
@@ -160,9 +161,11 @@ def bag_play(bag: str, rate: float, topics: list[str] | None, wait_for_subscribe
             played += 1
         wall = time.monotonic() - wall_start
         # Reliable readers have the last messages only once they acknowledged them: wait for that (a fixed pause
-        # would lose the tail on a loaded machine), at most ACK_TIMEOUT_S a topic.
-        unacknowledged = [topic for topic, publisher in publishers.items()
-                          if not publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT_S))]
+        # would lose the tail on a loaded machine), ACK_TIMEOUT_S in all (a dead reader costs it once, not once a
+        # topic).
+        ack_deadline = time.monotonic() + ACK_TIMEOUT_S
+        unacknowledged = [topic for topic, publisher in publishers.items() if not publisher.wait_for_all_acked(
+            Duration(seconds=max(0.0, ack_deadline - time.monotonic())))]
     print(f"played {played} messages on {len(publishers)} topics in {wall:.1f} s at rate {rate:g} "
           f"({late} more than 10 ms late)")
     if unacknowledged:
