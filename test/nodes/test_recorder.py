@@ -42,11 +42,13 @@ deliveries = node.create_publisher(ChannelDelivery, "/channel/deliveries", qos)
 pose = node.create_publisher(PoseStamped, "/replica/tcp_pose", qos)
 publishers = [joint_states, fic, limits, deliveries, pose]
 deadline = time.monotonic() + 30.0
-while min(p.get_subscription_count() for p in publishers) < 1:  # the recorder has matched every topic
+# The recorder has matched every topic. No pause after it: a reliable writer keeps each sample for every reader
+# it has matched until that reader acknowledges it, even one that has not yet matched the writer back, so
+# nothing published from here on can be lost (the bag's checks below would show it).
+while min(p.get_subscription_count() for p in publishers) < 1:
     if time.monotonic() > deadline:
         sys.exit("the recorder never subscribed")
     time.sleep(0.02)
-time.sleep(0.3)
 print("matched", flush=True)
 message = JointState()
 message.name = [f"panda_joint{i + 1}" for i in range(7)]
