@@ -285,11 +285,13 @@ def _interrupt(process: subprocess.Popen, timeout: float) -> int:
 
 
 def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event,
-                      wall_origin: float | None = None, progress=None) -> float:
+                      wall_origin: float | None = None, progress=None, watch=None) -> float:
     """Block until the simulation has run `duration` seconds of its own time (read from /clock), or `stop` is set.
 
     ``wall_origin`` (realtime, a scripted scene): the duration counts from the first /clock at or after this
-    wall-clock time, when the operator script and the circle start, so that the whole script is run."""
+    wall-clock time, when the operator script and the circle start, so that the whole script is run.
+    ``progress(elapsed, joint_state_readers)`` is called at each turn once the run has started, with the number of
+    /joint_states readers; ``watch`` = (topic, seen): ``seen(wall_time)`` for each TeleoperationCommand on it."""
     import rclpy
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
@@ -310,6 +312,11 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
             latest["start"] = now
 
     node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+    if watch is not None:
+        from fic_teleop_msgs.msg import TeleoperationCommand
+        topic, seen = watch
+        node.create_subscription(TeleoperationCommand, topic, lambda _message: seen(time.time()),
+                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
     wall_start = time.monotonic()
     last_print = last_scheduling = 0.0
     try:
@@ -323,7 +330,8 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
                 graph_.scheduler.apply()
             elapsed = 0.0 if latest["start"] is None else latest["t"] - latest["start"]
             if progress is not None and latest["start"] is not None:
-                progress(elapsed)   # two stations: the link cut counts run time as --duration does
+                # two stations: the link cut counts run time as --duration does
+                progress(elapsed, node.count_subscribers("/joint_states"))
             if elapsed >= duration or graph_.foreground_done():
                 break
             dead = graph_.dead()
@@ -530,7 +538,9 @@ def main(argv: list[str] | None = None) -> int:
             sim_elapsed = wait_for_sim_time(args.duration, running, stop=interrupted,
                                             wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
                                             wall_origin=wall_origin,
-                                            progress=stations.progress if stations is not None else None)
+                                            progress=stations.progress if stations is not None else None,
+                                            watch=(stations.watched_topic, stations.command_seen)
+                                            if stations is not None else None)
         _report_scheduling(running, run_dir)
     except KeyboardInterrupt:  # only if a signal arrived before our handler was installed
         interrupted.set()

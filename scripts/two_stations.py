@@ -295,22 +295,49 @@ def faketime_environment(offset_s: float) -> list[str]:
 class LinkCut:
     """Sets the veth down once the run has gone `down_at` seconds (counted as --duration counts them: simulated
     time from the script's start, so a slow start-up on a loaded machine does not move the cut before the graph
-    runs) and up again `down_for` wall-clock seconds later: the link is real, its outage is wall time."""
+    runs) and up again `down_for` wall-clock seconds later: the link is real, its outage is wall time.
+
+    The cut also waits until the teleoperation has crossed the link for `SETTLED_S` (the robot station has
+    taken commands from the master station) and the robot station's /joint_states has its two readers (the
+    replica and the recorder): on a loaded machine the two stations' participants can take many seconds to
+    discover each other (a run with a hog and a suite beside it had its first command across 13.7 s after the
+    script's start, 9.7 s after its 4 s cut), and a cut before that tests nothing. How long it waited is in
+    the link events (`waited_for_teleoperation_s`)."""
+
+    SETTLED_S = 1.0
 
     def __init__(self, pair: StationPair, down_at: float, down_for: float, stop: threading.Event) -> None:
         self.pair, self.down_at, self.down_for, self.stop = pair, down_at, down_for, stop
         self.events: dict[str, float] = {}
         self.thread = threading.Thread(target=self._run, name="link_cut", daemon=True)
+        self._first_command_wall: float | None = None
+        self._due_wall: float | None = None
 
-    def progress(self, elapsed: float) -> None:
-        if elapsed >= self.down_at and not self.thread.is_alive() and "down_wall" not in self.events:
-            self.events["down_run_s"] = round(elapsed, 3)
-            self.thread.start()
+    def command_seen(self, wall: float) -> None:
+        """A teleoperation command reached the robot station (at wall-clock time `wall`)."""
+        if self._first_command_wall is None:
+            self._first_command_wall = wall
+            self.events["first_command_wall"] = wall
+
+    def progress(self, elapsed: float, joint_state_readers: int = 2) -> None:
+        if elapsed < self.down_at or self.thread.is_alive() or "down_wall" in self.events:
+            return
+        now = time.time()
+        if self._due_wall is None:
+            self._due_wall = now
+        first = self._first_command_wall
+        if first is None or now - first < self.SETTLED_S or joint_state_readers < 2:
+            return
+        self.events["down_run_s"] = round(elapsed, 3)
+        self.events["waited_for_teleoperation_s"] = round(now - self._due_wall, 3)
+        self.thread.start()
 
     def _run(self) -> None:
         set_link(self.pair, up=False)
         self.events["down_wall"] = time.time()
-        print(f"[stations] link DOWN at {self.events['down_run_s']:.2f} s of the run (veth "
+        waited = self.events["waited_for_teleoperation_s"]
+        print(f"[stations] link DOWN at {self.events['down_run_s']:.2f} s of the run"
+              f"{f' (waited {waited:.1f} s for the teleoperation to cross)' if waited >= 0.1 else ''} (veth "
               f"{self.pair.master_interface} <-> {self.pair.robot_interface})", flush=True)
         # Up again even if the run is being stopped: never leave a cut link behind.
         self.stop.wait(self.down_for)
@@ -405,9 +432,16 @@ class InsideStation:
         if self.args.link_down_at is not None:
             self.cut = LinkCut(self.pair, self.args.link_down_at, self.args.link_down_for, self.stop)
 
-    def progress(self, elapsed: float) -> None:
+    #: What the launcher's own node watches in the robot station for the cut: the commands that crossed the link.
+    watched_topic = "/replica/teleop_command"
+
+    def command_seen(self, wall: float) -> None:
         if self.cut is not None:
-            self.cut.progress(elapsed)
+            self.cut.command_seen(wall)
+
+    def progress(self, elapsed: float, joint_state_readers: int = 2) -> None:
+        if self.cut is not None:
+            self.cut.progress(elapsed, joint_state_readers)
 
     def stopped(self) -> None:
         self.stop.set()

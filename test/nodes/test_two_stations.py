@@ -203,6 +203,9 @@ def test_split_run_crosses_the_link_with_the_two_streams_and_survives_a_cut(tmp_
     # The cut: the replica held and took commands again, the master noticed, nothing crashed.
     cut = record["link_cut"]
     assert 1.5 < cut["down_s"] < 3.0
+    # The cut came once the commands had crossed for a second (a cut before the two stations meet tests nothing).
+    events = record["link_events"]
+    assert events["down_wall"] - events["first_command_wall"] >= 1.0, events
     assert cut["first_command_used_after_up_s"] is not None and cut["first_command_used_after_up_s"] < 5.0
     assert any("no teleoperation command" in line for line in cut["log_lines"]["replica"])
     assert any("stale" in line for line in cut["log_lines"]["master"])
