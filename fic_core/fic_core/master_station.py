@@ -52,6 +52,8 @@ MASTER_NUMBERS: dict[str, tuple[float, float, str, bool]] = {
                           "drift", False),
     "feedback_timeout": (0.001, 60.0, "F_R older than this (receipt time) is treated as zero [s]", False),
     "pose_timeout": (0.001, 60.0, "no /haptic/pose for this long: the wrench command is zero [s]", False),
+    "handle_extrapolation": (0.0, 0.05, "the longest the last handle pose is carried forward by its velocity to a "
+                             "network tick's stamp [s]; 0: sent as received (docs/CONTROL_LAWS.md)", False),
     "control_rate": (1.0, 5000.0, "/haptic/wrench_command rate [Hz]", True),
     "network_rate": (1.0, 5000.0, "/master/pose and /master/teleop_command rate [Hz]", True),
     "diagnostics_rate": (0.01, 100.0, "/diagnostics rate [Hz]", True),
@@ -86,10 +88,13 @@ class MasterStation:
                                                          values["mode"], values["velocity_deadband"])
         self.feedback_timeout = finite_scalar("feedback_timeout", values["feedback_timeout"], minimum=0.0)
         self.pose_timeout = finite_scalar("pose_timeout", values["pose_timeout"], minimum=0.0)
+        self.handle_extrapolation = finite_scalar("handle_extrapolation", values.get("handle_extrapolation", 0.0),
+                                                  minimum=0.0)
         self._buttons = ButtonEdges()
         self.handle_position: NDArray[np.float64] | None = None   # x_M, last good
         self.handle_orientation = (0.0, 0.0, 0.0, 1.0)
         self.handle_velocity = np.zeros(3)
+        self.network_handle_position: NDArray[np.float64] | None = None  # x_M at the last network tick
         self.pose_received: float | None = None
         self._twist_received: float | None = None
         self._previous_pose: tuple[float, NDArray[np.float64]] | None = None
@@ -113,7 +118,7 @@ class MasterStation:
         for name in INTEGRATOR_PARAMETERS:  # checked before anything is applied
             if name in changes:
                 TeleoperationCommandIntegrator(**{name: changes[name]})
-        for name in ("feedback_timeout", "pose_timeout", "max_device_force", "haptic_gain"):
+        for name in ("feedback_timeout", "pose_timeout", "max_device_force", "haptic_gain", "handle_extrapolation"):
             if name in changes:
                 finite_scalar(name, changes[name], minimum=0.0)
         notices: list[Notice] = []
@@ -123,6 +128,8 @@ class MasterStation:
         for name, new in changes.items():
             if name == "haptic_gain":
                 notices += self.set_haptic_gain(new, "parameter")
+            elif name == "handle_extrapolation":
+                self.handle_extrapolation = float(new)
             elif name == "max_device_force":
                 self.law.max_device_force = _device_limit(new)
             elif name == "mode" and new != self.integrator.mode:
@@ -220,13 +227,31 @@ class MasterStation:
         self.wrench_count += 1
         return force, notices
 
+    def handle_at(self, now: float) -> NDArray[np.float64] | None:
+        """x_M at ``now``: the last pose carried forward by the handle velocity over its age, if that age is at
+        most ``handle_extrapolation`` (0: never; an older pose is sent as it is: a stale pose is the device's
+        silence, not a motion). Why: a network tick is stamped ``now`` but the last pose is up to one device
+        period older (4 ms at 250 Hz, at a random phase: the two timers are not aligned), so x_d' lags its own
+        stamp by 0-4 ms of handle motion, which the delay carries to the replica as an error no controller
+        can remove (docs/CONTROL_LAWS.md, "The handle at the network tick")."""
+        position = self.handle_position
+        if position is None or self.pose_received is None:
+            return position
+        age = now - self.pose_received
+        if not 0.0 < age <= self.handle_extrapolation:
+            return position
+        return position + age * self.handle_velocity
+
     def desired_offset(self, now: float) -> NDArray[np.float64] | None:
-        """x_d' at a network tick at ``now`` (None before the first pose)."""
-        if self.handle_position is None:
+        """x_d' at a network tick at ``now`` from x_M at ``now`` (``handle_at``; None before the first pose).
+        The x_M used is kept as ``network_handle_position``: the command carries it with the same stamp."""
+        handle = self.handle_at(now)
+        if handle is None:
             return None
         dt = 0.0 if self._last_network_time is None else max(now - self._last_network_time, 0.0)
         self._last_network_time = now
-        return self.integrator.update(self.handle_position, dt)
+        self.network_handle_position = handle
+        return self.integrator.update(handle, dt)
 
     def diagnostics(self, now: float) -> tuple[list[str], dict[str, str]]:
         """(problems, values) for a diagnostics message."""

@@ -150,7 +150,7 @@ class MasterNode(Node):
         desired_offset = self._station.desired_offset(self._now())
         if desired_offset is None:
             return
-        station, handle = self._station, self._station.handle_position
+        station, handle = self._station, self._station.network_handle_position  # x_M at this tick's stamp
         pose = PoseStamped()
         pose.header.stamp = self.get_clock().now().to_msg()  # sampling time: the channel keeps it
         pose.header.frame_id = self._frame_id

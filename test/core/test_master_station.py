@@ -48,6 +48,31 @@ def test_velocity_by_differences_unless_a_twist_is_fresh() -> None:
     np.testing.assert_allclose(station.handle_velocity, [0.001 / 0.48, 0.0, 0.0])
 
 
+def test_the_network_tick_sends_the_handle_at_its_own_stamp() -> None:
+    """x_M carried forward over the pose's age (device and network timers are not aligned), at most
+    MAX_HANDLE_EXTRAPOLATION_S; x_d' is computed from it and the command carries the same x_M."""
+    extrapolation = 0.01
+    station = MasterStation({**DEFAULTS, "handle_extrapolation": extrapolation})   # offset mode, s_M = 1
+    assert station.desired_offset(0.0) is None and station.handle_at(0.0) is None
+    station.add_pose([0.1, 0.0, 0.0], (0, 0, 0, 1), 1.0)
+    station.add_twist([0.2, -0.1, 0.0], 1.0)
+    np.testing.assert_allclose(station.handle_at(1.003), [0.1006, -0.0003, 0.0])   # 3 ms at 0.2 / -0.1 m/s
+    np.testing.assert_allclose(station.handle_at(1.0), [0.1, 0.0, 0.0])
+    too_old = 1.0 + extrapolation + 1e-3
+    np.testing.assert_allclose(station.handle_at(too_old), [0.1, 0.0, 0.0])   # an old pose is sent as it is
+    np.testing.assert_allclose(station.handle_at(0.999), [0.1, 0.0, 0.0])     # a clock behind the pose: no guess
+    reference = MasterStation(DEFAULTS)
+    reference.add_pose([0.1006, -0.0003, 0.0], (0, 0, 0, 1), 1.003)
+    np.testing.assert_allclose(station.desired_offset(1.003), reference.desired_offset(1.003))
+    np.testing.assert_allclose(station.network_handle_position, [0.1006, -0.0003, 0.0])
+    off = MasterStation(DEFAULTS)   # master.yaml: off, the pose as received
+    off.add_pose([0.1, 0.0, 0.0], (0, 0, 0, 1), 1.0)
+    off.add_twist([0.2, -0.1, 0.0], 1.0)
+    np.testing.assert_allclose(off.handle_at(1.003), [0.1, 0.0, 0.0])
+    off.configure({"handle_extrapolation": extrapolation})
+    np.testing.assert_allclose(off.handle_at(1.003), [0.1006, -0.0003, 0.0])
+
+
 def test_stale_feedback_is_rendered_as_zero_and_said_once() -> None:
     station = MasterStation({**DEFAULTS, "haptic_gain": 1.0, "stiffness": 1.0})
     station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 0.0)

@@ -86,6 +86,7 @@ class RunConfig:
     script_delay: float | None = None
     reaction_time: float = 0.25        # [s] the closed-loop operator's; operator_timing_jitter is added to it
     replica_overrides: dict[str, Any] = field(default_factory=dict)
+    master_overrides: dict[str, Any] = field(default_factory=dict)   # master.yaml values replaced
     # Per-seed variation of the operator (docs/RESULTS.md "Seeds"): the script's clock is shifted by a draw in
     # [-operator_timing_jitter, +operator_timing_jitter] s, the hand's stiffness and damping scaled by a draw in
     # [1 - hand_impedance_jitter, 1 + hand_impedance_jitter]; both drawn from the seed, off by default.
@@ -147,7 +148,7 @@ def run(config: RunConfig) -> RunResult:
     replica = ReplicaLoop({**r, "controller": "linear_bounded" if tdpa else config.controller,
                            "control_rate": config.control_rate,
                            "answer_every_state": True, **config.replica_overrides}, authority=authority)
-    master = MasterStation(m)
+    master = MasterStation({**m, **config.master_overrides})
     device = HapticDevice(HapticDeviceParameters(
         mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
         wall_stiffness=h["wall_stiffness"], wall_damping=h["wall_damping"], max_force=h["max_force"],
@@ -251,7 +252,8 @@ def run(config: RunConfig) -> RunResult:
             if offset is not None:
                 integrator = master.integrator
                 forward.push((ns, offset, int(integrator.mode.value), master.law.haptic_gain,
-                              integrator.workspace_scale, integrator.velocity_gain, master.handle_position.copy(),
+                              integrator.workspace_scale, integrator.velocity_gain,
+                              master.network_handle_position.copy(),
                               ports.master_input_energy), now, now)
         if k % planner_every == 0:
             if k:
