@@ -29,12 +29,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--controller", default="fic", choices=["fic", "linear", "linear_bounded"])
     parser.add_argument("--control-rate", type=float, default=1000.0)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--handle-extrapolation", type=float, default=None,
+                        help="the master's handle_extrapolation [s] (default: config/master.yaml's)")
     parser.add_argument("--runs", type=int, default=1, help="repeat the run (speed figures; results must agree)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
     config = RunConfig(scene=args.scene, duration=args.duration, delay=args.delay, jitter=args.jitter, drop=args.drop,
                        blackout_windows=tuple(tuple(w) for w in args.blackout_window), rate_cap=args.rate_cap,
-                       controller=args.controller, control_rate=args.control_rate, seed=args.seed)
+                       controller=args.controller, control_rate=args.control_rate, seed=args.seed,
+                       master_overrides={} if args.handle_extrapolation is None
+                       else {"handle_extrapolation": args.handle_extrapolation})
     rows = []
     for _ in range(args.runs):
         cpu = time.process_time()
