@@ -448,6 +448,11 @@ class InsideStation:
         if self.cut is not None:
             if self.cut.thread.is_alive():
                 self.cut.thread.join(timeout=10.0)
+            if "down_wall" not in self.cut.events:
+                crossed = "no command crossed" if "first_command_wall" not in self.cut.events else \
+                    "the commands had not crossed for 1 s, or /joint_states lacked a reader,"
+                print(f"[stations] warning: the link was never cut: {crossed} before the run ended "
+                      "(see the logs; a longer --duration gives the stations more time to meet)", file=sys.stderr)
             self._record({"link_events": self.cut.events})
 
     def _record(self, values: dict) -> None:
