@@ -81,7 +81,8 @@ SCHEMA = Schema(
     number("lockstep_timeout", 0.001, 10.0, "lockstep: longest wall-clock wait for the command of a step before "
                                             "stepping on the last one (counted) [s]"),
     texts("lockstep_peers", "lockstep: header-stamped topics of nodes that follow /clock (device, master, planner); "
-                            "no step past t until each has published a stamp >= t - lockstep_peer_lag (empty: none)"),
+                            "no step past t until each has published a stamp >= t - lockstep_peer_lag, and no first step "
+                            "before each has a publisher (empty: none)"),
     integer("lockstep_subscribers", 0, 100, "lockstep: the simulation starts once /joint_states has this many "
                                             "readers (the replica, a recorder), or after "
                                             f"{SUBSCRIBER_WAIT_S:g} s with a warning"),
@@ -304,15 +305,24 @@ class RobotNode(Node):
 
     def _run_lockstep(self) -> None:
         # Nothing moves before every expected reader of /joint_states is there (the replica and the recorder): a
-        # recorder that subscribes late would miss the first steps of the run.
+        # recorder that subscribes late would miss the first steps of the run. Nor before every lockstep peer's
+        # node has its publisher: the barrier only waits for a peer that has published, so a planner or device
+        # that started late (a loaded machine: 2-3 s of wall time) joined the run at 0.45-0.5 s of simulated
+        # time, and the run no longer depended on its seed alone.
+        peers = self._barrier.topics if self._barrier is not None else ()
+
+        def missing() -> list[str]:
+            readers = self._joint_state_pub.get_subscription_count()
+            absent = [] if readers >= self._lockstep_subscribers else \
+                [f"{readers} of {self._lockstep_subscribers} /joint_states readers"]
+            return absent + [f"no publisher of {topic}" for topic in peers if self.count_publishers(topic) < 1]
+
         deadline = time.monotonic() + SUBSCRIBER_WAIT_S
-        while self._joint_state_pub.get_subscription_count() < self._lockstep_subscribers and \
-                time.monotonic() < deadline and not self._stop.is_set():
+        while missing() and time.monotonic() < deadline and not self._stop.is_set():
             time.sleep(0.05)
-        if self._joint_state_pub.get_subscription_count() < self._lockstep_subscribers:
-            self.get_logger().warning(
-                f"lockstep: {self._joint_state_pub.get_subscription_count()} of {self._lockstep_subscribers} "
-                f"/joint_states readers after {SUBSCRIBER_WAIT_S:g} s; starting anyway")
+        absent = missing()
+        if absent:
+            self.get_logger().warning(f"lockstep: {', '.join(absent)} after {SUBSCRIBER_WAIT_S:g} s; starting anyway")
         self._log_event(self._watchdog.check(self._sim.time))
         late_steps = 0  # consecutive steps whose wait saw only late answers
         while not self._stop.is_set():
