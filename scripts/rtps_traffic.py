@@ -248,6 +248,11 @@ class Reassembly:
         return None
 
 
+SO_RCVBUFFORCE = 33             # <asm-generic/socket.h>
+SOL_PACKET, PACKET_STATISTICS = 263, 6   # <linux/socket.h>, <linux/if_packet.h>
+CAPTURE_BUFFER_BYTES = 32 * 1024 * 1024
+
+
 def capture(interface: str, out: str, names: dict[str, str], stamped_topics: set[str], ready: str | None = None) -> int:
     stop = {"now": False}
 
@@ -259,6 +264,10 @@ def capture(interface: str, out: str, names: dict[str, str], stamped_topics: set
     sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETH_P_ALL))
     sock.bind((interface, 0))
     sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
+    # A deep receive buffer (root may exceed rmem_max): the start-up bursts of discovery (hundreds of kB in a few
+    # seconds) overflowed the default ~200 kB while a loaded machine left this process waiting, and an endpoint
+    # whose announcement was dropped here is counted as "unnamed" for the whole run. Drops are counted below.
+    sock.setsockopt(socket.SOL_SOCKET, SO_RCVBUFFORCE, CAPTURE_BUFFER_BYTES)
     sock.settimeout(0.2)
     if ready:   # the socket is bound: whoever started the capture may now start the participants
         Path(ready).write_text("capturing\n")
@@ -301,6 +310,8 @@ def capture(interface: str, out: str, names: dict[str, str], stamped_topics: set
     result = accounting.as_json()
     result["interface"] = interface
     result["frames"] = packets
+    # struct tpacket_stats {tp_packets, tp_drops} (since the last read): frames the kernel dropped for this socket.
+    result["kernel_drops"] = struct.unpack("II", sock.getsockopt(SOL_PACKET, PACKET_STATISTICS, 8))[1]
     with open(out, "w") as handle:
         json.dump(result, handle)
     return 0
