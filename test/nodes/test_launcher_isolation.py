@@ -74,9 +74,10 @@ def test_two_runs_started_together_each_match_a_solo_run(solo_run: dict, tmp_pat
         assert metrics["duration_s"] >= 3.0 - 0.05
         assert _joint_state_rate(metrics) == pytest.approx(_joint_state_rate(solo_run), rel=0.05)
         # Lockstep with the peer barrier: the same run, to within what the machine's load changes in it. Two runs
-        # sharing 2 cores skip more barrier waits than a solo run: 29.5 against 19.4 mm measured in one fresh-clone
-        # suite; cross-talk gave errors of 1.3 m, so 25 mm still tells them apart by a factor of 50.
-        assert metrics["free_motion_error_max_m"] == pytest.approx(solo_run["free_motion_error_max_m"], abs=0.025)
+        # sharing 2 cores skip more barrier waits (a peer held past lockstep_peer_timeout is not waited for) than
+        # a solo run: 29.5 against 19.4 mm in one fresh-clone suite, 42.6 against 17.1 mm in a suite beside a CPU
+        # hog on a slow VM (2026-12-03). Cross-talk gave errors of 1.3 m: 0.1 m tells them apart by a factor of 13.
+        assert metrics["free_motion_error_max_m"] == pytest.approx(solo_run["free_motion_error_max_m"], abs=0.1)
 
 
 def test_a_domain_that_carries_a_graph_is_refused_in_one_line(tmp_path: Path) -> None:
