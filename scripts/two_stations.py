@@ -305,28 +305,26 @@ class LinkCut:
     the link events (`waited_for_teleoperation_s`)."""
 
     SETTLED_S = 1.0
+    JOINT_STATE_READERS = 2   # the replica and the recorder
 
     def __init__(self, pair: StationPair, down_at: float, down_for: float, stop: threading.Event) -> None:
         self.pair, self.down_at, self.down_for, self.stop = pair, down_at, down_for, stop
         self.events: dict[str, float] = {}
         self.thread = threading.Thread(target=self._run, name="link_cut", daemon=True)
-        self._first_command_wall: float | None = None
         self._due_wall: float | None = None
 
     def command_seen(self, wall: float) -> None:
         """A teleoperation command reached the robot station (at wall-clock time `wall`)."""
-        if self._first_command_wall is None:
-            self._first_command_wall = wall
-            self.events["first_command_wall"] = wall
+        self.events.setdefault("first_command_wall", wall)
 
-    def progress(self, elapsed: float, joint_state_readers: int = 2) -> None:
+    def progress(self, elapsed: float, joint_state_readers: int) -> None:
         if elapsed < self.down_at or self.thread.is_alive() or "down_wall" in self.events:
             return
         now = time.time()
         if self._due_wall is None:
             self._due_wall = now
-        first = self._first_command_wall
-        if first is None or now - first < self.SETTLED_S or joint_state_readers < 2:
+        first = self.events.get("first_command_wall")
+        if first is None or now - first < self.SETTLED_S or joint_state_readers < self.JOINT_STATE_READERS:
             return
         self.events["down_run_s"] = round(elapsed, 3)
         self.events["waited_for_teleoperation_s"] = round(now - self._due_wall, 3)
@@ -439,7 +437,7 @@ class InsideStation:
         if self.cut is not None:
             self.cut.command_seen(wall)
 
-    def progress(self, elapsed: float, joint_state_readers: int = 2) -> None:
+    def progress(self, elapsed: float, joint_state_readers: int) -> None:
         if self.cut is not None:
             self.cut.progress(elapsed, joint_state_readers)
 
@@ -450,7 +448,7 @@ class InsideStation:
                 self.cut.thread.join(timeout=10.0)
             if "down_wall" not in self.cut.events:
                 crossed = "no command crossed" if "first_command_wall" not in self.cut.events else \
-                    "the commands had not crossed for 1 s, or /joint_states lacked a reader,"
+                    f"the commands had not crossed for {LinkCut.SETTLED_S:g} s, or /joint_states lacked a reader,"
                 print(f"[stations] warning: the link was never cut: {crossed} before the run ended "
                       "(see the logs; a longer --duration gives the stations more time to meet)", file=sys.stderr)
             self._record({"link_events": self.cut.events})

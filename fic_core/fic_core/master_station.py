@@ -88,8 +88,7 @@ class MasterStation:
                                                          values["mode"], values["velocity_deadband"])
         self.feedback_timeout = finite_scalar("feedback_timeout", values["feedback_timeout"], minimum=0.0)
         self.pose_timeout = finite_scalar("pose_timeout", values["pose_timeout"], minimum=0.0)
-        self.handle_extrapolation = finite_scalar("handle_extrapolation", values.get("handle_extrapolation", 0.0),
-                                                  minimum=0.0)
+        self.handle_extrapolation = finite_scalar("handle_extrapolation", values["handle_extrapolation"], minimum=0.0)
         self._buttons = ButtonEdges()
         self.handle_position: NDArray[np.float64] | None = None   # x_M, last good
         self.handle_orientation = (0.0, 0.0, 0.0, 1.0)

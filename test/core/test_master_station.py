@@ -49,8 +49,8 @@ def test_velocity_by_differences_unless_a_twist_is_fresh() -> None:
 
 
 def test_the_network_tick_sends_the_handle_at_its_own_stamp() -> None:
-    """x_M carried forward over the pose's age (device and network timers are not aligned), at most
-    MAX_HANDLE_EXTRAPOLATION_S; x_d' is computed from it and the command carries the same x_M."""
+    """x_M carried forward over the pose's age (device and network timers are not aligned), if that age is at
+    most handle_extrapolation; x_d' is computed from it and the command carries the same x_M."""
     extrapolation = 0.01
     station = MasterStation({**DEFAULTS, "handle_extrapolation": extrapolation})   # offset mode, s_M = 1
     assert station.desired_offset(0.0) is None and station.handle_at(0.0) is None
