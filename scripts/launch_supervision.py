@@ -112,8 +112,9 @@ def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], earl
             reasons.append((EXIT_INPUT_REFUSED, f"the replica went into its safe hold: {record['input_safe_hold']}"))
         refused, clamped = int(record.get("refused_teleop_commands", 0)), int(record.get("clamped_teleop_commands", 0))
         if refused or clamped:
-            reasons.append((EXIT_INPUT_REFUSED, f"the replica refused {refused} teleoperation commands and clamped "
-                                                f"{clamped} onto its workspace"))
+            last = f" (the last: {record['last_refusal']})" if refused and record.get("last_refusal") else ""
+            reasons.append((EXIT_INPUT_REFUSED, f"the replica refused {refused} teleoperation commands{last} and "
+                                                f"clamped {clamped} onto its workspace"))
     if not reasons:
         return EXIT_OK, []
     return min(code for code, _ in reasons), [text for _, text in reasons]

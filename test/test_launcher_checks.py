@@ -82,3 +82,33 @@ def test_the_verdict_names_each_broken_figure_worst_first() -> None:
     code, reasons = safety_verdict(clean, {"haptic_device": 1}, ["haptic_device"], False)
     assert code == EXIT_NODE_FAILED and "haptic_device (1)" in reasons[0]
     assert EXIT_INPUT_REFUSED not in (EXIT_OK, EXIT_REFUSED, EXIT_NODE_FAILED, EXIT_LIMIT_VIOLATIONS)
+
+
+def test_a_refusal_recorded_in_the_bag_is_named_with_its_reason(tmp_path: Path) -> None:
+    """The replica's /diagnostics in the bag carry its refusal count and the last reason; the verdict quotes it."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rclpy.serialization import serialize_message
+
+    from sim_bridge.recording.bag_writer import BagWriter
+
+    def status(refused: str, reason: str) -> bytes:
+        values = {"input_safe_hold": "no", "refused_teleop_commands": refused, "clamped_teleop_commands": "0",
+                  "last_refusal": reason}
+        return serialize_message(DiagnosticArray(status=[DiagnosticStatus(
+            name="replica", values=[KeyValue(key=k, value=v) for k, v in values.items()])]))
+
+    def bag(name: str, *statuses: bytes) -> Path:
+        writer = BagWriter(tmp_path / name)
+        writer.add_topic("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray")
+        for k, message in enumerate(statuses):
+            writer.write("/diagnostics", message, (k + 1) * 1_000_000_000)
+        writer.finish()
+        return tmp_path / name
+
+    clean = {"limit_violations": 0, "dropped_joint_states": 0}
+    assert safety_verdict(clean, {}, [], False, bag("clean", status("0", "none"))) == (EXIT_OK, [])
+    code, reasons = safety_verdict(clean, {}, [], False, bag("refused", status("0", "none"), status(
+        "1", "stamped 3.4 s in the past (at most 3.2 s)")))
+    assert code == EXIT_INPUT_REFUSED
+    assert reasons == ["the replica refused 1 teleoperation commands (the last: stamped 3.4 s in the past (at most "
+                       "3.2 s)) and clamped 0 onto its workspace"]

@@ -23,7 +23,10 @@ huge values (1e3 m, 1e308) never overflow into Inf or NaN.
 
 ``RobotStreamGuard`` watches the robot-side streams (/joint_states in, the torque commands out): each must have
 exactly one publisher (the robot's driver; the replica), and joint-state stamps must not go back and not lie in
-the receiver's future. The first breach latches a safe hold: the replica sends no more torques, and the robot's
+the receiver's future. A second writer of /joint_states is caught twice: by the middleware's match of it to our
+reader, which comes with its first message or within a message or two of it, and by the graph lookup of each
+stream's publishers every half second (alone, that window let a second writer's states drive the arm 0.12 m on a
+loaded machine). The first breach latches a safe hold: the replica sends no more torques, and the robot's
 own command watchdog holds the arm (the simulator: gravity compensation and damping after 50 ms without a command;
 a Franka arm: libfranka's communication reflex stops it). A law held on joint states cannot be trusted: a writer
 whose stamps run ahead of the robot's makes the robot's own states look old, so "the states that move forward" are
@@ -113,6 +116,7 @@ class CommandAuthority:
     refused: int = 0
     clamped: int = 0        # onto the workspace box
     rate_limited: int = 0   # approached at max_offset_speed (normal after a restart; a flood of jumps is not)
+    last_refusal: str = ""  # why the last refused command was refused (for the record: one line, no history)
 
     def __post_init__(self) -> None:
         self._lower = np.asarray(self.bounds.offset_lower, dtype=np.float64)
@@ -138,8 +142,13 @@ class CommandAuthority:
             self._last_received = now
             self._last_offset = verdict.offset
         else:
-            self.refused += 1
+            self.refuse(verdict.reason)
         return verdict
+
+    def refuse(self, reason: str) -> None:
+        """Count a command refused, here or before it reached ``check`` (a second writer on its topic)."""
+        self.refused += 1
+        self.last_refusal = reason
 
     def _judge(self, stamp: float, now: float, mode: int, haptic_gain: float, workspace_scale: float,
                velocity_gain: float, handle_position: ArrayLike, desired_offset: ArrayLike) -> CommandVerdict:
@@ -217,6 +226,13 @@ class RobotStreamGuard:
         reason the first time, "" otherwise."""
         if len(writers) > 1:
             return self._hold(f"{len(writers)} publishers on {topic} ({', '.join(writers)}); one is the robot's")
+        return ""
+
+    def matched(self, topic: str, writers: int) -> str:
+        """The middleware's count of writers matched to our reader of ``topic``, at each change: a second one
+        latches the hold. Returns the reason the first time, "" otherwise."""
+        if writers > 1:
+            return self._hold(f"{writers} publishers matched on {topic}; one is the robot's")
         return ""
 
     def joint_state(self, stamp: float, now: float) -> tuple[bool, str]:

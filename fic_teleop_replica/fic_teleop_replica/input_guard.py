@@ -3,7 +3,8 @@
 Wiring only: the checks themselves are fic_core's (CommandAuthority, RobotStreamGuard); the replica loop
 (fic_core.replica_loop) puts each teleoperation command through the authority. The replica node asks
 ``admits_teleop_command`` before each command (the safe hold, one writer on the topic), logs the loop's verdict
-with ``report``, calls ``joint_state_usable`` for each joint state, and publishes
+with ``report``, calls ``joint_state_usable`` for each joint state (and gives its subscription
+``joint_state_events``), and publishes
 ``diagnostic_values`` with its /diagnostics (recorded in the bag, read back by the launcher's exit code). A safe
 hold is said in one error line and at once on /diagnostics (level ERROR).
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 
 from fic_core.input_authority import CommandAuthority, CommandVerdict, RobotStreamGuard
@@ -36,6 +38,13 @@ AUTHORITY_PARAMETERS = (
                                            "channel's delay must fit inside it; the launcher raises it with "
                                            "--delay)"),
 )
+
+
+def _node_name(info) -> str:
+    """A writer's node, as the graph knows it (a writer discovered before its node's name: said so)."""
+    if info.node_name == "_NODE_NAME_UNKNOWN_":
+        return "a node not yet named in discovery"
+    return f"{info.node_namespace.rstrip('/')}/{info.node_name}"
 
 
 class InputGuard:
@@ -67,7 +76,7 @@ class InputGuard:
             return False
         writers = self._node.count_publishers(self._teleop_topic)
         if writers > 1:
-            self.authority.refused += 1
+            self.authority.refuse(f"{writers} publishers on it")
             self._node.get_logger().error(
                 f"refusing /replica/teleop_command: {writers} publishers on it, one is the channel's; holding the "
                 f"last good x_d' while they last ({self.authority.refused} refused so far)",
@@ -93,12 +102,25 @@ class InputGuard:
             self._hold(reason)
         return usable
 
+    def joint_state_events(self) -> SubscriptionEventCallbacks:
+        """For the /joint_states subscription: the middleware's writer-matched event, which comes with a second
+        writer's first message or within a message or two (the graph lookup every PUBLISHER_CHECK_PERIOD_S lets a
+        loaded machine run the law on that writer's states for as long)."""
+        return SubscriptionEventCallbacks(matched=self._on_joint_state_writers)
+
+    def _on_joint_state_writers(self, status) -> None:
+        if status.current_count <= 1 or self.streams.held:
+            return
+        self._check_publishers()  # names the writers if the graph has them already
+        reason = self.streams.matched(self._robot_streams[0], status.current_count)
+        if reason:
+            self._hold(reason)
+
     def _check_publishers(self) -> None:
         if self.streams.held:
             return
         for topic in self._robot_streams:
-            writers = [f"{info.node_namespace.rstrip('/')}/{info.node_name}"
-                       for info in self._node.get_publishers_info_by_topic(topic)]
+            writers = [_node_name(info) for info in self._node.get_publishers_info_by_topic(topic)]
             reason = self.streams.publishers(topic, writers)
             if reason:
                 self._hold(reason)
@@ -114,6 +136,7 @@ class InputGuard:
     def diagnostic_values(self) -> dict[str, str]:
         return {"input_safe_hold": self.streams.reason if self.streams.held else "no",
                 "refused_teleop_commands": str(self.authority.refused),
+                "last_refusal": self.authority.last_refusal or "none",
                 "clamped_teleop_commands": str(self.authority.clamped),
                 "rate_limited_teleop_commands": str(self.authority.rate_limited),
                 "skipped_joint_states": str(self.streams.skipped_states)}

@@ -73,7 +73,8 @@ class ReplicaNode(Node):
         self._tcp_pose_pub = publisher(PoseStamped, "/replica/tcp_pose", qos.STREAM)
         self._feedback_pub = publisher(WrenchStamped, "/replica/feedback_wrench", qos.STREAM)
         self._diagnostics_pub = publisher(DiagnosticArray, "/diagnostics", qos.DIAGNOSTICS)
-        self.create_subscription(JointState, "/joint_states", self._on_joint_state_bytes, qos.NEWEST, raw=True)
+        self.create_subscription(JointState, "/joint_states", self._on_joint_state_bytes, qos.NEWEST, raw=True,
+                                 event_callbacks=self._input_guard.joint_state_events())
         self.create_subscription(WrenchStamped, "/ft_sensor/wrench", self._on_wrench, qos.NEWEST)
         self.create_subscription(TeleoperationCommand, "/replica/teleop_command", self._on_teleop_command,
                                  qos.SET_POINT)

@@ -46,6 +46,7 @@ def test_malformed_or_mistimed_commands_are_refused_with_a_reason(field, value, 
     assert not verdict.accepted and verdict.offset is None
     assert words in verdict.reason
     assert authority.refused == 1 and authority.accepted == 0
+    assert authority.last_refusal == verdict.reason  # kept for /diagnostics and the launcher's verdict
 
 
 def test_an_offset_outside_the_workspace_is_clamped_onto_it() -> None:
@@ -131,6 +132,15 @@ def test_joint_state_stamps_going_back_latch_the_hold_and_are_not_used() -> None
     assert guard.joint_state(10.002, 10.0) == (True, "")  # the robot's own stream goes on, forward
     assert guard.joint_state(10.0015, 10.0) == (False, "")  # reason given once
     assert guard.skipped_states == 2
+
+
+def test_a_second_matched_writer_latches_the_hold_once() -> None:
+    guard = RobotStreamGuard()
+    assert guard.matched("/joint_states", 1) == "" and not guard.held
+    reason = guard.matched("/joint_states", 2)
+    assert guard.held and reason == "2 publishers matched on /joint_states; one is the robot's"
+    assert guard.matched("/joint_states", 3) == "" and guard.publishers("/joint_states", ["/a", "/b"]) == ""
+    assert guard.matched("/joint_states", 1) == "" and guard.held  # latched
 
 
 def test_a_joint_state_from_the_future_is_not_used() -> None:

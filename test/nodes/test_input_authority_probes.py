@@ -159,6 +159,8 @@ def test_a_second_teleop_writer_is_refused_and_the_arm_stays(start_node, ros_env
     refused = max(int(value.value) for status in watcher.replica_status for value in status.values
                   if value.key == "refused_teleop_commands")
     assert refused >= 1  # counted on /diagnostics (under load the replica's depth-1 queue takes a fraction)
+    last = [value.value for status in watcher.replica_status for value in status.values if value.key == "last_refusal"]
+    assert last[-1] == "2 publishers on it", last[-1]  # why, on /diagnostics too
 
 
 @pytest.mark.parametrize("arguments, words", [
@@ -208,5 +210,6 @@ def test_a_second_joint_state_writer_puts_the_replica_into_its_safe_hold(start_n
     held = [status for status in watcher.replica_status if status.message.startswith("safe hold")]
     assert held and held[-1].level == DiagnosticStatus.ERROR  # on /diagnostics, on /diagnostics (recorded in a bag)
     moved = watcher.displacement_since(start)
-    print(f"[probe] the TCP moved {moved * 1000:.1f} mm")
-    assert moved < 0.05, f"the TCP moved {moved:.3f} m\n{log}"  # before: 0.47 m
+    print(f"[probe] the TCP moved {moved * 1000:.1f} mm; {held[-1].message}")
+    # before: 0.47 m; with the graph lookup alone, 0.118 m on a loaded machine (its half-second window)
+    assert moved < 0.05, f"the TCP moved {moved:.3f} m\n{log}"
