@@ -51,12 +51,28 @@ def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path, ros_env)
     messages: list[Joy] = []
     node.create_subscription(Joy, "/operator/joy", messages.append, QOS)
 
+    output = b""
+
+    def drain() -> None:
+        """Read what the operator wrote so far. Its status line goes out at 50 Hz, and a pseudo-terminal holds only
+        a few kB: unread, it filled in 2-4 s here and blocked the operator in its write, before it read the q (the
+        test then saw no exit on a loaded machine, where the first Joy message comes late)."""
+        nonlocal output
+        while __import__("select").select([master], [], [], 0.0)[0]:
+            try:
+                chunk = os.read(master, 4096)
+            except OSError:  # the slave side closed: the process is gone
+                return
+            if not chunk:
+                return
+            output += chunk
+
     def spin_for(seconds: float) -> None:
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.01)
+            drain()
 
-    output = b""
     try:
         deadline = time.monotonic() + 30.0
         while not messages and time.monotonic() < deadline:
@@ -72,15 +88,13 @@ def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path, ros_env)
         assert list(messages[-1].axes) == [0.0, 0.0, 0.0]
         assert sum(m.buttons[0] for m in messages) == 1
         os.write(master, b"q")
-        code = process.wait(timeout=15)
-        while True:
-            ready = __import__("select").select([master], [], [], 0.2)[0]
-            if not ready:
-                break
-            try:
-                output += os.read(master, 4096)
-            except OSError:
-                break
+        deadline = time.monotonic() + 15.0
+        while process.poll() is None and time.monotonic() < deadline:
+            drain()
+            time.sleep(0.02)
+        code = process.wait(timeout=1.0)
+        time.sleep(0.2)
+        drain()
     finally:
         executor.shutdown()
         node.destroy_node()
