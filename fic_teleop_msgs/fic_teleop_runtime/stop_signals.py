@@ -14,7 +14,9 @@ Two causes, two answers:
   the launcher starts each node with SIGINT and SIGTERM blocked (scripts/launch_supervision.py); a blocked signal
   waits, and ``install()`` (run when fic_teleop_runtime is imported, first thing in each node package) installs
   these handlers and unblocks them, so a signal sent at any moment is handled here. A node started by hand gets
-  them when ``run_node`` calls ``install()``.
+  them when ``run_node`` calls ``install()``. Where that SystemExit cannot propagate (an uncaught exception a C
+  extension makes of it, or an "Exception ignored" in a weakref callback or a destructor), the process exits 0
+  right there (``_on_uncaught``, ``_on_unraisable``).
 """
 from __future__ import annotations
 
@@ -43,7 +45,20 @@ def _on_uncaught(kind, value, traceback) -> None:
     _previous_hook(kind, value, traceback)
 
 
+def _on_unraisable(unraisable) -> None:
+    """An exception Python cannot raise where it happened (a weakref callback, a destructor) is printed as "Exception
+    ignored in ..." with a traceback, and the code goes on. Our SystemExit of a stop during the start can land there
+    (measured: in importlib's module-lock callback, on a loaded machine): then the stop's doing, exit 0 at once,
+    without the traceback and without starting the node."""
+    if isinstance(unraisable.exc_value, SystemExit) and _state["requested"] and not _state["running"]:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)
+    _previous_unraisable_hook(unraisable)
+
+
 _previous_hook = sys.excepthook
+_previous_unraisable_hook = sys.unraisablehook
 
 
 def install() -> None:
@@ -52,6 +67,7 @@ def install() -> None:
         for signum in STOP_SIGNALS:
             signal.signal(signum, _on_signal)
         sys.excepthook = _on_uncaught
+        sys.unraisablehook = _on_unraisable
         _state["installed"] = True
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
 
