@@ -34,14 +34,19 @@ def _on_signal(signum: int, frame) -> None:  # noqa: ARG001 - signal handler sig
         raise SystemExit(0)  # still starting: nothing to finish, leave through the finally blocks
 
 
-def _on_uncaught(kind, value, traceback) -> None:
-    """An exception nobody caught, after a stop came during the start: the stop's doing, exit 0 without a
-    traceback. A signal inside a C extension's initialisation (measured: SIGTERM during ``import mujoco`` on a
-    loaded machine) turns our SystemExit into "ImportError: initialization failed" on its way up."""
+def _exit_if_stopped_while_starting() -> None:
+    """A stop came while the node was starting and its SystemExit went astray: exit 0 now, output flushed."""
     if _state["requested"] and not _state["running"]:
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(0)
+
+
+def _on_uncaught(kind, value, traceback) -> None:
+    """An exception nobody caught, after a stop came during the start: the stop's doing, exit 0 without a
+    traceback. A signal inside a C extension's initialisation (measured: SIGTERM during ``import mujoco`` on a
+    loaded machine) turns our SystemExit into "ImportError: initialization failed" on its way up."""
+    _exit_if_stopped_while_starting()
     _previous_hook(kind, value, traceback)
 
 
@@ -50,10 +55,8 @@ def _on_unraisable(unraisable) -> None:
     ignored in ..." with a traceback, and the code goes on. Our SystemExit of a stop during the start can land there
     (measured: in importlib's module-lock callback, on a loaded machine): then the stop's doing, exit 0 at once,
     without the traceback and without starting the node."""
-    if isinstance(unraisable.exc_value, SystemExit) and _state["requested"] and not _state["running"]:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(0)
+    if isinstance(unraisable.exc_value, SystemExit):
+        _exit_if_stopped_while_starting()
     _previous_unraisable_hook(unraisable)
 
 

@@ -58,6 +58,7 @@ class InputGuard:
         self.streams = RobotStreamGuard(future_tolerance=float(values["command_future_tolerance"]))
         # The names after the node's remaps (a driver profile renames /joint_states): count the writers there.
         self._robot_streams = tuple(node.resolve_topic_name(topic) for topic in ROBOT_STREAMS)
+        self._joint_states_topic = self._robot_streams[0]
         self._teleop_topic = node.resolve_topic_name(TELEOP_TOPIC)
         node.create_timer(PUBLISHER_CHECK_PERIOD_S, self._check_publishers)
 
@@ -76,9 +77,10 @@ class InputGuard:
             return False
         writers = self._node.count_publishers(self._teleop_topic)
         if writers > 1:
-            self.authority.refuse(f"{writers} publishers on it")
+            reason = f"{writers} publishers on it"
+            self.authority.refuse(reason)
             self._node.get_logger().error(
-                f"refusing /replica/teleop_command: {writers} publishers on it, one is the channel's; holding the "
+                f"refusing /replica/teleop_command: {reason}, one is the channel's; holding the "
                 f"last good x_d' while they last ({self.authority.refused} refused so far)",
                 throttle_duration_sec=LOG_THROTTLE_S)
             return False
@@ -112,7 +114,7 @@ class InputGuard:
         if status.current_count <= 1 or self.streams.held:
             return
         self._check_publishers()  # names the writers if the graph has them already
-        reason = self.streams.matched(self._robot_streams[0], status.current_count)
+        reason = self.streams.matched(self._joint_states_topic, status.current_count)
         if reason:
             self._hold(reason)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import pty
+import select
 import subprocess
 import sys
 import termios
@@ -53,12 +54,13 @@ def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path, ros_env)
 
     output = b""
 
-    def drain() -> None:
-        """Read what the operator wrote so far. Its status line goes out at 50 Hz, and a pseudo-terminal holds only
-        a few kB: unread, it filled in 2-4 s here and blocked the operator in its write, before it read the q (the
-        test then saw no exit on a loaded machine, where the first Joy message comes late)."""
+    def drain(timeout: float = 0.0) -> None:
+        """Read what the operator wrote so far (waiting up to ``timeout`` for each more). Its status line goes out
+        at 50 Hz, and a pseudo-terminal holds only a few kB: unread, it filled in 2-4 s here and blocked the
+        operator in its write, before it read the q (the test then saw no exit on a loaded machine, where the first
+        Joy message comes late)."""
         nonlocal output
-        while __import__("select").select([master], [], [], 0.0)[0]:
+        while select.select([master], [], [], timeout)[0]:
             try:
                 chunk = os.read(master, 4096)
             except OSError:  # the slave side closed: the process is gone
@@ -93,8 +95,7 @@ def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path, ros_env)
             drain()
             time.sleep(0.02)
         code = process.wait(timeout=1.0)
-        time.sleep(0.2)
-        drain()
+        drain(timeout=0.2)  # its last lines may still be on their way through the pty
     finally:
         executor.shutdown()
         node.destroy_node()

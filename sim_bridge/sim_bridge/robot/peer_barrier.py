@@ -12,8 +12,8 @@ past ``t`` until every peer's newest stamp is at least ``t - max_lag`` (``max_la
 a 100 Hz publisher is up to 10 ms behind by design). A peer is only waited for once it has published: a node that
 has not started yet does not hold the simulation at t = 0 (the robot node does not take its first lockstep step
 before every peer topic has a publisher, so a peer that starts late still joins at the start). A peer that keeps
-the simulation waiting longer than ``timeout`` (wall clock) is declared stalled (a dead or hung node) and is not waited for again until it catches
-up, so a lost peer costs one timeout, not one per step.
+the simulation waiting longer than ``timeout`` (wall clock) is declared stalled (a dead or hung node) and is not
+waited for again until it catches up, so a lost peer costs one timeout, not one per step.
 
 Plain Python (threading only): the stamps come from the subscriber's thread, the waits from the physics thread.
 """
