@@ -38,8 +38,9 @@ from fic_teleop_runtime.parameters import Schema, declare, integer, number, numb
 NODE_NAME = "fd_adapter"
 #: What forcedimension_ros2's broadcasters and its effort controller use: rclcpp::SystemDefaultsQoS(); the
 #: adapter's own view of the 1 kHz driver streams: only the newest matters (best effort matches reliable); the
-#: master's streams and buttons as the master reads them.
+#: master's streams and buttons as the master reads them (written with the streams' deep writer history).
 DRIVER_QOS, NEWEST_QOS, STREAM_QOS, JOY_QOS = qos.SYSTEM_DEFAULTS, qos.NEWEST, qos.STREAM, qos.EVENTS
+STREAM_WRITER_QOS = qos.STREAM_WRITER
 JOY_BUTTON_COUNT = 3
 LOG_THROTTLE_S = 2.0
 
@@ -104,11 +105,11 @@ class FdAdapterNode(Node):
         self.counts = {"poses": 0, "refused_poses": 0, "joint_states": 0, "refused_joint_states": 0,
                        "commands": 0, "refused_commands": 0, "mode_toggles": 0, "gain_changes": 0, "ramps": 0}
 
-        self._pose_pub = self.create_publisher(PoseStamped, "/haptic/pose", STREAM_QOS)
-        self._twist_pub = self.create_publisher(TwistStamped, "/haptic/twist", STREAM_QOS)
+        self._pose_pub = self.create_publisher(PoseStamped, "/haptic/pose", STREAM_WRITER_QOS)
+        self._twist_pub = self.create_publisher(TwistStamped, "/haptic/twist", STREAM_WRITER_QOS)
         self._device_pub = self.create_publisher(Float64MultiArray, "/fd/fd_controller/commands", DRIVER_QOS)
         self._joy_pub = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
-        self._gain_pub = self.create_publisher(Float64, "/master/haptic_gain", STREAM_QOS)
+        self._gain_pub = self.create_publisher(Float64, "/master/haptic_gain", STREAM_WRITER_QOS)
         self.create_subscription(PoseStamped, "/fd/ee_pose", self._on_pose, NEWEST_QOS)
         self.create_subscription(JointState, "/fd/joint_states", self._on_joint_state, NEWEST_QOS)
         # Button and clutch are events: reliable, as the driver publishes them, so an edge is not lost.

@@ -31,9 +31,11 @@ from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, text
 
-# Device and teleoperation streams RELIABLE (the channel alone loses on purpose); button presses are events: a lost
-# toggle would invert the mode for the rest of the run (fic_teleop_runtime.qos).
-STREAM_QOS, JOY_QOS, DIAGNOSTICS_QOS = qos.STREAM, qos.EVENTS, qos.DIAGNOSTICS
+# Device and teleoperation streams RELIABLE (the channel alone loses on purpose), read 20 deep and written with
+# the streams' deep writer history; button presses are events: a lost toggle would invert the mode for the rest
+# of the run (fic_teleop_runtime.qos).
+STREAM_QOS, STREAM_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
+JOY_QOS, DIAGNOSTICS_QOS = qos.EVENTS, qos.DIAGNOSTICS
 SCHEMA = Schema("master.yaml", (number(name, low, high, description, read_only)
                                 for name, (low, high, description, read_only) in MASTER_NUMBERS.items()),
                 integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
@@ -48,9 +50,9 @@ class MasterNode(Node):
         self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, "mode", "frame_id")})
         self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
         self._frame_id = values["frame_id"]
-        self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_QOS)
-        self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_QOS)
-        self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command", STREAM_QOS)
+        self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_WRITER_QOS)
+        self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_WRITER_QOS)
+        self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command", STREAM_WRITER_QOS)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self.create_subscription(PoseStamped, "/haptic/pose", self._on_pose, STREAM_QOS)
         self.create_subscription(TwistStamped, "/haptic/twist", self._on_twist, STREAM_QOS)

@@ -2,11 +2,17 @@
 (docs/INTERFACES.md lists which topic uses which).
 
 Why each is what it is:
-- ``STREAM``: device streams, set-points on their way through the channel, status topics: RELIABLE, KEEP_LAST 20.
-  The channel is where loss is injected on purpose; DDS itself should add none.
+- ``STREAM``: a reader of device streams, set-points on their way through the channel, status topics: RELIABLE,
+  KEEP_LAST 20. The channel is where loss is injected on purpose; DDS itself should add none.
+- ``STREAM_WRITER``: every writer of those streams: RELIABLE, KEEP_LAST 1000 (a second at 1 kHz). A reliable
+  KEEP_LAST writer overwrites the samples a stalled reader has not acknowledged yet, and those are lost for that
+  reader for good: with 20, a recorder starved of CPU for a fraction of a second on a loaded machine lost 18
+  /haptic/pose samples of a lockstep run; a reader stopped for 0.6 s at 1 kHz lost 0, 1 and 4 of 3000 (depth 20)
+  and 0 in 3 tries (depth 1000). A deep writer history costs memory only; the readers keep their own depths.
 - ``EVENTS``: button presses. A lost toggle would invert the teleoperation mode for the rest of the run.
-- ``ROBOT_STREAM``: 1 kHz robot streams (the replica's torque command): a recorder must lose none, and a late
-  command is superseded anyway.
+- ``ROBOT_STREAM``: 1 kHz robot streams (joint states, the F/T wrench, /clock, the replica's torque command),
+  writers and the lockstep reader of torque commands: a recorder must lose none (as ``STREAM_WRITER``), and in
+  lockstep every answer counts, in order.
 - ``NEWEST``: a reader for which only the newest sample matters (the replica's joint states, the F/T reading). A
   deep reader queue on a busy machine handed the control law a backlog of old states (measured: the arm was thrown
   about under overload); BEST_EFFORT because a reliable reader delivers in order, and one sample lost between
@@ -32,9 +38,11 @@ def best_effort(depth: int) -> QoSProfile:
     return QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=depth)
 
 
+WRITER_HISTORY = 1000  # samples a stream's writer keeps for a stalled reader: a second at 1 kHz
 STREAM = reliable(20)
+STREAM_WRITER = reliable(WRITER_HISTORY)
 EVENTS = reliable(50)
-ROBOT_STREAM = reliable(50)
+ROBOT_STREAM = reliable(WRITER_HISTORY)
 NEWEST = best_effort(1)
 SET_POINT = reliable(1)
 DIAGNOSTICS = reliable(10)

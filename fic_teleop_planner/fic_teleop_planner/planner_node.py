@@ -36,7 +36,8 @@ from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, switch, text
 from fic_teleop_runtime.parameters import values as parameter_values
 
-POSE_QOS, DIAGNOSTICS_QOS = qos.STREAM, qos.DIAGNOSTICS  # docs/CONVENTIONS.md: RELIABLE, KEEP_LAST 20
+# docs/CONVENTIONS.md: RELIABLE, the streams' deep writer history (a stalled reader, the recorder, loses nothing)
+POSE_QOS, DIAGNOSTICS_QOS = qos.STREAM_WRITER, qos.DIAGNOSTICS
 
 TRAJECTORIES = ("circle", "fixed", "via_points")
 TRAJECTORY_PARAMETERS = ("trajectory", "circle_centre", "circle_diameter", "circle_period", "circle_normal",

@@ -13,6 +13,7 @@ one writer of /effort_controller/commands, as the replica's input authority expe
 from __future__ import annotations
 
 import numpy as np
+from fic_teleop_runtime import qos
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, switch
 from rclpy.clock import Clock, ClockType
@@ -41,6 +42,8 @@ SCHEMA = Schema(
 #: What ros2_control's forward command controller subscribes with (rclcpp::SystemDefaultsQoS: reliable, keep
 #: last 10); the replica's commands come reliable too, and only the newest matters.
 COMMAND_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+#: Written with the robot streams' deep writer history, so that a recorder that stalls loses none of the commands.
+COMMAND_WRITER_QOS = qos.ROBOT_STREAM
 STATE_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=1)
 
 
@@ -54,7 +57,7 @@ class CommandRelayNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._robot = None if semantics.gravity_compensated_by_robot else RobotModel()
         self._gravity: np.ndarray | None = None
-        self._out = self.create_publisher(Float64MultiArray, "/effort_controller/commands", COMMAND_QOS)
+        self._out = self.create_publisher(Float64MultiArray, "/effort_controller/commands", COMMAND_WRITER_QOS)
         self.create_subscription(Float64MultiArray, "/replica/effort_command", self._on_command, COMMAND_QOS)
         if self._robot is not None:
             self.create_subscription(JointState, "/joint_states", self._on_joint_state, STATE_QOS)

@@ -63,15 +63,16 @@ class ReplicaNode(Node):
         self._refusals = RefusalLog(self.get_logger())
         self._input_guard = InputGuard(self, values, authority, on_hold=lambda: self._publish_diagnostics())
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        # The robot-side QoS (fic_teleop_runtime.qos): the command RELIABLE for the recorder; joint states and F_R
-        # the newest only (no backlog of old states for the law); set-points depth 1 (only the newest is used).
+        # The robot-side QoS (fic_teleop_runtime.qos): the command and the status streams RELIABLE with a deep
+        # writer history for the recorder; joint states and F_R the newest only (no backlog of old states for the
+        # law); set-points depth 1 (only the newest is used).
         publisher = self.create_publisher
         self._command_pub = publisher(Float64MultiArray, "/effort_controller/commands", qos.ROBOT_STREAM)
-        self._fic_state_pub = publisher(FicState, "/replica/fic_state", qos.STREAM)
-        self._limit_status_pub = publisher(LimitStatus, "/replica/limit_status", qos.STREAM)
-        self._desired_pose_pub = publisher(PoseStamped, "/replica/desired_pose", qos.STREAM)
-        self._tcp_pose_pub = publisher(PoseStamped, "/replica/tcp_pose", qos.STREAM)
-        self._feedback_pub = publisher(WrenchStamped, "/replica/feedback_wrench", qos.STREAM)
+        self._fic_state_pub = publisher(FicState, "/replica/fic_state", qos.STREAM_WRITER)
+        self._limit_status_pub = publisher(LimitStatus, "/replica/limit_status", qos.STREAM_WRITER)
+        self._desired_pose_pub = publisher(PoseStamped, "/replica/desired_pose", qos.STREAM_WRITER)
+        self._tcp_pose_pub = publisher(PoseStamped, "/replica/tcp_pose", qos.STREAM_WRITER)
+        self._feedback_pub = publisher(WrenchStamped, "/replica/feedback_wrench", qos.STREAM_WRITER)
         self._diagnostics_pub = publisher(DiagnosticArray, "/diagnostics", qos.DIAGNOSTICS)
         self.create_subscription(JointState, "/joint_states", self._on_joint_state_bytes, qos.NEWEST, raw=True,
                                  event_callbacks=self._input_guard.joint_state_events())

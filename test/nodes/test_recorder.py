@@ -7,6 +7,7 @@ the killed one, the mcap library's sequential reader on a pipe).
 """
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import sys
@@ -30,11 +31,12 @@ from fic_teleop_msgs.msg import ChannelDelivery, FicState, LimitStatus
 
 count, skip = int(sys.argv[1]), {int(s) for s in sys.argv[2].split(",") if s}
 wait_for_acks = sys.argv[3] == "1"  # not when the test kills the recorder on purpose
+writer_depth = int(sys.argv[4])
 rclpy.init()
 node = rclpy.create_node("test_publisher")
 # Deep writer history: a reliable KEEP_LAST writer overwrites samples not yet acknowledged once its history is
 # full, so on a starved machine a depth of 50 (50 ms at 1 kHz) can lose samples before they reach any reader.
-qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
+qos = QoSProfile(depth=writer_depth, reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST)
 joint_states = node.create_publisher(JointState, "/joint_states", qos)
 fic = node.create_publisher(FicState, "/replica/fic_state", qos)
 limits = node.create_publisher(LimitStatus, "/replica/limit_status", qos)
@@ -98,13 +100,14 @@ SKIPPED = [1200, 1201, 1202, 2500]  # stamps the publisher leaves out: 4 "droppe
 
 
 class Publisher:
-    def __init__(self, tmp_path: Path, env: dict, count: int, skip: list[int], wait_for_acks: bool = True) -> None:
+    def __init__(self, tmp_path: Path, env: dict, count: int, skip: list[int], wait_for_acks: bool = True,
+                 writer_depth: int = 1000) -> None:
         script = tmp_path / "publisher.py"
         script.write_text(PUBLISHER)
         self.log_path = tmp_path / "publisher.log"
         self._log = open(self.log_path, "wb")
         self.process = subprocess.Popen([sys.executable, str(script), str(count), ",".join(map(str, skip)),
-                                         "1" if wait_for_acks else "0"],
+                                         "1" if wait_for_acks else "0", str(writer_depth)],
                                         env=env, stdout=self._log, stderr=subprocess.STDOUT)
 
     def output(self) -> str:
@@ -193,6 +196,42 @@ def test_recorder_keeps_every_message_and_finishes_on_sigint(start_node, tmp_pat
     _check_bag(bag, log)
     # The gap counter found exactly the stamps the publisher skipped.
     assert f"/joint_states: {COUNT - len(SKIPPED)} received, {len(SKIPPED)} dropped in 2 gaps" in log, log
+    assert "DDS lost none" in log, log
+    custom = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]["custom_data"]
+    assert custom["lost_messages"] == "{}"
+
+
+def test_recorder_counts_what_dds_lost_while_it_was_stalled(start_node, tmp_path, ros_env):
+    """A writer with a history of 1 and a recorder stopped (SIGSTOP) for 0.8 s at 1 kHz: DDS loses samples the
+    writer no longer holds (here about 110-140 of them). The recorder's count of them (message-lost events) is in
+    its log line, its bag's metadata.yaml and the report's metric, and accounts for every sample it did not
+    record."""
+    from sim_bridge.report import ReportSettings, analyse, load_bag
+
+    bag = tmp_path / "bag"
+    recorder = start_node("sim_bridge", "recorder_node", params={"bag_path": str(bag), "topics": list(RECORDED)})
+    publisher = Publisher(tmp_path, ros_env, COUNT, [], writer_depth=1)
+    deadline = time.monotonic() + 40
+    while publisher.progress() < 1000 and time.monotonic() < deadline and publisher.process.poll() is None:
+        time.sleep(0.02)
+    assert publisher.progress() >= 1000, publisher.output() + recorder.output()
+    recorder.process.send_signal(signal.SIGSTOP)
+    time.sleep(0.8)
+    recorder.process.send_signal(signal.SIGCONT)
+    assert publisher.wait(timeout=40) == 0, publisher.output() + recorder.output()
+    assert f"published {COUNT}" in publisher.output()
+    recorder.process.send_signal(signal.SIGINT)
+    assert recorder.process.wait(timeout=20) == 0, recorder.output()
+
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    counts = {t["topic_metadata"]["name"]: t["message_count"] for t in metadata["topics_with_message_count"]}
+    lost = json.loads(metadata["custom_data"]["lost_messages"])
+    assert lost.get("/joint_states", 0) > 0, (lost, counts)           # the stall did lose samples ...
+    assert counts["/joint_states"] + lost["/joint_states"] == COUNT, (lost, counts)  # ... and all are counted
+    assert "DDS lost " in recorder.output() and f"/joint_states {lost['/joint_states']}" in recorder.output()
+    metrics = analyse(load_bag(bag), ReportSettings()).metrics
+    assert metrics["recorder_lost_messages"] == sum(lost.values())
+    assert metrics["targets"]["recorder_lost_messages"]["met"] is False
 
 
 def test_recorder_discovers_all_topics_and_finishes_on_sigterm(start_node, tmp_path, ros_env):

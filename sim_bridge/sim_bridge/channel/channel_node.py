@@ -37,11 +37,12 @@ try:
 except ImportError:          # the message package is not built: the channel still works, without that topic
     ChannelDelivery = None
 
-# Teleoperation streams through the channel (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 20. The channel is where
-# loss is injected on purpose; DDS itself should add none.
-CHANNEL_QOS = qos.STREAM
-# One ChannelDelivery per forwarded message, read by the recorder: deep enough for a 1 kHz burst.
-DELIVERY_QOS = qos.reliable(100)
+# Teleoperation streams through the channel (docs/CONVENTIONS.md): read RELIABLE, KEEP_LAST 20, written with the
+# streams' deep writer history (a stalled reader loses nothing). The channel is where loss is injected on
+# purpose; DDS itself should add none.
+CHANNEL_QOS, CHANNEL_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
+# One ChannelDelivery per forwarded message, read by the recorder: a stream's writer too.
+DELIVERY_QOS = qos.STREAM_WRITER
 DIAGNOSTICS_QOS = qos.DIAGNOSTICS
 
 # Parameters that reconfigure the links at run time; ``routes`` and the timer rates are fixed at start.
@@ -119,7 +120,7 @@ class ChannelNode(Node):
             cls = message_class(type_name)
             route = Route(in_topic, out_topic, type_name, starts_with_header(cls),
                           Channel(dataclasses.replace(config, seed=seed)),
-                          self.create_publisher(cls, out_topic, CHANNEL_QOS))
+                          self.create_publisher(cls, out_topic, CHANNEL_WRITER_QOS))
             route.subscription = self.create_subscription(
                 cls, in_topic, lambda data, route=route: self._on_message(route, data), CHANNEL_QOS, raw=True)
             self._routes.append(route)

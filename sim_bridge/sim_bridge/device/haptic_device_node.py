@@ -35,8 +35,9 @@ from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
                                          load_script)
 
-# Device streams at 500 Hz (docs/CONVENTIONS.md): RELIABLE KEEP_LAST 20, like the other status streams.
-DEVICE_QOS = qos.STREAM
+# Device streams at 250 Hz (docs/CONVENTIONS.md): RELIABLE, written with the streams' deep writer history (a
+# stalled reader loses nothing), the force command read KEEP_LAST 20 like the other streams.
+DEVICE_QOS, DEVICE_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
 # Button presses must not be lost (a lost toggle inverts the mode for the rest of the run): RELIABLE, deep.
 JOY_QOS = qos.EVENTS
 
@@ -140,8 +141,8 @@ class HapticDeviceNode(Node):
             self.fd_joint_state = JointState(name=list(fd.joint_names))
             self.fd_button_pressed = False
         else:
-            self.pose_publisher = self.create_publisher(PoseStamped, "/haptic/pose", DEVICE_QOS)
-            self.twist_publisher = self.create_publisher(TwistStamped, "/haptic/twist", DEVICE_QOS)
+            self.pose_publisher = self.create_publisher(PoseStamped, "/haptic/pose", DEVICE_WRITER_QOS)
+            self.twist_publisher = self.create_publisher(TwistStamped, "/haptic/twist", DEVICE_WRITER_QOS)
             self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_command, DEVICE_QOS)
         self.command_force = np.zeros(3)
         self.command_time: float | None = None

@@ -13,8 +13,8 @@ from sim_bridge.experiments.stability import StabilityCriterion
 
 METRIC_KEYS = ("free_motion_error_max_m", "free_motion_error_rms_m", "contact_error_max_m", "peak_interaction_force_n",
                "limit_violations", "limit_shaped_ticks", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
-               "real_time_factor", "dropped_joint_states", "delay_one_way_ms", "duration_s", "controller",
-               "energy_max_j", "master_stale_ticks")
+               "real_time_factor", "dropped_joint_states", "recorder_lost_messages", "recorder_lost_by_topic",
+               "delay_one_way_ms", "duration_s", "controller", "energy_max_j", "master_stale_ticks")
 
 
 def analyse_cell(cell: Cell, run_dir: Path, outcome, criterion: StabilityCriterion, blackout_at: float | None = None

@@ -292,8 +292,9 @@ class BagWriter:
         return self._finished
 
     # -- closing ---------------------------------------------------------------------------------------------
-    def finish(self) -> BagSummary:
-        """Write the last chunk, rosbag2's metadata record, the summary and footer, and metadata.yaml.
+    def finish(self, custom_data: dict[str, str] | None = None) -> BagSummary:
+        """Write the last chunk, rosbag2's metadata record, the summary and footer, and metadata.yaml, with
+        ``custom_data`` (strings, rosbag2's own key-value map) added to the writer's.
 
         Idempotent: a second call returns the first call's summary.
         """
@@ -303,6 +304,8 @@ class BagWriter:
                 return self.summary
             self._finished = True
             metadata = self._rosbag2_metadata()
+            metadata["rosbag2_bagfile_information"]["custom_data"].update(
+                {str(key): str(value) for key, value in (custom_data or {}).items()})
             self._writer.add_metadata("rosbag2", {"serialized_metadata": yaml.safe_dump(
                 metadata["rosbag2_bagfile_information"], sort_keys=False)})
             self._writer.finish()

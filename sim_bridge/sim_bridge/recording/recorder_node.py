@@ -16,6 +16,12 @@ step (`joint_states_period`, 1 ms) per message; a jump of n steps between consec
 dropped messages (wherever they were lost: by the simulator, DDS, or this recorder). Stamps off that grid (the
 simulator's realtime mode stamps with its node clock) are counted as such and not gap-checked.
 
+Lost messages: every subscription counts DDS's message-lost events (samples a writer no longer held when this
+reader asked for them again: a reliable KEEP_LAST writer overwrites what a stalled reader has not acknowledged).
+The counts per topic go to /diagnostics, to the last log line and to the bag's metadata.yaml (`custom_data`
+`lost_messages`, JSON), so that a report can say what the bag is missing. A sample this recorder's own queue
+dropped is not in that count (its depth is 1000: a stall of a second at 1 kHz); /joint_states' gap check sees it.
+
 Stopping: SIGINT and SIGTERM (rclpy's handlers shut the context down) or any other rclpy shutdown end the spin;
 the writer thread then drains the queue and the bag gets its summary, footer and metadata.yaml.
 """
@@ -23,6 +29,7 @@ from __future__ import annotations
 
 import collections
 import datetime
+import json
 import re
 import threading
 import time
@@ -30,6 +37,7 @@ from pathlib import Path
 
 import rclpy
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import SubscriptionEventCallbacks
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -143,6 +151,7 @@ class RecorderNode(Node):
         self._recorded: dict[str, object] = {}
         self._skipped: set[str] = set()
         self._counts: list[int] = []
+        self._lost: dict[str, int] = {}  # topic -> DDS message-lost total (executor thread)
         self._max_backlog = 0
         self._stop = threading.Event()
         self._finish_lock = threading.Lock()
@@ -206,8 +215,9 @@ class RecorderNode(Node):
         self._counts.append(0)
         # The bag learns the topic before its first message: the queue is FIFO.
         self._queue.append((None, (topic, type_name, offered), 0))
-        self._recorded[topic] = self.create_subscription(subscription_type, topic, self._enqueuer(index), qos,
-                                                         raw=True)
+        self._recorded[topic] = self.create_subscription(
+            subscription_type, topic, self._enqueuer(index), qos, raw=True,
+            event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_counter(topic)))
         self.get_logger().info(f"recording {topic} [{type_name}] "
                                f"({qos.reliability.name.lower()}, {qos.durability.name.lower()}, depth {qos.depth})")
 
@@ -219,6 +229,18 @@ class RecorderNode(Node):
         def enqueue(data: bytes) -> None:
             append((index, data, now()))
         return enqueue
+
+    def _lost_counter(self, topic: str):
+        def count(status) -> None:
+            self._lost[topic] = int(status.total_count)
+            self.get_logger().warning(f"{topic}: DDS lost {status.total_count_change} message(s) before this "
+                                      f"recorder took them ({status.total_count} in all); a writer's history is "
+                                      f"shorter than this recorder's stall", throttle_duration_sec=1.0)
+        return count
+
+    def lost(self) -> dict[str, int]:
+        """DDS message-lost totals per topic (topics that lost none are left out)."""
+        return {topic: count for topic, count in sorted(self._lost.items()) if count}
 
     # -- writing (writer thread) ------------------------------------------------------------------------------
     def _write_loop(self) -> None:
@@ -271,12 +293,18 @@ class RecorderNode(Node):
         if self.joint_states.dropped:
             status.level = DiagnosticStatus.WARN
             status.message += f"; {self.joint_states.dropped} joint states dropped"
+        lost = self.lost()
+        if lost:
+            status.level = DiagnosticStatus.WARN
+            status.message += f"; DDS lost {sum(lost.values())} messages"
         values = {"bag": str(self.bag.bag_dir), "backlog": len(self._queue), "max_backlog": self._max_backlog,
                   "joint_states_received": self.joint_states.received,
                   "joint_states_dropped": self.joint_states.dropped,
                   "joint_states_out_of_order": self.joint_states.out_of_order,
-                  "joint_states_off_step_grid": self.joint_states.off_grid}
+                  "joint_states_off_step_grid": self.joint_states.off_grid,
+                  "lost_messages": sum(lost.values())}
         values.update({f"count {topic}": count for topic, count in self.counts().items()})
+        values.update({f"lost {topic}": count for topic, count in lost.items()})
         status.values = [KeyValue(key=key, value=str(value)) for key, value in values.items()]
         message = DiagnosticArray(status=[status])
         message.header.stamp = self.get_clock().now().to_msg()
@@ -299,7 +327,8 @@ class RecorderNode(Node):
                 self.destroy_subscription(subscription)
             self._stop.set()
             self._writer.join()
-            summary = self.bag.finish()
+            lost = self.lost()
+            summary = self.bag.finish(custom_data={"lost_messages": json.dumps(lost)})
             if self.live is not None:
                 self.live.stop()
             per_topic = ", ".join(f"{topic} {count}" for topic, count in sorted(summary.topics.items()))
@@ -309,7 +338,8 @@ class RecorderNode(Node):
                 f"{self.joint_states.received} received, {self.joint_states.dropped} dropped in "
                 f"{self.joint_states.gaps} gaps, {self.joint_states.out_of_order} out of order, "
                 f"{self.joint_states.off_grid} off the step grid (not gap-checked); "
-                f"max backlog {self._max_backlog}")
+                f"max backlog {self._max_backlog}; DDS lost "
+                + (", ".join(f"{topic} {count}" for topic, count in lost.items()) if lost else "none"))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -11,12 +11,14 @@ read straight from the CDR bytes, without decoding the whole message.
 """
 from __future__ import annotations
 
+import json
 import struct
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import yaml
 from mcap.records import Channel
 from mcap_ros2.decoder import DecoderFactory
 
@@ -83,6 +85,9 @@ class BagData:
     last_log: float
     # (stamp [s], joint names, positions) of /joint_states at least `keyframe_interval` apart (load_bag option)
     key_joint_states: list[tuple[float, list[str], list[float]]] = field(default_factory=list)
+    # topic -> messages DDS lost before the recorder took them (metadata.yaml custom_data `lost_messages`, written
+    # by our recorder); None: the bag does not say (another recorder, or a recorder killed before its footer)
+    lost_messages: dict[str, int] | None = None
 
     def has(self, topic: str) -> bool:
         return topic in self.series and len(self.series[topic]) > 0
@@ -195,7 +200,18 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
     return BagData(path=path, complete=status.complete, stopped_by=status.stopped_by, counts=dict(counts),
                    types=types, series=series, controller=controllers.most_common(1)[0][0] if controllers else "",
                    deliveries=dict(deliveries), first_log=float(first_log) if counts else 0.0,
-                   last_log=float(last_log) if counts else 0.0, key_joint_states=key_joint_states)
+                   last_log=float(last_log) if counts else 0.0, key_joint_states=key_joint_states,
+                   lost_messages=recorder_lost_messages(path.parent / "metadata.yaml"))
+
+
+def recorder_lost_messages(metadata_path: Path) -> dict[str, int] | None:
+    """The recorder's DDS message-lost counts per topic from a bag's metadata.yaml, or None when it has none."""
+    try:
+        metadata = yaml.safe_load(metadata_path.read_text())
+        lost = metadata["rosbag2_bagfile_information"]["custom_data"]["lost_messages"]
+        return {str(topic): int(count) for topic, count in json.loads(lost).items()}
+    except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError):
+        return None
 
 
 def _decoder(factory: DecoderFactory, decoders: dict, channel_id: int, channel: Channel, schemas: dict):

@@ -25,6 +25,8 @@ limit counts and dropped joint states cover the whole recording.
 - dropped_joint_states: over consecutive /joint_states in receive order, sum of round(dt / 1 ms) - 1 for dt > 0;
   only when >= 99 % of the stamps lie on the 1 ms step grid (lockstep: sim time), else null (realtime mode
   stamps with the node clock, where a gap cannot be told from a late step).
+- recorder_lost_messages: messages of any topic DDS lost before the recorder took them (the recorder's
+  message-lost events, from the bag's metadata.yaml); null when the bag does not say.
 - delay_one_way_ms: median ChannelDelivery.held on /replica/teleop_command and /replica/master_pose, in ms.
 - duration_s: sim time covered by /clock (else /joint_states) stamps; controller: most frequent
   FicState.controller.
@@ -46,6 +48,7 @@ TARGETS = {
     "pipeline_latency_p99_ms": ("<", 5.0),
     "real_time_factor": (">=", 0.95),
     "dropped_joint_states": ("==", 0),
+    "recorder_lost_messages": ("==", 0),
     "passivity_violation_ticks": ("==", 0),
 }
 
@@ -230,6 +233,9 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
             missing = np.round(steps[steps > 0]) - 1
             m["dropped_joint_states"] = int(missing[missing > 0].sum())
             m["joint_states_out_of_order"] = int(np.count_nonzero(steps <= 0))
+
+    m["recorder_lost_messages"] = (sum(data.lost_messages.values()) if data.lost_messages is not None else None)
+    m["recorder_lost_by_topic"] = data.lost_messages
 
     # One-way delay the channel added on the forward direction.
     held = [h for topic in FORWARD_TOPICS for stamp_ns, h in data.deliveries.get(topic, {}).items()

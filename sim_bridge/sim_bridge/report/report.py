@@ -15,7 +15,8 @@ SUMMARY_KEYS = [
     ("free_motion_error_max_m", "m"), ("free_motion_error_rms_m", "m"), ("contact_error_max_m", "m"),
     ("peak_interaction_force_n", "N"), ("limit_violations", ""), ("limit_shaped_ticks", ""),
     ("pipeline_latency_p50_ms", "ms"), ("pipeline_latency_p99_ms", "ms"), ("real_time_factor", ""),
-    ("dropped_joint_states", ""), ("delay_one_way_ms", "ms"), ("duration_s", "s"), ("controller", ""),
+    ("dropped_joint_states", ""), ("recorder_lost_messages", ""), ("delay_one_way_ms", "ms"), ("duration_s", "s"),
+    ("controller", ""),
 ]
 
 

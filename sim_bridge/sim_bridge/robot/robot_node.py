@@ -63,9 +63,10 @@ from sim_bridge.robot.watchdog import CommandWatchdog, WatchdogEvent
 
 # 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 1000. A reliable writer overwrites samples a
 # slow reader has not acknowledged once its history is full, so a deep history (one second, only memory) is what
-# lets a recorder on a busy machine lose none; a late command is superseded by the next one anyway.
-ROBOT_STREAM_QOS = qos.reliable(1000)
-NEWEST_COMMAND_QOS, STATUS_QOS, DIAGNOSTICS_QOS = qos.NEWEST, qos.STREAM, qos.DIAGNOSTICS
+# lets a recorder on a busy machine lose none; a late command is superseded by the next one anyway. The status
+# streams are written with the same history.
+ROBOT_STREAM_QOS = qos.ROBOT_STREAM
+NEWEST_COMMAND_QOS, STATUS_QOS, DIAGNOSTICS_QOS = qos.NEWEST, qos.STREAM_WRITER, qos.DIAGNOSTICS
 # Peers' stamps: only the newest matters; best effort matches reliable and best-effort publishers alike.
 PEER_QOS = qos.best_effort(10)
 
