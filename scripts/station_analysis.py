@@ -273,6 +273,15 @@ def analyse_run(run_dir: Path, outer_record: dict) -> str:
                          f" s after link-up ({cut.get('that_command_was')}); master: "
                          f"{len(cut['log_lines'].get('master', []))} stale-feedback line(s); tracebacks: "
                          f"{cut['log_lines']['logs_with_a_traceback'] or 'none'}")
+    # What each station's recorder lost of its own topics (DDS's message-lost count in its bag's metadata.yaml):
+    # a cut or a cap must cost the recorders nothing, since neither records a topic from the other station.
+    from sim_bridge.report.bag_data import recorder_lost_messages
+
+    record["recorder_lost_messages"] = {name: recorder_lost_messages(bag / "metadata.yaml")
+                                        for name, bag in (("robot", robot_bag), ("master", master_bag))}
+    lines.append("[stations] recorders lost: " + ", ".join(
+        f"{name} {'unknown' if lost is None else (sum(lost.values()) if lost else 0)}"
+        for name, lost in record["recorder_lost_messages"].items()))
     metrics_path = run_dir / "report" / "metrics.json"
     if metrics_path.exists():
         metrics = json.loads(metrics_path.read_text())
