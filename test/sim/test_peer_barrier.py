@@ -16,6 +16,25 @@ def test_a_peer_that_has_not_published_is_not_waited_for() -> None:
     assert barrier.waits == 0 and barrier.wait_time == 0.0  # counted, not timed: a loaded machine stretches time
 
 
+def test_an_expected_peer_holds_the_step_from_its_start_until_its_first_stamp() -> None:
+    barrier = PeerBarrier(["/haptic/pose"], max_lag=0.03, timeout=5.0)
+    barrier.expect("/haptic/pose", 0.0)
+    assert barrier.wait(0.03) == [] and barrier.waits == 0   # within max_lag of the start: no wait
+
+    def publisher() -> None:   # the peer's first message, once its clock has moved
+        time.sleep(0.1)
+        barrier.stamp("/haptic/pose", 0.004)
+    thread = threading.Thread(target=publisher)
+    thread.start()
+    assert barrier.wait(0.031) == []   # held until the first stamp came
+    thread.join()
+    assert barrier.waits == 1 and barrier.newest("/haptic/pose") == 0.004
+    barrier.expect("/haptic/pose", 0.0)   # a stamp it published is kept
+    assert barrier.newest("/haptic/pose") == 0.004
+    with pytest.raises(FicInputError, match="not one of the peers"):
+        barrier.expect("/other", 0.0)
+
+
 def test_the_step_waits_until_the_peer_catches_up() -> None:
     barrier = PeerBarrier(["/a", "/b"], max_lag=0.03, timeout=5.0)
     barrier.stamp("/a", 0.5)

@@ -9,9 +9,13 @@ simulated time; the nodes now spin the wait-set executor there.)
 
 ``PeerBarrier`` closes that gap. Each peer is a header-stamped topic of such a node; the simulation does not step
 past ``t`` until every peer's newest stamp is at least ``t - max_lag`` (``max_lag`` covers the peer's own period:
-a 100 Hz publisher is up to 10 ms behind by design). A peer is only waited for once it has published: a node that
-has not started yet does not hold the simulation at t = 0 (the robot node does not take its first lockstep step
-before every peer topic has a publisher, so a peer that starts late still joins at the start). A peer that keeps
+a 100 Hz publisher is up to 10 ms behind by design). A peer is waited for once it has published, or once it is
+``expect``-ed: the robot node does not take its first lockstep step before its subscription to every peer topic
+has matched that peer's publisher, and then expects each peer at the start time. A peer that only follows /clock
+cannot publish before the simulation moves, so an expected peer counts as stamped at the start: the simulation
+goes at most ``max_lag`` past it until the peer's first message comes. (Waiting only for peers that had
+published let a device whose first message the robot had not yet subscribed to fall 99 ms behind at the start of
+a loaded run.) A peer that keeps
 the simulation waiting longer than ``timeout`` (wall clock) is declared stalled (a dead or hung node) and is not
 waited for again until it catches up, so a lost peer costs one timeout, not one per step.
 
@@ -50,6 +54,15 @@ class PeerBarrier:
         with self._condition:
             if stamp > self._newest.get(topic, float("-inf")):
                 self._newest[topic] = stamp
+            self._condition.notify_all()
+
+    def expect(self, topic: str, time_s: float) -> None:
+        """``topic``'s peer is there (its publisher matched): wait for it from ``time_s`` [s] on, as if it had
+        published a stamp ``time_s``; a stamp it did publish is kept."""
+        if topic not in self.topics:
+            raise FicInputError(f"{topic} is not one of the peers {list(self.topics)}")
+        with self._condition:
+            self._newest.setdefault(topic, time_s)
             self._condition.notify_all()
 
     def _behind(self, time_s: float) -> list[str]:

@@ -199,6 +199,7 @@ class RobotNode(Node):
             SYSTEM_DEFAULTS_QOS if self._franka else NEWEST_COMMAND_QOS)
         self.create_subscription(Float64MultiArray, "/effort_controller/commands", self._on_command, command_qos)
         self._unresolved_peers = list(self._barrier.topics) if self._barrier is not None else []
+        self._peer_subscriptions: dict[str, object] = {}   # peer topic -> our raw subscription (executor thread)
         if self._unresolved_peers:  # their types come from the graph, once their publishers are up
             self._peer_timer = self.create_timer(0.2, self._subscribe_peers)
 
@@ -260,8 +261,8 @@ class RobotNode(Node):
                 self.get_logger().error(f"lockstep: cannot wait for peer {topic}: its type {names[0]} does not "
                                         f"load here ({exc}); stepping without it")
                 continue
-            self.create_subscription(message_type, topic, lambda data, topic=topic: self._on_peer(topic, data),
-                                     PEER_QOS, raw=True)
+            self._peer_subscriptions[topic] = self.create_subscription(
+                message_type, topic, lambda data, topic=topic: self._on_peer(topic, data), PEER_QOS, raw=True)
             self.get_logger().info(f"lockstep: waiting for peer {topic} ({names[0]}) to keep up")
         if not self._unresolved_peers:
             self._peer_timer.cancel()
@@ -306,17 +307,20 @@ class RobotNode(Node):
 
     def _run_lockstep(self) -> None:
         # Nothing moves before every expected reader of /joint_states is there (the replica and the recorder): a
-        # recorder that subscribes late would miss the first steps of the run. Nor before every lockstep peer's
-        # node has its publisher: the barrier only waits for a peer that has published, so a planner or device
-        # that started late (a loaded machine: 2-3 s of wall time) joined the run at 0.45-0.5 s of simulated
-        # time, and the run no longer depended on its seed alone.
+        # recorder that subscribes late would miss the first steps of the run. Nor before this node's subscription
+        # to every lockstep peer's topic has matched the peer's publisher; the barrier then expects each peer from
+        # t = 0 (peer_barrier.py). A planner or device that started late (a loaded machine: 2-3 s of wall time)
+        # had joined the run at 0.45-0.5 s of simulated time, and a device matched after the first step was 99 ms
+        # behind: the run no longer depended on its seed alone.
         peers = self._barrier.topics if self._barrier is not None else ()
 
         def missing() -> list[str]:
             readers = self._joint_state_pub.get_subscription_count()
             absent = [] if readers >= self._lockstep_subscribers else \
                 [f"{readers} of {self._lockstep_subscribers} /joint_states readers"]
-            return absent + [f"no publisher of {topic}" for topic in peers if self.count_publishers(topic) < 1]
+            subscriptions = dict(self._peer_subscriptions)   # filled by the executor thread
+            return absent + [f"no matched publisher of {topic}" for topic in peers
+                             if topic not in subscriptions or subscriptions[topic].get_publisher_count() < 1]
 
         deadline = time.monotonic() + SUBSCRIBER_WAIT_S
         while missing() and time.monotonic() < deadline and not self._stop.is_set():
@@ -324,6 +328,9 @@ class RobotNode(Node):
         absent = missing()
         if absent:
             self.get_logger().warning(f"lockstep: {', '.join(absent)} after {SUBSCRIBER_WAIT_S:g} s; starting anyway")
+        for topic in peers:
+            if topic in self._peer_subscriptions:
+                self._barrier.expect(topic, self._sim.time)
         self._log_event(self._watchdog.check(self._sim.time))
         late_steps = 0  # consecutive steps whose wait saw only late answers
         while not self._stop.is_set():
