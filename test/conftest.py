@@ -123,13 +123,14 @@ class NodeProcess:
             self._log.flush()
         return self.log_path.read_text(errors="replace")
 
-    def wait_for_output(self, text: str, timeout: float) -> bool:
+    def wait_for_output(self, text: str, timeout: float, after: int = 0) -> bool:
+        """Poll the log until ``text`` is in it (from character ``after`` on: what came later only)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if text in self.output():
+            if text in self.output()[after:]:
                 return True
             if self.process.poll() is not None:
-                return text in self.output()
+                return text in self.output()[after:]
             time.sleep(0.05)
         return False
 

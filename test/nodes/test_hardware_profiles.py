@@ -303,15 +303,23 @@ def test_the_command_relay_ramps_the_arm_to_rest_when_the_replica_dies(start_nod
     peer.node.create_subscription(JointState, "/franka/joint_states", states.append, _qos(False, 1))
     assert peer.spin_until(lambda: len(commands) > 200 and len(states) > 50, 60.0), \
         replica.output() + relay.output() + robot.output()
-    # Forwarded: the replica is the relay's only source, and the arm holds still under it.
-    assert "no replica command" not in relay.output(), relay.output()
+    # Forwarded: the replica is the relay's only source, and the arm holds still under it. A replica stalled past
+    # the 50 ms timeout by a loaded machine makes the relay ramp for a moment, as it should (seen in a loaded
+    # suite run); it must be forwarding again when the replica dies.
+    def forwarding() -> bool:
+        events = [line for line in relay.output().splitlines()
+                  if "no replica command for" in line or "replica commands are back" in line]
+        return not events or "replica commands are back" in events[-1]
+    assert peer.spin_until(forwarding, 10.0), relay.output()
     before = np.array(states[-1].position)
+    before_kill = relay.output()
 
     os.killpg(replica.process.pid, signal.SIGKILL)
     killed = time.monotonic()
     replica.process.wait(timeout=10)
     replica.expected_returncode = -signal.SIGKILL
-    assert relay.wait_for_output("no replica command for 50 ms", timeout=5.0), relay.output()
+    assert relay.wait_for_output("no replica command for 50 ms", timeout=5.0, after=len(before_kill)), \
+        relay.output()
     # The 0.5 s ramp to zero (polled: a loaded machine may stretch it), then a second of hold.
     peer.spin_until(lambda: any(t > killed for t, _ in commands) and np.abs(commands[-1][1]).max() <= 1e-12, 20.0)
     peer.spin(1.0)
@@ -320,6 +328,6 @@ def test_the_command_relay_ramps_the_arm_to_rest_when_the_replica_dies(start_nod
     np.testing.assert_allclose(after[-1][1], 0.0, atol=1e-12)
     steps = [np.abs(b - a).max() for (_, a), (_, b) in zip(after, after[1:])]
     assert max(steps) <= 2 * 87.0 / 0.5 * (1 / 250.0) + 1e-9, max(steps)   # the ramp's rate, 250 Hz steps
-    assert relay.output().count("no replica command for") == 1
+    assert relay.output()[len(before_kill):].count("no replica command for") == 1   # one line, then the hold
     drift = np.abs(np.array(states[-1].position) - before).max()
     assert drift < 0.02, drift   # the arm floats where it was (without the relay it keeps the last torque)

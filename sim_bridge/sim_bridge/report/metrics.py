@@ -24,7 +24,8 @@ limit counts and dropped joint states cover the whole recording.
   time in both sim modes); without /clock, the same with /joint_states stamps.
 - dropped_joint_states: over consecutive /joint_states in receive order, sum of round(dt / 1 ms) - 1 for dt > 0;
   only when >= 99 % of the stamps lie on the 1 ms step grid (lockstep: sim time), else null (realtime mode
-  stamps with the node clock, where a gap cannot be told from a late step).
+  stamps with the node clock, where a gap cannot be told from a late step). joint_states_out_of_order: stamps
+  older than the one before them; joint_states_repeated: stamps equal to it (lockstep republishing).
 - recorder_lost_messages: messages of any topic DDS lost before the recorder took them (the recorder's
   message-lost events, from the bag's metadata.yaml); null when the bag does not say.
 - delay_one_way_ms: median ChannelDelivery.held on /replica/teleop_command and /replica/master_pose, in ms.
@@ -232,7 +233,11 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
             steps = np.diff(stamps) / settings.joint_states_period_s
             missing = np.round(steps[steps > 0]) - 1
             m["dropped_joint_states"] = int(missing[missing > 0].sum())
-            m["joint_states_out_of_order"] = int(np.count_nonzero(steps <= 0))
+            # Out of order: a stamp older than the one before it (another graph's states, a reordering). A
+            # repeated stamp is the lockstep robot republishing a state whose answer is late (at t = 0 until the
+            # replica's first answer: as long as the machine makes it), counted apart.
+            m["joint_states_out_of_order"] = int(np.count_nonzero(steps < 0))
+            m["joint_states_repeated"] = int(np.count_nonzero(steps == 0))
 
     m["recorder_lost_messages"] = (sum(data.lost_messages.values()) if data.lost_messages is not None else None)
     m["recorder_lost_by_topic"] = data.lost_messages
