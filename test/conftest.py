@@ -22,6 +22,20 @@ INSTALL = REPO / "install"
 CONFIG = REPO / "config"
 
 
+# The Panda's model and datasheet limits, one of each per test module (RobotModel keeps the last state it was
+# updated with, so modules do not share one).
+@pytest.fixture(scope="module")
+def robot():
+    from fic_core.robot_model import RobotModel
+    return RobotModel()
+
+
+@pytest.fixture(scope="module")
+def limits(robot):
+    from fic_core.limits import PandaLimits
+    return PandaLimits.from_robot(robot)
+
+
 
 @contextlib.contextmanager
 def reserved_domain():

@@ -17,11 +17,6 @@ from fic_core.torque_semantics import TorqueSemantics
 from fic_core.wrench_frame import WrenchFrame
 
 
-@pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
 def test_panda_profile_reproduces_the_limits_in_use(robot):
     """The Panda profile changes nothing for the simulated arm: the same limits as PandaLimits.from_robot."""
     assert PANDA.limits_for(robot.lower_position_limit, robot.upper_position_limit) == PandaLimits.from_robot(robot)

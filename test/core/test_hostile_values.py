@@ -30,11 +30,6 @@ HOSTILE_OFFSETS = (1e3, -1e3, 1e308, -1e308, 1.7e308)
 DT = 0.001
 
 
-@pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
 def assert_finite_hold(hold: SampledSetPoint, now: float) -> None:
     position, velocity, acceleration = hold.position(now), hold.velocity(now), hold.acceleration(now)
     assert np.isfinite(position).all() and np.isfinite(velocity).all() and np.isfinite(acceleration).all()

@@ -16,16 +16,6 @@ from fic_core.robot_model import RobotModel
 LIMIT_STATUS_MSG = Path(__file__).resolve().parents[2] / "fic_teleop_msgs" / "msg" / "LimitStatus.msg"
 
 
-@pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
-@pytest.fixture(scope="module")
-def limits(robot: RobotModel) -> PandaLimits:
-    return PandaLimits.from_robot(robot)
-
-
 def test_datasheet_values(limits: PandaLimits, robot: RobotModel) -> None:
     assert limits.torque == (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
     assert limits.torque_rate == 1000.0

@@ -30,16 +30,6 @@ TRANSLATION = (200.0, 0.05, 0.5, 30.0)
 ROTATION = (20.0, 0.5, 0.5, 10.0)
 
 
-@pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
-@pytest.fixture(scope="module")
-def limits(robot: RobotModel) -> PandaLimits:
-    return PandaLimits.from_robot(robot)
-
-
 def profile_force(error: float, stiffness: float, saturation_error: float, xi: float, max_force: float) -> float:
     """F_c of paper Eq. 1, written out: linear K0 e up to xi x_b, then the renormalised tanh towards F_max."""
     magnitude = abs(error)

@@ -16,16 +16,6 @@ PREDICTION_TOLERANCE = 1e-5  # solver feasibility tolerance, on velocities [rad/
 TCP_RELATIVE_TOLERANCE = 1e-6  # the TCP-speed cone is met by a finite number of cutting planes
 
 
-@pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
-@pytest.fixture(scope="module")
-def limits(robot: RobotModel) -> PandaLimits:
-    return PandaLimits.from_robot(robot)
-
-
 def shape(optimisation: PosturalOptimisation, robot: RobotModel, q, qd, desired, previous):
     robot.update(q, qd)
     bias = robot.nonlinear_effects + robot.joint_damping * robot.qd

@@ -11,11 +11,6 @@ from fic_core.robot_model import RobotModel
 
 
 @pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
-@pytest.fixture(scope="module")
 def posture(robot: RobotModel) -> NullSpacePosture:
     return NullSpacePosture(robot.lower_position_limit, robot.upper_position_limit)
 

@@ -21,16 +21,6 @@ from fic_core.robot_model import RobotModel
 DT = 0.001
 
 
-@pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
-@pytest.fixture(scope="module")
-def limits(robot: RobotModel) -> PandaLimits:
-    return PandaLimits.from_robot(robot)
-
-
 def paper_fic() -> PoseAttractor:
     """The paper's replica FIC: K0 = 200 N/m, x_b = 0.05 m (Sec. III); rotation 20 N m/rad, x_b = 0.5 rad."""
     return PoseAttractor(ForceProfile(200.0, 0.05, 0.5, 30.0), ForceProfile(20.0, 0.5, 0.5, 10.0))

@@ -10,11 +10,6 @@ from fic_core.panda_description import JOINT_ARMATURE, JOINT_DAMPING, NOMINAL_CO
 from fic_core.robot_model import RobotModel
 
 
-@pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
 def random_configuration(robot: RobotModel, rng: np.random.Generator) -> np.ndarray:
     return rng.uniform(robot.lower_position_limit, robot.upper_position_limit)
 

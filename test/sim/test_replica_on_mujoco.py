@@ -25,16 +25,6 @@ from sim_bridge.robot.mujoco_panda import PandaSimulation
 DT = 0.001
 
 
-@pytest.fixture(scope="module")
-def robot() -> RobotModel:
-    return RobotModel()
-
-
-@pytest.fixture(scope="module")
-def limits(robot: RobotModel) -> PandaLimits:
-    return PandaLimits.from_robot(robot)
-
-
 def paper_fic() -> PoseAttractor:
     """The paper's replica FIC (Sec. III): K0 = 200 N/m, x_b = 0.05 m; rotation 20 N m/rad, x_b = 0.5 rad."""
     return PoseAttractor(ForceProfile(200.0, 0.05, 0.5, 30.0), ForceProfile(20.0, 0.5, 0.5, 10.0))

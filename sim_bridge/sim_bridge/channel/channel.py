@@ -33,7 +33,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from fic_core.errors import FicInputError
+from fic_core.errors import FicInputError, finite_scalar
 
 JITTER_DISTRIBUTIONS = ("uniform", "normal")
 DROP_CAUSES = ("random", "blackout", "lost", "rate_cap", "overflow")
@@ -55,25 +55,25 @@ class ChannelConfig:
     max_queue: int = 100_000                        # bound on held messages; the oldest is dropped beyond it
 
     def __post_init__(self) -> None:
-        _check_number("delay", self.delay, minimum=0.0)
-        _check_number("jitter", self.jitter, minimum=0.0)
+        finite_scalar("delay", self.delay, minimum=0.0)
+        finite_scalar("jitter", self.jitter, minimum=0.0)
         if self.jitter_distribution not in JITTER_DISTRIBUTIONS:
             raise FicInputError(
                 f"jitter_distribution must be one of {JITTER_DISTRIBUTIONS}, got {self.jitter_distribution!r}")
-        _check_number("drop_probability", self.drop_probability, minimum=0.0, maximum=1.0)
+        finite_scalar("drop_probability", self.drop_probability, minimum=0.0, maximum=1.0)
         windows = []
         for window in self.blackout_windows:
             if len(window) != 2:
                 raise FicInputError(f"blackout_windows entries must be (t0, t1) pairs, got {window!r}")
-            start = _check_number("blackout_windows t0", window[0])
-            end = _check_number("blackout_windows t1", window[1])
+            start = finite_scalar("blackout_windows t0", window[0])
+            end = finite_scalar("blackout_windows t1", window[1])
             if end < start:
                 raise FicInputError(f"blackout_windows: window ({start}, {end}) ends before it starts")
             windows.append((start, end))
         object.__setattr__(self, "blackout_windows", tuple(windows))
         if self.lost_from is not None:
-            _check_number("lost_from", self.lost_from)
-        _check_number("rate_cap_hz", self.rate_cap_hz, minimum=0.0)
+            finite_scalar("lost_from", self.lost_from)
+        finite_scalar("rate_cap_hz", self.rate_cap_hz, minimum=0.0)
         if self.seed is not None and (not isinstance(self.seed, (int, np.integer)) or self.seed < 0):
             raise FicInputError(f"seed must be a non-negative integer or None, got {self.seed!r}")
         if not isinstance(self.max_queue, (int, np.integer)) or self.max_queue < 1:
@@ -84,20 +84,6 @@ class ChannelConfig:
         if self.lost_from is not None and time >= self.lost_from:
             return True
         return any(start <= time < end for start, end in self.blackout_windows)
-
-
-def _check_number(name: str, value: Any, minimum: float | None = None, maximum: float | None = None) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError) as exc:
-        raise FicInputError(f"{name} must be a number, got {value!r}") from exc
-    if not math.isfinite(number):
-        raise FicInputError(f"{name} must be finite, got {number}")
-    if minimum is not None and number < minimum:
-        raise FicInputError(f"{name} must be >= {minimum}, got {number}")
-    if maximum is not None and number > maximum:
-        raise FicInputError(f"{name} must be <= {maximum}, got {number}")
-    return number
 
 
 class Delivery(NamedTuple):
