@@ -30,7 +30,8 @@ EXIT_CODES = {
     EXIT_OK: "the run kept every safety figure",
     EXIT_NODE_FAILED: "a node crashed, exited early or with an error, or the report failed",
     EXIT_REFUSED: "refused before anything started (an option, the run folder, the domain)",
-    EXIT_LIMIT_VIOLATIONS: "limit violations (torque, torque rate, joint speed or position, TCP speed)",
+    EXIT_LIMIT_VIOLATIONS: "limit violations (torque, torque rate, joint speed or position, TCP speed), or the "
+                           "robot's velocity reflex stopped the arm",
     EXIT_JOINT_STATES_LOST: "joint states lost in the bag",
     EXIT_INPUT_REFUSED: "the replica held the arm or refused commands (a second publisher, stamps going back, "
                         "commands outside the authority bounds)",
@@ -65,21 +66,22 @@ def failed_nodes(codes: dict[str, int | None]) -> dict[str, int | None]:
     return {name: code for name, code in codes.items() if code not in CLEAN_NODE_CODES}
 
 
-def replica_input_record(bag: Path) -> dict[str, str] | None:
-    """The replica's last input-authority figures as recorded in the bag's /diagnostics (input_guard.py), or None
-    if the bag has none or cannot be read (a torn bag is read up to its last whole chunk)."""
+def diagnostics_records(bag: Path, wanted: dict[str, str]) -> dict[str, dict[str, str]]:
+    """The last /diagnostics values of each status named in ``wanted`` (status name -> a key its record must hold:
+    the replica's input-authority figures, input_guard.py; the robot's reflex, velocity_reflex.py), as recorded in
+    the bag; a status the bag has none of is absent (a torn bag is read up to its last whole chunk)."""
     from mcap_ros2.reader import read_ros2_messages
 
     files = sorted(bag.glob("*.mcap")) if bag.is_dir() else [bag]
-    last: dict[str, str] | None = None
+    last: dict[str, dict[str, str]] = {}
     try:
         for file in files:
             for message in read_ros2_messages(str(file), topics=["/diagnostics"]):
                 for status in message.ros_msg.status:
-                    if status.name == "replica":
+                    if status.name in wanted:
                         values = {item.key: item.value for item in status.values}
-                        if "input_safe_hold" in values:
-                            last = values
+                        if wanted[status.name] in values:
+                            last[status.name] = values
     except Exception:  # noqa: BLE001 - a torn or foreign bag: the verdict goes on without these figures
         return last
     return last
@@ -89,7 +91,7 @@ def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], earl
                    report_failed: bool, bag: Path | None = None) -> tuple[int, list[str]]:
     """The launcher's exit code and one reason per broken figure, worst first: a failed node, limit violations,
     lost joint states, refused robot-side input. ``metrics``: the report's metrics.json (None: no report);
-    ``bag``: the run's bag, for the replica's input-authority record."""
+    ``bag``: the run's bag, for the replica's input-authority record and the robot's velocity reflex."""
     reasons: list[tuple[int, str]] = []
     failed = failed_nodes(node_codes)
     if failed:
@@ -106,7 +108,12 @@ def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], earl
         dropped = metrics.get("dropped_joint_states")
         if dropped:
             reasons.append((EXIT_JOINT_STATES_LOST, f"{dropped} joint states lost in the bag"))
-    record = replica_input_record(bag) if bag is not None and bag.exists() else None
+    records = diagnostics_records(bag, {"replica": "input_safe_hold", "robot_sim": "reflex"}) \
+        if bag is not None and bag.exists() else {}
+    reflex = records.get("robot_sim", {}).get("reflex")
+    if reflex:
+        reasons.append((EXIT_LIMIT_VIOLATIONS, f"the robot stopped the arm: {reflex}"))
+    record = records.get("replica")
     if record:
         if record.get("input_safe_hold", "no") != "no":
             reasons.append((EXIT_INPUT_REFUSED, f"the replica went into its safe hold: {record['input_safe_hold']}"))

@@ -112,3 +112,27 @@ def test_a_refusal_recorded_in_the_bag_is_named_with_its_reason(tmp_path: Path) 
     assert code == EXIT_INPUT_REFUSED
     assert reasons == ["the replica refused 1 teleoperation commands (the last: stamped 3.4 s in the past (at most "
                        "3.2 s)) and clamped 0 onto its workspace"]
+
+
+def test_the_robots_velocity_reflex_in_the_bag_is_a_limit_violation(tmp_path: Path) -> None:
+    """The robot's /diagnostics record of its velocity reflex fails the run with the limit-violation code, even
+    when the replica (starved, say) counted no violation; an empty record passes."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rclpy.serialization import serialize_message
+
+    from sim_bridge.recording.bag_writer import BagWriter
+
+    def bag(name: str, reflex: str) -> Path:
+        writer = BagWriter(tmp_path / name)
+        writer.add_topic("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray")
+        for k, text in enumerate(("", reflex)):
+            writer.write("/diagnostics", serialize_message(DiagnosticArray(status=[DiagnosticStatus(
+                name="robot_sim", values=[KeyValue(key="reflex", value=text)])])), (k + 1) * 1_000_000_000)
+        writer.finish()
+        return tmp_path / name
+
+    clean = {"limit_violations": 0, "dropped_joint_states": 0}
+    assert safety_verdict(clean, {}, [], False, bag("calm", "")) == (EXIT_OK, [])
+    code, reasons = safety_verdict(clean, {}, [], False, bag("stopped", "reflex: panda_joint2 moved at 2.300 rad/s"))
+    assert code == EXIT_LIMIT_VIOLATIONS
+    assert reasons == ["the robot stopped the arm: reflex: panda_joint2 moved at 2.300 rad/s"]

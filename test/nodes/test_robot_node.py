@@ -55,6 +55,7 @@ class Controller:
         self.states: list = []
         self.sent: list[np.ndarray] = []
         self.answering = True
+        self.push = np.zeros(7)   # added to every answer (a controller gone wrong)
         self._message = Float64MultiArray
 
     def _on_state(self, message) -> None:
@@ -62,6 +63,7 @@ class Controller:
         if self.answering:
             q, qd = np.array(message.position), np.array(message.velocity)
             torque = pin.computeGeneralizedGravity(self.model, self.data, q) - 2.0 * qd + 0.5 * np.sin(len(self.sent) / 50.0)
+            torque = torque + self.push
             self.sent.append(torque)
             self.publisher.publish(self._message(data=torque.tolist()))
 
@@ -137,3 +139,42 @@ def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_the
     assert code == 0, log  # a clean exit on SIGINT (what Ctrl-C sends)
     assert "robot_sim stopped" in log
 
+
+
+def test_a_joint_beyond_its_velocity_limit_stops_the_arm_for_the_run(ros_env, rclpy_context, tmp_path):
+    """A controller that keeps pushing joint 1 (60 N m on top of gravity compensation): once joint 1 passes the
+    Panda's 2.175 rad/s the robot says so in one error line, applies its hold torque from then on whatever it is
+    sent (Franka: joint_velocity_violation), and the arm comes to rest; /diagnostics says ERROR."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+    robot = _start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.1,
+                         diagnostics_rate_hz=20.0)
+    try:
+        assert robot.wait_for_output("robot_sim ready", timeout=30.0), robot.output()
+        controller = Controller(rclpy_context)
+        statuses: list = []
+        controller.node.create_subscription(DiagnosticArray, "/diagnostics",
+                                            lambda m: statuses.extend(s for s in m.status if s.name == "robot_sim"), 10)
+        controller.push = np.array([60.0, 0, 0, 0, 0, 0, 0])
+        assert controller.spin_until(lambda: "reflex: panda_joint1 moved at" in robot.output(), timeout=60.0), \
+            robot.output()
+        tripped = len(controller.states)
+        # 600 more steps of the same push: 0.6 s of simulated time.
+        assert controller.spin_until(lambda: len(controller.states) > tripped + 600, timeout=60.0), robot.output()
+        velocities = np.array([m.velocity for m in controller.states])
+        before = np.abs(velocities[:tripped, 0]).max()
+        assert 2.175 < before < 2.5, before   # it tripped on the first steps past the limit, not later
+        # The hold torque on every step since (gravity + Coriolis compensation and damping), not the push.
+        for previous, message in zip(controller.states[tripped + 1:-1], controller.states[tripped + 2:]):
+            q, qd = np.array(previous.position), np.array(previous.velocity)
+            hold = pin.nonLinearEffects(controller.model, controller.data, q, qd) - HOLD_DAMPING * qd
+            np.testing.assert_allclose(message.effort, hold, rtol=0, atol=1e-9)
+        # Braked to rest: under the limit within 0.2 s, nearly still after 0.6 s.
+        assert np.abs(velocities[tripped + 200:]).max() < 2.175
+        assert np.abs(velocities[-1]).max() < 0.05, velocities[-1]
+        assert controller.spin_until(lambda: any(s.level == DiagnosticStatus.ERROR for s in statuses), 10.0)
+        assert robot.output().count("reflex:") == 1
+        controller.node.destroy_node()
+    finally:
+        code = robot.stop(timeout=10.0)
+    assert code == 0, robot.log_path.read_text()

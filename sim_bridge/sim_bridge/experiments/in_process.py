@@ -61,6 +61,22 @@ def _parameters(name: str) -> dict[str, Any]:
     return dict(next(iter(data.values()))["ros__parameters"])
 
 
+@dataclass(frozen=True)
+class ReplicaStall:
+    """A replica process starved of CPU from ``start`` to ``end`` [s]: it wakes only after a gap drawn from the
+    seed in [min_gap, max_gap], takes the newest joint state (its depth-1 subscription), and its torque reaches the
+    robot ``delay`` later, drawn in [min_delay, max_delay] (a tick preempted half-way, the message queued behind
+    other work). The robot applies the last command it received until robot.yaml's command_timeout, then its hold
+    torque (robot_node's stale-command watchdog)."""
+
+    start: float
+    end: float
+    min_gap: float
+    max_gap: float
+    min_delay: float = 0.0
+    max_delay: float = 0.0
+
+
 @dataclass
 class RunConfig:
     scene: str = "superimposition"
@@ -92,6 +108,8 @@ class RunConfig:
     # [1 - hand_impedance_jitter, 1 + hand_impedance_jitter]; both drawn from the seed, off by default.
     operator_timing_jitter: float = 0.0
     hand_impedance_jitter: float = 0.0
+    # A starved replica process (ReplicaStall; docs/EXPERIMENTS.md "A starved replica").
+    replica_stalls: tuple[ReplicaStall, ...] = ()
 
 
 @dataclass
@@ -211,6 +229,10 @@ def run(config: RunConfig) -> RunResult:
     arm_velocity, arm_momentum = np.zeros(sim.model.nv), np.zeros(sim.model.nv)
     arm_dof = np.array([sim.model.jnt_dofadr[sim.model.joint(name).id] for name in ARM_JOINT_NAMES])
     state = device.state
+    command_timeout = _parameters("robot.yaml")["command_timeout"]
+    stall_draws = np.random.default_rng([config.seed, 104729])
+    replica_wakes, robot_torque, robot_torque_time = 0.0, None, -math.inf
+    in_flight: deque[tuple[float, np.ndarray]] = deque()   # a starved replica's torques on their way to the robot
     steps = int(round(config.duration / STEP))
     wall = wall_clock.perf_counter()
     for k in range(steps):
@@ -282,7 +304,22 @@ def run(config: RunConfig) -> RunResult:
         # Robot side: the joint state of step k, the replica's answer, the physics step.
         if k % wrench_every == 0:
             ft_wrench = sim.ft_wrench()[:3].copy()
+        stall = next((window for window in config.replica_stalls if window.start <= now < window.end), None)
+        while in_flight and in_flight[0][0] <= now:
+            robot_torque_time, robot_torque = in_flight.popleft()
+        if stall is not None and now < replica_wakes or in_flight:
+            # The replica sleeps (or its last torque is still on its way): the robot holds the last command it
+            # got, then its watchdog's hold torque.
+            fresh = robot_torque is not None and now - robot_torque_time <= command_timeout
+            sim.step(robot_torque if fresh else sim.hold_torque())
+            continue
         result = replica.joint_state(now, now, sim.joint_positions, sim.joint_velocities)
+        if stall is not None:
+            replica_wakes = now + float(stall_draws.uniform(stall.min_gap, stall.max_gap))
+            if result.torque is not None and stall.max_delay > 0.0:
+                in_flight.append((now + float(stall_draws.uniform(stall.min_delay, stall.max_delay)),
+                                  result.torque.copy()))
+                result.torque = None
         if result.poses_due and replica.last_command is not None and ft_wrench is not None:
             backward.push((ft_wrench, ports.replica_input_energy), now, now)
             sent_force = ft_wrench
@@ -308,7 +345,14 @@ def run(config: RunConfig) -> RunResult:
             if result.command is not None:
                 tick_dynamics = replica.robot.nonlinear_effects.copy()
             torque = torque - tick_dynamics + sim.hold_torque(no_damping)
-        sim.step(torque if torque is not None else sim.hold_torque())
+        if torque is not None:
+            robot_torque, robot_torque_time = torque, now
+            sim.step(torque)
+        elif in_flight:   # a starved replica's torque not yet arrived: the robot's last one, or its hold
+            fresh = robot_torque is not None and now - robot_torque_time <= command_timeout
+            sim.step(robot_torque if fresh else sim.hold_torque())
+        else:
+            sim.step(sim.hold_torque())
     wall = wall_clock.perf_counter() - wall
     desired, offset = np.array(log_d), np.array(log_o)
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,

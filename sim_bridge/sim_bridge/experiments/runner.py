@@ -143,7 +143,12 @@ def stability_of(series: RunSeries, criterion: StabilityCriterion, start: float 
             force=series.force if series.wrench_time.size >= 4 else None, criterion=criterion)
     except StabilityInputError as error:
         return {"stable": None, "reasons": [f"not assessable: {error}"]}
-    return verdict.as_dict()
+    result = verdict.as_dict()
+    reflex = series.diagnostics.get("robot_sim", {}).get("reflex")
+    if reflex:   # the robot stopped the arm (velocity_reflex.py): whatever the motion after it looks like
+        result["stable"] = False
+        result["reasons"] = [*result.get("reasons", []), f"the robot's velocity reflex stopped the arm: {reflex}"]
+    return result
 
 
 def write_json(path: Path, payload) -> None:

@@ -45,6 +45,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
+from fic_core.arm_profile import arm_profile
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_teleop_runtime import qos
@@ -59,6 +60,7 @@ from sim_bridge.robot.peer_barrier import PeerBarrier
 from sim_bridge.robot.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
 from sim_bridge.robot.scenes import SCENE_NAMES
 from sim_bridge.robot.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
+from sim_bridge.robot.velocity_reflex import VelocityReflex
 from sim_bridge.robot.watchdog import CommandWatchdog, WatchdogEvent
 
 # 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 1000. A reliable writer overwrites samples a
@@ -113,6 +115,8 @@ SCHEMA = Schema(
     switch("hold_on_stale_commands", "replace stale commands by the hold torque (command_timeout); false: apply "
                                      "the last command until another comes, as ros2_control's forward controller "
                                      "does"),
+    switch("velocity_reflex", "stop the arm (hold torque, commands ignored) once a joint moves beyond the arm "
+                              "profile's velocity limit, as a Franka arm stops with joint_velocity_violation"),
 )
 
 
@@ -207,6 +211,9 @@ class RobotNode(Node):
         self._joint_state.header.frame_id = franka.joint_states_frame if self._franka else BASE_FRAME
         self._joint_state.name = ([f"{franka.joint_prefix}_joint{i}" for i in range(1, 8)] if self._franka
                                   else list(ARM_JOINT_NAMES))
+        # The simulated arm is the Panda; behind the franka_ros2 twin it stands for an FR3 and stops at its limits.
+        self._reflex = VelocityReflex(arm_profile("fr3" if self._franka else "panda").joint_velocity,
+                                      self._joint_state.name) if p["velocity_reflex"] else None
         self._wrench = WrenchStamped()
         self._wrench.header.frame_id = franka.external_wrench_frame if self._franka else BASE_FRAME
 
@@ -301,7 +308,7 @@ class RobotNode(Node):
                 self._log_event(self._watchdog.command_received(arrival))
             self._log_event(self._watchdog.check(time.monotonic()))
             # Before the first command there is none to hold: the hold torque, in both semantics.
-            held = command is None or (self._watchdog.holding and self._hold_on_stale)
+            held = self._reflex_stopped() or command is None or (self._watchdog.holding and self._hold_on_stale)
             self._sim.step(self._sim.hold_torque() if held else command)
             self._after_step(lateness)
 
@@ -366,9 +373,20 @@ class RobotNode(Node):
                     self.get_logger().warning(
                         f"lockstep: peer {topic} held the simulation at t = {self._sim.time:.3f} s for more than "
                         f"lockstep_peer_timeout; not waiting for it until it catches up")
-            self._sim.step(self._sim.hold_torque() if self._watchdog.holding and self._hold_on_stale
+            stopped = self._reflex_stopped()
+            self._sim.step(self._sim.hold_torque() if stopped or (self._watchdog.holding and self._hold_on_stale)
                            else self._last_command)
             self._after_step(None)
+
+    def _reflex_stopped(self) -> bool:
+        """Whether the velocity reflex has stopped the arm, checked on the state about to be stepped (logged once)."""
+        if self._reflex is None:
+            return False
+        event = self._reflex.check(self._sim.joint_velocities, self._sim.time)
+        if event is not None:
+            self.get_logger().error(f"{event.message} (t = {event.time:.3f} s)")
+            self._publish_diagnostics()   # in the bag at once, not at the next 1 Hz status
+        return self._reflex.tripped
 
     def _after_step(self, lateness: float | None) -> None:
         steps = self._sim.steps
@@ -442,6 +460,7 @@ class RobotNode(Node):
             "steps": str(self._sim.steps),
             "watchdog_holding": str(self._watchdog.holding),
             "watchdog_engagements": str(self._watchdog.engagements),
+            "reflex": "" if self._reflex is None or self._reflex.event is None else self._reflex.event.message,
             "commands_accepted": str(self._accepted_commands),
             "commands_rejected": str(self._rejected_commands),
             "lockstep_answered": str(self._gate.answered_steps),
@@ -468,10 +487,13 @@ class RobotNode(Node):
         array = DiagnosticArray()
         array.header.stamp = self._stamp()
         holding = self._watchdog.holding
+        reflex = self._reflex is not None and self._reflex.tripped
         status = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if holding or self._rejected_commands else DiagnosticStatus.OK,
+            level=DiagnosticStatus.ERROR if reflex else
+            DiagnosticStatus.WARN if holding or self._rejected_commands else DiagnosticStatus.OK,
             name="robot_sim", hardware_id="panda_mujoco",
-            message="holding: torque commands stale" if holding else "following torque commands")
+            message="stopped by its velocity reflex" if reflex else
+            "holding: torque commands stale" if holding else "following torque commands")
         status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
         array.status = [status]
         self._diagnostics_pub.publish(array)
