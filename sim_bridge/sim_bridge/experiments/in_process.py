@@ -233,6 +233,12 @@ def run(config: RunConfig) -> RunResult:
     stall_draws = np.random.default_rng([config.seed, 104729])
     replica_wakes, robot_torque, robot_torque_time = 0.0, None, -math.inf
     in_flight: deque[tuple[float, np.ndarray]] = deque()   # a starved replica's torques on their way to the robot
+
+    def robot_holding() -> np.ndarray:
+        """No new torque this step: the robot's last one until command_timeout, then its watchdog's hold."""
+        fresh = robot_torque is not None and now - robot_torque_time <= command_timeout
+        return robot_torque if fresh else sim.hold_torque()
+
     steps = int(round(config.duration / STEP))
     wall = wall_clock.perf_counter()
     for k in range(steps):
@@ -304,15 +310,14 @@ def run(config: RunConfig) -> RunResult:
         # Robot side: the joint state of step k, the replica's answer, the physics step.
         if k % wrench_every == 0:
             ft_wrench = sim.ft_wrench()[:3].copy()
-        stall = next((window for window in config.replica_stalls if window.start <= now < window.end), None)
-        while in_flight and in_flight[0][0] <= now:
-            robot_torque_time, robot_torque = in_flight.popleft()
-        if stall is not None and now < replica_wakes or in_flight:
-            # The replica sleeps (or its last torque is still on its way): the robot holds the last command it
-            # got, then its watchdog's hold torque.
-            fresh = robot_torque is not None and now - robot_torque_time <= command_timeout
-            sim.step(robot_torque if fresh else sim.hold_torque())
-            continue
+        stall = None
+        if config.replica_stalls:
+            stall = next((window for window in config.replica_stalls if window.start <= now < window.end), None)
+            while in_flight and in_flight[0][0] <= now:
+                robot_torque_time, robot_torque = in_flight.popleft()
+            if stall is not None and now < replica_wakes or in_flight:
+                sim.step(robot_holding())   # the replica sleeps, or its last torque is still on its way
+                continue
         result = replica.joint_state(now, now, sim.joint_positions, sim.joint_velocities)
         if stall is not None:
             replica_wakes = now + float(stall_draws.uniform(stall.min_gap, stall.max_gap))
@@ -348,11 +353,8 @@ def run(config: RunConfig) -> RunResult:
         if torque is not None:
             robot_torque, robot_torque_time = torque, now
             sim.step(torque)
-        elif in_flight:   # a starved replica's torque not yet arrived: the robot's last one, or its hold
-            fresh = robot_torque is not None and now - robot_torque_time <= command_timeout
-            sim.step(robot_torque if fresh else sim.hold_torque())
-        else:
-            sim.step(sim.hold_torque())
+        else:   # before the first command (the hold), or a starved replica's torque not yet arrived
+            sim.step(robot_holding())
     wall = wall_clock.perf_counter() - wall
     desired, offset = np.array(log_d), np.array(log_o)
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
