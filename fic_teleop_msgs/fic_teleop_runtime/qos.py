@@ -9,9 +9,11 @@ Why each is what it is:
   reader for good: with 20, a recorder starved of CPU for a fraction of a second on a loaded machine lost 18
   /haptic/pose samples of a lockstep run; a reader stopped for 0.6 s at 1 kHz lost 0, 1 and 4 of 3000 (depth 20)
   and 0 in 3 tries (depth 1000). A deep writer history costs memory only; the readers keep their own depths.
-- ``RELAY``: the channel's readers: RELIABLE, KEEP_LAST 1000. A reliable KEEP_LAST reader drops the oldest
-  sample its node has not taken once its history is full, so a channel stalled longer than 20 samples (80 ms
-  at 250 Hz) lost what it was to relay; the loss is the channel's to inject, on purpose only.
+  The channel's readers are ``STREAM`` on purpose: after a link cut the writer resends its whole history, and
+  a channel reading it 1000 deep relayed seconds-old set-points, which the replica then refused as stale
+  (a two-station cut run, 2026-12-04); at 20 it relays the newest 20 of them. A reader drops the oldest sample
+  its node has not taken once its history is full, so a channel stalled past 20 samples (200 ms at the
+  graph's 100 Hz) relays only the newest 20 of what came meanwhile.
 - ``EVENTS``: button presses. A lost toggle would invert the teleoperation mode for the rest of the run.
 - ``ROBOT_STREAM``: 1 kHz robot streams (joint states, the F/T wrench, /clock, the replica's torque command),
   writers and the lockstep reader of torque commands: a recorder must lose none (as ``STREAM_WRITER``), and in
@@ -44,7 +46,6 @@ def best_effort(depth: int) -> QoSProfile:
 WRITER_HISTORY = 1000  # samples a stream's writer keeps for a stalled reader: a second at 1 kHz
 STREAM = reliable(20)
 STREAM_WRITER = reliable(WRITER_HISTORY)
-RELAY = reliable(WRITER_HISTORY)
 EVENTS = reliable(50)
 ROBOT_STREAM = reliable(WRITER_HISTORY)
 NEWEST = best_effort(1)

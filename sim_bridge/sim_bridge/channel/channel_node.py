@@ -40,7 +40,7 @@ except ImportError:          # the message package is not built: the channel sti
 # Teleoperation streams through the channel (docs/CONVENTIONS.md): read RELIABLE, KEEP_LAST 20, written with the
 # streams' deep writer history (a stalled reader loses nothing). The channel is where loss is injected on
 # purpose; DDS itself should add none.
-CHANNEL_QOS, CHANNEL_WRITER_QOS = qos.RELAY, qos.STREAM_WRITER
+CHANNEL_QOS, CHANNEL_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
 # One ChannelDelivery per forwarded message, read by the recorder: a stream's writer too.
 DELIVERY_QOS = qos.STREAM_WRITER
 DIAGNOSTICS_QOS = qos.DIAGNOSTICS
