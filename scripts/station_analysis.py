@@ -273,8 +273,8 @@ def analyse_run(run_dir: Path, outer_record: dict) -> str:
                          f" s after link-up ({cut.get('that_command_was')}); master: "
                          f"{len(cut['log_lines'].get('master', []))} stale-feedback line(s); tracebacks: "
                          f"{cut['log_lines']['logs_with_a_traceback'] or 'none'}")
-    # What each station's recorder lost of its own topics (DDS's message-lost count in its bag's metadata.yaml):
-    # a cut or a cap must cost the recorders nothing, since neither records a topic from the other station.
+    # What each station's recorder lost of its own topics (DDS's message-lost count in its bag's metadata.yaml,
+    # "unknown" unless the recorder counted it: count_lost_messages is off by default, config/recorder.yaml).
     from sim_bridge.report.bag_data import recorder_lost_messages
 
     record["recorder_lost_messages"] = {name: recorder_lost_messages(bag / "metadata.yaml")

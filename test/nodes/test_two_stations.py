@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import socket
 import struct
@@ -219,5 +220,7 @@ def test_split_run_crosses_the_link_with_the_two_streams_and_survives_a_cut(tmp_
         streams = cut["robot_station_streams"][topic]
         assert streams["longest_gap_in_cut_s"] is not None, (topic, streams)  # samples before and after the cut
         assert streams["longest_gap_in_cut_s"] < max(1.0, streams["longest_gap_outside_cut_s"] or 0.0), streams
-    # Neither station's recorder lost a message of its own station's topics (DDS's message-lost count).
-    assert record["recorder_lost_messages"] == {"robot": {}, "master": {}}, record["recorder_lost_messages"]
+    # The robot station's recorder lost none of its own /joint_states through the cut: no gap in their 1 ms grid
+    # (its closing line; DDS's message-lost count is off by default, config/recorder.yaml).
+    closing = (out / "logs" / "recorder.log").read_text()
+    assert re.search(r"/joint_states: \d+ received, 0 dropped in 0 gaps", closing), closing[-2000:]

@@ -16,11 +16,15 @@ step (`joint_states_period`, 1 ms) per message; a jump of n steps between consec
 dropped messages (wherever they were lost: by the simulator, DDS, or this recorder). Stamps off that grid (the
 simulator's realtime mode stamps with its node clock) are counted as such and not gap-checked.
 
-Lost messages: every subscription counts DDS's message-lost events (samples a writer no longer held when this
-reader asked for them again: a reliable KEEP_LAST writer overwrites what a stalled reader has not acknowledged).
-The counts per topic go to /diagnostics, to the last log line and to the bag's metadata.yaml (`custom_data`
-`lost_messages`, JSON), so that a report can say what the bag is missing. A sample this recorder's own queue
-dropped is not in that count (its depth is 1000: a stall of a second at 1 kHz); /joint_states' gap check sees it.
+Lost messages (``count_lost_messages``, off by default): every subscription counts DDS's message-lost events
+(samples a writer no longer held when this reader asked for them again: a reliable KEEP_LAST writer overwrites what
+a stalled reader has not acknowledged). The counts per topic go to /diagnostics, to the last log line and to the
+bag's metadata.yaml (`custom_data` `lost_messages`, JSON), so that a report can say what the bag is missing. A
+sample this recorder's own queue dropped is not in that count (its depth is 1000: a stall of a second at 1 kHz);
+/joint_states' gap check sees it. Off by default because with Jazzy's rmw_fastrtps (8.4.3) taking that event can
+deadlock against Fast DDS's own listener exactly when samples are lost, and the wedged recorder records nothing
+more (docs/RESULTS.md, "Faults and hostile input"); off, the bag says the losses were not counted (no
+`lost_messages` key) and /joint_states' gap check remains.
 
 Stopping: SIGINT and SIGTERM (rclpy's handlers shut the context down) or any other rclpy shutdown end the spin;
 the writer thread then drains the queue and the bag gets its summary, footer and metadata.yaml.
@@ -65,6 +69,8 @@ SCHEMA = Schema(
     texts("exclude", "regular expressions of topics that `all` leaves out"),
     number("discovery_period", 0.05, 60.0, "seconds between graph discoveries of new topics"),
     integer("queue_depth", 1, 100000, "KEEP_LAST depth of every subscription"),
+    switch("count_lost_messages", "count DDS's message-lost events per topic (off: with Jazzy's rmw_fastrtps the "
+                                  "event can deadlock the recorder when samples are lost)"),
     integer("chunk_size", 1024, 64 * 1024 * 1024, "MCAP chunk size in bytes (uncompressed): a chunk is closed when "
                                                   "it reaches this size"),
     number("flush_period", 0.01, 60.0, "seconds between forced chunk closes: the most a SIGKILL can lose"),
@@ -130,6 +136,7 @@ class RecorderNode(Node):
         self._record_all = bool(self.get_parameter("all").value)
         self._exclude = [re.compile(p) for p in self.get_parameter("exclude").value or []]
         self._queue_depth = int(self.get_parameter("queue_depth").value)
+        self._count_lost = bool(self.get_parameter("count_lost_messages").value)
         self._joint_states_topic = str(self.get_parameter("joint_states_topic").value)
         # Before the bag folder exists: a port in use leaves nothing behind.
         self.live = None
@@ -217,7 +224,8 @@ class RecorderNode(Node):
         self._queue.append((None, (topic, type_name, offered), 0))
         self._recorded[topic] = self.create_subscription(
             subscription_type, topic, self._enqueuer(index), qos, raw=True,
-            event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_counter(topic)))
+            event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_counter(topic))
+            if self._count_lost else None)
         self.get_logger().info(f"recording {topic} [{type_name}] "
                                f"({qos.reliability.name.lower()}, {qos.durability.name.lower()}, depth {qos.depth})")
 
@@ -238,8 +246,10 @@ class RecorderNode(Node):
                                       f"shorter than this recorder's stall", throttle_duration_sec=1.0)
         return count
 
-    def lost(self) -> dict[str, int]:
-        """DDS message-lost totals per topic (topics that lost none are left out)."""
+    def lost(self) -> dict[str, int] | None:
+        """DDS message-lost totals per topic (topics that lost none are left out); None: not counted."""
+        if not self._count_lost:
+            return None
         return {topic: count for topic, count in sorted(self._lost.items()) if count}
 
     # -- writing (writer thread) ------------------------------------------------------------------------------
@@ -302,9 +312,9 @@ class RecorderNode(Node):
                   "joint_states_dropped": self.joint_states.dropped,
                   "joint_states_out_of_order": self.joint_states.out_of_order,
                   "joint_states_off_step_grid": self.joint_states.off_grid,
-                  "lost_messages": sum(lost.values())}
+                  "lost_messages": "not counted" if lost is None else sum(lost.values())}
         values.update({f"count {topic}": count for topic, count in self.counts().items()})
-        values.update({f"lost {topic}": count for topic, count in lost.items()})
+        values.update({f"lost {topic}": count for topic, count in (lost or {}).items()})
         status.values = [KeyValue(key=key, value=str(value)) for key, value in values.items()]
         message = DiagnosticArray(status=[status])
         message.header.stamp = self.get_clock().now().to_msg()
@@ -328,7 +338,7 @@ class RecorderNode(Node):
             self._stop.set()
             self._writer.join()
             lost = self.lost()
-            summary = self.bag.finish(custom_data={"lost_messages": json.dumps(lost)})
+            summary = self.bag.finish(custom_data=None if lost is None else {"lost_messages": json.dumps(lost)})
             if self.live is not None:
                 self.live.stop()
             per_topic = ", ".join(f"{topic} {count}" for topic, count in sorted(summary.topics.items()))
@@ -339,7 +349,8 @@ class RecorderNode(Node):
                 f"{self.joint_states.gaps} gaps, {self.joint_states.out_of_order} out of order, "
                 f"{self.joint_states.off_grid} off the step grid (not gap-checked); "
                 f"max backlog {self._max_backlog}; DDS lost "
-                + (", ".join(f"{topic} {count}" for topic, count in lost.items()) if lost else "none"))
+                + ("(not counted)" if lost is None else
+                   ", ".join(f"{topic} {count}" for topic, count in lost.items()) if lost else "none"))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -27,7 +27,8 @@ limit counts and dropped joint states cover the whole recording.
   stamps with the node clock, where a gap cannot be told from a late step). joint_states_out_of_order: stamps
   older than the one before them; joint_states_repeated: stamps equal to it (lockstep republishing).
 - recorder_lost_messages: messages of any topic DDS lost before the recorder took them (the recorder's
-  message-lost events, from the bag's metadata.yaml); null when the bag does not say.
+  message-lost events, from the bag's metadata.yaml); null when the bag does not say (the recorder's
+  count_lost_messages is off by default).
 - delay_one_way_ms: median ChannelDelivery.held on /replica/teleop_command and /replica/master_pose, in ms.
 - duration_s: sim time covered by /clock (else /joint_states) stamps; controller: most frequent
   FicState.controller.
