@@ -143,7 +143,7 @@ def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_the
 
 def test_a_joint_beyond_its_velocity_limit_stops_the_arm_for_the_run(ros_env, rclpy_context, tmp_path):
     """A controller that keeps pushing joint 1 (60 N m on top of gravity compensation): once joint 1 passes the
-    Panda's 2.175 rad/s the robot says so in one error line, applies its hold torque from then on whatever it is
+    Panda's 2.175 rad/s by the reflex's 10 % the robot says so in one error line, applies its hold torque from then on whatever it is
     sent (Franka: joint_velocity_violation), and the arm comes to rest; /diagnostics says ERROR."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
@@ -163,7 +163,7 @@ def test_a_joint_beyond_its_velocity_limit_stops_the_arm_for_the_run(ros_env, rc
         assert controller.spin_until(lambda: len(controller.states) > tripped + 600, timeout=60.0), robot.output()
         velocities = np.array([m.velocity for m in controller.states])
         before = np.abs(velocities[:tripped, 0]).max()
-        assert 2.175 < before < 2.5, before   # it tripped on the first steps past the limit, not later
+        assert 2.175 * 1.1 < before < 2.7, before   # it tripped on the first steps past limit and margin, not later
         # The hold torque on every step since (gravity + Coriolis compensation and damping), not the push.
         for previous, message in zip(controller.states[tripped + 1:-1], controller.states[tripped + 2:]):
             q, qd = np.array(previous.position), np.array(previous.velocity)

@@ -9,19 +9,20 @@ from fic_core.arm_profile import arm_profile
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES
 from sim_bridge.robot.mujoco_panda import PandaSimulation
-from sim_bridge.robot.velocity_reflex import VelocityReflex
+from sim_bridge.robot.velocity_reflex import REFLEX_MARGIN, VelocityReflex
 
 LIMITS = arm_profile("panda").joint_velocity
 
 
-def test_it_trips_once_on_the_first_joint_past_its_limit_and_latches() -> None:
+def test_it_trips_once_on_the_first_joint_past_its_limit_and_margin_and_latches() -> None:
     reflex = VelocityReflex(LIMITS, ARM_JOINT_NAMES)
-    assert reflex.check(np.array(LIMITS), 0.0) is None          # at the limit: inside
-    assert reflex.check(-np.array(LIMITS), 0.001) is None
+    inside = np.array(LIMITS) * (1.0 + REFLEX_MARGIN)
+    assert reflex.check(inside, 0.0) is None                    # at the limit and its margin: inside
+    assert reflex.check(-inside, 0.001) is None
     over = np.zeros(7)
-    over[4] = -2.62                                            # joint 5's limit is 2.61
+    over[4] = -2.61 * (1.0 + REFLEX_MARGIN) - 0.001             # joint 5's limit is 2.61
     event = reflex.check(over, 0.002)
-    assert event is not None and event.joint == "panda_joint5" and event.velocity == pytest.approx(2.62)
+    assert event is not None and event.joint == "panda_joint5" and event.velocity == pytest.approx(-over[4])
     assert event.limit == 2.61 and event.time == 0.002 and "joint_velocity_violation" in event.message
     assert reflex.tripped and reflex.check(np.zeros(7), 0.003) is None and reflex.tripped
 
@@ -52,5 +53,5 @@ def test_on_the_mujoco_arm_the_hold_brings_a_runaway_joint_to_rest() -> None:
     assert reflex.tripped and reflex.event.joint == "panda_joint1"
     tripped = int(round(reflex.event.time / 0.001))
     speeds = np.array(speeds)
-    assert speeds.max() < LIMITS[0] + 0.3, speeds.max()        # one step of the push past the limit, then braked
+    assert speeds.max() < LIMITS[0] * (1.0 + REFLEX_MARGIN) + 0.3, speeds.max()   # a step past it, then braked
     assert speeds[tripped + 200:].max() < LIMITS[0] and speeds[-1] < 0.05, speeds[-1]
