@@ -221,7 +221,17 @@ def rclpy_context(ros_env: dict[str, str]):
     context = rclpy.Context()
     rclpy.init(context=context)
     yield context
+    # Every node the test made on it, then the context itself: a participant left alive went on announcing the
+    # test's node on its domain, and a later test that reserved the same domain heard it ("domain 62 already
+    # carries a graph (/test_twin, ...)" in a fresh-clone suite, 2026-12-04).
+    import gc
+
+    from rclpy.node import Node
+    for node in [obj for obj in gc.get_objects() if isinstance(obj, Node) and obj.context is context]:
+        with contextlib.suppress(Exception):
+            node.destroy_node()
     rclpy.shutdown(context=context)
+    context.destroy()
     for key, value in previous.items():
         if value is None:
             os.environ.pop(key, None)
