@@ -36,7 +36,6 @@ def limits(robot):
     return PandaLimits.from_robot(robot)
 
 
-
 @contextlib.contextmanager
 def reserved_domain():
     """A ROS_DOMAIN_ID no other process on this machine holds, reserved until the block ends.
