@@ -13,6 +13,11 @@ recorder's clock, so a loop that runs late shows up as a lower rate whatever its
 
 The nominal rate is the one the run was started with: the launcher's per-node overrides in ``<run>/params`` over
 config/*.yaml. The first ``skip_s`` and the last ``tail_s`` seconds are left out (start-up and stop).
+
+Under the driver twins (``--hardware-twin``) the robot's physics shows on the franka_ros2 broadcaster's
+/franka/joint_states (/joint_states is the 30 Hz joint_state_publisher) and the device's loop on /fd/ee_pose; in a
+two-station run the master station's loops are in its own bag (``<run>/bag_master``), each rate counted over the
+span of the bag that holds it (its own station's clock).
 """
 from __future__ import annotations
 
@@ -22,6 +27,7 @@ from pathlib import Path
 import numpy as np
 from fic_teleop_runtime.parameters import file_sections
 
+from sim_bridge.driver_twins import ForceDimensionTopics, FrankaRos2Topics
 from sim_bridge.recording.bag_reader import read_messages
 
 REPO = Path(__file__).resolve().parents[3]
@@ -66,23 +72,48 @@ def nominal_rate(loop: Loop, run_dir: Path | None) -> float:
     return float(values[loop.parameter])
 
 
-def loop_rates(bag: Path, run_dir: Path | None = None, skip_s: float = 3.0, tail_s: float = 1.0) -> dict[str, dict]:
-    """{loop: {topic, nominal_hz, achieved_hz, fraction}} of one bag (module docstring)."""
-    topics = {loop.topic for loop in LOOPS}
-    times: dict[str, list[int]] = {topic: [] for topic in topics}
+def loop_topic(loop: Loop, run_dir: Path | None) -> str:
+    """The stream that shows ``loop`` in this run (module docstring: the driver twins publish the drivers' topics)."""
+    if run_dir is not None:
+        params = run_dir / "params"
+        if loop.name == "robot physics" and \
+                _parameters(params / "robot.yaml").get("driver_interface") == "franka_ros2":
+            return FrankaRos2Topics.joint_states
+        if loop.name == "haptic device" and \
+                _parameters(params / "haptic_device.yaml").get("driver_interface") == "forcedimension":
+            return ForceDimensionTopics.ee_pose
+    return loop.topic
+
+
+def _receive_times(bag: Path, topics: set[str]) -> tuple[dict[str, list[int]], tuple[int, int] | None]:
+    """The recorder's receive times [ns] of ``topics`` in one bag, and the span of every message in it."""
+    times: dict[str, list[int]] = {}
+    first = last = None
     for _, channel, message in read_messages(bag):
+        first = message.log_time if first is None else min(first, message.log_time)
+        last = message.log_time if last is None else max(last, message.log_time)
         if channel.topic in topics:
-            times[channel.topic].append(message.log_time)
-    every = [t for series in times.values() for t in series]
-    if not every:
+            times.setdefault(channel.topic, []).append(message.log_time)
+    return times, (first, last) if first is not None else None
+
+
+def loop_rates(bag: Path, run_dir: Path | None = None, skip_s: float = 3.0, tail_s: float = 1.0) -> dict[str, dict]:
+    """{loop: {topic, nominal_hz, achieved_hz, fraction}} of one run (module docstring)."""
+    topics = {loop: loop_topic(loop, run_dir) for loop in LOOPS}
+    bags = [bag] + ([run_dir / "bag_master"] if run_dir is not None and (run_dir / "bag_master").exists() else [])
+    recorded = [_receive_times(path, set(topics.values())) for path in bags]
+    if recorded[0][1] is None:
         return {}
-    start, end = min(every) + skip_s * 1e9, max(every) - tail_s * 1e9
     rates: dict[str, dict] = {}
     for loop in LOOPS:
-        stamps = np.asarray(times[loop.topic], dtype=np.int64)
+        topic = topics[loop]
+        # the bag that holds the stream (the robot station's first), over that bag's own span
+        times, span = next(((times, span) for times, span in recorded if times.get(topic)), recorded[0])
+        start, end = span[0] + skip_s * 1e9, span[1] - tail_s * 1e9
+        stamps = np.asarray(times.get(topic, []), dtype=np.int64)
         inside = stamps[(stamps >= start) & (stamps <= end)]
         nominal = nominal_rate(loop, run_dir)
         achieved = len(inside) / ((end - start) * 1e-9) if end > start else float("nan")
-        rates[loop.name] = {"topic": loop.topic, "nominal_hz": nominal, "achieved_hz": round(achieved, 1),
+        rates[loop.name] = {"topic": topic, "nominal_hz": nominal, "achieved_hz": round(achieved, 1),
                             "fraction": round(achieved / nominal, 3) if nominal > 0 else None}
     return rates
