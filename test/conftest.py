@@ -11,6 +11,7 @@ import os
 import random
 import signal
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -66,6 +67,14 @@ def isolated_env(log_dir: Path, domain: int) -> dict[str, str]:
     env["PYTHONUNBUFFERED"] = "1"
     env["RCUTILS_COLORIZED_OUTPUT"] = "0"
     return env
+
+
+def run_launcher(out: Path, *arguments: str, timeout: float = 600.0) -> subprocess.CompletedProcess:
+    """scripts/teleop_launcher.py run to its end on a domain of its own, writing to ``out``: a test's whole graph."""
+    with reserved_domain() as domain:
+        env = isolated_env(out.parent / "ros_log", domain)
+        return subprocess.run([sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--out", str(out),
+                               *arguments], env=env, capture_output=True, text=True, timeout=timeout)
 
 
 @pytest.fixture

@@ -9,14 +9,12 @@ from __future__ import annotations
 import json
 import math
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import REPO, isolated_env, reserved_domain
+from conftest import run_launcher
 from sim_bridge.robot.scenes import CIRCLE_CENTRE, PUSHABLE_OBSTACLE_POSITION
 
 pytestmark = pytest.mark.nodes
@@ -30,12 +28,8 @@ MOVE = re.compile(r"closed-loop operator starts its (\w+) move at ([\d.]+) s for
 @pytest.fixture(scope="module")
 def closed_loop_run(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("closed_loop") / "run"
-    with reserved_domain() as domain:
-        env = isolated_env(out.parent / "ros_log", domain)
-        process = subprocess.run([sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--out", str(out),
-                                  "--duration", str(DURATION_S), "--time-mode", "lockstep", "--operator",
-                                  "closed-loop", "--no-video", "--wall-limit", "400"], env=env, capture_output=True,
-                                 text=True, timeout=600)
+    process = run_launcher(out, "--duration", str(DURATION_S), "--time-mode", "lockstep", "--operator", "closed-loop",
+                           "--no-video", "--wall-limit", "400")
     assert process.returncode == 0, process.stdout + process.stderr
     return out
 

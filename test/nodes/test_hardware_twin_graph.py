@@ -6,14 +6,12 @@ the superimposed circle, every node stopped clean."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import REPO, assert_stopped_clean, isolated_env, reserved_domain, unclean_exit
+from conftest import assert_stopped_clean, run_launcher, unclean_exit
 
 pytestmark = pytest.mark.nodes
 DURATION_S = 8.0
@@ -23,12 +21,8 @@ EXIT_JOINT_STATES_LOST = 4   # scripts/launch_supervision.py
 @pytest.fixture(scope="module")
 def twin_run(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("hardware_twin") / "run"
-    with reserved_domain() as domain:
-        env = isolated_env(out.parent / "ros_log", domain)
-        process = subprocess.run([sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--out", str(out),
-                                  "--hardware-twin", "--time-mode", "lockstep", "--duration", str(DURATION_S),
-                                  "--no-video", "--wall-limit", "400"], env=env, capture_output=True, text=True,
-                                 timeout=600)
+    process = run_launcher(out, "--hardware-twin", "--time-mode", "lockstep", "--duration", str(DURATION_S),
+                           "--no-video", "--wall-limit", "400")
     output = process.stdout + process.stderr
     (out / "launcher_output.txt").write_text(output)
     # The franka broadcaster's writer keeps 10 samples (SystemDefaultsQoS, as the driver's): a recorder that falls
