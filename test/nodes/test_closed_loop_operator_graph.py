@@ -84,8 +84,8 @@ def test_the_operator_times_its_moves_as_the_in_process_operator_does(closed_loo
     assert graph_moves[0][2] == pytest.approx(runner_moves[0][2], abs=0.3)
     # The push's passing is predicted from frames taken while the avoid moved the arm off the circle, which the
     # operator subtracts with its own hand's history (the efference copy) at the frame's arrival; in lockstep the
-    # node's clock at a callback runs ahead of the arrival by its backlog, so this estimate moves with the load:
-    # the three runs predicted 5.58, 5.37 and 5.21 s, the runner 5.81 s, while the arm passed at 5.51 s in all
+    # node's clock at a callback runs ahead of the arrival by its backlog, likely why this estimate moves with the
+    # load: the three runs predicted 5.58, 5.37 and 5.21 s, the runner 5.81 s, while the arm passed at 5.51 s in all
     # three (lockstep moves it alike). Held against the passing that happened, within 0.4 s (30 degrees of the
     # 4 s lap); a predicted passing off by a lap or a wrong speed fails.
     passings = _passing_times(closed_loop_run / "bag", PUSHABLE_OBSTACLE_ANGLE)
