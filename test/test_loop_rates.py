@@ -48,7 +48,8 @@ def test_the_default_graph_rates_against_config(tmp_path: Path) -> None:
     rates = loop_rates(_bag(tmp_path / "bag", DEFAULT_STREAMS), tmp_path)
     assert rates["robot physics"]["fraction"] == pytest.approx(1.0, abs=0.01)
     assert rates["master force"]["fraction"] == pytest.approx(0.8, abs=0.01)        # 200 of 250 Hz
-    assert rates["replica control"]["fraction"] == pytest.approx(0.8, abs=0.01)     # 800 of config/replica.yaml's 1000 Hz
+    # 800 of config/replica.yaml's 1000 Hz
+    assert rates["replica control"]["fraction"] == pytest.approx(0.8, abs=0.01)
     assert rates["haptic device"]["topic"] == "/haptic/pose"
 
 

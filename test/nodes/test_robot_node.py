@@ -143,8 +143,8 @@ def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_the
 
 def test_a_joint_beyond_its_velocity_limit_stops_the_arm_for_the_run(ros_env, rclpy_context, tmp_path):
     """A controller that keeps pushing joint 1 (60 N m on top of gravity compensation): once joint 1 passes the
-    Panda's 2.175 rad/s by the reflex's 10 % the robot says so in one error line, applies its hold torque from then on whatever it is
-    sent (Franka: joint_velocity_violation), and the arm comes to rest; /diagnostics says ERROR."""
+    Panda's 2.175 rad/s by the reflex's 10 % the robot says so in one error line, applies its hold torque from then
+    on whatever it is sent (Franka: joint_velocity_violation), and the arm comes to rest; /diagnostics says ERROR."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
     robot = _start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.1,

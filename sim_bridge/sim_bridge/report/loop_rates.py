@@ -40,11 +40,16 @@ class Loop:
     params_file: str          # config/<file> and <run>/params/<file>
     parameter: str | None     # its rate parameter; None: a fixed rate
     fixed_rate_hz: float = 0.0
+    # Under a driver twin (``driver_interface`` in its params file): the driver's stream that shows the loop
+    driver_interface: str | None = None
+    driver_topic: str | None = None
 
 
 LOOPS = (
-    Loop("robot physics", "/joint_states", "robot.yaml", None, 1000.0),
-    Loop("haptic device", "/haptic/pose", "haptic_device.yaml", "publish_rate_hz"),
+    Loop("robot physics", "/joint_states", "robot.yaml", None, 1000.0,
+         driver_interface="franka_ros2", driver_topic=FrankaRos2Topics.joint_states),
+    Loop("haptic device", "/haptic/pose", "haptic_device.yaml", "publish_rate_hz",
+         driver_interface="forcedimension", driver_topic=ForceDimensionTopics.ee_pose),
     Loop("master force", "/haptic/wrench_command", "master.yaml", "control_rate"),
     Loop("master network", "/master/teleop_command", "master.yaml", "network_rate"),
     Loop("planner", "/planner/desired_pose", "planner.yaml", "publish_rate"),
@@ -74,14 +79,9 @@ def nominal_rate(loop: Loop, run_dir: Path | None) -> float:
 
 def loop_topic(loop: Loop, run_dir: Path | None) -> str:
     """The stream that shows ``loop`` in this run (module docstring: the driver twins publish the drivers' topics)."""
-    if run_dir is not None:
-        params = run_dir / "params"
-        if loop.name == "robot physics" and \
-                _parameters(params / "robot.yaml").get("driver_interface") == "franka_ros2":
-            return FrankaRos2Topics.joint_states
-        if loop.name == "haptic device" and \
-                _parameters(params / "haptic_device.yaml").get("driver_interface") == "forcedimension":
-            return ForceDimensionTopics.ee_pose
+    if run_dir is not None and loop.driver_topic is not None and \
+            _parameters(run_dir / "params" / loop.params_file).get("driver_interface") == loop.driver_interface:
+        return loop.driver_topic
     return loop.topic
 
 
