@@ -50,6 +50,8 @@ def check_options(args: argparse.Namespace) -> None:
             raise ArgumentRefusal(f"--blackout-window must end after it starts, got {start:g} to {end:g}")
     if args.control_rate is not None:
         _number("--control-rate [Hz]", args.control_rate, *CONTROL_RATE_RANGE_HZ)
+    if getattr(args, "joint_state_rate", None) is not None:
+        _joint_state_rate(args)
     if args.wall_limit is not None:
         _number("--wall-limit [s]", args.wall_limit, 0.0, 7 * 86400.0, low_open=True)
     if not SEED_RANGE[0] <= args.seed < SEED_RANGE[1]:
@@ -61,6 +63,21 @@ def check_options(args: argparse.Namespace) -> None:
         ranges = " or ".join(f"{low}-{high}" for low, high in VALID_DOMAIN_RANGES)
         raise ArgumentRefusal(f"--domain-id must be {ranges} (the ROS 2 domains with valid DDS ports), "
                               f"got {args.domain_id}")
+
+
+def _joint_state_rate(args: argparse.Namespace) -> None:
+    """--joint-state-rate: realtime only, a whole number of 1 ms physics steps between states, and no slower than
+    the replica's control rate (the replica ticks on joint states)."""
+    rate = args.joint_state_rate
+    _number("--joint-state-rate [Hz]", rate, 0.0, 1000.0, low_open=True)
+    if args.time_mode != "realtime":
+        raise ArgumentRefusal("--joint-state-rate is for realtime runs (lockstep publishes a state every step, the "
+                              "replica answers each)")
+    if abs(1000.0 / rate - round(1000.0 / rate)) > 1e-9:
+        raise ArgumentRefusal(f"--joint-state-rate must divide 1000 Hz (the physics steps), got {rate:g}")
+    if args.control_rate is not None and rate < args.control_rate:
+        raise ArgumentRefusal(f"--joint-state-rate {rate:g} Hz is below the replica's control rate "
+                              f"{args.control_rate:g} Hz (it ticks on joint states)")
 
 
 def domain_from_environment(value: str | None) -> int | None:

@@ -1,14 +1,22 @@
-"""`--group a,b`: run the named nodes of the graph in one process (fic_teleop_runtime.node_group), each still its
-own node. Fewer processes and DDS participants for less isolation; docs/RESULTS.md ("Node grouping") has the
-A/B figures.
+"""Node groups: named nodes of the graph in one process (fic_teleop_runtime.node_group), each still its own node.
+Fewer processes and DDS participants for less isolation; docs/RESULTS.md ("Node grouping", "Graph levers") has
+the A/B figures.
+
+By default the launcher runs ``DEFAULT_GROUPS``, the best configuration measured on 2 cores: the channel's two
+directions in one process and the operator's side (haptic device, the driver twin's adapter, master) in another.
+``--group a,b`` (repeatable) replaces them; ``--isolated`` runs one process per node. No groups under
+--scheduling fifo (its priorities are per node thread, realtime_scheduling.py) or --two-stations (each station
+runs its own nodes, and the channel pair is split across them).
 
 Which nodes can share: any of the graph's except the recorder (it stops last, after every other node, so that it
-records their last messages) and a foreground node (the keyboard operator owns the terminal). Not with
---scheduling fifo (its priorities are per node thread, realtime_scheduling.py) or --two-stations (each station
-runs its own nodes).
+records their last messages) and a foreground node (the keyboard operator owns the terminal).
+
+Logs stay per node: while the group runs, each member's ``<name>.log`` links to the group's ``a+b.log``; when the
+graph has stopped, ``split_log`` writes each member's own lines there (``split_log`` has the rule).
 """
 from __future__ import annotations
 
+import re
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -17,6 +25,8 @@ from typing import Callable
 from launch_checks import ArgumentRefusal
 
 UNGROUPABLE = ("recorder",)
+# Measured best on 2 cores (docs/RESULTS.md, "Graph levers"); a group's names absent from a graph are left out.
+DEFAULT_GROUPS = (("channel_forward", "channel_backward"), ("haptic_device", "fd_adapter", "master"))
 
 
 def parse_groups(values: list[str] | None) -> list[list[str]]:
@@ -35,10 +45,22 @@ def parse_groups(values: list[str] | None) -> list[list[str]]:
 
 
 def check_groups(groups: list[list[str]], args) -> None:
+    if groups and getattr(args, "isolated", False):
+        raise ArgumentRefusal("--group and --isolated contradict each other (--isolated: one process per node)")
     if groups and args.scheduling == "fifo":
         raise ArgumentRefusal("--group cannot run with --scheduling fifo (its priorities are per node thread)")
     if groups and args.two_stations:
         raise ArgumentRefusal("--group cannot run with --two-stations (each station runs its own nodes)")
+
+
+def run_groups(given: list[list[str]], args, specs: list) -> list[list[str]]:
+    """The groups of this run: the ``--group`` ones if given, else ``DEFAULT_GROUPS`` (each with the members this
+    graph has, two at least, none in the foreground), unless the run is --isolated, fifo or two-station."""
+    if given or getattr(args, "isolated", False) or args.scheduling == "fifo" or args.two_stations:
+        return given
+    groupable = {spec.name for spec in specs if not spec.foreground and spec.name not in UNGROUPABLE}
+    groups = [[name for name in group if name in groupable] for group in DEFAULT_GROUPS]
+    return [group for group in groups if len(group) >= 2]
 
 
 def grouped(specs: list, groups: list[list[str]]) -> list:
@@ -75,3 +97,36 @@ def group_command(spec, node_command: Callable, write_params: Callable[[str, dic
         own = node_command(member, write_params(member.name, member.params))
         command += ["--node", f"{member.package}/{member.executable}", *own[own.index("--ros-args"):]]
     return command
+
+
+# rcutils' console format, "[{severity}] [{time}] [{name}]: {message}": the logger's name is the node's (its
+# namespace's parts and a child logger's suffix joined by dots).
+_LOG_LINE = re.compile(r"^\[[A-Z]+\] \[[0-9.]+\] \[([^\]]+)\]: ")
+
+
+def link_member_logs(log_dir: Path, spec) -> None:
+    """While the group runs, each member's log name points at the group's log (``tail -f master.log`` works)."""
+    for member in spec.members:
+        link = log_dir / f"{member.name}.log"
+        link.unlink(missing_ok=True)
+        link.symlink_to(f"{spec.name}.log")
+
+
+def split_log(log_dir: Path, spec) -> None:
+    """Each member's own ``<name>.log`` from the group's: a log line whose logger names the member goes to its
+    file; a line no logger claims (a traceback, a print, the group's own words) goes to every member's, so that
+    nothing is lost. The group's log stays as it was written."""
+    names = [member.name for member in spec.members]
+    lines: dict[str, list[str]] = {name: [] for name in names}
+    group_log = log_dir / f"{spec.name}.log"
+    text = group_log.read_text(errors="replace") if group_log.exists() else ""
+    for line in text.splitlines(keepends=True):
+        match = _LOG_LINE.match(line)
+        parts = match.group(1).split(".") if match else []
+        owners = [name for name in names if name in parts] or names
+        for name in owners:
+            lines[name].append(line)
+    for name in names:
+        path = log_dir / f"{name}.log"
+        path.unlink(missing_ok=True)   # the link to the group's log
+        path.write_text("".join(lines[name]))

@@ -131,6 +131,10 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         operator_timing = {"script_start_time": origin, **_script_for_delay(args.delay, bag_path.parent)}
         planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
     closed_loop = operator == "closed_loop"
+    joint_states, recorded_joint_states = {}, {}
+    if args.joint_state_rate is not None:   # the recorder counts gaps on the same grid (launch_checks.py checks it)
+        joint_states = {"joint_state_rate_hz": args.joint_state_rate}
+        recorded_joint_states = {"joint_states_period": 1.0 / args.joint_state_rate}
     # The closed-loop operator's video: the robot's poses at a webcam's 30 Hz, over the backward link.
     video = {"object_pose_rate_hz": VIDEO_RATE_HZ} if closed_loop else {}
     backward_routes = {"routes": [*_configured_routes("channel_backward"), *VIDEO_ROUTES]} if closed_loop else {}
@@ -140,9 +144,9 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
                  {"scene": args.scene, "mode": args.time_mode, "seed": args.seed, **video,
                   **({"lockstep_peers": LOCKSTEP_PEERS} if lockstep and not args.no_peer_barrier else {}),
                   # lockstep starts once the replica and the recorder both read /joint_states: no step unrecorded
-                  **({"lockstep_subscribers": 2} if lockstep else {})}),
+                  **({"lockstep_subscribers": 2} if lockstep else {}), **joint_states}),
         NodeSpec("sim_bridge", "recorder_node", "recorder", None,
-                 {"bag_path": str(bag_path), **sim_time,
+                 {"bag_path": str(bag_path), **sim_time, **recorded_joint_states,
                   # --live: the recorder, which holds every topic's bytes already, serves the live view
                   **({"live_port": args.live_port, "live_host": args.live_host} if args.live else {})}),
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
@@ -238,6 +242,8 @@ class Graph:
             process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
                                        preexec_fn=preexec)
         self.processes.append((spec, process, log))
+        if spec.members and log is not None:
+            node_groups.link_member_logs(self.log_dir, spec)
         if spec.fifo_priority is not None:
             self.scheduler.register(spec.name, process.pid, spec.fifo_priority)
 
@@ -267,9 +273,11 @@ class Graph:
         for spec, process, log in self.processes:
             if spec.name == "recorder":
                 codes[spec.name] = _interrupt(process, 60.0)
-        for _, _, log in self.processes:
+        for spec, _, log in self.processes:
             if log:
                 log.close()
+                if spec.members:   # each member's own log again (node_groups.split_log)
+                    node_groups.split_log(self.log_dir, spec)
         return codes
 
 
@@ -396,6 +404,10 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--control-rate", type=float, default=None,
                         help="replica control rate [Hz] (default: 1000 in lockstep, the paper's rate; 500 in realtime, "
                              "REALTIME_CONTROL_RATE_HZ)")
+    parser.add_argument("--joint-state-rate", type=float, default=None, metavar="HZ",
+                        help="realtime: the robot's /joint_states rate, a divisor of 1000 not below the replica's "
+                             "control rate (default 1000, a Franka's; 500 halves the graph's largest stream, "
+                             "docs/RESULTS.md \"Graph levers\")")
     parser.add_argument("--trajectory", default=None, choices=["circle", "fixed", "via_points"],
                         help="planner trajectory (default: the circle for superimposition, a fixed point otherwise)")
     parser.add_argument("--no-peer-barrier", action="store_true",
@@ -428,8 +440,12 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     hardware_twin.add_arguments(parser)
     parser.add_argument("--group", action="append", metavar="NODE,NODE[,...]",
                         help="run these nodes in one process, each still its own node (repeatable; e.g. "
-                             "channel_forward,channel_backward); fewer processes, less isolation (docs/RESULTS.md, "
-                             "\"Node grouping\")")
+                             "channel_forward,channel_backward); replaces the default groups (the channel pair; the "
+                             "device and the master): fewer processes, less isolation (docs/RESULTS.md, \"Graph "
+                             "levers\")")
+    parser.add_argument("--isolated", action="store_true",
+                        help="one process per node, no default groups (each node's crash its own; about 2 CPU s more "
+                             "per 30 s run and a longer latency tail on 2 cores, docs/RESULTS.md)")
     parser.add_argument("--live", action="store_true",
                         help="serve every topic and the arm in 3D on a Foxglove WebSocket server while the run goes "
                              "(open config/live_view.json in Foxglove or Lichtblick; docs/TOOLS.md)")
@@ -509,7 +525,13 @@ def main(argv: list[str] | None = None) -> int:
           f" at {args.control_rate:g} Hz, {args.time_mode}; ROS domain {domain.domain}; run folder {run_dir}")
     try:
         try:
-            specs = node_groups.grouped(graph(args, bag_path), groups)
+            nodes = graph(args, bag_path)
+            groups = node_groups.run_groups(groups, args, nodes)
+            specs = node_groups.grouped(nodes, groups)
+            if groups:
+                print(f"[run] node groups (one process each): {'; '.join(', '.join(g) for g in groups)}"
+                      + ("" if args.group else " (the default; --isolated: one process per node)"))
+                _add_to_run_record(run_dir, "node_groups", groups)
         except ArgumentRefusal as refusal:   # a node name this graph does not have: nothing started yet
             print(f"[run] refused: {refusal}", file=sys.stderr)
             return EXIT_REFUSED

@@ -38,6 +38,10 @@ def _launch(tmp_path: Path, *arguments: str, out: Path | None = None) -> subproc
     (("--domain-id", "300"), "--domain-id must be 0-101 or 215-232"),
     (("--domain-id", "-1"), "--domain-id must be 0-101 or 215-232"),
     (("--seed", "-3"), "--seed must be in [0, 2^62)"),
+    (("--joint-state-rate", "300"), "--joint-state-rate must divide 1000 Hz (the physics steps), got 300"),
+    (("--joint-state-rate", "250"), "--joint-state-rate 250 Hz is below the replica's control rate 500 Hz"),
+    (("--joint-state-rate", "500", "--time-mode", "lockstep"), "--joint-state-rate is for realtime runs"),
+    (("--joint-state-rate", "nan"), "--joint-state-rate [Hz] must be a finite number"),
     (("--operator", "closed-loop", "--scene", "free_space"),
      "--operator closed-loop drives the superimposition scene's scripted run only"),
 ])

@@ -69,6 +69,51 @@ def test_ungroupable_or_unknown_nodes_are_refused(group, words) -> None:
         node_groups.grouped(_specs(), node_groups.parse_groups([group]))
 
 
+def _graph() -> list[NodeSpec]:
+    return [*_specs(), NodeSpec("sim_bridge", "haptic_device_node", "haptic_device", "haptic_device.yaml"),
+            NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", foreground=True)]
+
+
+def _args(**given) -> argparse.Namespace:
+    return argparse.Namespace(**{"scheduling": "nice", "two_stations": False, "isolated": False, **given})
+
+
+def test_the_default_groups_are_the_channel_pair_and_the_operators_side_present_in_the_graph() -> None:
+    assert node_groups.run_groups([], _args(), _graph()) == [["channel_forward", "channel_backward"],
+                                                            ["haptic_device", "master"]]   # no fd_adapter here
+    assert node_groups.run_groups([["master", "robot"]], _args(), _graph()) == [["master", "robot"]]   # --group wins
+    # a group left with one member is no group
+    assert node_groups.run_groups([], _args(), [s for s in _graph() if s.name != "master"]) == [
+        ["channel_forward", "channel_backward"]]
+
+
+@pytest.mark.parametrize("given", [{"isolated": True}, {"scheduling": "fifo"}, {"two_stations": True}])
+def test_isolated_fifo_and_two_station_runs_have_no_default_groups(given) -> None:
+    assert node_groups.run_groups([], _args(**given), _graph()) == []
+
+
+def test_isolated_with_a_group_is_refused() -> None:
+    with pytest.raises(ArgumentRefusal, match="--isolated"):
+        node_groups.check_groups([["master", "planner"]], _args(isolated=True))
+
+
+def test_a_groups_log_is_split_into_its_members_own_logs(tmp_path: Path) -> None:
+    group = node_groups.grouped(_specs(), node_groups.parse_groups(["channel_forward,channel_backward"]))[2]
+    node_groups.link_member_logs(tmp_path, group)
+    (tmp_path / "channel_forward+channel_backward.log").write_text(
+        "[INFO] [1764892800.123] [channel_forward]: channel up\n"
+        "[WARN] [1764892800.200] [station.channel_backward.routes]: a route refused\n"
+        "Traceback (most recent call last):\n  boom\n")
+    assert (tmp_path / "channel_forward.log").read_text().startswith("[INFO]")   # the link, while it runs
+    node_groups.split_log(tmp_path, group)
+    forward = (tmp_path / "channel_forward.log").read_text()
+    backward = (tmp_path / "channel_backward.log").read_text()
+    assert not (tmp_path / "channel_forward.log").is_symlink()
+    assert forward == "[INFO] [1764892800.123] [channel_forward]: channel up\nTraceback (most recent call last):\n  boom\n"
+    assert backward.startswith("[WARN]") and "channel up" not in backward and "boom" in backward   # unclaimed: both
+    assert (tmp_path / "channel_forward+channel_backward.log").read_text().count("\n") == 4   # kept whole
+
+
 def test_group_with_fifo_scheduling_is_refused() -> None:
     args = argparse.Namespace(scheduling="fifo", two_stations=False)
     with pytest.raises(ArgumentRefusal, match="--scheduling fifo"):
@@ -83,18 +128,21 @@ def test_the_node_group_refuses_an_unknown_executable_in_one_line() -> None:
 
 
 @pytest.mark.nodes
-def test_a_grouped_lockstep_run_keeps_its_nodes_and_its_figures(tmp_path: Path) -> None:
+def test_a_default_lockstep_run_is_grouped_and_keeps_its_nodes_logs_and_figures(tmp_path: Path) -> None:
     out = tmp_path / "run"
-    arguments = [arg for group in GROUPS for arg in ("--group", group)]
     with reserved_domain() as domain:
         process = subprocess.run([sys.executable, str(LAUNCHER), "--out", str(out), "--duration", "5",
-                                  "--time-mode", "lockstep", "--no-video", "--wall-limit", "400", *arguments],
+                                  "--time-mode", "lockstep", "--no-video", "--wall-limit", "400"],
                                  env=isolated_env(tmp_path / "ros_log", domain), capture_output=True, text=True,
                                  timeout=600)
     assert_stopped_clean(process.returncode, process.stdout + process.stderr, "the launcher")
+    assert json.loads((out / "run.json").read_text())["node_groups"] == [g.split(",") for g in GROUPS]
     logs = {log.name: log.read_text(errors="replace") for log in (out / "logs").glob("*.log")}
     assert {"channel_forward+channel_backward.log", "haptic_device+master.log"} <= set(logs)
-    assert "channel_forward.log" not in logs and "master.log" not in logs   # one process a group
+    # each member's own log, with its own lines and not its partner's
+    assert "[master]" in logs["master.log"] and "[haptic_device]" not in logs["master.log"]
+    assert "[channel_backward]: channel up" in logs["channel_backward.log"]
+    assert "[channel_forward]" not in logs["channel_backward.log"]
     for name, text in logs.items():
         assert not unclean_exit(0, text), f"{name}: {unclean_exit(0, text)}"
     shared = logs["channel_forward+channel_backward.log"]

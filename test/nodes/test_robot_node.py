@@ -178,3 +178,27 @@ def test_a_joint_beyond_its_velocity_limit_stops_the_arm_for_the_run(ros_env, rc
     finally:
         code = robot.stop(timeout=10.0)
     assert code == 0, robot.log_path.read_text()
+
+
+def test_realtime_joint_states_at_500_hz_lie_on_their_own_2_ms_grid_and_the_wrench_keeps_its_rate(
+        ros_env, rclpy_context, tmp_path):
+    """``joint_state_rate_hz: 500``: a state every second physics step, its stamps whole multiples of 2 ms (the
+    recorder and the report count gaps on that grid), while /ft_sensor/wrench stays at 250 Hz."""
+    from geometry_msgs.msg import WrenchStamped
+
+    robot = _start_robot(ros_env, tmp_path, mode="realtime", scene="free_space", joint_state_rate_hz=500.0)
+    try:
+        assert robot.wait_for_output("robot_sim ready", timeout=30.0), robot.output()
+        controller = Controller(rclpy_context)
+        wrenches: list = []
+        controller.node.create_subscription(WrenchStamped, "/ft_sensor/wrench", wrenches.append, QOS)
+        assert controller.spin_until(lambda: len(controller.states) >= 1000, timeout=30.0), robot.output()
+        stamps_ns = np.array([_stamp(m) for m in controller.states[10:]])
+        assert np.all(stamps_ns % 2_000_000 == 0)
+        steps = np.diff(stamps_ns) / 2_000_000
+        assert np.median(steps) == 1.0 and steps.min() >= 1.0
+        span = (stamps_ns[-1] - stamps_ns[0]) * 1e-9
+        wrench_rate = sum(1 for w in wrenches if _stamp(w) >= stamps_ns[0]) / span
+        assert 200.0 < wrench_rate < 300.0, wrench_rate
+    finally:
+        robot.stop(timeout=10.0)

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from .bag_data import BagReadError
+from .loop_rates import joint_states_period
 from .metrics import ReportSettings
 from .report import make_report, replica_config_defaults, summary_table
 
@@ -30,7 +31,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.warmup < 0:
         parser.error("--warmup must be >= 0")
     out = args.out or args.bag.with_name(args.bag.name.removesuffix(".mcap") + "_report")
-    settings = ReportSettings(warmup_s=args.warmup, max_force_n=args.f_max, error_bound_m=args.x_b)
+    # A launcher's run folder holds the bag and the run's params (the joint states' rate, if not every step).
+    run_dir = args.bag.parent if (args.bag.parent / "params").is_dir() else None
+    settings = ReportSettings(warmup_s=args.warmup, max_force_n=args.f_max, error_bound_m=args.x_b,
+                              joint_states_period_s=joint_states_period(run_dir))
     try:
         analysis, plots = make_report(args.bag, out, settings,
                                       key_frame_interval=args.key_frame_interval if args.render else None,

@@ -3,7 +3,7 @@
 Each loop is judged by the stream it publishes once per iteration, counted over the bag's receive times (the
 recorder's clock, so a loop that runs late shows up as a lower rate whatever its own stamps say):
 
-- robot physics: /joint_states (one per 1 ms step);
+- robot physics: /joint_states (one per 1 ms step; realtime: ``joint_state_rate_hz``, every step by default);
 - haptic device: /haptic/pose (``publish_rate_hz``);
 - master force loop: /haptic/wrench_command (``control_rate``); master network loop: /master/teleop_command
   (``network_rate``);
@@ -38,15 +38,14 @@ class Loop:
     name: str
     topic: str
     params_file: str          # config/<file> and <run>/params/<file>
-    parameter: str | None     # its rate parameter; None: a fixed rate
-    fixed_rate_hz: float = 0.0
+    parameter: str            # its rate parameter
     # Under a driver twin (``driver_interface`` in its params file): the driver's stream that shows the loop
     driver_interface: str | None = None
     driver_topic: str | None = None
 
 
 LOOPS = (
-    Loop("robot physics", "/joint_states", "robot.yaml", None, 1000.0,
+    Loop("robot physics", "/joint_states", "robot.yaml", "joint_state_rate_hz",
          driver_interface="franka_ros2", driver_topic=FrankaRos2Topics.joint_states),
     Loop("haptic device", "/haptic/pose", "haptic_device.yaml", "publish_rate_hz",
          driver_interface="forcedimension", driver_topic=ForceDimensionTopics.ee_pose),
@@ -69,12 +68,15 @@ def _parameters(path: Path) -> dict:
 
 def nominal_rate(loop: Loop, run_dir: Path | None) -> float:
     """The loop's rate as started: the run's override, else config/."""
-    if loop.parameter is None:
-        return loop.fixed_rate_hz
     values = _parameters(REPO / "config" / loop.params_file)
     if run_dir is not None:
         values.update(_parameters(run_dir / "params" / loop.params_file))
     return float(values[loop.parameter])
+
+
+def joint_states_period(run_dir: Path | None) -> float:
+    """Seconds between the run's consecutive /joint_states stamps (the report counts gaps on this grid)."""
+    return 1.0 / nominal_rate(LOOPS[0], run_dir)
 
 
 def loop_topic(loop: Loop, run_dir: Path | None) -> str:
