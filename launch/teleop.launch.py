@@ -14,8 +14,16 @@ from launch_ros.actions import Node
 CONFIG = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config")
 START_MARGIN_S = 4.0  # the operator script and the circle start this long after launch, once all are up
 # (package, executable, node name, config file, per-run parameters)
-NODES = [('sim_bridge', 'robot_node', 'robot', 'robot.yaml', {'scene': 'superimposition', 'mode': 'realtime', 'seed': 1}),
- ('sim_bridge', 'recorder_node', 'recorder', None, {'bag_path': '', 'use_sim_time': False}),
+NODES = [('sim_bridge',
+  'robot_node',
+  'robot',
+  'robot.yaml',
+  {'scene': 'superimposition', 'mode': 'realtime', 'seed': 1, 'joint_state_rate_hz': 500.0}),
+ ('sim_bridge',
+  'recorder_node',
+  'recorder',
+  None,
+  {'bag_path': '', 'use_sim_time': False, 'joint_states_period': 0.002}),
  ('fic_teleop_replica',
   'replica_node',
   'replica',

@@ -46,6 +46,12 @@ REALTIME_START_MARGIN_S = 4.0   # realtime: the script and the circle start this
 # of the graph, fell behind irregularly (about 350 states/s), which tracked worse than a steady 500 Hz (measured
 # in one session, docs/CONVENTIONS.md "Rates"). Lockstep has no such budget and keeps the paper's 1 kHz.
 REALTIME_CONTROL_RATE_HZ = 500.0
+# Realtime, the robot publishes /joint_states at the replica's 500 Hz: its only other reader is the recorder, and
+# the 1 kHz stream was the graph's largest (a quarter of its messages). A/B of 2026-12-04 (docs/RESULTS.md "Graph
+# levers"): pipeline latency p99 4.1 against 5.0 ms, slowest loop 0.995 against 0.976 of its rate, 5.5 CPU s less
+# per 30 s run. A faster replica (--control-rate above 500) gets them every step; the driver twin keeps the
+# Franka broadcaster's 1 kHz; lockstep publishes every step (the replica answers each).
+REALTIME_JOINT_STATE_RATE_HZ = 500.0
 
 # Scheduler niceness for the loops that close through the robot. On 2 cores the graph uses most of both; with
 # these, the physics, the replica, the channel, the haptic loop and the planner get the CPU first and the
@@ -406,8 +412,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                              "REALTIME_CONTROL_RATE_HZ)")
     parser.add_argument("--joint-state-rate", type=float, default=None, metavar="HZ",
                         help="realtime: the robot's /joint_states rate, a divisor of 1000 not below the replica's "
-                             "control rate (default 1000, a Franka's; 500 halves the graph's largest stream, "
-                             "docs/RESULTS.md \"Graph levers\")")
+                             "control rate (default: the replica's 500 Hz, 1000 with a faster replica or the driver "
+                             "twin; docs/RESULTS.md \"Graph levers\")")
     parser.add_argument("--trajectory", default=None, choices=["circle", "fixed", "via_points"],
                         help="planner trajectory (default: the circle for superimposition, a fixed point otherwise)")
     parser.add_argument("--no-peer-barrier", action="store_true",
@@ -459,6 +465,9 @@ def resolve_defaults(args: argparse.Namespace) -> None:
     """The defaults that depend on other arguments (also what scripts/launch_file.py writes the launch file from)."""
     if args.control_rate is None:
         args.control_rate = 1000.0 if args.time_mode == "lockstep" else REALTIME_CONTROL_RATE_HZ
+    if args.joint_state_rate is None and args.time_mode == "realtime" and not args.hardware_twin:
+        args.joint_state_rate = (REALTIME_JOINT_STATE_RATE_HZ if args.control_rate <= REALTIME_JOINT_STATE_RATE_HZ
+                                 else 1000.0)
     if args.no_priority:
         args.scheduling = "default"
     if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone

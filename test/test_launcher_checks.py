@@ -140,3 +140,22 @@ def test_the_robots_velocity_reflex_in_the_bag_is_a_limit_violation(tmp_path: Pa
     code, reasons = safety_verdict(clean, {}, [], False, bag("stopped", "reflex: panda_joint2 moved at 2.300 rad/s"))
     assert code == EXIT_LIMIT_VIOLATIONS
     assert reasons == ["the robot stopped the arm: reflex: panda_joint2 moved at 2.300 rad/s"]
+
+
+@pytest.mark.parametrize("arguments, rate", [
+    ([], 500.0),                                        # realtime: the replica's rate, the A/B's best
+    (["--control-rate", "1000"], 1000.0),               # a faster replica gets every step
+    (["--joint-state-rate", "1000"], 1000.0),           # asked for
+    (["--hardware-twin"], None),                        # the Franka broadcaster's own 1 kHz
+    (["--time-mode", "lockstep"], None),                # every step, the replica answers each
+])
+def test_the_default_joint_state_rate_follows_the_mode(arguments, rate) -> None:
+    import teleop_launcher
+
+    args = teleop_launcher.parse_arguments(arguments)
+    teleop_launcher.resolve_defaults(args)
+    assert args.joint_state_rate == rate
+    robot, recorder = (next(s for s in teleop_launcher.graph(args, Path("bag")) if s.name == name)
+                       for name in ("robot", "recorder"))
+    assert robot.params.get("joint_state_rate_hz") == rate
+    assert recorder.params.get("joint_states_period") == (None if rate is None else 1.0 / rate)

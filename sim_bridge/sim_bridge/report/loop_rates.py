@@ -3,7 +3,7 @@
 Each loop is judged by the stream it publishes once per iteration, counted over the bag's receive times (the
 recorder's clock, so a loop that runs late shows up as a lower rate whatever its own stamps say):
 
-- robot physics: /joint_states (one per 1 ms step; realtime: ``joint_state_rate_hz``, every step by default);
+- robot physics: /joint_states (one per 1 ms step; realtime: ``joint_state_rate_hz``, 500 Hz under the launcher);
 - haptic device: /haptic/pose (``publish_rate_hz``);
 - master force loop: /haptic/wrench_command (``control_rate``); master network loop: /master/teleop_command
   (``network_rate``);
