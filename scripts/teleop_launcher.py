@@ -100,6 +100,21 @@ def node_command(spec: NodeSpec, run_params: Path | None = None) -> list[str]:
     return command
 
 
+def params_files(values: list[str]) -> list[tuple[str, Path]]:
+    """``--params-file NODE=FILE`` values -> [(node, absolute path)]; ArgumentRefusal names a malformed value or a
+    file that cannot be read."""
+    result = []
+    for value in values:
+        node, separator, path = value.partition("=")
+        if not separator or not node or not path:
+            raise ArgumentRefusal(f"--params-file needs NODE=FILE, got {value!r}")
+        resolved = Path(path).expanduser().resolve()
+        if not resolved.is_file() or not os.access(resolved, os.R_OK):
+            raise ArgumentRefusal(f"--params-file {node}: {path} is not a readable file")
+        result.append((node, resolved))
+    return result
+
+
 OPERATORS = ("scripted", "closed-loop")
 # The closed-loop operator's video (sim_bridge/device/haptic_device_node.py reads it), after channel_backward's own
 # routes (config/channel.yaml).
@@ -178,6 +193,11 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         nodes.append(NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", None, {}, foreground=True))
     if args.hardware_twin:
         nodes = hardware_twin.twin_graph(nodes, lockstep, NodeSpec)
+    by_name = {spec.name: spec for spec in nodes}
+    for node, path in params_files(args.params_file):
+        if node not in by_name:
+            raise ArgumentRefusal(f"--params-file: no node {node!r} in this graph (its nodes: {', '.join(by_name)})")
+        by_name[node].extra_params_files.append(str(path))
     if args.scheduling != "default":
         for spec in nodes:
             spec.niceness = PRIORITY_NICENESS.get(spec.name)
@@ -452,6 +472,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--isolated", action="store_true",
                         help="one process per node, no default groups (each node's crash its own; about 2 CPU s more "
                              "per 30 s run and a longer latency tail on 2 cores, docs/RESULTS.md)")
+    parser.add_argument("--params-file", action="append", metavar="NODE=FILE", default=[],
+                        help="a ROS 2 params file for one node, read after its config/ file and before the run's own "
+                             "values (repeatable); the node refuses a key it does not declare")
     parser.add_argument("--live", action="store_true",
                         help="serve every topic and the arm in 3D on a Foxglove WebSocket server while the run goes "
                              "(open config/live_view.json in Foxglove or Lichtblick; docs/TOOLS.md)")
@@ -494,6 +517,7 @@ def main(argv: list[str] | None = None) -> int:
     try:  # the options first: the outer two-station process and the launcher inside both refuse bad ones
         check_options(args)
         two_stations.check_arguments(args)
+        params_files(args.params_file)
         groups = node_groups.parse_groups(args.group)
         node_groups.check_groups(groups, args)
     except (ArgumentRefusal, two_stations.StationError) as refusal:

@@ -42,6 +42,9 @@ def _launch(tmp_path: Path, *arguments: str, out: Path | None = None) -> subproc
     (("--joint-state-rate", "250"), "--joint-state-rate 250 Hz is below the replica's control rate 500 Hz"),
     (("--joint-state-rate", "500", "--time-mode", "lockstep"), "--joint-state-rate is for realtime runs"),
     (("--joint-state-rate", "nan"), "--joint-state-rate [Hz] must be a finite number"),
+    (("--params-file", "replica"), "--params-file needs NODE=FILE, got 'replica'"),
+    (("--params-file", "replica=/nonexistent/rates.yaml"), "--params-file replica: /nonexistent/rates.yaml is not a "
+                                                           "readable file"),
     (("--operator", "closed-loop", "--scene", "free_space"),
      "--operator closed-loop drives the superimposition scene's scripted run only"),
 ])
@@ -159,3 +162,21 @@ def test_the_default_joint_state_rate_follows_the_mode(arguments, rate) -> None:
                        for name in ("robot", "recorder"))
     assert robot.params.get("joint_state_rate_hz") == rate
     assert recorder.params.get("joint_states_period") == (None if rate is None else 1.0 / rate)
+
+
+def test_a_params_file_goes_to_its_node_after_its_config_and_an_unknown_node_is_refused(tmp_path: Path) -> None:
+    import teleop_launcher
+    from launch_checks import ArgumentRefusal
+
+    rates = tmp_path / "rates.yaml"
+    rates.write_text("/**:\n  ros__parameters:\n    status_rate: 50.0\n")
+    args = teleop_launcher.parse_arguments(["--params-file", f"replica={rates}"])
+    teleop_launcher.resolve_defaults(args)
+    replica = next(s for s in teleop_launcher.graph(args, Path("bag")) if s.name == "replica")
+    command = teleop_launcher.node_command(replica, tmp_path / "run_params.yaml")
+    files = [command[i + 1] for i, item in enumerate(command) if item == "--params-file"]
+    assert files[0].endswith("config/replica.yaml") and files[-2:] == [str(rates), str(tmp_path / "run_params.yaml")]
+    args = teleop_launcher.parse_arguments(["--params-file", f"replcia={rates}"])
+    teleop_launcher.resolve_defaults(args)
+    with pytest.raises(ArgumentRefusal, match="--params-file: no node 'replcia' in this graph"):
+        teleop_launcher.graph(args, Path("bag"))
