@@ -66,8 +66,8 @@ def check_options(args: argparse.Namespace) -> None:
 
 
 def _joint_state_rate(args: argparse.Namespace) -> None:
-    """--joint-state-rate: realtime only, a whole number of 1 ms physics steps between states, and no slower than
-    the replica's control rate (the replica ticks on joint states)."""
+    """--joint-state-rate: realtime only, a whole number of 1 ms physics steps between states, and a whole number
+    of states per replica tick (the replica ticks on joint states)."""
     rate = args.joint_state_rate
     _number("--joint-state-rate [Hz]", rate, 0.0, 1000.0, low_open=True)
     if args.time_mode != "realtime":
@@ -78,6 +78,10 @@ def _joint_state_rate(args: argparse.Namespace) -> None:
     if args.control_rate is not None and rate < args.control_rate:
         raise ArgumentRefusal(f"--joint-state-rate {rate:g} Hz is below the replica's control rate "
                               f"{args.control_rate:g} Hz (it ticks on joint states)")
+    states_per_tick = rate / args.control_rate if args.control_rate else 1.0
+    if abs(states_per_tick - round(states_per_tick)) > 1e-9:
+        raise ArgumentRefusal(f"--joint-state-rate {rate:g} Hz: the replica's control rate {args.control_rate:g} Hz "
+                              "must tick on every n-th joint state (its rate a divisor of this one)")
 
 
 def domain_from_environment(value: str | None) -> int | None:

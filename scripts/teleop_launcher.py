@@ -49,7 +49,7 @@ REALTIME_CONTROL_RATE_HZ = 500.0
 # Realtime, the robot publishes /joint_states at the replica's 500 Hz: its only other reader is the recorder, and
 # the 1 kHz stream was the graph's largest (a quarter of its messages). A/B of 2026-12-04 (docs/RESULTS.md "Graph
 # levers"): pipeline latency p99 4.1 against 5.0 ms, slowest loop 0.995 against 0.976 of its rate, 5.5 CPU s less
-# per 30 s run. A faster replica (--control-rate above 500) gets them every step; the driver twin keeps the
+# per 30 s run. A replica whose period is not a whole number of 2 ms gets them every step; the driver twin keeps the
 # Franka broadcaster's 1 kHz; lockstep publishes every step (the replica answers each).
 REALTIME_JOINT_STATE_RATE_HZ = 500.0
 
@@ -488,9 +488,12 @@ def resolve_defaults(args: argparse.Namespace) -> None:
     """The defaults that depend on other arguments (also what scripts/launch_file.py writes the launch file from)."""
     if args.control_rate is None:
         args.control_rate = 1000.0 if args.time_mode == "lockstep" else REALTIME_CONTROL_RATE_HZ
-    if args.joint_state_rate is None and args.time_mode == "realtime" and not args.hardware_twin:
-        args.joint_state_rate = (REALTIME_JOINT_STATE_RATE_HZ if args.control_rate <= REALTIME_JOINT_STATE_RATE_HZ
-                                 else 1000.0)
+    usable_rate = math.isfinite(args.control_rate) and args.control_rate > 0.0   # else check_options refuses it
+    if args.joint_state_rate is None and args.time_mode == "realtime" and not args.hardware_twin and usable_rate:
+        # 500 Hz when the control period is a whole number of its 2 ms (500, 250, 100 Hz ...): the replica's ticks
+        # fall on its states. Otherwise (a faster replica, or 300 Hz, which would tick every 4 ms) every step.
+        ticks = REALTIME_JOINT_STATE_RATE_HZ / args.control_rate
+        args.joint_state_rate = REALTIME_JOINT_STATE_RATE_HZ if ticks >= 1.0 and ticks == round(ticks) else 1000.0
     if args.no_priority:
         args.scheduling = "default"
     if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone

@@ -41,6 +41,8 @@ def _launch(tmp_path: Path, *arguments: str, out: Path | None = None) -> subproc
     (("--joint-state-rate", "300"), "--joint-state-rate must divide 1000 Hz (the physics steps), got 300"),
     (("--joint-state-rate", "250"), "--joint-state-rate 250 Hz is below the replica's control rate 500 Hz"),
     (("--joint-state-rate", "500", "--time-mode", "lockstep"), "--joint-state-rate is for realtime runs"),
+    (("--joint-state-rate", "500", "--control-rate", "300"), "--joint-state-rate 500 Hz: the replica's control rate "
+                                                             "300 Hz must tick on every n-th joint state"),
     (("--joint-state-rate", "nan"), "--joint-state-rate [Hz] must be a finite number"),
     (("--params-file", "replica"), "--params-file needs NODE=FILE, got 'replica'"),
     (("--params-file", "replica=/nonexistent/rates.yaml"), "--params-file replica: /nonexistent/rates.yaml is not a "
@@ -148,6 +150,8 @@ def test_the_robots_velocity_reflex_in_the_bag_is_a_limit_violation(tmp_path: Pa
 @pytest.mark.parametrize("arguments, rate", [
     ([], 500.0),                                        # realtime: the replica's rate, the A/B's best
     (["--control-rate", "1000"], 1000.0),               # a faster replica gets every step
+    (["--control-rate", "250"], 500.0),                 # a tick every second state
+    (["--control-rate", "300"], 1000.0),                # 3.3 ms is no whole number of 2 ms: every step
     (["--joint-state-rate", "1000"], 1000.0),           # asked for
     (["--hardware-twin"], None),                        # the Franka broadcaster's own 1 kHz
     (["--time-mode", "lockstep"], None),                # every step, the replica answers each
