@@ -73,6 +73,8 @@ def _joint_state_rate(args: argparse.Namespace) -> None:
     if args.time_mode != "realtime":
         raise ArgumentRefusal("--joint-state-rate is for realtime runs (lockstep publishes a state every step, the "
                               "replica answers each)")
+    if getattr(args, "hardware_twin", False) and rate != 1000.0:
+        raise ArgumentRefusal("--joint-state-rate: the driver twin publishes at the Franka broadcaster's 1000 Hz")
     if abs(1000.0 / rate - round(1000.0 / rate)) > 1e-9:
         raise ArgumentRefusal(f"--joint-state-rate must divide 1000 Hz (the physics steps), got {rate:g}")
     if args.control_rate is not None and rate < args.control_rate:

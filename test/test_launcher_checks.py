@@ -41,6 +41,8 @@ def _launch(tmp_path: Path, *arguments: str, out: Path | None = None) -> subproc
     (("--joint-state-rate", "300"), "--joint-state-rate must divide 1000 Hz (the physics steps), got 300"),
     (("--joint-state-rate", "250"), "--joint-state-rate 250 Hz is below the replica's control rate 500 Hz"),
     (("--joint-state-rate", "500", "--time-mode", "lockstep"), "--joint-state-rate is for realtime runs"),
+    (("--joint-state-rate", "500", "--hardware-twin"), "--joint-state-rate: the driver twin publishes at the Franka "
+                                                       "broadcaster's 1000 Hz"),
     (("--joint-state-rate", "500", "--control-rate", "300"), "--joint-state-rate 500 Hz: the replica's control rate "
                                                              "300 Hz must tick on every n-th joint state"),
     (("--joint-state-rate", "nan"), "--joint-state-rate [Hz] must be a finite number"),
