@@ -470,7 +470,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                              "device and the master): fewer processes, less isolation (docs/RESULTS.md, \"Graph "
                              "levers\")")
     parser.add_argument("--isolated", action="store_true",
-                        help="one process per node, no default groups (each node's crash its own; about 2 CPU s more "
+                        help="one process per node, no default groups (each node's crash its own; about 4 CPU s more "
                              "per 30 s run and a longer latency tail on 2 cores, docs/RESULTS.md)")
     parser.add_argument("--params-file", action="append", metavar="NODE=FILE", default=[],
                         help="a ROS 2 params file for one node, read after its config/ file and before the run's own "
