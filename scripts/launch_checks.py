@@ -65,6 +65,12 @@ def check_options(args: argparse.Namespace) -> None:
                               f"got {args.domain_id}")
 
 
+def whole_states_per_tick(joint_state_rate: float, control_rate: float) -> bool:
+    """Whether the replica, ticking on joint states, ticks on every n-th of them (n >= 1) at ``control_rate``."""
+    states = joint_state_rate / control_rate
+    return states >= 1.0 and abs(states - round(states)) <= 1e-9
+
+
 def _joint_state_rate(args: argparse.Namespace) -> None:
     """--joint-state-rate: realtime only, a whole number of 1 ms physics steps between states, and a whole number
     of states per replica tick (the replica ticks on joint states)."""
@@ -80,8 +86,7 @@ def _joint_state_rate(args: argparse.Namespace) -> None:
     if args.control_rate is not None and rate < args.control_rate:
         raise ArgumentRefusal(f"--joint-state-rate {rate:g} Hz is below the replica's control rate "
                               f"{args.control_rate:g} Hz (it ticks on joint states)")
-    states_per_tick = rate / args.control_rate if args.control_rate else 1.0
-    if abs(states_per_tick - round(states_per_tick)) > 1e-9:
+    if args.control_rate is not None and not whole_states_per_tick(rate, args.control_rate):
         raise ArgumentRefusal(f"--joint-state-rate {rate:g} Hz: the replica's control rate {args.control_rate:g} Hz "
                               "must tick on every n-th joint state (its rate a divisor of this one)")
 

@@ -26,7 +26,8 @@ from pathlib import Path
 import two_stations
 import hardware_twin
 import node_groups
-from launch_checks import ArgumentRefusal, check_options, domain_from_environment, prepare_run_folder
+from launch_checks import ArgumentRefusal, check_options, domain_from_environment, prepare_run_folder, \
+    whole_states_per_tick
 from launch_isolation import DomainBusy, isolate
 from launch_supervision import EXIT_CODES, EXIT_REFUSED, die_with_launcher, failed_nodes, safety_verdict
 from realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
@@ -492,8 +493,8 @@ def resolve_defaults(args: argparse.Namespace) -> None:
     if args.joint_state_rate is None and args.time_mode == "realtime" and not args.hardware_twin and usable_rate:
         # 500 Hz when the control period is a whole number of its 2 ms (500, 250, 100 Hz ...): the replica's ticks
         # fall on its states. Otherwise (a faster replica, or 300 Hz, which would tick every 4 ms) every step.
-        ticks = REALTIME_JOINT_STATE_RATE_HZ / args.control_rate
-        args.joint_state_rate = REALTIME_JOINT_STATE_RATE_HZ if ticks >= 1.0 and ticks == round(ticks) else 1000.0
+        args.joint_state_rate = (REALTIME_JOINT_STATE_RATE_HZ
+                                 if whole_states_per_tick(REALTIME_JOINT_STATE_RATE_HZ, args.control_rate) else 1000.0)
     if args.no_priority:
         args.scheduling = "default"
     if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
