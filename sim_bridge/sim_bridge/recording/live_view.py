@@ -26,6 +26,9 @@ import numpy as np
 import foxglove
 from foxglove.channels import FrameTransformsChannel
 from foxglove.messages import FrameTransform, FrameTransforms, Quaternion, Timestamp, Vector3
+from rclpy.serialization import deserialize_message, serialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 
 from fic_core.panda_description import ARM_JOINT_NAMES, panda_description
 
@@ -41,48 +44,23 @@ class LiveViewError(RuntimeError):
     """The live view could not start (the port is taken, the host cannot be bound)."""
 
 
+# The middleware's own CDR (de)serialisation (rclpy.serialization over the messages' type support): the view runs in
+# the recorder, an rclpy node, and reads exactly what Fast DDS wrote, padding included, with no decoder of our own.
+
+
 def _cdr_string(text: str) -> bytes:
-    """std_msgs/msg/String in CDR (little endian): encapsulation header, uint32 length with NUL, bytes, NUL."""
-    data = text.encode()
-    return b"\x00\x01\x00\x00" + (len(data) + 1).to_bytes(4, "little") + data + b"\x00"
+    """std_msgs/msg/String in CDR."""
+    return serialize_message(String(data=text))
 
 
 def joint_positions(cdr: bytes, names: tuple[str, ...] = ARM_JOINT_NAMES) -> np.ndarray | None:
-    """The arm's joint positions, in `names` order, from a sensor_msgs/msg/JointState CDR message.
-
-    Decoded by hand (header, name[], position[]), so the view needs no rclpy; None if a joint is missing."""
-    little = bool(cdr[1] & 1)
-    order = "little" if little else "big"
-    view = memoryview(cdr)[4:]  # CDR alignment counts from after the encapsulation header
-    offset = 8  # stamp: int32 sec, uint32 nanosec
-
-    def align(n: int) -> None:
-        nonlocal offset
-        offset += (-offset) % n
-
-    def uint32() -> int:
-        nonlocal offset
-        align(4)
-        value = int.from_bytes(view[offset:offset + 4], order)
-        offset += 4
-        return value
-
-    def string() -> str:
-        nonlocal offset
-        length = uint32()
-        text = bytes(view[offset:offset + length - 1]).decode()
-        offset += length
-        return text
-
-    string()  # frame_id
-    joint_names = [string() for _ in range(uint32())]
-    count = uint32()
-    align(8)
-    positions = np.frombuffer(view, dtype="<f8" if little else ">f8", count=count, offset=offset)
-    index = {name: i for i, name in enumerate(joint_names)}
-    if any(name not in index for name in names):
+    """The arm's joint positions, in `names` order, from a sensor_msgs/msg/JointState CDR message; None if a joint
+    is missing."""
+    state = deserialize_message(cdr, JointState)
+    index = {name: i for i, name in enumerate(state.name)}
+    if any(name not in index for name in names) or len(state.position) != len(state.name):
         return None
-    return np.array([positions[index[name]] for name in names])
+    return np.array([state.position[index[name]] for name in names], dtype=float)
 
 
 class ArmTransforms:
