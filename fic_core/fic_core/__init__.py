@@ -15,4 +15,5 @@ from fic_core.robot_model import RobotModel
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.posture import NullSpacePosture
 from fic_core.postural_optimisation import PosturalOptimisation, ShapedTorque
-from fic_core.replica import ReplicaCommand, ReplicaController, rotation_from_quaternion
+from fic_core.quaternion import rotation_from_quaternion, unit_quaternion
+from fic_core.replica import ReplicaCommand, ReplicaController

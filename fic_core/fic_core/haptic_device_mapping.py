@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import FicInputError, finite_array, finite_scalar
-from .replica import rotation_from_quaternion
+from .quaternion import rotation_from_quaternion
 
 
 class DeviceFrameMapping:

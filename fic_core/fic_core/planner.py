@@ -45,21 +45,6 @@ VELOCITY_PEAK_RATIO = 1.595
 VISCOSITY_RATIO = 0.01
 
 
-def unit_quaternion(values: ArrayLike) -> tuple[float, float, float, float]:
-    """The planner's fixed orientation [x, y, z, w] (it plans positions only), normalised: a parameter written
-    by hand (0.7071 for 1/sqrt(2)) is a rotation only up to its rounding. FicInputError unless four finite numbers
-    of non-zero norm."""
-    try:
-        quaternion = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        quaternion = np.empty(0)
-    norm = float(np.linalg.norm(quaternion)) if quaternion.shape == (4,) else 0.0
-    if quaternion.shape != (4,) or not np.all(np.isfinite(quaternion)) or norm < 1e-6:
-        raise FicInputError(f"orientation must be a finite non-zero quaternion [x, y, z, w], got {values!r}")
-    x, y, z, w = (float(q) / norm for q in quaternion)
-    return x, y, z, w
-
-
 class HarmonicPlanner:
     """Per-axis harmonic planner producing x_d'' (paper Eqs. 5-6)."""
 

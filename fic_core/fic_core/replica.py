@@ -69,6 +69,7 @@ from .errors import FicInputError, finite_array, finite_floats, finite_scalar
 from .limits import VIOLATION_TOLERANCE, LimitFlag, PandaLimits, violation_flags
 from .postural_optimisation import _FLAGS, _INSIDE, PosturalOptimisation
 from .posture import NullSpacePosture
+from .quaternion import rotation_from_quaternion
 from .robot_model import RobotModel, checked_array
 from .torque_slew import TorqueSlew
 
@@ -307,20 +308,6 @@ class _EagerSnapshot:
         self.phase = np.asarray(controller.phase)
         self.latched_max_error = np.asarray(controller.latched_max_error, dtype=float)
         self.stored_energy = np.asarray(controller.stored_energy, dtype=float)
-
-
-def rotation_from_quaternion(quaternion: ArrayLike) -> NDArray[np.float64]:
-    """Rotation matrix of a quaternion given in ROS order (x, y, z, w); normalised, zero norm rejected."""
-    quaternion = finite_array("desired_rotation", quaternion, (4,))
-    norm = float(np.linalg.norm(quaternion))
-    if norm < 1e-9:
-        raise FicInputError(f"desired_rotation quaternion must have a non-zero norm, got {quaternion}")
-    x, y, z, w = quaternion / norm
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def _determinant(matrix: NDArray[np.float64]) -> float:

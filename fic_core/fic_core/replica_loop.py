@@ -29,7 +29,8 @@ from .errors import FicInputError
 from .input_authority import CommandAuthority, CommandVerdict
 from .limits import PandaLimits
 from .passivity_observer import PassivityObserver
-from .replica import ReplicaCommand, ReplicaController, rotation_from_quaternion
+from .quaternion import rotation_from_quaternion
+from .replica import ReplicaCommand, ReplicaController
 from .replica_parameters import build_replica_controller, checked
 from .robot_model import RobotModel
 

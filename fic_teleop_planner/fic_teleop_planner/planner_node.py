@@ -27,7 +27,8 @@ from rclpy.parameter import Parameter
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
 from fic_core.errors import FicInputError
-from fic_core.planner import HarmonicPlanner, unit_quaternion
+from fic_core.planner import HarmonicPlanner
+from fic_core.quaternion import unit_quaternion
 from fic_core.planner_schedule import PlannerSchedule
 from fic_core.trajectories import Circle, FixedPoint, ViaPoints
 from fic_teleop_runtime import qos

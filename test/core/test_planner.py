@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 
 from fic_core.attractor import Phase
 from fic_core.errors import FicInputError
-from fic_core.planner import HarmonicPlanner, unit_quaternion
+from fic_core.planner import HarmonicPlanner
+from fic_core.quaternion import unit_quaternion
 from fic_core.trajectories import Circle
 
 

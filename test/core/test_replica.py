@@ -15,7 +15,8 @@ from fic_core.errors import FicInputError
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.panda_description import JOINT_DAMPING, NOMINAL_CONFIGURATION
 from fic_core.profile import ForceProfile
-from fic_core.replica import ReplicaController, rotation_from_quaternion
+from fic_core.quaternion import rotation_from_quaternion
+from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel
 
 DT = 0.001

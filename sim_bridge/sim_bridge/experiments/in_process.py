@@ -30,7 +30,8 @@ import yaml
 from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
-from fic_core.planner import HarmonicPlanner, unit_quaternion
+from fic_core.planner import HarmonicPlanner
+from fic_core.quaternion import unit_quaternion
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
 from fic_core.trajectories import Circle, FixedPoint
