@@ -130,3 +130,92 @@ class Circle:
     def point(self, t: float, position: ArrayLike | None = None) -> NDArray[np.float64]:
         angle = self._phase + 2.0 * math.pi * finite_scalar("t", t) / self._period
         return self._centre + self._radius * (math.cos(angle) * self._u + math.sin(angle) * self._v)
+
+
+def _smoothstep(fraction: float) -> float:
+    """Quintic smoothstep: 0 -> 1 with zero slope and curvature at both ends (a C2 blend between laps)."""
+    u = min(max(fraction, 0.0), 1.0)
+    return u ** 3 * (10.0 - 15.0 * u + 6.0 * u ** 2)
+
+
+class LapVaryingCircle:
+    """The paper's circle with its own period and diameter on every lap, so that no two laps are alike.
+
+    Lap ``i`` lasts ``periods[i]`` and the angle runs uniformly through 2*pi over it, continuing from the lap before
+    (the position is continuous, the angular speed steps at a lap's end; the harmonic planner of Eqs. 5-6 turns the
+    step into a bounded acceleration). The radius blends from ``diameters[i] / 2`` at the lap's start to
+    ``diameters[i + 1] / 2`` at its end with a quintic smoothstep, so it is C2 in time. After the last listed lap
+    the last period and diameter go on. Same frame as ``Circle`` (``u x v = normal``, start at ``phase``).
+
+    A sweep that must not repeat its task draws the laps from a seed (``randomised``); the scene's obstacles stay on
+    the path as long as the diameters stay within their width of the paper's 0.20 m.
+    """
+
+    def __init__(self, centre: ArrayLike, periods: ArrayLike, diameters: ArrayLike,
+                 normal: ArrayLike = (0.0, 0.0, 1.0), phase: float = 0.0) -> None:
+        self._centre = finite_array("centre", centre, (3,))
+        self._periods = finite_array("periods", periods)
+        self._diameters = finite_array("diameters", diameters)
+        if self._periods.ndim != 1 or self._periods.size < 1 or np.any(self._periods <= 0.0):
+            raise FicInputError(f"periods must be a non-empty list of positive seconds, got {self._periods}")
+        if self._diameters.shape != (self._periods.size + 1,) or np.any(self._diameters <= 0.0):
+            raise FicInputError(f"diameters must be {self._periods.size + 1} positive lengths (one more than the "
+                                f"laps: each lap blends from its own to the next), got {self._diameters}")
+        self._starts = np.concatenate([[0.0], np.cumsum(self._periods)])
+        self._phase = finite_scalar("phase", phase)
+        # The plane's axes as Circle builds them (the same start point and direction for the same normal).
+        frame = Circle(self._centre, 1.0, 1.0, normal, 0.0)
+        self._u = frame.point(0.0) - self._centre
+        self._u = self._u / float(np.linalg.norm(self._u))
+        self._v = frame.point(0.25) - self._centre
+        self._v = self._v / float(np.linalg.norm(self._v))
+
+    @classmethod
+    def randomised(cls, centre: ArrayLike, draws: np.random.Generator, duration: float,
+                   period_range: tuple[float, float] = (4.0, 6.0),
+                   diameter_range: tuple[float, float] = (0.17, 0.23),
+                   normal: ArrayLike = (0.0, 0.0, 1.0), phase_range: tuple[float, float] = (0.0, 2.0 * math.pi),
+                   ) -> "LapVaryingCircle":
+        """Laps drawn uniformly from the ranges until ``duration`` [s] is covered; the start angle too."""
+        duration = finite_scalar("duration", duration, minimum=0.0, minimum_inclusive=False)
+        for name, (low, high) in (("period_range", period_range), ("diameter_range", diameter_range)):
+            if not 0.0 < low <= high or not math.isfinite(high):
+                raise FicInputError(f"{name} must be 0 < low <= high, got {(low, high)}")
+        periods: list[float] = []
+        while sum(periods) < duration:
+            periods.append(float(draws.uniform(*period_range)))
+        diameters = draws.uniform(*diameter_range, size=len(periods) + 1)
+        return cls(centre, periods, diameters, normal, float(draws.uniform(*phase_range)))
+
+    @property
+    def periods(self) -> NDArray[np.float64]:
+        return self._periods.copy()
+
+    @property
+    def diameters(self) -> NDArray[np.float64]:
+        return self._diameters.copy()
+
+    @property
+    def phase(self) -> float:
+        return self._phase
+
+    def _lap(self, t: float) -> tuple[int, float]:
+        """The lap running at ``t`` and the fraction of it done (past the last lap: the last one's period on)."""
+        last = self._periods.size - 1
+        index = min(int(np.searchsorted(self._starts, t, side="right")) - 1, last)
+        index = max(index, 0)
+        return index, (t - self._starts[index]) / self._periods[index]
+
+    def angle(self, t: float) -> float:
+        """The angle on the circle at ``t`` [rad], from ``phase``."""
+        index, fraction = self._lap(finite_scalar("t", t))
+        return self._phase + 2.0 * math.pi * (index + fraction)
+
+    def radius(self, t: float) -> float:
+        index, fraction = self._lap(finite_scalar("t", t))
+        start, end = self._diameters[index], self._diameters[index + 1]
+        return 0.5 * float(start + _smoothstep(fraction) * (end - start))
+
+    def point(self, t: float, position: ArrayLike | None = None) -> NDArray[np.float64]:
+        angle, radius = self.angle(t), self.radius(t)
+        return self._centre + radius * (math.cos(angle) * self._u + math.sin(angle) * self._v)

@@ -28,6 +28,13 @@ times its moves from what it sees, as the paper's operator did watching the repl
 - FEELING: the hand is virtual_operator.Hand, a spring-damper on the handle; the master's force moves the handle
   against it, and the hand's lean-in (its correction term) is how the operator pushes through a felt force.
 
+- VARYING (off by default; the claim sweep turns it on, docs/EXPERIMENTS.md "Claims"): no two moves alike. With a
+  ``seed``, each move is played with its own amplitude scale (drawn in ``move_amplitude_range``), its own duration
+  scale of the hold and ramp times (``move_duration_range``) and its own shift of its timing
+  (+-``move_timing_spread`` s), drawn before it starts; and the hand wanders: smooth raised-cosine excursions of
+  ``wander_amplitude_range`` metres in a random direction, lasting ``wander_period_range`` seconds, starting at
+  exponentially distributed gaps of mean ``wander_mean_gap`` s (a hand that is never quite still, at random times).
+
 With nothing seen moving yet (the robot at rest before its circle starts, or no frame arrived) the hand stays at
 the origin: the operator does not know when the robot will come.
 """
@@ -42,7 +49,7 @@ from typing import Mapping, NamedTuple, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from fic_core.errors import finite_array, finite_scalar
+from fic_core.errors import FicInputError, finite_array, finite_scalar
 
 Vector3 = NDArray[np.float64]
 #: The video's frame rate [Hz]: a webcam's.
@@ -79,6 +86,14 @@ class ClosedLoopParameters:
     hold: float = 0.5
     ramp: float = 0.5
     push_hold: float = 0.3
+    # VARYING (module docstring); the defaults play every move as the script does and never wander.
+    seed: int | None = None
+    move_amplitude_range: tuple[float, float] = (1.0, 1.0)
+    move_duration_range: tuple[float, float] = (1.0, 1.0)
+    move_timing_spread: float = 0.0           # [s]
+    wander_amplitude_range: tuple[float, float] = (0.0, 0.0)   # [m]
+    wander_period_range: tuple[float, float] = (1.0, 4.0)      # [s]
+    wander_mean_gap: float = 3.0              # [s]
 
     def __post_init__(self) -> None:
         for name in ("reaction_time", "assumed_one_way_delay", "handle_lag", "avoid_offset", "avoid_lift",
@@ -88,6 +103,13 @@ class ClosedLoopParameters:
                      "ramp"):
             finite_scalar(name, getattr(self, name), minimum=0.0, minimum_inclusive=False)
         finite_array("circle_centre", self.circle_centre, shape=(2,))
+        finite_scalar("move_timing_spread", self.move_timing_spread, minimum=0.0)
+        finite_scalar("wander_mean_gap", self.wander_mean_gap, minimum=0.0, minimum_inclusive=False)
+        for name, low_bound in (("move_amplitude_range", 0.0), ("move_duration_range", 1e-3),
+                                ("wander_amplitude_range", 0.0), ("wander_period_range", 1e-3)):
+            low, high = finite_array(name, getattr(self, name), shape=(2,))
+            if not low_bound <= low <= high:
+                raise FicInputError(f"{name} must be {low_bound:g} <= low <= high, got {(low, high)}")
 
     @classmethod
     def from_script_parameters(cls, script: Mapping[str, object], **changes: float) -> "ClosedLoopParameters":
@@ -150,6 +172,41 @@ class ClosedLoopOperator:
         self._done: dict[str, float] = {}                        # move -> the passing it last played
         self.pushable_on_path = True
         self.moves_started: list[tuple[str, float, float]] = []  # (move, start time, predicted passing time)
+        # VARYING: the draws of each move's next playing (amplitude, duration scale, timing shift) and the wander.
+        self._draws = np.random.default_rng(p.seed) if p.seed is not None else None
+        self._variation = {move.name: self._draw_variation() for move in self._moves}
+        self._wander: list[tuple[float, float, Vector3]] = []   # (start, duration, peak displacement)
+        self._next_wander = self._draw_gap(0.0)
+
+    def _draw_variation(self) -> tuple[float, float, float]:
+        if self._draws is None:
+            return 1.0, 1.0, 0.0
+        p = self.parameters
+        return (float(self._draws.uniform(*p.move_amplitude_range)), float(self._draws.uniform(*p.move_duration_range)),
+                float(self._draws.uniform(-p.move_timing_spread, p.move_timing_spread)))
+
+    def _draw_gap(self, now: float) -> float:
+        if self._draws is None or self.parameters.wander_amplitude_range[1] <= 0.0:
+            return math.inf
+        return now + float(self._draws.exponential(self.parameters.wander_mean_gap))
+
+    def _wandering(self, now: float) -> Vector3:
+        """The sum of the wander excursions running at ``now`` (each 0 -> peak -> 0 as 1 - cos over its duration)."""
+        p = self.parameters
+        draws = self._draws
+        while draws is not None and self._next_wander <= now:
+            heading = draws.uniform(0.0, 2.0 * math.pi)
+            direction = np.array([math.cos(heading), math.sin(heading), float(draws.uniform(-0.5, 0.5))])
+            direction /= float(np.linalg.norm(direction))
+            self._wander.append((self._next_wander, float(draws.uniform(*p.wander_period_range)),
+                                 float(draws.uniform(*p.wander_amplitude_range)) * direction))
+            self._next_wander = self._draw_gap(self._next_wander)
+        self._wander = [w for w in self._wander if now < w[0] + w[1]]
+        total = np.zeros(3)
+        for start, duration, peak in self._wander:
+            if now >= start:
+                total += 0.5 * (1.0 - math.cos(2.0 * math.pi * (now - start) / duration)) * peak
+        return total
 
     # -- seeing ------------------------------------------------------------------------------------------------
     def see(self, arrival: float, frame: Frame) -> None:
@@ -204,15 +261,18 @@ class ClosedLoopOperator:
         p = self.parameters
         aim = now + p.assumed_one_way_delay + p.handle_lag       # when a move made now shows at the replica
         speed = self._angular_speed()
-        target = np.zeros(3)
+        target = self._wandering(now)
         for move in self._moves:
+            # This playing's draws: the profile's time runs 1/stretch as fast, shifted by ``shift``, scaled by
+            # ``amplitude`` (all 1, 1, 0 without VARYING).
+            amplitude, stretch, shift = self._variation[move.name]
             passing = self._latched.get(move.name)
             if passing is None and speed is not None and (move.name != "push" or self.pushable_on_path):
                 capture, _, angle = self._usable[-1]
                 period = 2.0 * math.pi / abs(speed)
                 ahead = (move.angle - angle) / speed                  # [s] from the capture to a passing
                 passing = capture + ahead + period * math.floor((aim - capture - ahead) / period + 0.5)
-                sigma = aim - passing
+                sigma = (aim - passing - shift) / stretch
                 fresh = passing - self._done.get(move.name, -math.inf) > 0.5 * period   # not the one just played
                 if fresh and move.knots[0][0] < sigma < move.knots[-1][0]:
                     self._latched[move.name] = passing
@@ -221,11 +281,12 @@ class ClosedLoopOperator:
                     passing = None
             if passing is None:
                 continue
-            sigma = aim - passing
+            sigma = (aim - passing - shift) / stretch
             if sigma >= move.knots[-1][0]:
                 self._done[move.name] = self._latched.pop(move.name)
+                self._variation[move.name] = self._draw_variation()
                 continue
-            target = target + _profile(sigma, move.knots) * move.direction
+            target = target + amplitude * _profile(sigma, move.knots) * move.direction
         self._targets.append((now, target))
         self._target_times.append(now)
         return target.copy()

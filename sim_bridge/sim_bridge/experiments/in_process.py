@@ -12,7 +12,8 @@ answered, the operator script and the planner's circle on one origin), so a run 
 ``scripts/run_teleop.sh --time-mode lockstep`` execute the same laws at the same rates and delays. What differs:
 no DDS (a message is taken in at the millisecond it is sent, where a lockstep graph delivers it within a step or
 two), and the nodes' timers fire on exact multiples of their periods. Deterministic for a seed (the channel's
-draws and the bond thresholds are the only random elements).
+draws, the bond thresholds and, when asked for, the operator's and the task's variation and the reactive hand's
+figures are the random elements, each from its own stream of the seed).
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ import mujoco
 import numpy as np
 import yaml
 
+from fic_core.channel_ports import ChannelPorts
 from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
@@ -34,12 +36,12 @@ from fic_core.planner import HarmonicPlanner
 from fic_core.quaternion import unit_quaternion
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
-from fic_core.trajectories import Circle, FixedPoint
+from fic_core.trajectories import Circle, FixedPoint, LapVaryingCircle
 from sim_bridge.channel.channel import Channel, ChannelConfig
-from sim_bridge.experiments.channel_ports import ChannelPorts
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.operator_scripts import superimposition_script
+from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
 from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
 from sim_bridge.robot.mujoco_panda import PandaSimulation
 
@@ -50,6 +52,19 @@ PLANNER_LAG_S = 0.2
 JOY_RATE_HZ = 50.0               # the device node's button messages
 CAMERA_RATE_HZ = VIDEO_RATE_HZ    # the closed-loop operator's video frames
 OPERATORS = ("scripted", "closed_loop")
+HANDS = ("passive", "reactive")
+#: A task that does not repeat (RunConfig.task_variation; docs/EXPERIMENTS.md "Claims"): per seed, the circle's laps
+#: (LapVaryingCircle.randomised) and the closed-loop operator's moves (closed_loop_operator's VARYING) from these
+#: uniform ranges. The diameters keep both obstacles on the path (their 0.06 m width about the paper's 0.20 m).
+TASK_PERIOD_RANGE_S = (4.0, 6.0)           # each lap's period (the paper's 5 s +-20 %)
+TASK_DIAMETER_RANGE_M = (0.17, 0.23)       # each lap's end diameter (the paper's 0.20 m +-15 %)
+TASK_PHASE_RANGE_RAD = (0.0, 2.0 * math.pi)  # the start angle
+MOVE_AMPLITUDE_RANGE = (0.85, 1.1)         # each avoid/push move's size, times the script's
+MOVE_DURATION_RANGE = (0.7, 1.3)           # each move's hold and ramp times, times the script's
+MOVE_TIMING_SPREAD_S = 0.15                # each move's timing, +- about the predicted passing
+WANDER_AMPLITUDE_RANGE_M = (0.005, 0.02)   # the hand's random excursions
+WANDER_PERIOD_RANGE_S = (1.0, 4.0)
+WANDER_MEAN_GAP_S = 3.0
 #: config/replica.yaml also holds the node's input authority (fic_core.input_authority) and driver keys, not
 #: ReplicaLoop's: only REPLICA_LOOP_PARAMETERS go to the loop, the authority's bounds to the loop's CommandAuthority,
 #: which judges every delivered command here as in the node (ReplicaLoop.teleoperation_command: the workspace clamp
@@ -68,7 +83,11 @@ class ReplicaStall:
     seed in [min_gap, max_gap], takes the newest joint state (its depth-1 subscription), and its torque reaches the
     robot ``delay`` later, drawn in [min_delay, max_delay] (a tick preempted half-way, the message queued behind
     other work). The robot applies the last command it received until robot.yaml's command_timeout, then its hold
-    torque (robot_node's stale-command watchdog)."""
+    torque (robot_node's stale-command watchdog).
+
+    ``min_state_age``/``max_state_age``: the state the replica wakes to is older than the newest, by a draw in that
+    range (a state that waited in the reader's queue while the process slept; the two-station runaway's were
+    22-178 ms old): the loop gets that state with its own stamp, and its age against its clock."""
 
     start: float
     end: float
@@ -76,6 +95,8 @@ class ReplicaStall:
     max_gap: float
     min_delay: float = 0.0
     max_delay: float = 0.0
+    min_state_age: float = 0.0
+    max_state_age: float = 0.0
 
 
 @dataclass
@@ -88,6 +109,9 @@ class RunConfig:
     blackout_windows: tuple[tuple[float, float], ...] = ()
     rate_cap: float = 0.0
     controller: str = "fic"
+    # TDPA around the replica's law: the channel ports' passivity controllers act (fic_core.channel_ports);
+    # controller "linear_tdpa" is linear_bounded with this on.
+    tdpa: bool = False
     control_rate: float = 1000.0
     # True: the arm compensates its gravity (MuJoCo's gravcomp, the robot node's gravity_compensation) and the
     # runner adds C(q, qd) qd at every physics step in place of the replica's, so control_rate lowers the rate of
@@ -111,6 +135,16 @@ class RunConfig:
     hand_impedance_jitter: float = 0.0
     # A starved replica process (ReplicaStall; docs/EXPERIMENTS.md "A starved replica").
     replica_stalls: tuple[ReplicaStall, ...] = ()
+    # The robot's bound on the age of the state a torque was computed on (robot_node's command_state_timeout;
+    # None: robot.yaml's; math.inf: no such rule, as before it existed).
+    robot_command_state_timeout: float | None = None
+    # The operator's hand (docs/EXPERIMENTS.md "Claims"): "passive" is virtual_operator.Hand (the optimistic relaxed
+    # arm); "reactive" adds a stretch reflex and a voluntary response to the felt force (device.reactive_hand), its
+    # latencies and gains drawn from the seed.
+    hand: str = "passive"
+    # A task that does not repeat (closed-loop operator only): the planner's laps and the operator's moves drawn from
+    # the seed (TASK_*, MOVE_*, WANDER_* above).
+    task_variation: bool = False
 
 
 @dataclass
@@ -136,10 +170,18 @@ class RunResult:
     passivity_margin_min_j: float = 0.0            # the task-space port's smallest W - (V - V0) (passivity observer)
     passivity_violation_ticks: int = 0
     # Per stamp (n, 5): the channel's master-side and replica-side observers W [J], the energy the channel generated
-    # so far [J] (channel_ports.py), the task-space port's smallest passivity margin [J], |offset drift| [m].
+    # so far [J] (fic_core.channel_ports), the task-space port's smallest passivity margin [J], |offset drift| [m].
     port_energy: np.ndarray | None = None
     obstacle_contact: np.ndarray | None = None     # the robot touches E1's fixed obstacle at those stamps (n,)
     operator_moves: list[tuple[str, float, float]] = field(default_factory=list)  # closed loop: (move, start, passing)
+    draws: dict[str, Any] = field(default_factory=dict)
+    # The robot side over every physics step (docs/RESULTS.md "Starvation"): the fastest joint [rad/s], the robot's
+    # stale-command watchdog engaging, torques it refused as computed on a state older than its bound, the
+    # replica loop's own holds (fic_core.loop_health).
+    joint_speed_max: float = 0.0
+    robot_watchdog_engagements: int = 0
+    stale_torques_refused: int = 0
+    replica_holds: int = 0   # the seed's task and hand draws (task_variation, hand)
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -162,8 +204,8 @@ def run(config: RunConfig) -> RunResult:
     r = {name: value for name, value in r.items() if name in REPLICA_LOOP_PARAMETERS}
     pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
-    # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (channel_ports.py).
-    tdpa = config.controller == "linear_tdpa"
+    # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (fic_core.channel_ports).
+    tdpa = config.tdpa or config.controller == "linear_tdpa"
     replica = ReplicaLoop({**r, "controller": "linear_bounded" if tdpa else config.controller,
                            "control_rate": config.control_rate,
                            "answer_every_state": True, **config.replica_overrides}, authority=authority)
@@ -175,11 +217,23 @@ def run(config: RunConfig) -> RunResult:
     draws = np.random.default_rng([config.seed, 7919])   # apart from the channel's and the bond's streams
     time_shift = float(draws.uniform(-1.0, 1.0)) * config.operator_timing_jitter
     hand_scale = 1.0 + float(draws.uniform(-1.0, 1.0)) * config.hand_impedance_jitter
-    hand = Hand(HandParameters(stiffness=h["hand_stiffness"] * hand_scale, damping=h["hand_damping"] * hand_scale,
-                               correction_rate=h["hand_correction_rate"], max_correction=h["hand_max_correction"],
-                               max_force=h["hand_max_force"]))
+    hand_parameters = HandParameters(stiffness=h["hand_stiffness"] * hand_scale,
+                                     damping=h["hand_damping"] * hand_scale, correction_rate=h["hand_correction_rate"],
+                                     max_correction=h["hand_max_correction"], max_force=h["hand_max_force"])
     if config.operator not in OPERATORS:
         raise ValueError(f"operator must be one of {OPERATORS}, got {config.operator!r}")
+    if config.hand not in HANDS:
+        raise ValueError(f"hand must be one of {HANDS}, got {config.hand!r}")
+    if config.task_variation and config.operator != "closed_loop":
+        raise ValueError("task_variation needs the closed-loop operator: a script is timed for the paper's fixed circle")
+    drawn: dict[str, Any] = {}
+    reactive = config.hand == "reactive"
+    if reactive:
+        reflexes = ReactiveHandParameters.drawn(np.random.default_rng([config.seed, 6007]), hand_parameters)
+        drawn["hand"] = dict(vars(reflexes))
+        hand: Hand = ReactiveHand(hand_parameters, reflexes)
+    else:
+        hand = Hand(hand_parameters)
     if config.operator == "closed_loop" and config.scene != "superimposition":
         raise ValueError(f"the closed-loop operator drives the superimposition scene only, not {config.scene!r}")
     if config.script_path is None and config.scene == "superimposition":
@@ -193,8 +247,13 @@ def run(config: RunConfig) -> RunResult:
     if config.operator == "closed_loop":
         # The seed's timing draw is the reaction time's spread here (the script's clock is not played).
         reaction = max(config.reaction_time + time_shift, 0.0)
+        varying = dict(seed=int(np.random.default_rng([config.seed, 4243]).integers(2 ** 31)),
+                       move_amplitude_range=MOVE_AMPLITUDE_RANGE, move_duration_range=MOVE_DURATION_RANGE,
+                       move_timing_spread=MOVE_TIMING_SPREAD_S, wander_amplitude_range=WANDER_AMPLITUDE_RANGE_M,
+                       wander_period_range=WANDER_PERIOD_RANGE_S, wander_mean_gap=WANDER_MEAN_GAP_S,
+                       ) if config.task_variation else {}
         watcher = ClosedLoopOperator(ClosedLoopParameters.from_script_parameters(
-            script.parameters, reaction_time=reaction, assumed_one_way_delay=config.delay))
+            script.parameters, reaction_time=reaction, assumed_one_way_delay=config.delay, **varying))
     channel = dict(delay=config.delay, jitter=config.jitter, jitter_distribution=ch["jitter_distribution"],
                    allow_reorder=ch["allow_reorder"], drop_probability=config.drop,
                    blackout_windows=tuple(config.blackout_windows), rate_cap_hz=config.rate_cap)
@@ -202,15 +261,23 @@ def run(config: RunConfig) -> RunResult:
     backward = Channel(ChannelConfig(**channel, seed=config.seed + 1))
     # The video shares the backward link (delay, jitter, drops, blackouts) but not the command's rate cap.
     video = Channel(ChannelConfig(**{**channel, "rate_cap_hz": 0.0}, seed=config.seed + 2))
-    source = Circle(pl["circle_centre"], pl["circle_diameter"], pl["circle_period"], pl["circle_normal"],
-                    pl["circle_phase"]) if trajectory == "circle" else FixedPoint(pl["fixed_point"])
+    source: Circle | LapVaryingCircle | FixedPoint
+    if trajectory == "circle" and config.task_variation:
+        source = LapVaryingCircle.randomised(pl["circle_centre"], np.random.default_rng([config.seed, 31337]),
+                                             config.duration, TASK_PERIOD_RANGE_S, TASK_DIAMETER_RANGE_M,
+                                             pl["circle_normal"], TASK_PHASE_RANGE_RAD)
+        drawn["task"] = dict(periods=source.periods.tolist(), diameters=source.diameters.tolist(), phase=source.phase)
+    elif trajectory == "circle":
+        source = Circle(pl["circle_centre"], pl["circle_diameter"], pl["circle_period"], pl["circle_normal"],
+                        pl["circle_phase"])
+    else:
+        source = FixedPoint(pl["fixed_point"])
     planner = HarmonicPlanner(pl["natural_frequency"], pl["max_velocity"])
     planner.reset(source.point(0.0))
     planner_origin = SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0
     orientation = unit_quaternion(pl["orientation"])   # as the planner node publishes it
     sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
-    ports = ChannelPorts(tdpa, h["mass"], 1.0 / m["control_rate"])
-    feedback, feedback_time, sent_force = np.zeros(3), None, np.zeros(3)
+    ports = ChannelPorts(tdpa, m["channel_max_damping"], m["channel_energy_window"])
     tick_dynamics, no_damping = np.zeros(7), np.zeros(7)
     log_ports = []
 
@@ -233,12 +300,29 @@ def run(config: RunConfig) -> RunResult:
     command_timeout = _parameters("robot.yaml")["command_timeout"]
     stall_draws = np.random.default_rng([config.seed, 104729])
     replica_wakes, robot_torque, robot_torque_time = 0.0, None, -math.inf
-    in_flight: deque[tuple[float, np.ndarray]] = deque()   # a starved replica's torques on their way to the robot
+    in_flight: deque[tuple[float, np.ndarray, float]] = deque()   # a starved replica's torques on their way
+    # robot.yaml's command_state_timeout: a torque computed on an older joint state is never applied (robot_node).
+    command_state_timeout = _parameters("robot.yaml").get("command_state_timeout", math.inf) \
+        if config.robot_command_state_timeout is None else config.robot_command_state_timeout
+    robot = {"held": True, "engagements": 0, "refused": 0, "speed": 0.0}
+    oldest_state = max((window.max_state_age for window in config.replica_stalls), default=0.0)
+    past_states: deque[tuple[float, np.ndarray, np.ndarray]] = deque(maxlen=int(round(oldest_state / STEP)) + 1)
 
     def robot_holding() -> np.ndarray:
         """No new torque this step: the robot's last one until command_timeout, then its watchdog's hold."""
         fresh = robot_torque is not None and now - robot_torque_time <= command_timeout
+        if not fresh and not robot["held"] and robot_torque is not None:
+            robot["engagements"] += 1
+        robot["held"] = not fresh
         return robot_torque if fresh else sim.hold_torque()
+
+    def robot_takes(state_time: float) -> bool:
+        """Whether the robot applies a torque computed on the joint state of ``state_time`` (robot_node's rule)."""
+        if now - state_time > command_state_timeout:
+            robot["refused"] += 1
+            return False
+        robot["held"] = False
+        return True
 
     steps = int(round(config.duration / STEP))
     wall = wall_clock.perf_counter()
@@ -249,9 +333,14 @@ def run(config: RunConfig) -> RunResult:
         if k % device_every == 0:
             script_time = max(now - time_shift, 0.0)
             target = operator.target(script_time) if watcher is None else watcher.target(now)
-            hand.update(target, device.position, device_every * STEP if k else 0.0)
-            buttons.extend(event.button for event in operator.poll_events(script_time))
             fresh = command_time is not None and now - command_time <= h["command_timeout"]
+            if reactive:   # it feels the force the motors render on the handle
+                assert isinstance(hand, ReactiveHand)
+                hand.update(target, device.position, device_every * STEP if k else 0.0, device.velocity,
+                            device.saturate(device_command) if fresh else np.zeros(3))
+            else:
+                hand.update(target, device.position, device_every * STEP if k else 0.0)
+            buttons.extend(event.button for event in operator.poll_events(script_time))
             state = device.step(device_command if fresh else np.zeros(3), hand.force, device_every * STEP if k else 0.0)
             master.add_pose(state.position, (0.0, 0.0, 0.0, 1.0), now)
             master.add_twist(state.velocity, now)
@@ -264,15 +353,8 @@ def run(config: RunConfig) -> RunResult:
                 button_down = False
             master.press(pressed)
         if k % master_every == 0:
-            # The channel's master port (channel_ports.py): booked, and for linear_tdpa damped, before Eq. 3.
-            feedback_fresh = feedback_time is not None and now - feedback_time <= master.feedback_timeout
-            integrator = master.integrator
-            velocity = np.zeros(3) if master.handle_position is None else ports.port_velocity(
-                integrator.mode, integrator.workspace_scale, integrator.velocity_gain, master.handle_position,
-                master.handle_velocity)
-            rendered = ports.master_tick(feedback if feedback_fresh else np.zeros(3), velocity, master_every * STEP)
-            if tdpa and feedback_fresh:
-                master.add_feedback(rendered, feedback_time)
+            # The channel's master port (fic_core.channel_ports): booked, and with TDPA damped, before Eq. 3.
+            ports.master.tick(master, now, master_every * STEP)
             force, _ = master.force(now)
             if force is not None:
                 device_command, command_time = force, now
@@ -283,7 +365,7 @@ def run(config: RunConfig) -> RunResult:
                 forward.push((ns, offset, int(integrator.mode.value), master.law.haptic_gain,
                               integrator.workspace_scale, integrator.velocity_gain,
                               master.network_handle_position.copy(),
-                              ports.master_input_energy), now, now)
+                              ports.master.input_energy), now, now)
         if k % planner_every == 0:
             if k:
                 planner.step(source.point(max(now - planner_origin, 0.0), position=planner.position),
@@ -298,15 +380,15 @@ def run(config: RunConfig) -> RunResult:
         if k % delivery_every == 0:
             for delivery in forward.pop_due(now):
                 stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle, energy = delivery.payload
-                ports.replica.observer.receive(energy)
-                offset = ports.replica_delivery(offset, sent_force, now)
+                ports.replica.receive_energy(energy)
+                offset = ports.replica.delivery(offset, now)
                 replica.teleoperation_command(stamp_ns, now, mode=mode, haptic_gain=haptic_gain,
                                               workspace_scale=workspace_scale, velocity_gain=velocity_gain,
                                               handle_position=handle, desired_offset=offset)
             for delivery in backward.pop_due(now):
                 feedback, energy = delivery.payload
-                feedback_time = now
-                ports.master.observer.receive(energy)
+                ports.master.receive_feedback(feedback, now)
+                ports.master.receive_energy(energy)
                 master.add_feedback(feedback, now)
         # Robot side: the joint state of step k, the replica's answer, the physics step.
         if k % wrench_every == 0:
@@ -315,20 +397,30 @@ def run(config: RunConfig) -> RunResult:
         if config.replica_stalls:
             stall = next((window for window in config.replica_stalls if window.start <= now < window.end), None)
             while in_flight and in_flight[0][0] <= now:
-                robot_torque_time, robot_torque = in_flight.popleft()
+                _, torque, state_time = in_flight.popleft()
+                if robot_takes(state_time):
+                    robot_torque_time, robot_torque = now, torque
             if stall is not None and now < replica_wakes or in_flight:
                 sim.step(robot_holding())   # the replica sleeps, or its last torque is still on its way
+                robot["speed"] = max(robot["speed"], float(np.abs(sim.joint_velocities).max()))
                 continue
-        result = replica.joint_state(now, now, sim.joint_positions, sim.joint_velocities)
+        if oldest_state > 0.0:
+            past_states.append((now, sim.joint_positions.copy(), sim.joint_velocities.copy()))
+        if stall is not None and stall.max_state_age > 0.0:
+            back = int(round(float(stall_draws.uniform(stall.min_state_age, stall.max_state_age)) / STEP))
+            state_time, q_state, qd_state = past_states[max(len(past_states) - 1 - back, 0)]
+            result = replica.joint_state(state_time, now, q_state, qd_state)
+        else:
+            state_time = now
+            result = replica.joint_state(now, now, sim.joint_positions, sim.joint_velocities)
         if stall is not None:
             replica_wakes = now + float(stall_draws.uniform(stall.min_gap, stall.max_gap))
             if result.torque is not None and stall.max_delay > 0.0:
                 in_flight.append((now + float(stall_draws.uniform(stall.min_delay, stall.max_delay)),
-                                  result.torque.copy()))
+                                  result.torque.copy(), state_time))
                 result.torque = None
         if result.poses_due and replica.last_command is not None and ft_wrench is not None:
-            backward.push((ft_wrench, ports.replica_input_energy), now, now)
-            sent_force = ft_wrench
+            backward.push((ft_wrench, ports.replica.sent(ft_wrench)), now, now)
             command = replica.last_command
             log_t.append(now)
             log_d.append(command.desired_position)
@@ -351,11 +443,12 @@ def run(config: RunConfig) -> RunResult:
             if result.command is not None:
                 tick_dynamics = replica.robot.nonlinear_effects.copy()
             torque = torque - tick_dynamics + sim.hold_torque(no_damping)
-        if torque is not None:
+        if torque is not None and robot_takes(state_time):
             robot_torque, robot_torque_time = torque, now
             sim.step(torque)
         else:   # before the first command (the hold), or a starved replica's torque not yet arrived
             sim.step(robot_holding())
+        robot["speed"] = max(robot["speed"], float(np.abs(sim.joint_velocities).max()))
     wall = wall_clock.perf_counter() - wall
     desired, offset = np.array(log_d), np.array(log_o)
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
@@ -364,7 +457,9 @@ def run(config: RunConfig) -> RunResult:
                      np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale, np.array(log_target),
                      replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports),
                      obstacle_contact=np.array(log_contact, dtype=bool),
-                     operator_moves=list(watcher.moves_started) if watcher is not None else [])
+                     operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,
+                     joint_speed_max=robot["speed"], robot_watchdog_engagements=robot["engagements"],
+                     stale_torques_refused=robot["refused"], replica_holds=replica.health.holds)
 
 
 def _touches(sim: PandaSimulation, geom: int) -> bool:

@@ -1,0 +1,61 @@
+"""LapVaryingCircle (fic_core/trajectories.py): the paper's circle with a period and a diameter of its own per lap."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fic_core.errors import FicInputError
+from fic_core.trajectories import Circle, LapVaryingCircle
+
+CENTRE = np.array([0.45, 0.0, 0.35])
+
+
+def test_each_lap_takes_its_own_period_and_ends_at_the_next_laps_diameter() -> None:
+    source = LapVaryingCircle(CENTRE, [4.0, 6.0], [0.20, 0.17, 0.23], phase=0.3)
+    for t, angle, radius in ((0.0, 0.3, 0.10), (4.0, 0.3 + 2 * math.pi, 0.085), (10.0, 0.3 + 4 * math.pi, 0.115),
+                             (2.0, 0.3 + math.pi, 0.5 * (0.10 + 0.085)), (7.0, 0.3 + 3 * math.pi, 0.5 * (0.085 + 0.115))):
+        point = source.point(t)
+        assert source.angle(t) == pytest.approx(angle)
+        assert np.linalg.norm(point - CENTRE) == pytest.approx(radius)
+        assert math.atan2(point[1], point[0] - CENTRE[0]) == pytest.approx(math.remainder(angle, 2 * math.pi))
+    # past the last lap: its period and its end diameter go on
+    assert source.angle(13.0) == pytest.approx(0.3 + 4 * math.pi + 2 * math.pi * 3.0 / 6.0)
+    assert np.linalg.norm(source.point(13.0) - CENTRE) == pytest.approx(0.115)
+
+
+def test_the_path_is_continuous_and_its_speed_bounded_across_lap_ends() -> None:
+    source = LapVaryingCircle(CENTRE, [4.0, 6.0, 5.0], [0.20, 0.17, 0.23, 0.2])
+    times = np.arange(0.0, 15.0, 1e-3)
+    points = np.array([source.point(t) for t in times])
+    speeds = np.linalg.norm(np.diff(points, axis=0), axis=1) / 1e-3
+    # the fastest lap's tangential speed plus the radial speed of the quintic blend (15/8 * dr / T)
+    assert speeds.max() < 2 * math.pi * 0.115 / 4.0 + 15 / 8 * 0.03 / 6.0 * 2 + 1e-3
+    np.testing.assert_allclose(points[:, 2], CENTRE[2])
+
+
+def test_constant_laps_are_the_paper_circle() -> None:
+    varying = LapVaryingCircle(CENTRE, [5.0, 5.0], [0.2, 0.2, 0.2], phase=0.7)
+    circle = Circle(CENTRE, 0.2, 5.0, phase=0.7)
+    for t in np.linspace(0.0, 12.0, 37):
+        np.testing.assert_allclose(varying.point(t), circle.point(t), atol=1e-12)
+
+
+def test_a_seed_draws_laps_within_the_ranges_that_cover_the_duration_and_never_repeat() -> None:
+    a = LapVaryingCircle.randomised(CENTRE, np.random.default_rng(4), 30.0, (4.0, 6.0), (0.17, 0.23))
+    b = LapVaryingCircle.randomised(CENTRE, np.random.default_rng(4), 30.0, (4.0, 6.0), (0.17, 0.23))
+    c = LapVaryingCircle.randomised(CENTRE, np.random.default_rng(5), 30.0, (4.0, 6.0), (0.17, 0.23))
+    np.testing.assert_array_equal(a.periods, b.periods)
+    assert a.phase == b.phase and a.phase != c.phase
+    assert a.periods.sum() >= 30.0 > a.periods[:-1].sum()
+    assert np.all((a.periods >= 4.0) & (a.periods <= 6.0))
+    assert np.all((a.diameters >= 0.17) & (a.diameters <= 0.23))
+    assert len(set(np.round(a.periods, 6))) == a.periods.size
+
+
+@pytest.mark.parametrize("periods, diameters", [([], [0.2]), ([5.0], [0.2]), ([5.0, -1.0], [0.2, 0.2, 0.2]),
+                                                ([5.0], [0.2, 0.0]), ([5.0], [0.2, math.nan])])
+def test_bad_laps_are_refused_in_one_line(periods, diameters) -> None:
+    with pytest.raises(FicInputError):
+        LapVaryingCircle(CENTRE, periods, diameters)
