@@ -31,7 +31,7 @@ from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
 PROFILE_PARAMETERS = ("stiffness", "saturation_error", "saturation_start", "max_force", "rate_deadband")
 INTEGRATOR_PARAMETERS = ("workspace_scale", "velocity_gain", "velocity_deadband")
 #: Rates and frames are fixed at start (timers and message frames are created from them).
-READ_ONLY = ("control_rate", "network_rate", "diagnostics_rate", "frame_id")
+READ_ONLY = ("control_rate", "network_rate", "diagnostics_rate", "frame_id", "channel_max_damping")
 Notice = tuple[str, str]
 
 #: The master's numeric parameters, name: (low, high, description, read-only); their values are config/master.yaml's
@@ -57,6 +57,9 @@ MASTER_NUMBERS: dict[str, tuple[float, float, str, bool]] = {
     "control_rate": (1.0, 5000.0, "/haptic/wrench_command rate [Hz]", True),
     "network_rate": (1.0, 5000.0, "/master/pose and /master/teleop_command rate [Hz]", True),
     "diagnostics_rate": (0.01, 100.0, "/diagnostics rate [Hz]", True),
+    # The channel's master port (fic_core.channel_ports: the master node builds it, MasterStation does not read it).
+    "channel_max_damping": (0.0, 1e6, "bound on the TDPA damper alpha at the channel's master port [N s/m]: "
+                            "the handle's mass times control_rate stops the handle in one tick", True),
 }
 
 
