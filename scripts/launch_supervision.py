@@ -26,6 +26,7 @@ EXIT_REFUSED = 2            # nothing started: an option, the run folder or the 
 EXIT_LIMIT_VIOLATIONS = 3   # the replica's command or the measured state broke a Panda limit (metrics.json)
 EXIT_JOINT_STATES_LOST = 4  # the bag misses joint states (the run cannot be judged on the robot's own record)
 EXIT_INPUT_REFUSED = 5      # the replica held the arm against a foreign robot stream or refused unsafe commands
+EXIT_STARVED = 6            # every safety figure kept, but the computer did not keep real time (launch_timing.py)
 EXIT_CODES = {
     EXIT_OK: "the run kept every safety figure",
     EXIT_NODE_FAILED: "a node crashed, exited early or with an error, or the report failed",
@@ -35,6 +36,8 @@ EXIT_CODES = {
     EXIT_JOINT_STATES_LOST: "joint states lost in the bag",
     EXIT_INPUT_REFUSED: "the replica held the arm or refused commands (a second publisher, stamps going back, "
                         "commands outside the authority bounds)",
+    EXIT_STARVED: "the machine was starved: the run did not keep real time (real-time factor, loop rates or the "
+                  "replica's own loop out of bounds), so its tracking figures say little about the controller",
 }
 # A node ended by the launcher's own SIGINT (or by rclpy after it) exits 0, -2 or 130.
 CLEAN_NODE_CODES = (0, -signal.SIGINT, 128 + signal.SIGINT, None)

@@ -1,0 +1,133 @@
+"""Whether the computer kept real time during a run: the launcher's last word after the safety figures.
+
+On a loaded machine the graph falls behind the wall clock and the arm tracks worse, and a run that only reported
+its error looked like a worse controller (a fresh clone's run at RTF 0.75: error 181 / 51 mm, exit 0). So after
+every realtime run the launcher states three figures against their bounds and says "the machine was starved"
+when one is out, with its own exit code (EXIT_STARVED, docs/SECURITY.md "Exit codes of the launcher"):
+
+- the real-time factor (the report's, after its warm-up) at least REAL_TIME_FACTOR_BOUND, the report's target;
+- every loop's achieved rate (sim_bridge/report/loop_rates.py) at least LOOP_RATE_BOUND of its nominal rate; a
+  loop with no message at all is not this graph's (or its node failed, which the safety verdict reports);
+- the replica's own loop (its "replica loop health" record on /diagnostics): no hold, i.e. no control tick on a
+  state older, or after a gap longer, than the replica's bounds (loop_max_state_age, loop_max_tick_gap). Its largest
+  state age and tick gap are reported with it. A bag without the record: the figure is unknown, not a pass.
+
+Lockstep runs are not judged: the simulation waits for every answer, so no figure of theirs says the computer
+was too slow for the arm.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+REAL_TIME_FACTOR_BOUND = 0.95   # the report's target (sim_bridge/report/metrics.py TARGETS)
+# The slowest loop's share of its nominal rate. The default run on a quiet machine keeps 0.976-0.995 (bench of
+# 2026-12-04, docs/RESULTS.md); 0.90 leaves that spread room and still flags a loop that lost a tenth of its ticks.
+LOOP_RATE_BOUND = 0.90
+LOOP_HEALTH_STATUS = "replica loop health"   # fic_core/loop_health.py diagnostic_values, as the replica names it
+LOOP_HEALTH_KEY = "holds"
+
+
+@dataclass
+class Timing:
+    """The verdict: ``starved`` with one reason per figure out of bounds; ``figures`` as measured (None: unknown)."""
+    judged: bool
+    starved: bool = False
+    reasons: list[str] = field(default_factory=list)
+    figures: dict = field(default_factory=dict)
+
+    def lines(self) -> list[str]:
+        """What the launcher prints, one line per figure and the verdict."""
+        if not self.judged:
+            return ["lockstep: the simulation waits for every answer, real time is not judged"]
+        f = self.figures
+        rtf = f.get("real_time_factor")
+        lines = [f"real-time factor {_show(rtf, '.3f')} (bound >= {REAL_TIME_FACTOR_BOUND:g})"]
+        slowest = f.get("slowest_loop")
+        lines.append(f"slowest loop {slowest} at {_show(f.get('slowest_loop_fraction'), '.3f')} of its rate "
+                     f"(bound >= {LOOP_RATE_BOUND:g})" if slowest else "loop rates: none measured")
+        lines.append(f"replica loop: {_show(f.get('loop_holds'), 'd')} holds, state age max "
+                     f"{_show(f.get('max_state_age_ms'), '.1f')} ms, tick gap max "
+                     f"{_show(f.get('max_tick_gap_ms'), '.1f')} ms (bound: no hold)"
+                     if f.get("loop_holds") is not None else
+                     "replica loop: no loop-health record in the bag (state age not known)")
+        known = f.get("real_time_factor") is not None or slowest or f.get("loop_holds") is not None
+        lines.append("STARVED: the machine did not keep real time, so the run's tracking figures are the computer's "
+                     "as much as the controller's: " + "; ".join(self.reasons) if self.starved
+                     else "the computer kept real time" if known else "real time not known (no figure measured)")
+        return lines
+
+
+def _show(value, spec: str) -> str:
+    return "n/a" if value is None else format(value, spec)
+
+
+def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[str, str] | None,
+                   realtime: bool = True) -> Timing:
+    """The verdict from the report's metrics.json, the loop rates and the replica's last loop-health record."""
+    if not realtime:
+        return Timing(judged=False)
+    timing = Timing(judged=True)
+    rtf = (metrics or {}).get("real_time_factor")
+    timing.figures["real_time_factor"] = rtf
+    if rtf is not None and rtf < REAL_TIME_FACTOR_BOUND:
+        timing.reasons.append(f"real-time factor {rtf:.3f} < {REAL_TIME_FACTOR_BOUND:g}")
+    running = {name: row for name, row in rates.items() if row.get("fraction") is not None and row["achieved_hz"] > 0}
+    if running:
+        name = min(running, key=lambda loop: running[loop]["fraction"])
+        row = running[name]
+        timing.figures.update(slowest_loop=name, slowest_loop_fraction=row["fraction"],
+                              loop_fractions={loop: r["fraction"] for loop, r in running.items()})
+        slow = [f"{loop} {r['achieved_hz']:g} of {r['nominal_hz']:g} Hz" for loop, r in running.items()
+                if r["fraction"] < LOOP_RATE_BOUND]
+        if slow:
+            timing.reasons.append(f"loops below {LOOP_RATE_BOUND:.0%} of their rate: {', '.join(slow)}")
+    if health and LOOP_HEALTH_KEY in health:
+        holds = int(health[LOOP_HEALTH_KEY])
+        timing.figures.update(loop_holds=holds, held_ticks=_integer(health.get("held_ticks")),
+                              max_state_age_ms=_float(health.get("max_state_age_ms")),
+                              max_tick_gap_ms=_float(health.get("max_tick_gap_ms")))
+        if holds:
+            timing.reasons.append(f"the replica held the arm {holds} times on its own loop's bounds (the last: "
+                                  f"{health.get('last_hold_reason', 'not recorded')})")
+    timing.starved = bool(timing.reasons)
+    return timing
+
+
+def exit_code(safety_code: int, timing: Timing, starved_code: int) -> int:
+    """The launcher's code: a broken safety figure (any non-zero ``safety_code``) wins; else ``starved_code`` when the
+    machine was starved; else 0."""
+    if safety_code:
+        return safety_code
+    return starved_code if timing.starved else 0
+
+
+def _float(text: str | None) -> float | None:
+    try:
+        return float(text) if text is not None else None
+    except ValueError:
+        return None
+
+
+def _integer(text: str | None) -> int | None:
+    value = _float(text)
+    return int(value) if value is not None else None
+
+
+def judge_run(run_dir: Path, bag: Path, metrics: dict | None, realtime: bool) -> Timing:
+    """The verdict of a finished run (its bag and report), also written to ``run_dir``/timing.json."""
+    from launch_supervision import diagnostics_records
+
+    rates: dict[str, dict] = {}
+    health = None
+    if realtime and bag.exists():
+        from sim_bridge.report.loop_rates import loop_rates
+        try:
+            rates = loop_rates(bag, run_dir)
+        except Exception as error:  # noqa: BLE001 - a torn bag: the verdict goes on without the rates
+            print(f"[run] timing: loop rates not measured ({error})")
+        health = diagnostics_records(bag, {LOOP_HEALTH_STATUS: LOOP_HEALTH_KEY}).get(LOOP_HEALTH_STATUS)
+    timing = timing_verdict(metrics, rates, health, realtime)
+    (run_dir / "timing.json").write_text(json.dumps(asdict(timing), indent=2) + "\n")
+    return timing

@@ -1,0 +1,95 @@
+"""The launcher says when the machine was starved (scripts/launch_timing.py): real-time factor, loop rates and the
+replica's own loop against their bounds, its own exit code, and a broken safety figure still wins."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from conftest import REPO
+
+sys.path.insert(0, str(REPO / "scripts"))
+
+from launch_supervision import EXIT_CODES, EXIT_INPUT_REFUSED, EXIT_LIMIT_VIOLATIONS, EXIT_OK, \
+    EXIT_STARVED  # noqa: E402
+from launch_timing import LOOP_HEALTH_STATUS, LOOP_RATE_BOUND, REAL_TIME_FACTOR_BOUND, exit_code, judge_run, \
+    timing_verdict  # noqa: E402
+
+
+def rates(**fractions: float) -> dict[str, dict]:
+    """Loop rates as sim_bridge.report.loop_rates gives them, at 500 Hz nominal."""
+    return {name.replace("_", " "): {"topic": f"/{name}", "nominal_hz": 500.0, "achieved_hz": 500.0 * fraction,
+                                     "fraction": fraction} for name, fraction in fractions.items()}
+
+
+QUIET = {"real_time_factor": 0.99}
+HEALTHY = {"holds": "0", "held_ticks": "0", "max_state_age_ms": "6.1", "max_tick_gap_ms": "9.0"}
+
+
+def test_a_run_that_kept_real_time_is_not_starved() -> None:
+    timing = timing_verdict(QUIET, rates(replica_control=0.99, planner=0.97), HEALTHY)
+    assert timing.judged and not timing.starved and timing.reasons == []
+    assert timing.figures["slowest_loop"] == "planner" and timing.figures["max_state_age_ms"] == 6.1
+    assert timing.lines()[-1] == "the computer kept real time"
+    assert exit_code(EXIT_OK, timing, EXIT_STARVED) == EXIT_OK
+
+
+def test_each_figure_out_of_its_bound_starves_the_run_and_is_named() -> None:
+    slow_clock = timing_verdict({"real_time_factor": REAL_TIME_FACTOR_BOUND - 0.01}, rates(replica_control=0.99),
+                                HEALTHY)
+    assert slow_clock.starved and slow_clock.reasons == ["real-time factor 0.940 < 0.95"]
+    slow_loop = timing_verdict(QUIET, rates(replica_control=LOOP_RATE_BOUND - 0.02, planner=0.99), HEALTHY)
+    assert slow_loop.starved and slow_loop.reasons == ["loops below 90% of their rate: replica control 440 of 500 Hz"]
+    held = timing_verdict(QUIET, rates(replica_control=0.99), {**HEALTHY, "holds": "2",
+                                                                "last_hold_reason": "state 61.0 ms old"})
+    assert held.starved and held.figures["loop_holds"] == 2
+    assert held.reasons == ["the replica held the arm 2 times on its own loop's bounds (the last: state 61.0 ms old)"]
+    assert held.lines()[-1].startswith("STARVED: the machine did not keep real time")
+
+
+def test_at_the_bounds_the_run_is_not_starved() -> None:
+    timing = timing_verdict({"real_time_factor": REAL_TIME_FACTOR_BOUND}, rates(replica_control=LOOP_RATE_BOUND),
+                            HEALTHY)
+    assert not timing.starved
+
+
+def test_a_loop_with_no_message_is_not_this_graphs_and_unknown_figures_are_said() -> None:
+    silent = rates(replica_control=0.99, master_force=0.0)
+    timing = timing_verdict(QUIET, silent, None)
+    assert not timing.starved and timing.figures["slowest_loop"] == "replica control"
+    assert "no loop-health record in the bag" in timing.lines()[2]
+    assert timing_verdict(None, {}, None).lines()[-1] == "real time not known (no figure measured)"
+
+
+def test_lockstep_is_not_judged() -> None:
+    timing = timing_verdict({"real_time_factor": 0.1}, rates(replica_control=0.2), {"holds": "3"}, realtime=False)
+    assert not timing.judged and not timing.starved
+    assert exit_code(EXIT_OK, timing, EXIT_STARVED) == EXIT_OK
+
+
+def test_a_safety_failure_wins_over_starvation() -> None:
+    starved = timing_verdict({"real_time_factor": 0.7}, rates(replica_control=0.99), HEALTHY)
+    assert exit_code(EXIT_OK, starved, EXIT_STARVED) == EXIT_STARVED
+    for safety in (1, EXIT_LIMIT_VIOLATIONS, EXIT_INPUT_REFUSED):
+        assert exit_code(safety, starved, EXIT_STARVED) == safety
+    assert EXIT_STARVED not in (0, 1, 2, 3, 4, 5) and "starved" in EXIT_CODES[EXIT_STARVED]
+
+
+def test_the_replicas_loop_health_record_is_read_from_the_bag(tmp_path: Path) -> None:
+    """judge_run reads the last "replica loop health" record of the bag and writes timing.json."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rclpy.serialization import serialize_message
+
+    from sim_bridge.recording.bag_writer import BagWriter
+
+    writer = BagWriter(tmp_path / "bag")
+    writer.add_topic("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray")
+    for k, holds in enumerate(("0", "1")):
+        values = {**HEALTHY, "holds": holds, "last_hold_reason": "control ticks 55.0 ms apart"}
+        writer.write("/diagnostics", serialize_message(DiagnosticArray(status=[DiagnosticStatus(
+            name=LOOP_HEALTH_STATUS, values=[KeyValue(key=key, value=v) for key, v in values.items()])])),
+            (k + 1) * 1_000_000_000)
+    writer.finish()
+    timing = judge_run(tmp_path, tmp_path / "bag", QUIET, realtime=True)
+    assert timing.starved and timing.figures["loop_holds"] == 1
+    assert json.loads((tmp_path / "timing.json").read_text())["starved"] is True
