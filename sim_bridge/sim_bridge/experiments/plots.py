@@ -152,3 +152,84 @@ def plot_e3(result: dict, run_dir: Path, out: Path) -> Path | None:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def _cell_label(row: dict) -> str:
+    return "\n".join(str(row[name]) for name in ("cell", "operator", "hand") if row.get(name) is not None)
+
+
+def plot_claim_proportions(document: dict, path: Path) -> Path | None:
+    """Per claim cell and law, the stable and the safe share with their Wilson 95 % intervals (results/claims.json);
+    a law's n is written under its point."""
+    cells = [c for c in document.get("cells", []) if any(s["stable"]["n"] or s["safe"]["n"] for s in c["laws"].values())]
+    if not cells:
+        return None
+    laws = list(dict.fromkeys(law for c in cells for law in c["laws"]))
+    plt = _plt()
+    fig, axes = plt.subplots(2, 1, figsize=(max(6.4, 1.1 * len(cells) + 2.0), 6.4), sharex=True)
+    width = 0.8 / max(1, len(laws))
+    colours = plt.get_cmap("tab10")
+    for ax, verdict in zip(axes, ("stable", "safe")):
+        for j, law in enumerate(laws):
+            labelled = False
+            for i, cell in enumerate(cells):
+                share = cell["laws"].get(law, {}).get(verdict)
+                if not share or not share["n"]:
+                    continue
+                x = i - 0.4 + width * (j + 0.5)
+                p = share["k"] / share["n"]
+                low, high = share["interval_95"]
+                ax.errorbar(x, p, yerr=[[p - low], [high - p]], fmt="o", color=colours(j), ms=4, capsize=2,
+                            label=None if labelled else law)
+                labelled = True
+                ax.text(x, -0.08, str(share["n"]), ha="center", va="top", fontsize=6, color=colours(j))
+        ax.set_ylim(-0.15, 1.05)
+        ax.set_ylabel(f"{verdict} share (Wilson 95 %)")
+        ax.grid(alpha=0.3, axis="y")
+        for i in range(1, len(cells)):
+            ax.axvline(i - 0.5, color="grey", lw=0.5)
+    handles, labels = axes[0].get_legend_handles_labels()
+    axes[1].set_xticks(range(len(cells)), [_cell_label(c) for c in cells], fontsize=7, rotation=30, ha="right")
+    axes[0].set_title("Claim cells: share of runs judged stable / safe (n under each point)", fontsize=9)
+    fig.tight_layout()
+    fig.subplots_adjust(right=0.84)
+    fig.legend(handles, labels, fontsize=7, loc="center right")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_claim_differences(document: dict, path: Path) -> Path | None:
+    """The reference law's stable share minus each baseline's, per claim cell, with Newcombe's 95 % interval: an
+    interval clear of 0 is a difference the seeds resolve."""
+    rows = [c for c in document.get("comparisons", []) if c["stable"]["difference"] is not None]
+    if not rows:
+        return None
+    cells = list(dict.fromkeys(_cell_label(c) for c in rows))
+    baselines = list(dict.fromkeys(c["baseline"] for c in rows))
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.0, max(3.0, 0.45 * len(cells) * max(1, len(baselines)) / 2 + 1.5)))
+    colours = plt.get_cmap("tab10")
+    height = 0.8 / max(1, len(baselines))
+    for row in rows:
+        i, j = cells.index(_cell_label(row)), baselines.index(row["baseline"])
+        y = i - 0.4 + height * (j + 0.5)
+        d = row["stable"]["difference"]
+        low, high = row["stable"]["difference_interval_95"]
+        ax.errorbar(d, y, xerr=[[d - low], [high - d]], fmt="o", color=colours(j + 1), ms=4, capsize=2,
+                    label=row["baseline"])
+    handles, labels = ax.get_legend_handles_labels()
+    unique = dict(zip(labels, handles))
+    ax.legend(unique.values(), [f"{document.get('reference_law', 'fic')} - {name}" for name in unique],
+              fontsize=7, loc="best")
+    ax.axvline(0.0, color="black", lw=1)
+    ax.set_xlim(-1.05, 1.05)
+    ax.set_yticks(range(len(cells)), [c.replace("\n", " ") for c in cells], fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("difference of the stable shares (Newcombe 95 %)")
+    ax.grid(alpha=0.3, axis="x")
+    ax.set_title(f"Is {document.get('reference_law', 'fic')} more often stable than each baseline?", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -106,3 +106,56 @@ def headline_of(name: str, data: dict) -> dict:
         return {row["id"]: {"stable": row["stable"], "max_error_last_half_m": row["max_error_last_half_m"],
                             "violation_ticks": row["violation_ticks"]} for row in data.get("table", [])}
     return {}
+
+
+def _share(share: dict) -> tuple[str, str]:
+    interval = share.get("interval_95")
+    return (f"{share['k']}/{share['n']}",
+            "-" if interval is None else f"{interval[0]:.2f}-{interval[1]:.2f}")
+
+
+def _pair(median, p95, scale: float, digits: int) -> str:
+    return "-" if median is None else f"{median * scale:.{digits}f} / {p95 * scale:.{digits}f}"
+
+
+def _p(value) -> str:
+    return "-" if value is None else (f"{value:.3f}" if value >= 0.001 else f"{value:.1e}")
+
+
+def _cell_label(row: dict) -> str:
+    return " ".join(str(row[name]) for name in ("cell", "operator", "hand") if row.get(name) is not None)
+
+
+def claims_markdown(document: dict) -> str:
+    """The claim sweep's tables (results/claims_tables.md; docs/EXPERIMENTS.md "Claims" pastes them): per cell and
+    law both verdicts' k/n with Wilson intervals and the error and force figures; the FIC against each baseline."""
+    planned = document.get("seeds_planned")
+    lines = [f"Runs: {document['runs_finished']} finished of {document['runs_total']} in the run file"
+             + (f"; {planned} seeds a cell and law planned" if planned else "") + ".", "",
+             "| cell | law | seeds | stable k/n | Wilson 95 % | safe k/n | Wilson 95 % | error RMS median / p95 [mm] "
+             "| error max median / p95 [mm] | peak force median / p95 [N] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for cell in document["cells"]:
+        for law, s in cell["laws"].items():
+            stable, stable_interval = _share(s["stable"])
+            safe, safe_interval = _share(s["safe"])
+            seeds = f"{s['finished']}" + ("" if s["finished"] == s["runs"] else f" ({s['runs']} run)")
+            lines.append(f"| {_cell_label(cell)} | {law} | {seeds} | {stable} | {stable_interval} | {safe} | "
+                         f"{safe_interval} | {_pair(s['error_rms_median'], s['error_rms_p95'], 1e3, 1)} | "
+                         f"{_pair(s['error_max_median'], s['error_max_p95'], 1e3, 1)} | "
+                         f"{_pair(s['peak_force_median'], s['peak_force_p95'], 1.0, 1)} |")
+    reference = document.get("reference_law", "fic")
+    lines += ["", f"{reference} against each baseline: difference of the shares (reference minus baseline) with "
+              "Newcombe's 95 % interval; Boschloo's exact test, two-sided (Fisher's beside it).", "",
+              f"| cell | baseline | verdict | {reference} k/n | baseline k/n | difference | Newcombe 95 % | Boschloo p "
+              "| Fisher p |", "|---|---|---|---|---|---|---|---|---|"]
+    for comparison in document["comparisons"]:
+        for verdict in ("stable", "safe"):
+            c = comparison[verdict]
+            interval = c["difference_interval_95"]
+            lines.append(f"| {_cell_label(comparison)} | {comparison['baseline']} | {verdict} | "
+                         f"{c['reference_k_n'][0]}/{c['reference_k_n'][1]} | {c['baseline_k_n'][0]}/{c['baseline_k_n'][1]} | "
+                         + ("-" if c["difference"] is None else f"{c['difference']:+.2f}") + " | "
+                         + ("-" if interval is None else f"{interval[0]:+.2f} to {interval[1]:+.2f}") + " | "
+                         f"{_p(c['boschloo_p'])} | {_p(c['fisher_p'])} |")
+    return "\n".join(lines) + "\n"
