@@ -18,6 +18,14 @@
 
 Every figure depends on the machine's load (a 2-core VM shared with other work): the load average is written next
 to them.
+
+--stress LEVELS (e.g. 150,100,70,50: % of one CPU) instead runs the starvation harness (sim_bridge/tools/stress.py):
+per level, --runs single-host runs and --two-stations-runs two-station runs of the default main job under a cgroup
+CPU quota at that level (the whole graph, or --stress-node alone; optional pinned --hogs), the levels taken in
+turn so that a change of the machine's load falls on all of them, and per level: runaways, runs with limit
+violations (and how many of those held), the replica's holds, RTF, the slowest loop, the free-motion error, the
+exit codes and how many runs the launcher flagged as starved (exit 6). Written to results/stress.json by default.
+Needs root.
 """
 from __future__ import annotations
 
@@ -234,8 +242,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--markdown", action="store_true", help="only print --out as markdown tables (no runs)")
     parser.add_argument("--launcher-args", default="", help="more launcher options for the default and lockstep "
                                                             "runs, one string (an A/B: e.g. \"--group a,b\")")
+    parser.add_argument("--stress", default=None, metavar="LEVELS",
+                        help="the starvation harness at these CPU levels, %% of one CPU (e.g. 150,100,70,50); "
+                             "--runs single-host runs per level")
+    parser.add_argument("--two-stations-runs", type=int, default=0, help="--stress: two-station runs per level")
+    parser.add_argument("--stress-node", default=None, help="--stress: throttle this node alone (e.g. replica)")
+    parser.add_argument("--hogs", type=int, default=0, help="--stress: busy processes competing (niceness 0)")
+    parser.add_argument("--hog-cpus", default="", help="--stress: pin the hogs to these CPUs, e.g. 0")
+    parser.add_argument("--period-us", type=int, default=None, help="--stress: the quota's CFS period [us]")
     args = parser.parse_args(argv)
     launcher_args = shlex.split(args.launcher_args)
+    if args.stress is not None:
+        out = args.out if args.out != parser.get_default("out") else REPO / "results" / "stress.json"
+        if args.markdown:
+            print(stress_markdown(json.loads(out.read_text())))
+            return 0
+        return stress_bench(args, launcher_args, out)
     if args.markdown:
         print(markdown(json.loads(args.out.read_text())))
         return 0
@@ -289,6 +311,90 @@ def main(argv: list[str] | None = None) -> int:
     print_table(result)
     print(f"[bench] {args.out}")
     return 0
+
+
+def stress_bench(args: argparse.Namespace, launcher_args: list[str], out: Path) -> int:
+    """--stress: the harness's runs, level by level in turn (module docstring), summarised per level."""
+    from sim_bridge.tools.stress import DEFAULT_PERIOD_US, StressError, level_summary, parse_levels, run_figures, \
+        stressed_run
+
+    levels = parse_levels(args.stress)
+
+    def label(level: float | None) -> str:
+        return "none" if level is None else f"{level:g}"
+    runs_dir = args.runs_dir or REPO / "runs" / f"stress-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    cpus = [int(c) for c in args.hog_cpus.split(",") if c.strip()] or None
+    period = args.period_us or DEFAULT_PERIOD_US
+    result: dict = {"generated": datetime.now().isoformat(timespec="seconds"), "levels_percent_of_one_cpu": levels,
+                    "node": args.stress_node, "hogs": args.hogs, "hog_cpus": cpus, "period_us": period,
+                    "launcher_args": launcher_args,
+                    "machine": {"cpus": os.cpu_count(), "load_average_at_start": list(os.getloadavg())},
+                    "command": "scripts/bench.sh " + " ".join(shlex.quote(a) for a in sys.argv[1:]), "runs": []}
+    plan = [(kind, index) for index in range(max(args.runs, args.two_stations_runs))
+            for kind in ("single", "two_stations")
+            if index < (args.runs if kind == "single" else args.two_stations_runs)]
+    for kind, index in plan:
+        for level in levels:
+            name = f"{kind}-{label(level)}-{index + 1}"
+            extra = ["--two-stations"] if kind == "two_stations" else []
+            print(f"[bench] stress {name} ...", flush=True)
+            cpu_before = psutil.cpu_times()
+            try:
+                run = stressed_run([*launcher_args, *extra, "--no-video"], runs_dir / name,
+                                   level, node=args.stress_node, hogs=args.hogs,
+                                   hog_cpus=cpus, period_us=period, log=runs_dir / f"{name}.log")
+            except StressError as error:
+                print(f"[bench] refused: {error}", file=sys.stderr)
+                return 2
+            row = {"name": name, "kind": kind, "level_percent": level, **run,
+                   **run_figures(runs_dir / name, run["exit_code"]),
+                   "load_average_after": list(os.getloadavg()),
+                   "machine_cpu_during_run": machine_shares(cpu_before, psutil.cpu_times())}
+            result["runs"].append(row)
+            print(f"[bench]   exit {row['exit_code']}, starved {row['flagged_starved']}, RTF "
+                  f"{row['real_time_factor']}, holds {row['holds']}, violations {row['limit_violations']}, "
+                  f"runaway {row['runaway']} {row['reasons'] or ''}", flush=True)
+            result["levels"] = {f"{k} {label(lv)}": level_summary([r for r in result["runs"]
+                                                                  if r["kind"] == k and r["level_percent"] == lv])
+                                for k in ("single", "two_stations") for lv in levels
+                                if any(r["kind"] == k for r in result["runs"])}
+            result["machine"]["load_average_at_end"] = list(os.getloadavg())
+            write_json(out, result)   # after every run: an interrupted bench keeps what it measured
+    print(stress_markdown(result))
+    print(f"[bench] {out}")
+    return 0
+
+
+def stress_markdown(result: dict) -> str:
+    """The per-level table of a --stress bench."""
+    machine = result["machine"]
+    load = ", ".join(f"{x:.1f}" for x in machine["load_average_at_start"])
+    if machine.get("load_average_at_end"):
+        load += " at start, " + ", ".join(f"{x:.1f}" for x in machine["load_average_at_end"]) + " at end"
+    throttled = f"node {result['node']}" if result.get("node") else "the whole graph"
+    hogs = f", {result['hogs']} CPU hogs" if result.get("hogs") else ""
+    lines = [f"Stress bench {result['generated']}: `{result['command']}`; quota period {result['period_us']} us on "
+             f"{throttled}{hogs}; load average {load} ({machine['cpus']} cores).", "",
+             "| runs | level (% of one CPU) | n | runaways | with violations (held) | with holds | flagged starved "
+             "| exit codes | RTF min / med / max | slowest loop min / med / max | error max mm min / med / max "
+             "| error RMS mm med | max joint speed / datasheet |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+
+    def show(values, index=None, spec=".3g"):
+        if not values:
+            return "n/a"
+        return format(values[index], spec) if index is not None else " / ".join(format(v, spec) for v in values)
+
+    for key, level in (result.get("levels") or {}).items():
+        kind, _, percent = key.partition(" ")
+        lines.append(f"| {kind.replace('_', '-')} | {percent} | {level['runs']} | {level['runaways']} | "
+                     f"{level['runs_with_violations']} ({level['violations_where_held']}) | {level['runs_with_holds']} | "
+                     f"{level['flagged_starved']} | {', '.join(map(str, level['exit_codes']))} | "
+                     f"{show(level['real_time_factor'])} | {show(level['slowest_loop_fraction'])} | "
+                     f"{show(level['free_motion_error_max_mm'])} | {show(level['free_motion_error_rms_mm'], 1)} | "
+                     f"{show(level['max_joint_speed_ratio'], 2)} |")
+    return "\n".join(lines)
 
 
 def markdown(result: dict) -> str:

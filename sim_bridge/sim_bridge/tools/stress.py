@@ -1,0 +1,364 @@
+"""The starvation harness: the graph (or one node of it) given a stated share of the CPU, and what the arm did.
+
+A run that starves on a loaded machine starves by accident, at an unknown level. Here the CPU a run gets is set:
+
+- a CPU quota, as root, through the kernel's CFS bandwidth control: a cgroup whose tasks together run at most
+  ``level`` % of one CPU in each ``period`` (cgroup v1: ``cpu.cfs_quota_us`` / ``cpu.cfs_period_us`` under the
+  ``cpu`` hierarchy; v2: ``cpu.max``). The whole graph: the launcher joins the cgroup before it starts, and every
+  node it starts (and, in a two-station run, both stations' nodes: ``ip netns exec`` keeps the cgroup) is in it.
+  One node (``node``): the launcher runs free and that node's process joins the cgroup as soon as it appears.
+  The default period, 20 ms, is short enough that a throttled graph is stopped for at most a few ticks of the
+  replica's 2 ms at a time at the lower levels (a 100 ms period let it run 50 ms and stop 50 ms at 50 %);
+- optional CPU hogs: busy processes pinned to given CPUs (``sched_setaffinity``), outside the cgroup, at niceness 0,
+  competing with whatever else runs there.
+
+Then the run's record is read back (``run_figures``): whether the launcher flagged it as starved (its timing.json
+and exit code 6, scripts/launch_timing.py), the replica's holds on its own loop's bounds, the real-time factor,
+the free-motion error, the limit violations, and whether the arm ran away. A runaway is any of: a joint faster
+than its datasheet limit, a kinetic energy above that of the arm's mass moving at the datasheet's 1.7 m/s TCP speed,
+or a free-motion error above 4 x_b; the figures behind each are kept.
+
+    scripts/stress.sh 70 [--node replica] [--hogs 1 --hog-cpus 0] -- --duration 20      # one run at 70 %
+    scripts/bench.sh --stress 150,100,70,50 --runs 20                                 # the table per level
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[3]
+LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
+DEFAULT_PERIOD_US = 20_000
+RUNAWAY_ERROR_BOUNDS = 4.0          # free-motion error above this many x_b
+EXIT_STARVED = 6                    # scripts/launch_supervision.py (the launcher's module, not imported here)
+V1_ROOT = Path("/sys/fs/cgroup/cpu")
+
+
+class StressError(RuntimeError):
+    """The harness cannot set what it was asked for (no root, no cpu controller, a bad level)."""
+
+
+class CpuQuota:
+    """A cgroup holding its tasks to ``level_percent`` % of one CPU; removed (tasks back in the parent) on close."""
+
+    def __init__(self, level_percent: float, period_us: int = DEFAULT_PERIOD_US, name: str | None = None) -> None:
+        if not (np.isfinite(level_percent) and 1.0 <= level_percent <= 100.0 * (os.cpu_count() or 1)):
+            raise StressError(f"a CPU level must be in [1, {100 * (os.cpu_count() or 1)}] % of one CPU, "
+                              f"got {level_percent}")
+        if not 1000 <= period_us <= 1_000_000:
+            raise StressError(f"the quota period must be in [1000, 1000000] us, got {period_us}")
+        self.level_percent, self.period_us = float(level_percent), int(period_us)
+        self.quota_us = max(1000, round(self.level_percent / 100.0 * self.period_us))
+        name = name or f"fic_stress_{os.getpid()}_{int(time.monotonic() * 1e3)}"
+        self.version, self.parent = _cpu_hierarchy()
+        self.path = self.parent / name
+        try:
+            self.path.mkdir()
+            if self.version == 1:
+                (self.path / "cpu.cfs_period_us").write_text(str(self.period_us))
+                (self.path / "cpu.cfs_quota_us").write_text(str(self.quota_us))
+            else:
+                (self.path / "cpu.max").write_text(f"{self.quota_us} {self.period_us}")
+        except OSError as error:
+            self.close()
+            raise StressError(f"cannot set a CPU quota in {self.path}: {error.strerror or error}") from None
+
+    def join(self, pid: int) -> None:
+        """Move process ``pid`` (all its threads) into the quota; its children from now on are born in it."""
+        (self.path / "cgroup.procs").write_text(str(pid))
+
+    def members(self) -> list[int]:
+        try:
+            return [int(line) for line in (self.path / "cgroup.procs").read_text().split()]
+        except OSError:
+            return []
+
+    def throttled(self) -> dict[str, int]:
+        """The kernel's count of periods and of throttled ones (cpu.stat)."""
+        try:
+            pairs = [line.split() for line in (self.path / "cpu.stat").read_text().splitlines()]
+        except OSError:
+            return {}
+        return {key: int(value) for key, value in pairs if key in ("nr_periods", "nr_throttled",
+                                                                    "throttled_time", "throttled_usec")}
+
+    def close(self) -> None:
+        if not self.path.exists():
+            return
+        for pid in self.members():   # anything left (a stray node) back into the parent, then the group goes
+            try:
+                (self.parent / "cgroup.procs").write_text(str(pid))
+            except OSError:
+                pass
+        try:
+            self.path.rmdir()
+        except OSError:
+            pass
+
+    def __enter__(self) -> "CpuQuota":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _cpu_hierarchy() -> tuple[int, Path]:
+    """(1, the v1 cpu hierarchy) or (2, a v2 group with the cpu controller); StressError if neither."""
+    if os.geteuid() != 0:
+        raise StressError("a CPU quota needs root (cgroups)")
+    if (V1_ROOT / "cpu.cfs_quota_us").exists():
+        return 1, V1_ROOT
+    for root in (Path("/sys/fs/cgroup"), Path("/sys/fs/cgroup/unified")):
+        controllers = root / "cgroup.subtree_control"
+        if controllers.exists() and "cpu" in controllers.read_text().split():
+            return 2, root
+    raise StressError("no cgroup cpu controller here (neither v1 cpu.cfs_quota_us nor v2 cpu.max)")
+
+
+def _spin(cpu: int | None) -> None:
+    if cpu is not None:
+        os.sched_setaffinity(0, {cpu})
+    while True:
+        pass
+
+
+class CpuHogs:
+    """``count`` busy processes, the i-th pinned to ``cpus[i % len(cpus)]`` (none: unpinned); stopped on close."""
+
+    def __init__(self, count: int, cpus: list[int] | None = None) -> None:
+        context = multiprocessing.get_context("fork")
+        self.processes = [context.Process(target=_spin, args=(cpus[i % len(cpus)] if cpus else None,), daemon=True)
+                          for i in range(count)]
+        for process in self.processes:
+            process.start()
+
+    def close(self) -> None:
+        for process in self.processes:
+            process.terminate()
+        for process in self.processes:
+            process.join(timeout=5)
+
+    def __enter__(self) -> "CpuHogs":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _node_processes(root: int, node: str) -> list[int]:
+    """pids under ``root`` whose command line names ``node`` (``__node:=node``, alone or in a group)."""
+    import psutil
+
+    found = []
+    try:
+        children = psutil.Process(root).children(recursive=True)
+    except psutil.NoSuchProcess:
+        return found
+    for child in children:
+        try:
+            names = [item.split("=", 1)[1] for item in child.cmdline() if item.startswith("__node:=")]
+        except (psutil.NoSuchProcess, psutil.AccessDenied):
+            continue
+        if any(node in name.split("+") for name in names) or node in names:
+            found.append(child.pid)
+    return found
+
+
+def stressed_run(launcher_args: list[str], out: Path, level_percent: float | None, *, node: str | None = None,
+                 hogs: int = 0, hog_cpus: list[int] | None = None, period_us: int = DEFAULT_PERIOD_US,
+                 log: Path | None = None) -> dict:
+    """One launcher run at ``level_percent`` % of one CPU (None: no quota), the whole graph or ``node`` alone;
+    returns the launcher's exit code, the wall time and the kernel's throttling counts."""
+    command = [sys.executable, str(LAUNCHER), "--out", str(out), *launcher_args]
+    quota = CpuQuota(level_percent, period_us) if level_percent is not None else None
+    hog = CpuHogs(hogs, hog_cpus) if hogs else None
+    started = time.monotonic()
+    try:
+        log_file = open(log, "w", encoding="utf-8") if log else subprocess.DEVNULL
+        try:
+            join = (lambda: quota.join(os.getpid())) if quota is not None and node is None else None
+            process = subprocess.Popen(command, stdout=log_file, stderr=subprocess.STDOUT, cwd=REPO,
+                                       env=dict(os.environ, PYTHONUNBUFFERED="1"), preexec_fn=join)
+            watcher = None
+            if quota is not None and node is not None:
+                watcher = _NodeWatcher(process.pid, node, quota)
+                watcher.start()
+            code = process.wait()
+            if watcher is not None:
+                watcher.stop()
+        finally:
+            if log:
+                log_file.close()
+        throttling = quota.throttled() if quota is not None else {}
+    finally:
+        if hog is not None:
+            hog.close()
+        if quota is not None:
+            quota.close()
+    return {"exit_code": code, "wall_s": round(time.monotonic() - started, 1), "throttling": throttling,
+            "node_joined": None if node is None else bool(watcher and watcher.joined)}
+
+
+class _NodeWatcher(threading.Thread):
+    """Moves ``node``'s process(es) into the quota as they appear."""
+
+    def __init__(self, root: int, node: str, quota: CpuQuota) -> None:
+        super().__init__(daemon=True)
+        self.root, self.node, self.quota = root, node, quota
+        self.joined: set[int] = set()
+        self._halt = threading.Event()
+
+    def run(self) -> None:
+        while not self._halt.is_set():
+            for pid in _node_processes(self.root, self.node):
+                if pid not in self.joined:
+                    try:
+                        self.quota.join(pid)
+                        self.joined.add(pid)
+                    except OSError:
+                        pass
+            self._halt.wait(0.1)
+
+    def stop(self) -> None:
+        self._halt.set()
+        self.join(timeout=2)
+
+
+def runaway_figures(bag: Path, metrics: dict) -> dict:
+    """The arm's joint speeds against the datasheet and its kinetic energy against a TCP at 1.7 m/s, from the bag's
+    /joint_states (every state), and the free-motion error against 4 x_b (the report's); ``runaway`` and why."""
+    from fic_core.limits import PANDA_TCP_SPEED_LIMIT, PandaLimits
+    from fic_core.robot_model import RobotModel
+    from mcap_ros2.reader import read_ros2_messages
+
+    robot = RobotModel()
+    limits = PandaLimits.from_robot(robot)
+    speed_limit = limits.joint_velocity_array
+    arm_mass = float(sum(inertia.mass for inertia in robot.model.inertias))
+    energy_bound = 0.5 * arm_mass * PANDA_TCP_SPEED_LIMIT ** 2
+    files = sorted(bag.glob("*.mcap")) if bag.is_dir() else [bag]
+    worst_ratio, worst_joint, worst_energy, states = 0.0, None, 0.0, 0
+    topic = "/joint_states"
+    try:
+        for file in files:
+            for message in read_ros2_messages(str(file), topics=[topic, "/franka/joint_states"]):
+                state = message.ros_msg
+                if len(state.velocity) < 7 or len(state.position) < 7:
+                    continue
+                states += 1
+                q, qd = np.asarray(state.position[:7]), np.asarray(state.velocity[:7])
+                ratio = np.abs(qd) / speed_limit
+                if ratio.max() > worst_ratio:
+                    worst_ratio, worst_joint = float(ratio.max()), int(np.argmax(ratio)) + 1
+                if states % 10 == 0 or ratio.max() > 0.5:   # the energy on every 10th state, and on every fast one
+                    robot.update(q, qd)
+                    worst_energy = max(worst_energy, float(robot.kinetic_energy()))
+    except Exception as error:  # noqa: BLE001 - a torn bag: the figures up to where it could be read
+        print(f"[stress] {bag}: read up to a fault ({error})", file=sys.stderr)
+    error_max = metrics.get("free_motion_error_max_m")
+    bound = (metrics.get("thresholds") or {}).get("error_bound_m") or 0.05
+    reasons = []
+    if worst_ratio > 1.0:
+        reasons.append(f"joint {worst_joint} at {worst_ratio:.2f} x its datasheet speed")
+    if worst_energy > energy_bound:
+        reasons.append(f"kinetic energy {worst_energy:.1f} J > {energy_bound:.1f} J")
+    if error_max is not None and error_max > RUNAWAY_ERROR_BOUNDS * bound:
+        reasons.append(f"free-motion error {error_max * 1e3:.0f} mm > {RUNAWAY_ERROR_BOUNDS:g} x_b")
+    return {"runaway": bool(reasons), "reasons": reasons, "joint_states": states,
+            "max_joint_speed_ratio": round(worst_ratio, 3), "fastest_joint": worst_joint,
+            "max_kinetic_energy_j": round(worst_energy, 3), "kinetic_energy_bound_j": round(energy_bound, 2)}
+
+
+def run_figures(run_dir: Path, exit_code: int) -> dict:
+    """One run's row: the launcher's verdict, the replica's holds, RTF, error, violations, runaway."""
+    metrics_path = run_dir / "report" / "metrics.json"
+    metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else {}
+    timing_path = run_dir / "timing.json"
+    timing = json.loads(timing_path.read_text()) if timing_path.exists() else {}
+    figures = timing.get("figures") or {}
+    bag = run_dir / "bag"
+    runaway = runaway_figures(bag, metrics) if bag.exists() else {"runaway": None, "reasons": ["no bag"]}
+    return {"exit_code": exit_code, "flagged_starved": bool(timing.get("starved")),
+            "starved_reasons": timing.get("reasons"), "holds": figures.get("loop_holds"),
+            "max_state_age_ms": figures.get("max_state_age_ms"),
+            "slowest_loop_fraction": figures.get("slowest_loop_fraction"),
+            "real_time_factor": metrics.get("real_time_factor"),
+            "limit_violations": metrics.get("limit_violations"),
+            "free_motion_error_max_m": metrics.get("free_motion_error_max_m"),
+            "free_motion_error_rms_m": metrics.get("free_motion_error_rms_m"),
+            "pipeline_latency_p99_ms": metrics.get("pipeline_latency_p99_ms"), **runaway}
+
+
+def level_summary(rows: list[dict]) -> dict:
+    """Per level: runs, runaways, runs with limit violations (and of those, the ones where the replica held),
+    holds, RTF and error (min / median / max), how many runs the launcher flagged as starved."""
+    def spread(values: list) -> list | None:
+        values = [v for v in values if v is not None]
+        return [round(float(min(values)), 3), round(float(np.median(values)), 3), round(float(max(values)), 3)] \
+            if values else None
+
+    return {"runs": len(rows), "runaways": sum(bool(row.get("runaway")) for row in rows),
+            "runs_with_violations": sum(bool(row.get("limit_violations")) for row in rows),
+            "violations_where_held": sum(bool(row.get("limit_violations")) and bool(row.get("holds")) for row in rows),
+            "holds": spread([row.get("holds") for row in rows]),
+            "runs_with_holds": sum(bool(row.get("holds")) for row in rows),
+            "flagged_starved": sum(bool(row.get("flagged_starved")) for row in rows),
+            "exit_codes": sorted({row["exit_code"] for row in rows}),
+            "real_time_factor": spread([row.get("real_time_factor") for row in rows]),
+            "slowest_loop_fraction": spread([row.get("slowest_loop_fraction") for row in rows]),
+            "free_motion_error_max_mm": spread([1e3 * row["free_motion_error_max_m"] for row in rows
+                                                if row.get("free_motion_error_max_m") is not None]),
+            "free_motion_error_rms_mm": spread([1e3 * row["free_motion_error_rms_m"] for row in rows
+                                                if row.get("free_motion_error_rms_m") is not None]),
+            "max_joint_speed_ratio": spread([row.get("max_joint_speed_ratio") for row in rows]),
+            "max_kinetic_energy_j": spread([row.get("max_kinetic_energy_j") for row in rows])}
+
+
+def parse_levels(text: str) -> list[float | None]:
+    """"150,100,70,50" -> [150.0, 100.0, 70.0, 50.0] (% of one CPU); "none" (no quota) -> None."""
+    levels: list[float | None] = []
+    for item in text.split(","):
+        item = item.strip().rstrip("%")
+        levels.append(None if item == "none" else float(item))
+    return levels
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="One launcher run at a stated CPU level (scripts/stress.sh).")
+    parser.add_argument("level", help="% of one CPU for the graph (or --node), e.g. 70; 'none': no quota")
+    parser.add_argument("--node", default=None, help="throttle this node's process alone (e.g. replica)")
+    parser.add_argument("--hogs", type=int, default=0, help="busy processes competing for the CPU (niceness 0)")
+    parser.add_argument("--hog-cpus", default="", help="pin the hogs to these CPUs, e.g. 0 or 0,1")
+    parser.add_argument("--period-us", type=int, default=DEFAULT_PERIOD_US, help="the quota's CFS period")
+    parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/stress-<level>-<time>)")
+    argv = list(sys.argv[1:] if argv is None else argv)
+    split = argv.index("--") if "--" in argv else len(argv)   # after "--": the launcher's options
+    args = parser.parse_args(argv[:split])
+    launcher_args = argv[split + 1:]
+    level = None if args.level == "none" else float(args.level.rstrip("%"))
+    out = args.out or REPO / "runs" / f"stress-{args.level}-{time.strftime('%Y%m%d-%H%M%S')}"
+    cpus = [int(c) for c in args.hog_cpus.split(",") if c.strip()] or None
+    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        result = stressed_run(launcher_args, out, level, node=args.node, hogs=args.hogs, hog_cpus=cpus,
+                              period_us=args.period_us, log=out.parent / f"{out.name}.log")
+    except StressError as error:
+        print(f"[stress] refused: {error}", file=sys.stderr)
+        return 2
+    row = {"level_percent": level, "node": args.node, "hogs": args.hogs, **result, **run_figures(out, result["exit_code"])}
+    (out / "stress.json").write_text(json.dumps(row, indent=2) + "\n")
+    print(json.dumps(row, indent=2))
+    return result["exit_code"]
+
+
+if __name__ == "__main__":
+    sys.exit(main())
