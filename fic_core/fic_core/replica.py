@@ -435,6 +435,13 @@ class ReplicaController:
         self._held_position = None
         self._held_rotation = None
 
+    def state_sent(self, torque: ArrayLike, time: float | None) -> None:
+        """State the torque that went out in place of the last command's (the replica loop's blend from its hold,
+        fic_core.loop_health): the torque-rate bound and the violation check continue from it."""
+        torque = finite_array("torque sent", torque, (self.robot.dof,)).copy()
+        self._slew.reset(torque, time if time is not None else self._slew.last_time)
+        self._previous_values = torque.tolist()
+
     def continue_from(self, other: ReplicaController) -> None:
         """Take over from the controller this one replaces (a change of parameters at run time): the torque it
         sent last (so the torque-rate bound holds across the swap), its target, and its cumulative counters.

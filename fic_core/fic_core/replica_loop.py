@@ -12,6 +12,13 @@ Two clocks, as on the robot: ``time`` is the joint state's stamp (the control gr
 first joint state nothing is sent; a joint state that cannot be used repeats the last torque sent. Inputs with
 NaN/Inf raise FicInputError and leave every value as it was (the caller logs them once, throttled).
 What the caller should say (a watchdog turning stale, commands back) comes back as ``notices``.
+
+The loop watches itself (fic_core.loop_health): at every control tick the state's age and the gap since the last
+tick are checked against loop_max_state_age and loop_max_tick_gap; beyond them the tick sends the stated hold
+(gravity and joint damping, as the robot's own watchdog; on a stale state gravity once, then nothing, so that the
+robot's own watchdog holds the arm on its own state) instead of the law, until loop_resume_ticks healthy ticks
+in a row; the law then starts afresh (the task controller's phases and latches reset, the slew from the hold
+torque) and is blended in over loop_resume_ramp.
 """
 from __future__ import annotations
 
@@ -28,6 +35,7 @@ from .desired_velocity import DesiredVelocityFilter
 from .errors import FicInputError
 from .input_authority import CommandAuthority, CommandVerdict
 from .limits import PandaLimits
+from .loop_health import HOLDING, LoopHealth, LoopHealthBounds
 from .passivity_observer import PassivityObserver
 from .quaternion import rotation_from_quaternion
 from .replica import ReplicaCommand, ReplicaController
@@ -47,6 +55,12 @@ class ReplicaStep:
     poses_due: bool = False                       # desired/TCP poses and F_R are due (pose_rate)
     status_due: bool = False                      # FicState and LimitStatus are due (status_rate)
     notices: list[tuple[str, str]] = field(default_factory=list)  # (level, text): info, warning, error
+    held: bool = False                            # the torque is the loop's hold, not the law (loop_health)
+
+
+def _loop_health_bounds(p: Mapping[str, Any]) -> LoopHealthBounds:
+    return LoopHealthBounds(p["loop_max_state_age"], p["loop_max_tick_gap"], int(p["loop_resume_ticks"]),
+                            p["loop_resume_ramp"])
 
 
 def _desired_pose_parameters(p: Mapping[str, Any]) -> DesiredPoseParameters:
@@ -79,6 +93,9 @@ class ReplicaLoop:
         self._shaping_since_status = 0      # LimitStatus flags OR-ed over the ticks since the last message
         self._violations_since_status = 0
         self.counts = {name: 0 for name in COUNTERS}
+        #: The loop's own health: state age, tick and command gaps, the hold (fic_core.loop_health).
+        self.health = LoopHealth(_loop_health_bounds(p))
+        self._hold_torque: NDArray[np.float64] | None = None   # the last hold torque sent
 
     # --- parameters ------------------------------------------------------------------------------------------
     def configure(self, changes: Mapping[str, Any]) -> dict[str, Any]:
@@ -93,6 +110,7 @@ class ReplicaLoop:
         self.controller, self.schedule = controller, schedule
         self.passivity.restart_port()  # a new controller, a new storage
         self.desired.parameters = desired
+        self.health.bounds = _loop_health_bounds(p)
         self.velocity_filter.time_constant = p["desired_velocity_filter"]
         for gate, rate in ((self._pose_gate, p["pose_rate"]), (self._status_gate, p["status_rate"])):
             gate.rate, gate.command_period = rate, p["command_period"]
@@ -159,10 +177,15 @@ class ReplicaLoop:
         """A joint state that cannot be used: the last torque sent, again (None before any)."""
         self.counts["joint_states"] += 1
         self.counts["rejected_joint_states"] += 1
+        if self.health.holding:
+            return None if self._hold_torque is None else self._hold_torque.copy()
         return self.controller.repeat_torque()
 
-    def joint_state(self, time: float, now: float, q: NDArray[np.float64], qd: NDArray[np.float64]) -> ReplicaStep:
-        """One joint state (validated q, qd at joint-state time ``time``, received at ``now``)."""
+    def joint_state(self, time: float, now: float, q: NDArray[np.float64], qd: NDArray[np.float64],
+                    published: float | None = None) -> ReplicaStep:
+        """One joint state (validated q, qd at joint-state time ``time``, received at ``now``). ``published``: the
+        state's publication time on ``now``'s clock, for its age when ``time`` is on another time line (a simulated
+        robot's stamps fall behind the wall clock when it runs slower than real time); None: ``time``."""
         self.counts["joint_states"] += 1
         step = ReplicaStep()
         if not self.desired.started:
@@ -171,14 +194,61 @@ class ReplicaLoop:
             step.notices.append(("info", f"first joint state: holding the TCP at "
                                          f"{np.round(self.desired.start_position, 4)} until the master and the "
                                          "planner speak"))
+        health = self.health
         if self.schedule.due(time, self.desired.command_unused):
-            step.command = self._control(q, qd, time, now, self.schedule.tick(time), step.notices)
-            step.torque = step.command.torque
+            dt = self.schedule.tick(time)
+            notice = health.tick(now, time if published is None else published)
+            if notice:
+                step.notices.append(("warning" if health.holding else "info", notice))
+            if health.holding:
+                step.torque, step.held = self._hold(q, qd, now, dt, step.notices), True
+            else:
+                step.command = self._resume_or_control(q, qd, time, now, dt, step.notices)
+                step.torque = step.command.torque
         elif self.parameters["answer_every_state"]:
-            step.torque = self.controller.held_torque(time)
-        step.poses_due = self._pose_gate.take(time)
-        step.status_due = self.last_command is not None and self._status_gate.take(time)
+            if health.holding:
+                step.torque, step.held = (None if self._hold_torque is None else self._hold_torque.copy()), True
+            else:
+                step.torque = self.controller.held_torque(time)
+        if step.torque is not None:
+            health.command_sent(now)
+        # While holding there is no law's tick to report: its poses and status wait for the law.
+        step.poses_due = not step.held and self._pose_gate.take(time)
+        step.status_due = not step.held and self.last_command is not None and self._status_gate.take(time)
         return step
+
+    def _hold(self, q: NDArray[np.float64], qd: NDArray[np.float64], now: float, dt: float,
+              notices: list[tuple[str, str]]) -> NDArray[np.float64] | None:
+        """A control tick of the loop's hold: G(q) and joint damping (loop_health.hold_command; None: nothing to
+        send, the robot's watchdog holds). x_d keeps moving meanwhile (the set-points' own holds and give-backs run
+        on), so the law comes back to today's target."""
+        sample = self.desired.update(now, dt)
+        notices.extend(("warning", text) for text in sample.notices)
+        self.velocity_filter.update(sample.position, dt)
+        self.robot.update(q, qd)
+        torque = self.health.hold_command(self.robot.gravity, qd)
+        self.health.held_tick()
+        if torque is None:
+            return None
+        self._hold_torque = torque
+        return torque.copy()
+
+    def _resume_or_control(self, q: NDArray[np.float64], qd: NDArray[np.float64], time: float, now: float,
+                           dt: float, notices: list[tuple[str, str]]) -> ReplicaCommand:
+        """The law's tick; on the way back from a hold, started afresh from the hold torque and blended in."""
+        health = self.health
+        if health.resumed_at_this_tick(now) and self._hold_torque is not None:
+            # The controller's phases and latched errors belong to the states before the hold; the slew starts
+            # from the torque the arm has now.
+            self.controller.reset(self._hold_torque)
+        command = self._control(q, qd, time, now, dt, notices)
+        fraction = health.law_fraction(now)
+        if fraction < 1.0:
+            hold = health.hold_torque(self.robot.gravity, qd, health.state_age)
+            torque = hold + fraction * (command.torque - hold)
+            self.controller.state_sent(torque, time)
+            command.torque = torque
+        return command
 
     def _control(self, q: NDArray[np.float64], qd: NDArray[np.float64], time: float, now: float, dt: float,
                  notices: list[tuple[str, str]]) -> ReplicaCommand:
@@ -232,5 +302,7 @@ class ReplicaLoop:
             "qp_solves": str(optimisation.qp_count),
             "relaxed_solves": str(optimisation.relaxed_count),
             "guard_clips": str(optimisation.guard_clips),
+            "loop_health": self.health.state,
+            "loop_holds": str(self.health.holds),
         })
         return values

@@ -65,6 +65,12 @@ REPLICA_NUMBERS: dict[str, tuple[str, float, float]] = {
                     "over the ticks since the last message and its tick counters are cumulative, so a lower "
                     "rate loses no count", 1.0, 1000.0),
     "diagnostics_rate": ("rate of /diagnostics [Hz]", 0.1, 10.0),
+    # The replica watching its own loop (fic_core.loop_health, docs/SECURITY.md "The replica's own loop").
+    "loop_max_state_age": ("a control tick on a joint state older than this holds the arm instead of applying the "
+                           "law (gravity and joint damping) [s]", 0.001, 10.0),
+    "loop_max_tick_gap": ("control ticks further apart than this hold the arm the same way [s]", 0.001, 10.0),
+    "loop_resume_ticks": ("healthy control ticks in a row before the law takes over from a hold", 1.0, 100000.0),
+    "loop_resume_ramp": ("the law is blended in from the hold over this long after a hold [s]", 0.0, 10.0),
 }
 
 #: name: description of the on/off parameters.

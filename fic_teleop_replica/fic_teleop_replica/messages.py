@@ -14,10 +14,14 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from fic_teleop_msgs.msg import FicState, LimitStatus
 from geometry_msgs.msg import PoseStamped
 
+from fic_core.loop_health import HOLDING, RESUMING, LoopHealth
 from fic_core.replica import ReplicaCommand
 from fic_core.replica_loop import ReplicaLoop
 from fic_teleop_runtime.geometry import set_pose
 from fic_teleop_runtime.stamps import time_message
+
+#: The /diagnostics status name of the replica's own loop (fic_core.loop_health), read by the launcher and reports.
+LOOP_HEALTH_STATUS = "replica loop health"
 
 
 def fic_state(command: ReplicaCommand, loop: ReplicaLoop, stamp: Time, frame_id: str) -> FicState:
@@ -75,4 +79,21 @@ def diagnostic_status(loop: ReplicaLoop, safe_hold: str | None, values: Mapping[
         status.level = DiagnosticStatus.OK
         status.message = "running" if loop.desired.started else "waiting for /joint_states"
     status.values = [KeyValue(key=key, value=value) for key, value in values.items()]
+    return status
+
+
+def loop_health_status(health: LoopHealth) -> DiagnosticStatus:
+    """The "replica loop health" status (fic_core.loop_health; docs/SECURITY.md): ERROR while the loop holds, WARN
+    while the law is blended back in or once it held, else OK; its keys state_age_ms, tick_gap_ms, holds,
+    held_ticks and the rest of LoopHealth.diagnostic_values."""
+    status = DiagnosticStatus(name=LOOP_HEALTH_STATUS, hardware_id="fic_teleop_replica")
+    if health.state == HOLDING:
+        status.level, status.message = DiagnosticStatus.ERROR, f"holding: {health.reason}"
+    elif health.state == RESUMING or health.holds:
+        status.level = DiagnosticStatus.WARN
+        status.message = ("resuming: the law blended in from the hold" if health.state == RESUMING else
+                          f"held {health.holds} times: {health.reason}")
+    else:
+        status.level, status.message = DiagnosticStatus.OK, "state ages and tick gaps within their bounds"
+    status.values = [KeyValue(key=key, value=value) for key, value in health.diagnostic_values().items()]
     return status

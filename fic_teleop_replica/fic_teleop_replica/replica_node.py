@@ -25,8 +25,9 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
 
+from fic_core import command_stamp
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.replica_loop import ReplicaLoop
@@ -85,6 +86,8 @@ class ReplicaNode(Node):
         self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
         # The joint-state watchdog runs on the steady clock: with a real driver, silence is wall time.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._sim_time = bool(self.get_parameter("use_sim_time").value)
+        self._state_stamp_ns: int | None = None   # the joint state the last torque was computed on
         if self._driver.ramp is not None:
             self.create_timer(0.01, self._check_joint_states, clock=self._steady)
         self.get_logger().info(f"driver: {self._driver.describe()}")
@@ -159,9 +162,12 @@ class ReplicaNode(Node):
         self._wrench = message  # F_R: the F/T reading, with the sensor's stamp
 
     # --- the control step ------------------------------------------------------------------------------------
-    def _on_joint_state_bytes(self, data: bytes) -> None:
+    def _on_joint_state_bytes(self, data: bytes, info) -> None:
         """The joint state as CDR bytes: its header stamp tells whether it is needed; the others are counted and
-        dropped unconverted (a JointState costs tens of microseconds)."""
+        dropped unconverted (a JointState costs tens of microseconds). ``info``: the middleware's message info; on
+        the wall clock (no simulated time) its source timestamp is the state's publication time, which the loop
+        ages the state by (a simulated robot's stamps fall behind the wall clock when it runs slower than real
+        time; fic_core.loop_health)."""
         raw_stamp = header_stamp(data)  # None: not plain CDR, the stamp is read from the message instead
         message = deserialize_message(data, JointState) if raw_stamp is None else None
         stamp_s = stamp_seconds(raw_stamp) if raw_stamp is not None else seconds(message.header.stamp)
@@ -177,14 +183,20 @@ class ReplicaNode(Node):
             q, qd = self._driver.joint_order.pick(message.name, message.position, message.velocity)
         except FicInputError as exc:
             self._refusals.refuse("/joint_states", exc)
-            return self._publish_torque(self._loop.refuse_joint_state())
+            return self._publish_torque(self._loop.refuse_joint_state(), self._state_stamp_ns)
         stamp = message.header.stamp
         if self._driver.ramp is not None and self._driver.ramp.fresh(self._steady_now()):  # after a ramp-down
             self.get_logger().warning("joint states are back: the law takes over from the ramp (slewed at the "
                                       "torque-rate limit)")
-        step = self._loop.joint_state(nanoseconds(stamp) * 1e-9, self._now(), q, qd)
+        published = info.get("source_timestamp") if isinstance(info, dict) and not self._sim_time else None
+        holds = self._loop.health.holds
+        self._state_stamp_ns = nanoseconds(stamp)
+        step = self._loop.joint_state(self._state_stamp_ns * 1e-9, self._now(), q, qd,
+                                      published * 1e-9 if published else None)
         log_notices(self.get_logger(), step.notices)
-        self._publish_torque(step.torque)
+        self._publish_torque(step.torque, self._state_stamp_ns)
+        if self._loop.health.holds != holds:  # the loop's own hold began: on /diagnostics (and in the bag) at once
+            self._publish_diagnostics()
         command, frame = self._loop.last_command, self._driver.base_frame
         if step.poses_due and command is not None:
             self._desired_pose_pub.publish(messages.pose(stamp, frame, command.desired_position,
@@ -198,11 +210,14 @@ class ReplicaNode(Node):
             self._limit_status_pub.publish(messages.limit_status(command, self._loop, stamp, frame))
 
     # --- outputs ---------------------------------------------------------------------------------------------
-    def _publish_torque(self, torque: np.ndarray | None) -> None:
-        """Send the loop's tau as the driver expects it (driver_interface: tau, or tau - G(q))."""
+    def _publish_torque(self, torque: np.ndarray | None, state_stamp_ns: int | None) -> None:
+        """Send the loop's tau as the driver expects it (driver_interface: tau, or tau - G(q)), naming the joint state
+        it was computed on (fic_core.command_stamp: the robot refuses a torque on too old a state)."""
         command = self._driver.command_to_send(torque, self._loop.robot)
         if command is not None:
-            self._command_pub.publish(Float64MultiArray(data=command.tolist()))
+            layout = MultiArrayLayout() if state_stamp_ns is None else MultiArrayLayout(dim=[MultiArrayDimension(
+                label=command_stamp.label(state_stamp_ns), size=command.size, stride=command.size)])
+            self._command_pub.publish(Float64MultiArray(layout=layout, data=command.tolist()))
 
     def _check_joint_states(self) -> None:
         """No valid joint state for joint_state_timeout: the driver's ramp to the gravity-only hold."""
@@ -221,7 +236,8 @@ class ReplicaNode(Node):
 
     def _publish_diagnostics(self) -> None:
         hold = self._input_guard.streams.reason if self._input_guard.held else None
-        array = DiagnosticArray(status=[messages.diagnostic_status(self._loop, hold, self.statistics())])
+        array = DiagnosticArray(status=[messages.diagnostic_status(self._loop, hold, self.statistics()),
+                                        messages.loop_health_status(self._loop.health)])
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(array)
 

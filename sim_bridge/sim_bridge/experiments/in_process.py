@@ -97,6 +97,7 @@ class ReplicaStall:
     max_delay: float = 0.0
     min_state_age: float = 0.0
     max_state_age: float = 0.0
+    stale_velocity: bool = True   # False: the old state's q with the newest qd (tells the law's velocity terms apart)
 
 
 @dataclass
@@ -174,14 +175,14 @@ class RunResult:
     port_energy: np.ndarray | None = None
     obstacle_contact: np.ndarray | None = None     # the robot touches E1's fixed obstacle at those stamps (n,)
     operator_moves: list[tuple[str, float, float]] = field(default_factory=list)  # closed loop: (move, start, passing)
-    draws: dict[str, Any] = field(default_factory=dict)
+    draws: dict[str, Any] = field(default_factory=dict)   # the seed's task and hand draws (task_variation, hand)
     # The robot side over every physics step (docs/RESULTS.md "Starvation"): the fastest joint [rad/s], the robot's
     # stale-command watchdog engaging, torques it refused as computed on a state older than its bound, the
     # replica loop's own holds (fic_core.loop_health).
     joint_speed_max: float = 0.0
     robot_watchdog_engagements: int = 0
     stale_torques_refused: int = 0
-    replica_holds: int = 0   # the seed's task and hand draws (task_variation, hand)
+    replica_holds: int = 0
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -409,6 +410,8 @@ def run(config: RunConfig) -> RunResult:
         if stall is not None and stall.max_state_age > 0.0:
             back = int(round(float(stall_draws.uniform(stall.min_state_age, stall.max_state_age)) / STEP))
             state_time, q_state, qd_state = past_states[max(len(past_states) - 1 - back, 0)]
+            if not stall.stale_velocity:
+                qd_state = sim.joint_velocities
             result = replica.joint_state(state_time, now, q_state, qd_state)
         else:
             state_time = now

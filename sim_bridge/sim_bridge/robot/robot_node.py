@@ -30,6 +30,11 @@ reads the model while it moves); the executor thread only receives commands. Mod
 Safety (watchdog.py): commands older than ``command_timeout`` (wall seconds in realtime, simulated seconds in
 lockstep) are replaced by the hold torque (gravity compensation + damping); each transition is logged once.
 Commands with NaN/Inf or a length other than 7 are rejected with an error log and never reach the physics.
+Realtime: a command that names the joint state it was computed on (the replica's do, fic_core.command_stamp) is
+refused when that state is older than ``command_state_timeout`` against the newest state published: it is never
+applied and does not release the watchdog, so neither a starved controller's late torque nor the first one after a
+hold acts on an arm that has moved on (docs/SECURITY.md). Lockstep needs no such rule: the n-th answer is taken for
+the n-th state, and the simulation waits for it.
 """
 from __future__ import annotations
 
@@ -47,6 +52,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
 from fic_core.arm_profile import arm_profile
+from fic_core.command_stamp import stamp_ns as command_state_stamp_ns
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_teleop_runtime import qos
@@ -96,6 +102,9 @@ SCHEMA = Schema(
                                                  "declared stalled and not waited for until it catches up [s]"),
     number("command_timeout", 0.002, 10.0, "watchdog: commands older than this are replaced by the hold torque "
                                            "(wall s in realtime, simulated s in lockstep) [s]"),
+    number("command_state_timeout", 0.001, 10.0, "realtime: a torque command computed on a joint state older than "
+                                                 "this (the state stamp it carries, fic_core.command_stamp) is "
+                                                 "refused: never applied, the watchdog not released [s]"),
     number("realtime_clock_rate_hz", 0.0, 1000.0, "realtime: /clock publication rate (lockstep publishes every "
                                                   "step) [Hz]"),
     number("joint_state_rate_hz", 1.0, 1000.0, "realtime: /joint_states publication rate, a divisor of 1000 "
@@ -151,6 +160,8 @@ class RobotNode(Node):
         self._lockstep_timeout = p["lockstep_timeout"]
         self._lockstep_subscribers = p["lockstep_subscribers"]
         self._watchdog = CommandWatchdog(p["command_timeout"])
+        self._command_state_timeout_ns = round(p["command_state_timeout"] * 1e9)
+        self._stale_state_commands = 0
         self._gate = LockstepGate()
         self._barrier = (PeerBarrier(p["lockstep_peers"], p["lockstep_peer_lag"], p["lockstep_peer_timeout"])
                          if self._mode == "lockstep" and p["lockstep_peers"] else None)
@@ -254,9 +265,29 @@ class RobotNode(Node):
             self.get_logger().error(f"rejected torque command on /effort_controller/commands: {reason}; "
                                     "it is not applied", throttle_duration_sec=1.0)
             return
+        if self._mode == "realtime" and self._computed_on_old_state(message):
+            return
         self._accepted_commands += 1
         self._hold.update(command, time.monotonic())
         self._gate.deliver(command)
+
+    def _computed_on_old_state(self, message: Float64MultiArray) -> bool:
+        """Whether the command names a joint state older than command_state_timeout against the newest one published
+        (both on the simulation's stamp grid); counted and said (throttled) if so."""
+        if len(message.layout.dim) != 1:
+            return False
+        state_ns = command_state_stamp_ns(message.layout.dim[0].label)
+        if state_ns is None:
+            return False
+        age_ns = self._wall_epoch_ns + self._sim.steps * round(TIMESTEP * 1e9) - state_ns
+        if age_ns <= self._command_state_timeout_ns:
+            return False
+        self._stale_state_commands += 1
+        self.get_logger().warning(
+            f"refused a torque command computed on a joint state {age_ns * 1e-6:.1f} ms old (command_state_timeout "
+            f"{self._command_state_timeout_ns * 1e-6:g} ms; {self._stale_state_commands} so far): not applied",
+            throttle_duration_sec=1.0)
+        return True
 
     # --- lockstep peers (executor thread) -------------------------------------------------------------------------
     def _subscribe_peers(self) -> None:
@@ -476,6 +507,7 @@ class RobotNode(Node):
             "reflex": "" if self._reflex is None or self._reflex.event is None else self._reflex.event.message,
             "commands_accepted": str(self._accepted_commands),
             "commands_rejected": str(self._rejected_commands),
+            "commands_on_old_states": str(self._stale_state_commands),
             "lockstep_answered": str(self._gate.answered_steps),
             "lockstep_timeouts": str(self._gate.timeouts),
         }

@@ -1,0 +1,181 @@
+"""The replica watching its own loop: the age of the state it acts on, the gaps between its ticks and its commands.
+
+Paper Eq. 7 is a law on the state (q, qd) of now. A replica starved of CPU computes it on a state tens of
+milliseconds old, at irregular times, and the robot applies each torque until the next one: the damping terms of
+the law (the FIC's twist error, the posture's -D qd, C(q, qd) qd) then act on a velocity the arm no longer has.
+A starved two-station run swung the simulated arm over its base at up to 11 rad/s that way (docs/RESULTS.md,
+"Starvation"). So the loop measures, at every control tick:
+
+- the state age: the receiver's clock against the joint state's time (the stamp; or its publication time when the
+  caller's clock and the stamp are on different time lines, docs/SECURITY.md "The replica's own loop");
+- the tick gap: the receiver's clock since the previous control tick;
+- the command gap: the receiver's clock since the previous torque sent.
+
+Beyond ``max_state_age`` or ``max_tick_gap`` the loop is unhealthy: the replica stops applying the law and holds,
+sending the torque the robot's own stale-command watchdog applies (gravity, and joint damping on the state's
+velocity, ``hold_torque``) on every tick whose state is fresh. On a stale state it sends the hold's gravity alone
+once, as the hold begins (it replaces the law's last torque at the robot), and nothing after: a damper on a
+velocity the arm had a tenth of a second ago pushes it wherever it was going, and gravity alone held for seconds
+lets it float off (measured: 0.69 m in a 3 s starved window, docs/RESULTS.md "Starvation"); the robot's own
+watchdog then holds the arm with gravity and damping on its own state, at its own rate. It resumes only after ``resume_ticks`` healthy ticks in a row, then blends the law in
+from the hold over ``resume_ramp`` seconds (``law_fraction``), with the task controller started afresh (its
+convergent-phase latch and error memory belong to the states before the hold). Every hold is counted, and the
+caller says it on /diagnostics.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import FicInputError, finite_scalar
+
+#: Joint damping of the hold [N m s/rad], per Panda joint: the simulated robot's stale-command hold's
+#: (sim_bridge's mujoco_panda.HOLD_DAMPING), so a hold of the replica and one of the robot brake alike.
+HOLD_DAMPING = (10.0, 10.0, 10.0, 10.0, 2.0, 2.0, 2.0)
+
+HEALTHY, HOLDING, RESUMING = "healthy", "holding", "resuming"
+
+
+@dataclass(frozen=True)
+class LoopHealthBounds:
+    """Where the replica's loop stops being trusted (docs/SECURITY.md, "The replica's own loop")."""
+
+    max_state_age: float = 0.04    # [s] a law on an older state is not applied (below the robot's 50 ms watchdog)
+    max_tick_gap: float = 0.04     # [s] control ticks further apart: the last torque was held too long
+    resume_ticks: int = 25         # healthy control ticks in a row before the law comes back
+    resume_ramp: float = 0.2       # [s] the law blended in from the hold over this long
+
+    def __post_init__(self) -> None:
+        finite_scalar("max_state_age", self.max_state_age, minimum=0.0, minimum_inclusive=False)
+        finite_scalar("max_tick_gap", self.max_tick_gap, minimum=0.0, minimum_inclusive=False)
+        finite_scalar("resume_ramp", self.resume_ramp, minimum=0.0)
+        if int(self.resume_ticks) != self.resume_ticks or self.resume_ticks < 1:
+            raise FicInputError(f"resume_ticks must be a whole number >= 1, got {self.resume_ticks}")
+
+
+class LoopHealth:
+    """Stepped by the replica loop at every control tick (``tick``) and every torque sent (``command_sent``)."""
+
+    def __init__(self, bounds: LoopHealthBounds | None = None) -> None:
+        self.bounds = LoopHealthBounds() if bounds is None else bounds
+        self.state = HEALTHY
+        self.state_age = 0.0            # [s] of the last tick
+        self.tick_gap = 0.0             # [s] before the last tick
+        self.command_gap = 0.0          # [s] before the last command
+        self.max_state_age_seen = 0.0
+        self.max_tick_gap_seen = 0.0
+        self.max_command_gap_seen = 0.0
+        self.holds = 0                  # transitions into the hold
+        self.held_ticks = 0             # control ticks answered with the hold torque
+        self.reason = ""                # why the last hold began
+        self._last_tick: float | None = None
+        self._last_command: float | None = None
+        self._healthy_run = 0
+        self._resume_start: float | None = None
+        self._entered_hold = False
+
+    @property
+    def holding(self) -> bool:
+        return self.state == HOLDING
+
+    def tick(self, now: float, state_time: float) -> str:
+        """A control tick at ``now`` on a joint state of ``state_time`` (the same clock). Returns "" or, once, the
+        notice of a transition (into the hold, or back to the law)."""
+        age = max(now - state_time, 0.0)   # a state stamped a little ahead (clock skew) is not old
+        gap = 0.0 if self._last_tick is None else max(now - self._last_tick, 0.0)
+        self._last_tick = now
+        if not (math.isfinite(age) and math.isfinite(gap)):
+            age = gap = math.inf
+        self.state_age, self.tick_gap = age, gap
+        self.max_state_age_seen = max(self.max_state_age_seen, age)
+        self.max_tick_gap_seen = max(self.max_tick_gap_seen, gap)
+        bounds = self.bounds
+        self._entered_hold = False
+        problems = []
+        if age > bounds.max_state_age:
+            problems.append(f"state {age * 1e3:.1f} ms old (bound {bounds.max_state_age * 1e3:g} ms)")
+        if gap > bounds.max_tick_gap:
+            problems.append(f"control ticks {gap * 1e3:.1f} ms apart (bound {bounds.max_tick_gap * 1e3:g} ms)")
+        if problems:
+            self._healthy_run = 0
+            self._resume_start = None
+            if self.state != HOLDING:
+                self.state = HOLDING
+                self._entered_hold = True
+                self.holds += 1
+                self.reason = "; ".join(problems)
+                return (f"replica loop unhealthy: {self.reason}; holding (gravity and joint damping) until "
+                        f"{bounds.resume_ticks} healthy ticks")
+            return ""
+        if self.state == HOLDING:
+            self._healthy_run += 1
+            if self._healthy_run >= bounds.resume_ticks:
+                self.state = RESUMING
+                self._resume_start = now
+                return (f"replica loop healthy for {self._healthy_run} ticks: the law takes over from the hold "
+                        f"over {bounds.resume_ramp:g} s")
+        elif self.state == RESUMING and self.law_fraction(now) >= 1.0:
+            self.state = HEALTHY
+            self._resume_start = None
+        return ""
+
+    def law_fraction(self, now: float) -> float:
+        """How much of the law's torque goes out at ``now`` (the rest is the hold's): 0 while holding, rising
+        linearly to 1 over resume_ramp after a resume, 1 when healthy."""
+        if self.state == HOLDING:
+            return 0.0
+        if self.state == HEALTHY or self._resume_start is None or self.bounds.resume_ramp == 0.0:
+            return 1.0
+        return min(1.0, max(now - self._resume_start, 0.0) / self.bounds.resume_ramp)
+
+    def resumed_at_this_tick(self, now: float) -> bool:
+        """Whether the law came back at this tick (the caller starts the task controller afresh)."""
+        return self.state == RESUMING and self._resume_start == now
+
+    def held_tick(self) -> None:
+        self.held_ticks += 1
+
+    @property
+    def state_fresh(self) -> bool:
+        """Whether the last tick's state is within max_state_age (its velocity is one the arm still has)."""
+        return self.state_age <= self.bounds.max_state_age
+
+    def hold_command(self, gravity: ArrayLike, velocity: ArrayLike) -> NDArray[np.float64] | None:
+        """What a held tick sends (module docstring): the hold torque on a fresh state; on a stale one gravity
+        alone at the tick the hold began, else nothing (None: the robot's watchdog holds the arm)."""
+        if self.state_fresh or self._entered_hold:
+            return self.hold_torque(gravity, velocity, self.state_age)
+        return None
+
+    def command_sent(self, now: float) -> None:
+        """A torque went out at ``now``."""
+        gap = 0.0 if self._last_command is None else max(now - self._last_command, 0.0)
+        self._last_command = now
+        self.command_gap = gap
+        self.max_command_gap_seen = max(self.max_command_gap_seen, gap)
+
+    def hold_torque(self, gravity: ArrayLike, velocity: ArrayLike, state_age: float) -> NDArray[np.float64]:
+        """The stated hold: G(q) - D qd, as the robot's own watchdog holds the arm. The damping needs a velocity the
+        arm still has: on a state older than max_state_age it is left out (a damper on a stale velocity pushes
+        wherever the arm was going, not against where it goes), and the hold is gravity alone."""
+        gravity = np.asarray(gravity, dtype=float)
+        if state_age > self.bounds.max_state_age:
+            return gravity.copy()
+        damping = np.asarray(HOLD_DAMPING[:gravity.size], dtype=float)
+        return gravity - damping * np.asarray(velocity, dtype=float)
+
+    def diagnostic_values(self) -> dict[str, str]:
+        """The keys of the "replica loop health" status (docs/SECURITY.md)."""
+        return {"state": self.state,
+                "state_age_ms": f"{self.state_age * 1e3:.1f}",
+                "tick_gap_ms": f"{self.tick_gap * 1e3:.1f}",
+                "command_gap_ms": f"{self.command_gap * 1e3:.1f}",
+                "max_state_age_ms": f"{self.max_state_age_seen * 1e3:.1f}",
+                "max_tick_gap_ms": f"{self.max_tick_gap_seen * 1e3:.1f}",
+                "max_command_gap_ms": f"{self.max_command_gap_seen * 1e3:.1f}",
+                "holds": str(self.holds),
+                "held_ticks": str(self.held_ticks),
+                "last_hold_reason": self.reason or "none"}

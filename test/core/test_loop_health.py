@@ -1,0 +1,161 @@
+"""The replica watching its own loop (fic_core.loop_health, stepped by fic_core.replica_loop), on fake clocks: a law
+on an old state or after a long gap is not applied, the stated hold (G(q) and joint damping) goes out instead, the
+law comes back only after a run of healthy ticks, from the hold torque, blended in over the ramp."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fic_core.errors import FicInputError
+from fic_core.loop_health import HEALTHY, HOLD_DAMPING, HOLDING, RESUMING, LoopHealth, LoopHealthBounds
+from fic_core.panda_description import NOMINAL_CONFIGURATION
+from fic_core.replica_loop import ReplicaLoop
+from fic_core.robot_model import RobotModel
+
+from config_values import replica_loop_values
+
+Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
+PERIOD = 0.002
+BOUNDS = LoopHealthBounds(max_state_age=0.04, max_tick_gap=0.04, resume_ticks=5, resume_ramp=0.1)
+
+
+def gravity(q: np.ndarray) -> np.ndarray:
+    robot = RobotModel()
+    robot.update(q, np.zeros(7))
+    return robot.gravity.copy()
+
+
+def test_bounds_are_checked() -> None:
+    with pytest.raises(FicInputError):
+        LoopHealthBounds(max_state_age=0.0)
+    with pytest.raises(FicInputError):
+        LoopHealthBounds(resume_ticks=0)
+    with pytest.raises(FicInputError):
+        LoopHealthBounds(resume_ticks=2.5)
+
+
+def test_an_old_state_holds_and_the_law_comes_back_only_after_a_healthy_run_with_a_ramp() -> None:
+    health = LoopHealth(BOUNDS)
+    now = 0.0
+    for _ in range(10):   # fresh states every 2 ms: healthy
+        now += PERIOD
+        assert health.tick(now, now - 0.001) == ""
+        assert health.law_fraction(now) == 1.0
+    now += PERIOD
+    notice = health.tick(now, now - 0.041)   # 41 ms old: over the bound
+    assert health.state == HOLDING and health.holds == 1 and "41.0 ms old" in notice
+    assert health.law_fraction(now) == 0.0
+    for tick in range(BOUNDS.resume_ticks - 1):   # healthy again, but not for long enough yet
+        now += PERIOD
+        assert health.tick(now, now) == "" and health.state == HOLDING, tick
+    now += PERIOD
+    assert "takes over" in health.tick(now, now) and health.state == RESUMING
+    assert health.resumed_at_this_tick(now) and health.law_fraction(now) == 0.0
+    assert health.law_fraction(now + 0.05) == pytest.approx(0.5)
+    # An unhealthy tick during the ramp holds again and restarts the count.
+    now += PERIOD
+    health.tick(now, now - 0.5)
+    assert health.state == HOLDING and health.holds == 2
+    for _ in range(BOUNDS.resume_ticks):
+        now += PERIOD
+        health.tick(now, now)
+    start = now
+    while now < start + BOUNDS.resume_ramp + PERIOD:
+        now += PERIOD
+        health.tick(now, now)
+    assert health.state == HEALTHY and health.law_fraction(now) == 1.0
+    values = health.diagnostic_values()
+    assert values["holds"] == "2" and float(values["max_state_age_ms"]) == pytest.approx(500.0)
+
+
+def test_a_long_gap_between_ticks_holds_even_on_a_fresh_state() -> None:
+    health = LoopHealth(BOUNDS)
+    health.tick(0.0, 0.0)
+    health.tick(0.039, 0.039)
+    assert health.state == HEALTHY
+    assert "ms apart" in health.tick(0.09, 0.09) and health.state == HOLDING
+    assert health.tick_gap == pytest.approx(0.051)
+
+
+def test_the_hold_is_gravity_and_damping_and_gravity_alone_on_a_stale_velocity() -> None:
+    health = LoopHealth(BOUNDS)
+    g, qd = gravity(Q0), np.full(7, 0.3)
+    np.testing.assert_allclose(health.hold_torque(g, qd, 0.01), g - np.array(HOLD_DAMPING) * qd)
+    np.testing.assert_allclose(health.hold_torque(g, qd, 0.05), g)
+
+
+def test_command_gaps_are_measured() -> None:
+    health = LoopHealth(BOUNDS)
+    for now in (0.0, 0.002, 0.032, 0.034):
+        health.command_sent(now)
+    assert health.command_gap == pytest.approx(0.002) and health.max_command_gap_seen == pytest.approx(0.03)
+
+
+# --- in the replica loop ---------------------------------------------------------------------------------------
+def loop() -> ReplicaLoop:
+    return ReplicaLoop(replica_loop_values(control_rate=500.0, command_period=0.002, loop_max_state_age=0.04,
+                                           loop_max_tick_gap=0.04, loop_resume_ticks=5, loop_resume_ramp=0.1))
+
+
+def test_the_loop_sends_the_hold_on_a_stale_state_and_blends_the_law_back_in_without_a_jump() -> None:
+    replica = loop()
+    qd = np.full(7, 0.05)
+    now, law = 0.0, None
+    for _ in range(50):
+        now += PERIOD
+        step = replica.joint_state(now, now, Q0, qd)
+        assert not step.held and step.command is not None
+        law = step.torque
+    # A starved tick 100 ms later, on a state 60 ms old. No law, the hold: G(q) only (the velocity is stale too).
+    now += 0.1
+    step = replica.joint_state(now - 0.06, now, Q0, qd)
+    assert step.held and step.command is None and not step.poses_due and not step.status_due
+    np.testing.assert_allclose(step.torque, gravity(Q0))
+    assert replica.health.holds == 1 and replica.statistics()["loop_holds"] == "1"
+    assert any(level == "warning" and "unhealthy" in text for level, text in step.notices)
+    # Another stale tick while held: nothing is sent (the robot's watchdog holds on its own state).
+    now += PERIOD
+    stale = replica.joint_state(now - 0.06, now, Q0, qd)
+    assert stale.held and stale.torque is None and replica.health.holds == 1
+    ticks_before = replica.controller.ticks
+    sent = [step.torque]
+    for _ in range(4):   # healthy ticks, still held: gravity and damping on the fresh state
+        now += PERIOD
+        step = replica.joint_state(now, now, Q0, qd)
+        assert step.held
+        np.testing.assert_allclose(step.torque, gravity(Q0) - np.array(HOLD_DAMPING) * qd)
+        sent.append(step.torque)
+    assert replica.controller.ticks == ticks_before   # no law ran while held
+    # The fifth healthy tick: the law again, started afresh, its first torque the hold's (fraction 0), then a ramp.
+    while len(sent) < 200:
+        now += PERIOD
+        step = replica.joint_state(now, now, Q0, qd)
+        assert not step.held
+        sent.append(step.torque)
+    np.testing.assert_allclose(sent[5], sent[4])
+    steps = np.abs(np.diff(np.array(sent[4:]), axis=0)).max(axis=1)
+    # The blend moves from the hold to the law by at most (law - hold) * PERIOD / ramp per tick.
+    assert steps.max() <= np.abs(law - sent[4]).max() * PERIOD / 0.1 + 1e-6
+    np.testing.assert_allclose(sent[-1], law, atol=1e-6)
+    assert replica.health.state == HEALTHY
+
+
+def test_a_rejected_state_while_held_repeats_the_hold() -> None:
+    replica = loop()
+    replica.joint_state(0.0, 0.0, Q0, np.zeros(7))
+    step = replica.joint_state(0.002, 0.1, Q0, np.zeros(7))
+    assert step.held
+    np.testing.assert_allclose(replica.refuse_joint_state(), step.torque)
+
+
+def test_the_publication_time_measures_the_age_when_the_stamp_is_on_another_time_line() -> None:
+    """A simulated robot running slower than real time stamps its states behind the wall clock: the age is taken
+    from the publication time the caller gives, not from the stamp."""
+    replica = loop()
+    for k in range(10):
+        now = 100.0 + k * PERIOD
+        step = replica.joint_state(k * PERIOD, now, Q0, np.zeros(7), published=now - 0.001)
+        assert not step.held
+    step = replica.joint_state(10 * PERIOD, 100.0 + 10 * PERIOD, Q0, np.zeros(7),
+                               published=100.0 + 10 * PERIOD - 0.05)
+    assert step.held
