@@ -6,4 +6,6 @@ REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$REPO/scripts/setup.sh"
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
+# `claims`: the claim cells on the in-process runner (scripts/claims_sweep.py; docs/EXPERIMENTS.md "Claims").
+if [[ "${1:-}" == "claims" ]]; then shift; exec python "$REPO/scripts/claims_sweep.py" "$@"; fi
 exec python "$REPO/scripts/experiments.py" "$@"

@@ -1,0 +1,233 @@
+"""The claim cells: the FIC papers' "1 s delay" and "10 Hz bandwidth" as they state them (docs/EXPERIMENTS.md "Claims").
+
+What the earlier FIC teleoperation work claims is stability with a fixed one-way delay of up to 1 s and a
+communication rate as low as 10 Hz, with the robot's torque loop and the law at 1 kHz: the master->replica command
+and the force feedback are each sample-and-held between the link's deliveries. So a claim cell here is:
+
+- both channel directions at one rate (full, 10 or 5 Hz): the channel's rate cap delivers the newest due message at
+  that rate and the receiver holds it until the next (sim_bridge.channel.channel), the command forward and F_R back;
+- one fixed delay each way (0, 0.2, 1 or 2 s, and the delay sweep's 0.5 and 1.5 s at full rate);
+- the replica's law and the robot at 1 kHz (the in-process runner, every joint state answered);
+- the closed-loop operator timing its moves from the delayed video, feeling F_R through the handle (force feedback
+  on: the master's K_H), with a passive hand (the optimistic operator) or the force-reactive hand;
+- a task that does not repeat: per seed the planner's laps and the operator's moves and wander are drawn
+  (in_process.TASK_*, MOVE_*, WANDER_* ranges), in the paper's superimposition scene with both obstacles;
+- every law of the evidence sweeps (evidence_run.CONTROLLERS), the same seeds for every law and hand (paired).
+
+A run is one ``ClaimRun``; ``execute`` simulates it, keeps its series (``save_series``: every per-sample field of the
+RunResult at ``SERIES_RATE_HZ``, float32, and its scalars) and returns one JSON-ready row of figures. The verdict is
+applied to the kept series afterwards (``judge_series``), so a changed verdict never needs a new simulation.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, HAND_IMPEDANCE_JITTER,
+                                                 OPERATOR_TIMING_JITTER_S)
+from sim_bridge.experiments.in_process import HANDS, RunConfig, RunResult, run
+
+#: One-way delays [s] and channel rates [Hz] (0: full rate, the 100 Hz network stream undelayed by any cap).
+CLAIM_DELAYS_S = (0.0, 0.2, 1.0, 2.0)
+CLAIM_RATES_HZ = (0.0, 10.0, 5.0)
+#: The delay sweep at full rate adds these to the claim delays.
+SWEEP_EXTRA_DELAYS_S = (0.5, 1.5)
+SEEDS = 20
+#: Kept series rate [Hz]: the replica's 100 Hz poses every second sample. The verdict's shortest period (0.2 s) is
+#: 10 samples; peaks (error, force) are taken from the full-rate run into the row before the series is thinned.
+SERIES_RATE_HZ = 50.0
+#: The figures' start-up left out [s] (the robot reaching the circle).
+SETTLE_S = 2.0
+
+
+def duration_for(delay: float) -> float:
+    """Run length [s]: 30 s, longer beyond 1 s of delay so that the span after start-up holds 1.5 periods of 4 round
+    trips at 1.5 s (37.5 s) and most of one at 2 s (45 s)."""
+    return 30.0 + 15.0 * max(0.0, delay - 1.0)
+
+
+@dataclass(frozen=True)
+class ClaimRun:
+    delay: float          # [s] one way
+    rate_hz: float        # [Hz] both directions (0: full rate)
+    controller: str       # evidence_run.CONTROLLERS
+    hand: str             # in_process.HANDS
+    seed: int
+    duration: float       # [s]
+
+    def __post_init__(self) -> None:
+        if self.controller not in CONTROLLERS:
+            raise ValueError(f"controller must be one of {CONTROLLERS}, got {self.controller!r}")
+        if self.hand not in HANDS:
+            raise ValueError(f"hand must be one of {HANDS}, got {self.hand!r}")
+        if not (math.isfinite(self.delay) and self.delay >= 0.0 and math.isfinite(self.rate_hz)
+                and self.rate_hz >= 0.0 and self.duration > 0.0):
+            raise ValueError(f"delay and rate must be finite and >= 0, duration > 0: {self}")
+
+    @property
+    def cell(self) -> str:
+        return f"delay_{self.delay:g}__rate_{'full' if self.rate_hz == 0.0 else f'{self.rate_hz:g}'}"
+
+    @property
+    def key(self) -> str:
+        """The run's name (its series file's stem, the JSON line's key)."""
+        return f"{self.cell}__{self.controller}__{self.hand}__{self.seed}__{self.duration:g}s"
+
+    def config(self) -> RunConfig:
+        paper_law = self.controller == "fic_paper_law"
+        return RunConfig(scene="superimposition", duration=self.duration, delay=self.delay, rate_cap=self.rate_hz,
+                         controller="fic" if paper_law else self.controller,
+                         replica_overrides={"paper_law": True} if paper_law else {},
+                         seed=self.seed, operator="closed_loop", hand=self.hand, task_variation=True,
+                         jitter=CHANNEL_JITTER_S, operator_timing_jitter=OPERATOR_TIMING_JITTER_S,
+                         hand_impedance_jitter=HAND_IMPEDANCE_JITTER)
+
+
+def claim_cells(quick: bool = False) -> list[tuple[int, float, float]]:
+    """(tier, delay, rate) in the order they are run: tier 1 is the claim itself (1 s with 10 Hz both ways, and 1 s
+    at full rate), tier 2 the paper's 0.2 s at every rate, tier 3 the rest of the grid and the delay sweep."""
+    if quick:
+        return [(1, 1.0, 10.0), (1, 1.0, 0.0)]
+    first = [(1, 1.0, 10.0), (1, 1.0, 0.0)]
+    second = [(2, 0.2, 10.0), (2, 0.2, 0.0), (2, 0.2, 5.0)]
+    # The 1 s row completed, then 2 s, then no delay, then the delay sweep's extra delays at full rate.
+    third = [(3, 1.0, 5.0), (3, 2.0, 10.0), (3, 2.0, 0.0), (3, 2.0, 5.0), (3, 0.0, 10.0), (3, 0.0, 0.0),
+             (3, 0.0, 5.0)] + [(3, delay, 0.0) for delay in SWEEP_EXTRA_DELAYS_S]
+    return first + second + third
+
+
+def claim_runs(seeds: int = SEEDS, controllers: Iterable[str] = CONTROLLERS, hands: Iterable[str] = HANDS,
+               quick: bool = False, duration: float | None = None) -> list[ClaimRun]:
+    """Every run, most important first: by tier; within a tier seed by seed over its cells, every law and hand at a
+    seed together (an interrupted sweep leaves paired, comparable runs)."""
+    controllers, hands = tuple(controllers), tuple(hands)
+    cells = claim_cells(quick)
+    out = []
+    for tier in sorted({c[0] for c in cells}):
+        for seed in range(1, seeds + 1):
+            for _, delay, rate in (c for c in cells if c[0] == tier):
+                for controller in controllers:
+                    for hand in hands:
+                        out.append(ClaimRun(delay, rate, controller, hand, seed,
+                                            duration if duration is not None else duration_for(delay)))
+    return out
+
+
+# -- series ----------------------------------------------------------------------------------------------------------
+def _per_sample_fields(result: RunResult) -> list[str]:
+    n = len(result.time)
+    return [f.name for f in dataclasses.fields(result)
+            if isinstance(getattr(result, f.name), np.ndarray) and getattr(result, f.name).ndim >= 1
+            and len(getattr(result, f.name)) == n]
+
+
+def _scalar_fields(result: RunResult) -> list[str]:
+    return [f.name for f in dataclasses.fields(result)
+            if isinstance(getattr(result, f.name), (int, float, np.integer, np.floating))
+            and not isinstance(getattr(result, f.name), bool)]
+
+
+def thinned(result: RunResult, rate_hz: float = SERIES_RATE_HZ) -> RunResult:
+    """The result with every per-sample series at ``rate_hz`` (every k-th sample)."""
+    step = float(np.median(np.diff(result.time))) if len(result.time) > 1 else 1.0 / rate_hz
+    every = max(1, int(round(1.0 / (rate_hz * step))))
+    return dataclasses.replace(result, **{name: getattr(result, name)[::every] for name in _per_sample_fields(result)})
+
+
+def save_series(path: Path, result: RunResult) -> None:
+    """Per-sample series (float32 but the time, booleans kept), scalars, and the draws and moves as JSON."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {}
+    for name in _per_sample_fields(result):
+        values = getattr(result, name)
+        arrays[name] = values if name == "time" or values.dtype == bool else values.astype(np.float32)
+    scalars = {name: np.asarray(getattr(result, name)) for name in _scalar_fields(result)}
+    extra = json.dumps({"draws": result.draws, "operator_moves": result.operator_moves})
+    temporary = path.with_name(path.name + ".partial.npz")
+    np.savez_compressed(temporary, **arrays, **scalars, extra_json=np.asarray(extra))
+    temporary.replace(path)   # a run killed while writing leaves no half file under the run's name
+
+
+def load_series(path: Path) -> RunResult:
+    """A RunResult from ``save_series`` (float64 again; the scene's objects are not kept)."""
+    names = {f.name for f in dataclasses.fields(RunResult)}
+    with np.load(path) as data:
+        values: dict[str, Any] = {}
+        for name in data.files:
+            if name == "extra_json":
+                values.update(json.loads(str(data[name])))
+            elif name in names:
+                array = data[name]
+                values[name] = array.item() if array.ndim == 0 else (
+                    array if array.dtype == bool else array.astype(np.float64))
+    values["operator_moves"] = [tuple(move) for move in values.get("operator_moves", [])]
+    return RunResult(objects={}, **values)
+
+
+# -- one run -----------------------------------------------------------------------------------------------------------
+def figures(claim: ClaimRun, result: RunResult) -> dict[str, Any]:
+    """The row's figures, from the full-rate result, after the start-up (after half the run if that is shorter)."""
+    after = result.time >= min(SETTLE_S, 0.5 * float(result.time[-1]))
+    error = result.tracking_error[after]
+    force = np.linalg.norm(result.force, axis=1)
+    free = force < 1.0
+    step = float(np.median(np.diff(result.time)))
+    ports = result.port_energy
+    return dict(error_rms_m=float(np.sqrt(np.mean(error ** 2))), error_max_m=float(error.max()),
+                error_free_p95_m=float(np.percentile(result.tracking_error[after & free], 95))
+                if np.any(after & free) else None,
+                peak_force_n=float(force[after].max()), limit_violations=int(result.limit_violations),
+                shaped_ticks=int(result.shaped_ticks), passivity_violation_ticks=int(result.passivity_violation_ticks),
+                channel_generated_j=float(ports[-1, 2]) if ports is not None and len(ports) else None,
+                joint_speed_max=float(getattr(result, "joint_speed_max", 0.0)),
+                robot_watchdog_engagements=int(getattr(result, "robot_watchdog_engagements", 0)),
+                stale_torques_refused=int(getattr(result, "stale_torques_refused", 0)),
+                replica_holds=int(getattr(result, "replica_holds", 0)),
+                fixed_obstacle_contact_s=float(np.sum(result.obstacle_contact[after]) * step)
+                if result.obstacle_contact is not None else None,
+                operator_moves=len(result.operator_moves))
+
+
+def execute(claim: ClaimRun, directory: str | Path, provenance: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Simulate one run, keep its series under ``directory`` (``<key>.npz``) and return its JSON row."""
+    import time as wall_clock
+
+    started = wall_clock.time()
+    result = run(claim.config())
+    path = Path(directory) / f"{claim.key}.npz"
+    save_series(path, thinned(result))
+    return dict(key=claim.key, cell=claim.cell, **dataclasses.asdict(claim), wall_s=result.wall_s,
+                wall_total_s=wall_clock.time() - started, simulated_s=result.simulated_s, started_at=started,
+                series=path.name, series_rate_hz=SERIES_RATE_HZ, draws=result.draws,
+                operator_time_shift_s=result.operator_time_shift, hand_scale=result.hand_scale,
+                figures=figures(claim, result), **(provenance or {}))
+
+
+def judge_series(path: Path, delay: float) -> dict[str, Any]:
+    """The run verdict (sim_bridge.experiments.run_verdict) on a kept series: stable, safe and their reasons."""
+    from sim_bridge.experiments.run_verdict import VerdictInput, judge
+
+    verdict = judge(VerdictInput.from_run_result(load_series(path), one_way_delay=delay))
+    return dict(stable=verdict.stable, safe=verdict.safe, stable_reasons=verdict.stable_reasons,
+                safe_reasons=verdict.safe_reasons, notes=verdict.notes)
+
+
+def provenance(repository: Path) -> dict[str, Any]:
+    """The commit the code ran from, and whether its tracked files differed from it."""
+    def git(*args: str) -> str:
+        try:
+            return subprocess.run(["git", "-C", str(repository), *args], capture_output=True, text=True,
+                                  check=True).stdout.strip()
+        except (OSError, subprocess.CalledProcessError):
+            return ""
+    commit = git("rev-parse", "HEAD")
+    if not commit and (repository / "COMMIT").exists():   # a snapshot exported with git archive
+        return dict(commit=(repository / "COMMIT").read_text().strip(), tree_modified=False)
+    return dict(commit=commit or None, tree_modified=bool(git("status", "--porcelain", "--untracked-files=no")))

@@ -1,0 +1,85 @@
+"""The claim cells (sim_bridge/experiments/claims.py, scripts/claims_sweep.py): what a claim run configures, the kept
+series round trip, and a tiny sweep through an executor that resumes where it stopped."""
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim_bridge.experiments.claims import (ClaimRun, claim_cells, claim_runs, load_series, save_series,
+                                           thinned)
+from sim_bridge.experiments.in_process import run
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "scripts"))
+import claims_sweep  # noqa: E402
+
+
+def test_a_claim_run_holds_both_directions_at_the_rate_with_the_law_at_full_rate() -> None:
+    config = ClaimRun(1.0, 10.0, "fic_paper_law", "reactive", 3, 30.0).config()
+    assert (config.delay, config.rate_cap, config.control_rate) == (1.0, 10.0, 1000.0)
+    assert config.controller == "fic" and config.replica_overrides == {"paper_law": True}
+    assert (config.operator, config.hand, config.task_variation, config.scene) == (
+        "closed_loop", "reactive", True, "superimposition")
+    assert not config.dynamics_at_physics_rate
+
+
+def test_the_sweep_runs_the_claim_first_and_covers_the_grid_and_the_delay_sweep() -> None:
+    cells = claim_cells()
+    assert cells[:2] == [(1, 1.0, 10.0), (1, 1.0, 0.0)] and all(c[1] == 0.2 for c in cells[2:5])
+    grid = {(d, r) for _, d, r in cells}
+    assert {(d, r) for d in (0.0, 0.2, 1.0, 2.0) for r in (0.0, 10.0, 5.0)} <= grid
+    assert {d for d, r in grid if r == 0.0} == {0.0, 0.2, 0.5, 1.0, 1.5, 2.0}
+    runs = claim_runs()
+    assert len(runs) == len(cells) * 5 * 2 * 20 == len({r.key for r in runs})
+    first = runs[:20]   # seed 1 of both claim cells: every law with both hands
+    assert {(r.cell, r.controller, r.hand) for r in first} == {
+        (c, law, hand) for c in ("delay_1__rate_10", "delay_1__rate_full")
+        for law in ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa") for hand in ("passive", "reactive")}
+
+
+def test_the_kept_series_is_the_run_at_50_hz(tmp_path: Path) -> None:
+    claim = ClaimRun(0.2, 10.0, "fic", "reactive", 2, 2.0)
+    result = run(claim.config())
+    path = tmp_path / "run.npz"
+    save_series(path, thinned(result))
+    kept = load_series(path)
+    assert np.median(np.diff(kept.time)) == pytest.approx(0.02)
+    np.testing.assert_allclose(kept.tcp, result.tcp[::2], atol=1e-6)
+    np.testing.assert_array_equal(kept.obstacle_contact, result.obstacle_contact[::2])
+    assert kept.limit_violations == result.limit_violations and kept.draws == json.loads(json.dumps(result.draws))
+    assert set(kept.draws) == {"task", "hand"}
+
+
+def test_a_sweep_through_an_executor_keeps_every_run_and_resumes(tmp_path: Path) -> None:
+    runs = [ClaimRun(0.2, 10.0, "fic", hand, 1, 1.5) for hand in ("passive", "reactive")]
+    directory, jsonl = tmp_path / "runs", tmp_path / "runs.jsonl"
+    with ThreadPoolExecutor(max_workers=2) as executor:
+        rows, new = claims_sweep.sweep(runs[:1], executor, directory, jsonl, {"commit": "x"}, progress=False)
+        assert len(rows) == len(new) == 1 and (directory / rows[0]["series"]).exists()
+        rows, new = claims_sweep.sweep(runs, executor, directory, jsonl, {"commit": "x"}, progress=False)
+        assert [row["key"] for row in new] == [runs[1].key]          # the first one was not simulated again
+    assert [row["key"] for row in rows] == [r.key for r in runs]
+    lines = [json.loads(line) for line in jsonl.read_text().splitlines()]
+    assert len(lines) == 2 and all(line["commit"] == "x" and line["wall_s"] > 0 for line in lines)
+    assert {"error_rms_m", "peak_force_n", "limit_violations"} <= set(lines[0]["figures"])
+    jsonl.write_text(jsonl.read_text() + '{"key": "cut sh')                 # a line cut short by a kill
+    (directory / rows[1]["series"]).unlink()                              # a series lost: that run is not done
+    assert list(claims_sweep.finished(jsonl, directory)) == [runs[0].key]
+
+
+@pytest.mark.skipif(importlib.util.find_spec("sim_bridge.experiments.run_verdict") is None,
+                    reason="the run verdict is not in this tree")
+def test_the_verdict_applies_to_a_kept_series(tmp_path: Path) -> None:
+    from sim_bridge.experiments.claims import judge_series
+
+    claim = ClaimRun(0.2, 0.0, "fic", "passive", 1, 3.0)
+    path = tmp_path / "run.npz"
+    save_series(path, thinned(run(claim.config())))
+    verdict = judge_series(path, claim.delay)
+    assert verdict["safe"] in (True, False) and verdict["stable"] in (True, False, None)
