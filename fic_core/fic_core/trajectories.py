@@ -174,18 +174,23 @@ class LapVaryingCircle:
     def randomised(cls, centre: ArrayLike, draws: np.random.Generator, duration: float,
                    period_range: tuple[float, float] = (4.0, 6.0),
                    diameter_range: tuple[float, float] = (0.17, 0.23),
-                   normal: ArrayLike = (0.0, 0.0, 1.0), phase_range: tuple[float, float] = (0.0, 2.0 * math.pi),
-                   ) -> "LapVaryingCircle":
-        """Laps drawn uniformly from the ranges until ``duration`` [s] is covered; the start angle too."""
+                   normal: ArrayLike = (0.0, 0.0, 1.0),
+                   phase_ranges: tuple[tuple[float, float], ...] = ((0.0, 2.0 * math.pi),)) -> "LapVaryingCircle":
+        """Laps drawn uniformly from the ranges until ``duration`` [s] is covered; the start angle uniformly in one
+        of ``phase_ranges`` [rad], the range itself drawn with equal odds (arcs that keep the start off obstacles)."""
         duration = finite_scalar("duration", duration, minimum=0.0, minimum_inclusive=False)
         for name, (low, high) in (("period_range", period_range), ("diameter_range", diameter_range)):
             if not 0.0 < low <= high or not math.isfinite(high):
                 raise FicInputError(f"{name} must be 0 < low <= high, got {(low, high)}")
+        if not phase_ranges or any(not (math.isfinite(low) and math.isfinite(high) and low <= high)
+                                   for low, high in phase_ranges):
+            raise FicInputError(f"phase_ranges must be finite (low, high) pairs, got {phase_ranges}")
         periods: list[float] = []
         while sum(periods) < duration:
             periods.append(float(draws.uniform(*period_range)))
         diameters = draws.uniform(*diameter_range, size=len(periods) + 1)
-        return cls(centre, periods, diameters, normal, float(draws.uniform(*phase_range)))
+        phase = float(draws.uniform(*phase_ranges[int(draws.integers(len(phase_ranges)))]))
+        return cls(centre, periods, diameters, normal, phase)
 
     @property
     def periods(self) -> NDArray[np.float64]:

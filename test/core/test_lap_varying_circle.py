@@ -52,6 +52,11 @@ def test_a_seed_draws_laps_within_the_ranges_that_cover_the_duration_and_never_r
     assert np.all((a.periods >= 4.0) & (a.periods <= 6.0))
     assert np.all((a.diameters >= 0.17) & (a.diameters <= 0.23))
     assert len(set(np.round(a.periods, 6))) == a.periods.size
+    arcs = ((-0.7, 0.7), (2.4, 3.8))
+    phases = [LapVaryingCircle.randomised(CENTRE, np.random.default_rng(s), 10.0, phase_ranges=arcs).phase
+              for s in range(40)]
+    assert all(-0.7 <= p <= 0.7 or 2.4 <= p <= 3.8 for p in phases)
+    assert 10 < sum(p > 2.0 for p in phases) < 30                  # both arcs drawn
 
 
 @pytest.mark.parametrize("periods, diameters", [([], [0.2]), ([5.0], [0.2]), ([5.0, -1.0], [0.2, 0.2, 0.2]),
@@ -59,3 +64,10 @@ def test_a_seed_draws_laps_within_the_ranges_that_cover_the_duration_and_never_r
 def test_bad_laps_are_refused_in_one_line(periods, diameters) -> None:
     with pytest.raises(FicInputError):
         LapVaryingCircle(CENTRE, periods, diameters)
+
+
+def test_bad_ranges_are_refused() -> None:
+    for bad in (dict(period_range=(0.0, 5.0)), dict(diameter_range=(0.3, 0.2)), dict(phase_ranges=()),
+                dict(phase_ranges=((1.0, math.nan),))):
+        with pytest.raises(FicInputError):
+            LapVaryingCircle.randomised(CENTRE, np.random.default_rng(1), 10.0, **bad)

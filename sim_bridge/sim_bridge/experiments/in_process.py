@@ -58,7 +58,9 @@ HANDS = ("passive", "reactive")
 #: uniform ranges. The diameters keep both obstacles on the path (their 0.06 m width about the paper's 0.20 m).
 TASK_PERIOD_RANGE_S = (4.0, 6.0)           # each lap's period (the paper's 5 s +-20 %)
 TASK_DIAMETER_RANGE_M = (0.17, 0.23)       # each lap's end diameter (the paper's 0.20 m +-15 %)
-TASK_PHASE_RANGE_RAD = (0.0, 2.0 * math.pi)  # the start angle
+#: The start angle: on one of the two arcs at least 50 deg from both obstacles (at 90 and 270 deg), so that the robot's
+#: first point is not on an obstacle.
+TASK_PHASE_RANGES_RAD = ((-math.radians(40.0), math.radians(40.0)), (math.radians(140.0), math.radians(220.0)))
 MOVE_AMPLITUDE_RANGE = (0.85, 1.1)         # each avoid/push move's size, times the script's
 MOVE_DURATION_RANGE = (0.7, 1.3)           # each move's hold and ramp times, times the script's
 MOVE_TIMING_SPREAD_S = 0.15                # each move's timing, +- about the predicted passing
@@ -266,7 +268,7 @@ def run(config: RunConfig) -> RunResult:
     if trajectory == "circle" and config.task_variation:
         source = LapVaryingCircle.randomised(pl["circle_centre"], np.random.default_rng([config.seed, 31337]),
                                              config.duration, TASK_PERIOD_RANGE_S, TASK_DIAMETER_RANGE_M,
-                                             pl["circle_normal"], TASK_PHASE_RANGE_RAD)
+                                             pl["circle_normal"], TASK_PHASE_RANGES_RAD)
         drawn["task"] = dict(periods=source.periods.tolist(), diameters=source.diameters.tolist(), phase=source.phase)
     elif trajectory == "circle":
         source = Circle(pl["circle_centre"], pl["circle_diameter"], pl["circle_period"], pl["circle_normal"],
