@@ -58,9 +58,10 @@ HANDS = ("passive", "reactive")
 #: uniform ranges. The diameters keep both obstacles on the path (their 0.06 m width about the paper's 0.20 m).
 TASK_PERIOD_RANGE_S = (4.0, 6.0)           # each lap's period (the paper's 5 s +-20 %)
 TASK_DIAMETER_RANGE_M = (0.17, 0.23)       # each lap's end diameter (the paper's 0.20 m +-15 %)
-#: The start angle: on one of the two arcs at least 50 deg from both obstacles (at 90 and 270 deg), so that the robot's
-#: first point is not on an obstacle.
-TASK_PHASE_RANGES_RAD = ((-math.radians(40.0), math.radians(40.0)), (math.radians(140.0), math.radians(220.0)))
+#: The start angle: on the arc at least 50 deg from both obstacles (at 90 and 270 deg) that meets the pushable one
+#: first, so that the robot does not start on an obstacle and the fixed one comes at least 230 deg (2.6 s) into the
+#: circle, when an operator at a short delay has seen the robot move (from the other arc, at 0.7-1.8 s, nobody could).
+TASK_PHASE_RANGES_RAD = ((math.radians(140.0), math.radians(220.0)),)
 MOVE_AMPLITUDE_RANGE = (0.85, 1.1)         # each avoid/push move's size, times the script's
 MOVE_DURATION_RANGE = (0.7, 1.3)           # each move's hold and ramp times, times the script's
 MOVE_TIMING_SPREAD_S = 0.15                # each move's timing, +- about the predicted passing
