@@ -73,6 +73,9 @@ def sweep(runs: list[ClaimRun], executor: Executor, directory: Path, jsonl: Path
                                 f"{figures['peak_force_n']:.0f} N, {row['simulated_s'] / row['wall_s']:.2f} x",
                                 refresh=False)
             bar.update(1)
+            if not progress:   # a log: one line a run
+                print(f"[{len(done)}/{len(runs)}] {row['key']}: {figures['error_rms_m'] * 1e3:.1f} mm rms, "
+                      f"{figures['peak_force_n']:.1f} N, {row['wall_total_s']:.0f} s wall", flush=True)
     bar.close()
     return [done[claim.key] for claim in runs if claim.key in done], new
 

@@ -227,7 +227,7 @@ def provenance(repository: Path) -> dict[str, Any]:
                                   check=True).stdout.strip()
         except (OSError, subprocess.CalledProcessError):
             return ""
-    commit = git("rev-parse", "HEAD")
-    if not commit and (repository / "COMMIT").exists():   # a snapshot exported with git archive
+    if (repository / "COMMIT").exists():   # a snapshot of one commit (scripts/claims_background.sh)
         return dict(commit=(repository / "COMMIT").read_text().strip(), tree_modified=False)
+    commit = git("rev-parse", "HEAD")
     return dict(commit=commit or None, tree_modified=bool(git("status", "--porcelain", "--untracked-files=no")))
