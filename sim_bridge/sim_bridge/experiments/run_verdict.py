@@ -1,0 +1,420 @@
+"""Two verdicts per run, STABLE and SAFE, each with its reasons (docs/EXPERIMENTS.md, "The run verdict").
+
+STABLE (None when the run is too short to judge the periods below) holds when none of these is seen over the judged
+span, which starts ``settle`` seconds into the run:
+
+1. GROWING ENERGY. The loop's mechanical energy (the replica arm's and the handle's kinetic energy; from a bag, the
+   controller's stored plus kinetic energy) in the last window of W = max(``min_window``, 4 round trips) peaks above
+   ``energy_growth_ratio`` times the first judged window's, above ``energy_floor``, and above every earlier window's.
+   A delayed loop with too little damping gains energy every cycle (Anderson and Spong 1989).
+2. SUSTAINED OSCILLATION at any period from 0.2 s to the longest the span holds 1.5 times (which must reach
+   max(4 round trips, ``min_longest_period``), else the run is not assessed): sim_bridge.experiments.oscillation_scan
+   on each motion minus its known command (x_M minus the hand's target; x_d and x_R minus the commanded motion; the
+   tracking error x_d - x_R), outside contact. A delay-induced oscillation has a period of at most about 4 round
+   trips (its phase lag of pi/2 to pi accrues over one round trip).
+3. STEADY ENERGY GENERATION AT THE CHANNEL'S PORTS, judged as a rate: the channel's generated energy (what left it at
+   both ports minus what entered, the time-domain passivity observers' sum) rises over the judged span by more than
+   ``port_rate_limit`` watts on average. A passive channel generates nothing; a delayed one generates while the
+   operator moves, and a stable loop damps that away without a steady rise.
+4. RUNAWAY: kinetic energy above ``kinetic_energy_bound``, a joint faster than the Panda datasheet's limit, or a
+   tracking error |x_d - x_R| beyond ``runaway_error`` (4 x_b) outside contact.
+5. PARKED far from the target: |x_d - x_R|, or |x_R - command| when the command is known, above ``parked_error``
+   (2 x_b) for ``parked_hold`` seconds on end outside contact.
+
+SAFE holds when the run shows no limit violation (a tick whose command or state broke a Panda limit), no velocity
+reflex trip, no safe hold (the replica's input safe hold, the robot's stale-command hold) and no repeated collision:
+the obstacle the task steers around (the scene's contact flag) touched in ``collisions_allowed`` + 1 or more separate
+episodes. A count that was not recorded is reported as such, not judged.
+
+CONTACT is told apart from instability with the scene's contact data: a sample is in contact when the F/T force is
+at least ``contact_force`` or was within the last ``contact_hold`` seconds (the free-motion definition of
+docs/EXPERIMENTS.md), or the contact flag is set; the oscillation, runaway-error and parked tests leave out the
+contact samples and ``contact_margin`` + one round trip around them (the hand feels the contact one delay later and
+the replica sees the hand's answer another delay later). A push into an obstacle is contact, not instability.
+
+``judge`` is a pure function of the stored series (VerdictInput), so a sweep's runs are re-judged without simulating.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fic_core.arm_profile import arm_profile
+from sim_bridge.experiments.oscillation_scan import Oscillation, ScanSettings, scan
+
+X_B = 0.05   # [m] the paper's error bound x_b (Sec. III)
+
+
+class VerdictInputError(ValueError):
+    """Series that cannot be judged (shape, NaN in the time, time not increasing, too few samples)."""
+
+
+@dataclass(frozen=True)
+class VerdictCriterion:
+    """The thresholds of the two verdicts (module docstring); SI units."""
+
+    settle: float = 2.0                  # [s] start-up left out of the stability tests
+    min_window: float = 2.0              # [s] energy windows: max(min_window, 4 round trips)
+    min_longest_period: float = 4.0      # [s] the oscillation scan must reach at least this period (zero delay)
+    round_trips_judged: float = 4.0      # ... and at least this many round trips
+    energy_growth_ratio: float = 2.0     # last window's energy peak over the first judged window's
+    energy_floor: float = 2.5e-3         # [J] nothing below it grows: 1/2 200 N/m (5 mm)^2
+    port_rate_limit: float = 0.05        # [W] mean generation at the channel's ports over the judged span
+    kinetic_energy_bound: float = 10.0   # [J] the Panda (about 8 kg effective) at its 1.7 m/s TCP speed limit
+    runaway_error: float = 4.0 * X_B     # [m] |x_d - x_R| outside contact
+    parked_error: float = 2.0 * X_B      # [m] |x_d - x_R| or |x_R - command| outside contact ...
+    parked_hold: float = 3.0             # [s] ... on end
+    contact_force: float = 1.0           # [N] F/T force of contact
+    contact_hold: float = 0.2            # [s] free motion only this long after the force fell below it
+    contact_margin: float = 0.5          # [s] + one round trip left out around contact (both sides)
+    collisions_allowed: int = 1          # separate episodes of contact with the obstacle the task avoids
+    resample_period: float = 0.01        # [s] the uniform grid the series are judged on
+    joint_speed_limit: tuple[float, ...] = arm_profile("panda").joint_velocity   # [rad/s] the datasheet's
+    scan: ScanSettings = field(default_factory=ScanSettings)
+
+    def longest_period_needed(self, one_way_delay: float) -> float:
+        return max(self.round_trips_judged * 2.0 * one_way_delay, self.min_longest_period)
+
+
+@dataclass
+class VerdictInput:
+    """One run's series on one time base (n samples); every field but time, one_way_delay and one of x_R or
+    tracking_error may be None (not recorded: the test that needs it is skipped and says so)."""
+
+    time: NDArray                                   # [s] (n,)
+    one_way_delay: float                            # [s] the channel's, each way
+    x_R: NDArray | None = None                      # the replica's TCP position (n, 3) [m]
+    x_d: NDArray | None = None                      # the replica's set point (n, 3) [m]
+    x_M: NDArray | None = None                      # the handle position (n, 3) [m]
+    command: NDArray | None = None                  # the commanded TCP motion: planner + operator target one delay later
+    operator_target: NDArray | None = None          # the hand's target for x_M (n, 3) [m]
+    tracking_error: NDArray | None = None           # x_d - x_R (n, 3) [m]; from x_d and x_R when not given
+    arm_kinetic_energy: NDArray | None = None       # 1/2 qd^T M(q) qd (n,) [J]
+    handle_kinetic_energy: NDArray | None = None    # 1/2 m_h |v_M|^2 (n,) [J]
+    controller_energy: NDArray | None = None        # a bag's stored + kinetic energy (n,) [J], when no kinetic energy
+    contact: NDArray | None = None                  # touching the obstacle the task steers around (n,) bool
+    force: NDArray | None = None                    # F/T force at the TCP (n, 3) [N]
+    channel_generated: NDArray | None = None        # cumulative energy the channel generated (n,) [J]
+    joint_speed: NDArray | None = None              # peak |qd| per joint since the previous sample (n, 7) [rad/s]
+    limit_violations: int | None = None             # ticks that broke a Panda limit over the run
+    reflex_trips: int | None = None                 # velocity reflex trips
+    safe_holds: int | None = None                   # the replica's input safe hold latched
+    stale_holds: int | None = None                  # the robot held on stale torque commands
+    x_b: float = X_B                                # [m]
+    source: str = ""                                # what the series came from (for the reasons)
+
+    @classmethod
+    def from_run_result(cls, result, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
+        """From an in-process run (sim_bridge.experiments.in_process.RunResult, or one loaded by
+        evidence_run.load_series): the commanded motion is the planner's plus the hand's target one delay later
+        (offset mode), as the replica receives it."""
+        time = np.asarray(result.time, dtype=float)
+        command = None
+        if result.planner is not None and result.operator_target is not None:
+            later = np.column_stack([np.interp(time - one_way_delay, time, result.operator_target[:, axis])
+                                     for axis in range(3)])
+            command = result.planner + later
+        ports = result.port_energy
+        return cls(time=time, one_way_delay=float(one_way_delay), x_R=result.tcp, x_d=result.desired,
+                   x_M=result.master, command=command, operator_target=result.operator_target,
+                   arm_kinetic_energy=result.arm_kinetic_energy, handle_kinetic_energy=result.handle_kinetic_energy,
+                   contact=result.obstacle_contact, force=result.force,
+                   channel_generated=None if ports is None or len(ports) == 0 else ports[:, 2],
+                   limit_violations=int(result.limit_violations), x_b=x_b, source="in-process run")
+
+    @classmethod
+    def from_bag(cls, path: str | Path, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
+        """From a recorded session (sim_bridge.experiments.bag_series.read_run): the tracking error and the
+        controller's energy of /replica/fic_state, the F/T force, the joint speeds, the limit counter and the
+        nodes' last diagnostics (the robot's reflex and holds, the replica's safe hold). A bag holds no command and
+        no obstacle flag: its motion test is on x_d - x_R, its contact is the force's."""
+        from sim_bridge.experiments.bag_series import read_run
+
+        run = read_run(path, joint_states=True)
+        time = run.fic_time
+        if time.size < 8:
+            raise VerdictInputError(f"{path}: fewer than 8 /replica/fic_state messages ({time.size})")
+
+        def on_time(stamps: NDArray, values: NDArray) -> NDArray | None:
+            if stamps.size < 2:
+                return None
+            return np.column_stack([np.interp(time, stamps, values[:, column]) for column in range(values.shape[1])])
+
+        force = on_time(run.wrench_time, run.force)
+        # The peak speed of each joint since the previous fic_state stamp (a 1 kHz spike is not interpolated away).
+        joint_speed = _uniform(run.joint_time, np.abs(run.joint_velocity), time, peak=True) \
+            if run.joint_time.size >= 2 else None
+        robot = run.diagnostics.get("robot_sim", {})
+        replica = run.diagnostics.get("replica", {})
+        reflex = None if "reflex" not in robot else int(bool(robot["reflex"]))
+        stale = int(robot["watchdog_engagements"]) if robot.get("watchdog_engagements", "").isdigit() else None
+        hold = replica.get("input_safe_hold")
+        violations = int(run.violation_ticks.max()) if run.violation_ticks.size else None
+        return cls(time=time, one_way_delay=float(one_way_delay), tracking_error=run.error,
+                   controller_energy=run.total_energy, force=force, joint_speed=joint_speed,
+                   limit_violations=violations, reflex_trips=reflex,
+                   safe_holds=None if hold is None else int(hold != "no"), stale_holds=stale, x_b=x_b,
+                   source=f"bag {Path(path).name}")
+
+
+@dataclass
+class RunVerdict:
+    stable: bool | None                  # None: too short to judge the periods it must
+    safe: bool
+    stable_reasons: list[str]            # why not stable (or not assessed); empty when stable
+    safe_reasons: list[str]              # why not safe; empty when safe
+    notes: list[str]                     # tests skipped for want of a series
+    figures: dict
+
+    @property
+    def reasons(self) -> list[str]:
+        return self.stable_reasons + self.safe_reasons
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    def summary(self) -> str:
+        stable = {True: "STABLE", False: "NOT STABLE", None: "STABILITY NOT ASSESSED"}[self.stable]
+        lines = [f"{stable}; {'SAFE' if self.safe else 'NOT SAFE'}"]
+        lines += [f"  stable: {reason}" for reason in self.stable_reasons]
+        lines += [f"  safe: {reason}" for reason in self.safe_reasons]
+        lines += [f"  note: {note}" for note in self.notes]
+        return "\n".join(lines)
+
+
+def _series(name: str, values: ArrayLike | None, n: int, columns: int | None) -> NDArray | None:
+    if values is None:
+        return None
+    array = np.asarray(values, dtype=float)
+    if array.ndim == 1 and columns is not None:
+        array = array[:, None]
+    if array.shape[0] != n or (columns is not None and (array.ndim != 2 or array.shape[1] != columns)):
+        raise VerdictInputError(f"{name} must have {n} rows{'' if columns is None else f' of {columns}'}, "
+                                f"got shape {array.shape}")
+    return array
+
+
+def _uniform(time: NDArray, values: NDArray | None, grid: NDArray, peak: bool = False) -> NDArray | None:
+    """``values`` on ``grid``: linear interpolation, or with ``peak`` the largest sample since the previous grid point
+    (a peak is not interpolated away)."""
+    if values is None:
+        return None
+    flat = values.reshape(values.shape[0], -1)
+    if not peak:
+        out = np.column_stack([np.interp(grid, time, flat[:, column]) for column in range(flat.shape[1])])
+    else:
+        edges = np.searchsorted(time, grid, side="right")
+        out = np.maximum.reduceat(flat, np.minimum(np.r_[0, edges[:-1]], len(time) - 1), axis=0)
+    return out.reshape((grid.size,) + values.shape[1:])
+
+
+def _episodes(flags: NDArray) -> list[tuple[int, int]]:
+    """(first, last + 1) sample of each run of True."""
+    padded = np.r_[False, flags, False].astype(int)
+    changes = np.diff(padded)
+    return list(zip(np.nonzero(changes == 1)[0], np.nonzero(changes == -1)[0]))
+
+
+def _dilated(flags: NDArray, samples: int) -> NDArray:
+    if samples <= 0 or not flags.any():
+        return flags.copy()
+    kernel = np.ones(2 * samples + 1)
+    return np.convolve(flags.astype(float), kernel, mode="same") > 0.0
+
+
+def _longest_true(flags: NDArray, step: float) -> float:
+    episodes = _episodes(flags)
+    return max(((last - first) * step for first, last in episodes), default=0.0)
+
+
+def _energy_windows(time: NDArray, energy: NDArray, start: float, window: float) -> list[float]:
+    """Peaks of ``energy`` in windows of ``window`` laid end to end back from the run's end (as many as fit after
+    ``start``, at least two, overlapping when the span holds fewer)."""
+    end = float(time[-1])
+    count = max(2, int((end - start) // window))
+    lows = np.linspace(start, end - window, count) if end - start < count * window else \
+        end - window * np.arange(count, 0, -1)
+    return [float(energy[(time >= low) & (time <= low + window)].max()) for low in lows]
+
+
+def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunVerdict:
+    """The two verdicts of one run (module docstring)."""
+    criterion = criterion or VerdictCriterion()
+    raw_time = np.asarray(data.time, dtype=float)
+    if raw_time.ndim != 1 or raw_time.size < 8 or not np.all(np.isfinite(raw_time)) or np.any(np.diff(raw_time) <= 0):
+        raise VerdictInputError("time must be a finite, strictly increasing 1-D array of at least 8 samples")
+    if not np.isfinite(data.one_way_delay) or data.one_way_delay < 0.0:
+        raise VerdictInputError(f"one_way_delay must be a finite number >= 0, got {data.one_way_delay}")
+    n = raw_time.size
+    x_R, x_d = _series("x_R", data.x_R, n, 3), _series("x_d", data.x_d, n, 3)
+    x_M, command = _series("x_M", data.x_M, n, 3), _series("command", data.command, n, 3)
+    target = _series("operator_target", data.operator_target, n, 3)
+    error = _series("tracking_error", data.tracking_error, n, 3)
+    if error is None and x_d is not None and x_R is not None:
+        error = x_d - x_R
+    if error is None and x_R is None:
+        raise VerdictInputError("a run needs x_R or the tracking error x_d - x_R")
+    kinetic = [_series(name, getattr(data, name), n, None) for name in ("arm_kinetic_energy", "handle_kinetic_energy")]
+    kinetic = [k for k in kinetic if k is not None]
+    energy = sum(kinetic) if kinetic else _series("controller_energy", data.controller_energy, n, None)
+    contact_flag = _series("contact", data.contact, n, None)
+    force = _series("force", data.force, n, 3)
+    generated = _series("channel_generated", data.channel_generated, n, None)
+    joint_speed = _series("joint_speed", data.joint_speed, n, None)
+
+    step = max(criterion.resample_period, float(np.median(np.diff(raw_time))))
+    time = np.arange(raw_time[0], raw_time[-1] + 0.5 * step, step)
+    time = time[time <= raw_time[-1] + 1e-9]
+    on_grid = {name: _uniform(raw_time, values, time) for name, values in dict(
+        x_R=x_R, x_d=x_d, x_M=x_M, command=command, target=target, error=error, energy=energy,
+        force=force, generated=generated).items()}
+    speed = _uniform(raw_time, joint_speed, time, peak=True)
+    flag = _uniform(raw_time, None if contact_flag is None else contact_flag.astype(float), time, peak=True)
+    notes: list[str] = []
+    stable_reasons: list[str] = []
+    safe_reasons: list[str] = []
+    figures: dict = {"source": data.source, "one_way_delay_s": data.one_way_delay, "duration_s": float(time[-1] - time[0])}
+    finite = all(np.all(np.isfinite(v)) for v in on_grid.values() if v is not None)
+    if not finite:
+        stable_reasons.append("NaN or Inf in the series: the run blew up")
+
+    # Contact (module docstring): the force's free-motion definition, the scene's flag, a margin around both.
+    round_trip = 2.0 * data.one_way_delay
+    contact = np.zeros(time.size, dtype=bool)
+    if on_grid["force"] is not None:
+        pressing = np.linalg.norm(np.nan_to_num(on_grid["force"]), axis=1) >= criterion.contact_force
+        hold = int(round(criterion.contact_hold / step))
+        contact |= np.convolve(pressing.astype(float), np.ones(hold + 1), mode="full")[:time.size] > 0.0
+    else:
+        notes.append("no F/T force: contact is known only from the contact flag")
+    touching = flag[:, 0] > 0.5 if flag is not None and flag.ndim == 2 else (flag > 0.5 if flag is not None else None)
+    if touching is not None:
+        contact |= touching
+    else:
+        notes.append("no contact flag: collisions are not judged")
+    excluded = _dilated(contact, int(round((criterion.contact_margin + round_trip) / step)))
+    free = ~excluded
+    judged_from = float(time[0]) + criterion.settle
+    judged = time >= judged_from
+    figures.update(contact_share=float(contact[judged].mean()), excluded_share=float(excluded[judged].mean()),
+                   judged_from_s=judged_from)
+
+    # 4. Runaway (whole run for energy and joint speed; outside contact after settling for the error).
+    if energy is not None and finite:
+        peak_energy = float(np.max(on_grid["energy"]))
+        figures["energy_peak_j"] = peak_energy
+        if kinetic and peak_energy > criterion.kinetic_energy_bound:
+            stable_reasons.append(f"runaway: kinetic energy {peak_energy:.3g} J above {criterion.kinetic_energy_bound:g} J")
+    if speed is not None:
+        ratio = speed / np.asarray(criterion.joint_speed_limit)[None, :speed.shape[1]]
+        worst = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+        figures["joint_speed_ratio_max"] = float(ratio[worst])
+        if ratio[worst] > 1.0:
+            stable_reasons.append(f"runaway: joint {worst[1] + 1} at {speed[worst]:.2f} rad/s, over the datasheet's "
+                                  f"{criterion.joint_speed_limit[worst[1]]:.3f} rad/s at {time[worst[0]]:.1f} s")
+    else:
+        notes.append("no joint speeds: the datasheet speed test is skipped")
+    magnitude = np.linalg.norm(on_grid["error"], axis=1) if on_grid["error"] is not None else None
+    if magnitude is not None and finite:
+        free_error = magnitude[judged & free]
+        figures["free_error_max_m"] = float(free_error.max()) if free_error.size else None
+        if free_error.size and free_error.max() > criterion.runaway_error:
+            stable_reasons.append(f"runaway: tracking error {free_error.max() * 1e3:.0f} mm outside contact, above "
+                                  f"{criterion.runaway_error * 1e3:.0f} mm (4 x_b)")
+    # 5. Parked far from the target.
+    parked_signals = {"|x_d - x_R|": magnitude}
+    if on_grid["command"] is not None and on_grid["x_R"] is not None:
+        parked_signals["|x_R - command|"] = np.linalg.norm(on_grid["x_R"] - on_grid["command"], axis=1)
+    for name, values in parked_signals.items():
+        if values is None or not finite:
+            continue
+        far = (values > criterion.parked_error) & judged & free
+        longest = _longest_true(far, step)
+        figures[f"parked_s {name}"] = longest
+        if longest >= criterion.parked_hold:
+            stable_reasons.append(f"parked: {name} above {criterion.parked_error * 1e3:.0f} mm for {longest:.1f} s on "
+                                  f"end outside contact (limit {criterion.parked_hold:g} s)")
+
+    needed = criterion.longest_period_needed(data.one_way_delay)
+    reach = (float(time[-1]) - judged_from) / criterion.scan.min_cycles
+    figures.update(longest_period_needed_s=needed, longest_period_judged_s=reach)
+    assessed = reach >= needed
+    if finite and assessed:
+        # 1. Growing energy.
+        if energy is not None:
+            # The kinetic energy of an oscillation of period P peaks every P/2: windows of 2 round trips hold a full
+            # energy period of the slowest delay-induced oscillation (4 round trips).
+            window = max(criterion.min_window, 0.5 * criterion.round_trips_judged * round_trip)
+            peaks = _energy_windows(time, on_grid["energy"].reshape(time.size, -1)[:, 0], judged_from, window)
+            growth = peaks[-1] / peaks[0] if peaks[0] > 0.0 else (float("inf") if peaks[-1] > 0.0 else 1.0)
+            figures.update(energy_window_s=window, energy_window_peaks_j=peaks,
+                           energy_growth=growth if np.isfinite(growth) else None)
+            rising = all(later > earlier for earlier, later in zip(peaks, peaks[1:]))
+            if peaks[-1] > criterion.energy_floor and growth > criterion.energy_growth_ratio and rising:
+                stable_reasons.append(f"growing energy: the peaks of {len(peaks)} windows of {window:g} s rise in every "
+                                      f"window to {peaks[-1] * 1e3:.3g} mJ, {growth:.1f}x the first's (limit "
+                                      f"{criterion.energy_growth_ratio:g}x)")
+        else:
+            notes.append("no energy series: the growth test is skipped")
+        # 2. Sustained oscillation, per motion minus its command.
+        signals: dict[str, tuple[NDArray, NDArray | None]] = {}
+        if on_grid["x_M"] is not None:
+            reference = on_grid["target"] if on_grid["target"] is not None else np.zeros_like(on_grid["x_M"])
+            signals["x_M - operator target"] = (on_grid["x_M"] - reference, on_grid["target"])
+        for name in ("x_d", "x_R"):
+            if on_grid[name] is not None and on_grid["command"] is not None:
+                signals[f"{name} - command"] = (on_grid[name] - on_grid["command"], on_grid["command"])
+        if on_grid["error"] is not None:
+            signals["x_d - x_R"] = (on_grid["error"], on_grid["command"])
+        oscillations: dict[str, Oscillation] = scan(time, free, judged_from, criterion.scan, signals)
+        figures["oscillation"] = {name: found.as_dict() for name, found in oscillations.items()}
+        for name, found in oscillations.items():
+            if found.sustained:
+                stable_reasons.append(
+                    f"sustained oscillation of {name}: {found.amplitude * 1e3:.1f} mm at {found.period:.2f} s in "
+                    f"{found.window_share:.0%} of {found.windows} windows (sinusoid explains "
+                    f"{found.explained_share:.0%}; limits {criterion.scan.amplitude * 1e3:g} mm, "
+                    f"{criterion.scan.explained_share:.0%}, {criterion.scan.sustained_share:.0%} of windows)")
+        # 3. Steady generation at the channel's ports.
+        if on_grid["generated"] is not None:
+            values = on_grid["generated"].reshape(time.size, -1)[:, 0]
+            first = int(np.searchsorted(time, judged_from))
+            rate = float((values[-1] - values[first]) / (time[-1] - time[first]))
+            figures.update(channel_generated_total_j=float(values[-1]), channel_generation_rate_w=rate)
+            if rate > criterion.port_rate_limit:
+                stable_reasons.append(f"steady energy generation at the channel's ports: {rate * 1e3:.0f} mW over the "
+                                      f"judged {time[-1] - time[first]:.1f} s (limit "
+                                      f"{criterion.port_rate_limit * 1e3:.0f} mW)")
+        else:
+            notes.append("no channel port energy: the generation-rate test is skipped")
+    elif finite:
+        stable_reasons.append(f"not assessed: periods up to {needed:.1f} s (max(4 round trips, "
+                              f"{criterion.min_longest_period:g} s)) need {criterion.settle + criterion.scan.min_cycles * needed:.1f} s "
+                              f"of run, it has {time[-1] - time[0]:.1f} s")
+    stable: bool | None = not stable_reasons
+    if finite and not assessed:
+        runaway = [reason for reason in stable_reasons if not reason.startswith("not assessed")]
+        stable = False if runaway else None
+
+    # SAFE.
+    for name, what in (("limit_violations", "limit violation ticks"), ("reflex_trips", "velocity reflex trips"),
+                       ("safe_holds", "input safe holds"), ("stale_holds", "stale-command holds of the robot")):
+        count = getattr(data, name)
+        figures[name] = count
+        if count is None:
+            notes.append(f"{what}: not recorded")
+        elif count > 0:
+            safe_reasons.append(f"{count} {what}")
+    if touching is not None:
+        episodes = [(first, last) for first, last in _episodes(touching)]
+        figures["collisions"] = len(episodes)
+        if len(episodes) > criterion.collisions_allowed:
+            safe_reasons.append(f"{len(episodes)} collisions with the obstacle the task steers around (at "
+                                f"{', '.join(f'{time[first]:.1f}' for first, _ in episodes[:6])} s; "
+                                f"{criterion.collisions_allowed} allowed)")
+    return RunVerdict(stable, not safe_reasons, stable_reasons if stable is not True else [], safe_reasons, notes,
+                      figures)
+

@@ -1,0 +1,260 @@
+"""The run verdict's labelled validation set: runs whose answer is known before the verdict sees them
+(docs/EXPERIMENTS.md, "The run verdict's validation").
+
+(a) BOUNDARY. A mass with damping under DELAYED position feedback, m x'' + D x' + K x(t - tau) = 0, the replica's
+    position loop closed through the channel's round trip tau. At s = j w the characteristic equation
+    m s^2 + D s + K e^(-s tau) = 0 gives K e^(-j w tau) = m w^2 - j D w, so the loop crosses into instability at
+        w tau = atan(D / (m w)),   K_crit = w sqrt(m^2 w^2 + D^2)
+    (the D-subdivision of a retarded system: Stepan 1989, "Retarded dynamical systems: stability and characteristic
+    functions", ch. 2; below K_crit every root is in the left half plane for this second-order loop). Simulated at
+    0.9 and 1.1 K_crit after a push: stable, unstable.
+(b) LIMIT CYCLES on stable runs. The stable reference is a position-position bilateral teleoperator through a delay
+    T each way (handle 0.5 kg, replica 4 kg, coupling K = 200 N/m each way on the other side's delayed offset, local
+    damping B = 1.5 K T + 5 N s/m: above the margin B > K T of Lee and Spong 2006, "Passive bilateral teleoperation
+    with constant time delay", IEEE T-RO 22(2)), driven by an operator's hand (a 300 N/m spring-damper) towards
+    targets moved at random times, by random amounts, over random durations, and by a planner moving the replica's
+    set point the same way (the task does not repeat). A limit cycle of 5, 10, 20 or 30 mm amplitude at 0.5, 1, 2.5,
+    5, 10 or 16 s is added to its motion (x_M, and x_d, x_R a quarter and half a period later) and its kinetic energy:
+    unstable. The reference runs themselves, at 0, 0.2, 1 and 2 s each way: stable.
+(c) Runs that fooled the older verdict: parked 150 mm off the target in free motion (unstable: parked); a crash into
+    the obstacle the task steers around every 5 s (stable, NOT SAFE: repeated collisions, the motion between them
+    is the stable loop's); holding a push into a wall with 210 mm between set point and TCP (stable and safe: contact,
+    not instability); the same loop with a channel that adds energy along the handle's motion, damped away by the
+    handle's damping so that the motion stays bounded (unstable: steady generation at the ports); a limit-violation
+    run and a velocity-reflex trip (stable, NOT SAFE).
+
+Every case is deterministic (seeded); ``cases()`` builds them all in a few seconds.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import brentq
+
+from sim_bridge.experiments.run_verdict import VerdictInput
+
+STEP = 0.001          # [s] integration step
+SAMPLE = 0.01         # [s] the series' period (the runner's 100 Hz poses)
+HANDLE_MASS, REPLICA_MASS = 0.5, 4.0
+FEEDBACK_STIFFNESS, HANDLE_DAMPING = 50.0, 5.0        # the handle's coupling to the delayed replica offset
+REPLICA_STIFFNESS, REPLICA_DAMPING = 200.0, 40.0      # the replica's to the delayed handle (damping ratio 0.71)
+HAND_STIFFNESS, HAND_DAMPING = 300.0, 10.0
+WALL_STIFFNESS, WALL_DAMPING = 5000.0, 50.0
+REFERENCE_DELAYS = (0.0, 0.2, 1.0, 2.0)
+CYCLE_DELAYS = (0.2, 1.0, 2.0)
+CYCLE_AMPLITUDES = (0.005, 0.010, 0.020, 0.030)
+CYCLE_PERIODS = (0.5, 1.0, 2.5, 5.0, 10.0, 16.0)
+DURATION = 40.0       # [s] holds 1.5 periods of 16 s (4 round trips at 2 s) after the 2 s of settling
+
+
+@dataclass
+class LabelledCase:
+    name: str
+    group: str
+    stable: bool
+    safe: bool
+    data: VerdictInput
+    why: str
+
+
+def critical_gain(mass: float, damping: float, tau: float) -> tuple[float, float]:
+    """(K_crit [N/m], w [rad/s]) of m x'' + D x' + K x(t - tau) = 0 (module docstring, (a))."""
+    frequency = brentq(lambda w: w * tau - math.atan(damping / (mass * w)), 1e-9, 1e4)
+    return frequency * math.sqrt(mass ** 2 * frequency ** 2 + damping ** 2), frequency
+
+
+def delayed_feedback(gain: float, mass: float, damping: float, tau: float, duration: float, push: float = 0.05
+                     ) -> VerdictInput:
+    """(a): the mass starts at rest with ``push`` m/s; set point 0, so x_d - x_R = -x."""
+    steps, lag, every = int(round(duration / STEP)), int(round(tau / STEP)), int(round(SAMPLE / STEP))
+    history = [0.0] * steps
+    position, velocity = 0.0, push
+    times, xs, vs = [], [], []
+    for k in range(steps):
+        history[k] = position
+        seen = history[k - lag] if k >= lag else 0.0
+        velocity += (-damping * velocity - gain * seen) / mass * STEP
+        position += velocity * STEP
+        if k % every == 0:
+            times.append(k * STEP), xs.append(position), vs.append(velocity)
+    time, x, v = np.array(times), np.array(xs), np.array(vs)
+    zero = np.zeros((time.size, 3))
+    tcp = zero.copy()
+    tcp[:, 0] = x
+    return VerdictInput(time=time, one_way_delay=0.5 * tau, x_R=tcp, x_d=zero, command=zero,
+                        arm_kinetic_energy=0.5 * mass * v ** 2, limit_violations=0, reflex_trips=0, safe_holds=0,
+                        stale_holds=0, source="delayed feedback")
+
+
+def _moves(rng: np.random.Generator, time: NDArray, gap: tuple[float, float], reach: float,
+           duration: tuple[float, float]) -> NDArray:
+    """A target moved at random times (gaps drawn in ``gap``) to random places in [-reach, reach], each move a raised
+    cosine over a duration drawn in ``duration``: aperiodic, as an operator's or a re-planned motion is."""
+    target = np.zeros(time.size)
+    when, where = 1.0 + rng.uniform(*gap) * 0.5, 0.0
+    while when < time[-1]:
+        goal, length = rng.uniform(-reach, reach), rng.uniform(*duration)
+        phase = np.clip((time - when) / length, 0.0, 1.0)
+        target = np.where(time >= when, where + (goal - where) * 0.5 * (1.0 - np.cos(np.pi * phase)), target)
+        where, when = goal, when + length + rng.uniform(*gap)
+    return target
+
+
+def loop_gain_peak(frequencies: NDArray | None = None) -> float:
+    """max over w of |L(jw)|, the reference loop's gain around master -> replica -> master without the delay:
+    L = K_M / (m_M s^2 + (B_M + c_h) s + K_M + k_h) * (B_R s + K_R) / (m_R s^2 + B_R s + K_R) (the hand holds
+    the handle). Under 1, the loop is stable for ANY constant delay (the small-gain theorem; the delay has gain 1)."""
+    w = np.geomspace(1e-3, 1e4, 20000) if frequencies is None else frequencies
+    s = 1j * w
+    handle = FEEDBACK_STIFFNESS / (HANDLE_MASS * s ** 2 + (HANDLE_DAMPING + HAND_DAMPING) * s
+                                   + FEEDBACK_STIFFNESS + HAND_STIFFNESS)
+    replica = (REPLICA_DAMPING * s + REPLICA_STIFFNESS) / (REPLICA_MASS * s ** 2 + REPLICA_DAMPING * s
+                                                          + REPLICA_STIFFNESS)
+    return float(np.abs(handle * replica).max())
+
+
+def bilateral(delay: float, seed: int, duration: float = DURATION,
+              wall: tuple[float, float, float] | None = None) -> VerdictInput:
+    """(b)'s reference loop (module docstring). ``wall`` (from, to, position): between those times the operator
+    pushes the replica towards a wall at that x, which the replica cannot pass (the F/T force is the wall's)."""
+    rng = np.random.default_rng([seed, int(delay * 1000)])
+    steps, lag, every = int(round(duration / STEP)), int(round(delay / STEP)), int(round(SAMPLE / STEP))
+    fine = np.arange(steps) * STEP
+    target = _moves(rng, fine, (1.5, 5.0), 0.04, (0.4, 1.5))
+    planner = _moves(rng, fine, (2.0, 6.0), 0.08, (1.0, 2.5))
+    if wall is not None:
+        start, end, place = wall
+        planner[fine >= start - 1.0] = planner[int((start - 1.0) / STEP)]   # the planner holds during the push
+        push = np.clip((fine - start) / 1.0, 0.0, 1.0) * np.clip((end - fine) / 1.0, 0.0, 1.0)
+        target = target * (1.0 - push) + push * (place + 0.25 - planner)
+    planner_velocity = np.gradient(planner, STEP)
+    y_master, y_replica, v_master, v_replica = np.zeros(steps), np.zeros(steps), np.zeros(steps), np.zeros(steps)
+    x_m = v_m = x_r = v_r = 0.0
+    work = 0.0
+    rows = []
+    for k in range(steps):
+        y_master[k], y_replica[k] = x_m, x_r - planner[k]
+        v_master[k], v_replica[k] = v_m, v_r - planner_velocity[k]
+        seen_replica = y_replica[k - lag] if k >= lag else 0.0
+        seen_master = y_master[k - lag] if k >= lag else 0.0
+        seen_master_velocity = v_master[k - lag] if k >= lag else 0.0
+        channel_master = FEEDBACK_STIFFNESS * (seen_replica - x_m)
+        channel_replica = REPLICA_STIFFNESS * (seen_master - y_replica[k]) + REPLICA_DAMPING * (
+            seen_master_velocity - v_replica[k])
+        contact = 0.0
+        if wall is not None and x_r > wall[2]:
+            contact = -WALL_STIFFNESS * (x_r - wall[2]) - WALL_DAMPING * v_r
+        hand = HAND_STIFFNESS * (target[k] - x_m) - HAND_DAMPING * v_m
+        v_m += (channel_master + hand - HANDLE_DAMPING * v_m) / HANDLE_MASS * STEP
+        v_r += (channel_replica + contact) / REPLICA_MASS * STEP
+        x_m += v_m * STEP
+        x_r += v_r * STEP
+        # What the channel's two couplings put into the masses (the channel's ports), net of their springs' storage.
+        work += (channel_master * v_m + channel_replica * (v_r - planner_velocity[k])) * STEP
+        storage = 0.5 * FEEDBACK_STIFFNESS * (seen_replica - x_m) ** 2 \
+            + 0.5 * REPLICA_STIFFNESS * (seen_master - (x_r - planner[k])) ** 2
+        if k % every == 0:
+            rows.append((k * STEP, x_m, x_r, planner[k] + seen_master, target[k], planner[k],
+                         0.5 * REPLICA_MASS * v_r ** 2, 0.5 * HANDLE_MASS * v_m ** 2, work + storage, -contact))
+    a = np.array(rows)
+    time = a[:, 0]
+    target_sampled, planner_sampled = a[:, 4], a[:, 5]
+    command = planner_sampled + np.interp(time - delay, time, target_sampled)
+
+    def spatial(x: NDArray) -> NDArray:
+        out = np.zeros((x.size, 3))
+        out[:, 0] = x
+        return out
+
+    return VerdictInput(time=time, one_way_delay=delay, x_M=spatial(a[:, 1]), x_R=spatial(a[:, 2]),
+                        x_d=spatial(a[:, 3]), operator_target=spatial(target_sampled), command=spatial(command),
+                        arm_kinetic_energy=a[:, 6], handle_kinetic_energy=a[:, 7], channel_generated=a[:, 8],
+                        force=spatial(a[:, 9]), contact=np.zeros(time.size, dtype=bool), limit_violations=0,
+                        reflex_trips=0, safe_holds=0, stale_holds=0, source=f"bilateral {delay:g} s seed {seed}")
+
+
+def pumping(data: VerdictInput, rate: float = 0.1) -> VerdictInput:
+    """(c): ``rate`` watts of generation added to the channel's series from the start, the motion unchanged (the
+    damping takes the energy away as fast as the channel makes it)."""
+    return replace(data, channel_generated=data.channel_generated + rate * (data.time - data.time[0]),
+                   source=f"{data.source}, channel pumping {rate * 1e3:g} mW")
+
+
+def with_limit_cycle(data: VerdictInput, amplitude: float, period: float) -> VerdictInput:
+    """(b): a steady oscillation on the handle, the set point a quarter period later, the TCP half a period later,
+    with its kinetic energy; the rest of the run unchanged."""
+    w = 2.0 * math.pi / period
+    t = data.time
+
+    def swing(lag: float) -> NDArray:
+        out = np.zeros((t.size, 3))
+        out[:, 0] = amplitude * np.sin(w * t - lag)
+        return out
+
+    speed = amplitude * w * np.cos(w * t)
+    return replace(data, x_M=data.x_M + swing(0.0), x_d=data.x_d + swing(0.5 * math.pi), x_R=data.x_R + swing(math.pi),
+                   handle_kinetic_energy=data.handle_kinetic_energy + 0.5 * HANDLE_MASS * speed ** 2,
+                   arm_kinetic_energy=data.arm_kinetic_energy + 0.5 * REPLICA_MASS * speed ** 2,
+                   source=f"{data.source} + {amplitude * 1e3:g} mm at {period:g} s")
+
+
+def parked(data: VerdictInput, offset: float = 0.15, after: float = 12.0) -> VerdictInput:
+    """(c): from ``after`` on the TCP stays ``offset`` off (in y) where the loop put it, in free motion."""
+    shift = np.zeros_like(data.x_R)
+    shift[data.time >= after, 1] = offset
+    return replace(data, x_R=data.x_R + shift, source=f"{data.source}, parked {offset * 1e3:g} mm")
+
+
+def crash_every_lap(data: VerdictInput, lap: float = 5.0, length: float = 0.4, force: float = 30.0) -> VerdictInput:
+    """(c): every ``lap`` seconds the TCP strikes the obstacle the task steers around (contact flag, an F/T impact of
+    ``force`` newtons for ``length`` seconds, the TCP stopped 20 mm short of where it would have gone)."""
+    phase = (data.time - 3.0) % lap
+    touching = (data.time >= 3.0) & (phase < length)
+    pulse = np.zeros_like(data.x_R)
+    pulse[touching, 0] = force * np.sin(np.pi * phase[touching] / length)
+    stopped = np.zeros_like(data.x_R)
+    stopped[touching, 1] = -0.02 * np.sin(np.pi * phase[touching] / length)
+    return replace(data, contact=touching, force=data.force + pulse, x_R=data.x_R + stopped,
+                   source=f"{data.source}, crash every {lap:g} s")
+
+
+def cases() -> list[LabelledCase]:
+    """The whole labelled set (module docstring)."""
+    out: list[LabelledCase] = []
+    for mass, damping, tau in ((4.0, 40.0, 0.4), (4.0, 40.0, 1.0), (4.0, 40.0, 2.0)):
+        k_crit, frequency = critical_gain(mass, damping, tau)
+        for factor, stable in ((0.9, True), (1.1, False)):
+            data = delayed_feedback(factor * k_crit, mass, damping, tau, 60.0)
+            out.append(LabelledCase(
+                f"boundary tau={tau:g}s K={factor:g}Kcrit", "a delayed feedback at its boundary", stable, True, data,
+                f"K_crit = {k_crit:.2f} N/m, crossing period {2 * math.pi / frequency:.2f} s (m {mass:g} kg, "
+                f"D {damping:g} N s/m)"))
+    references = {(delay, seed): bilateral(delay, seed) for delay in REFERENCE_DELAYS for seed in (1, 2, 3)}
+    for (delay, seed), data in references.items():
+        out.append(LabelledCase(f"reference delay={delay:g}s seed={seed}", "b stable reference", True, True, data,
+                                "bilateral loop above the damping margin, aperiodic operator and planner"))
+    for index, (delay, period, amplitude) in enumerate(
+            (d, p, a) for d in CYCLE_DELAYS for p in CYCLE_PERIODS for a in CYCLE_AMPLITUDES):
+        data = with_limit_cycle(references[(delay, 1 + index % 3)], amplitude, period)
+        out.append(LabelledCase(f"limit cycle {amplitude * 1e3:g}mm {period:g}s delay={delay:g}s", "b limit cycle",
+                                False, True, data, "steady oscillation added to a stable reference run"))
+    for delay in (0.2, 1.0):
+        base = references[(delay, 2)]
+        out.append(LabelledCase(f"parked 150mm delay={delay:g}s", "c parked", False, True, parked(base),
+                                "TCP 150 mm off its target from 12 s on, no contact"))
+        out.append(LabelledCase(f"crash every lap delay={delay:g}s", "c crash every lap", True, False,
+                                crash_every_lap(base), "30 N impacts on the avoided obstacle every 5 s"))
+        out.append(LabelledCase(f"holding in contact delay={delay:g}s", "c holding in contact", True, True,
+                                bilateral(delay, 4, wall=(10.0, 34.0, 0.0)),
+                                "pushed into a wall from 10 to 34 s"))
+        out.append(LabelledCase(f"energy pumping delay={delay:g}s", "c energy pumping", False, True,
+                                pumping(references[(delay, 3)]),
+                                "100 mW of steady generation at the channel's ports, motion unchanged"))
+        out.append(LabelledCase(f"limit violations delay={delay:g}s", "c limit violation", True, False,
+                                replace(base, limit_violations=3), "3 ticks broke a Panda limit"))
+        out.append(LabelledCase(f"reflex trip delay={delay:g}s", "c reflex trip", True, False,
+                                replace(base, reflex_trips=1), "the velocity reflex tripped"))
+    return out
