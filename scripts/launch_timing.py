@@ -8,6 +8,9 @@ when one is out, with its own exit code (EXIT_STARVED, docs/SECURITY.md "Exit co
 - the real-time factor (the report's, after its warm-up) at least REAL_TIME_FACTOR_BOUND, the report's target;
 - every loop's achieved rate (sim_bridge/report/loop_rates.py) at least LOOP_RATE_BOUND of its nominal rate; a
   loop with no message at all is not this graph's (or its node failed, which the safety verdict reports);
+- the bag's span of simulated time (the report's duration_s) at least RECORDED_FRACTION_BOUND of the time the
+  launcher saw simulated: a starved recorder keeps only part of the run (measured: 3.8 s of a 15 s run with the
+  graph at 70 % of one CPU), and every other figure would then describe that part alone;
 - the replica's own loop (its "replica loop health" record on /diagnostics): no hold, i.e. no control tick on a
   state older, or after a gap longer, than the replica's bounds (loop_max_state_age, loop_max_tick_gap). Its largest
   state age and tick gap are reported with it. A bag without the record: the figure is unknown, not a pass.
@@ -18,6 +21,7 @@ was too slow for the arm.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -25,6 +29,7 @@ REAL_TIME_FACTOR_BOUND = 0.95   # the report's target (sim_bridge/report/metrics
 # The slowest loop's share of its nominal rate. The default run on a quiet machine keeps 0.976-0.995 (bench of
 # 2026-12-04, docs/RESULTS.md); 0.90 leaves that spread room and still flags a loop that lost a tenth of its ticks.
 LOOP_RATE_BOUND = 0.90
+RECORDED_FRACTION_BOUND = 0.90
 LOOP_HEALTH_STATUS = "replica loop health"   # fic_core/loop_health.py diagnostic_values, as the replica names it
 LOOP_HEALTH_KEY = "holds"
 
@@ -47,6 +52,9 @@ class Timing:
         slowest = f.get("slowest_loop")
         lines.append(f"slowest loop {slowest} at {_show(f.get('slowest_loop_fraction'), '.3f')} of its rate "
                      f"(bound >= {LOOP_RATE_BOUND:g})" if slowest else "loop rates: none measured")
+        if f.get("recorded_s") is not None:
+            lines.append(f"the bag holds {f['recorded_s']:.1f} s of the {f['simulated_s']:.1f} s simulated "
+                         f"(bound >= {RECORDED_FRACTION_BOUND:.0%})")
         lines.append(f"replica loop: {_show(f.get('loop_holds'), 'd')} holds, state age max "
                      f"{_show(f.get('max_state_age_ms'), '.1f')} ms, tick gap max "
                      f"{_show(f.get('max_tick_gap_ms'), '.1f')} ms (bound: no hold)"
@@ -64,8 +72,9 @@ def _show(value, spec: str) -> str:
 
 
 def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[str, str] | None,
-                   realtime: bool = True) -> Timing:
-    """The verdict from the report's metrics.json, the loop rates and the replica's last loop-health record."""
+                   realtime: bool = True, simulated_s: float | None = None) -> Timing:
+    """The verdict from the report's metrics.json, the loop rates, the replica's last loop-health record and the
+    simulated time the launcher saw (``simulated_s``)."""
     if not realtime:
         return Timing(judged=False)
     timing = Timing(judged=True)
@@ -73,7 +82,14 @@ def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[st
     timing.figures["real_time_factor"] = rtf
     if rtf is not None and rtf < REAL_TIME_FACTOR_BOUND:
         timing.reasons.append(f"real-time factor {rtf:.3f} < {REAL_TIME_FACTOR_BOUND:g}")
-    running = {name: row for name, row in rates.items() if row.get("fraction") is not None and row["achieved_hz"] > 0}
+    recorded = (metrics or {}).get("duration_s")
+    if recorded is not None and simulated_s:
+        timing.figures.update(recorded_s=recorded, simulated_s=simulated_s)
+        if recorded < RECORDED_FRACTION_BOUND * simulated_s:
+            timing.reasons.append(f"the bag holds {recorded:.1f} s of the {simulated_s:.1f} s simulated (the "
+                                  "recorder fell behind)")
+    running = {name: row for name, row in rates.items()
+               if row.get("fraction") is not None and math.isfinite(row["fraction"]) and row["achieved_hz"] > 0}
     if running:
         name = min(running, key=lambda loop: running[loop]["fraction"])
         row = running[name]
@@ -115,7 +131,8 @@ def _integer(text: str | None) -> int | None:
     return int(value) if value is not None else None
 
 
-def judge_run(run_dir: Path, bag: Path, metrics: dict | None, realtime: bool) -> Timing:
+def judge_run(run_dir: Path, bag: Path, metrics: dict | None, realtime: bool,
+              simulated_s: float | None = None) -> Timing:
     """The verdict of a finished run (its bag and report), also written to ``run_dir``/timing.json."""
     from launch_supervision import diagnostics_records
 
@@ -128,6 +145,6 @@ def judge_run(run_dir: Path, bag: Path, metrics: dict | None, realtime: bool) ->
         except Exception as error:  # noqa: BLE001 - a torn bag: the verdict goes on without the rates
             print(f"[run] timing: loop rates not measured ({error})")
         health = diagnostics_records(bag, {LOOP_HEALTH_STATUS: LOOP_HEALTH_KEY}).get(LOOP_HEALTH_STATUS)
-    timing = timing_verdict(metrics, rates, health, realtime)
+    timing = timing_verdict(metrics, rates, health, realtime, simulated_s)
     (run_dir / "timing.json").write_text(json.dumps(asdict(timing), indent=2) + "\n")
     return timing

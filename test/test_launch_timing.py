@@ -93,3 +93,18 @@ def test_the_replicas_loop_health_record_is_read_from_the_bag(tmp_path: Path) ->
     timing = judge_run(tmp_path, tmp_path / "bag", QUIET, realtime=True)
     assert timing.starved and timing.figures["loop_holds"] == 1
     assert json.loads((tmp_path / "timing.json").read_text())["starved"] is True
+
+
+def test_a_bag_that_holds_only_part_of_the_run_is_starved() -> None:
+    """A starved recorder kept 3.8 s of a 15 s run (measured at 70 % of one CPU): every other figure would describe
+    that part alone."""
+    partial = timing_verdict({"real_time_factor": 1.0, "duration_s": 3.8}, rates(replica_control=0.99), HEALTHY,
+                             simulated_s=15.0)
+    assert partial.starved and partial.reasons == ["the bag holds 3.8 s of the 15.0 s simulated (the recorder fell "
+                                                   "behind)"]
+    whole = timing_verdict({"real_time_factor": 1.0, "duration_s": 18.5}, rates(replica_control=0.99), HEALTHY,
+                           simulated_s=15.0)
+    assert not whole.starved and "the bag holds 18.5 s of the 15.0 s simulated" in whole.lines()[2]
+    nan_rates = {"planner": {"topic": "/planner/desired_pose", "nominal_hz": 100.0, "achieved_hz": float("nan"),
+                             "fraction": float("nan")}}
+    assert timing_verdict(QUIET, nan_rates, HEALTHY).figures.get("slowest_loop") is None
