@@ -631,7 +631,7 @@ def main(argv: list[str] | None = None) -> int:
     for reason in reasons:
         print(f"[run] safety: {reason}", file=sys.stderr)
     # Whether the computer kept real time, after every run; a broken safety figure still decides the code.
-    timing = judge_run(run_dir, bag_path, metrics, args.time_mode == "realtime")
+    timing = judge_run(run_dir, bag_path, metrics, args.time_mode == "realtime", sim_elapsed)
     for line in timing.lines():
         print(f"[run] timing: {line}", file=sys.stderr if timing.starved else sys.stdout)
     code = exit_code(code, timing, EXIT_STARVED)
