@@ -197,17 +197,21 @@ def test_reset_and_read_only_state() -> None:
 
 
 def test_pose_attractor_composes_translation_and_rotation() -> None:
+    """Translation per axis (Eq. 2), orientation by the angle-axis FIC: M = FIC(|r|) r/|r| (rotational_attractor)."""
     rotation_profile = ForceProfile(stiffness=30.0, saturation_error=0.5, saturation_start=0.5, max_force=10.0)
     pose = PoseAttractor(PROFILE, rotation_profile, 0.005, 0.01)
     assert pose.controller_name == "fic"
-    wrench = pose.wrench([0.01, -0.2, 0.0], [0.1, 0.0, -2.0], [0.1, -0.1, 0.0, 0.0, 0.0, -0.1])  # all |e| growing
-    expected = np.concatenate([PROFILE.force([0.01, -0.2, 0.0]), rotation_profile.force([0.1, 0.0, -2.0])])
-    np.testing.assert_allclose(wrench, expected)
-    assert abs(wrench[1]) <= PROFILE.max_force and abs(wrench[5]) <= rotation_profile.max_force
-    # Error decreasing on x (translation) and rz (rotation): C on those axes only.
+    rotation = np.array([0.1, 0.0, -2.0])
+    angle = float(np.linalg.norm(rotation))
+    # All errors growing: D everywhere (the rotation's angle rate r.(w_d - w)/|r| = 0.2/2.0 > 0).
+    wrench = pose.wrench([0.01, -0.2, 0.0], rotation, [0.1, -0.1, 0.0, 0.0, 0.0, -0.1])
+    expected_moment = float(rotation_profile.force(angle)) * rotation / angle
+    np.testing.assert_allclose(wrench, np.concatenate([PROFILE.force([0.01, -0.2, 0.0]), expected_moment]))
+    assert abs(wrench[1]) <= PROFILE.max_force and np.linalg.norm(wrench[3:]) <= rotation_profile.max_force
+    # Error decreasing on x (translation) and the angle (rotation): C there; the angle's scalars in slot rx.
     pose.wrench([0.009, -0.2, 0.0], [0.1, 0.0, -1.9], [-0.1, -0.1, 0.0, 0.0, 0.0, 0.5])
-    assert list(pose.phase) == [1, 0, 0, 0, 0, 1]
-    assert pose.latched_max_error[0] == 0.01 and pose.latched_max_error[5] == -2.0  # the previous samples
+    assert list(pose.phase) == [1, 0, 0, 1, 1, 1]
+    assert pose.latched_max_error[0] == 0.01 and pose.latched_max_error[3] == angle  # the previous samples
     for vector in (pose.phase, pose.latched_max_error, pose.last_force, pose.stored_energy):
         assert vector.shape == (6,)
     pose.reset()

@@ -74,7 +74,8 @@ def random_state(rng, scale_q: float = 0.25, scale_qd: float = 0.3):
 
 
 def test_eq_7_recomputed_from_pinocchio_in_divergence(robot: RobotModel) -> None:
-    """First tick of a fresh FIC with every error growing: each axis is in D, FIC = F_c(e) (Eq. 2, D), and
+    """First tick of a fresh FIC with every error growing: each translational axis is in D, FIC = F_c(e) (Eq. 2, D),
+    the moment is F_c(theta) r/theta with theta = |r| (the angle-axis FIC, fic_core/rotational_attractor.py), and
     tau_d = C qd + G + J^T FIC + tau_posture with every term computed here (with and without the feedforward
     J^T Lambda (a_d - Jdot qd) and the friction of the desired motion D M^-1 J^T Lambda xd_d)."""
     rng = np.random.default_rng(7)
@@ -88,16 +89,19 @@ def test_eq_7_recomputed_from_pinocchio_in_divergence(robot: RobotModel) -> None
         desired_position = position + position_error
         desired_rotation = pin.exp3(rotation_error) @ rotation
         twist = jacobian @ qd
-        # A desired twist that makes every |e| grow: d|e|/dt = sign(e) (xd_d - xd) > 0 on every axis.
-        desired_twist = twist + np.sign(np.concatenate((position_error, rotation_error))) * rng.uniform(0.01, 0.2, 6)
+        # A desired twist that makes every |e| grow: d|e|/dt = sign(e) (xd_d - xd) > 0 on every translational
+        # axis, and the angle: d theta/dt = (r/theta) . (w_d - w) > 0.
+        angle = float(np.linalg.norm(rotation_error))
+        desired_twist = twist + np.concatenate((np.sign(position_error) * rng.uniform(0.01, 0.2, 3),
+                                                rotation_error / max(angle, 1e-300) * rng.uniform(0.01, 0.2)))
         with_feedforward = trial % 2 == 1
         acceleration = rng.normal(scale=1.0, size=6) if with_feedforward else None
         replica = ReplicaController(robot, PoseAttractor(ForceProfile(*TRANSLATION), ForceProfile(*ROTATION)),
                                     joint_damping_compensation=with_feedforward)
         command = replica.command(q, qd, desired_position, desired_rotation, desired_twist, acceleration)
 
-        wrench = np.array([profile_force(e, *TRANSLATION) for e in position_error]
-                          + [profile_force(e, *ROTATION) for e in rotation_error])
+        moment = profile_force(angle, *ROTATION) / angle * rotation_error if angle > 0.0 else np.zeros(3)
+        wrench = np.concatenate(([profile_force(e, *TRANSLATION) for e in position_error], moment))
         expected = bias + jacobian.T @ wrench + written_out_posture(replica, q, qd, jacobian, minv)
         if with_feedforward:
             inertia = np.linalg.inv(jacobian @ minv @ jacobian.T + 1e-3 * np.eye(6))

@@ -43,7 +43,9 @@ def test_pose_snapshot_has_six_ports_and_a_restart_keeps_the_run_figures() -> No
     observer.observe_snapshot(pose.snapshot())
     pose.wrench([0.02, 0, 0], [0, 0, 0.2], np.zeros(6))
     observer.observe_snapshot(pose.snapshot())
-    assert observer.port_work.shape == (6,) and observer.port_work[0] > 0 and observer.port_work[5] > 0
+    # Slot rx books the rotation angle's port (fic_core/rotational_attractor.py); ry and rz stay empty.
+    assert observer.port_work.shape == (6,) and observer.port_work[0] > 0 and observer.port_work[3] > 0
+    assert observer.port_work[4] == observer.port_work[5] == 0.0
     observer.observe([0.0] * 6, [0.0] * 6, [1.0] * 6)  # storage jumps with no work: a violation
     assert observer.violation_ticks == 1
     observer.restart_port()
