@@ -2,6 +2,7 @@
 series round trip, and a tiny sweep through an executor that resumes where it stopped."""
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import json
 import sys
@@ -83,3 +84,24 @@ def test_the_verdict_applies_to_a_kept_series(tmp_path: Path) -> None:
     save_series(path, thinned(run(claim.config())))
     verdict = judge_series(path, claim.delay)
     assert verdict["safe"] in (True, False) and verdict["stable"] in (True, False, None)
+
+
+def test_the_command_reaches_the_replica_at_the_links_rate_and_is_held_in_between() -> None:
+    # x_d' in use at the replica's 100 Hz poses (the replica smooths each new command over a few ticks): at full rate
+    # it moves on at every tick once the handle moves; at 10 Hz in one burst after each delivery, at most one a
+    # 0.1 s slot, and holds in between (the handle moves a little all the time under the hand and the master's force).
+    bursts = {}
+    for rate in (0.0, 10.0):
+        result = run(ClaimRun(0.2, rate, "fic", "passive", 1, 2.0).config())
+        moved = np.any(np.diff(result.offset, axis=0) != 0.0, axis=1)
+        bursts[rate] = int(np.sum(moved[1:] & ~moved[:-1]) + moved[0])
+        held = int(np.sum(~moved[np.argmax(moved):]))
+        assert (held > 20) == (rate > 0.0)
+    assert bursts[10.0] <= 10 * 2.0 + 1 and bursts[10.0] >= 5
+
+
+def test_a_task_drawn_per_seed_needs_the_closed_loop_operator_and_a_known_hand() -> None:
+    with pytest.raises(ValueError, match="closed-loop"):
+        run(dataclasses.replace(ClaimRun(0.2, 0.0, "fic", "passive", 1, 1.0).config(), operator="scripted"))
+    with pytest.raises(ValueError, match="hand"):
+        run(dataclasses.replace(ClaimRun(0.2, 0.0, "fic", "passive", 1, 1.0).config(), hand="tense"))
