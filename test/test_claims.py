@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import json
-import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -14,11 +13,9 @@ import pytest
 
 from sim_bridge.experiments.claims import (ClaimRun, claim_cells, claim_runs, load_series, save_series,
                                            thinned)
+from sim_bridge.experiments import claims_sweep
 from sim_bridge.experiments.in_process import run
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "scripts"))
-import claims_sweep  # noqa: E402
 
 
 def test_a_claim_run_holds_both_directions_at_the_rate_with_the_law_at_full_rate() -> None:

@@ -24,6 +24,7 @@ import dataclasses
 import json
 import math
 import subprocess
+import time as wall_clock
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable
@@ -197,8 +198,6 @@ def figures(claim: ClaimRun, result: RunResult) -> dict[str, Any]:
 
 def execute(claim: ClaimRun, directory: str | Path, provenance: dict[str, Any] | None = None) -> dict[str, Any]:
     """Simulate one run, keep its series under ``directory`` (``<key>.npz``) and return its JSON row."""
-    import time as wall_clock
-
     started = wall_clock.time()
     result = run(claim.config())
     path = Path(directory) / f"{claim.key}.npz"
