@@ -6,8 +6,12 @@ the law (the FIC's twist error, the posture's -D qd, C(q, qd) qd) then act on a 
 A starved two-station run swung the simulated arm over its base at up to 11 rad/s that way (docs/RESULTS.md,
 "Starvation"). So the loop measures, at every control tick:
 
-- the state age: the receiver's clock against the joint state's time (the stamp; or its publication time when the
-  caller's clock and the stamp are on different time lines, docs/SECURITY.md "The replica's own loop");
+- the state age: the receiver's clock against the joint state's stamp, less the smallest such difference seen
+  since the last long gap (``clock_offset``). A real driver stamps on the wall clock and lockstep on simulated time,
+  where that offset is the transport's latency; a simulated robot that fell behind real time has stamps that lag the
+  wall clock by however long it stalled, and a stall of the robot is a long gap for the replica (no states come),
+  at which the offset is taken afresh. A replica whose states queue up behind a busy process sees them age
+  against the offset of its healthy ticks;
 - the tick gap: the receiver's clock since the previous control tick;
 - the command gap: the receiver's clock since the previous torque sent.
 
@@ -76,19 +80,27 @@ class LoopHealth:
         self._healthy_run = 0
         self._resume_start: float | None = None
         self._entered_hold = False
+        self.clock_offset: float | None = None   # [s] the smallest now - state_time since the last long gap
+        self._age_known = False
 
     @property
     def holding(self) -> bool:
         return self.state == HOLDING
 
     def tick(self, now: float, state_time: float) -> str:
-        """A control tick at ``now`` on a joint state of ``state_time`` (the same clock). Returns "" or, once, the
-        notice of a transition (into the hold, or back to the law)."""
-        age = max(now - state_time, 0.0)   # a state stamped a little ahead (clock skew) is not old
+        """A control tick at ``now`` (the receiver's clock) on a joint state stamped ``state_time``. Returns "" or,
+        once, the notice of a transition (into the hold, or back to the law)."""
+        raw = now - state_time
         gap = 0.0 if self._last_tick is None else max(now - self._last_tick, 0.0)
         self._last_tick = now
-        if not (math.isfinite(age) and math.isfinite(gap)):
-            age = gap = math.inf
+        if not (math.isfinite(raw) and math.isfinite(gap)):
+            raw = gap = math.inf
+        # After a long gap the offset is taken afresh (module docstring), and this tick's state has no known age: a
+        # robot that stalled and a state that waited in a starved replica's queue look alike until the next ticks.
+        self._age_known = not (self.clock_offset is None or gap > self.bounds.max_tick_gap)
+        if math.isfinite(raw) and (not self._age_known or raw < self.clock_offset):
+            self.clock_offset = raw   # first state, after a long gap, or a lower latency
+        age = max(raw - self.clock_offset, 0.0) if math.isfinite(raw) else math.inf
         self.state_age, self.tick_gap = age, gap
         self.max_state_age_seen = max(self.max_state_age_seen, age)
         self.max_tick_gap_seen = max(self.max_tick_gap_seen, gap)
@@ -140,14 +152,15 @@ class LoopHealth:
 
     @property
     def state_fresh(self) -> bool:
-        """Whether the last tick's state is within max_state_age (its velocity is one the arm still has)."""
-        return self.state_age <= self.bounds.max_state_age
+        """Whether the last tick's state is known to be within max_state_age (its velocity is one the arm still
+        has); not after a long gap, where its age is not known."""
+        return self._age_known and self.state_age <= self.bounds.max_state_age
 
     def hold_command(self, gravity: ArrayLike, velocity: ArrayLike) -> NDArray[np.float64] | None:
         """What a held tick sends (module docstring): the hold torque on a fresh state; on a stale one gravity
         alone at the tick the hold began, else nothing (None: the robot's watchdog holds the arm)."""
         if self.state_fresh or self._entered_hold:
-            return self.hold_torque(gravity, velocity, self.state_age)
+            return self.hold_torque(gravity, velocity, self.state_fresh)
         return None
 
     def command_sent(self, now: float) -> None:
@@ -157,12 +170,12 @@ class LoopHealth:
         self.command_gap = gap
         self.max_command_gap_seen = max(self.max_command_gap_seen, gap)
 
-    def hold_torque(self, gravity: ArrayLike, velocity: ArrayLike, state_age: float) -> NDArray[np.float64]:
+    def hold_torque(self, gravity: ArrayLike, velocity: ArrayLike, fresh: bool) -> NDArray[np.float64]:
         """The stated hold: G(q) - D qd, as the robot's own watchdog holds the arm. The damping needs a velocity the
-        arm still has: on a state older than max_state_age it is left out (a damper on a stale velocity pushes
-        wherever the arm was going, not against where it goes), and the hold is gravity alone."""
+        arm still has: on a state not ``fresh`` (older than max_state_age, or of unknown age) it is left out (a
+        damper on a stale velocity pushes wherever the arm was going, not against where it goes): gravity alone."""
         gravity = np.asarray(gravity, dtype=float)
-        if state_age > self.bounds.max_state_age:
+        if not fresh:
             return gravity.copy()
         damping = np.asarray(HOLD_DAMPING[:gravity.size], dtype=float)
         return gravity - damping * np.asarray(velocity, dtype=float)
@@ -171,6 +184,7 @@ class LoopHealth:
         """The keys of the "replica loop health" status (docs/SECURITY.md)."""
         return {"state": self.state,
                 "state_age_ms": f"{self.state_age * 1e3:.1f}",
+                "clock_offset_ms": "none" if self.clock_offset is None else f"{self.clock_offset * 1e3:.1f}",
                 "tick_gap_ms": f"{self.tick_gap * 1e3:.1f}",
                 "command_gap_ms": f"{self.command_gap * 1e3:.1f}",
                 "max_state_age_ms": f"{self.max_state_age_seen * 1e3:.1f}",

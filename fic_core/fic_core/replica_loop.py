@@ -181,11 +181,8 @@ class ReplicaLoop:
             return None if self._hold_torque is None else self._hold_torque.copy()
         return self.controller.repeat_torque()
 
-    def joint_state(self, time: float, now: float, q: NDArray[np.float64], qd: NDArray[np.float64],
-                    published: float | None = None) -> ReplicaStep:
-        """One joint state (validated q, qd at joint-state time ``time``, received at ``now``). ``published``: the
-        state's publication time on ``now``'s clock, for its age when ``time`` is on another time line (a simulated
-        robot's stamps fall behind the wall clock when it runs slower than real time); None: ``time``."""
+    def joint_state(self, time: float, now: float, q: NDArray[np.float64], qd: NDArray[np.float64]) -> ReplicaStep:
+        """One joint state (validated q, qd at joint-state time ``time``, received at ``now``)."""
         self.counts["joint_states"] += 1
         step = ReplicaStep()
         if not self.desired.started:
@@ -197,7 +194,7 @@ class ReplicaLoop:
         health = self.health
         if self.schedule.due(time, self.desired.command_unused):
             dt = self.schedule.tick(time)
-            notice = health.tick(now, time if published is None else published)
+            notice = health.tick(now, time)
             if notice:
                 step.notices.append(("warning" if health.holding else "info", notice))
             if health.holding:
@@ -244,7 +241,7 @@ class ReplicaLoop:
         command = self._control(q, qd, time, now, dt, notices)
         fraction = health.law_fraction(now)
         if fraction < 1.0:
-            hold = health.hold_torque(self.robot.gravity, qd, health.state_age)
+            hold = health.hold_torque(self.robot.gravity, qd, health.state_fresh)
             torque = hold + fraction * (command.torque - hold)
             self.controller.state_sent(torque, time)
             command.torque = torque

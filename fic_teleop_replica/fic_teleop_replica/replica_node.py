@@ -86,7 +86,6 @@ class ReplicaNode(Node):
         self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
         # The joint-state watchdog runs on the steady clock: with a real driver, silence is wall time.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._sim_time = bool(self.get_parameter("use_sim_time").value)
         self._state_stamp_ns: int | None = None   # the joint state the last torque was computed on
         if self._driver.ramp is not None:
             self.create_timer(0.01, self._check_joint_states, clock=self._steady)
@@ -162,12 +161,9 @@ class ReplicaNode(Node):
         self._wrench = message  # F_R: the F/T reading, with the sensor's stamp
 
     # --- the control step ------------------------------------------------------------------------------------
-    def _on_joint_state_bytes(self, data: bytes, info) -> None:
+    def _on_joint_state_bytes(self, data: bytes) -> None:
         """The joint state as CDR bytes: its header stamp tells whether it is needed; the others are counted and
-        dropped unconverted (a JointState costs tens of microseconds). ``info``: the middleware's message info; on
-        the wall clock (no simulated time) its source timestamp is the state's publication time, which the loop
-        ages the state by (a simulated robot's stamps fall behind the wall clock when it runs slower than real
-        time; fic_core.loop_health)."""
+        dropped unconverted (a JointState costs tens of microseconds)."""
         raw_stamp = header_stamp(data)  # None: not plain CDR, the stamp is read from the message instead
         message = deserialize_message(data, JointState) if raw_stamp is None else None
         stamp_s = stamp_seconds(raw_stamp) if raw_stamp is not None else seconds(message.header.stamp)
@@ -188,11 +184,9 @@ class ReplicaNode(Node):
         if self._driver.ramp is not None and self._driver.ramp.fresh(self._steady_now()):  # after a ramp-down
             self.get_logger().warning("joint states are back: the law takes over from the ramp (slewed at the "
                                       "torque-rate limit)")
-        published = info.get("source_timestamp") if isinstance(info, dict) and not self._sim_time else None
         holds = self._loop.health.holds
         self._state_stamp_ns = nanoseconds(stamp)
-        step = self._loop.joint_state(self._state_stamp_ns * 1e-9, self._now(), q, qd,
-                                      published * 1e-9 if published else None)
+        step = self._loop.joint_state(self._state_stamp_ns * 1e-9, self._now(), q, qd)
         log_notices(self.get_logger(), step.notices)
         self._publish_torque(step.torque, self._state_stamp_ns)
         if self._loop.health.holds != holds:  # the loop's own hold began: on /diagnostics (and in the bag) at once
