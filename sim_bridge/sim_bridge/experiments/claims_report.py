@@ -1,32 +1,30 @@
-"""The claim sweep's results document: every run with both verdicts and its seed, and per cell the statistics that
-compare the laws (docs/EXPERIMENTS.md, "Claims"; the statistics are sim_bridge.experiments.cell_statistics's).
+"""The claim sweep's statistics: per cell and law both verdicts' k/n with Wilson intervals, the FIC against each
+baseline, error and force median and p95, as JSON, Markdown tables and figures (docs/EXPERIMENTS.md, "Claims"; the
+statistics are sim_bridge.experiments.cell_statistics's).
 
-Input: the sweep's run file (results/claims_runs.jsonl), one JSON object a line, one line a run, carrying at least
+Input: the judged sweep, results/claims.json (``scripts/experiments.sh claims --judge``: every run's row with its
+seed, figures and both verdicts), or any run file of one JSON row a line. A row carries ``cell``, ``controller``,
+``seed``, when the sweep varies them ``operator`` and ``hand`` (a cell is then one (cell, operator, hand) triple),
+the verdicts either nested (``verdict: {stable, safe}``, the claim sweep's) or flat (``stable``, ``safe``), and
+``error_rms_m``, ``error_max_m``, ``peak_force_n`` either under ``figures`` or flat. ``stable`` None is a run too
+short to judge; a row without a verdict is a run not judged (yet): counted, never judged. A run that appears twice
+(a resumed sweep) counts once, its last row.
 
-    cell        the claim cell's id (its delay and rates are in the cell's own fields, kept as they are)
-    controller  the law
-    seed        the run's seed
-    stable      True / False / None (None: too short to judge), or absent when the run failed
-    safe        True / False
-    error_rms_m, error_max_m, peak_force_n   the run's tracking error (RMS and maximum) and peak force
+Output (``claims_statistics``): {"cells": [...], "comparisons": [...], counts}; each cell per law: stable and safe
+k/n with Wilson 95 % intervals, the seeds judged, median and p95 of the RMS error, the maximum error and the peak
+force; each comparison: the FIC against one baseline on one cell, for both verdicts, p_FIC - p_baseline with
+Newcombe's 95 % interval, Boschloo's exact p and Fisher's.
 
-and, when the sweep varies them, ``operator`` and ``hand`` (a cell is then one (cell, operator, hand) triple). A run
-that appears twice (a resumed sweep that ran it again) counts once, its last line. A line without a ``stable`` key
-is a run that did not finish (the sweep writes why in ``failure``); it is counted, not judged.
-
-Output (``claims_document``): {"runs": [...], "cells": [...], "comparisons": [...], "seeds_planned", ...}; each cell:
-stable and safe k/n with Wilson 95 % intervals, the seeds judged, median and p95 of the RMS error, the maximum error
-and the peak force; each comparison: the reference law (the FIC) against one baseline on one cell, for both
-verdicts, p_FIC - p_baseline with Newcombe's 95 % interval, Boschloo's exact p and Fisher's.
-
-    python -m sim_bridge.experiments.claims_report results/claims_runs.jsonl --out results/claims
+    python -m sim_bridge.experiments.claims_report results/claims.json      # -> results/claims_statistics.json,
+                                                                             #    claims_tables.md, claims_*.png
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 from sim_bridge.experiments.cell_statistics import Proportion, compare_laws, median_and_p95, proportion
@@ -40,19 +38,22 @@ FIGURES = {"error_rms_m": "error_rms", "error_max_m": "error_max", "peak_force_n
 
 
 def read_runs(path: Path) -> list[dict]:
-    """The run file's lines, the last line of each (cell, operator, hand, controller, seed) kept; a line that is not
-    JSON (a sweep stopped mid-write) is skipped."""
-    runs: dict[tuple, dict] = {}
-    with open(path) as lines:
-        for line in lines:
-            line = line.strip()
-            if not line:
-                continue
+    """The runs of a judged sweep document (a JSON object with ``runs``) or of a run file (one JSON row a line; a
+    line that is not JSON, a sweep stopped mid-write, is skipped); the last row of each run kept."""
+    text = Path(path).read_text()
+    rows: list[dict] = []
+    try:
+        document = json.loads(text)
+        rows = list(document["runs"]) if isinstance(document, dict) else list(document)
+    except json.JSONDecodeError:
+        for line in text.splitlines():
             try:
-                row = json.loads(line)
+                rows.append(json.loads(line))
             except json.JSONDecodeError:
                 continue
-            runs[run_key(row)] = row
+    runs: dict[tuple, dict] = {}
+    for row in rows:
+        runs[run_key(row)] = row
     return list(runs.values())
 
 
@@ -68,43 +69,61 @@ def _cell_name(key: tuple) -> dict:
     return {name: value for name, value in zip(CELL_KEYS, key) if value is not None}
 
 
-def _finished(rows: Iterable[dict]) -> list[dict]:
-    return [row for row in rows if "stable" in row]
+def verdict_of(row: dict, verdict: str):
+    """The row's ``stable`` / ``safe`` verdict (nested under ``verdict`` or flat); KeyError when not judged."""
+    return row["verdict"][verdict] if "verdict" in row else row[verdict]
+
+
+def judged(row: dict) -> bool:
+    return isinstance(row.get("verdict"), dict) or "stable" in row
+
+
+def figure_of(row: dict, name: str):
+    return row.get("figures", row).get(name)
 
 
 def law_statistics(rows: Sequence[dict]) -> dict:
     """One law on one cell: both verdicts' k/n with Wilson intervals, the seeds, median and p95 of the figures."""
-    finished = _finished(rows)
-    out = {"runs": len(rows), "finished": len(finished),
+    finished = [row for row in rows if judged(row)]
+    out = {"runs": len(rows), "judged": len(finished),
            "seeds": sorted(row.get("seed") for row in finished),
-           **{verdict: proportion([row.get(verdict) for row in finished]).as_dict() for verdict in VERDICTS}}
+           **{verdict: proportion([verdict_of(row, verdict) for row in finished]).as_dict() for verdict in VERDICTS}}
     for field, name in FIGURES.items():
-        median, p95 = median_and_p95([row.get(field) for row in finished])
+        median, p95 = median_and_p95([figure_of(row, field) for row in finished])
         out[f"{name}_median"], out[f"{name}_p95"] = median, p95
     return out
 
 
-def claims_document(runs: Sequence[dict], seeds_planned: int | None = None,
-                    reference: str = REFERENCE_LAW) -> dict:
-    """The results document (module docstring) of the runs so far."""
+def _cell_order(cell: dict) -> tuple:
+    """Delay, then the link's rate from full (0) down, then the hand."""
+    rate = cell.get("rate_hz")
+    return (cell.get("delay", 0.0), -(rate or float("inf")) if rate is not None else 0.0, str(cell.get("hand")),
+            str(cell.get("cell")))
+
+
+def claims_statistics(runs: Sequence[dict], seeds_planned: int | None = None,
+                      reference: str = REFERENCE_LAW) -> dict:
+    """The statistics (module docstring) of the runs judged so far."""
     by_cell: dict[tuple, dict[str, list[dict]]] = {}
     for row in runs:
         by_cell.setdefault(cell_key(row), {}).setdefault(row.get("controller"), []).append(row)
     cells, comparisons = [], []
     for key, laws in by_cell.items():
         sample = next(iter(laws.values()))[0]
-        # What the cell is (its delay, rates, label), as the run rows carry it.
-        described = {name: value for name, value in sample.items()
-                     if name == "options" or name.startswith(("delay", "command_rate", "feedback_rate", "rate",
-                                                               "family", "label"))}
+        # What the cell is (its delay, the link's rate, the run length), as the run rows carry it.
+        described = {name: sample[name] for name in ("delay", "rate_hz", "duration") if name in sample}
         statistics = {law: law_statistics(rows) for law, rows in sorted(laws.items(), key=lambda item: str(item[0]))}
         cells.append({**_cell_name(key), **described, "laws": statistics})
+    cells.sort(key=_cell_order)
+    for cell in cells:
+        statistics = cell["laws"]
         if reference not in statistics:
             continue
         for law, stats in statistics.items():
             if law == reference:
                 continue
-            comparison = {**_cell_name(key), "reference": reference, "baseline": law}
+            comparison = {name: cell[name] for name in CELL_KEYS if name in cell}
+            comparison.update(reference=reference, baseline=law)
             for verdict in VERDICTS:
                 ours, theirs = statistics[reference][verdict], stats[verdict]
                 result = compare_laws(_as_proportion(ours), _as_proportion(theirs))
@@ -113,14 +132,14 @@ def claims_document(runs: Sequence[dict], seeds_planned: int | None = None,
                                        "boschloo_p": result.boschloo_p, "fisher_p": result.fisher_p,
                                        "reference_k_n": [ours["k"], ours["n"]], "baseline_k_n": [theirs["k"], theirs["n"]]}
             comparisons.append(comparison)
-    judged = [row for row in runs if row.get("stable") is not None]
-    return {"seeds_planned": seeds_planned, "runs_total": len(runs), "runs_finished": len(_finished(runs)),
-            "runs_judged_stable": len(judged), "reference_law": reference,
+    return {"seeds_planned": seeds_planned, "runs_total": len(runs), "runs_judged": sum(1 for r in runs if judged(r)),
+            "runs_judged_stable": sum(1 for r in runs if judged(r) and verdict_of(r, "stable") is not None),
+            "reference_law": reference,
             "statistics": {"proportion_interval": "Wilson score, 95 %",
                            "difference_interval": "Newcombe hybrid score (method 10), 95 %",
                            "test": "Boschloo exact, two-sided (scipy: twice the smaller one-sided p); Fisher exact "
                                    "two-sided beside it", "figures": "median and 95th percentile (numpy, linear)"},
-            "cells": cells, "comparisons": comparisons, "runs": list(runs)}
+            "cells": cells, "comparisons": comparisons}
 
 
 def _as_proportion(share: dict) -> Proportion:
@@ -128,34 +147,44 @@ def _as_proportion(share: dict) -> Proportion:
     return Proportion(share["k"], share["n"], None if interval is None else tuple(interval))
 
 
-def write_claims(runs_path: Path, out: Path, seeds_planned: int | None = None) -> dict[str, Path]:
-    """results/claims.json (<out>.json), its Markdown tables (<out>_tables.md) and figures (<out>_*.png) from the run
-    file; returns the paths written (a figure that has nothing to show is not written)."""
+def write_claims_statistics(source: Path, out: Path, seeds_planned: int | None = None) -> dict[str, Path]:
+    """<out>.json (the statistics), <out stem>_tables.md and the figures <out stem>_proportions.png and
+    _differences.png from a judged sweep or run file; returns the paths written (a figure with nothing to show is
+    not written). The stem of results/claims_statistics.json is results/claims."""
     from sim_bridge.experiments.plots import plot_claim_differences, plot_claim_proportions
     from sim_bridge.experiments.tables import claims_markdown
 
-    document = claims_document(read_runs(runs_path), seeds_planned)
-    document["source"] = str(runs_path)
+    document = claims_statistics(read_runs(source), seeds_planned)
+    document["source"] = Path(source).name
+    out = Path(out)
+    stem = out.name.removesuffix(".json").removesuffix("_statistics")
     out.parent.mkdir(parents=True, exist_ok=True)
-    written = {"json": out.with_suffix(".json"), "tables": out.parent / f"{out.name}_tables.md"}
+    written = {"json": out.with_suffix(".json"), "tables": out.parent / f"{stem}_tables.md"}
     written["json"].write_text(json.dumps(document, indent=1) + "\n")
     written["tables"].write_text(claims_markdown(document))
     for name, plot in (("proportions", plot_claim_proportions), ("differences", plot_claim_differences)):
-        path = plot(document, out.parent / f"{out.name}_{name}.png")
+        path = plot(document, out.parent / f"{stem}_{name}.png")
         if path is not None:
             written[name] = path
     return written
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="results/claims.json, its tables and figures from the run file")
-    parser.add_argument("runs", type=Path, help="the sweep's run file (results/claims_runs.jsonl)")
-    parser.add_argument("--out", type=Path, default=None, help="output stem (default: <runs' folder>/claims)")
-    parser.add_argument("--seeds-planned", type=int, default=None, help="the seeds a cell is planned to have")
+    from sim_bridge.experiments.claims import SEEDS
+
+    parser = argparse.ArgumentParser(description="The claim sweep's statistics, tables and figures")
+    parser.add_argument("source", type=Path, nargs="?", default=None,
+                        help="the judged sweep (default results/claims.json) or a run file of JSON lines")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="the statistics' JSON (default: <source's folder>/<source's stem>_statistics.json)")
+    parser.add_argument("--seeds-planned", type=int, default=SEEDS, help=f"seeds a cell is planned to have ({SEEDS})")
     args = parser.parse_args(argv)
-    if not args.runs.is_file():
-        parser.error(f"no run file at {args.runs}")
-    written = write_claims(args.runs, args.out or args.runs.parent / "claims", args.seeds_planned)
+    source = args.source or Path(os.environ.get("FIC_TELEOP_ROOT") or Path.cwd()) / "results" / "claims.json"
+    if not source.is_file():
+        parser.error(f"no judged sweep at {source} (scripts/experiments.sh claims --judge writes it)")
+    stem = source.name.removesuffix(".jsonl").removesuffix(".json").removesuffix("_runs")
+    written = write_claims_statistics(source, args.out or source.parent / f"{stem}_statistics.json",
+                                      args.seeds_planned)
     for name, path in written.items():
         print(f"{name}: {path}")
     return 0

@@ -130,7 +130,7 @@ def claims_markdown(document: dict) -> str:
     """The claim sweep's tables (results/claims_tables.md; docs/EXPERIMENTS.md "Claims" pastes them): per cell and
     law both verdicts' k/n with Wilson intervals and the error and force figures; the FIC against each baseline."""
     planned = document.get("seeds_planned")
-    lines = [f"Runs: {document['runs_finished']} finished of {document['runs_total']} in the run file"
+    lines = [f"Runs: {document['runs_judged']} judged of {document['runs_total']} in {document.get('source', 'the sweep')}"
              + (f"; {planned} seeds a cell and law planned" if planned else "") + ".", "",
              "| cell | law | seeds | stable k/n | Wilson 95 % | safe k/n | Wilson 95 % | error RMS median / p95 [mm] "
              "| error max median / p95 [mm] | peak force median / p95 [N] |",
@@ -139,7 +139,7 @@ def claims_markdown(document: dict) -> str:
         for law, s in cell["laws"].items():
             stable, stable_interval = _share(s["stable"])
             safe, safe_interval = _share(s["safe"])
-            seeds = f"{s['finished']}" + ("" if s["finished"] == s["runs"] else f" ({s['runs']} run)")
+            seeds = f"{s['judged']}" + ("" if s["judged"] == s["runs"] else f" ({s['runs']} run)")
             lines.append(f"| {_cell_label(cell)} | {law} | {seeds} | {stable} | {stable_interval} | {safe} | "
                          f"{safe_interval} | {_pair(s['error_rms_median'], s['error_rms_p95'], 1e3, 1)} | "
                          f"{_pair(s['error_max_median'], s['error_max_p95'], 1e3, 1)} | "
