@@ -39,7 +39,7 @@ class ScanSettings:
     min_cycles: float = 1.5          # periods a window must hold at least (long periods in short spans)
     amplitude: float = 0.003         # [m] fitted sinusoid amplitude a window must exceed (6 % of x_b)
     explained_share: float = 0.5     # share of the window's detrended variance the sinusoid must explain ...
-    explained_share_few_cycles: float = 0.8   # ... when the window holds fewer than cycles_per_window periods
+    explained_share_few_cycles: float = 0.8   # ... when the span holds fewer than 2 cycles_per_window periods
     sustained_share: float = 0.8     # windows at one period that must oscillate
     decay_ratio: float = 0.7         # last / first window amplitude under this: dying out (energy halved)
     forced_share: float = 0.2        # residual under this share of the command's amplitude at P: forced answer
@@ -139,10 +139,11 @@ def scan(time: NDArray, free: NDArray, start: float, settings: ScanSettings,
             continue
         amplitude, explained = _fits(time_s, values_s, weights_s, index, period)
         rows = np.arange(index.shape[0])
-        # A window of fewer than cycles_per_window periods (a long period in a short run) tells a sinusoid from an
-        # aperiodic wander only when the sinusoid explains nearly all of it.
-        needed = settings.explained_share if (samples - 1) * stride * step >= settings.cycles_per_window * period \
-            - 1e-9 else settings.explained_share_few_cycles
+        # A span of fewer than two windows of cycles_per_window periods end to end (a long period in a short run:
+        # its windows overlap, so they are not independent looks) tells a sinusoid from an aperiodic wander only when
+        # the sinusoid explains nearly all of it.
+        needed = settings.explained_share if span >= 2.0 * settings.cycles_per_window * period - 1e-9 \
+            else settings.explained_share_few_cycles
         for name, (own, known) in slices.items():
             a, e = amplitude[:, own], explained[:, own]
             axis = np.argmax(a * (e > needed), axis=1)

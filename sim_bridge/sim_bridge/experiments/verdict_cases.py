@@ -258,3 +258,115 @@ def cases() -> list[LabelledCase]:
         out.append(LabelledCase(f"reflex trip delay={delay:g}s", "c reflex trip", True, False,
                                 replace(base, reflex_trips=1), "the velocity reflex tripped"))
     return out
+
+
+def _old_verdict(data: VerdictInput) -> tuple[bool | None, list[str]]:
+    """The verdict the sweeps used before (sim_bridge.experiments.energy_verdict with the 5 s lap median), fed as
+    sim_bridge.experiments.evidence_run fed it; only its stability (it had no safety verdict)."""
+    from sim_bridge.experiments.energy_verdict import EnergyMotionCriterion, assess_energy_motion
+
+    motion = {}
+    if data.x_M is not None:
+        motion["x_M"] = data.x_M - (data.operator_target if data.operator_target is not None else 0.0)
+    for name in ("x_d", "x_R"):
+        if getattr(data, name) is not None and data.command is not None:
+            motion[name] = getattr(data, name) - data.command
+    energy = sum(e for e in (data.arm_kinetic_energy, data.handle_kinetic_energy) if e is not None)
+    verdict = assess_energy_motion(
+        data.time, energy=energy, motion=motion,
+        criterion=EnergyMotionCriterion(round_trip_delay=2.0 * data.one_way_delay, task_period=5.0),
+        error=data.x_d - data.x_R, channel_generated=data.channel_generated)
+    return verdict.stable, verdict.reasons
+
+
+def _confusion(rows: list[dict], label: str, verdict: str) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for row in rows:
+        key = f"label {'yes' if row[label] else 'no'}, verdict {dict([(True, 'yes'), (False, 'no')]).get(row[verdict], 'not assessed')}"
+        counts[key] = counts.get(key, 0) + 1
+    return dict(sorted(counts.items()))
+
+
+def held_out(seeds: range = range(10, 18)) -> dict:
+    """The same reference loop on seeds the thresholds were not chosen on, bare (stable) and with 5 mm limit cycles
+    at 0.5, 2.5, 5 and 16 s and a 10 mm one at 1 s (unstable): how often the verdict is wrong outside the set."""
+    from sim_bridge.experiments.run_verdict import judge
+
+    false_alarms, misses, runs, cycles = [], [], 0, 0
+    for delay in REFERENCE_DELAYS:
+        for seed in seeds:
+            base = bilateral(delay, seed)
+            runs += 1
+            if judge(base).stable is not True:
+                false_alarms.append(f"delay {delay:g} s seed {seed}")
+            if delay == 0.0:
+                continue
+            for period, amplitude in ((0.5, 0.005), (2.5, 0.005), (5.0, 0.005), (16.0, 0.005), (1.0, 0.010)):
+                cycles += 1
+                if judge(with_limit_cycle(base, amplitude, period)).stable is not False:
+                    misses.append(f"{amplitude * 1e3:g} mm at {period:g} s, delay {delay:g} s seed {seed}")
+    return dict(stable_runs=runs, false_alarms=false_alarms, limit_cycle_runs=cycles, missed=misses)
+
+
+def validate(with_held_out: bool = True) -> dict:
+    """Every labelled case judged by the run verdict and by the older one; the confusion matrices."""
+    import time as wall_clock
+    from dataclasses import asdict
+
+    from sim_bridge.experiments.run_verdict import VerdictCriterion, judge
+
+    rows, seconds = [], 0.0
+    for case in cases():
+        start = wall_clock.perf_counter()
+        verdict = judge(case.data)
+        seconds += wall_clock.perf_counter() - start
+        old_stable, old_reasons = _old_verdict(case.data)
+        rows.append(dict(name=case.name, group=case.group, label_stable=case.stable, label_safe=case.safe,
+                         stable=verdict.stable, safe=verdict.safe, right=verdict.stable is case.stable and
+                         verdict.safe is case.safe, reasons=verdict.reasons, about=case.why,
+                         old_stable=old_stable, old_right=old_stable is case.stable, old_reasons=old_reasons))
+    groups: dict[str, dict[str, int]] = {}
+    for row in rows:
+        group = groups.setdefault(row["group"], dict(cases=0, right=0, old_right=0))
+        group["cases"] += 1
+        group["right"] += row["right"]
+        group["old_right"] += row["old_right"]
+    return dict(
+        command="python -m sim_bridge.experiments.verdict_cases --out results/verdict_validation.json",
+        criterion=asdict(VerdictCriterion()), cases=len(rows), right=sum(r["right"] for r in rows),
+        judge_seconds_per_case=round(seconds / len(rows), 3),
+        confusion=dict(stable=_confusion(rows, "label_stable", "stable"), safe=_confusion(rows, "label_safe", "safe")),
+        old_verdict=dict(about="energy_verdict with the 5 s lap median (the sweeps' verdict until this one); it has no "
+                               "safety verdict, so it is scored on stability only",
+                         confusion_stable=_confusion(rows, "label_stable", "old_stable"),
+                         wrong=[r["name"] for r in rows if not r["old_right"]]),
+        groups=groups, held_out=held_out() if with_held_out else None, rows=rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+    import json
+    from pathlib import Path
+
+    parser = argparse.ArgumentParser(prog="python -m sim_bridge.experiments.verdict_cases",
+                                     description="Judge the labelled validation set; write the confusion matrices.")
+    parser.add_argument("--out", type=Path, default=None, help="JSON file (default: print a summary only)")
+    parser.add_argument("--no-held-out", action="store_true", help="skip the held-out seeds (about half the time)")
+    args = parser.parse_args(argv)
+    result = validate(with_held_out=not args.no_held_out)
+    for group, counts in result["groups"].items():
+        print(f"{group:40s} {counts['right']:3d}/{counts['cases']:<3d} right (older verdict {counts['old_right']})")
+    print(f"all: {result['right']}/{result['cases']}; stable {result['confusion']['stable']}; "
+          f"safe {result['confusion']['safe']}")
+    if result["held_out"] is not None:
+        held = result["held_out"]
+        print(f"held-out seeds: {len(held['false_alarms'])}/{held['stable_runs']} false alarms, "
+              f"{len(held['missed'])}/{held['limit_cycle_runs']} limit cycles missed")
+    if args.out is not None:
+        args.out.write_text(json.dumps(result, indent=1) + "\n")
+        print(f"wrote {args.out}")
+    return 0 if result["right"] == result["cases"] else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
