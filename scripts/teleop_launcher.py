@@ -173,7 +173,8 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
                   # --live: the recorder, which holds every topic's bytes already, serves the live view
                   **({"live_port": args.live_port, "live_host": args.live_host} if args.live else {})}),
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
-                 {"controller": args.controller, "control_rate": args.control_rate,
+                 {"controller": replica_controller(args.controller), "control_rate": args.control_rate,
+                  "channel_passivity_control": tdpa(args),
                   "answer_every_state": lockstep,
                   # With the loops pre-empting (fifo), a new command used at the next joint state gave a latency p50
                   # of 1.3 and 1.7 ms in two runs, against 1.8-2.6 ms in five without; under niceness the extra
@@ -187,7 +188,8 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {**channel, **sim_time}),
         NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml",
                  {**channel, "seed": args.seed + 1, **backward_routes, **sim_time}),  # its own random stream
-        NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml", {**sim_time}),
+        NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml",
+                 {"channel_passivity_control": tdpa(args), **sim_time}),
         NodeSpec("sim_bridge", "haptic_device_node", "haptic_device", "haptic_device.yaml",
                  {"scene": args.scene, "operator_source": operator, **operator_timing, **watcher, **sim_time}),
     ]
@@ -206,6 +208,16 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
             if args.scheduling == "fifo":
                 spec.fifo_priority = REALTIME_PRIORITIES.get(spec.name)
     return nodes
+
+
+def replica_controller(controller: str) -> str:
+    """The replica's law for --controller: linear_tdpa is linear_bounded behind the channel's TDPA."""
+    return "linear_bounded" if controller == "linear_tdpa" else controller
+
+
+def tdpa(args: argparse.Namespace) -> bool:
+    """The channel ports' passivity controllers act (fic_core.channel_ports): --tdpa, or --controller linear_tdpa."""
+    return bool(args.tdpa or args.controller == "linear_tdpa")
 
 
 def _configured_routes(node: str) -> list[str]:
@@ -425,7 +437,12 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--blackout-window", type=float, nargs=2, metavar=("START", "END"), default=None,
                         help="total loss of communication, both ways, between these times after the channel starts")
     parser.add_argument("--rate-cap", type=float, default=0.0, help="channel rate cap [Hz], 0 = none (paper: 10 Hz)")
-    parser.add_argument("--controller", default="fic", choices=["fic", "linear"], help="replica controller")
+    parser.add_argument("--controller", default="fic", choices=["fic", "linear", "linear_bounded", "linear_tdpa"],
+                        help="replica controller; linear_tdpa: linear_bounded behind the channel's time-domain "
+                             "passivity controllers (as --tdpa)")
+    parser.add_argument("--tdpa", action="store_true",
+                        help="the channel's time-domain passivity controllers act at both ports around any "
+                             "--controller (the observers always run; docs/CONTROL_LAWS.md, \"The channel's ports\")")
     parser.add_argument("--paper-law", action="store_true",
                         help="the replica's Eq. 7 as the paper writes it: no inertial feedforward and no friction "
                              "compensation (by default both are on, config/replica.yaml)")

@@ -9,11 +9,15 @@ aligned with panda_link0's (the simulated device is set up that way), so F_R is 
 Operator inputs: /operator/joy buttons (rising edges; fic_core.operator_buttons) 0: toggle OFFSET/VELOCITY,
 1: K_H + 0.1, 2: K_H - 0.1; /master/haptic_gain (std_msgs/Float64); or ``scripts/fic param set /master haptic_gain 0.3``.
 K_H outside [0, 1] is clamped to it with a warning; NaN is refused. This node is wiring: every rule is in fic_core.
+
+The channel's master port (fic_core.channel_ports.MasterChannelPort): booked at every control tick before Eq. 3,
+its E_in sent on /master/port_energy (through channel_forward), the replica port's E_in read from
+/master/replica_port_energy; with channel_passivity_control (TDPA) its damper shapes the F_R that Eq. 3 renders.
 """
 from __future__ import annotations
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
+from geometry_msgs.msg import Point, PoseStamped, TwistStamped, Vector3Stamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -22,6 +26,7 @@ from std_msgs.msg import Float64
 
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
+from fic_core.channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES, MasterChannelPort
 from fic_core.errors import FicInputError
 from fic_core.master_station import MASTER_NUMBERS, MasterStation, clamped_haptic_gain
 from fic_teleop_msgs.msg import TeleoperationCommand
@@ -29,7 +34,7 @@ from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
-from fic_teleop_runtime.parameters import Schema, declare, integer, number, text
+from fic_teleop_runtime.parameters import Schema, declare, integer, number, switch, text
 
 # Device and teleoperation streams RELIABLE (the channel alone loses on purpose), read 20 deep and written with
 # the streams' deep writer history; button presses are events: a lost toggle would invert the mode for the rest
@@ -40,7 +45,10 @@ SCHEMA = Schema("master.yaml", (number(name, low, high, description, read_only)
                                 for name, (low, high, description, read_only) in MASTER_NUMBERS.items()),
                 integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
                                       "(x_d' += k_v*x_M*dt)"),
-                text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True))
+                text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True),
+                (switch(name, description, read_only=True) for name, description in CHANNEL_PORT_SWITCHES.items()),
+                (number(name, low, high, description, read_only=True)
+                 for name, (low, high, description) in CHANNEL_PORT_NUMBERS.items()))
 
 
 class MasterNode(Node):
@@ -50,13 +58,19 @@ class MasterNode(Node):
         self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, "mode", "frame_id")})
         self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
         self._frame_id = values["frame_id"]
+        self._channel_port = MasterChannelPort(values["channel_passivity_control"], values["channel_max_damping"],
+                                               values["channel_energy_window"])
+        self._control_period, self._last_control_tick = 1.0 / values["control_rate"], None
         self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_WRITER_QOS)
         self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_WRITER_QOS)
         self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command", STREAM_WRITER_QOS)
+        self._port_energy_publisher = self.create_publisher(Vector3Stamped, "/master/port_energy", STREAM_WRITER_QOS)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self.create_subscription(PoseStamped, "/haptic/pose", self._on_pose, STREAM_QOS)
         self.create_subscription(TwistStamped, "/haptic/twist", self._on_twist, STREAM_QOS)
         self.create_subscription(WrenchStamped, "/master/feedback_wrench", self._on_feedback, STREAM_QOS)
+        self.create_subscription(Vector3Stamped, "/master/replica_port_energy", self._on_replica_port_energy,
+                                 STREAM_QOS)
         self.create_subscription(Joy, "/operator/joy", self._on_joy, JOY_QOS)
         self.create_subscription(Float64, "/master/haptic_gain", self._on_haptic_gain, STREAM_QOS)
         self.add_pre_set_parameters_callback(self._clamp_haptic_gain)
@@ -115,10 +129,18 @@ class MasterNode(Node):
 
     def _on_feedback(self, message: WrenchStamped) -> None:
         try:
-            self._log(self._station.add_feedback(xyz(message.wrench.force), self._now()))
+            now = self._now()
+            self._log(self._station.add_feedback(xyz(message.wrench.force), now))
+            self._channel_port.receive_feedback(xyz(message.wrench.force), now)
         except FicInputError:
             self.get_logger().error("refused /master/feedback_wrench with non-finite values",
                                     throttle_duration_sec=1.0)
+
+    def _on_replica_port_energy(self, message: Vector3Stamped) -> None:
+        try:
+            self._channel_port.receive_energy(message.vector.x)  # x: the replica port's E_in
+        except FicInputError as error:
+            self.get_logger().error(f"refused /master/replica_port_energy: {error}", throttle_duration_sec=1.0)
 
     def _on_joy(self, message: Joy) -> None:
         notices, mode_changed, gain_changed = self._station.press(message.buttons)
@@ -138,7 +160,11 @@ class MasterNode(Node):
 
     # -- outputs --------------------------------------------------------------------------------------------
     def _control_tick(self) -> None:
-        force, notices = self._station.force(self._now())
+        now = self._now()
+        dt = self._control_period if self._last_control_tick is None else max(now - self._last_control_tick, 0.0)
+        self._last_control_tick = now
+        self._channel_port.tick(self._station, now, dt)  # booked (and with TDPA damped) before Eq. 3
+        force, notices = self._station.force(now)
         self._log(notices)
         if force is None:
             return  # no handle yet: nothing to render
@@ -165,6 +191,11 @@ class MasterNode(Node):
             workspace_scale=float(station.integrator.workspace_scale),
             velocity_gain=float(station.integrator.velocity_gain), handle_position=pose.pose.position,
             desired_offset=Point(x=float(desired_offset[0]), y=float(desired_offset[1]), z=float(desired_offset[2]))))
+        observer = self._channel_port.observer  # E_in travels with x_d' (x: E_in, y: E_out, z: W of this port)
+        energy = Vector3Stamped(header=pose.header)
+        energy.vector.x, energy.vector.y, energy.vector.z = observer.input_energy, observer.output_energy, \
+            observer.energy
+        self._port_energy_publisher.publish(energy)
 
     def _publish_diagnostics(self) -> None:
         problems, values = self._station.diagnostics(self._now())
@@ -172,7 +203,13 @@ class MasterNode(Node):
                                   level=DiagnosticStatus.WARN if problems else DiagnosticStatus.OK,
                                   message="; ".join(problems) if problems else "ok",
                                   values=[KeyValue(key=key, value=value) for key, value in values.items()])
-        array = DiagnosticArray(status=[status])
+        port = self._channel_port.diagnostics()
+        port_status = DiagnosticStatus(  # WARN once the delay got energy out here that the replica never put in
+            name="master: channel port", hardware_id="fic_teleop_master",
+            level=DiagnosticStatus.WARN if port["negative_ticks"] > 0 else DiagnosticStatus.OK,
+            message=f"backward link generated {port['generated_j']:.4f} J, {port['generated_rate_w']:.4f} W",
+            values=[KeyValue(key=key, value=f"{value:.9g}") for key, value in port.items()])
+        array = DiagnosticArray(status=[status, port_status])
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_publisher.publish(array)
 

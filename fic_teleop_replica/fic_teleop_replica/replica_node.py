@@ -12,6 +12,10 @@ calls, what the loop returns is published (messages.py) and its notices logged. 
 holds of x_d' and x_d'', the watchdog and its give-back, the slew at the torque-rate limit) is fic_core's; what an
 outside input may ask is input_guard.py's, the driver's conventions driver_interface.py's. Messages with NaN/Inf
 are refused (one line per topic and 2 s) and the last good value is kept.
+
+The channel's replica port (fic_core.channel_ports.ReplicaChannelPort): every delivered x_d' is booked against the
+F_R last sent back (and with channel_passivity_control, TDPA, corrected) before the loop takes it; its E_in goes
+out with F_R on /replica/port_energy, the master port's E_in comes in on /replica/master_port_energy.
 """
 from __future__ import annotations
 
@@ -19,7 +23,8 @@ import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
-from geometry_msgs.msg import AccelStamped, PoseStamped, WrenchStamped
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import AccelStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -27,6 +32,7 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
 
+from fic_core.channel_ports import ReplicaChannelPort
 from fic_core import command_stamp
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AuthorityBounds, CommandAuthority
@@ -61,6 +67,7 @@ class ReplicaNode(Node):
         self._loop = ReplicaLoop({name: values[name] for name in REPLICA_LOOP_PARAMETERS}, robot,
                                  self._driver.limits(robot), authority)  # FicInputError if bad
         self._wrench: WrenchStamped | None = None  # F_R as last received
+        self._channel_port = ReplicaChannelPort(values["channel_passivity_control"], values["channel_energy_window"])
         self._refusals = RefusalLog(self.get_logger())
         self._input_guard = InputGuard(self, values, authority, on_hold=lambda: self._publish_diagnostics())
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -75,6 +82,9 @@ class ReplicaNode(Node):
         self._tcp_pose_pub = publisher(PoseStamped, "/replica/tcp_pose", qos.STREAM_WRITER)
         self._feedback_pub = publisher(WrenchStamped, "/replica/feedback_wrench", qos.STREAM_WRITER)
         self._diagnostics_pub = publisher(DiagnosticArray, "/diagnostics", qos.DIAGNOSTICS)
+        self._port_energy_pub = publisher(Vector3Stamped, "/replica/port_energy", qos.STREAM_WRITER)
+        self.create_subscription(Vector3Stamped, "/replica/master_port_energy", self._on_master_port_energy,
+                                 qos.STREAM)
         self.create_subscription(JointState, "/joint_states", self._on_joint_state_bytes, qos.NEWEST, raw=True,
                                  event_callbacks=self._input_guard.joint_state_events())
         self.create_subscription(WrenchStamped, "/ft_sensor/wrench", self._on_wrench, qos.NEWEST)
@@ -118,16 +128,24 @@ class ReplicaNode(Node):
             self._loop.counts["rejected_teleop_commands"] += 1
             return
         try:
+            now = self._now()
+            offset = self._channel_port.delivery(xyz(message.desired_offset), now)  # the channel's replica port
             verdict, notice = self._loop.teleoperation_command(
-                nanoseconds(message.header.stamp), self._now(), mode=int(message.mode),
+                nanoseconds(message.header.stamp), now, mode=int(message.mode),
                 haptic_gain=message.haptic_gain, workspace_scale=message.workspace_scale,
                 velocity_gain=message.velocity_gain, handle_position=xyz(message.handle_position),
-                desired_offset=xyz(message.desired_offset))
+                desired_offset=offset)
         except FicInputError as exc:
             return self._refusals.refuse("/replica/teleop_command", exc)
         self._input_guard.report(verdict)
         if notice:
             self.get_logger().warning(notice)
+
+    def _on_master_port_energy(self, message: Vector3Stamped) -> None:
+        try:
+            self._channel_port.receive_energy(message.vector.x)  # x: the master port's E_in
+        except FicInputError as exc:
+            self._refusals.refuse("/replica/master_port_energy", exc)
 
     def _on_planner_pose(self, message: PoseStamped) -> None:
         try:
@@ -198,6 +216,12 @@ class ReplicaNode(Node):
             self._tcp_pose_pub.publish(messages.pose(stamp, frame, command.tcp_position, command.tcp_rotation))
             if self._wrench is not None:
                 self._feedback_pub.publish(self._wrench)
+                self._channel_port.sent(xyz(self._wrench.wrench.force))  # E_in travels with F_R
+                observer = self._channel_port.observer
+                energy = Vector3Stamped(header=self._wrench.header)
+                energy.vector.x, energy.vector.y, energy.vector.z = (observer.input_energy, observer.output_energy,
+                                                                     observer.energy)
+                self._port_energy_pub.publish(energy)
         if step.status_due:
             self._fic_state_pub.publish(messages.fic_state(command, self._loop, self.get_clock().now().to_msg(),
                                                            frame))
@@ -230,7 +254,13 @@ class ReplicaNode(Node):
 
     def _publish_diagnostics(self) -> None:
         hold = self._input_guard.streams.reason if self._input_guard.held else None
-        array = DiagnosticArray(status=[messages.diagnostic_status(self._loop, hold, self.statistics()),
+        port = self._channel_port.diagnostics()
+        port_status = DiagnosticStatus(  # WARN once the delay got energy out here that the master never put in
+            name="replica: channel port", hardware_id="fic_teleop_replica",
+            level=DiagnosticStatus.WARN if port["negative_ticks"] > 0 else DiagnosticStatus.OK,
+            message=f"forward link generated {port['generated_j']:.4f} J, {port['generated_rate_w']:.4f} W",
+            values=[KeyValue(key=key, value=f"{value:.9g}") for key, value in port.items()])
+        array = DiagnosticArray(status=[messages.diagnostic_status(self._loop, hold, self.statistics()), port_status,
                                         messages.loop_health_status(self._loop.health)])
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(array)

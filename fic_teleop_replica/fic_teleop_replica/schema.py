@@ -1,8 +1,9 @@
 """The replica node's parameters, one table (fic_teleop_runtime.parameters): the control loop's rows from
 fic_core.replica_parameters (which checks the same ranges in-process), the driver's (driver_interface) and the
-input authority's (input_guard). Their values are config/replica.yaml's."""
+input authority's (input_guard) and the channel port's. Their values are config/replica.yaml's."""
 from __future__ import annotations
 
+from fic_core.channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES
 from fic_core.replica_parameters import CONTROLLER_DESCRIPTION, REPLICA_NUMBERS, REPLICA_SWITCHES
 from fic_teleop_replica.driver_interface import DRIVER_PARAMETERS
 from fic_teleop_replica.input_guard import AUTHORITY_PARAMETERS
@@ -13,4 +14,10 @@ LOOP_PARAMETERS = (
     *(number(name, low, high, description) for name, (description, low, high) in REPLICA_NUMBERS.items()),
     *(switch(name, description) for name, description in REPLICA_SWITCHES.items()),
 )
-SCHEMA = Schema("replica.yaml", LOOP_PARAMETERS, DRIVER_PARAMETERS, AUTHORITY_PARAMETERS)
+#: The channel's replica port (fic_core.channel_ports), fixed at start.
+CHANNEL_PORT_PARAMETERS = (
+    *(switch(name, description, read_only=True) for name, description in CHANNEL_PORT_SWITCHES.items()),
+    *(number(name, low, high, description, read_only=True)
+      for name, (low, high, description) in CHANNEL_PORT_NUMBERS.items()),
+)
+SCHEMA = Schema("replica.yaml", LOOP_PARAMETERS, DRIVER_PARAMETERS, AUTHORITY_PARAMETERS, CHANNEL_PORT_PARAMETERS)

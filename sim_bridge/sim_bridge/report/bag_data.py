@@ -31,6 +31,7 @@ TELEOP_TOPICS = ("/master/teleop_command", "/replica/teleop_command")
 FIC_STATE_TOPIC = "/replica/fic_state"
 LIMIT_STATUS_TOPIC = "/replica/limit_status"
 DELIVERY_TOPIC = "/channel/deliveries"
+DIAGNOSTICS_TOPIC = "/diagnostics"
 # Only the stamps (parsed from the CDR bytes).
 STAMP_ONLY_TOPICS = ("/joint_states",)
 CLOCK_TOPIC = "/clock"
@@ -88,6 +89,8 @@ class BagData:
     # topic -> messages DDS lost before the recorder took them (metadata.yaml custom_data `lost_messages`, written
     # by our recorder); None: the bag does not say (another recorder, or a recorder killed before its footer)
     lost_messages: dict[str, int] | None = None
+    # /diagnostics: each status name's key-values as its last message (by log time) gave them
+    diagnostics: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def has(self, topic: str) -> bool:
         return topic in self.series and len(self.series[topic]) > 0
@@ -105,8 +108,10 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
     deliveries: dict[str, dict[int, float]] = defaultdict(dict)
     controllers: Counter = Counter()
     key_lists: dict[str, list] = defaultdict(list)  # row key -> key frames (a driver's stream or ours, aliases)
+    diagnostics: dict[str, dict[str, str]] = {}
     first_log, last_log = np.inf, -np.inf
-    decoded = set(POSE_TOPICS + WRENCH_TOPICS + TELEOP_TOPICS + (FIC_STATE_TOPIC, LIMIT_STATUS_TOPIC, DELIVERY_TOPIC))
+    decoded = set(POSE_TOPICS + WRENCH_TOPICS + TELEOP_TOPICS + (FIC_STATE_TOPIC, LIMIT_STATUS_TOPIC, DELIVERY_TOPIC,
+                                                                      DIAGNOSTICS_TOPIC))
     try:
         for _, channel, record in read_messages(path, status):
             topic = channel.topic
@@ -154,6 +159,9 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
                                     float(getattr(msg, "ticks", 0))))
             elif topic == DELIVERY_TOPIC:
                 deliveries[msg.topic].setdefault(_stamp_ns(msg.header.stamp), float(msg.held))
+            elif topic == DIAGNOSTICS_TOPIC:
+                for part in msg.status:
+                    diagnostics[part.name] = {value.key: value.value for value in part.values}
     except OSError as error:
         raise BagReadError(f"{path}: {error}") from error
     if not status.complete and not counts and not schemas:
@@ -201,7 +209,7 @@ def load_bag(bag: str | Path, keyframe_interval: float | None = None) -> BagData
                    types=types, series=series, controller=controllers.most_common(1)[0][0] if controllers else "",
                    deliveries=dict(deliveries), first_log=float(first_log) if counts else 0.0,
                    last_log=float(last_log) if counts else 0.0, key_joint_states=key_joint_states,
-                   lost_messages=recorder_lost_messages(path.parent / "metadata.yaml"))
+                   lost_messages=recorder_lost_messages(path.parent / "metadata.yaml"), diagnostics=diagnostics)
 
 
 def recorder_lost_messages(metadata_path: Path) -> dict[str, int] | None:

@@ -30,6 +30,12 @@ limit counts and dropped joint states cover the whole recording.
   message-lost events, from the bag's metadata.yaml); null when the bag does not say (the recorder's
   count_lost_messages is off by default).
 - delay_one_way_ms: median ChannelDelivery.held on /replica/teleop_command and /replica/master_pose, in ms.
+- channel_ports: the channel ports' live time-domain passivity observers (fic_core.channel_ports) as the last
+  /diagnostics status of each ("master: channel port", "replica: channel port") gave them, up to one
+  diagnostics period before the end; channel_forward_generated_j / channel_backward_generated_j: -W of the replica
+  / master observer (what that link let out beyond what the other side put in, as known there);
+  channel_observed_generated_j: E_out,M + E_out,R - E_in,M - E_in,R, the balance the in-process runner sums;
+  channel_port_negative_ticks: ticks either observer booked with W < 0. All null without those statuses.
 - duration_s: sim time covered by /clock (else /joint_states) stamps; controller: most frequent
   FicState.controller.
 """
@@ -275,6 +281,7 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
         m["passivity_violation_ticks"] = int(fic.values["passivity_violation_ticks"][last]) \
             if np.isfinite(margin) else None
     m["channel_energy_generated_j"] = _number(channel_energy_generated(data))
+    m.update(channel_port_metrics(data))
     if data.has(LIMIT_STATUS_TOPIC):
         limits = series[LIMIT_STATUS_TOPIC]
         last = np.argmax(limits.stamp)
@@ -338,6 +345,25 @@ def channel_energy_generated(data: BagData) -> float | None:
     entered = port_energy(*offset("/master/teleop_command"), *force("/master/feedback_wrench"))
     left = port_energy(*offset("/replica/teleop_command"), *force("/replica/feedback_wrench"))
     return left - entered
+
+
+#: The channel ports' /diagnostics statuses (the master and the replica node).
+CHANNEL_PORT_STATUSES = {"master": "master: channel port", "replica": "replica: channel port"}
+
+
+def channel_port_metrics(data: BagData) -> dict:
+    """The live observers' figures (module docstring, channel_ports), or nulls without their statuses."""
+    found = {side: data.diagnostics.get(name) for side, name in CHANNEL_PORT_STATUSES.items()}
+    if not all(found.values()):
+        return {"channel_ports": None, "channel_forward_generated_j": None, "channel_backward_generated_j": None,
+                "channel_observed_generated_j": None, "channel_port_negative_ticks": None}
+    ports = {side: {key: _number(float(value)) for key, value in values.items()} for side, values in found.items()}
+    master, replica = ports["master"], ports["replica"]
+    return {"channel_ports": ports, "channel_forward_generated_j": replica["generated_j"],
+            "channel_backward_generated_j": master["generated_j"],
+            "channel_observed_generated_j": _number(master["output_energy_j"] + replica["output_energy_j"]
+                                                    - master["input_energy_j"] - replica["input_energy_j"]),
+            "channel_port_negative_ticks": int(master["negative_ticks"] + replica["negative_ticks"])}
 
 
 def _meets(value, op: str, target: float) -> bool | None:

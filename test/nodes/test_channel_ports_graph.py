@@ -1,0 +1,49 @@
+"""The channel's ports in the running graph (fic_core.channel_ports in the master and the replica node): one short
+lockstep run of ``--controller linear_tdpa`` at 1 s each way over DDS, and the same seconds in one process.
+
+The graph run must show both ports' observers on /diagnostics (in the bag, so in metrics.json) with TDPA on, run
+the replica's linear_bounded law, and agree with the in-process runner on what the law and the channel produce:
+the tracking error's RMS and the channel's energy balance (E_out - E_in at both ports, with the passivity
+controllers acting). The run lasts until the operator's moves, timed for the delay, have reached the obstacles
+(first contact at 5.1 s in the runner), so the channel carries energy: without TDPA it generates 34 mJ by 8 s,
+with it 0.3 mJ. Tolerances and the measured figures: docs/RESULTS.md, "Passivity in the graph".
+"""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from conftest import run_launcher
+
+pytestmark = pytest.mark.nodes
+DURATION_S, DELAY_S = 8.0, 1.0
+ERROR_RMS_TOLERANCE_M = 0.006       # | RMS |e|_graph - RMS |e|_in-process | (measured 2.4 mm)
+ENERGY_TOLERANCE_J = 0.015          # | balance_graph - balance_in-process | (measured 4.1 mJ; no TDPA: 34 mJ)
+
+
+def test_linear_tdpa_runs_in_the_graph_with_both_ports_watched(tmp_path) -> None:
+    from sim_bridge.experiments.in_process import RunConfig, agreement, run
+
+    out = tmp_path / "run"
+    process = run_launcher(out, "--duration", str(DURATION_S), "--delay", str(DELAY_S), "--time-mode", "lockstep",
+                           "--controller", "linear_tdpa", "--no-video", "--wall-limit", "500")
+    assert process.returncode == 0, process.stdout[-3000:] + process.stderr[-3000:]
+    metrics = json.loads((out / "report" / "metrics.json").read_text())
+    assert metrics["controller"] == "linear_bounded"
+    ports = metrics["channel_ports"]
+    assert ports is not None, "no channel port status on /diagnostics"
+    for side in ("master", "replica"):
+        assert ports[side]["passivity_control"] == 1.0
+        assert ports[side]["input_energy_j"] > 0.0 and ports[side]["output_energy_j"] > 0.0   # energy flowed
+    assert ports["master"]["ticks"] >= 0.5 * (DURATION_S - 1.0) * 250      # master control ticks booked
+    assert metrics["channel_forward_generated_j"] == ports["replica"]["generated_j"]
+    assert metrics["channel_backward_generated_j"] == ports["master"]["generated_j"]
+
+    passive = run(RunConfig(duration=DURATION_S, delay=DELAY_S, controller="linear_tdpa"))
+    plain = run(RunConfig(duration=DURATION_S, delay=DELAY_S, controller="linear_bounded"))
+    compared = agreement(out / "bag", passive)
+    assert abs(compared.graph_error_rms - compared.in_process_error_rms) <= ERROR_RMS_TOLERANCE_M, compared
+    balance, without_tdpa = float(passive.port_energy[-1, 2]), float(plain.port_energy[-1, 2])
+    assert without_tdpa > 2.0 * ENERGY_TOLERANCE_J         # the scene makes the delay generate energy
+    assert abs(metrics["channel_observed_generated_j"] - balance) <= ENERGY_TOLERANCE_J, (metrics, balance)
