@@ -88,3 +88,26 @@ def test_command_line_writes_the_statistics_tables_and_figures(tmp_path):
         assert (tmp_path / name).stat().st_size > 10_000
     with pytest.raises(SystemExit):
         main([str(tmp_path / "missing.json")])
+
+
+def test_claim_reading_thresholds():
+    from sim_bridge.experiments.tables import claim_reading
+    assert claim_reading({"k": 20, "n": 20, "interval_95": wilson_interval(20, 20)}) == "reproduced"
+    assert claim_reading({"k": 19, "n": 20, "interval_95": wilson_interval(19, 20)}) == "reproduced"
+    assert claim_reading({"k": 18, "n": 20, "interval_95": wilson_interval(18, 20)}) == "undecided at n = 20"
+    assert claim_reading({"k": 8, "n": 8, "interval_95": wilson_interval(8, 8)}) == "undecided at n = 8"
+    assert claim_reading({"k": 11, "n": 20, "interval_95": wilson_interval(11, 20)}) == "not reproduced"
+    assert claim_reading({"k": 0, "n": 0, "interval_95": None}) == "no run judged yet"
+
+
+def test_readme_block_reads_the_statistics_and_says_when_a_cell_has_no_runs(tmp_path, capsys):
+    rows = [_row("delay_1__rate_10", "fic", seed, True) for seed in range(1, 9)]
+    rows += [_row("delay_1__rate_10", "linear", seed, seed != 2) for seed in range(1, 9)]
+    path = tmp_path / "claims_statistics.json"
+    path.write_text(json.dumps(claims_statistics(rows, seeds_planned=20)))
+    assert main(["--readme", str(path)]) == 0
+    block = capsys.readouterr().out
+    assert "Judged so far: 16 runs of the claim sweep (8-8 judged seeds a law, cell and hand, of 20 planned)" in block
+    assert ("| 1 s one-way delay and the link at 10 Hz both ways, together (`delay_1__rate_10`) | passive | "
+            "8/8 (0.68-1.00) | 8/8 (0.68-1.00) | linear 7/8 | linear +0.12 (-0.22 to +0.47; p ") in block
+    assert block.count("no run judged yet") == 2 and "undecided at n = 8" in block

@@ -17,6 +17,7 @@ Newcombe's 95 % interval, Boschloo's exact p and Fisher's.
 
     python -m sim_bridge.experiments.claims_report results/claims.json      # -> results/claims_statistics.json,
                                                                              #    claims_tables.md, claims_*.png
+    python -m sim_bridge.experiments.claims_report --readme results/claims_statistics.json   # README's block
 """
 from __future__ import annotations
 
@@ -178,7 +179,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help="the statistics' JSON (default: <source's folder>/<source's stem>_statistics.json)")
     parser.add_argument("--seeds-planned", type=int, default=SEEDS, help=f"seeds a cell is planned to have ({SEEDS})")
+    parser.add_argument("--readme", type=Path, default=None, metavar="STATISTICS_JSON",
+                        help="print README's claims block from a statistics JSON written earlier, and nothing else")
     args = parser.parse_args(argv)
+    if args.readme is not None:
+        from sim_bridge.experiments.tables import readme_claims
+
+        print(readme_claims(json.loads(args.readme.read_text())), end="")
+        return 0
     source = args.source or Path(os.environ.get("FIC_TELEOP_ROOT") or Path.cwd()) / "results" / "claims.json"
     if not source.is_file():
         parser.error(f"no judged sweep at {source} (scripts/experiments.sh claims --judge writes it)")

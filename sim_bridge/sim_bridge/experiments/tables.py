@@ -159,3 +159,73 @@ def claims_markdown(document: dict) -> str:
                          + ("-" if interval is None else f"{interval[0]:+.2f} to {interval[1]:+.2f}") + " | "
                          f"{_p(c['boschloo_p'])} | {_p(c['fisher_p'])} |")
     return "\n".join(lines) + "\n"
+
+
+#: The claim cells README's results read, each with the literature's meaning (docs/EXPERIMENTS.md "Claims"): the
+#: FIC papers' "extreme delays up to 1 s" and "communication bandwidths as low as 10 Hz", the law and the robot at
+#: 1 kHz in every cell.
+README_CLAIM_CELLS = (
+    ("delay_1__rate_full", "1 s one-way delay, link at full rate"),
+    ("delay_1__rate_10", "1 s one-way delay and the link at 10 Hz both ways, together"),
+    ("delay_0.2__rate_10", "the link at 10 Hz both ways, the paper's 0.2 s delay"),
+)
+#: A claim of stability is read as "stable in nearly every run": reproduced when the FIC's stable share has a Wilson
+#: 95 % lower bound of at least this (at 20 seeds: 19 or 20 of 20), not reproduced when the upper bound is below
+#: it, undecided in between (too few runs, or a share near it).
+REPRODUCED_SHARE = 0.75
+
+
+def claim_reading(share: dict, threshold: float = REPRODUCED_SHARE) -> str:
+    """'reproduced', 'not reproduced' or 'undecided at n = N' for a stable share {k, n, interval_95}."""
+    if not share or not share.get("n"):
+        return "no run judged yet"
+    low, high = share["interval_95"]
+    if low >= threshold:
+        return "reproduced"
+    if high < threshold:
+        return "not reproduced"
+    return f"undecided at n = {share['n']}"
+
+
+def readme_claims(statistics: dict, reference: str = "fic") -> str:
+    """README's block on the FIC papers' claims, every figure from results/claims_statistics.json (the README test
+    regenerates it and compares). One row per claim cell and hand; a cell without runs says so."""
+    planned = statistics.get("seeds_planned")
+    cells = {(c["cell"], c.get("hand")): c for c in statistics.get("cells", [])}
+    hands = sorted({c.get("hand") for c in statistics.get("cells", [])}, key=str) or [None]
+    comparisons = {(c["cell"], c.get("hand"), c["baseline"]): c for c in statistics.get("comparisons", [])}
+    judged_n = [s["stable"]["n"] for c in statistics.get("cells", []) for s in c["laws"].values()]
+    lines = [f"Judged so far: {statistics.get('runs_judged', 0)} runs of the claim sweep"
+             + (f" ({min(judged_n)}-{max(judged_n)} judged seeds a law, cell and hand, of {planned} planned)"
+                if judged_n else "") + "; the sweep resumes where it stopped. A claim is read as reproduced when "
+             f"the FIC's stable share has a Wilson 95 % lower bound of at least {REPRODUCED_SHARE:.2f}, not "
+             "reproduced when the upper bound is below it, undecided otherwise.", "",
+             f"| claim, as the literature means it | hand | {reference} stable | {reference} safe | baselines stable "
+             f"| {reference} minus baseline, stable share (Newcombe 95 %; Boschloo p) | reading |",
+             "|---|---|---|---|---|---|---|"]
+
+    def share_text(share: dict | None) -> str:
+        if not share or not share["n"]:
+            return "-"
+        low, high = share["interval_95"]
+        return f"{share['k']}/{share['n']} ({low:.2f}-{high:.2f})"
+
+    for cell_id, meaning in README_CLAIM_CELLS:
+        for hand in hands:
+            cell = cells.get((cell_id, hand))
+            laws = cell["laws"] if cell else {}
+            ours = laws.get(reference, {})
+            baselines = ", ".join(f"{law} {s['stable']['k']}/{s['stable']['n']}" for law, s in laws.items()
+                                  if law != reference and s["stable"]["n"]) or "-"
+            differences = []
+            for law in laws:
+                comparison = comparisons.get((cell_id, hand, law), {}).get("stable")
+                if law == reference or not comparison or comparison["difference"] is None:
+                    continue
+                low, high = comparison["difference_interval_95"]
+                differences.append(f"{law} {comparison['difference']:+.2f} ({low:+.2f} to {high:+.2f}; "
+                                   f"p {_p(comparison['boschloo_p'])})")
+            lines.append(f"| {meaning} (`{cell_id}`) | {hand or '-'} | {share_text(ours.get('stable'))} | "
+                         f"{share_text(ours.get('safe'))} | {baselines} | {'; '.join(differences) or '-'} | "
+                         f"{claim_reading(ours.get('stable'))} |")
+    return "\n".join(lines) + "\n"
