@@ -326,7 +326,9 @@ def channel_energy_generated(data: BagData) -> float | None:
     (/master/feedback_wrench). Replica port: x_d' as the replica receives it (/replica/teleop_command) against the
     force the replica sends back (/replica/feedback_wrench). Each force is held from its latest sample, by log
     time (when it was seen). Generated = what leaves at the replica port minus what entered at the master port:
-    positive when the delay turned less energy in into more energy out. None without those four topics.
+    positive when the delay turned less energy in into more energy out. None without those four topics. These are
+    the signals before the channel ports' passivity controllers (TDPA) act: with them on, what got out is
+    ``channel_observed_generated_j`` (channel_port_metrics).
     """
     series = data.series
     topics = ("/master/teleop_command", "/master/feedback_wrench", "/replica/teleop_command",
