@@ -132,12 +132,14 @@ def claims_markdown(document: dict) -> str:
     planned = document.get("seeds_planned")
     lines = [f"Runs: {document['runs_judged']} judged of {document['runs_total']} in {document.get('source', 'the sweep')}"
              + (f"; {planned} seeds a cell and law planned" if planned else "") + ".", "",
-             "| cell | law | seeds | stable k/n | Wilson 95 % | safe k/n | Wilson 95 % | error RMS median / p95 [mm] "
+             "| cell | law | runs judged | stable k/n | Wilson 95 % | safe k/n | Wilson 95 % | error RMS median / p95 [mm] "
              "| error max median / p95 [mm] | peak force median / p95 [N] |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for cell in document["cells"]:
         for law, s in cell["laws"].items():
             stable, stable_interval = _share(s["stable"])
+            if s["judged"] > s["stable"]["n"]:   # runs too short for the periods the stable verdict must see
+                stable += f" ({s['judged'] - s['stable']['n']} not assessed)"
             safe, safe_interval = _share(s["safe"])
             seeds = f"{s['judged']}" + ("" if s["judged"] == s["runs"] else f" ({s['runs']} run)")
             lines.append(f"| {_cell_label(cell)} | {law} | {seeds} | {stable} | {stable_interval} | {safe} | "
