@@ -21,8 +21,14 @@ any single input can ask, before the law sees it.
 Comparisons happen before any arithmetic on the values, and the clamp comes before the rate check, so finite but
 huge values (1e3 m, 1e308) never overflow into Inf or NaN.
 
+``SetPointAuthority`` puts the planner's x_d'' under the same bounds: inside the workspace box about the pose the
+replica started from (clamped onto it), moving no faster than ``max_offset_speed`` with the same burst (a longer
+step is approached at that speed). The first pose is only clamped: the replica gives its jump from the start pose
+back at resume_speed (fic_core.desired_pose). Before this, an outside client's x_d'' 0.3 m away moved a resting
+arm's hand 0.34 m in 2.5 s without a word.
+
 ``RobotStreamGuard`` watches the robot-side streams (/joint_states in, the torque commands out): each must have
-exactly one publisher (the robot's driver; the replica), and joint-state stamps must not go back and not lie in
+exactly one publisher (the robot's driver; the replica); the set-point streams of the planner at most one, and joint-state stamps must not go back and not lie in
 the receiver's future. A second writer of /joint_states is caught twice: by the middleware's match of it to our
 reader, which comes with its first message or within a message or two of it, and by the graph lookup of each
 stream's publishers every half second (alone, that window let a second writer's states drive the arm 0.12 m on a
@@ -200,6 +206,75 @@ class CommandAuthority:
         return CommandVerdict(True, clamped_offset)
 
 
+class _BoundedPoint:
+    """A point kept inside a box and moved toward each new target no faster than a speed, with a burst allowance
+    (the token bucket of distance of CommandAuthority and SetPointAuthority)."""
+
+    def __init__(self, lower: NDArray[np.float64], upper: NDArray[np.float64], speed: float, burst: float) -> None:
+        self.lower, self.upper, self.speed, self.burst = lower, upper, speed, burst
+        self.last: NDArray[np.float64] | None = None
+        self.last_time: float | None = None
+        self.allowance = 0.0
+
+    def reset(self) -> None:
+        self.last = self.last_time = None
+        self.allowance = 0.0
+
+    def take(self, target: NDArray[np.float64], now: float) -> tuple[NDArray[np.float64], bool, bool]:
+        """The bounded point for ``target`` (finite, (3,)) at ``now``: (point, outside the box, rate-limited)."""
+        clamped = np.clip(target, self.lower, self.upper)   # before any arithmetic: 1e308 stays finite
+        outside = bool(np.any(clamped != target))
+        rate_limited = False
+        if self.last is not None and self.last_time is not None:
+            self.allowance = min(self.allowance + self.speed * max(now - self.last_time, 0.0), self.burst)
+            step_vector = clamped - self.last
+            step = float(np.linalg.norm(step_vector))
+            if step > self.allowance:
+                clamped = self.last + step_vector * (self.allowance / step)
+                step, rate_limited = self.allowance, True
+            self.allowance -= step
+        self.last, self.last_time = clamped, now
+        return clamped, outside, rate_limited
+
+
+@dataclass
+class SetPointAuthority:
+    """The planner's x_d'' inside the workspace box about the start pose, at a bounded speed (module docstring)."""
+
+    bounds: AuthorityBounds = field(default_factory=AuthorityBounds)
+    accepted: int = 0
+    clamped: int = 0
+    rate_limited: int = 0
+    last_reason: str = ""
+
+    def __post_init__(self) -> None:
+        self._point: _BoundedPoint | None = None
+
+    def start(self, start_position: ArrayLike) -> None:
+        """The pose the replica started from: the box is about it."""
+        start = finite_array("start_position", start_position, (3,))
+        self._point = _BoundedPoint(start + np.asarray(self.bounds.offset_lower, dtype=np.float64),
+                                    start + np.asarray(self.bounds.offset_upper, dtype=np.float64),
+                                    self.bounds.max_offset_speed, self.bounds.max_offset_burst)
+
+    def check(self, position: ArrayLike, now: float) -> NDArray[np.float64]:
+        """The bounded x_d'' for the planner's ``position`` at ``now`` (the receiver's clock). FicInputError before
+        ``start`` or for a non-finite position (nothing changes then)."""
+        target = finite_array("planner_position", position, (3,))
+        if self._point is None:
+            raise FicInputError("a planner pose before the first joint state (no start pose to bound it about)")
+        bounded, outside, rate_limited = self._point.take(target, finite_scalar("now", now))
+        self.accepted += 1
+        self.clamped += int(outside)
+        self.rate_limited += int(rate_limited)
+        if outside or rate_limited:
+            reasons = ([f"x_d'' {np.array2string(target, precision=3)} m outside the workspace about the start "
+                        "pose"] if outside else []) + \
+                      ([f"x_d'' jumps beyond {self.bounds.max_offset_speed:g} m/s"] if rate_limited else [])
+            self.last_reason = "; ".join(reasons) + ": clamped"
+        return bounded
+
+
 @dataclass
 class RobotStreamGuard:
     """One owner per robot-side stream, and joint-state stamps that move forward (module docstring)."""
@@ -221,18 +296,18 @@ class RobotStreamGuard:
         self.reason = reason
         return reason
 
-    def publishers(self, topic: str, writers: list[str]) -> str:
-        """The writers now on a robot-side ``topic`` (their node names); a second one latches the hold. Returns the
-        reason the first time, "" otherwise."""
+    def publishers(self, topic: str, writers: list[str], owner: str = "the robot's") -> str:
+        """The writers now on a robot-side or set-point ``topic`` (their node names; ``owner``: whose the one
+        legitimate writer is); a second one latches the hold. Returns the reason the first time, "" otherwise."""
         if len(writers) > 1:
-            return self._hold(f"{len(writers)} publishers on {topic} ({', '.join(writers)}); one is the robot's")
+            return self._hold(f"{len(writers)} publishers on {topic} ({', '.join(writers)}); one is {owner}")
         return ""
 
-    def matched(self, topic: str, writers: int) -> str:
+    def matched(self, topic: str, writers: int, owner: str = "the robot's") -> str:
         """The middleware's count of writers matched to our reader of ``topic``, at each change: a second one
         latches the hold. Returns the reason the first time, "" otherwise."""
         if writers > 1:
-            return self._hold(f"{writers} publishers matched on {topic}; one is the robot's")
+            return self._hold(f"{writers} publishers matched on {topic}; one is {owner}")
         return ""
 
     def joint_state(self, stamp: float, now: float) -> tuple[bool, str]:

@@ -5,7 +5,8 @@
                   the postural optimisation, the torque slew) --> the torque to send
         between:  the held torque, slewed (only if every state is answered, as lockstep needs)
     teleoperation command --> CommandAuthority (fic_core.input_authority) --> x_d' --> DesiredPose
-    planner pose and acceleration (x_d'') --> DesiredPose
+    planner pose (x_d'') --> SetPointAuthority (the same workspace and speed bounds) --> DesiredPose
+    planner acceleration --> DesiredPose
 
 Two clocks, as on the robot: ``time`` is the joint state's stamp (the control grid, the slew, the status rates),
 ``now`` the receiver's clock (the set-point holds, the watchdog); in lockstep both are simulated time. Before the
@@ -32,8 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 from .control_schedule import ControlSchedule, RateGate
 from .desired_pose import DesiredPose, DesiredPoseParameters
 from .desired_velocity import DesiredVelocityFilter
-from .errors import FicInputError
-from .input_authority import CommandAuthority, CommandVerdict
+from .errors import FicInputError, finite_array
+from .input_authority import CommandAuthority, CommandVerdict, SetPointAuthority
 from .limits import PandaLimits
 from .loop_health import HOLDING, LoopHealth, LoopHealthBounds
 from .passivity_observer import PassivityObserver
@@ -77,6 +78,9 @@ class ReplicaLoop:
         self.robot = RobotModel() if robot is None else robot
         #: What a teleoperation command may ask (fic_core.input_authority; None: its documented default bounds).
         self.authority = CommandAuthority() if authority is None else authority
+        #: The same bounds on the planner's x_d'' (workspace about the start pose, speed), from the first state on.
+        self.planner_authority = SetPointAuthority(self.authority.bounds)
+        self._pending_planner_pose: tuple[int, NDArray[np.float64], NDArray[np.float64], float] | None = None
         # The arm's datasheet limits (fic_core.arm_profile: Panda by default, an FR3 behind franka_ros2).
         self.limits = PandaLimits.from_robot(self.robot) if limits is None else limits
         self.parameters = checked(values)
@@ -152,9 +156,15 @@ class ReplicaLoop:
         return verdict, self.add_teleoperation(stamp_ns, verdict.offset, now)
 
     def add_planner_pose(self, stamp_ns: int, position: ArrayLike, quaternion_xyzw: ArrayLike, now: float) -> None:
-        """x_d'' of the planner (orientation as a quaternion x, y, z, w)."""
+        """x_d'' of the planner (orientation as a quaternion x, y, z, w), bounded by the planner authority (the
+        workspace about the start pose, the speed). Before the first joint state the newest pose waits for it."""
         def add() -> None:
-            self.desired.add_planner_pose(stamp_ns, position, rotation_from_quaternion(quaternion_xyzw), now)
+            rotation = rotation_from_quaternion(quaternion_xyzw)
+            target = finite_array("planner_position", position, (3,))
+            if not self.desired.started:
+                self._pending_planner_pose = (stamp_ns, target, rotation, now)
+                return
+            self.desired.add_planner_pose(stamp_ns, self.planner_authority.check(target, now), rotation, now)
         self._counted("planner_poses", add)
 
     def add_planner_acceleration(self, acceleration: ArrayLike, now: float) -> None:
@@ -188,6 +198,12 @@ class ReplicaLoop:
         if not self.desired.started:
             self.robot.update(q, qd)
             self.desired.start(self.robot.tcp_position, self.robot.tcp_rotation)
+            self.planner_authority.start(self.robot.tcp_position)
+            if self._pending_planner_pose is not None:
+                stamp_ns, target, rotation, received = self._pending_planner_pose
+                self.desired.add_planner_pose(stamp_ns, self.planner_authority.check(target, received), rotation,
+                                              received)
+                self._pending_planner_pose = None
             step.notices.append(("info", f"first joint state: holding the TCP at "
                                          f"{np.round(self.desired.start_position, 4)} until the master and the "
                                          "planner speak"))
@@ -299,6 +315,8 @@ class ReplicaLoop:
             "qp_solves": str(optimisation.qp_count),
             "relaxed_solves": str(optimisation.relaxed_count),
             "guard_clips": str(optimisation.guard_clips),
+            "clamped_planner_poses": str(self.planner_authority.clamped),
+            "rate_limited_planner_poses": str(self.planner_authority.rate_limited),
             "loop_health": self.health.state,
             "loop_holds": str(self.health.holds),
         })

@@ -22,6 +22,10 @@ from fic_teleop_runtime.parameters import number
 LOG_THROTTLE_S = 2.0
 # Robot-side streams that must have exactly one writer: the robot's driver, and this node.
 ROBOT_STREAMS = ("/joint_states", "/effort_controller/commands")
+# Set-point streams the law acts on that must have at most one writer: the planner's x_d'' and its acceleration
+# (none when no planner runs). A second one is a safe hold, as on the robot streams: the poses of two writers cannot
+# be told apart, and flipping between them moves x_d'' (an outside client's 0.3 m away moved a resting hand 0.34 m).
+SET_POINT_STREAMS = ("/planner/desired_pose", "/planner/desired_accel")
 TELEOP_TOPIC = "/replica/teleop_command"
 PUBLISHER_CHECK_PERIOD_S = 0.5  # graph lookups are cheap; a new writer is discovered within about a second anyway
 
@@ -57,7 +61,7 @@ class InputGuard:
         self.authority = authority
         self.streams = RobotStreamGuard(future_tolerance=float(values["command_future_tolerance"]))
         # The names after the node's remaps (a driver profile renames /joint_states): count the writers there.
-        self._robot_streams = tuple(node.resolve_topic_name(topic) for topic in ROBOT_STREAMS)
+        self._robot_streams = tuple(node.resolve_topic_name(topic) for topic in ROBOT_STREAMS + SET_POINT_STREAMS)
         self._joint_states_topic = self._robot_streams[0]
         self._teleop_topic = node.resolve_topic_name(TELEOP_TOPIC)
         node.create_timer(PUBLISHER_CHECK_PERIOD_S, self._check_publishers)
@@ -111,10 +115,22 @@ class InputGuard:
         return SubscriptionEventCallbacks(matched=self._on_joint_state_writers)
 
     def _on_joint_state_writers(self, status) -> None:
+        self._on_writers(self._joint_states_topic, status)
+
+    def set_point_events(self, topic: str) -> SubscriptionEventCallbacks:
+        """For a set-point subscription (SET_POINT_STREAMS): a second writer matched holds at once, as on
+        /joint_states."""
+        resolved = self._node.resolve_topic_name(topic)
+        return SubscriptionEventCallbacks(matched=lambda status: self._on_writers(resolved, status))
+
+    def _owner(self, topic: str) -> str:
+        return "the robot's" if topic in self._robot_streams[:len(ROBOT_STREAMS)] else "the planner's"
+
+    def _on_writers(self, topic: str, status) -> None:
         if status.current_count <= 1 or self.streams.held:
             return
         self._check_publishers()  # names the writers if the graph has them already
-        reason = self.streams.matched(self._joint_states_topic, status.current_count)
+        reason = self.streams.matched(topic, status.current_count, self._owner(topic))
         if reason:
             self._hold(reason)
 
@@ -123,15 +139,15 @@ class InputGuard:
             return
         for topic in self._robot_streams:
             writers = [_node_name(info) for info in self._node.get_publishers_info_by_topic(topic)]
-            reason = self.streams.publishers(topic, writers)
+            reason = self.streams.publishers(topic, writers, self._owner(topic))
             if reason:
                 self._hold(reason)
                 return
 
     def _hold(self, reason: str) -> None:
         self._node.get_logger().error(
-            f"SAFE HOLD: {reason}. The replica sends no more torques (no joint state can be trusted to be the "
-            "robot's): the robot's own command watchdog holds the arm, until the replica is restarted "
+            f"SAFE HOLD: {reason}. The replica sends no more torques (no joint state or set-point can be trusted to "
+            "be its owner's): the robot's own command watchdog holds the arm, until the replica is restarted "
             "(fic_core.input_authority)")
         self._on_hold()
 

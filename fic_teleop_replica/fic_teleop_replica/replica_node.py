@@ -90,8 +90,11 @@ class ReplicaNode(Node):
         self.create_subscription(WrenchStamped, "/ft_sensor/wrench", self._on_wrench, qos.NEWEST)
         self.create_subscription(TeleoperationCommand, "/replica/teleop_command", self._on_teleop_command,
                                  qos.SET_POINT)
-        self.create_subscription(PoseStamped, "/planner/desired_pose", self._on_planner_pose, qos.SET_POINT)
-        self.create_subscription(AccelStamped, "/planner/desired_accel", self._on_planner_accel, qos.SET_POINT)
+        # The planner's streams: one writer at most, else the safe hold (input_guard.SET_POINT_STREAMS).
+        self.create_subscription(PoseStamped, "/planner/desired_pose", self._on_planner_pose, qos.SET_POINT,
+                                 event_callbacks=self._input_guard.set_point_events("/planner/desired_pose"))
+        self.create_subscription(AccelStamped, "/planner/desired_accel", self._on_planner_accel, qos.SET_POINT,
+                                 event_callbacks=self._input_guard.set_point_events("/planner/desired_accel"))
         p = self._loop.parameters
         self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
         # The joint-state watchdog runs on the steady clock: with a real driver, silence is wall time.
@@ -148,13 +151,26 @@ class ReplicaNode(Node):
             self._refusals.refuse("/replica/master_port_energy", exc)
 
     def _on_planner_pose(self, message: PoseStamped) -> None:
+        if self._input_guard.held:  # the safe hold: no set-point is taken any more
+            self._loop.counts["rejected_planner_poses"] += 1
+            return
+        bounded = self._loop.planner_authority
+        before = bounded.clamped + bounded.rate_limited
         try:
             self._loop.add_planner_pose(nanoseconds(message.header.stamp), xyz(message.pose.position),
                                         xyzw(message.pose.orientation), self._now())
         except FicInputError as exc:
             self._refusals.refuse("/planner/desired_pose", exc)
+            return
+        if bounded.clamped + bounded.rate_limited != before:  # fic_core.input_authority.SetPointAuthority
+            self.get_logger().warning(f"/planner/desired_pose: {bounded.last_reason} ({bounded.clamped} outside the "
+                                      f"workspace, {bounded.rate_limited} rate-limited so far)",
+                                      throttle_duration_sec=2.0)
 
     def _on_planner_accel(self, message: AccelStamped) -> None:
+        if self._input_guard.held:
+            self._loop.counts["rejected_planner_poses"] += 1
+            return
         try:
             self._loop.add_planner_acceleration(xyz(message.accel.linear), self._now())
         except FicInputError as exc:

@@ -1,0 +1,155 @@
+"""A second writer on the planner's /planner/desired_pose, from an outside client, against the real robot simulation
+and replica: the replica goes into its safe hold and names the writer, and the hand does not move.
+
+The test process plays the planner (x_d'' at the replica's start TCP, 100 Hz) and, from a second node, the outside
+client (x_d'' 0.3 m away). Before the set-point streams were guarded, the same client moved a resting arm's hand
+0.34 m within 2.5 s, without a word (docs/SECURITY.md).
+"""
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from config_values import config_values
+from conftest import CONFIG, REPO
+
+rclpy = pytest.importorskip("rclpy")
+pytestmark = pytest.mark.nodes
+
+POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
+
+
+class Planners:
+    """The legitimate planner (x_d'' where the replica's TCP started) and, once ``intrude`` is called, an outside
+    client publishing x_d'' ``offset`` away; also watches /sim/tcp_pose and the replica's /diagnostics."""
+
+    def __init__(self, context) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100)
+        self._pose = PoseStamped
+        self.planner = rclpy.create_node("test_planner", context=context)
+        self.intruder = rclpy.create_node("outside_client", context=context)
+        self.start: np.ndarray | None = None
+        self.tcp: list[tuple[float, np.ndarray]] = []
+        self.replica_status: list = []
+        self.planner.create_subscription(PoseStamped, "/replica/tcp_pose", self._on_replica_tcp, qos)
+        self.planner.create_subscription(PoseStamped, "/sim/tcp_pose", self._on_tcp, qos)
+        self.planner.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, qos)
+        self._planner_pub = self.planner.create_publisher(PoseStamped, "/planner/desired_pose", qos)
+        self.planner.create_timer(0.01, lambda: self._publish(self.planner, self._planner_pub, np.zeros(3)))
+        self._intruder_pub = None
+        self.offset = np.zeros(3)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.planner)
+        self.executor.add_node(self.intruder)
+        self._running = True
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def intrude(self, offset: np.ndarray) -> None:
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+        self.offset = offset
+        self._intruder_pub = self.intruder.create_publisher(PoseStamped, "/planner/desired_pose", qos)
+        self.intruder.create_timer(0.01, lambda: self._publish(self.intruder, self._intruder_pub, self.offset))
+
+    def _publish(self, node, publisher, offset: np.ndarray) -> None:
+        if self.start is None:
+            return
+        message = self._pose()
+        message.header.stamp = node.get_clock().now().to_msg()
+        message.header.frame_id = "panda_link0"
+        message.pose.position.x, message.pose.position.y, message.pose.position.z = (self.start + offset).tolist()
+        message.pose.orientation.x = 1.0   # the ready pose's, gripper down (the replica holds its own anyway)
+        publisher.publish(message)
+
+    def _spin(self) -> None:
+        from rclpy.executors import ExternalShutdownException
+
+        while self._running:
+            try:
+                self.executor.spin_once(timeout_sec=0.02)
+            except ExternalShutdownException:
+                return
+
+    def stop(self) -> None:
+        self._running = False
+        self._thread.join(timeout=5.0)
+        for node in (self.planner, self.intruder):
+            self.executor.remove_node(node)
+            node.destroy_node()
+
+    def _on_replica_tcp(self, message) -> None:
+        if self.start is None:
+            p = message.pose.position
+            self.start = np.array([p.x, p.y, p.z])
+
+    def _on_tcp(self, message) -> None:
+        p = message.pose.position
+        self.tcp.append((time.monotonic(), np.array([p.x, p.y, p.z])))
+
+    def _on_diagnostics(self, message) -> None:
+        self.replica_status += [status for status in message.status if status.name == "replica"]
+
+    def wait(self, condition, timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if condition():
+                return True
+            time.sleep(0.05)
+        return condition()
+
+    def displacement_since(self, start: float) -> float:
+        samples = list(self.tcp)
+        before = [p for t, p in samples if t <= start]
+        reference = before[-1] if before else samples[0][1]
+        return max(float(np.linalg.norm(p - reference)) for t, p in samples if t >= start)
+
+
+def test_a_second_planner_writer_puts_the_replica_into_its_safe_hold_and_the_hand_stays(start_node, ros_env,
+                                                                                       rclpy_context) -> None:
+    from diagnostic_msgs.msg import DiagnosticStatus
+
+    env = dict(ros_env)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
+                                                      env.get("PYTHONPATH")]))
+    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
+                       params={"mode": "realtime", "scene": "free_space"})
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    planners = Planners(rclpy_context)
+    try:
+        assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
+        assert planners.wait(lambda: planners.start is not None and len(planners.tcp) > 50, 60.0), robot.output()
+        # The legitimate planner alone for a second of the arm's time: x_d'' where it is, the arm stays.
+        wanted = len(planners.tcp) + int(POSE_RATE_HZ)
+        assert planners.wait(lambda: len(planners.tcp) >= wanted, 70.0)
+        assert "SAFE HOLD" not in replica.output(), replica.output()
+        start = time.monotonic()
+        planners.intrude(np.array([0.3, 0.0, 0.0]))
+        wanted = len(planners.tcp) + int(2.5 * POSE_RATE_HZ)   # the 2.5 s in which the hand once moved 0.34 m
+        assert planners.wait(lambda: len(planners.tcp) >= wanted, 90.0)
+        moved = planners.displacement_since(start)
+    finally:
+        planners.stop()
+    log = replica.output()
+    print(f"[probe] the TCP moved {moved * 1000:.1f} mm")
+    assert log.count("SAFE HOLD") == 1, log
+    hold_line = next(line for line in log.splitlines() if "SAFE HOLD" in line)
+    print(f"[probe] {hold_line}")
+    assert "/planner/desired_pose" in hold_line and "one is the planner's" in hold_line, hold_line
+    # Named by the graph (or, when the middleware's match came before discovery had its name, counted at once)
+    assert "/outside_client" in hold_line or "publishers matched on" in hold_line, hold_line
+    held = [status for status in planners.replica_status if status.message.startswith("safe hold")]
+    assert held and held[-1].level == DiagnosticStatus.ERROR, [s.message for s in planners.replica_status[-3:]]
+    assert moved < 0.01, f"the TCP moved {moved:.3f} m\n{log}"
