@@ -159,41 +159,42 @@ def _cell_label(row: dict) -> str:
 
 
 def plot_claim_proportions(document: dict, path: Path) -> Path | None:
-    """Per claim cell and law, the stable and the safe share with their Wilson 95 % intervals (results/claims.json);
-    a law's n is written under its point."""
+    """Per claim cell and law, the stable and the safe share with their Wilson 95 % intervals (results/claims.json),
+    one panel per verdict and hand; a law's n is written under its point."""
     cells = [c for c in document.get("cells", []) if any(s["stable"]["n"] or s["safe"]["n"] for s in c["laws"].values())]
     if not cells:
         return None
     laws = list(dict.fromkeys(law for c in cells for law in c["laws"]))
+    names = list(dict.fromkeys(c["cell"] for c in cells))
+    hands = list(dict.fromkeys(c.get("hand") for c in cells))
+    by_key = {(c["cell"], c.get("hand")): c for c in cells}
     plt = _plt()
-    fig, axes = plt.subplots(2, 1, figsize=(max(6.4, 1.1 * len(cells) + 2.0), 6.4), sharex=True)
+    panels = [(verdict, hand) for verdict in ("stable", "safe") for hand in hands]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(max(6.4, min(18.0, 0.9 * len(names) + 2.0)),
+                                                      1.0 + 2.3 * len(panels)), sharex=True, squeeze=False)
     width = 0.8 / max(1, len(laws))
     colours = plt.get_cmap("tab10")
-    for ax, verdict in zip(axes, ("stable", "safe")):
+    for ax, (verdict, hand) in zip(axes[:, 0], panels):
         for j, law in enumerate(laws):
-            labelled = False
-            for i, cell in enumerate(cells):
-                share = cell["laws"].get(law, {}).get(verdict)
+            for i, name in enumerate(names):
+                share = by_key.get((name, hand), {}).get("laws", {}).get(law, {}).get(verdict)
                 if not share or not share["n"]:
                     continue
                 x = i - 0.4 + width * (j + 0.5)
                 p = share["k"] / share["n"]
                 low, high = share["interval_95"]
-                ax.errorbar(x, p, yerr=[[p - low], [high - p]], fmt="o", color=colours(j), ms=4, capsize=2,
-                            label=None if labelled else law)
-                labelled = True
+                ax.errorbar(x, p, yerr=[[p - low], [high - p]], fmt="o", color=colours(j), ms=4, capsize=2)
                 ax.text(x, -0.08, str(share["n"]), ha="center", va="top", fontsize=6, color=colours(j))
         ax.set_ylim(-0.15, 1.05)
-        ax.set_ylabel(f"{verdict} share (Wilson 95 %)")
+        ax.set_ylabel(f"{verdict}" + (f", {hand} hand" if hand else "") + "\n(Wilson 95 %)", fontsize=8)
         ax.grid(alpha=0.3, axis="y")
-        for i in range(1, len(cells)):
+        for i in range(1, len(names)):
             ax.axvline(i - 0.5, color="grey", lw=0.5)
-    handles, labels = axes[0].get_legend_handles_labels()
-    axes[1].set_xticks(range(len(cells)), [_cell_label(c) for c in cells], fontsize=7, rotation=30, ha="right")
-    axes[0].set_title("Claim cells: share of runs judged stable / safe (n under each point)", fontsize=9)
-    fig.tight_layout()
-    fig.subplots_adjust(right=0.84)
-    fig.legend(handles, labels, fontsize=7, loc="center right")
+    axes[-1, 0].set_xticks(range(len(names)), names, fontsize=7, rotation=30, ha="right")
+    handles = [plt.Line2D([], [], color=colours(j), marker="o", ls="-", ms=4) for j in range(len(laws))]
+    fig.suptitle("Claim cells: share of runs judged stable / safe (n under each point)", fontsize=9)
+    fig.tight_layout(rect=(0, 0, 1, 0.97 - 0.02 * (len(panels) < 3)))
+    fig.legend(handles, laws, fontsize=7, ncol=len(laws), loc="upper right")
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -208,7 +209,7 @@ def plot_claim_differences(document: dict, path: Path) -> Path | None:
     cells = list(dict.fromkeys(_cell_label(c) for c in rows))
     baselines = list(dict.fromkeys(c["baseline"] for c in rows))
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.0, max(3.0, 0.45 * len(cells) * max(1, len(baselines)) / 2 + 1.5)))
+    fig, ax = plt.subplots(figsize=(7.0, min(14.0, max(3.0, 0.1 * len(rows) + 2.0))))
     colours = plt.get_cmap("tab10")
     height = 0.8 / max(1, len(baselines))
     for row in rows:
