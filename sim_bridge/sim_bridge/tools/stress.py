@@ -175,9 +175,10 @@ def _node_processes(root: int, node: str) -> list[int]:
 
 def stressed_run(launcher_args: list[str], out: Path, level_percent: float | None, *, node: str | None = None,
                  hogs: int = 0, hog_cpus: list[int] | None = None, period_us: int = DEFAULT_PERIOD_US,
-                 log: Path | None = None) -> dict:
-    """One launcher run at ``level_percent`` % of one CPU (None: no quota), the whole graph or ``node`` alone;
-    returns the launcher's exit code, the wall time and the kernel's throttling counts."""
+                 log: Path | None = None, env: dict[str, str] | None = None) -> dict:
+    """One launcher run at ``level_percent`` % of one CPU (None: no quota), the whole graph or ``node`` alone, in
+    ``env`` (default: this process's environment); returns the launcher's exit code, the wall time and the
+    kernel's throttling counts."""
     command = [sys.executable, str(LAUNCHER), "--out", str(out), *launcher_args]
     quota = CpuQuota(level_percent, period_us) if level_percent is not None else None
     hog = CpuHogs(hogs, hog_cpus) if hogs else None
@@ -187,7 +188,8 @@ def stressed_run(launcher_args: list[str], out: Path, level_percent: float | Non
         try:
             join = (lambda: quota.join(os.getpid())) if quota is not None and node is None else None
             process = subprocess.Popen(command, stdout=log_file, stderr=subprocess.STDOUT, cwd=REPO,
-                                       env=dict(os.environ, PYTHONUNBUFFERED="1"), preexec_fn=join)
+                                       env=dict(os.environ if env is None else env, PYTHONUNBUFFERED="1"),
+                                       preexec_fn=join)
             watcher = None
             if quota is not None and node is not None:
                 watcher = _NodeWatcher(process.pid, node, quota)
@@ -355,7 +357,8 @@ def main(argv: list[str] | None = None) -> int:
     except StressError as error:
         print(f"[stress] refused: {error}", file=sys.stderr)
         return 2
-    row = {"level_percent": level, "node": args.node, "hogs": args.hogs, **result, **run_figures(out, result["exit_code"])}
+    row = {"level_percent": level, "node": args.node, "hogs": args.hogs, **result,
+           **run_figures(out, result["exit_code"])}
     (out / "stress.json").write_text(json.dumps(row, indent=2) + "\n")
     print(json.dumps(row, indent=2))
     return result["exit_code"]

@@ -1,0 +1,113 @@
+"""Edges of fic_core's inputs and of its small numerical promises, where the seeded random mutation run
+(scripts/random_mutation.py) found operator flips that no other test caught: parameter ranges at their ends, the
+flat via-point list, the attractor's snapshot, the force profile's inverse storage and its secant stiffness
+just past a tiny linear region."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fic_core.attractor import FractalAttractor, convergence_storage
+from fic_core.control_schedule import RateGate
+from fic_core.errors import FicInputError
+from fic_core.input_authority import AuthorityBounds
+from fic_core.master_station import MASTER_NUMBERS, MasterStation
+from fic_core.profile import ForceProfile
+from fic_core.trajectories import ViaPoints
+
+from config_values import config_values
+
+
+def test_a_rate_gate_needs_a_positive_rate_and_period() -> None:
+    for rate, period in ((0.0, 0.002), (100.0, 0.0), (-1.0, 0.002)):
+        with pytest.raises(FicInputError):
+            RateGate(rate, period)
+    gate = RateGate(100.0, 0.002)
+    assert gate.due(0.0)
+
+
+@pytest.mark.parametrize("name", ["workspace_scale", "velocity_gain"])
+def test_every_value_the_master_may_be_set_to_passes_the_replicas_authority(name: str) -> None:
+    """The master node's parameter range (MASTER_NUMBERS, its descriptors) inside the replica's authority bound on
+    the same figure: else a master set within its own range would be refused by the replica. Both ends pass."""
+    low, high = MASTER_NUMBERS[name][:2]
+    bound_low, bound_high = getattr(AuthorityBounds(), name)
+    assert bound_low <= low and high <= bound_high
+    defaults = config_values("master.yaml")
+    for value in (low, high):
+        assert getattr(MasterStation({**defaults, name: value}).integrator, name) == value
+
+
+def test_via_points_as_one_flat_list() -> None:
+    """A ROS double-array parameter: x0, y0, z0, x1, y1, z1 is two via-points."""
+    flat = ViaPoints([0.1, 0.2, 0.3, 0.4, 0.5, 0.6], dwell_s=1.0)
+    nested = ViaPoints([[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]], dwell_s=1.0)
+    for t in (0.0, 0.5, 1.5, 3.0):
+        np.testing.assert_array_equal(flat.point(t), nested.point(t))
+    with pytest.raises(FicInputError):
+        ViaPoints([0.1, 0.2, 0.3, 0.4])
+
+
+def test_the_snapshot_keeps_the_errors_and_forces_of_its_tick() -> None:
+    attractor = FractalAttractor(ForceProfile(200.0, 0.05, 0.5, 30.0), 3, 0.005)
+    forces = attractor.force(np.array([0.01, -0.02, 0.03]), np.zeros(3))
+    snapshot = attractor.snapshot()
+    np.testing.assert_array_equal(snapshot.errors, [0.01, -0.02, 0.03])
+    np.testing.assert_array_equal(snapshot.forces, forces)
+    attractor.force(np.array([0.02, 0.0, 0.0]), np.zeros(3))
+    np.testing.assert_array_equal(snapshot.errors, [0.01, -0.02, 0.03])
+
+
+def test_convergence_storage_without_stiffness_is_the_latched_energy() -> None:
+    """K_C = 0 (nothing latched): V_C stays at the latched storage, whatever the error."""
+    profile = ForceProfile(200.0, 0.05, 0.5, 30.0)
+    assert convergence_storage(profile, 0.0, 0.0, 0.125, 0.03) == 0.125
+    assert convergence_storage(profile, 0.0, 0.0, 0.0, -0.2) == 0.0
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.999, 1.0, 1.7, 4.0, 25.0])
+def test_the_inverse_storage_rounds_towards_the_smaller_storage(fraction: float) -> None:
+    """V_D(energy_inverse(E)) <= E, also in the saturated region where Newton's result is rounded down; and the
+    result is that close to the exact inverse."""
+    profile = ForceProfile(200.0, 0.05, 0.5, 30.0)
+    energy = fraction * float(profile.energy(profile.saturation_error))
+    magnitude = profile.energy_inverse(energy)
+    assert float(profile.energy(magnitude)) <= energy
+    assert float(profile.energy(magnitude * (1.0 + 1e-9))) > energy or magnitude == 0.0
+
+
+@pytest.mark.parametrize("saturation_start", [0.0, 1e-12, 1e-10])
+def test_the_scalar_secant_stiffness_agrees_with_the_array_one_near_zero(saturation_start: float) -> None:
+    """The replica's float path and the array path give F_c(e)/e alike, also just past a tiny linear region
+    (there both use the profile's tangent at xi x_b)."""
+    profile = ForceProfile(200.0, 0.05, saturation_start, 30.0)
+    for magnitude in (0.0, 1e-13, 1e-12, 3e-12, 1e-11, 4e-11, 1e-6, 0.02, 0.2):
+        scalar = profile._scalar_secant_stiffness(magnitude)
+        array = float(profile.secant_stiffness(magnitude))
+        assert math.isclose(scalar, array, rel_tol=1e-9), (magnitude, scalar, array)
+
+
+def test_the_shipped_master_values_lie_inside_their_declared_ranges() -> None:
+    """config/master.yaml against MASTER_NUMBERS (the master node's descriptors refuse a value outside): each
+    shipped value inside its range, each range non-empty."""
+    values = config_values("master.yaml")
+    for name, (low, high, _, _) in MASTER_NUMBERS.items():
+        assert low < high, name
+        if name in values:
+            assert low <= values[name] <= high, (name, values[name], low, high)
+
+
+def test_the_planners_feedforward_is_used_up_to_50_ms_old_inclusive() -> None:
+    """The planner's acceleration is fed forward while at most FEEDFORWARD_TIMEOUT_S old: at exactly that age
+    still, a microsecond later no more."""
+    from fic_core.desired_pose import FEEDFORWARD_TIMEOUT_S, DesiredPose, DesiredPoseParameters
+
+    pose = DesiredPose(DesiredPoseParameters(offset_feedforward=False))
+    pose.start(np.array([0.3, 0.0, 0.5]), np.eye(3))
+    pose.add_planner_pose(0, [0.3, 0.0, 0.5], np.eye(3), 0.0)
+    pose.add_planner_acceleration([1.0, 0.0, 0.0], 0.0)
+    assert FEEDFORWARD_TIMEOUT_S - 0.0 == FEEDFORWARD_TIMEOUT_S
+    np.testing.assert_array_equal(pose.update(FEEDFORWARD_TIMEOUT_S, 0.001).acceleration, [1.0, 0.0, 0.0])
+    assert pose.update(FEEDFORWARD_TIMEOUT_S + 1e-6, 0.001).acceleration is None
