@@ -14,7 +14,8 @@ sustained; one that grows is, and the energy test says it grows).
 
 Why a fitted sinusoid and not an autocorrelation over laps: the task does not repeat, so nothing periodic is left in
 a stable loop's residual to subtract; a sinusoid fit in windows of a few periods is frequency selective (its pass
-band is about 1/cycles_per_window of P wide, so neighbouring grid periods, 4 % apart, overlap) and it reaches periods
+band is about 1/cycles_per_window of P wide, so neighbouring grid periods, 7 % apart, overlap: a period half-way
+between two loses under 3 % of its amplitude) and it reaches periods
 as long as the span allows instead of half of it. An operator's aperiodic move is one bump in a window of three
 periods: the sinusoid explains little of it, and a bump does not come back in every window.
 
@@ -34,17 +35,17 @@ from numpy.typing import NDArray
 @dataclass(frozen=True)
 class ScanSettings:
     min_period: float = 0.2          # [s] faster is contact chatter or sensor noise
-    period_step: float = 1.04        # ratio of neighbouring grid periods
+    period_step: float = 1.07        # ratio of neighbouring grid periods
     cycles_per_window: float = 3.0   # periods in a window
     min_cycles: float = 1.5          # periods a window must hold at least (long periods in short spans)
     amplitude: float = 0.003         # [m] fitted sinusoid amplitude a window must exceed (6 % of x_b)
     explained_share: float = 0.5     # share of the window's detrended variance the sinusoid must explain ...
-    explained_share_few_cycles: float = 0.8   # ... when the span holds fewer than 2 cycles_per_window periods
+    explained_share_few_cycles: float = 0.85  # ... when the span holds fewer than 2 cycles_per_window periods
     sustained_share: float = 0.8     # windows at one period that must oscillate
     decay_ratio: float = 0.7         # last / first window amplitude under this: dying out (energy halved)
     forced_share: float = 0.2        # residual under this share of the command's amplitude at P: forced answer
     free_share: float = 0.8          # a window is judged when this share of it is outside contact
-    samples_per_period: int = 25     # the series is thinned to about this many samples a period (speed only)
+    samples_per_period: int = 12     # the series is block-averaged to about this many samples a period
 
 
 @dataclass
@@ -126,7 +127,11 @@ def scan(time: NDArray, free: NDArray, start: float, settings: ScanSettings,
     for period in periods(settings, longest):
         stride = max(1, int(period / (settings.samples_per_period * step)))
         if stride not in thinned:
-            thinned[stride] = (time[::stride], values[::stride], weights[::stride])
+            # Block means, not every stride-th sample: a faster oscillation averages out instead of aliasing into a
+            # slow one. A block's weight is its free share.
+            blocks = time.size // stride
+            thinned[stride] = tuple(array[:blocks * stride].reshape(blocks, stride, *array.shape[1:]).mean(axis=1)
+                                    for array in (time, values, weights))
         time_s, values_s, weights_s = thinned[stride]
         samples = min(int(round(settings.cycles_per_window * period / (stride * step))) + 1, time_s.size)
         room = time_s.size - samples
