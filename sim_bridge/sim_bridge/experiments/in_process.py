@@ -210,7 +210,8 @@ def run(config: RunConfig) -> RunResult:
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
     # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (fic_core.channel_ports).
     tdpa = config.tdpa or config.controller == "linear_tdpa"
-    replica = ReplicaLoop({**r, "controller": "linear_bounded" if tdpa else config.controller,
+    law = "linear_bounded" if config.controller == "linear_tdpa" else config.controller
+    replica = ReplicaLoop({**r, "controller": law,
                            "control_rate": config.control_rate,
                            "answer_every_state": True, **config.replica_overrides}, authority=authority)
     master = MasterStation({**m, **config.master_overrides})
