@@ -48,7 +48,7 @@ class LoopHealthBounds:
     """Where the replica's loop stops being trusted (docs/SECURITY.md, "The replica's own loop")."""
 
     max_state_age: float = 0.04    # [s] a law on an older state is not applied (below the robot's 50 ms watchdog)
-    max_tick_gap: float = 0.04     # [s] control ticks further apart: the last torque was held too long
+    max_tick_gap: float = 0.05     # [s] ticks further apart: the last torque held as long as the robot's watchdog allows
     resume_ticks: int = 25         # healthy control ticks in a row before the law comes back
     resume_ramp: float = 0.2       # [s] the law blended in from the hold over this long
 
