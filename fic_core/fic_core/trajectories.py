@@ -141,11 +141,12 @@ def _smoothstep(fraction: float) -> float:
 class LapVaryingCircle:
     """The paper's circle with its own period and diameter on every lap, so that no two laps are alike.
 
-    Lap ``i`` lasts ``periods[i]`` and the angle runs uniformly through 2*pi over it, continuing from the lap before
-    (the position is continuous, the angular speed steps at a lap's end; the harmonic planner of Eqs. 5-6 turns the
-    step into a bounded acceleration). The radius blends from ``diameters[i] / 2`` at the lap's start to
-    ``diameters[i + 1] / 2`` at its end with a quintic smoothstep, so it is C2 in time. After the last listed lap
-    the last period and diameter go on. Same frame as ``Circle`` (``u x v = normal``, start at ``phase``).
+    Lap ``i`` lasts ``periods[i]``. Over it the angular speed blends from 2*pi / ``periods[i]`` to the next lap's
+    2*pi / ``periods[i + 1]`` (the last lap's speed goes on) and the radius from ``diameters[i] / 2`` to
+    ``diameters[i + 1] / 2``, both with a quintic smoothstep: the angle is C3 and the radius C2 in time, so the
+    motion has no step in speed that an operator predicting a passing from the seen speed could not foresee, and a
+    lap's angle is the mean of its two speeds times its duration (about 2*pi). After the last listed lap the last
+    speed and diameter go on. Same frame as ``Circle`` (``u x v = normal``, start at ``phase``).
 
     A sweep that must not repeat its task draws the laps from a seed (``randomised``); the scene's obstacles stay on
     the path as long as the diameters stay within their width of the paper's 0.20 m.
@@ -162,6 +163,11 @@ class LapVaryingCircle:
             raise FicInputError(f"diameters must be {self._periods.size + 1} positive lengths (one more than the "
                                 f"laps: each lap blends from its own to the next), got {self._diameters}")
         self._starts = np.concatenate([[0.0], np.cumsum(self._periods)])
+        # Angular speed at each lap's start, one more for the last lap's end (its own: the speed goes on).
+        self._speeds = 2.0 * math.pi / np.concatenate([self._periods, self._periods[-1:]])
+        # The angle at each lap's start: a lap adds its duration times the mean of its end speeds.
+        self._start_angles = np.concatenate([[0.0], np.cumsum(
+            0.5 * self._periods * (self._speeds[:-1] + self._speeds[1:]))])
         self._phase = finite_scalar("phase", phase)
         # The plane's axes as Circle builds them (the same start point and direction for the same normal).
         frame = Circle(self._centre, 1.0, 1.0, normal, 0.0)
@@ -212,9 +218,18 @@ class LapVaryingCircle:
         return index, (t - self._starts[index]) / self._periods[index]
 
     def angle(self, t: float) -> float:
-        """The angle on the circle at ``t`` [rad], from ``phase``."""
-        index, fraction = self._lap(finite_scalar("t", t))
-        return self._phase + 2.0 * math.pi * (index + fraction)
+        """The angle on the circle at ``t`` [rad], from ``phase``: the integral of the blended angular speed."""
+        t = finite_scalar("t", t)
+        index, fraction = self._lap(t)
+        start, end, duration = self._speeds[index], self._speeds[index + 1], self._periods[index]
+        if fraction < 0.0 or fraction > 1.0:   # before the first lap or past the last: the end speed goes on
+            speed = start if fraction < 0.0 else end
+            anchor = 0.0 if fraction < 0.0 else 1.0
+            base = self._start_angles[index] + (0.0 if fraction < 0.0 else 0.5 * duration * (start + end))
+            return self._phase + float(base + speed * duration * (fraction - anchor))
+        u = fraction   # the integral of the quintic smoothstep from 0 to u is u^4 (5/2 - 3 u + u^2)
+        travelled = duration * (start * u + (end - start) * u ** 4 * (2.5 - 3.0 * u + u * u))
+        return self._phase + float(self._start_angles[index] + travelled)
 
     def radius(self, t: float) -> float:
         index, fraction = self._lap(finite_scalar("t", t))

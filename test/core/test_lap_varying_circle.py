@@ -12,17 +12,22 @@ from fic_core.trajectories import Circle, LapVaryingCircle
 CENTRE = np.array([0.45, 0.0, 0.35])
 
 
-def test_each_lap_takes_its_own_period_and_ends_at_the_next_laps_diameter() -> None:
+def test_each_lap_starts_at_its_own_speed_and_diameter_and_blends_to_the_next() -> None:
     source = LapVaryingCircle(CENTRE, [4.0, 6.0], [0.20, 0.17, 0.23], phase=0.3)
-    for t, angle, radius in ((0.0, 0.3, 0.10), (4.0, 0.3 + 2 * math.pi, 0.085), (10.0, 0.3 + 4 * math.pi, 0.115),
-                             (2.0, 0.3 + math.pi, 0.5 * (0.10 + 0.085)), (7.0, 0.3 + 3 * math.pi, 0.5 * (0.085 + 0.115))):
-        point = source.point(t)
-        assert source.angle(t) == pytest.approx(angle)
-        assert np.linalg.norm(point - CENTRE) == pytest.approx(radius)
-        assert math.atan2(point[1], point[0] - CENTRE[0]) == pytest.approx(math.remainder(angle, 2 * math.pi))
-    # past the last lap: its period and its end diameter go on
-    assert source.angle(13.0) == pytest.approx(0.3 + 4 * math.pi + 2 * math.pi * 3.0 / 6.0)
-    assert np.linalg.norm(source.point(13.0) - CENTRE) == pytest.approx(0.115)
+    times = np.arange(-1.0, 14.0, 1e-3)
+    angles = np.array([source.angle(t) for t in times])
+    speeds = np.gradient(angles, times)
+    for t, speed in ((-0.5, 2 * math.pi / 4), (0.0, 2 * math.pi / 4), (4.0, 2 * math.pi / 6), (12.0, 2 * math.pi / 6)):
+        assert speeds[int(round((t + 1.0) / 1e-3))] == pytest.approx(speed, rel=1e-4)
+    # a lap turns by its duration times the mean of its end speeds; the angle and its speed have no step
+    assert source.angle(4.0) - source.angle(0.0) == pytest.approx(4.0 * 0.5 * (2 * math.pi / 4 + 2 * math.pi / 6))
+    assert source.angle(10.0) - source.angle(4.0) == pytest.approx(2 * math.pi)
+    assert np.abs(np.diff(speeds)).max() < 1e-3
+    assert source.angle(0.0) == pytest.approx(0.3)
+    for t, radius in ((0.0, 0.10), (4.0, 0.085), (10.0, 0.115), (2.0, 0.5 * (0.10 + 0.085)), (13.0, 0.115)):
+        assert np.linalg.norm(source.point(t) - CENTRE) == pytest.approx(radius)
+    point = source.point(7.0)
+    assert math.atan2(point[1], point[0] - CENTRE[0]) == pytest.approx(math.remainder(source.angle(7.0), 2 * math.pi))
 
 
 def test_the_path_is_continuous_and_its_speed_bounded_across_lap_ends() -> None:
@@ -32,6 +37,7 @@ def test_the_path_is_continuous_and_its_speed_bounded_across_lap_ends() -> None:
     speeds = np.linalg.norm(np.diff(points, axis=0), axis=1) / 1e-3
     # the fastest lap's tangential speed plus the radial speed of the quintic blend (15/8 * dr / T)
     assert speeds.max() < 2 * math.pi * 0.115 / 4.0 + 15 / 8 * 0.03 / 6.0 * 2 + 1e-3
+    assert np.abs(np.diff(speeds)).max() < 1e-3
     np.testing.assert_allclose(points[:, 2], CENTRE[2])
 
 

@@ -56,15 +56,15 @@ HANDS = ("passive", "reactive")
 #: A task that does not repeat (RunConfig.task_variation; docs/EXPERIMENTS.md "Claims"): per seed, the circle's laps
 #: (LapVaryingCircle.randomised) and the closed-loop operator's moves (closed_loop_operator's VARYING) from these
 #: uniform ranges. The diameters keep both obstacles on the path (their 0.06 m width about the paper's 0.20 m).
-TASK_PERIOD_RANGE_S = (4.0, 6.0)           # each lap's period (the paper's 5 s +-20 %)
+TASK_PERIOD_RANGE_S = (4.5, 5.5)           # each lap's period (the paper's 5 s +-10 %), the speed blended between laps
 TASK_DIAMETER_RANGE_M = (0.17, 0.23)       # each lap's end diameter (the paper's 0.20 m +-15 %)
 #: The start angle: on the arc at least 50 deg from both obstacles (at 90 and 270 deg) that meets the pushable one
 #: first, so that the robot does not start on an obstacle and the fixed one comes at least 230 deg (2.6 s) into the
 #: circle, when an operator at a short delay has seen the robot move (from the other arc, at 0.7-1.8 s, nobody could).
 TASK_PHASE_RANGES_RAD = ((math.radians(140.0), math.radians(220.0)),)
 MOVE_AMPLITUDE_RANGE = (0.85, 1.1)         # each avoid/push move's size, times the script's
-MOVE_DURATION_RANGE = (0.7, 1.3)           # each move's hold and ramp times, times the script's
-MOVE_TIMING_SPREAD_S = 0.15                # each move's timing, +- about the predicted passing
+MOVE_DURATION_RANGE = (1.0, 1.3)           # each move's hold and ramp times, times the script's (never shorter)
+MOVE_TIMING_SPREAD_S = 0.1                 # each move's timing, +- about the predicted passing
 WANDER_AMPLITUDE_RANGE_M = (0.005, 0.02)   # the hand's random excursions
 WANDER_PERIOD_RANGE_S = (1.0, 4.0)
 WANDER_MEAN_GAP_S = 3.0
