@@ -106,6 +106,7 @@ class MasterStation:
         self._last_network_time: float | None = None
         self.wrench_count = 0
         self.saturated_count = 0
+        self.law_evaluations = 0   # wrench commands that evaluated Eq. 3 (not the zero of a stale pose)
 
     # --- parameters ------------------------------------------------------------------------------------------
     def configure(self, changes: Mapping[str, Any]) -> list[Notice]:
@@ -226,6 +227,7 @@ class MasterStation:
             feedback, notices = self.feedback_force(now)
             force = self.law.force(self.handle_position, self.handle_velocity, feedback)
             self.saturated_count += int(self.law.device_force_saturated)
+            self.law_evaluations += 1
         self.wrench_count += 1
         return force, notices
 

@@ -13,6 +13,8 @@ K_H outside [0, 1] is clamped to it with a warning; NaN is refused. This node is
 The channel's master port (fic_core.channel_ports.MasterChannelPort): booked at every control tick before Eq. 3,
 its E_in sent on /master/port_energy (through channel_forward), the replica port's E_in read from
 /master/replica_port_energy; with channel_passivity_control (TDPA) its damper shapes the F_R that Eq. 3 renders.
+The handle FIC's port is booked by the exchanged-energy observer (fic_core.exchanged_energy_ports) at every tick
+that evaluates Eq. 3, on /diagnostics as "master: exchanged energy".
 """
 from __future__ import annotations
 
@@ -28,6 +30,7 @@ from std_msgs.msg import Float64
 # namespace package first (the editable install resolves submodules only).
 from fic_core.channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES, MasterChannelPort
 from fic_core.errors import FicInputError
+from fic_core.exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES, MasterExchangedEnergy
 from fic_core.master_station import MASTER_NUMBERS, MasterStation, clamped_haptic_gain
 from fic_teleop_msgs.msg import TeleoperationCommand
 from fic_teleop_runtime import qos
@@ -48,7 +51,8 @@ SCHEMA = Schema("master.yaml", (number(name, low, high, description, read_only)
                 text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True),
                 (switch(name, description, read_only=True) for name, description in CHANNEL_PORT_SWITCHES.items()),
                 (number(name, low, high, description, read_only=True)
-                 for name, (low, high, description) in CHANNEL_PORT_NUMBERS.items()))
+                 for name, (low, high, description) in CHANNEL_PORT_NUMBERS.items()),
+                (switch(name, description, read_only=True) for name, description in EXCHANGED_ENERGY_SWITCHES.items()))
 
 
 class MasterNode(Node):
@@ -61,6 +65,7 @@ class MasterNode(Node):
         self._channel_port = MasterChannelPort(values["channel_passivity_control"], values["channel_max_damping"],
                                                values["channel_energy_window"])
         self._control_period, self._last_control_tick = 1.0 / values["control_rate"], None
+        self._exchanged = MasterExchangedEnergy(self._control_period) if values["exchanged_energy_observer"] else None
         self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_WRITER_QOS)
         self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_WRITER_QOS)
         self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command", STREAM_WRITER_QOS)
@@ -165,6 +170,8 @@ class MasterNode(Node):
         self._last_control_tick = now
         self._channel_port.tick(self._station, now, dt)  # booked (and with TDPA damped) before Eq. 3
         force, notices = self._station.force(now)
+        if self._exchanged is not None:
+            self._exchanged.observe(self._station)
         self._log(notices)
         if force is None:
             return  # no handle yet: nothing to render
@@ -210,6 +217,13 @@ class MasterNode(Node):
             message=f"backward link generated {port['generated_j']:.4f} J, {port['generated_rate_w']:.4f} W",
             values=[KeyValue(key=key, value=f"{value:.9g}") for key, value in port.items()])
         array = DiagnosticArray(status=[status, port_status])
+        if self._exchanged is not None:
+            observer = self._exchanged.observer
+            array.status.append(DiagnosticStatus(  # WARN: energy out that neither storage nor sampling accounts for
+                name="master: exchanged energy", hardware_id="fic_teleop_master",
+                level=DiagnosticStatus.WARN if observer.violation_ticks else DiagnosticStatus.OK,
+                message=f"shortfall {observer.shortfall_j:.4g} J, damping needed {observer.damping_needed:.3g} N s/m",
+                values=[KeyValue(key=key, value=value) for key, value in observer.diagnostics().items()]))
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_publisher.publish(array)
 

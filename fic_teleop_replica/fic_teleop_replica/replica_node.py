@@ -16,6 +16,8 @@ are refused (one line per topic and 2 s) and the last good value is kept.
 The channel's replica port (fic_core.channel_ports.ReplicaChannelPort): every delivered x_d' is booked against the
 F_R last sent back (and with channel_passivity_control, TDPA, corrected) before the loop takes it; its E_in goes
 out with F_R on /replica/port_energy, the master port's E_in comes in on /replica/master_port_energy.
+The FIC's own port is booked by the exchanged-energy observer (fic_core.exchanged_energy_ports) at every control
+tick, on /diagnostics as "replica: exchanged energy".
 """
 from __future__ import annotations
 
@@ -35,6 +37,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayou
 from fic_core.channel_ports import ReplicaChannelPort
 from fic_core import command_stamp
 from fic_core.errors import FicInputError
+from fic_core.exchanged_energy_ports import ReplicaExchangedEnergy
 from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
@@ -68,6 +71,8 @@ class ReplicaNode(Node):
                                  self._driver.limits(robot), authority)  # FicInputError if bad
         self._wrench: WrenchStamped | None = None  # F_R as last received
         self._channel_port = ReplicaChannelPort(values["channel_passivity_control"], values["channel_energy_window"])
+        self._exchanged = ReplicaExchangedEnergy(1.0 / values["control_rate"]) \
+            if values["exchanged_energy_observer"] else None
         self._refusals = RefusalLog(self.get_logger())
         self._input_guard = InputGuard(self, values, authority, on_hold=lambda: self._publish_diagnostics())
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -223,6 +228,8 @@ class ReplicaNode(Node):
         step = self._loop.joint_state(self._state_stamp_ns * 1e-9, self._now(), q, qd)
         log_notices(self.get_logger(), step.notices)
         self._publish_torque(step.torque, self._state_stamp_ns)
+        if self._exchanged is not None and step.command is not None:
+            self._exchanged.observe(step.command, self._loop.controller.controller)
         if self._loop.health.holds != holds:  # the loop's own hold began: on /diagnostics (and in the bag) at once
             self._publish_diagnostics()
         command, frame = self._loop.last_command, self._driver.base_frame
@@ -278,6 +285,8 @@ class ReplicaNode(Node):
             values=[KeyValue(key=key, value=f"{value:.9g}") for key, value in port.items()])
         array = DiagnosticArray(status=[messages.diagnostic_status(self._loop, hold, self.statistics()), port_status,
                                         messages.loop_health_status(self._loop.health)])
+        if self._exchanged is not None:
+            array.status.append(messages.exchanged_energy_status(self._exchanged.observer))
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(array)
 

@@ -36,6 +36,10 @@ limit counts and dropped joint states cover the whole recording.
   / master observer (what that link let out beyond what the other side put in, as known there);
   channel_observed_generated_j: E_out,M + E_out,R - E_in,M - E_in,R, the balance the in-process runner sums;
   channel_port_negative_ticks: ticks either observer booked with W < 0. All null without those statuses.
+- exchanged_energy: the FIC ports' exchanged-energy observers (fic_core.exchanged_energy_ports), per side
+  ("replica", "master") as their last /diagnostics status gave them: the held effort's work, the margin against the
+  attractor's storage and its minimum, the discrete-time shortfall, the damping that covers it, the violation
+  ticks; null for a side without its status. exchanged_energy_violation_ticks: both sides' violation ticks.
 - duration_s: sim time covered by /clock (else /joint_states) stamps; controller: most frequent
   FicState.controller.
 """
@@ -282,6 +286,7 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
             if np.isfinite(margin) else None
     m["channel_energy_generated_j"] = _number(channel_energy_generated(data))
     m.update(channel_port_metrics(data))
+    m.update(exchanged_energy_metrics(data))
     if data.has(LIMIT_STATUS_TOPIC):
         limits = series[LIMIT_STATUS_TOPIC]
         last = np.argmax(limits.stamp)
@@ -366,6 +371,19 @@ def channel_port_metrics(data: BagData) -> dict:
             "channel_observed_generated_j": _number(master["output_energy_j"] + replica["output_energy_j"]
                                                     - master["input_energy_j"] - replica["input_energy_j"]),
             "channel_port_negative_ticks": int(master["negative_ticks"] + replica["negative_ticks"])}
+
+
+#: The FIC ports' exchanged-energy statuses (the replica and the master node).
+EXCHANGED_ENERGY_STATUSES = {"replica": "replica: exchanged energy", "master": "master: exchanged energy"}
+
+
+def exchanged_energy_metrics(data: BagData) -> dict:
+    """The exchanged-energy observers' last figures per side (module docstring)."""
+    sides = {side: data.diagnostics.get(name) for side, name in EXCHANGED_ENERGY_STATUSES.items()}
+    figures = {side: None if values is None else {key: _number(float(value)) for key, value in values.items()}
+               for side, values in sides.items()}
+    ticks = [int(values["violation_ticks"]) for values in figures.values() if values is not None]
+    return {"exchanged_energy": figures, "exchanged_energy_violation_ticks": sum(ticks) if ticks else None}
 
 
 def _meets(value, op: str, target: float) -> bool | None:
