@@ -4,9 +4,12 @@ STABLE (None when the run is too short to judge the periods below) holds when no
 span, which starts ``settle`` seconds into the run:
 
 1. GROWING ENERGY. The loop's mechanical energy (the replica arm's and the handle's kinetic energy; from a bag, the
-   controller's stored plus kinetic energy) in the last window of W = max(``min_window``, 4 round trips) peaks above
-   ``energy_growth_ratio`` times the first judged window's, above ``energy_floor``, and above every earlier window's.
-   A delayed loop with too little damping gains energy every cycle (Anderson and Spong 1989).
+   controller's stored plus kinetic energy) peaks higher in every window of W = max(``min_window``, 2 round trips)
+   than in the one before, over the judged span, ending above ``energy_growth_ratio`` times the first window's peak
+   and above ``energy_floor``. A delayed loop with too little damping gains energy every cycle (Anderson and Spong
+   1989); the kinetic energy of an oscillation of period P peaks every P/2, so a window of 2 round trips holds a
+   full energy period of the slowest delay-induced oscillation. Rising in EVERY window, not just last against first:
+   an operator's aperiodic moves make the peaks go up and down, a growing oscillation makes them rise.
 2. SUSTAINED OSCILLATION at any period from 0.2 s to the longest the span holds 1.5 times (which must reach
    max(4 round trips, ``min_longest_period``), else the run is not assessed): sim_bridge.experiments.oscillation_scan
    on each motion minus its known command (x_M minus the hand's target; x_d and x_R minus the commanded motion; the
@@ -146,7 +149,7 @@ class VerdictInput:
         force = on_time(run.wrench_time, run.force)
         # The peak speed of each joint since the previous fic_state stamp (a 1 kHz spike is not interpolated away).
         joint_speed = _uniform(run.joint_time, np.abs(run.joint_velocity), time, peak=True) \
-            if run.joint_time.size >= 2 else None
+            if run.joint_time.size >= 2 and run.joint_velocity.ndim == 2 and run.joint_velocity.shape[1] else None
         robot = run.diagnostics.get("robot_sim", {})
         replica = run.diagnostics.get("replica", {})
         reflex = None if "reflex" not in robot else int(bool(robot["reflex"]))
@@ -264,6 +267,8 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
     force = _series("force", data.force, n, 3)
     generated = _series("channel_generated", data.channel_generated, n, None)
     joint_speed = _series("joint_speed", data.joint_speed, n, None)
+    if joint_speed is not None and (joint_speed.ndim != 2 or not 1 <= joint_speed.shape[1] <= 7):
+        raise VerdictInputError(f"joint_speed must have 1 to 7 columns, got shape {joint_speed.shape}")
 
     step = max(criterion.resample_period, float(np.median(np.diff(raw_time))))
     time = np.arange(raw_time[0], raw_time[-1] + 0.5 * step, step)
@@ -300,7 +305,7 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
     judged_from = float(time[0]) + criterion.settle
     judged = time >= judged_from
     figures.update(contact_share=float(contact[judged].mean()), excluded_share=float(excluded[judged].mean()),
-                   judged_from_s=judged_from)
+                   judged_from_s=criterion.settle)
 
     # 4. Runaway (whole run for energy and joint speed; outside contact after settling for the error).
     if energy is not None and finite:

@@ -1,14 +1,57 @@
-"""python -m sim_bridge.report <bag> [--out DIR]: metrics.json, plots and a summary table of a recorded session."""
+"""python -m sim_bridge.report <bag> [--out DIR]: metrics.json, plots and a summary table of a recorded session, and
+the run's two verdicts, stable and safe, with their reasons (sim_bridge.experiments.run_verdict; verdict.json)."""
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
+
+import yaml
 
 from .bag_data import BagReadError
 from .loop_rates import joint_states_period
 from .metrics import ReportSettings
 from .report import make_report, replica_config_defaults, summary_table
+
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+def one_way_delay(run_dir: Path | None) -> float:
+    """The channel's one-way delay [s] as the run started it: the mean of its two directions' ``delay`` in the run
+    folder's params (a launcher's run), else config/channel.yaml's."""
+    def delay(path: Path) -> float | None:
+        if not path.is_file():
+            return None
+        sections = yaml.safe_load(path.read_text()) or {}
+        for section in sections.values():
+            value = (section or {}).get("ros__parameters", {}).get("delay")
+            if value is not None:
+                return float(value)
+        return None
+
+    if run_dir is not None:
+        found = [d for d in (delay(run_dir / "params" / f"channel_{side}.yaml") for side in ("forward", "backward"))
+                 if d is not None]
+        if found:
+            return sum(found) / len(found)
+    return delay(REPO / "config" / "channel.yaml") or 0.0
+
+
+def print_verdict(bag: Path, out: Path, delay: float) -> None:
+    """The two verdicts of the session, printed and written to ``out``/verdict.json; a bag the verdict cannot judge
+    gets one line saying why."""
+    from sim_bridge.experiments.run_verdict import VerdictInput, VerdictInputError, judge
+
+    try:
+        verdict = judge(VerdictInput.from_bag(bag, one_way_delay=delay))
+    except (VerdictInputError, ValueError) as error:
+        print(f"[report] verdict: cannot judge this bag: {error}", file=sys.stderr)
+        return
+    print(f"[verdict] one-way delay {delay:g} s: {verdict.summary()}")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "verdict.json").write_text(json.dumps(verdict.as_dict(), indent=1, default=float) + "\n")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,9 +70,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scene", default="superimposition", help="scene drawn in the key frames (default %(default)s)")
     parser.add_argument("--key-frame-interval", type=float, default=5.0,
                         help="seconds of sim time between key frames (default %(default)s)")
+    parser.add_argument("--delay", type=float, default=None,
+                        help="one-way delay [s] the verdict judges against (default: the run folder's channel "
+                             "params, else config/channel.yaml)")
     args = parser.parse_args(argv)
     if args.warmup < 0:
         parser.error("--warmup must be >= 0")
+    if args.delay is not None and not args.delay >= 0.0:
+        parser.error("--delay must be >= 0")
     out = args.out or args.bag.with_name(args.bag.name.removesuffix(".mcap") + "_report")
     # A launcher's run folder holds the bag and the run's params (the joint states' rate, if not every step).
     run_dir = args.bag.parent if (args.bag.parent / "params").is_dir() else None
@@ -47,6 +95,7 @@ def main(argv: list[str] | None = None) -> int:
         print("[report] note: the bag has no footer (recorder killed?); read up to its last complete chunk",
               file=sys.stderr)
     print(summary_table(metrics))
+    print_verdict(args.bag, out, args.delay if args.delay is not None else one_way_delay(run_dir))
     print(f"[report] {out / 'metrics.json'}; plots: {', '.join(p.name for p in plots) or 'none'}")
     return 0
 
