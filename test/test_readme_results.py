@@ -1,0 +1,132 @@
+"""README's "Results" figures against the results/*.json they come from: a table of checks, one row a figure (or a
+group of figures in one sentence). Each row finds its sentence in README (whitespace-normalised, exactly once) and
+compares every captured figure with the JSON, formatted as README writes it. A new result in README gets a row here."""
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+from typing import Callable
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@cache
+def result(name: str) -> dict:
+    return json.loads((REPO / "results" / name).read_text())
+
+
+@cache
+def readme_results() -> str:
+    text = (REPO / "README.md").read_text()
+    section = text[text.index("## Results"):]
+    section = section[:section.index("\n## ", 1)]
+    return " ".join(section.split())
+
+
+def cell(file: str, cell_id: str, controller: str) -> dict:
+    return next(c["statistics"] for c in result(file)["cells"] if c["cell"] == cell_id and c["controller"] == controller)
+
+
+def stable_count(file: str, cell_id: str, controller: str) -> str:
+    return str(cell(file, cell_id, controller)["stable"])
+
+
+def one_count(file: str, cell_id: str, controllers: tuple[str, ...], *more_cells: str) -> str:
+    """The stable count README gives for several laws (or cells) at once: it must be the same for all of them."""
+    counts = {cell(file, c_id, c)["stable"] for c_id in (cell_id, *more_cells) for c in controllers}
+    return str(counts.pop()) if len(counts) == 1 else f"differs: {sorted(counts)}"
+
+
+def mm(metres: float) -> str:
+    return f"{metres * 1e3:.1f}"
+
+
+@dataclass(frozen=True)
+class Figure:
+    name: str
+    pattern: str                                  # regex on README's Results section, named groups = figures
+    expected: Callable[[], dict[str, str]]        # the same names, from results/*.json, as README writes them
+
+
+BOUNDED = ("fic", "fic_paper_law", "linear_bounded", "linear_tdpa")
+
+FIGURES = [
+    Figure("bench: free-motion error of the ten default runs",
+           r"free-motion tracking error max (?P<max_low>[\d.]+)-(?P<max_high>[\d.]+) mm .{0,40}RMS "
+           r"(?P<rms_low>[\d.]+)-(?P<rms_high>[\d.]+) mm",
+           lambda: dict(zip(("max_low", "max_high"), (f"{v:.1f}" for v in result("bench.json")["default_summary"][
+               "min_median_max"]["free_motion_error_max_mm"][::2])), **dict(zip(("rms_low", "rms_high"), (
+                   f"{v:.1f}" for v in result("bench.json")["default_summary"]["min_median_max"][
+                       "free_motion_error_rms_mm"][::2]))))),
+    Figure("E1 lockstep: free-motion error and limit violations",
+           r"The lockstep E1 run with the passive attractor: (?P<max>[\d.]+) mm and (?P<rms>[\d.]+) mm, "
+           r"(?P<violations>\d+) limit-violation ticks",
+           lambda: dict(max=mm(result("e1.json")["metrics"]["free_motion_error_max_m"]),
+                        rms=mm(result("e1.json")["metrics"]["free_motion_error_rms_m"]),
+                        violations=str(result("e1.json")["limits"]["violation_ticks"]))),
+    Figure("10 Hz: the whole torque loop",
+           r"the whole torque loop (?P<linear>\d)/5 for the unbounded linear law and (?P<low>\d)-(?P<high>\d)/5 for "
+           r"every bounded law, the FIC (?P<fic>\d)/5",
+           lambda: dict(linear=stable_count("evidence.json", "torque_loop_10", "linear"),
+                        low=str(min(cell("evidence.json", "torque_loop_10", c)["stable"] for c in BOUNDED)),
+                        high=str(max(cell("evidence.json", "torque_loop_10", c)["stable"] for c in BOUNDED)),
+                        fic=stable_count("evidence.json", "torque_loop_10", "fic"))),
+    Figure("10 Hz: only the law (gravity at the physics rate)",
+           r"only the law at 10 Hz, the unbounded and bounded linear laws (?P<linear>\d)/5 and "
+           r"(?P<bounded>\d)/5, the FIC, the paper's law and `linear_tdpa` (?P<fic>\d)/5",
+           lambda: dict(linear=stable_count("evidence.json", "feedback_rate_10", "linear"),
+                        bounded=stable_count("evidence.json", "feedback_rate_10", "linear_bounded"),
+                        fic=one_count("evidence.json", "feedback_rate_10", ("fic", "fic_paper_law", "linear_tdpa")))),
+    Figure("5 Hz: the FIC in both rate sweeps",
+           r"at 5 Hz the FIC (?P<fic>\d)/5 in both",
+           lambda: dict(fic=one_count("evidence.json", "feedback_rate_5", ("fic",), "torque_loop_5"))),
+    Figure("closed-loop operator at 1 s: the FIC against the linear law",
+           r"\(FIC (?P<fic_low>[\d.]+)-(?P<fic_high>[\d.]+) against linear (?P<lin_low>[\d.]+)-(?P<lin_high>[\d.]+) "
+           r"at 1 s\)",
+           lambda: dict(zip(("fic_low", "fic_high", "lin_low", "lin_high"), (f"{v:.2f}" for v in (
+               *cell("evidence_closed_loop_5seeds.json", "delay_1", "fic")["stable_interval_95"],
+               *cell("evidence_closed_loop_5seeds.json", "delay_1", "linear")["stable_interval_95"]))))),
+    Figure("E2 lockstep: pieces and trials",
+           r"(?P<inside>\d+) of (?P<pieces>\d+) pieces sorted, (?P<complete>\d+) of (?P<trials>\d+) trials complete",
+           lambda: dict(inside=str(result("e2.json")["pieces_inside_total"]),
+                        pieces=str(result("e2.json")["pieces_per_trial"] * len(result("e2.json")["trials"])),
+                        complete=str(result("e2.json")["successful_trials"]),
+                        trials=str(len(result("e2.json")["trials"])))),
+    Figure("E2 in-process: pieces and trials",
+           r"(?P<inside>\d+) of (?P<pieces>\d+) pieces, (?P<complete>\d+) of (?P<trials>\d+) trials complete",
+           lambda: dict(inside=str(result("e2_in_process.json")["pieces_inside"]),
+                        pieces=str(3 * len(result("e2_in_process.json")["trials"])),
+                        complete=str(result("e2_in_process.json")["complete"]),
+                        trials=str(len(result("e2_in_process.json")["trials"])))),
+    Figure("E2: peak interaction force",
+           r"Interaction forces up to (?P<force>\d+) N",
+           lambda: dict(force=f"{max(result('e2.json')['peak_force_n_max'], *(t['peak_force_n'] for t in result('e2_in_process.json')['trials'])):.0f}")),
+    Figure("E3: energy, limits, force and error after the loss",
+           r"\((?P<before>[\d.]+) J peak before, (?P<after>[\d.]+) J after\), (?P<violations>\d+) limit violations, "
+           r"peak force (?P<force>[\d.]+) N, error at most (?P<error>[\d.]+) mm",
+           lambda: dict(before=f"{result('e3.json')['blackout']['energy_max_before_j']:.3f}",
+                        after=f"{result('e3.json')['blackout']['energy_max_after_j']:.3f}",
+                        violations=str(result("e3.json")["blackout"]["violation_ticks_after"]),
+                        force=f"{result('e3.json')['blackout']['peak_force_after_n']:.1f}",
+                        error=mm(result("e3.json")["blackout"]["error_max_after_m"]))),
+]
+
+
+@pytest.mark.parametrize("figure", FIGURES, ids=[figure.name for figure in FIGURES])
+def test_readme_figure_matches_its_json(figure: Figure):
+    found = list(re.finditer(figure.pattern, readme_results()))
+    assert len(found) == 1, f"README's Results section should say this once: {figure.pattern}"
+    assert found[0].groupdict() == figure.expected()
+
+
+def test_the_checks_fail_on_a_wrong_figure():
+    """The machinery itself: a README figure one digit off does not match its JSON."""
+    figure = FIGURES[1]
+    written = re.search(figure.pattern, readme_results()).groupdict()
+    wrong = {**written, "max": f"{float(written['max']) + 0.1:.1f}"}
+    assert wrong != figure.expected()
