@@ -1,0 +1,46 @@
+"""A graph run's channel ports against the in-process runner's (docs/RESULTS.md, "Passivity in the graph").
+
+The graph's figures are its report's (metrics.json: the live observers' last /diagnostics, the bag's tracking
+error); the runner's are those of ``RunConfig`` with the same scene, seed, delay and law, and of the same law
+without TDPA, which says how much energy the scene makes the delay generate in the first place.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from sim_bridge.experiments.in_process import RunConfig, agreement, run
+
+
+@dataclass
+class PortComparison:
+    graph_error_rms_m: float
+    in_process_error_rms_m: float
+    graph_balance_j: float | None           # E_out,M + E_out,R - E_in,M - E_in,R, the live observers'
+    in_process_balance_j: float             # the same sum in one process (ChannelPorts.generated_energy)
+    in_process_without_tdpa_j: float        # the same law, the passivity controllers off
+    graph_report_generated_j: float | None  # channel_energy_generated_j (the signals before TDPA acts)
+    graph_forward_generated_j: float | None
+    graph_backward_generated_j: float | None
+    graph_negative_ticks: int | None
+    in_process_master_energy_j: float       # W at the master and the replica side at the end
+    in_process_replica_energy_j: float
+
+
+def compare(run_dir: Path, config: RunConfig) -> PortComparison:
+    """The graph run in ``run_dir`` (the launcher's --out, with its report) against ``config`` run in process."""
+    metrics = json.loads((Path(run_dir) / "report" / "metrics.json").read_text())
+    with_ports = run(config)
+    tdpa_on = config.tdpa or config.controller == "linear_tdpa"
+    without = run(dataclasses.replace(config, tdpa=False, controller="linear_bounded"
+                                      if config.controller == "linear_tdpa" else config.controller)) \
+        if tdpa_on else with_ports
+    compared = agreement(Path(run_dir) / "bag", with_ports)
+    return PortComparison(compared.graph_error_rms, compared.in_process_error_rms,
+                          metrics.get("channel_observed_generated_j"), float(with_ports.port_energy[-1, 2]),
+                          float(without.port_energy[-1, 2]), metrics.get("channel_energy_generated_j"),
+                          metrics.get("channel_forward_generated_j"), metrics.get("channel_backward_generated_j"),
+                          metrics.get("channel_port_negative_ticks"), float(with_ports.port_energy[-1, 0]),
+                          float(with_ports.port_energy[-1, 1]))
