@@ -1,6 +1,6 @@
 """The linear_tdpa baseline and the FIC feedback-rate cells on the in-process runner (sim_bridge.experiments).
 
-linear_tdpa is linear_bounded behind the channel's time-domain passivity controllers (channel_ports.py): at 1 s
+linear_tdpa is linear_bounded behind the channel's time-domain passivity controllers (fic_core/channel_ports.py): at 1 s
 each way the channel must generate far less energy with them than without, the observers' deficits must be
 smaller, and the offset drift they cost is reported. dynamics_at_physics_rate at 1 kHz must be the plain run (the
 arm's C qd + G swapped for the replica's own at the same state is the same torque).

@@ -31,7 +31,7 @@ while counting the operator's fast moves as oscillation. This one judges what an
 3. ERROR (when given): |x_d - x_R| stays within ``error_bound`` (4 x_b) over the judged span; a bounded runaway
    neither grows nor repeats.
 4. PORTS (when given). The channel's generated energy (what left it at both ports minus what entered, the
-   time-domain passivity observers' sum, sim_bridge.experiments.channel_ports) is taken as its peak per judged
+   time-domain passivity observers' sum, fic_core.channel_ports) is taken as its peak per judged
    window: a delay that feeds a loop more energy every cycle shows peaks that grow, so a last window's peak
    above ``growth_ratio`` times the first window's (or the ``energy_floor``, whichever is larger) is unstable. A
    steady generation (a delayed loop driven by its operator, the surplus damped away) grows by the windows'
