@@ -111,6 +111,8 @@ def test_readme_block_reads_the_statistics_and_says_when_a_cell_has_no_runs(tmp_
     assert ("| 1 s one-way delay and the link at 10 Hz both ways, together (`delay_1__rate_10`) | passive | "
             "8/8 (0.68-1.00) | 8/8 (0.68-1.00) | linear 7/8 | linear +0.12 (-0.22 to +0.47; p ") in block
     assert block.count("no run judged yet") == 2 and "undecided at n = 8" in block
+    assert block.endswith("Of these 3 claim rows: 0 reproduced, 0 not reproduced, 1 undecided at the seeds judged so "
+                          "far, 2 without a judged run yet.\n")
 
 
 def test_tables_say_how_many_runs_were_too_short_to_judge():

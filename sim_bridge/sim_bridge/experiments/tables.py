@@ -212,6 +212,7 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
         low, high = share["interval_95"]
         return f"{share['k']}/{share['n']} ({low:.2f}-{high:.2f})"
 
+    readings: list[str] = []
     for cell_id, meaning in README_CLAIM_CELLS:
         for hand in hands:
             cell = cells.get((cell_id, hand))
@@ -227,7 +228,14 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
                 low, high = comparison["difference_interval_95"]
                 differences.append(f"{law} {comparison['difference']:+.2f} ({low:+.2f} to {high:+.2f}; "
                                    f"p {_p(comparison['boschloo_p'])})")
+            reading = claim_reading(ours.get("stable"))
+            readings.append(reading)
             lines.append(f"| {meaning} (`{cell_id}`) | {hand or '-'} | {share_text(ours.get('stable'))} | "
                          f"{share_text(ours.get('safe'))} | {baselines} | {'; '.join(differences) or '-'} | "
-                         f"{claim_reading(ours.get('stable'))} |")
+                         f"{reading} |")
+    tally = {name: sum(1 for r in readings if r.startswith(name)) for name in ("reproduced", "not reproduced",
+                                                                                 "undecided", "no run")}
+    lines += ["", f"Of these {len(readings)} claim rows: {tally['reproduced']} reproduced, {tally['not reproduced']} "
+              f"not reproduced, {tally['undecided']} undecided at the seeds judged so far, {tally['no run']} without a "
+              "judged run yet."]
     return "\n".join(lines) + "\n"
