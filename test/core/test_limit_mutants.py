@@ -100,3 +100,18 @@ def test_a_change_of_exactly_one_rate_step_is_not_a_torque_rate_flag(robot: Robo
         assert result.flags == expected
         if expected == LimitFlag.NONE:
             np.testing.assert_array_equal(result.torque, desired)
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_the_rotation_angle_rate_reads_each_axis_of_the_rate(axis: int) -> None:
+    """d theta/dt = (r/theta) . (w_d - w) takes each component: an error growing about one axis stays in D
+    (the rate is +0.5 rad/s, past the dead-band), the same error shrinking enters C."""
+    from fic_core.rotational_attractor import RotationalAttractor
+
+    attractor = RotationalAttractor(ForceProfile(20.0, 0.5, 0.5, 10.0), rate_deadband=0.01)
+    unit = np.eye(3)[axis]
+    for angle in (0.05, 0.1, 0.15, 0.2):
+        attractor.moment(angle * unit, 0.5 * unit)
+        assert not attractor.phase.any(), angle   # D (the phase is the angle's, given on each axis)
+    attractor.moment(0.19 * unit, -0.5 * unit)
+    assert attractor.phase.all()

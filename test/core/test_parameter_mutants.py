@@ -111,3 +111,40 @@ def test_the_planners_feedforward_is_used_up_to_50_ms_old_inclusive() -> None:
     assert FEEDFORWARD_TIMEOUT_S - 0.0 == FEEDFORWARD_TIMEOUT_S
     np.testing.assert_array_equal(pose.update(FEEDFORWARD_TIMEOUT_S, 0.001).acceleration, [1.0, 0.0, 0.0])
     assert pose.update(FEEDFORWARD_TIMEOUT_S + 1e-6, 0.001).acceleration is None
+
+
+def test_a_slow_stream_below_one_hertz_is_gated_at_its_own_rate() -> None:
+    """A status stream at 0.5 Hz: due at once, again 2 s later (less half a command period), not before."""
+    gate = RateGate(0.5, 0.002)
+    assert gate.take(10.0)
+    assert not gate.take(11.0) and not gate.take(11.9985)
+    assert gate.take(11.999)
+
+
+def test_zero_periods_and_timeouts_are_refused(limits) -> None:
+    """A period or timeout of zero would divide by zero or expire every sample at once: each is refused."""
+    from fic_core.desired_pose import DesiredPoseParameters
+    from fic_core.postural_optimisation import PosturalOptimisation
+
+    with pytest.raises(FicInputError, match="master_timeout"):
+        DesiredPoseParameters(master_timeout=0.0)
+    with pytest.raises(FicInputError, match="resume_speed"):
+        DesiredPoseParameters(resume_speed=0.0)
+    with pytest.raises(FicInputError, match="control_period"):
+        PosturalOptimisation(limits, 0.0)
+    with pytest.raises(FicInputError, match="velocity_horizon"):
+        PosturalOptimisation(limits, 0.001, velocity_horizon=0.0)
+    assert PosturalOptimisation(limits, 0.001).control_period == 0.001
+
+
+@pytest.mark.parametrize("bad", [[], [[1.0] * 7], [[1.0]] * 7])
+def test_a_first_command_that_is_not_one_list_of_torques_is_refused(bad) -> None:
+    """The relay's very first command has no earlier one to be compared with: an empty or nested list is
+    refused on its own, and nothing counts as forwarded."""
+    from fic_core.command_watchdog import CommandWatchdog
+    from fic_core.torque_semantics import TorqueSemantics
+
+    watchdog = CommandWatchdog(0.05, 0.5, TorqueSemantics(True))
+    with pytest.raises(FicInputError, match="non-empty list of joint torques"):
+        watchdog.replica_command(bad, 0.0)
+    assert watchdog.last_command is None and watchdog.forwarded == 0
