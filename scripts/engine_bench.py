@@ -65,8 +65,8 @@ def main(argv: list[str] | None = None) -> int:
                             total_runs_per_hour=3600.0 * sum(r["runs"] for r in rounds if r["engine"] == engine)
                             / sum(r["wall_s"] for r in rounds if r["engine"] == engine))
                for engine in args.engines}
-    document = dict(command="nice -n 5 .venv/bin/python scripts/engine_bench.py " + " ".join(sys.argv[1:] if argv is None
-                                                                                             else argv),
+    arguments = sys.argv[1:] if argv is None else argv
+    document = dict(command="nice -n 5 .venv/bin/python scripts/engine_bench.py " + " ".join(arguments),
                     date_utc=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"), machine=platform.node(),
                     cores=local_cores(), niceness=os.nice(0), duration_s=args.duration, runs_per_round=args.runs,
                     summary=summary, rounds=rounds)

@@ -118,4 +118,5 @@ def test_readme_block_reads_the_statistics_and_says_when_a_cell_has_no_runs(tmp_
 def test_tables_say_how_many_runs_were_too_short_to_judge():
     from sim_bridge.experiments.tables import claims_markdown
     rows = [_row("c", "fic", 1, None), _row("c", "fic", 2, True)]
-    assert "| c passive | fic | 2 | 1/1 (1 not assessed) | 0.21-1.00 | 2/2 |" in claims_markdown(claims_statistics(rows))
+    table = claims_markdown(claims_statistics(rows))
+    assert "| c passive | fic | 2 | 1/1 (1 not assessed) | 0.21-1.00 | 2/2 |" in table

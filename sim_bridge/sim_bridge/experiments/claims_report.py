@@ -131,7 +131,8 @@ def claims_statistics(runs: Sequence[dict], seeds_planned: int | None = None,
                 comparison[verdict] = {"difference": result.difference,
                                        "difference_interval_95": result.difference_interval_95,
                                        "boschloo_p": result.boschloo_p, "fisher_p": result.fisher_p,
-                                       "reference_k_n": [ours["k"], ours["n"]], "baseline_k_n": [theirs["k"], theirs["n"]]}
+                                       "reference_k_n": [ours["k"], ours["n"]],
+                                       "baseline_k_n": [theirs["k"], theirs["n"]]}
             comparisons.append(comparison)
     return {"seeds_planned": seeds_planned, "runs_total": len(runs), "runs_judged": sum(1 for r in runs if judged(r)),
             "runs_judged_stable": sum(1 for r in runs if judged(r) and verdict_of(r, "stable") is not None),

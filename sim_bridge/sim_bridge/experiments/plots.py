@@ -161,7 +161,8 @@ def _cell_label(row: dict) -> str:
 def plot_claim_proportions(document: dict, path: Path) -> Path | None:
     """Per claim cell and law, the stable and the safe share with their Wilson 95 % intervals (results/claims.json),
     one panel per verdict and hand; a law's n is written under its point."""
-    cells = [c for c in document.get("cells", []) if any(s["stable"]["n"] or s["safe"]["n"] for s in c["laws"].values())]
+    cells = [c for c in document.get("cells", [])
+             if any(s["stable"]["n"] or s["safe"]["n"] for s in c["laws"].values())]
     if not cells:
         return None
     laws = list(dict.fromkeys(law for c in cells for law in c["laws"]))

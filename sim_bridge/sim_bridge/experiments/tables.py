@@ -130,9 +130,11 @@ def claims_markdown(document: dict) -> str:
     """The claim sweep's tables (results/claims_tables.md; docs/EXPERIMENTS.md "Claims" pastes them): per cell and
     law both verdicts' k/n with Wilson intervals and the error and force figures; the FIC against each baseline."""
     planned = document.get("seeds_planned")
-    lines = [f"Runs: {document['runs_judged']} judged of {document['runs_total']} in {document.get('source', 'the sweep')}"
+    source = document.get("source", "the sweep")
+    lines = [f"Runs: {document['runs_judged']} judged of {document['runs_total']} in {source}"
              + (f"; {planned} seeds a cell and law planned" if planned else "") + ".", "",
-             "| cell | law | runs judged | stable k/n | Wilson 95 % | safe k/n | Wilson 95 % | error RMS median / p95 [mm] "
+             "| cell | law | runs judged | stable k/n | Wilson 95 % | safe k/n | Wilson 95 % "
+             "| error RMS median / p95 [mm] "
              "| error max median / p95 [mm] | peak force median / p95 [N] |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for cell in document["cells"]:
@@ -156,7 +158,8 @@ def claims_markdown(document: dict) -> str:
             c = comparison[verdict]
             interval = c["difference_interval_95"]
             lines.append(f"| {_cell_label(comparison)} | {comparison['baseline']} | {verdict} | "
-                         f"{c['reference_k_n'][0]}/{c['reference_k_n'][1]} | {c['baseline_k_n'][0]}/{c['baseline_k_n'][1]} | "
+                         f"{c['reference_k_n'][0]}/{c['reference_k_n'][1]} | "
+                         f"{c['baseline_k_n'][0]}/{c['baseline_k_n'][1]} | "
                          + ("-" if c["difference"] is None else f"{c['difference']:+.2f}") + " | "
                          + ("-" if interval is None else f"{interval[0]:+.2f} to {interval[1]:+.2f}") + " | "
                          f"{_p(c['boschloo_p'])} | {_p(c['fisher_p'])} |")
