@@ -16,8 +16,8 @@ are refused (one line per topic and 2 s) and the last good value is kept.
 The channel's replica port (fic_core.channel_ports.ReplicaChannelPort): every delivered x_d' is booked against the
 F_R last sent back (and with channel_passivity_control, TDPA, corrected) before the loop takes it; its E_in goes
 out with F_R on /replica/port_energy, the master port's E_in comes in on /replica/master_port_energy.
-The FIC's own port is booked by the exchanged-energy observer (fic_core.exchanged_energy_ports) at every control
-tick, on /diagnostics as "replica: exchanged energy".
+With exchanged_energy_observer (the launcher's lockstep runs), the FIC's own port is booked by the exchanged-energy
+observer (fic_core.exchanged_energy_ports) at every control tick, on /diagnostics as "replica: exchanged energy".
 """
 from __future__ import annotations
 
@@ -226,6 +226,7 @@ class ReplicaNode(Node):
         holds = self._loop.health.holds
         self._state_stamp_ns = nanoseconds(stamp)
         step = self._loop.joint_state(self._state_stamp_ns * 1e-9, self._now(), q, qd)
+        step = self._loop.ready(step, self._state_stamp_ns * 1e-9, self._now())  # not grown old inside the tick
         log_notices(self.get_logger(), step.notices)
         self._publish_torque(step.torque, self._state_stamp_ns)
         if self._exchanged is not None and step.command is not None:
