@@ -31,7 +31,7 @@ def test_every_labelled_case_is_judged_right(labelled):
              for case, verdict in labelled if verdict.stable is not case.stable or verdict.safe is not case.safe]
     assert not wrong
     groups = {case.group for case, _ in labelled}
-    assert len(labelled) >= 100 and len(groups) == 9
+    assert len(labelled) >= 100 and len(groups) == 10
 
 
 def test_the_cases_the_older_verdict_got_wrong_are_in_the_set(labelled):
@@ -130,3 +130,25 @@ def test_from_run_result_removes_the_command_as_the_replica_receives_it():
     assert verdict.stable is False and verdict.safe is True
     assert verdict.figures["reflex_trips"] is None and any("reflex trips: not recorded" in n for n in verdict.notes)
     assert math.isclose(verdict.figures["channel_generated_total_j"], judge(data).figures["channel_generated_total_j"])
+
+
+def test_a_bounce_is_one_collision_two_strikes_are_not_safe():
+    data = bilateral(0.2, 1, duration=20.0)
+    touching = np.zeros(data.time.size, dtype=bool)
+    for start, end in ((6.0, 6.2), (6.5, 6.6)):          # one strike and its bounce, 0.3 s apart
+        touching[(data.time >= start) & (data.time < end)] = True
+    once = judge(replace(data, contact=touching))
+    assert once.safe is True and once.figures["collisions"] == 1
+    touching[(data.time >= 12.0) & (data.time < 12.3)] = True
+    twice = judge(replace(data, contact=touching))
+    assert twice.safe is False and "2 collisions" in twice.safe_reasons[0]
+
+
+def test_the_runners_holds_and_fastest_joint_are_judged():
+    data = bilateral(0.2, 1, duration=12.0)
+    assert judge(replace(data, safe_holds=1)).safe_reasons == ["1 input safe holds"]
+    assert judge(replace(data, stale_holds=2)).safe_reasons == ["2 stale-command holds of the robot"]
+    fast = judge(replace(data, joint_speed_peak=2.7))
+    assert fast.stable is False and "over every joint's datasheet limit" in fast.stable_reasons[0]
+    between = judge(replace(data, joint_speed_peak=2.3))
+    assert between.stable is True and any("joints 1-4" in note for note in between.notes)

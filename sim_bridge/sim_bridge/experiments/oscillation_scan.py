@@ -19,10 +19,13 @@ between two loses under 3 % of its amplitude) and it reaches periods
 as long as the span allows instead of half of it. An operator's aperiodic move is one bump in a window of three
 periods: the sinusoid explains little of it, and a bump does not come back in every window.
 
-A window in which the command itself moves at P with an amplitude at least 1/``forced_share`` times the residual's
-is the loop's forced answer to that command (a replica lagging a planner that circles at P), not an oscillation of
-its own: such a window does not count as oscillating. The blind spot, stated: a limit cycle at a period the command
-holds over the whole span, smaller than ``forced_share`` of the command, is taken for the forced answer.
+A window in which the command itself repeats at P along the same axis (a sinusoid of period P explains as much of
+the command as a residual's must) with an amplitude at least 1/``forced_share`` times the residual's is the loop's
+forced answer to that command (a replica lagging a planner that circles at P, a
+hand giving way to the force that lag sends back), not an oscillation of its own: such a window does not count as
+oscillating. The blind spot, stated: a limit cycle along an axis and at a period where the command moves over the
+whole span, smaller than ``forced_share`` of the command there (50 mm against the paper's 0.20 m circle at its lap
+period), is taken for the forced answer; an aperiodic command masks nothing.
 """
 from __future__ import annotations
 
@@ -43,7 +46,7 @@ class ScanSettings:
     explained_share_few_cycles: float = 0.85  # ... when the span holds fewer than 2 cycles_per_window periods
     sustained_share: float = 0.8     # windows at one period that must oscillate
     decay_ratio: float = 0.7         # last / first window amplitude under this: dying out (energy halved)
-    forced_share: float = 0.2        # residual under this share of the command's amplitude at P: forced answer
+    forced_share: float = 0.5        # residual under this share of the command's amplitude at P: forced answer
     free_share: float = 0.8          # a window is judged when this share of it is outside contact
     samples_per_period: int = 12     # the series is block-averaged to about this many samples a period
 
@@ -155,7 +158,15 @@ def scan(time: NDArray, free: NDArray, start: float, settings: ScanSettings,
             amplitudes, shares = a[rows, axis], e[rows, axis]
             oscillating = (amplitudes > settings.amplitude) & (shares > needed)
             if known is not None:
-                oscillating &= amplitudes >= settings.forced_share * amplitude[:, known].max(axis=1)
+                # Per axis: the command's largest amplitude at P on the residual's own axis (the command's columns
+                # are one or more (n, k) blocks side by side, e.g. the hand's target and the planner for x_M).
+                # A block counts when the command itself repeats at P there (its sinusoid explains as much of it as a
+                # residual's must): an aperiodic command makes no periodic answer.
+                blocks_amplitude = amplitude[:, known].reshape(len(rows), -1, a.shape[1])[rows, :, axis]
+                blocks_share = explained[:, known].reshape(len(rows), -1, a.shape[1])[rows, :, axis]
+                forced = np.any((blocks_share > needed) & (amplitudes[:, None] < settings.forced_share
+                                                            * blocks_amplitude), axis=1)
+                oscillating &= ~forced
             window_share = float(oscillating.mean())
             ratio = float(amplitudes[-1] / amplitudes[0]) if amplitudes[0] > 0.0 else 0.0
             sustained = bool(window_share >= settings.sustained_share and oscillating[-1]

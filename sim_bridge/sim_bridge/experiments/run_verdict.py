@@ -27,7 +27,7 @@ span, which starts ``settle`` seconds into the run:
 SAFE holds when the run shows no limit violation (a tick whose command or state broke a Panda limit), no velocity
 reflex trip, no safe hold (the replica's input safe hold, the robot's stale-command hold) and no repeated collision:
 the obstacle the task steers around (the scene's contact flag) touched in ``collisions_allowed`` + 1 or more separate
-episodes. A count that was not recorded is reported as such, not judged.
+episodes (``collision_gap`` apart: a bounce is one). A count that was not recorded is reported as such, not judged.
 
 CONTACT is told apart from instability with the scene's contact data: a sample is in contact when the F/T force is
 at least ``contact_force`` or was within the last ``contact_hold`` seconds (the free-motion definition of
@@ -73,7 +73,8 @@ class VerdictCriterion:
     contact_force: float = 1.0           # [N] F/T force of contact
     contact_hold: float = 0.2            # [s] free motion only this long after the force fell below it
     contact_margin: float = 0.5          # [s] + one round trip left out around contact (both sides)
-    collisions_allowed: int = 1          # separate episodes of contact with the obstacle the task avoids
+    collisions_allowed: int = 1          # separate episodes of contact with the obstacle the task avoids ...
+    collision_gap: float = 1.0           # [s] ... apart by at least this much (a bounce is one collision)
     resample_period: float = 0.01        # [s] the uniform grid the series are judged on
     joint_speed_limit: tuple[float, ...] = arm_profile("panda").joint_velocity   # [rad/s] the datasheet's
     scan: ScanSettings = field(default_factory=ScanSettings)
@@ -93,6 +94,7 @@ class VerdictInput:
     x_d: NDArray | None = None                      # the replica's set point (n, 3) [m]
     x_M: NDArray | None = None                      # the handle position (n, 3) [m]
     command: NDArray | None = None                  # the commanded TCP motion: planner + operator target one delay later
+    planner: NDArray | None = None                  # the planner's part of it (n, 3) [m]: x_M answers it too
     operator_target: NDArray | None = None          # the hand's target for x_M (n, 3) [m]
     tracking_error: NDArray | None = None           # x_d - x_R (n, 3) [m]; from x_d and x_R when not given
     arm_kinetic_energy: NDArray | None = None       # 1/2 qd^T M(q) qd (n,) [J]
@@ -102,6 +104,7 @@ class VerdictInput:
     force: NDArray | None = None                    # F/T force at the TCP (n, 3) [N]
     channel_generated: NDArray | None = None        # cumulative energy the channel generated (n,) [J]
     joint_speed: NDArray | None = None              # peak |qd| per joint since the previous sample (n, 7) [rad/s]
+    joint_speed_peak: float | None = None           # the fastest joint's peak over the run [rad/s], joint not known
     limit_violations: int | None = None             # ticks that broke a Panda limit over the run
     reflex_trips: int | None = None                 # velocity reflex trips
     safe_holds: int | None = None                   # the replica's input safe hold latched
@@ -121,12 +124,20 @@ class VerdictInput:
                                      for axis in range(3)])
             command = result.planner + later
         ports = result.port_energy
+        # The runner keeps the fastest joint, the robot's stale-command watchdog and the replica's holds over every
+        # physics step (absent from older series: not recorded). It has no velocity reflex.
+        def count(name: str) -> int | None:
+            return int(getattr(result, name)) if hasattr(result, name) else None
+
         return cls(time=time, one_way_delay=float(one_way_delay), x_R=result.tcp, x_d=result.desired,
-                   x_M=result.master, command=command, operator_target=result.operator_target,
+                   x_M=result.master, command=command, planner=result.planner,
+                   operator_target=result.operator_target,
                    arm_kinetic_energy=result.arm_kinetic_energy, handle_kinetic_energy=result.handle_kinetic_energy,
                    contact=result.obstacle_contact, force=result.force,
                    channel_generated=None if ports is None or len(ports) == 0 else ports[:, 2],
-                   limit_violations=int(result.limit_violations), x_b=x_b, source="in-process run")
+                   joint_speed_peak=float(result.joint_speed_max) if getattr(result, "joint_speed_max", 0.0) else None,
+                   limit_violations=int(result.limit_violations), safe_holds=count("replica_holds"),
+                   stale_holds=count("robot_watchdog_engagements"), x_b=x_b, source="in-process run")
 
     @classmethod
     def from_bag(cls, path: str | Path, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
@@ -254,6 +265,7 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
     n = raw_time.size
     x_R, x_d = _series("x_R", data.x_R, n, 3), _series("x_d", data.x_d, n, 3)
     x_M, command = _series("x_M", data.x_M, n, 3), _series("command", data.command, n, 3)
+    planner = _series("planner", data.planner, n, 3)
     target = _series("operator_target", data.operator_target, n, 3)
     error = _series("tracking_error", data.tracking_error, n, 3)
     if error is None and x_d is not None and x_R is not None:
@@ -274,7 +286,7 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
     time = np.arange(raw_time[0], raw_time[-1] + 0.5 * step, step)
     time = time[time <= raw_time[-1] + 1e-9]
     on_grid = {name: _uniform(raw_time, values, time) for name, values in dict(
-        x_R=x_R, x_d=x_d, x_M=x_M, command=command, target=target, error=error, energy=energy,
+        x_R=x_R, x_d=x_d, x_M=x_M, command=command, planner=planner, target=target, error=error, energy=energy,
         force=force, generated=generated).items()}
     speed = _uniform(raw_time, joint_speed, time, peak=True)
     flag = _uniform(raw_time, None if contact_flag is None else contact_flag.astype(float), time, peak=True)
@@ -320,6 +332,17 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         if ratio[worst] > 1.0:
             stable_reasons.append(f"runaway: joint {worst[1] + 1} at {speed[worst]:.2f} rad/s, over the datasheet's "
                                   f"{criterion.joint_speed_limit[worst[1]]:.3f} rad/s at {time[worst[0]]:.1f} s")
+    elif data.joint_speed_peak is not None:
+        # One peak for all joints: over the fastest joints' limit it is over every joint's; between the two
+        # limits the joint decides, which the series does not say.
+        fastest, slowest = max(criterion.joint_speed_limit), min(criterion.joint_speed_limit)
+        figures["joint_speed_peak"] = data.joint_speed_peak
+        if data.joint_speed_peak > fastest:
+            stable_reasons.append(f"runaway: a joint at {data.joint_speed_peak:.2f} rad/s, over every joint's datasheet "
+                                  f"limit ({fastest:.3f} rad/s)")
+        elif data.joint_speed_peak > slowest:
+            notes.append(f"a joint reached {data.joint_speed_peak:.2f} rad/s: over the limit of joints 1-4 "
+                         f"({slowest:.3f} rad/s) if it was one of them (the series does not say which)")
     else:
         notes.append("no joint speeds: the datasheet speed test is skipped")
     magnitude = np.linalg.norm(on_grid["error"], axis=1) if on_grid["error"] is not None else None
@@ -368,7 +391,10 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         signals: dict[str, tuple[NDArray, NDArray | None]] = {}
         if on_grid["x_M"] is not None:
             reference = on_grid["target"] if on_grid["target"] is not None else np.zeros_like(on_grid["x_M"])
-            signals["x_M - operator target"] = (on_grid["x_M"] - reference, on_grid["target"])
+            # The hand gives way to the force the replica's lag behind its command sends back: x_M answers the
+            # planner as well as its own target.
+            known = [k for k in (on_grid["target"], on_grid["planner"]) if k is not None]
+            signals["x_M - operator target"] = (on_grid["x_M"] - reference, np.hstack(known) if known else None)
         for name in ("x_d", "x_R"):
             if on_grid[name] is not None and on_grid["command"] is not None:
                 signals[f"{name} - command"] = (on_grid[name] - on_grid["command"], on_grid["command"])
@@ -414,7 +440,12 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         elif count > 0:
             safe_reasons.append(f"{count} {what}")
     if touching is not None:
-        episodes = [(first, last) for first, last in _episodes(touching)]
+        episodes: list[tuple[int, int]] = []
+        for first, last in _episodes(touching):
+            if episodes and (first - episodes[-1][1]) * step < criterion.collision_gap:
+                episodes[-1] = (episodes[-1][0], last)      # a bounce or chatter within one strike
+            else:
+                episodes.append((first, last))
         figures["collisions"] = len(episodes)
         if len(episodes) > criterion.collisions_allowed:
             safe_reasons.append(f"{len(episodes)} collisions with the obstacle the task steers around (at "

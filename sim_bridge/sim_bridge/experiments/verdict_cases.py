@@ -15,7 +15,9 @@
     targets moved at random times, by random amounts, over random durations, and by a planner moving the replica's
     set point the same way (the task does not repeat). A limit cycle of 5, 10, 20 or 30 mm amplitude at 0.5, 1, 2.5,
     5, 10 or 16 s is added to its motion (x_M, and x_d, x_R a quarter and half a period later) and its kinetic energy:
-    unstable. The reference runs themselves, at 0, 0.2, 1 and 2 s each way: stable.
+    unstable. The reference runs themselves, at 0, 0.2, 1 and 2 s each way: stable. The same loop on a task that
+    repeats like the paper's (a planner circling 0.10 m at a lap of 4.5-5.5 s, one avoid move a lap): stable, and
+    with 5, 10, 10, 20 mm limit cycles at 1, 2.5, 5 (the lap), 10 s: unstable.
 (c) Runs that fooled the older verdict: parked 150 mm off the target in free motion (unstable: parked); a crash into
     the obstacle the task steers around every 5 s (stable, NOT SAFE: repeated collisions, the motion between them
     is the stable loop's); holding a push into a wall with 210 mm between set point and TCP (stable and safe: contact,
@@ -116,15 +118,36 @@ def loop_gain_peak(frequencies: NDArray | None = None) -> float:
     return float(np.abs(handle * replica).max())
 
 
+def _circling(rng: np.random.Generator, time: NDArray) -> tuple[NDArray, NDArray]:
+    """(planner, hand target) of a task like the paper's: the planner circles (0.10 m radius, each lap's period drawn
+    in 4.5-5.5 s), the operator makes one 30 mm avoid move a lap (1.2-1.8 s, at a drawn phase), plus small random
+    moves. Periodic at the lap, so the loop's answer to it is too."""
+    periods = rng.uniform(4.5, 5.5, int(time[-1] / 4.5) + 2)
+    starts = np.concatenate([[0.0], np.cumsum(periods)])
+    lap = np.searchsorted(starts, time, side="right") - 1
+    phase = 2.0 * np.pi * (lap + (time - starts[lap]) / periods[lap])
+    planner = 0.10 * np.sin(phase)
+    target = _moves(rng, time, (2.0, 6.0), 0.01, (0.5, 1.5))
+    for k in range(len(periods)):
+        when, length = starts[k] + rng.uniform(1.0, 2.0), rng.uniform(1.2, 1.8)
+        inside = (time >= when) & (time < when + length)
+        target[inside] += 0.03 * 0.5 * (1.0 - np.cos(2.0 * np.pi * (time[inside] - when) / length))
+    return planner, target
+
+
 def bilateral(delay: float, seed: int, duration: float = DURATION,
-              wall: tuple[float, float, float] | None = None) -> VerdictInput:
+              wall: tuple[float, float, float] | None = None, circling: bool = False) -> VerdictInput:
     """(b)'s reference loop (module docstring). ``wall`` (from, to, position): between those times the operator
-    pushes the replica towards a wall at that x, which the replica cannot pass (the F/T force is the wall's)."""
+    pushes the replica towards a wall at that x, which the replica cannot pass (the F/T force is the wall's).
+    ``circling``: the task of ``_circling`` instead of the aperiodic one."""
     rng = np.random.default_rng([seed, int(delay * 1000)])
     steps, lag, every = int(round(duration / STEP)), int(round(delay / STEP)), int(round(SAMPLE / STEP))
     fine = np.arange(steps) * STEP
-    target = _moves(rng, fine, (1.5, 5.0), 0.04, (0.4, 1.5))
-    planner = _moves(rng, fine, (2.0, 6.0), 0.08, (1.0, 2.5))
+    if circling:
+        planner, target = _circling(rng, fine)
+    else:
+        target = _moves(rng, fine, (1.5, 5.0), 0.04, (0.4, 1.5))
+        planner = _moves(rng, fine, (2.0, 6.0), 0.08, (1.0, 2.5))
     if wall is not None:
         start, end, place = wall
         planner[fine >= start - 1.0] = planner[int((start - 1.0) / STEP)]   # the planner holds during the push
@@ -241,6 +264,14 @@ def cases() -> list[LabelledCase]:
         data = with_limit_cycle(references[(delay, 1 + index % 3)], amplitude, period)
         out.append(LabelledCase(f"limit cycle {amplitude * 1e3:g}mm {period:g}s delay={delay:g}s", "b limit cycle",
                                 False, True, data, "steady oscillation added to a stable reference run"))
+    for delay in CYCLE_DELAYS:
+        circling = bilateral(delay, 7, circling=True)
+        out.append(LabelledCase(f"circling reference delay={delay:g}s", "b circling task", True, True, circling,
+                                "the reference loop on a task that repeats at a 4.5-5.5 s lap (its answer does too)"))
+        for amplitude, period in ((0.005, 1.0), (0.010, 2.5), (0.010, 5.0), (0.020, 10.0)):
+            out.append(LabelledCase(f"circling limit cycle {amplitude * 1e3:g}mm {period:g}s delay={delay:g}s",
+                                    "b circling task", False, True, with_limit_cycle(circling, amplitude, period),
+                                    "a steady oscillation off the lap period on the circling task"))
     for delay in (0.2, 1.0):
         base = references[(delay, 2)]
         out.append(LabelledCase(f"parked 150mm delay={delay:g}s", "c parked", False, True, parked(base),
