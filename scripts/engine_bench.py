@@ -1,8 +1,7 @@
 #!/usr/bin/env python3
-"""Runs per hour of the sweep engines on this machine: the same job set (in-process runs of the E1 scene at 1 s
-one-way delay, each judged as the evidence sweep judges it) through the process pool and through a Dask LocalCluster,
-in alternating rounds so that both see the same machine load. Writes a JSON with the command, the machine's load
-and every round (docs/CLUSTER.md, "Runs per hour on this machine").
+"""Runs per hour of the sweep engines on this machine (sim_bridge.experiments.engine_bench): the same job set through
+the process pool and through a Dask LocalCluster, in alternating rounds. Writes a JSON with the command, the
+machine's load and every round (docs/CLUSTER.md; docs/EXPERIMENTS.md "The engines' runs per hour").
 
     nice -n 5 .venv/bin/python scripts/engine_bench.py --runs 24 --duration 10 --rounds 2
 """
@@ -13,33 +12,13 @@ import json
 import os
 import platform
 import sys
-import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-from sim_bridge.experiments.engine import ENGINES, local_cores, open_engine
-from sim_bridge.experiments.evidence_run import CONTROLLERS, judge
+from sim_bridge.experiments.engine import ENGINES, local_cores
+from sim_bridge.experiments.engine_bench import alternating_rounds, jobs
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def jobs(runs: int, duration: float) -> list[tuple]:
-    """``runs`` jobs: the laws in turn, seeds 1, 2, ... (the evidence sweep's job tuple)."""
-    cell = dict(id="delay_1", options=dict(delay=1.0))
-    return [(cell, CONTROLLERS[i % len(CONTROLLERS)], 1 + i // len(CONTROLLERS), duration) for i in range(runs)]
-
-
-def one_round(engine: str, workers: int, job_set: list[tuple]) -> dict:
-    load_before = os.getloadavg()[0]
-    start = time.perf_counter()
-    with open_engine(workers=workers, engine=engine) as opened:
-        opened_s = time.perf_counter() - start
-        rows = list(opened.executor.map(judge, job_set))
-    wall = time.perf_counter() - start
-    return dict(engine=engine, workers=workers, runs=len(rows), wall_s=wall, engine_start_s=opened_s,
-                runs_per_hour=3600.0 * len(rows) / wall, simulated_s=sum(r["simulated_s"] for r in rows),
-                runs_wall_s_sum=sum(r["wall_s"] for r in rows), load_1min_before=load_before,
-                load_1min_after=os.getloadavg()[0], stable=sum(1 for r in rows if r["stable"]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -51,20 +30,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--engines", nargs="+", default=list(ENGINES), choices=ENGINES)
     parser.add_argument("--out", type=Path, default=REPO / "results" / "engine_bench.json")
     args = parser.parse_args(argv)
-    workers = args.workers or local_cores()
-    job_set = jobs(args.runs, args.duration)
-    rounds = []
-    for index in range(args.rounds):
-        for engine in args.engines:
-            row = one_round(engine, workers, job_set)
-            rounds.append({"round": index + 1, **row})
-            print(f"round {index + 1} {engine:>4}: {row['runs']} runs in {row['wall_s']:.1f} s "
-                  f"({row['runs_per_hour']:.0f} runs/h; engine start {row['engine_start_s']:.1f} s; "
-                  f"load {row['load_1min_before']:.1f} -> {row['load_1min_after']:.1f})", flush=True)
-    summary = {engine: dict(runs_per_hour=[r["runs_per_hour"] for r in rounds if r["engine"] == engine],
-                            total_runs_per_hour=3600.0 * sum(r["runs"] for r in rounds if r["engine"] == engine)
-                            / sum(r["wall_s"] for r in rounds if r["engine"] == engine))
-               for engine in args.engines}
+
+    def report(row: dict) -> None:
+        print(f"round {row['round']} {row['engine']:>4}: {row['runs']} runs in {row['wall_s']:.1f} s "
+              f"({row['runs_per_hour']:.0f} runs/h; engine start {row['engine_start_s']:.1f} s; "
+              f"load {row['load_1min_before']:.1f} -> {row['load_1min_after']:.1f})", flush=True)
+
+    rounds, summary = alternating_rounds(args.engines, args.workers or local_cores(), jobs(args.runs, args.duration),
+                                         args.rounds, report)
     arguments = sys.argv[1:] if argv is None else argv
     document = dict(command="nice -n 5 .venv/bin/python scripts/engine_bench.py " + " ".join(arguments),
                     date_utc=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"), machine=platform.node(),

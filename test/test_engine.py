@@ -102,3 +102,17 @@ def test_the_command_line_flags():
     own.add_argument("--workers", type=int, default=2)
     add_engine_arguments(own)
     assert own.parse_args([]).workers == 2
+
+
+def test_the_engine_bench_runs_the_same_jobs_on_both_engines():
+    """A tiny bench (2 judged runs of 3 s, one worker): both engines run every job and report their throughput."""
+    from sim_bridge.experiments.engine_bench import alternating_rounds, jobs
+    job_set = jobs(2, 3.0)
+    assert [job[1:3] for job in job_set] == [("fic", 1), ("fic_paper_law", 1)]
+    reported = []
+    rounds, summary = alternating_rounds(["pool", "dask"], 1, job_set, 1, reported.append)
+    assert [r["engine"] for r in rounds] == ["pool", "dask"] and reported == rounds
+    for row in rounds:
+        assert row["runs"] == 2 and row["simulated_s"] == pytest.approx(6.0)
+        assert row["runs_per_hour"] == pytest.approx(3600.0 * 2 / row["wall_s"])
+    assert summary["dask"]["runs_per_hour"] == [rounds[1]["runs_per_hour"]]
