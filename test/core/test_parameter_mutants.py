@@ -148,3 +148,30 @@ def test_a_first_command_that_is_not_one_list_of_torques_is_refused(bad) -> None
     with pytest.raises(FicInputError, match="non-empty list of joint torques"):
         watchdog.replica_command(bad, 0.0)
     assert watchdog.last_command is None and watchdog.forwarded == 0
+
+
+def test_the_authority_counts_each_verdict_from_zero() -> None:
+    """What the replica reports on /diagnostics: a fresh authority has counted nothing; one accepted command, then
+    one jump approached at the offset speed, count one each."""
+    from fic_core.input_authority import CommandAuthority
+
+    now = 1.7e9
+    authority = CommandAuthority()
+    assert (authority.accepted, authority.refused, authority.clamped, authority.rate_limited) == (0, 0, 0, 0)
+    base = dict(mode=0, haptic_gain=0.5, workspace_scale=1.0, velocity_gain=2.0, handle_position=[0.0, 0.0, 0.0])
+    assert authority.check(stamp=now - 0.2, now=now, desired_offset=[0.0, 0.0, 0.0], **base).accepted
+    assert (authority.accepted, authority.rate_limited, authority.clamped) == (1, 0, 0)
+    jump = authority.check(stamp=now - 0.19, now=now + 0.01, desired_offset=[0.3, 0.0, 0.0], **base)
+    assert jump.rate_limited and not jump.clamped
+    assert (authority.accepted, authority.rate_limited, authority.clamped, authority.refused) == (2, 1, 0, 0)
+
+
+def test_a_joint_range_of_zero_width_is_refused() -> None:
+    from fic_core.posture import NullSpacePosture
+
+    lower, upper = np.full(7, -1.0), np.full(7, 1.0)
+    upper[2] = lower[2]
+    with pytest.raises(FicInputError, match="lower_limit must be below upper_limit"):
+        NullSpacePosture(lower, upper)
+    upper[2] = lower[2] + 1e-6
+    assert NullSpacePosture(lower, upper).upper_limit[2] > NullSpacePosture(lower, upper).lower_limit[2]
