@@ -134,6 +134,24 @@ class LoopHealth:
             self._resume_start = None
         return ""
 
+    def ready(self, now: float, state_time: float) -> str:
+        """The law's torque of this tick is ready at ``now``: if its state (``state_time``) has grown older than
+        max_state_age meanwhile (a replica preempted inside its tick), the loop holds from here on. Returns the
+        notice of that hold, or ""."""
+        if self.clock_offset is None or self.state == HOLDING:
+            return ""
+        age = now - state_time - self.clock_offset
+        if not age > self.bounds.max_state_age:   # NaN: not late
+            return ""
+        self.state_age = age
+        self.max_state_age_seen = max(self.max_state_age_seen, age)
+        self.state, self._entered_hold, self._healthy_run, self._resume_start = HOLDING, True, 0, None
+        self._age_known = True
+        self.holds += 1
+        self.reason = f"state {age * 1e3:.1f} ms old when its torque was ready (bound {self.bounds.max_state_age * 1e3:g} ms)"
+        return (f"replica loop unhealthy: {self.reason}; holding (gravity and joint damping) until "
+                f"{self.bounds.resume_ticks} healthy ticks")
+
     def law_fraction(self, now: float) -> float:
         """How much of the law's torque goes out at ``now`` (the rest is the hold's): 0 while holding, rising
         linearly to 1 over resume_ramp after a resume, 1 when healthy."""

@@ -230,6 +230,21 @@ class ReplicaLoop:
         step.status_due = not step.held and self.last_command is not None and self._status_gate.take(time)
         return step
 
+    def ready(self, step: ReplicaStep, time: float, now: float) -> ReplicaStep:
+        """Before ``step``'s torque goes out at ``now`` (the state of ``time``): a law torque whose state has grown
+        older than loop_max_state_age while it was computed is not sent; the loop holds, and the hold's gravity
+        (the state's velocity is old) goes out in its place (fic_core.loop_health)."""
+        if step.torque is None or step.held:
+            return step
+        notice = self.health.ready(now, time)
+        if notice:
+            step.notices.append(("warning", notice))
+            step.torque = self.health.hold_command(self.robot.gravity, self.robot.qd)
+            step.held = True
+            self._hold_torque = step.torque
+            step.poses_due = step.status_due = False
+        return step
+
     def _hold(self, q: NDArray[np.float64], qd: NDArray[np.float64], now: float, dt: float,
               notices: list[tuple[str, str]]) -> NDArray[np.float64] | None:
         """A control tick of the loop's hold: G(q) and joint damping (loop_health.hold_command; None: nothing to

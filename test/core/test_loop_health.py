@@ -171,3 +171,21 @@ def test_stamps_behind_the_clock_age_against_the_offset_and_a_robot_stall_takes_
     now += PERIOD
     health.tick(now, now - 100.3 - 0.06)   # a state that waited 59 ms longer in the replica's queue: old
     assert health.state == HOLDING and health.state_age == pytest.approx(0.059)
+
+
+def test_a_torque_whose_state_grew_old_inside_the_tick_is_not_sent() -> None:
+    """A replica preempted inside its tick: the law's torque is ready 50 ms after its state. The hold's gravity goes
+    out in its place, and the loop holds from there on."""
+    replica = loop()
+    now = 0.0
+    for _ in range(10):
+        now += PERIOD
+        step = replica.ready(replica.joint_state(now, now, Q0, np.zeros(7)), now, now + 0.001)
+        assert not step.held
+    now += PERIOD
+    step = replica.ready(replica.joint_state(now, now, Q0, np.full(7, 0.1)), now, now + 0.05)
+    assert step.held and replica.health.holds == 1 and "when its torque was ready" in replica.health.reason
+    np.testing.assert_allclose(step.torque, gravity(Q0))
+    assert any("unhealthy" in text for _, text in step.notices)
+    step = replica.joint_state(now + PERIOD, now + PERIOD, Q0, np.zeros(7))
+    assert step.held   # healthy again, but only after resume_ticks
