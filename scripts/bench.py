@@ -389,12 +389,17 @@ def stress_markdown(result: dict) -> str:
     for key, level in (result.get("levels") or {}).items():
         kind, _, percent = key.partition(" ")
         lines.append(f"| {kind.replace('_', '-')} | {percent} | {level['runs']} | {level['runaways']} | "
-                     f"{level['runs_with_violations']} ({level['violations_where_held']}) | {level['runs_with_holds']} | "
+                     f"{level['runs_with_violations']} ({_known(level['violations_where_held'])}) | "
+                     f"{_known(level['runs_with_holds'])} | "
                      f"{level['flagged_starved']} | {', '.join(map(str, level['exit_codes']))} | "
                      f"{show(level['real_time_factor'])} | {show(level['slowest_loop_fraction'])} | "
                      f"{show(level['free_motion_error_max_mm'])} | {show(level['free_motion_error_rms_mm'], 1)} | "
                      f"{show(level['max_joint_speed_ratio'], 2)} |")
     return "\n".join(lines)
+
+
+def _known(value) -> str:
+    return "n/a" if value is None else str(value)
 
 
 def markdown(result: dict) -> str:

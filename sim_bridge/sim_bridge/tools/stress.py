@@ -309,11 +309,13 @@ def level_summary(rows: list[dict]) -> dict:
         return [round(float(min(values)), 3), round(float(np.median(values)), 3), round(float(max(values)), 3)] \
             if values else None
 
+    recorded = any(row.get("holds") is not None for row in rows)   # a replica with its loop-health record
     return {"runs": len(rows), "runaways": sum(bool(row.get("runaway")) for row in rows),
             "runs_with_violations": sum(bool(row.get("limit_violations")) for row in rows),
-            "violations_where_held": sum(bool(row.get("limit_violations")) and bool(row.get("holds")) for row in rows),
+            "violations_where_held": sum(bool(row.get("limit_violations")) and bool(row.get("holds")) for row in rows)
+            if recorded else None,
             "holds": spread([row.get("holds") for row in rows]),
-            "runs_with_holds": sum(bool(row.get("holds")) for row in rows),
+            "runs_with_holds": sum(bool(row.get("holds")) for row in rows) if recorded else None,
             "flagged_starved": sum(bool(row.get("flagged_starved")) for row in rows),
             "exit_codes": sorted({row["exit_code"] for row in rows}),
             "real_time_factor": spread([row.get("real_time_factor") for row in rows]),
