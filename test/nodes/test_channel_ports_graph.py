@@ -18,8 +18,8 @@ from conftest import run_launcher
 
 pytestmark = pytest.mark.nodes
 DURATION_S, DELAY_S = 8.0, 1.0
-ERROR_RMS_TOLERANCE_M = 0.006       # | RMS |e|_graph - RMS |e|_in-process | (measured 2.4 mm)
-ENERGY_TOLERANCE_J = 0.015          # | balance_graph - balance_in-process | (measured 4.1 mJ; no TDPA: 34 mJ)
+ERROR_RMS_TOLERANCE_M = 0.006       # | RMS |e|_graph - RMS |e|_in-process | (measured 0.2-2.4 mm)
+ENERGY_TOLERANCE_J = 0.015          # | balance_graph - balance_in-process | (measured 4.1-6.4 mJ; no TDPA: 34 mJ)
 
 
 def test_linear_tdpa_runs_in_the_graph_with_both_ports_watched(tmp_path) -> None:
