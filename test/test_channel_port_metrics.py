@@ -16,8 +16,9 @@ def bag(diagnostics: dict[str, dict[str, str]]) -> BagData:
 
 
 def port(input_j: float, output_j: float, received_j: float, negative: int) -> dict[str, str]:
-    return {"input_energy_j": str(input_j), "output_energy_j": str(output_j), "received_input_energy_j": str(received_j),
-            "generated_j": str(output_j - received_j), "negative_ticks": str(negative), "passivity_control": "1"}
+    return {"input_energy_j": str(input_j), "output_energy_j": str(output_j),
+            "received_input_energy_j": str(received_j), "generated_j": str(output_j - received_j),
+            "negative_ticks": str(negative), "passivity_control": "1"}
 
 
 def test_the_channel_balance_is_both_ports_out_minus_both_in() -> None:
