@@ -29,7 +29,8 @@ def readme_results() -> str:
 
 
 def cell(file: str, cell_id: str, controller: str) -> dict:
-    return next(c["statistics"] for c in result(file)["cells"] if c["cell"] == cell_id and c["controller"] == controller)
+    return next(c["statistics"] for c in result(file)["cells"]
+                if c["cell"] == cell_id and c["controller"] == controller)
 
 
 def stable_count(file: str, cell_id: str, controller: str) -> str:
@@ -40,6 +41,10 @@ def one_count(file: str, cell_id: str, controllers: tuple[str, ...], *more_cells
     """The stable count README gives for several laws (or cells) at once: it must be the same for all of them."""
     counts = {cell(file, c_id, c)["stable"] for c_id in (cell_id, *more_cells) for c in controllers}
     return str(counts.pop()) if len(counts) == 1 else f"differs: {sorted(counts)}"
+
+
+def in_process_forces() -> list[float]:
+    return [trial["peak_force_n"] for trial in result("e2_in_process.json")["trials"]]
 
 
 def mm(metres: float) -> str:
@@ -105,7 +110,7 @@ FIGURES = [
                         trials=str(len(result("e2_in_process.json")["trials"])))),
     Figure("E2: peak interaction force",
            r"Interaction forces up to (?P<force>\d+) N",
-           lambda: dict(force=f"{max(result('e2.json')['peak_force_n_max'], *(t['peak_force_n'] for t in result('e2_in_process.json')['trials'])):.0f}")),
+           lambda: dict(force=f"{max(result('e2.json')['peak_force_n_max'], *in_process_forces()):.0f}")),
     Figure("E3: energy, limits, force and error after the loss",
            r"\((?P<before>[\d.]+) J peak before, (?P<after>[\d.]+) J after\), (?P<violations>\d+) limit violations, "
            r"peak force (?P<force>[\d.]+) N, error at most (?P<error>[\d.]+) mm",

@@ -33,7 +33,8 @@ def write_bag(folder: Path, amplitude: float, reflex: str) -> Path:
         store.register(get_types_from_msg(find_interface_file(type_name).read_text(), type_name))
     T = store.types
     Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
-    Point, Quaternion, Pose = T["geometry_msgs/msg/Point"], T["geometry_msgs/msg/Quaternion"], T["geometry_msgs/msg/Pose"]
+    Point, Quaternion = T["geometry_msgs/msg/Point"], T["geometry_msgs/msg/Quaternion"]
+    Pose = T["geometry_msgs/msg/Pose"]
     Vector3, Wrench = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Wrench"]
     Status, KeyValue = T["diagnostic_msgs/msg/DiagnosticStatus"], T["diagnostic_msgs/msg/KeyValue"]
 
@@ -52,7 +53,8 @@ def write_bag(folder: Path, amplitude: float, reflex: str) -> Path:
             velocity=np.array([1.2 * np.sin(t), 0, 0, 0, 0, 0, 0], dtype=float), effort=np.zeros(7))))
         if k % 4 == 0:
             messages.append((ns, "/ft_sensor/wrench", T["geometry_msgs/msg/WrenchStamped"](
-                header=header(ns), wrench=Wrench(force=Vector3(x=0.0, y=0.0, z=0.0), torque=Vector3(x=0.0, y=0.0, z=0.0)))))
+                header=header(ns), wrench=Wrench(force=Vector3(x=0.0, y=0.0, z=0.0),
+                                                 torque=Vector3(x=0.0, y=0.0, z=0.0)))))
         if k % 10 == 0:
             error = amplitude * np.sin(2 * np.pi * t / 1.3)
             messages.append((ns, "/replica/desired_pose", pose(ns, 0.3)))

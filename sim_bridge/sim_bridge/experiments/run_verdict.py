@@ -93,7 +93,7 @@ class VerdictInput:
     x_R: NDArray | None = None                      # the replica's TCP position (n, 3) [m]
     x_d: NDArray | None = None                      # the replica's set point (n, 3) [m]
     x_M: NDArray | None = None                      # the handle position (n, 3) [m]
-    command: NDArray | None = None                  # the commanded TCP motion: planner + operator target one delay later
+    command: NDArray | None = None                  # commanded TCP motion: planner + hand's target one delay later
     planner: NDArray | None = None                  # the planner's part of it (n, 3) [m]: x_M answers it too
     operator_target: NDArray | None = None          # the hand's target for x_M (n, 3) [m]
     tracking_error: NDArray | None = None           # x_d - x_R (n, 3) [m]; from x_d and x_R when not given
@@ -103,6 +103,9 @@ class VerdictInput:
     contact: NDArray | None = None                  # touching the obstacle the task steers around (n,) bool
     force: NDArray | None = None                    # F/T force at the TCP (n, 3) [N]
     channel_generated: NDArray | None = None        # cumulative energy the channel generated (n,) [J]
+    # Per direction: each side's passivity observer W = E_in at the other side one delay ago - E_out here (n, 2)
+    # [J], the handle's side first; a fall of W is energy that direction created (reported, not judged).
+    channel_observers: NDArray | None = None
     joint_speed: NDArray | None = None              # peak |qd| per joint since the previous sample (n, 7) [rad/s]
     joint_speed_peak: float | None = None           # the fastest joint's peak over the run [rad/s], joint not known
     limit_violations: int | None = None             # ticks that broke a Panda limit over the run
@@ -135,6 +138,7 @@ class VerdictInput:
                    arm_kinetic_energy=result.arm_kinetic_energy, handle_kinetic_energy=result.handle_kinetic_energy,
                    contact=result.obstacle_contact, force=result.force,
                    channel_generated=None if ports is None or len(ports) == 0 else ports[:, 2],
+                   channel_observers=None if ports is None or len(ports) == 0 else ports[:, :2],
                    joint_speed_peak=float(result.joint_speed_max) if getattr(result, "joint_speed_max", 0.0) else None,
                    limit_violations=int(result.limit_violations), safe_holds=count("replica_holds"),
                    stale_holds=count("robot_watchdog_engagements"), x_b=x_b, source="in-process run")
@@ -278,6 +282,7 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
     contact_flag = _series("contact", data.contact, n, None)
     force = _series("force", data.force, n, 3)
     generated = _series("channel_generated", data.channel_generated, n, None)
+    observers = _series("channel_observers", data.channel_observers, n, 2)
     joint_speed = _series("joint_speed", data.joint_speed, n, None)
     if joint_speed is not None and (joint_speed.ndim != 2 or not 1 <= joint_speed.shape[1] <= 7):
         raise VerdictInputError(f"joint_speed must have 1 to 7 columns, got shape {joint_speed.shape}")
@@ -287,13 +292,14 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
     time = time[time <= raw_time[-1] + 1e-9]
     on_grid = {name: _uniform(raw_time, values, time) for name, values in dict(
         x_R=x_R, x_d=x_d, x_M=x_M, command=command, planner=planner, target=target, error=error, energy=energy,
-        force=force, generated=generated).items()}
+        force=force, generated=generated, observers=observers).items()}
     speed = _uniform(raw_time, joint_speed, time, peak=True)
     flag = _uniform(raw_time, None if contact_flag is None else contact_flag.astype(float), time, peak=True)
     notes: list[str] = []
     stable_reasons: list[str] = []
     safe_reasons: list[str] = []
-    figures: dict = {"source": data.source, "one_way_delay_s": data.one_way_delay, "duration_s": float(time[-1] - time[0])}
+    figures: dict = {"source": data.source, "one_way_delay_s": data.one_way_delay,
+                     "duration_s": float(time[-1] - time[0])}
     finite = all(np.all(np.isfinite(v)) for v in on_grid.values() if v is not None)
     if not finite:
         stable_reasons.append("NaN or Inf in the series: the run blew up")
@@ -324,7 +330,8 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         peak_energy = float(np.max(on_grid["energy"]))
         figures["energy_peak_j"] = peak_energy
         if kinetic and peak_energy > criterion.kinetic_energy_bound:
-            stable_reasons.append(f"runaway: kinetic energy {peak_energy:.3g} J above {criterion.kinetic_energy_bound:g} J")
+            stable_reasons.append(f"runaway: kinetic energy {peak_energy:.3g} J above "
+                                  f"{criterion.kinetic_energy_bound:g} J")
     if speed is not None:
         ratio = speed / np.asarray(criterion.joint_speed_limit)[None, :speed.shape[1]]
         worst = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
@@ -338,8 +345,8 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         fastest, slowest = max(criterion.joint_speed_limit), min(criterion.joint_speed_limit)
         figures["joint_speed_peak"] = data.joint_speed_peak
         if data.joint_speed_peak > fastest:
-            stable_reasons.append(f"runaway: a joint at {data.joint_speed_peak:.2f} rad/s, over every joint's datasheet "
-                                  f"limit ({fastest:.3f} rad/s)")
+            stable_reasons.append(f"runaway: a joint at {data.joint_speed_peak:.2f} rad/s, over every joint's "
+                                  f"datasheet limit ({fastest:.3f} rad/s)")
         elif data.joint_speed_peak > slowest:
             notes.append(f"a joint reached {data.joint_speed_peak:.2f} rad/s: over the limit of joints 1-4 "
                          f"({slowest:.3f} rad/s) if it was one of them (the series does not say which)")
@@ -382,8 +389,8 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
                            energy_growth=growth if np.isfinite(growth) else None)
             rising = all(later > earlier for earlier, later in zip(peaks, peaks[1:]))
             if peaks[-1] > criterion.energy_floor and growth > criterion.energy_growth_ratio and rising:
-                stable_reasons.append(f"growing energy: the peaks of {len(peaks)} windows of {window:g} s rise in every "
-                                      f"window to {peaks[-1] * 1e3:.3g} mJ, {growth:.1f}x the first's (limit "
+                stable_reasons.append(f"growing energy: the peaks of {len(peaks)} windows of {window:g} s rise in "
+                                      f"every window to {peaks[-1] * 1e3:.3g} mJ, {growth:.1f}x the first's (limit "
                                       f"{criterion.energy_growth_ratio:g}x)")
         else:
             notes.append("no energy series: the growth test is skipped")
@@ -415,6 +422,11 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
             first = int(np.searchsorted(time, judged_from))
             rate = float((values[-1] - values[first]) / (time[-1] - time[first]))
             figures.update(channel_generated_total_j=float(values[-1]), channel_generation_rate_w=rate)
+            if on_grid["observers"] is not None:
+                fall = on_grid["observers"][first] - on_grid["observers"][-1]
+                figures["channel_generation_rate_by_direction_w"] = {
+                    "to the handle": float(fall[0] / (time[-1] - time[first])),
+                    "to the replica": float(fall[1] / (time[-1] - time[first]))}
             if rate > criterion.port_rate_limit:
                 stable_reasons.append(f"steady energy generation at the channel's ports: {rate * 1e3:.0f} mW over the "
                                       f"judged {time[-1] - time[first]:.1f} s (limit "
@@ -422,9 +434,10 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         else:
             notes.append("no channel port energy: the generation-rate test is skipped")
     elif finite:
+        run_needed = criterion.settle + criterion.scan.min_cycles * needed
         stable_reasons.append(f"not assessed: periods up to {needed:.1f} s (max(4 round trips, "
-                              f"{criterion.min_longest_period:g} s)) need {criterion.settle + criterion.scan.min_cycles * needed:.1f} s "
-                              f"of run, it has {time[-1] - time[0]:.1f} s")
+                              f"{criterion.min_longest_period:g} s)) need {run_needed:.1f} s of run, it has "
+                              f"{time[-1] - time[0]:.1f} s")
     stable: bool | None = not stable_reasons
     if finite and not assessed:
         runaway = [reason for reason in stable_reasons if not reason.startswith("not assessed")]

@@ -313,7 +313,8 @@ def _old_verdict(data: VerdictInput) -> tuple[bool | None, list[str]]:
 def _confusion(rows: list[dict], label: str, verdict: str) -> dict[str, int]:
     counts: dict[str, int] = {}
     for row in rows:
-        key = f"label {'yes' if row[label] else 'no'}, verdict {dict([(True, 'yes'), (False, 'no')]).get(row[verdict], 'not assessed')}"
+        judged = {True: "yes", False: "no"}.get(row[verdict], "not assessed")
+        key = f"label {'yes' if row[label] else 'no'}, verdict {judged}"
         counts[key] = counts.get(key, 0) + 1
     return dict(sorted(counts.items()))
 
