@@ -59,6 +59,18 @@ class Figure:
 
 
 BOUNDED = ("fic", "fic_paper_law", "linear_bounded", "linear_tdpa")
+BASELINES = ("fic_paper_law", "linear", "linear_bounded", "linear_tdpa")
+CLOSED_LOOP = "evidence_closed_loop_5seeds.json"
+
+
+def bench_runs(name: str) -> list[float]:
+    return [run[name] for run in result("bench.json")["default_runs"]]
+
+
+def bench_range(name: str) -> tuple[float, float]:
+    """(min, max) over the ten default runs of a figure of bench.json's summary."""
+    low, _, high = result("bench.json")["default_summary"]["min_median_max"][name]
+    return low, high
 
 FIGURES = [
     Figure("bench: free-motion error of the ten default runs",
@@ -68,6 +80,25 @@ FIGURES = [
                "min_median_max"]["free_motion_error_max_mm"][::2])), **dict(zip(("rms_low", "rms_high"), (
                    f"{v:.1f}" for v in result("bench.json")["default_summary"]["min_median_max"][
                        "free_motion_error_rms_mm"][::2]))))),
+    Figure("bench: latency and loop rates of the ten default runs",
+           r"pipeline latency p99 (?P<p99_low>[\d.]+)-(?P<p99_high>[\d.]+) ms \(under 5 ms in (?P<under>\d+) of "
+           r"(?P<runs>\d+); median (?P<p50_low>[\d.]+)-(?P<p50_high>[\d.]+) ms\), every loop at (?P<loop>[\d.]+) % of "
+           r"its rate or more",
+           lambda: dict(p99_low=f"{bench_range('pipeline_latency_p99_ms')[0]:.1f}",
+                        p99_high=f"{bench_range('pipeline_latency_p99_ms')[1]:.1f}",
+                        under=str(result("bench.json")["default_summary"]["met"]["latency p99 < 5 ms"]),
+                        runs=str(result("bench.json")["default_summary"]["runs"]),
+                        p50_low=f"{min(bench_runs('pipeline_latency_p50_ms')):.1f}",
+                        p50_high=f"{max(bench_runs('pipeline_latency_p50_ms')):.1f}",
+                        loop=f"{100 * bench_range('slowest_loop_fraction')[0]:.1f}")),
+    Figure("closed-loop operator at 1 and 2 s: stable counts",
+           r"at 1 s the FIC (?P<fic_1>\d)/5 against (?P<low_1>\d)-(?P<high_1>\d)/5, at 2 s the FIC and the passivity "
+           r"baseline (?P<fic_2>\d)/5, the others (?P<others_2>\d)/5",
+           lambda: dict(fic_1=stable_count(CLOSED_LOOP, "delay_1", "fic"),
+                        low_1=str(min(cell(CLOSED_LOOP, "delay_1", c)["stable"] for c in BASELINES)),
+                        high_1=str(max(cell(CLOSED_LOOP, "delay_1", c)["stable"] for c in BASELINES)),
+                        fic_2=one_count(CLOSED_LOOP, "delay_2", ("fic", "linear_tdpa")),
+                        others_2=one_count(CLOSED_LOOP, "delay_2", ("fic_paper_law", "linear", "linear_bounded")))),
     Figure("E1 lockstep: free-motion error and limit violations",
            r"The lockstep E1 run with the passive attractor: (?P<max>[\d.]+) mm and (?P<rms>[\d.]+) mm, "
            r"(?P<violations>\d+) limit-violation ticks",
@@ -131,7 +162,7 @@ def test_readme_figure_matches_its_json(figure: Figure):
 
 def test_the_checks_fail_on_a_wrong_figure():
     """The machinery itself: a README figure one digit off does not match its JSON."""
-    figure = FIGURES[1]
+    figure = next(f for f in FIGURES if f.name.startswith("E1 lockstep"))
     written = re.search(figure.pattern, readme_results()).groupdict()
     wrong = {**written, "max": f"{float(written['max']) + 0.1:.1f}"}
     assert wrong != figure.expected()
