@@ -6,7 +6,7 @@ span, which starts ``settle`` seconds into the run:
 1. GROWING ENERGY. The loop's mechanical energy (the replica arm's and the handle's kinetic energy; from a bag, the
    controller's stored plus kinetic energy) peaks higher in every window of W = max(``min_window``, 2 round trips)
    than in the one before, over the judged span, ending above ``energy_growth_ratio`` times the first window's peak
-   and above ``energy_floor``. A delayed loop with too little damping gains energy every cycle (Anderson and Spong
+   and above ``energy_floor``, windows mostly in contact left out. A delayed loop with too little damping gains energy every cycle (Anderson and Spong
    1989); the kinetic energy of an oscillation of period P peaks every P/2, so a window of 2 round trips holds a
    full energy period of the slowest delay-induced oscillation. Rising in EVERY window, not just last against first:
    an operator's aperiodic moves make the peaks go up and down, a growing oscillation makes them rise.
@@ -248,14 +248,20 @@ def _longest_true(flags: NDArray, step: float) -> float:
     return max(((last - first) * step for first, last in episodes), default=0.0)
 
 
-def _energy_windows(time: NDArray, energy: NDArray, start: float, window: float) -> list[float]:
-    """Peaks of ``energy`` in windows of ``window`` laid end to end back from the run's end (as many as fit after
-    ``start``, at least two, overlapping when the span holds fewer)."""
+def _energy_windows(time: NDArray, energy: NDArray, free: NDArray, start: float, window: float) -> list[float]:
+    """Peaks of ``energy`` outside contact in windows of ``window`` laid end to end back from the run's end (as many
+    as fit after ``start``, at least two, overlapping when the span holds fewer); a window mostly in contact is left
+    out (a push stores energy in the controller's spring: that is the obstacle's doing)."""
     end = float(time[-1])
     count = max(2, int((end - start) // window))
     lows = np.linspace(start, end - window, count) if end - start < count * window else \
         end - window * np.arange(count, 0, -1)
-    return [float(energy[(time >= low) & (time <= low + window)].max()) for low in lows]
+    peaks = []
+    for low in lows:
+        inside = (time >= low) & (time <= low + window)
+        if np.mean(free[inside]) >= 0.5:
+            peaks.append(float(energy[inside & free].max()))
+    return peaks
 
 
 def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunVerdict:
@@ -383,12 +389,16 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
             # The kinetic energy of an oscillation of period P peaks every P/2: windows of 2 round trips hold a full
             # energy period of the slowest delay-induced oscillation (4 round trips).
             window = max(criterion.min_window, 0.5 * criterion.round_trips_judged * round_trip)
-            peaks = _energy_windows(time, on_grid["energy"].reshape(time.size, -1)[:, 0], judged_from, window)
+            peaks = _energy_windows(time, on_grid["energy"].reshape(time.size, -1)[:, 0], free, judged_from, window)
+            if len(peaks) < 2:
+                peaks = peaks or [0.0]
+                notes.append("fewer than two energy windows outside contact: the growth test is skipped")
             growth = peaks[-1] / peaks[0] if peaks[0] > 0.0 else (float("inf") if peaks[-1] > 0.0 else 1.0)
             figures.update(energy_window_s=window, energy_window_peaks_j=peaks,
                            energy_growth=growth if np.isfinite(growth) else None)
             rising = all(later > earlier for earlier, later in zip(peaks, peaks[1:]))
-            if peaks[-1] > criterion.energy_floor and growth > criterion.energy_growth_ratio and rising:
+            if len(peaks) >= 2 and peaks[-1] > criterion.energy_floor and growth > criterion.energy_growth_ratio \
+                    and rising:
                 stable_reasons.append(f"growing energy: the peaks of {len(peaks)} windows of {window:g} s rise in "
                                       f"every window to {peaks[-1] * 1e3:.3g} mJ, {growth:.1f}x the first's (limit "
                                       f"{criterion.energy_growth_ratio:g}x)")
