@@ -5,9 +5,9 @@ span, which starts ``settle`` seconds into the run:
 
 1. GROWING ENERGY. The loop's mechanical energy (the replica arm's and the handle's kinetic energy; from a bag, the
    controller's stored plus kinetic energy) peaks higher in every window of W = max(``min_window``, 2 round trips)
-   than in the one before, over the judged span, ending above ``energy_growth_ratio`` times the first window's peak
-   and above ``energy_floor``, windows mostly in contact left out. A delayed loop with too little damping gains energy every cycle (Anderson and Spong
-   1989); the kinetic energy of an oscillation of period P peaks every P/2, so a window of 2 round trips holds a
+   than in the one before (windows mostly in contact left out), over the judged span, ending above
+   ``energy_growth_ratio`` times the first window's peak and above ``energy_floor``. A delayed loop with too little
+   damping gains energy every cycle (Anderson and Spong 1989); the kinetic energy of an oscillation of period P peaks every P/2, so a window of 2 round trips holds a
    full energy period of the slowest delay-induced oscillation. Rising in EVERY window, not just last against first:
    an operator's aperiodic moves make the peaks go up and down, a growing oscillation makes them rise.
 2. SUSTAINED OSCILLATION at any period from 0.2 s to the longest the span holds 1.5 times (which must reach
