@@ -7,9 +7,10 @@ span, which starts ``settle`` seconds into the run:
    controller's stored plus kinetic energy) peaks higher in every window of W = max(``min_window``, 2 round trips)
    than in the one before (windows mostly in contact left out), over the judged span, ending above
    ``energy_growth_ratio`` times the first window's peak and above ``energy_floor``. A delayed loop with too little
-   damping gains energy every cycle (Anderson and Spong 1989); the kinetic energy of an oscillation of period P peaks every P/2, so a window of 2 round trips holds a
-   full energy period of the slowest delay-induced oscillation. Rising in EVERY window, not just last against first:
-   an operator's aperiodic moves make the peaks go up and down, a growing oscillation makes them rise.
+   damping gains energy every cycle (Anderson and Spong 1989); the kinetic energy of an oscillation of period P
+   peaks every P/2, so a window of 2 round trips holds a full energy period of the slowest delay-induced
+   oscillation. Rising in EVERY window, not just last against first: an operator's aperiodic moves make the peaks go
+   up and down, a growing oscillation makes them rise.
 2. SUSTAINED OSCILLATION at any period from 0.2 s to the longest the span holds 1.5 times (which must reach
    max(4 round trips, ``min_longest_period``), else the run is not assessed): sim_bridge.experiments.oscillation_scan
    on each motion minus its known command (x_M minus the hand's target; x_d and x_R minus the commanded motion; the
