@@ -10,6 +10,10 @@ smallest closed-cycle work, the count of D -> C latches and of capped K_C.
 With --orientation instead: closed orientation loops (test/core/orientation_loops.py) of 0.2-1.2 rad at 1 kHz,
 500 Hz and 100 Hz, the held-moment work per loop of the angle-axis FIC (fic_core/rotational_attractor.py) and of
 the old per-axis rule on the rotation vector, on the shipped rotation profile, below the rate dead-band.
+
+With --strokes: 1, 3, 10 and 30 strokes between 40 and 33 mm at 0.02 m/s on the shipped translation, the force at
+40 mm after them (and the dead zone, where the attractor has one: run it against an older fic_core on PYTHONPATH to
+see the dead-zone rule's ratchet).
 """
 from __future__ import annotations
 
@@ -48,16 +52,39 @@ def orientation_table(speed: float) -> list[dict[str, float]]:
     return rows
 
 
+def stroke_table() -> list[dict[str, float]]:
+    """The force at 40 mm after n strokes 40 -> 33 -> 40 mm at 0.02 m/s, dt = 1 ms, shipped translation."""
+    profile = next(value for name, value in shipped_profiles().items() if "replica.yaml:translation_" in name)
+    rows = []
+    for count in (1, 3, 10, 30):
+        attractor = FractalAttractor(profile, 1, 0.005)
+        knots = [0.0, 0.040] + [0.033, 0.040] * count
+        force = 0.0
+        for first, last in zip(knots[:-1], knots[1:]):
+            steps = int(round(abs(last - first) / 2e-5))
+            for index in range(1, steps + 1):
+                force = float(attractor.force([first + (last - first) * index / steps],
+                                              [0.02 if last > first else -0.02])[0])
+        rows.append({"strokes": count, "force_at_40mm_n": force, "profile_force_at_40mm_n": float(profile.force(0.04)),
+                     "dead_zone_mm": 1e3 * float(getattr(attractor, "dead_zone", [0.0])[0])})
+    return rows
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--orientation", action="store_true", help="the closed orientation loops instead")
     parser.add_argument("--speed", type=float, default=0.1, help="with --orientation: loop speed [rad/s]")
+    parser.add_argument("--strokes", action="store_true", help="the force at 40 mm after strokes instead")
     parser.add_argument("--cycles", type=int, default=10_000)
     parser.add_argument("--axes", type=int, default=10, help="cycles run side by side on one profile")
     parser.add_argument("--samples", type=int, default=1000, help="samples per cycle (dt = 1 ms)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path)
     arguments = parser.parse_args()
+    if arguments.strokes:
+        for row in stroke_table():
+            print(" ".join(f"{key}={value:.4g}" for key, value in row.items()))
+        return 0
     if arguments.orientation:
         rows = orientation_table(arguments.speed)
         for row in rows:

@@ -22,8 +22,7 @@ Then, with the port work W_k = sum_j F_j (e_j - e_{j-1}) (the force returned at 
 that led to it), ``V_k - V_0 <= W_k`` holds for every input sequence, rates that contradict the errors included:
 ``V_new(e_k) - V_old(e_{k-1}) <= V_new(e_k) - V_new(e_{k-1}) <= F_new(e_k) (e_k - e_{k-1})`` by convexity.
 
-* **D** with a dead zone delta >= 0 (delta = 0 normally): ``F = sign(e) F_c(max(|e| - delta, 0))``,
-  ``V = V_D(max(|e| - delta, 0))`` with ``V_D = integral_0^a F_c`` (``ForceProfile.energy``, closed form).
+* **D**: ``F = F_c(e)``, ``V = V_D(|e|)`` with ``V_D = integral_0^a F_c`` (``ForceProfile.energy``, closed form).
 * **D -> C** at sample k latches ``e_max = e_{k-1}`` (the sample whose storage is known), its storage
   ``V_latch`` and force ``F_latch`` in D, and the C stiffness
   ``K_C = min(2 F_latch/|e_max|, 8 V_latch/e_max^2)``: the paper's force-continuous stiffness, capped by the
@@ -31,13 +30,13 @@ that led to it), ``V_k - V_0 <= W_k`` holds for every input sequence, rates that
   C force: ``K_C (e - e_max/2)`` clipped to ``|F| <= F_max``; ``V_C(e) = V_latch + integral_{e_max}^e F_C``,
   which equals V_latch at e_max and at 0 and is >= 0 everywhere (its minimum, at e_max/2, is
   ``V_latch - K_C e_max^2/8 >= 0`` by the cap).
-* **Any switch into D** (C -> D) at sample k: delta = 0 if ``V_D(e_{k-1}) <= V_C(e_{k-1})`` (the difference is
-  dissipated: this is where the FIC, which has no damping term, loses energy); otherwise the dead zone delta
-  with ``V_D(|e_{k-1}| - delta) = V_C(e_{k-1})`` (``ForceProfile.energy_inverse``, rounded towards the smaller
-  storage), so the storage is continuous and the force stays <= F_max. A switch to a smaller delta is made only
-  where it does not change the storage: while the previous sample lies inside the dead zone, delta shrinks to
-  ``|e_{k-1}|`` (the zone closes as the error comes back to the target, so at rest at e = 0 the axis is plain D
-  again with V = 0).
+* **C -> D** at sample k (|e| stops decreasing, or the error crosses zero) only where it does not raise the
+  storage: if ``V_D(|e_{k-1}|) <= V_C(e_{k-1})`` the axis returns to D and the difference is dissipated (this is
+  where the FIC, which has no damping term, loses energy); otherwise it stays on the C line (deferred: no switch,
+  its storage kept) and the test is repeated at the next sample. So in D the force is always F_c(e), and while
+  the error grows inside C it is the C line of the last latch, which repeated strokes cannot lower
+  (docs/CONTROL_LAWS.md, "The dead zone, bounded"). The rule before opened a dead zone in D instead
+  (F_c(|e| - delta) with V_D(|e_{k-1}| - delta) = V_C(e_{k-1})); strokes inside C ratcheted it up and cut the force.
 * Entering C needs a previous sample on the same side of the target as e, with a non-zero force there
   (``|e_{k-1}| > 1e-12 x_b``): otherwise there is no swing to converge from, and the axis stays in D.
 
@@ -100,36 +99,28 @@ def convergence_storage(profile: ForceProfile, latched: float, stiffness: float,
     return latched_energy + potential - 0.125 * stiffness * latched * latched
 
 
-def _divergence_storage(profile: ForceProfile, dead_zone: float, error: float) -> float:
-    """V_D(max(|e| - delta, 0)) [J]."""
-    magnitude = abs(error) - dead_zone
-    return profile._scalar_energy(magnitude) if magnitude > 0.0 else 0.0
-
-
 class AttractorSnapshot(tuple):
     """The state of a FractalAttractor after one ``force`` call, immutable; derived values computed on read.
 
-    Tuples per axis: whether the axis is in C, e_max, K_C, V_latch (the storage at the D -> C switch), the dead
-    zone delta of D, and the error and force of that call. (A tuple underneath: one C call to create at each tick.)
+    Tuples per axis: whether the axis is in C, e_max, K_C, V_latch (the storage at the D -> C switch), and the
+    error and force of that call. (A tuple underneath: one C call to create at each tick.)
     """
 
     __slots__ = ()
 
     def __new__(cls, profile: ForceProfile, in_convergence: tuple[bool, ...], latched_max_errors: tuple[float, ...],
                 convergence_stiffness: tuple[float, ...], latched_energies: tuple[float, ...],
-                dead_zones: tuple[float, ...], errors: tuple[float, ...],
-                forces: tuple[float, ...]) -> AttractorSnapshot:
+                errors: tuple[float, ...], forces: tuple[float, ...]) -> AttractorSnapshot:
         return tuple.__new__(cls, (profile, in_convergence, latched_max_errors, convergence_stiffness,
-                                   latched_energies, dead_zones, errors, forces))
+                                   latched_energies, errors, forces))
 
     profile = property(itemgetter(0))
     in_convergence = property(itemgetter(1))
     latched_max_errors = property(itemgetter(2))
     convergence_stiffness = property(itemgetter(3))
     latched_energies = property(itemgetter(4))
-    dead_zones = property(itemgetter(5))
-    errors = property(itemgetter(6))
-    forces = property(itemgetter(7))
+    errors = property(itemgetter(5))
+    forces = property(itemgetter(6))
 
     @property
     def phase(self) -> NDArray[np.int64]:
@@ -141,20 +132,16 @@ class AttractorSnapshot(tuple):
         return np.array(self.latched_max_errors, dtype=np.float64)
 
     @property
-    def dead_zone(self) -> NDArray[np.float64]:
-        return np.array(self.dead_zones, dtype=np.float64)
-
-    @property
     def last_force(self) -> NDArray[np.float64]:
         return np.array(self.forces, dtype=np.float64)
 
     def storage_values(self) -> list[float]:
-        """The storage V per axis [J] as floats (V_D with its dead zone in D, V_C in C; module docstring)."""
+        """The storage V per axis [J] as floats (V_D in D, V_C in C; module docstring)."""
         profile = self[0]
         return [convergence_storage(profile, latched, stiffness, latched_energy, error) if converging
-                else _divergence_storage(profile, zone, error)
-                for converging, latched, stiffness, latched_energy, zone, error in zip(
-                    self[1], self[2], self[3], self[4], self[5], self[6])]
+                else profile._scalar_energy(error)
+                for converging, latched, stiffness, latched_energy, error in zip(
+                    self[1], self[2], self[3], self[4], self[5])]
 
     @property
     def stored_energy(self) -> NDArray[np.float64]:
@@ -163,7 +150,7 @@ class AttractorSnapshot(tuple):
 
     def port_values(self) -> tuple[tuple[float, ...], tuple[float, ...], list[float]]:
         """(errors, forces, storages) per axis: what a passivity observer reads (passivity_observer.py)."""
-        return self[6], self[7], self.storage_values()
+        return self[5], self[6], self.storage_values()
 
 
 class FractalAttractor:
@@ -180,10 +167,9 @@ class FractalAttractor:
         self.reset()
 
     def reset(self) -> None:
-        """Back to D on every axis at e = 0, nothing latched, no dead zone, no force, no stored energy."""
+        """Back to D on every axis at e = 0, nothing latched, no force, no stored energy."""
         zeros = (0.0,) * self._axes
-        self._state = AttractorSnapshot(self._profile, (False,) * self._axes, zeros, zeros, zeros, zeros, zeros,
-                                        zeros)
+        self._state = AttractorSnapshot(self._profile, (False,) * self._axes, zeros, zeros, zeros, zeros, zeros)
 
     @property
     def profile(self) -> ForceProfile:
@@ -210,11 +196,6 @@ class FractalAttractor:
     def latched_max_error(self) -> NDArray[np.float64]:
         """e_max latched at each axis's last D->C switch (zero before the first), a copy."""
         return self._state.latched_max_error
-
-    @property
-    def dead_zone(self) -> NDArray[np.float64]:
-        """The dead zone delta of each axis's D law (zero unless a C -> D switch needed one), a copy."""
-        return self._state.dead_zone
 
     @property
     def last_force(self) -> NDArray[np.float64]:
@@ -245,8 +226,8 @@ class FractalAttractor:
         """Eq. 2 on validated floats: the phase logic per axis, then the force; returns the forces.
 
         ``rates`` may be longer than ``errors`` (the extra values are ignored). This is the common tick, where no
-        axis switches phase and no dead zone moves: e_max, K_C, V_latch and delta stay as they are (shared with
-        the previous snapshot); any other tick is handed to ``_step_switching``, before any state changes.
+        axis switches phase: e_max, K_C and V_latch stay as they are (shared with the previous snapshot); any other
+        tick is handed to ``_step_switching``, before any state changes.
         """
         old = self._state
         profile = old[0]
@@ -255,8 +236,7 @@ class FractalAttractor:
         max_force = profile.max_force
         phases = []
         forces = []
-        for error, rate, converging, latched, stiffness, zone, previous in zip(
-                errors, rates, old[1], old[2], old[3], old[5], old[6]):
+        for error, rate, converging, latched, stiffness in zip(errors, rates, old[1], old[2], old[3]):
             # d|e|/dt = sign(e) * de/dt, with sign(0) = 0 as numpy.sign.
             if converging:
                 # Stay in C while |e| keeps decreasing on the same side of the target (sign(e) == sign(e_max)).
@@ -266,26 +246,19 @@ class FractalAttractor:
                     forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
                     phases.append(True)
                     continue
-                return self._step_switching(errors, rates)  # C -> D
+                return self._step_switching(errors, rates)  # C -> D, where the storage allows it
             if (rate if error > 0.0 else (-rate if error < 0.0 else 0.0)) < deadband:
                 return self._step_switching(errors, rates)  # may enter C past the dead-band
             phases.append(False)
-            if zone == 0.0:
-                # Eq. 2, D (K0 e in the profile's linear region).
-                forces.append(profile.stiffness * error if -linear_limit <= error <= linear_limit
-                              else profile._scalar_force(error))
-                continue
-            if abs(previous) < zone:
-                return self._step_switching(errors, rates)  # the dead zone shrinks to |e_{k-1}|
-            magnitude = abs(error) - zone
-            force = profile._scalar_force(magnitude) if magnitude > 0.0 else 0.0
-            forces.append(force if error > 0.0 else -force)
-        self._state = _new_snapshot(AttractorSnapshot, (profile, tuple(phases), old[2], old[3], old[4], old[5],
+            # Eq. 2, D (K0 e in the profile's linear region).
+            forces.append(profile.stiffness * error if -linear_limit <= error <= linear_limit
+                          else profile._scalar_force(error))
+        self._state = _new_snapshot(AttractorSnapshot, (profile, tuple(phases), old[2], old[3], old[4],
                                                         tuple(errors), tuple(forces)))
         return forces
 
     def _step_switching(self, errors: list[float], rates: list[float]) -> list[float]:
-        """``_step`` for a tick where an axis may switch phase or move its dead zone (module docstring)."""
+        """``_step`` for a tick where an axis may switch phase (module docstring)."""
         old = self._state
         profile = self._profile
         deadband = -self._rate_deadband
@@ -295,53 +268,42 @@ class FractalAttractor:
         latched_max_errors = list(old[2])
         convergence_stiffness = list(old[3])
         latched_energies = list(old[4])
-        dead_zones = list(old[5])
         forces = []
-        for axis, (error, rate, previous) in enumerate(zip(errors, rates, old[6])):
+        for axis, (error, rate, previous) in enumerate(zip(errors, rates, old[5])):
             # d|e|/dt = sign(e) * de/dt, with sign(0) = 0 as numpy.sign.
             magnitude_rate = rate if error > 0.0 else (-rate if error < 0.0 else 0.0)
             if in_convergence[axis]:
                 latched = latched_max_errors[axis]
-                if magnitude_rate < 0.0 and ((error > 0.0) == (latched > 0.0)) and ((error < 0.0) == (latched < 0.0)):
-                    force = convergence_stiffness[axis] * (error - 0.5 * latched)  # Eq. 2, C
+                stiffness = convergence_stiffness[axis]
+                staying = magnitude_rate < 0.0 and ((error > 0.0) == (latched > 0.0)) and \
+                    ((error < 0.0) == (latched < 0.0))
+                # C -> D only where the D storage at e_{k-1} does not exceed the C storage there (the difference
+                # is dissipated); otherwise the axis stays on the C line, whose storage it keeps (deferred).
+                if staying or profile._scalar_energy(previous) > convergence_storage(
+                        profile, latched, stiffness, latched_energies[axis], previous):
+                    force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
                     forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
                     continue
-                # C -> D: the D storage at e_{k-1} must not exceed the C storage there.
-                held = convergence_storage(profile, latched, convergence_stiffness[axis], latched_energies[axis],
-                                           previous)
-                magnitude = abs(previous)
-                dead_zones[axis] = 0.0 if profile._scalar_energy(magnitude) <= held else \
-                    magnitude - profile._scalar_energy_inverse(held)
                 in_convergence[axis] = False
-            else:
-                zone = dead_zones[axis]
-                if zone > 0.0 and abs(previous) < zone:
-                    # V_D is zero at e_{k-1} with either zone: the zone closes in on the target for free.
-                    zone = dead_zones[axis] = abs(previous)
-                # D -> C past the dead-band, from a previous sample on the same side with a force there.
-                if magnitude_rate < deadband and previous * error > 0.0 and abs(previous) > smallest_latch + zone:
-                    reach = abs(previous) - zone
-                    latched_force = profile._scalar_force(reach)
-                    latched_energy = profile._scalar_energy(reach)
-                    magnitude = abs(previous)
-                    # K_C = min(2 F_latch/|e_max|, 8 V_latch/e_max^2): Eq. 2's force-continuous stiffness, capped
-                    # so that V_C >= 0 (the stored-energy sizing of the ROS 1 code).
-                    stiffness = min(2.0 * latched_force / magnitude, 8.0 * latched_energy / (magnitude * magnitude))
-                    in_convergence[axis] = True
-                    latched_max_errors[axis] = previous
-                    convergence_stiffness[axis] = stiffness
-                    latched_energies[axis] = latched_energy
-                    dead_zones[axis] = 0.0
-                    force = stiffness * (error - 0.5 * previous)  # Eq. 2, C
-                    forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
-                    continue
-            zone = dead_zones[axis]
-            magnitude = abs(error) - zone
-            force = profile._scalar_force(magnitude) if magnitude > 0.0 else 0.0  # Eq. 2, D (with its dead zone)
-            forces.append(force if error > 0.0 else -force)
+            # D -> C past the dead-band, from a previous sample on the same side with a force there.
+            elif magnitude_rate < deadband and previous * error > 0.0 and abs(previous) > smallest_latch:
+                latched_force = profile._scalar_force(abs(previous))
+                latched_energy = profile._scalar_energy(previous)
+                magnitude = abs(previous)
+                # K_C = min(2 F_latch/|e_max|, 8 V_latch/e_max^2): Eq. 2's force-continuous stiffness, capped
+                # so that V_C >= 0 (the stored-energy sizing of the ROS 1 code).
+                stiffness = min(2.0 * latched_force / magnitude, 8.0 * latched_energy / (magnitude * magnitude))
+                in_convergence[axis] = True
+                latched_max_errors[axis] = previous
+                convergence_stiffness[axis] = stiffness
+                latched_energies[axis] = latched_energy
+                force = stiffness * (error - 0.5 * previous)  # Eq. 2, C
+                forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
+                continue
+            forces.append(profile._scalar_force(error))  # Eq. 2, D
         self._state = AttractorSnapshot(profile, tuple(in_convergence), tuple(latched_max_errors),
-                                        tuple(convergence_stiffness), tuple(latched_energies), tuple(dead_zones),
-                                        tuple(errors), tuple(forces))
+                                        tuple(convergence_stiffness), tuple(latched_energies), tuple(errors),
+                                        tuple(forces))
         return forces
 
 

@@ -3,12 +3,13 @@ state the attractor declares, for the exchanged-energy observer (fic_core/exchan
 
 Why not the attractor's own ``stored_energy``: an observer that books a controller against the controller's own
 storage cannot fail. Why not the plain D potential V_D(|e|) of the error: the FIC is passive with respect to its
-storage of the current phase (V_C inside C, V_D(|e| - delta) with a dead zone), and V_D(|e|) differs from that by
-up to F_max times the dead zone mid-cycle, so a correct FIC would be flagged (measured: 2,646 of 12,002 ticks on
-the push-release cycle at 0.02 m/s). So the storage here is the storage the passivity argument defines
+storage of the current phase (V_C inside C), and V_D(|e|) differs from that inside C, so a correct FIC
+can be flagged (measured with the dead-zone rule of the time: 2,646 of 12,002 ticks on the push-release cycle at
+0.02 m/s). So the storage here is the storage the passivity argument defines
 (docs/CONTROL_LAWS.md, "Passivity of the attractor") evaluated from what the attractor declares it is doing, per
-axis: its phase, e_max, K_C and dead zone; the energies come from a cumulative trapezoid of ``ForceProfile.force``
-(not the closed form, not ``latched_energies``), V_latch from the dead zone this object saw before the latch. The
+axis: its phase, e_max and K_C; the energies come from a cumulative trapezoid of ``ForceProfile.force``
+(not the closed form, not ``latched_energies``): V_latch = V_D(e_max) at each latch, V_C the exact integral of the
+clipped C line from there. The
 effort the observer books is what was applied: if it is not the gradient of this storage (a non-conservative
 field), or if the declared state jumps so that this storage rises at a switch (a non-passive switching rule), the
 observer's margin falls.
@@ -65,8 +66,8 @@ def _clipped_line_integral(stiffness: float, centre: float, clip: float, start: 
 class AttractorStorage:
     """Per-axis storage of a FractalAttractor's declared state, by the observer's own quadrature (module docstring).
 
-    Call it once per tick with the attractor's snapshot of that tick, in order (it remembers the dead zone of the
-    previous tick, which sets V_latch at a D -> C switch).
+    Call it once per tick with the attractor's snapshot of that tick, in order (it sees each latch happen and
+    computes V_latch there).
     """
 
     def __init__(self, profile: ForceProfile) -> None:
@@ -74,19 +75,17 @@ class AttractorStorage:
         self.reset()
 
     def reset(self) -> None:
-        self._previous_zones: tuple[float, ...] | None = None
         self._previous_phase: tuple[bool, ...] | None = None
         self._previous_latched: tuple[float, ...] = ()
         self._latched_energies: list[float] = []
 
     def per_axis(self, snapshot: AttractorSnapshot) -> list[float]:
         """The storage of each axis at this tick [J]."""
-        phases, latched, stiffnesses, zones, errors = (snapshot.in_convergence, snapshot.latched_max_errors,
-                                                        snapshot.convergence_stiffness, snapshot.dead_zones,
-                                                        snapshot.errors)
+        phases, latched, stiffnesses, errors = (snapshot.in_convergence, snapshot.latched_max_errors,
+                                                 snapshot.convergence_stiffness, snapshot.errors)
         axes = len(errors)
         if self._previous_phase is None:
-            self._previous_phase, self._previous_zones = (False,) * axes, (0.0,) * axes
+            self._previous_phase = (False,) * axes
             self._previous_latched = (0.0,) * axes
             self._latched_energies = [0.0] * axes
         max_force = self.potential.profile.max_force
@@ -94,15 +93,13 @@ class AttractorStorage:
         for axis in range(axes):
             if phases[axis]:
                 if not self._previous_phase[axis] or latched[axis] != self._previous_latched[axis]:
-                    # D -> C (or a re-latch): V_latch is the D storage at e_max with the dead zone the axis had
-                    # until now.
-                    reach = abs(latched[axis]) - self._previous_zones[axis]
-                    self._latched_energies[axis] = self.potential.energy(reach)
+                    # D -> C (or a re-latch): V_latch is the D storage at e_max.
+                    self._latched_energies[axis] = self.potential.energy(abs(latched[axis]))
                 values.append(self._latched_energies[axis] + _clipped_line_integral(
                     stiffnesses[axis], 0.5 * latched[axis], max_force, latched[axis], errors[axis]))
             else:
-                values.append(self.potential.energy(abs(errors[axis]) - zones[axis]))
-        self._previous_phase, self._previous_zones, self._previous_latched = tuple(phases), tuple(zones), tuple(latched)
+                values.append(self.potential.energy(abs(errors[axis])))
+        self._previous_phase, self._previous_latched = tuple(phases), tuple(latched)
         return values
 
     def __call__(self, snapshot: AttractorSnapshot) -> float:

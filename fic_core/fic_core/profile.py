@@ -200,8 +200,8 @@ class ForceProfile:
         """The error magnitude a >= 0 with V_D(a) = energy, rounded towards the smaller storage [m or rad].
 
         V_D is convex and increasing on a >= 0 (its slope F_c is non-decreasing and positive for a > 0), so the
-        inverse is unique. The attractor uses it to size the dead zone of a C -> D switch so that the storage does
-        not grow (attractor.py); the rounding direction matters there: V_D(result) <= energy up to rounding.
+        inverse is unique. It is rounded so that V_D(result) <= energy up to rounding: a D error matched to a given
+        storage never holds more (the attractor's earlier dead-zone rule sized its zone with it).
         """
         return self._scalar_energy_inverse(finite_scalar("energy", energy, minimum=0.0))
 

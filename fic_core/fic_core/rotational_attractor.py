@@ -28,7 +28,7 @@ At theta = 0 the axis is undefined and the moment is zero; at theta = pi (the cu
 V stays continuous (theta is the geodesic distance), the moment there is F(pi) either way.
 
 What the snapshot reports: the phase on all three rotational slots (one phase), the moment M as the force, and
-the scalar quantities of the angle (theta, e_max, V, the dead zone) in the first rotational slot with zeros in the
+the scalar quantities of the angle (theta, e_max, V) in the first rotational slot with zeros in the
 other two, so that a per-axis passivity observer reading ``port_values`` books the angle's port exactly.
 """
 from __future__ import annotations
@@ -67,10 +67,6 @@ class AngleAxisSnapshot:
         return (self.scalar.latched_max_errors[0], 0.0, 0.0)
 
     @property
-    def dead_zones(self) -> tuple[float, float, float]:
-        return (self.scalar.dead_zones[0], 0.0, 0.0)
-
-    @property
     def forces(self) -> tuple[float, float, float]:
         return self.moment
 
@@ -88,10 +84,6 @@ class AngleAxisSnapshot:
     @property
     def latched_max_error(self) -> NDArray[np.float64]:
         return np.array(self.latched_max_errors, dtype=np.float64)
-
-    @property
-    def dead_zone(self) -> NDArray[np.float64]:
-        return np.array(self.dead_zones, dtype=np.float64)
 
     @property
     def last_force(self) -> NDArray[np.float64]:
@@ -148,10 +140,6 @@ class RotationalAttractor:
     @property
     def latched_max_error(self) -> NDArray[np.float64]:
         return self._state.latched_max_error
-
-    @property
-    def dead_zone(self) -> NDArray[np.float64]:
-        return self._state.dead_zone
 
     @property
     def last_force(self) -> NDArray[np.float64]:

@@ -8,7 +8,7 @@ checks the claim without trusting the attractor's own energy functions:
 * the storage is computed here: V_D by numerical quadrature of the profile (a cumulative Simpson table of
   F_c, checked against ``scipy.integrate.quad``), V_C by the exact trapezoid of the clipped linear C force split
   at its kinks, V_latch from this module's own V_D at the latch. Only the attractor's discrete state is read
-  (phase, e_max, K_C, dead zone), and the forces it returned are checked against the force law of that state,
+  (phase, e_max, K_C), and the forces it returned are checked against the force law of that state,
   so the storage judged here is the true potential of the forces that were applied.
 
 Used by test_passivity.py (a few hundred cycles) and scripts/passivity_cycles.py (10,000).
@@ -191,12 +191,10 @@ def judge(attractor: FractalAttractor, errors: np.ndarray, rates: np.ndarray,
         was = np.array(previous_state.in_convergence)
         latched = np.array(state.latched_max_errors)
         stiffness = np.array(state.convergence_stiffness)
-        zone = np.array(state.dead_zones)
         entering = phase & ~was
         if entering.any():
-            previous_zone = np.array(previous_state.dead_zones)
             assert np.all(latched[entering] == previous_error[entering]), "e_max is not e_{k-1}"
-            reach = np.abs(previous_error[entering]) - previous_zone[entering]
+            reach = np.abs(previous_error[entering])
             latched_energy[entering] = storage(reach)
             latched_force = np.abs(profile.force(reach))
             magnitude = np.abs(latched[entering])
@@ -207,12 +205,12 @@ def judge(attractor: FractalAttractor, errors: np.ndarray, rates: np.ndarray,
             latches += int(entering.sum())
             capped += int(np.sum(cap < paper * (1 - 1e-9)))
         # The force must be the force law of the state (so V below is its potential).
-        divergence = np.sign(error) * np.abs(profile.force(np.maximum(np.abs(error) - zone, 0.0)))
+        divergence = profile.force(error)
         convergence = np.clip(stiffness * (error - 0.5 * latched), -max_force, max_force)
         expected = np.where(phase, convergence, divergence)
         np.testing.assert_allclose(force, expected, rtol=1e-9, atol=1e-12 * max_force)
         # This module's storage.
-        divergence_storage = storage(np.abs(error) - zone)
+        divergence_storage = storage(np.abs(error))
         convergence_storage = latched_energy + clipped_linear_integral(stiffness, 0.5 * latched, max_force, latched,
                                                                        error)
         value = np.where(phase, convergence_storage, divergence_storage)

@@ -47,7 +47,7 @@ class LiteralEquationTwo(FractalAttractor):
             stiffness.append(k_c)
             forces.append(k_c * (error - 0.5 * e_max) if converging else profile._scalar_force(error))
         self._state = type(old)(profile, tuple(phases), tuple(latched), tuple(stiffness), (0.0,) * len(errors),
-                                (0.0,) * len(errors), tuple(errors), tuple(forces))
+                                tuple(errors), tuple(forces))
         return forces
 
 

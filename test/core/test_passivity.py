@@ -43,7 +43,8 @@ def test_the_push_release_cycle_takes_energy_in(profile: ForceProfile, speed: fl
     errors, rates = errors * scale, rates * scale
     attractor = FractalAttractor(profile, 1, 0.005 * scale)
     verdict = judge(attractor, errors, rates, storage_for(profile, errors))
-    assert verdict.latches >= 5 and verdict.convergence_ticks > 0  # it did reverse inside C
+    # It did reverse inside C: one latch, then the strokes ride that C line (D's storage exceeds C's there).
+    assert verdict.latches >= 1 and verdict.convergence_ticks > 1000
     assert verdict.min_margin >= -1e-12
     assert verdict.final_work[0] >= 0.0
     assert verdict.storage_gap <= 1e-9
@@ -51,16 +52,19 @@ def test_the_push_release_cycle_takes_energy_in(profile: ForceProfile, speed: fl
 
 
 def test_the_push_release_cycle_numbers() -> None:
-    """The regression figures of docs/CONTROL_LAWS.md: the old profile's cycle at 0.02 m/s now takes in 0.57 mJ
-    (it gave out 87.5 mJ), the shipped profile's 1.29 mJ."""
-    results = {}
+    """The regression figures of docs/CONTROL_LAWS.md at 0.02 m/s: the old profile's cycle (F_max = 15 N) now takes
+    in 168.1 mJ (it gave out 87.5 mJ): D's storage exceeds C's at 28 mm, so its strokes ride one C line and the slow
+    return ends in C, whose storage V_latch is dissipated at e = 0; the shipped profile's cycle takes in 1.29 mJ
+    (five latches, back to D at each stroke)."""
+    results, latches = {}, {}
     for name, profile in (("old", OLD_TRANSLATION), ("shipped", ForceProfile(200.0, 0.05, 0.5, 10.0))):
         errors, rates = push_release_cycle(0.02, return_speed=0.002)
         attractor = FractalAttractor(profile, 1, 0.005)
         forces = np.array([attractor.force(error, rate)[0] for error, rate in zip(errors, rates)])
         results[name] = float(np.sum(forces[1:] * np.diff(errors[:, 0])))
-    assert results["old"] == pytest.approx(0.57e-3, abs=0.05e-3)
-    assert results["shipped"] == pytest.approx(1.29e-3, abs=0.05e-3)
+        latches[name] = judge(FractalAttractor(profile, 1, 0.005), errors, rates, storage_for(profile, errors)).latches
+    assert results["old"] == pytest.approx(168.1e-3, abs=0.1e-3) and latches["old"] == 1
+    assert results["shipped"] == pytest.approx(1.29e-3, abs=0.05e-3) and latches["shipped"] == 5
 
 
 def test_the_forward_sum_deficit_vanishes_linearly_with_the_period() -> None:
@@ -112,7 +116,7 @@ def test_random_cycles_do_reach_the_cases_that_matter() -> None:
 
 
 def test_the_old_switching_rule_fails_this_judge() -> None:
-    """The judge can fail: the old rule (latch e_max = e_k, K_C = 2 F_c(e_max)/e_max uncapped, no dead zone on
+    """The judge can fail: the old rule (latch e_max = e_k, K_C = 2 F_c(e_max)/e_max uncapped, no storage check on
     C -> D) gives out energy on the push-release cycle, and this module's judge says so."""
 
     class OldRule(FractalAttractor):
@@ -138,7 +142,7 @@ def test_the_old_switching_rule_fails_this_judge() -> None:
                 energies.append(v_latch)
                 forces.append(k_c * (error - 0.5 * e_max) if converging else profile._scalar_force(error))
             self._state = type(old)(profile, tuple(phases), tuple(latched), tuple(stiffness), tuple(energies),
-                                    (0.0,) * len(errors), tuple(errors), tuple(forces))
+                                    tuple(errors), tuple(forces))
             return forces
 
     errors, rates = push_release_cycle(0.02, return_speed=0.002)
