@@ -60,7 +60,9 @@ def main(argv: list[str] | None = None) -> int:
     with engine_from_arguments(args) as engine:
         if args.judge:
             rows = list(finished(jsonl, directory).values())
-            document = dict(runs=judged(rows, directory, engine.executor, progress), engine=engine.describe(),
+            # runs_planned: the sweep's runs for these options; fewer judged runs: the sweep had not finished.
+            document = dict(runs_planned=len(runs), runs_judged=len(rows),
+                            runs=judged(rows, directory, engine.executor, progress), engine=engine.describe(),
                             judged_at=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), **provenance(REPO))
             summary.parent.mkdir(parents=True, exist_ok=True)
             summary.write_text(json.dumps(document, indent=1))
