@@ -11,6 +11,11 @@ With --orientation instead: closed orientation loops (test/core/orientation_loop
 500 Hz and 100 Hz, the held-moment work per loop of the angle-axis FIC (fic_core/rotational_attractor.py) and of
 the old per-axis rule on the rotation vector, on the shipped rotation profile, below the rate dead-band.
 
+With --held: the held-force shortfall of the FIC as the exchanged-energy observer books it
+(fic_core/exchanged_energy_observer.py), at 1 kHz and 100 Hz: the push-release cycle and a figure eight on the
+shipped translation, the closed orientation loops on the shipped rotation; work, shortfall, the damping that covers
+it, violations.
+
 With --strokes: 1, 3, 10 and 30 strokes between 40 and 33 mm at 0.02 m/s on the shipped translation, the force at
 40 mm after them (and the dead zone, where the attractor has one: run it against an older fic_core on PYTHONPATH to
 see the dead-zone rule's ratchet).
@@ -52,6 +57,60 @@ def orientation_table(speed: float) -> list[dict[str, float]]:
     return rows
 
 
+def held_table() -> list[dict[str, float | str]]:
+    """Exchanged work, held-force shortfall and the damping that covers it, at 1 kHz and 100 Hz."""
+    from fic_core.attractor_storage import AttractorStorage
+    from fic_core.exchanged_energy_observer import ExchangedEnergyObserver
+    from fic_core.rotational_attractor import RotationalAttractor
+    from orientation_loops import drive_loop, loop_rotation_vectors
+    from passivity_oracle import push_release_cycle
+
+    profiles = shipped_profiles()
+    translation = next(value for name, value in profiles.items() if "replica.yaml:translation_" in name)
+    rotation = next(value for name, value in profiles.items() if "replica.yaml:rotation_" in name)
+    rows: list[dict[str, float | str]] = []
+
+    def translational(name: str, errors: np.ndarray, rates: np.ndarray, dt: float) -> None:
+        attractor = FractalAttractor(translation, errors.shape[1], 0.005)
+        observer = ExchangedEnergyObserver(errors.shape[1], tolerance_j=1e-6, period_s=dt)
+        storage = AttractorStorage(translation)
+        for error, rate in zip(errors, rates):
+            observer.observe(attractor.force(error, rate), error, storage(attractor.snapshot()))
+        rows.append({"cycle": name, "rate_hz": round(1.0 / dt), "work_j": observer.exchanged_work_j,
+                     "shortfall_j": observer.shortfall_j, "damping_needed": observer.damping_needed,
+                     "violations": observer.violation_ticks})
+
+    for dt in (1e-3, 1e-2):
+        errors, rates = push_release_cycle(0.1, dt=dt)
+        translational("push-release 0.1 m/s", errors, rates, dt)
+        for frequency in (1.0, 5.0):
+            # A figure eight of 0.1 m in x-y (x at f, y at 2 f) for 3 periods from rest, then back to rest.
+            time = np.arange(0.0, 3.0 / frequency, dt)
+            ramp = np.minimum(1.0, np.minimum(time, time[-1] - time) * frequency)  # in and out over one period
+            phase = 2.0 * np.pi * frequency * time
+            errors = np.stack((0.1 * ramp * np.sin(phase), 0.05 * ramp * np.sin(2.0 * phase), 0.0 * time), axis=1)
+            rates = np.gradient(errors, dt, axis=0)
+            translational(f"figure eight 0.1 m {frequency:g} Hz", errors, rates, dt)
+        for amplitude in (0.5, 1.2):
+            attractor = RotationalAttractor(rotation, 0.005)
+            observer = ExchangedEnergyObserver(3, tolerance_j=1e-6, period_s=dt)
+            storage = AttractorStorage(rotation)
+            position = np.zeros(3)
+
+            def observed(error: np.ndarray, rate: np.ndarray) -> np.ndarray:
+                nonlocal position
+                moment = attractor.moment(error, rate)
+                position = position + rate * dt
+                observer.observe(moment, position, storage(attractor.snapshot().scalar))
+                return moment
+
+            drive_loop(observed, loop_rotation_vectors(amplitude, 1.0, dt), dt)
+            rows.append({"cycle": f"orientation loop {amplitude:g} rad 1 rad/s", "rate_hz": round(1.0 / dt),
+                         "work_j": observer.exchanged_work_j, "shortfall_j": observer.shortfall_j,
+                         "damping_needed": observer.damping_needed, "violations": observer.violation_ticks})
+    return rows
+
+
 def stroke_table() -> list[dict[str, float]]:
     """The force at 40 mm after n strokes 40 -> 33 -> 40 mm at 0.02 m/s, dt = 1 ms, shipped translation."""
     profile = next(value for name, value in shipped_profiles().items() if "replica.yaml:translation_" in name)
@@ -75,12 +134,21 @@ def main() -> int:
     parser.add_argument("--orientation", action="store_true", help="the closed orientation loops instead")
     parser.add_argument("--speed", type=float, default=0.1, help="with --orientation: loop speed [rad/s]")
     parser.add_argument("--strokes", action="store_true", help="the force at 40 mm after strokes instead")
+    parser.add_argument("--held", action="store_true", help="the held-force shortfall at 1 kHz and 100 Hz instead")
     parser.add_argument("--cycles", type=int, default=10_000)
     parser.add_argument("--axes", type=int, default=10, help="cycles run side by side on one profile")
     parser.add_argument("--samples", type=int, default=1000, help="samples per cycle (dt = 1 ms)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path)
     arguments = parser.parse_args()
+    if arguments.held:
+        rows = held_table()
+        for row in rows:
+            print(" ".join(f"{key}={value:.4g}" if isinstance(value, float) else f"{key}={value}"
+                           for key, value in row.items()))
+        if arguments.json:
+            arguments.json.write_text(json.dumps(rows, indent=2) + "\n")
+        return 0 if all(row["violations"] == 0 for row in rows) else 1
     if arguments.strokes:
         for row in stroke_table():
             print(" ".join(f"{key}={value:.4g}" for key, value in row.items()))
