@@ -175,3 +175,62 @@ def test_a_joint_range_of_zero_width_is_refused() -> None:
         NullSpacePosture(lower, upper)
     upper[2] = lower[2] + 1e-6
     assert NullSpacePosture(lower, upper).upper_limit[2] > NullSpacePosture(lower, upper).lower_limit[2]
+
+
+def test_the_windowed_rate_spans_the_whole_window() -> None:
+    """(newest total - total at the window's start) / their time apart, not from a sample inside the window."""
+    from fic_core.windowed_rate import WindowedRate
+
+    rate = WindowedRate(10.0)
+    for time, total in ((0.0, 0.0), (1.0, 1.0), (2.0, 4.0)):
+        rate.add(time, total)
+    assert rate.rate == 2.0
+
+
+def test_the_wrench_frame_cannot_be_changed_once_made() -> None:
+    """The frame the replica reads F_R with is set at start (a sign or frame change is a new WrenchFrame)."""
+    import dataclasses
+
+    from fic_core.wrench_frame import WrenchFrame
+
+    frame = WrenchFrame()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        frame.sign = -1.0
+    assert frame.sign == 1.0
+
+
+def test_a_button_that_first_appears_pressed_is_a_press() -> None:
+    """A joystick message longer than the last one: its new buttons count as released before."""
+    from fic_core.operator_buttons import ButtonEdges
+
+    edges = ButtonEdges()
+    assert edges.pressed([0]) == set()
+    assert edges.pressed([0, 1, 1]) == {1, 2}
+
+
+def test_a_solver_that_reports_success_with_non_finite_values_is_not_trusted(robot, limits, monkeypatch) -> None:
+    """daqp saying optimal with NaN in its solution: the optimisation falls back to its last guard (tau_d clipped
+    into the torque and torque-rate box), never a NaN torque."""
+    import fic_core.postural_optimisation as postural
+    from fic_core.limits import LimitFlag
+    from fic_core.panda_description import NOMINAL_CONFIGURATION
+
+    calls = []
+
+    def solve(hessian, linear, rows, upper, lower, sense, **_):
+        calls.append(len(linear))
+        return np.full(len(linear), np.nan), 0.0, 1, {"iterations": 1, "lam": np.zeros(len(upper))}
+
+    monkeypatch.setattr(postural.daqp, "solve", solve)
+    optimisation = postural.PosturalOptimisation(limits, 0.001)
+    robot.update(NOMINAL_CONFIGURATION, np.zeros(7))
+    bias = robot.nonlinear_effects + robot.joint_damping * robot.qd
+    previous = bias.copy()
+    desired = previous.copy()
+    desired[1] += 5.0   # past one torque-rate step: the QP is asked
+    result = optimisation.shape(desired, previous, robot.q, robot.qd, bias, robot.mass_matrix_inverse,
+                                robot.tcp_jacobian[:3])
+    assert calls, "the QP was not asked"
+    assert np.all(np.isfinite(result.torque))
+    assert np.all(np.abs(result.torque - previous) <= limits.torque_rate * 0.001 + 1e-9)
+    assert result.flags & LimitFlag.TORQUE_RATE
