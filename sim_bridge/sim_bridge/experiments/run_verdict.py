@@ -21,8 +21,8 @@ span, which starts ``settle`` seconds into the run:
    ``port_rate_limit`` watts on average. A passive channel generates nothing; a delayed one generates while the
    operator moves, and a stable loop damps that away without a steady rise.
 4. RUNAWAY: kinetic energy above ``kinetic_energy_bound``, a joint faster than the Panda datasheet's limit, or a
-   tracking error |x_d - x_R| beyond ``runaway_error`` (4 x_b) outside contact.
-5. PARKED far from the target: |x_d - x_R|, or |x_R - command| when the command is known, above ``parked_error``
+   tracking error |x_d - x_R| beyond ``runaway_error`` x_b (4 x_b) outside contact.
+5. PARKED far from the target: |x_d - x_R|, or |x_R - command| when the command is known, above ``parked_error`` x_b
    (2 x_b) for ``parked_hold`` seconds on end outside contact.
 
 SAFE holds when the run shows no limit violation (a tick whose command or state broke a Panda limit), no velocity
@@ -68,8 +68,8 @@ class VerdictCriterion:
     energy_floor: float = 2.5e-3         # [J] nothing below it grows: 1/2 200 N/m (5 mm)^2
     port_rate_limit: float = 0.05        # [W] mean generation at the channel's ports over the judged span
     kinetic_energy_bound: float = 10.0   # [J] the Panda (about 8 kg effective) at its 1.7 m/s TCP speed limit
-    runaway_error: float = 4.0 * X_B     # [m] |x_d - x_R| outside contact
-    parked_error: float = 2.0 * X_B      # [m] |x_d - x_R| or |x_R - command| outside contact ...
+    runaway_error: float = 4.0           # [x_b] |x_d - x_R| outside contact (x_b: the run's, VerdictInput.x_b)
+    parked_error: float = 2.0            # [x_b] |x_d - x_R| or |x_R - command| outside contact ...
     parked_hold: float = 3.0             # [s] ... on end
     contact_force: float = 1.0           # [N] F/T force of contact
     contact_hold: float = 0.2            # [s] free motion only this long after the force fell below it
@@ -273,6 +273,8 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         raise VerdictInputError("time must be a finite, strictly increasing 1-D array of at least 8 samples")
     if not np.isfinite(data.one_way_delay) or data.one_way_delay < 0.0:
         raise VerdictInputError(f"one_way_delay must be a finite number >= 0, got {data.one_way_delay}")
+    if not np.isfinite(data.x_b) or data.x_b <= 0.0:
+        raise VerdictInputError(f"x_b must be a finite number > 0, got {data.x_b}")
     n = raw_time.size
     x_R, x_d = _series("x_R", data.x_R, n, 3), _series("x_d", data.x_d, n, 3)
     x_M, command = _series("x_M", data.x_M, n, 3), _series("command", data.command, n, 3)
@@ -360,12 +362,13 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
     else:
         notes.append("no joint speeds: the datasheet speed test is skipped")
     magnitude = np.linalg.norm(on_grid["error"], axis=1) if on_grid["error"] is not None else None
+    runaway_bound, parked_bound = criterion.runaway_error * data.x_b, criterion.parked_error * data.x_b
     if magnitude is not None and finite:
         free_error = magnitude[judged & free]
         figures["free_error_max_m"] = float(free_error.max()) if free_error.size else None
-        if free_error.size and free_error.max() > criterion.runaway_error:
+        if free_error.size and free_error.max() > runaway_bound:
             stable_reasons.append(f"runaway: tracking error {free_error.max() * 1e3:.0f} mm outside contact, above "
-                                  f"{criterion.runaway_error * 1e3:.0f} mm (4 x_b)")
+                                  f"{runaway_bound * 1e3:.0f} mm ({criterion.runaway_error:g} x_b)")
     # 5. Parked far from the target.
     parked_signals = {"|x_d - x_R|": magnitude}
     if on_grid["command"] is not None and on_grid["x_R"] is not None:
@@ -373,12 +376,12 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
     for name, values in parked_signals.items():
         if values is None or not finite:
             continue
-        far = (values > criterion.parked_error) & judged & free
+        far = (values > parked_bound) & judged & free
         longest = _longest_true(far, step)
         figures[f"parked_s {name}"] = longest
         if longest >= criterion.parked_hold:
-            stable_reasons.append(f"parked: {name} above {criterion.parked_error * 1e3:.0f} mm for {longest:.1f} s on "
-                                  f"end outside contact (limit {criterion.parked_hold:g} s)")
+            stable_reasons.append(f"parked: {name} above {parked_bound * 1e3:.0f} mm for {longest:.1f} s on end "
+                                  f"outside contact (limit {criterion.parked_hold:g} s)")
 
     needed = criterion.longest_period_needed(data.one_way_delay)
     reach = (float(time[-1]) - judged_from) / criterion.scan.min_cycles
