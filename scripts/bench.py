@@ -377,9 +377,9 @@ def stress_markdown(result: dict) -> str:
     lines = [f"Stress bench {result['generated']}: `{result['command']}`; quota period {result['period_us']} us on "
              f"{throttled}{hogs}; load average {load} ({machine['cpus']} cores).", "",
              "| runs | level (% of one CPU) | n | runaways | with violations (held) | with holds | flagged starved "
-             "| exit codes | RTF min / med / max | slowest loop min / med / max | error max mm min / med / max "
-             "| error RMS mm med | max joint speed / datasheet |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| exit codes | RTF min / med / max | slowest loop min / med / max | bag's share of the run min / med "
+             "| error max mm min / med / max | error RMS mm med | max joint speed / datasheet |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
     def show(values, index=None, spec=".3g"):
         if not values:
@@ -393,6 +393,7 @@ def stress_markdown(result: dict) -> str:
                      f"{_known(level['runs_with_holds'])} | "
                      f"{level['flagged_starved']} | {', '.join(map(str, level['exit_codes']))} | "
                      f"{show(level['real_time_factor'])} | {show(level['slowest_loop_fraction'])} | "
+                     f"{show((level.get('recorded_fraction') or [])[:2])} | "
                      f"{show(level['free_motion_error_max_mm'])} | {show(level['free_motion_error_rms_mm'], 1)} | "
                      f"{show(level['max_joint_speed_ratio'], 2)} |")
     return "\n".join(lines)

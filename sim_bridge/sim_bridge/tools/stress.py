@@ -294,6 +294,9 @@ def run_figures(run_dir: Path, exit_code: int) -> dict:
             "starved_reasons": timing.get("reasons"), "holds": figures.get("loop_holds"),
             "max_state_age_ms": figures.get("max_state_age_ms"),
             "slowest_loop_fraction": figures.get("slowest_loop_fraction"),
+            # the share of the run the bag holds: a runaway outside it is not seen (the recorder starves too)
+            "recorded_fraction": round(figures["recorded_s"] / figures["simulated_s"], 3)
+            if figures.get("recorded_s") is not None and figures.get("simulated_s") else None,
             "real_time_factor": metrics.get("real_time_factor"),
             "limit_violations": metrics.get("limit_violations"),
             "free_motion_error_max_m": metrics.get("free_motion_error_max_m"),
@@ -320,6 +323,7 @@ def level_summary(rows: list[dict]) -> dict:
             "exit_codes": sorted({row["exit_code"] for row in rows}),
             "real_time_factor": spread([row.get("real_time_factor") for row in rows]),
             "slowest_loop_fraction": spread([row.get("slowest_loop_fraction") for row in rows]),
+            "recorded_fraction": spread([row.get("recorded_fraction") for row in rows]),
             "free_motion_error_max_mm": spread([1e3 * row["free_motion_error_max_m"] for row in rows
                                                 if row.get("free_motion_error_max_m") is not None]),
             "free_motion_error_rms_mm": spread([1e3 * row["free_motion_error_rms_m"] for row in rows
