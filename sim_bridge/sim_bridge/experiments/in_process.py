@@ -42,6 +42,7 @@ from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.operator_scripts import superimposition_script
 from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
+from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
 from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
 from sim_bridge.robot.mujoco_panda import PandaSimulation
 
@@ -51,7 +52,8 @@ SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and th
 PLANNER_LAG_S = 0.2
 JOY_RATE_HZ = 50.0               # the device node's button messages
 CAMERA_RATE_HZ = VIDEO_RATE_HZ    # the closed-loop operator's video frames
-OPERATORS = ("scripted", "closed_loop")
+#: "shape_sorting": E2's closed-loop operator (sim_bridge.device.shape_sorting_operator; docs/EXPERIMENTS.md "E2").
+OPERATORS = ("scripted", "closed_loop", "shape_sorting")
 HANDS = ("passive", "reactive")
 #: A task that does not repeat (RunConfig.task_variation; docs/EXPERIMENTS.md "Claims"): per seed, the circle's laps
 #: (LapVaryingCircle.randomised) and the closed-loop operator's moves (closed_loop_operator's VARYING) from these
@@ -241,6 +243,8 @@ def run(config: RunConfig) -> RunResult:
         hand = Hand(hand_parameters)
     if config.operator == "closed_loop" and config.scene != "superimposition":
         raise ValueError(f"the closed-loop operator drives the superimposition scene only, not {config.scene!r}")
+    if config.operator == "shape_sorting" and config.scene != "shape_sorting":
+        raise ValueError(f"the shape-sorting operator drives the shape_sorting scene only, not {config.scene!r}")
     if config.script_path is None and config.scene == "superimposition":
         script = superimposition_script({"one_way_delay": config.delay if config.script_delay is None
                                          else config.script_delay})
@@ -259,6 +263,12 @@ def run(config: RunConfig) -> RunResult:
                        ) if config.task_variation else {}
         watcher = ClosedLoopOperator(ClosedLoopParameters.from_script_parameters(
             script.parameters, reaction_time=reaction, assumed_one_way_delay=config.delay, **varying))
+    sorter = None
+    if config.operator == "shape_sorting":   # the seed's timing draw is the perception delay's spread
+        sorter = watcher = ShapeSortingOperator(ShapeSortingParameters(
+            perception_delay=max(config.reaction_time + time_shift, 0.0), assumed_one_way_delay=config.delay,
+            learnt_stiffness=m["stiffness"], learnt_max_force=m["max_force"], velocity_gain=m["velocity_gain"],
+            velocity_deadband=m["velocity_deadband"], handle_half_extents=tuple(h["half_extents"])))
     channel = dict(delay=config.delay, jitter=config.jitter, jitter_distribution=ch["jitter_distribution"],
                    allow_reorder=ch["allow_reorder"], drop_probability=config.drop,
                    blackout_windows=tuple(config.blackout_windows), rate_cap_hz=config.rate_cap)
@@ -339,13 +349,16 @@ def run(config: RunConfig) -> RunResult:
             script_time = max(now - time_shift, 0.0)
             target = operator.target(script_time) if watcher is None else watcher.target(now)
             fresh = command_time is not None and now - command_time <= h["command_timeout"]
+            if sorter is not None:   # it feels the force the motors render on the handle
+                sorter.feel(device.saturate(device_command) if fresh else np.zeros(3), device.position)
             if reactive:   # it feels the force the motors render on the handle
                 assert isinstance(hand, ReactiveHand)
                 hand.update(target, device.position, device_every * STEP if k else 0.0, device.velocity,
                             device.saturate(device_command) if fresh else np.zeros(3))
             else:
                 hand.update(target, device.position, device_every * STEP if k else 0.0)
-            buttons.extend(event.button for event in operator.poll_events(script_time))
+            buttons.extend(event.button for event in (operator.poll_events(script_time) if sorter is None
+                                                      else sorter.poll_events(now)))
             state = device.step(device_command if fresh else np.zeros(3), hand.force, device_every * STEP if k else 0.0)
             master.add_pose(state.position, (0.0, 0.0, 0.0, 1.0), now)
             master.add_twist(state.velocity, now)
@@ -378,7 +391,9 @@ def run(config: RunConfig) -> RunResult:
             replica.add_planner_pose(ns, planner.position, orientation, now)
             replica.add_planner_acceleration(planner.acceleration, now)
         if watcher is not None and k % camera_every == 0:
-            video.push(Frame(now, sim.tcp_pose[0], sim.object_poses()["pushable_obstacle"][0]), now, now)
+            video.push(Frame(now, sim.tcp_pose[0], sim.object_poses()["pushable_obstacle"][0]) if sorter is None
+                       else SortingFrame(now, sim.tcp_pose[0], np.array([pose[0] for pose in sim.object_poses().values()])),
+                       now, now)
         if watcher is not None and k % delivery_every == 0:
             for delivery in video.pop_due(now):
                 watcher.see(now, delivery.payload)
