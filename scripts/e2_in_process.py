@@ -1,14 +1,17 @@
 #!/usr/bin/env python3
 """E2 (shape sorting) trials on the in-process runner: more seeds than the lockstep graph can run in a session.
 
-Each trial is the E2 run of the lockstep graph (the scripted operator, 200 ms each way, the replica's Eq. 7 as the
-paper writes it, docs/EXPERIMENTS.md "E2") with the seed's variations of the evidence sweep: the script's clock
-shifted by up to +-0.1 s, the hand's impedance scaled by up to +-20 %, 5 ms of channel jitter
-(sim_bridge.experiments.evidence_run). The closed-loop operator drives E1 only (it has no policy for finding
-pieces and holes in a video), so E2 keeps the script. A piece counts when it ends inside the box
-(sim_bridge.experiments.shape_sorting.inside_box).
+With ``--operator shape_sorting`` (the default) each trial is driven by the closed-loop shape-sorting operator
+(sim_bridge.device.shape_sorting_operator: it sees the delayed video, aligns piece over hole by move-and-wait and
+feels the insertion) holding the handle with the force-reactive hand (device.reactive_hand); ``--operator scripted``
+replays the lockstep graph's E2 script (config/operator_scripts/shape_sorting.yaml). Each seed varies the operator
+as the evidence sweep does (sim_bridge.experiments.evidence_run): the perception delay (or the script's clock) by up
+to +-0.1 s, the hand's impedance by up to +-20 %, the reactive hand's latencies and gains from their ranges, with
+5 ms of channel jitter. A piece counts when it ends inside the box (sim_bridge.experiments.shape_sorting.inside_box);
+the outcome of each trial also gives the operator's phases, its retries and the time it took per piece.
 
-    source scripts/env.sh && python scripts/e2_in_process.py --trials 8 --json results/e2_in_process.json
+    source scripts/env.sh && python scripts/e2_in_process.py --trials 4 --json results/e2_operator_fic.json
+    python scripts/e2_in_process.py --controller linear_bounded --trials 2 --json results/e2_operator_linear_bounded.json
 """
 from __future__ import annotations
 
@@ -27,14 +30,43 @@ from sim_bridge.device.virtual_operator import load_script  # noqa: E402
 from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER,  # noqa: E402
                                                  OPERATOR_TIMING_JITTER_S)
 from sim_bridge.experiments.in_process import RunConfig, run  # noqa: E402
+from sim_bridge.experiments.cell_statistics import wilson_interval  # noqa: E402
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box  # noqa: E402
 
 FORCE_OF_NOTE_N = 10.0   # the replica's F_max: time spent above it is reported, as in the graph's E2 table
 
 
-def trial(seed: int, duration: float, jitter: bool) -> dict:
-    config = RunConfig(scene="shape_sorting", trajectory="fixed", duration=duration, delay=0.2, seed=seed,
-                       replica_overrides={"paper_law": True},
+def operator_outcome(moves: list[tuple[str, float, float]], force: np.ndarray, time: np.ndarray) -> dict:
+    """Per piece, from the operator's phase log: when it was started and finished (seen inside, or given up), the
+    grasp and insertion attempts (a retry is any attempt after the first), the phases it went through with their
+    start times, and the peak force at the replica between its start and finish."""
+    pieces: dict[str, dict] = {}
+    for label, start, value in moves:
+        shape, phase = label.split(":", 1)
+        piece = pieces.setdefault(shape, {"start_s": round(start, 2), "end_s": None, "result": "unfinished",
+                                          "grasps": 0, "insertions": 0, "phases": []})
+        if phase == "reach":
+            piece["grasps"] += 1
+        elif phase == "descend":
+            piece["insertions"] += 1
+        elif phase in ("done", "gave_up"):
+            piece["end_s"], piece["result"] = round(start, 2), "inside" if phase == "done" else "gave up"
+        if not piece["phases"] or piece["phases"][-1][0] != phase:
+            piece["phases"].append((phase, round(start, 2), round(value, 4)))
+    for piece in pieces.values():
+        end = piece["end_s"] if piece["end_s"] is not None else float(time[-1])
+        window = (time >= piece["start_s"]) & (time <= end)
+        piece["duration_s"] = round(end - piece["start_s"], 2)
+        piece["retries"] = max(piece["grasps"] - 1, 0) + max(piece["insertions"] - piece["grasps"], 0)
+        piece["peak_force_n"] = round(float(force[window].max()), 1) if window.any() else 0.0
+    return pieces
+
+
+def trial(seed: int, duration: float, jitter: bool, operator: str, controller: str, delay: float) -> dict:
+    config = RunConfig(scene="shape_sorting", trajectory="fixed", duration=duration, delay=delay, seed=seed,
+                       controller=controller, operator=operator,
+                       hand="reactive" if operator == "shape_sorting" else "passive",
+                       replica_overrides={"paper_law": True} if controller == "fic" else {},
                        jitter=CHANNEL_JITTER_S if jitter else 0.0,
                        operator_timing_jitter=OPERATOR_TIMING_JITTER_S if jitter else 0.0,
                        hand_impedance_jitter=HAND_IMPEDANCE_JITTER if jitter else 0.0)
@@ -42,16 +74,32 @@ def trial(seed: int, duration: float, jitter: bool) -> dict:
     inside = [name for name in PIECE_NAMES if inside_box(result.objects[name][0])]
     force = np.linalg.norm(result.force, axis=1)
     dt = float(np.median(np.diff(result.time))) if len(result.time) > 1 else 0.0
-    return {"seed": seed, "pieces_inside": inside, "peak_force_n": round(float(force.max()), 1),
-            "time_above_f_max_s": round(float((force > FORCE_OF_NOTE_N).sum() * dt), 2),
-            "limit_violations": result.limit_violations, "operator_time_shift_s": round(result.operator_time_shift, 3),
-            "hand_scale": round(result.hand_scale, 3), "wall_s": round(result.wall_s, 1),
-            "simulated_s": round(result.simulated_s, 1)}
+    row = {"seed": seed, "pieces_inside": inside, "peak_force_n": round(float(force.max()), 1),
+           "time_above_f_max_s": round(float((force > FORCE_OF_NOTE_N).sum() * dt), 2),
+           "limit_violations": result.limit_violations, "operator_time_shift_s": round(result.operator_time_shift, 3),
+           "hand_scale": round(result.hand_scale, 3), "wall_s": round(result.wall_s, 1),
+           "simulated_s": round(result.simulated_s, 1), "joint_speed_max_rad_s": round(result.joint_speed_max, 2)}
+    if operator == "shape_sorting":
+        row["pieces"] = operator_outcome(result.operator_moves, force, result.time)
+        finished = [piece["end_s"] for piece in row["pieces"].values() if piece["end_s"] is not None]
+        row["task_time_s"] = round(max(finished), 2) if len(finished) == len(PIECE_NAMES) else None
+        row["retries"] = sum(piece["retries"] for piece in row["pieces"].values())
+        row["trace"] = {"time": np.round(result.time[::25], 3).tolist(),
+                        "force_n": np.round(force[::25], 2).tolist(),
+                        "phases": [(label, round(start, 2)) for label, start, _ in result.operator_moves]}
+    return row
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--trials", type=int, default=8, help="seeds 1..N (default 8)")
+    parser.add_argument("--trials", type=int, default=4, help="seeds 1..N (default 4, the paper's count)")
+    parser.add_argument("--first-seed", type=int, default=1)
+    parser.add_argument("--operator", choices=("shape_sorting", "scripted"), default="shape_sorting")
+    parser.add_argument("--controller", default="fic", help="fic (the paper's Eq. 7 as written, as the graph's E2), "
+                                                            "linear, linear_bounded, linear_tdpa")
+    parser.add_argument("--delay", type=float, default=0.2, help="one way [s] (default 0.2, the paper's)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="simulated s (default: the script's 111.5 s; the operator's 160 s)")
     parser.add_argument("--no-jitter", action="store_true", help="every trial as the lockstep graph's (seeds then "
                                                                   "differ only in the bonds' draws)")
     parser.add_argument("--json", type=Path, default=None, help="write the trials here")
@@ -59,10 +107,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.trials < 1:
         parser.error("--trials must be at least 1")
     script = load_script(REPO / "config" / "operator_scripts" / "shape_sorting.yaml")
-    duration = round(script.duration + 1.0, 1)   # the graph's E2 duration (scripts/experiments.py)
+    # The script's: the graph's E2 duration (scripts/experiments.py); the operator's: three pieces at about 45 s
+    # each with a retry's margin.
+    duration = args.duration or (round(script.duration + 1.0, 1) if args.operator == "scripted" else 160.0)
     trials = []
-    for seed in tqdm(range(1, args.trials + 1), unit="trial", file=sys.stdout, dynamic_ncols=True):
-        trials.append(trial(seed, duration, not args.no_jitter))
+    seeds = range(args.first_seed, args.first_seed + args.trials)
+    for seed in tqdm(seeds, unit="trial", file=sys.stdout, dynamic_ncols=True):
+        trials.append(trial(seed, duration, not args.no_jitter, args.operator, args.controller, args.delay))
         row = trials[-1]
         tqdm.write(f"[e2] seed {seed}: {len(row['pieces_inside'])} / {len(PIECE_NAMES)} inside "
                    f"({', '.join(row['pieces_inside']) or 'none'}), peak {row['peak_force_n']} N, "
@@ -70,12 +121,19 @@ def main(argv: list[str] | None = None) -> int:
                    f"violations, {row['wall_s']} s wall")
     complete = sum(len(row["pieces_inside"]) == len(PIECE_NAMES) for row in trials)
     pieces = sum(len(row["pieces_inside"]) for row in trials)
-    print(f"[e2] trials with every piece inside: {complete} of {len(trials)}; pieces inside: {pieces} of "
-          f"{len(PIECE_NAMES) * len(trials)}; limit violations: {sum(row['limit_violations'] for row in trials)}")
+    complete_interval = wilson_interval(complete, len(trials))
+    pieces_interval = wilson_interval(pieces, len(PIECE_NAMES) * len(trials))
+    print(f"[e2] trials with every piece inside: {complete} of {len(trials)} (95 % Wilson {complete_interval[0]:.2f}-"
+          f"{complete_interval[1]:.2f}); pieces inside: {pieces} of {len(PIECE_NAMES) * len(trials)} "
+          f"({pieces_interval[0]:.2f}-{pieces_interval[1]:.2f}); limit violations: "
+          f"{sum(row['limit_violations'] for row in trials)}")
     if args.json:
         args.json.write_text(json.dumps({"generated": datetime.now().isoformat(timespec="seconds"),
-                                         "duration_s": duration, "jitter": not args.no_jitter,
-                                         "trials": trials, "complete": complete, "pieces_inside": pieces},
+                                         "operator": args.operator, "controller": args.controller,
+                                         "delay_s": args.delay, "duration_s": duration, "jitter": not args.no_jitter,
+                                         "trials": trials, "complete": complete, "pieces_inside": pieces,
+                                         "complete_wilson_95": [round(v, 3) for v in complete_interval],
+                                         "pieces_wilson_95": [round(v, 3) for v in pieces_interval]},
                                         indent=2) + "\n")
         print(f"[e2] {args.json}")
     return 0
