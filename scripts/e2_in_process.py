@@ -103,7 +103,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-jitter", action="store_true", help="every trial as the lockstep graph's (seeds then "
                                                                   "differ only in the bonds' draws)")
     parser.add_argument("--json", type=Path, default=None, help="write the trials here")
+    parser.add_argument("--merge", type=Path, nargs="+", default=None,
+                        help="instead of running: combine these JSON files (one run each, e.g. one seed a process) "
+                             "into --json")
     args = parser.parse_args(argv)
+    if args.merge:
+        runs = [json.loads(path.read_text()) for path in args.merge]
+        trials = sorted((row for run in runs for row in run["trials"]), key=lambda row: row["seed"])
+        return summarise(trials, {key: runs[0][key] for key in ("operator", "controller", "delay_s", "duration_s",
+                                                                "jitter")}, args.json)
     if args.trials < 1:
         parser.error("--trials must be at least 1")
     script = load_script(REPO / "config" / "operator_scripts" / "shape_sorting.yaml")
@@ -119,6 +127,12 @@ def main(argv: list[str] | None = None) -> int:
                    f"({', '.join(row['pieces_inside']) or 'none'}), peak {row['peak_force_n']} N, "
                    f"{row['time_above_f_max_s']} s above {FORCE_OF_NOTE_N:g} N, {row['limit_violations']} limit "
                    f"violations, {row['wall_s']} s wall")
+    return summarise(trials, {"operator": args.operator, "controller": args.controller, "delay_s": args.delay,
+                              "duration_s": duration, "jitter": not args.no_jitter}, args.json)
+
+
+def summarise(trials: list[dict], setup: dict, path: Path | None) -> int:
+    """Print the counts with their 95 % Wilson intervals and write the trials with them to ``path``."""
     complete = sum(len(row["pieces_inside"]) == len(PIECE_NAMES) for row in trials)
     pieces = sum(len(row["pieces_inside"]) for row in trials)
     complete_interval = wilson_interval(complete, len(trials))
@@ -127,15 +141,12 @@ def main(argv: list[str] | None = None) -> int:
           f"{complete_interval[1]:.2f}); pieces inside: {pieces} of {len(PIECE_NAMES) * len(trials)} "
           f"({pieces_interval[0]:.2f}-{pieces_interval[1]:.2f}); limit violations: "
           f"{sum(row['limit_violations'] for row in trials)}")
-    if args.json:
-        args.json.write_text(json.dumps({"generated": datetime.now().isoformat(timespec="seconds"),
-                                         "operator": args.operator, "controller": args.controller,
-                                         "delay_s": args.delay, "duration_s": duration, "jitter": not args.no_jitter,
-                                         "trials": trials, "complete": complete, "pieces_inside": pieces,
-                                         "complete_wilson_95": [round(v, 3) for v in complete_interval],
-                                         "pieces_wilson_95": [round(v, 3) for v in pieces_interval]},
-                                        indent=2) + "\n")
-        print(f"[e2] {args.json}")
+    if path:
+        path.write_text(json.dumps({"generated": datetime.now().isoformat(timespec="seconds"), **setup,
+                                    "trials": trials, "complete": complete, "pieces_inside": pieces,
+                                    "complete_wilson_95": [round(v, 3) for v in complete_interval],
+                                    "pieces_wilson_95": [round(v, 3) for v in pieces_interval]}, indent=2) + "\n")
+        print(f"[e2] {path}")
     return 0
 
 
