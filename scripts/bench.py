@@ -247,6 +247,9 @@ def main(argv: list[str] | None = None) -> int:
                              "--runs single-host runs per level")
     parser.add_argument("--two-stations-runs", type=int, default=0, help="--stress: two-station runs per level")
     parser.add_argument("--stress-node", default=None, help="--stress: throttle this node alone (e.g. replica)")
+    parser.add_argument("--spare", default=None,
+                        help="--stress: leave this node out of the whole graph's quota (the recorder: the bag then "
+                             "holds the whole run)")
     parser.add_argument("--hogs", type=int, default=0, help="--stress: busy processes competing (niceness 0)")
     parser.add_argument("--hog-cpus", default="", help="--stress: pin the hogs to these CPUs, e.g. 0")
     parser.add_argument("--period-us", type=int, default=None, help="--stress: the quota's CFS period [us]")
@@ -327,7 +330,7 @@ def stress_bench(args: argparse.Namespace, launcher_args: list[str], out: Path) 
     cpus = [int(c) for c in args.hog_cpus.split(",") if c.strip()] or None
     period = args.period_us or DEFAULT_PERIOD_US
     result: dict = {"generated": datetime.now().isoformat(timespec="seconds"), "levels_percent_of_one_cpu": levels,
-                    "node": args.stress_node, "hogs": args.hogs, "hog_cpus": cpus, "period_us": period,
+                    "node": args.stress_node, "spare": args.spare, "hogs": args.hogs, "hog_cpus": cpus, "period_us": period,
                     "launcher_args": launcher_args,
                     "machine": {"cpus": os.cpu_count(), "load_average_at_start": list(os.getloadavg())},
                     "command": "scripts/bench.sh " + " ".join(shlex.quote(a) for a in sys.argv[1:]), "runs": []}
@@ -342,7 +345,7 @@ def stress_bench(args: argparse.Namespace, launcher_args: list[str], out: Path) 
             cpu_before = psutil.cpu_times()
             try:
                 run = stressed_run([*launcher_args, *extra, "--no-video"], runs_dir / name,
-                                   level, node=args.stress_node, hogs=args.hogs,
+                                   level, node=args.stress_node, spare=args.spare, hogs=args.hogs,
                                    hog_cpus=cpus, period_us=period, log=runs_dir / f"{name}.log")
             except StressError as error:
                 print(f"[bench] refused: {error}", file=sys.stderr)
@@ -372,7 +375,8 @@ def stress_markdown(result: dict) -> str:
     load = ", ".join(f"{x:.1f}" for x in machine["load_average_at_start"])
     if machine.get("load_average_at_end"):
         load += " at start, " + ", ".join(f"{x:.1f}" for x in machine["load_average_at_end"]) + " at end"
-    throttled = f"node {result['node']}" if result.get("node") else "the whole graph"
+    throttled = f"node {result['node']}" if result.get("node") else (
+        f"the whole graph but the {result['spare']}" if result.get("spare") else "the whole graph")
     hogs = f", {result['hogs']} CPU hogs" if result.get("hogs") else ""
     lines = [f"Stress bench {result['generated']}: `{result['command']}`; quota period {result['period_us']} us on "
              f"{throttled}{hogs}; load average {load} ({machine['cpus']} cores).", "",

@@ -6,7 +6,9 @@ A run that starves on a loaded machine starves by accident, at an unknown level.
   ``level`` % of one CPU in each ``period`` (cgroup v1: ``cpu.cfs_quota_us`` / ``cpu.cfs_period_us`` under the
   ``cpu`` hierarchy; v2: ``cpu.max``). The whole graph: the launcher joins the cgroup before it starts, and every
   node it starts (and, in a two-station run, both stations' nodes: ``ip netns exec`` keeps the cgroup) is in it.
-  One node (``node``): the launcher runs free and that node's process joins the cgroup as soon as it appears.
+  One node (``node``): the launcher runs free and that node's process joins the cgroup as soon as it appears;
+  the whole graph but one (``spare``, the recorder): that node's process leaves the cgroup as soon as it appears,
+  so that the bag, the harness's instrument, holds the whole run.
   The default period, 20 ms, is short enough that a throttled graph is stopped for at most a few ticks of the
   replica's 2 ms at a time at the lower levels (a 100 ms period let it run 50 ms and stop 50 ms at 50 %);
 - optional CPU hogs: busy processes pinned to given CPUs (``sched_setaffinity``), outside the cgroup, at niceness 0,
@@ -75,6 +77,10 @@ class CpuQuota:
     def join(self, pid: int) -> None:
         """Move process ``pid`` (all its threads) into the quota; its children from now on are born in it."""
         (self.path / "cgroup.procs").write_text(str(pid))
+
+    def leave(self, pid: int) -> None:
+        """Move process ``pid`` back into the parent group (out of the quota)."""
+        (self.parent / "cgroup.procs").write_text(str(pid))
 
     def members(self) -> list[int]:
         try:
@@ -174,11 +180,13 @@ def _node_processes(root: int, node: str) -> list[int]:
 
 
 def stressed_run(launcher_args: list[str], out: Path, level_percent: float | None, *, node: str | None = None,
-                 hogs: int = 0, hog_cpus: list[int] | None = None, period_us: int = DEFAULT_PERIOD_US,
-                 log: Path | None = None, env: dict[str, str] | None = None) -> dict:
+                 spare: str | None = None, hogs: int = 0, hog_cpus: list[int] | None = None,
+                 period_us: int = DEFAULT_PERIOD_US, log: Path | None = None,
+                 env: dict[str, str] | None = None) -> dict:
     """One launcher run at ``level_percent`` % of one CPU (None: no quota), the whole graph or ``node`` alone, in
     ``env`` (default: this process's environment); returns the launcher's exit code, the wall time and the
-    kernel's throttling counts."""
+    kernel's throttling counts. ``spare``: a node of the whole graph left out of the quota (the recorder: starved
+    with the rest, it kept as little as 2 % of a run, and the runaway check then sees only that)."""
     command = [sys.executable, str(LAUNCHER), "--out", str(out), *launcher_args]
     quota = CpuQuota(level_percent, period_us) if level_percent is not None else None
     hog = CpuHogs(hogs, hog_cpus) if hogs else None
@@ -192,7 +200,10 @@ def stressed_run(launcher_args: list[str], out: Path, level_percent: float | Non
                                        preexec_fn=join)
             watcher = None
             if quota is not None and node is not None:
-                watcher = _NodeWatcher(process.pid, node, quota)
+                watcher = _NodeWatcher(process.pid, node, quota.join)
+                watcher.start()
+            elif quota is not None and spare is not None:
+                watcher = _NodeWatcher(process.pid, spare, quota.leave)
                 watcher.start()
             code = process.wait()
             if watcher is not None:
@@ -207,15 +218,16 @@ def stressed_run(launcher_args: list[str], out: Path, level_percent: float | Non
         if quota is not None:
             quota.close()
     return {"exit_code": code, "wall_s": round(time.monotonic() - started, 1), "throttling": throttling,
-            "node_joined": None if node is None else bool(watcher and watcher.joined)}
+            "node_moved": None if node is None and spare is None else bool(watcher and watcher.joined)}
 
 
 class _NodeWatcher(threading.Thread):
-    """Moves ``node``'s process(es) into the quota as they appear."""
+    """Moves ``node``'s process(es) into the quota, or out of it, as they appear (``move``: CpuQuota.join or
+    CpuQuota.leave)."""
 
-    def __init__(self, root: int, node: str, quota: CpuQuota) -> None:
+    def __init__(self, root: int, node: str, move) -> None:
         super().__init__(daemon=True)
-        self.root, self.node, self.quota = root, node, quota
+        self.root, self.node, self.move = root, node, move
         self.joined: set[int] = set()
         self._halt = threading.Event()
 
@@ -224,7 +236,7 @@ class _NodeWatcher(threading.Thread):
             for pid in _node_processes(self.root, self.node):
                 if pid not in self.joined:
                     try:
-                        self.quota.join(pid)
+                        self.move(pid)
                         self.joined.add(pid)
                     except OSError:
                         pass
@@ -345,6 +357,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="One launcher run at a stated CPU level (scripts/stress.sh).")
     parser.add_argument("level", help="% of one CPU for the graph (or --node), e.g. 70; 'none': no quota")
     parser.add_argument("--node", default=None, help="throttle this node's process alone (e.g. replica)")
+    parser.add_argument("--spare", default=None, help="leave this node out of the whole graph's quota (recorder)")
     parser.add_argument("--hogs", type=int, default=0, help="busy processes competing for the CPU (niceness 0)")
     parser.add_argument("--hog-cpus", default="", help="pin the hogs to these CPUs, e.g. 0 or 0,1")
     parser.add_argument("--period-us", type=int, default=DEFAULT_PERIOD_US, help="the quota's CFS period")
@@ -358,12 +371,13 @@ def main(argv: list[str] | None = None) -> int:
     cpus = [int(c) for c in args.hog_cpus.split(",") if c.strip()] or None
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
-        result = stressed_run(launcher_args, out, level, node=args.node, hogs=args.hogs, hog_cpus=cpus,
+        result = stressed_run(launcher_args, out, level, node=args.node, spare=args.spare, hogs=args.hogs,
+                              hog_cpus=cpus,
                               period_us=args.period_us, log=out.parent / f"{out.name}.log")
     except StressError as error:
         print(f"[stress] refused: {error}", file=sys.stderr)
         return 2
-    row = {"level_percent": level, "node": args.node, "hogs": args.hogs, **result,
+    row = {"level_percent": level, "node": args.node, "spare": args.spare, "hogs": args.hogs, **result,
            **run_figures(out, result["exit_code"])}
     (out / "stress.json").write_text(json.dumps(row, indent=2) + "\n")
     print(json.dumps(row, indent=2))
