@@ -53,24 +53,14 @@ def port_velocity(mode: TeleoperationMode, workspace_scale: float, velocity_gain
     return velocity_gain * np.asarray(handle_position, dtype=float)
 
 
-def _observer_values(observer: ChannelPortObserver, generated: float, rate: float, control: bool) -> dict[str, float]:
-    return {"input_energy_j": observer.input_energy, "output_energy_j": observer.output_energy,
-            "received_input_energy_j": observer.received_input_energy, "observer_energy_j": observer.energy,
-            "observer_energy_min_j": observer.min_energy, "negative_ticks": float(observer.negative_ticks),
-            "ticks": float(observer.ticks), "generated_j": generated, "generated_rate_w": rate,
-            "passivity_control": float(control)}
+class _ChannelPort:
+    """What both ends share: a passivity controller (its observer inside), the windowed rate of what this end
+    booked as generated, and the observer's figures for /diagnostics."""
 
-
-class MasterChannelPort:
-    """The master's end: F_R received, x_d''s rate, the variable damper (module docstring)."""
-
-    def __init__(self, control: bool, max_damping: float, window: float = 1.0) -> None:
-        # The damper stops the handle in one master tick at most (alpha dt / m = 1, the caller's max_damping): a
-        # larger alpha, held over the device's substeps, would overshoot and make the damper itself active.
-        self.controller = ForcePortPassivityController(max_damping, enabled=control)
+    def __init__(self, controller: ForcePortPassivityController | MotionPortPassivityController,
+                 window: float) -> None:
+        self.controller = controller
         self.generated_rate = WindowedRate(window)
-        self._feedback = np.zeros(3)
-        self._feedback_received: float | None = None
 
     @property
     def control(self) -> bool:
@@ -82,22 +72,42 @@ class MasterChannelPort:
 
     @property
     def input_energy(self) -> float:
-        """E_in of this port [J]: what the master sends on with x_d'."""
+        """E_in of this port [J]: what this end sends on to the other (x_d' at the master, F_R at the replica)."""
         return self.observer.input_energy
 
     @property
     def generated_energy(self) -> float:
-        """What the backward link (F_R) let out here beyond what the replica put in, as known here [J]: -W_M."""
+        """What the link arriving here let out beyond what the other end put in, as known here [J]: -W."""
         return -self.observer.energy
+
+    def receive_energy(self, other_input_energy: float) -> None:
+        """E_in of the other end's port, as the channel delivered it."""
+        self.observer.receive(other_input_energy)
+
+    def _observer_values(self) -> dict[str, float]:
+        observer = self.observer
+        return {"input_energy_j": observer.input_energy, "output_energy_j": observer.output_energy,
+                "received_input_energy_j": observer.received_input_energy, "observer_energy_j": observer.energy,
+                "observer_energy_min_j": observer.min_energy, "negative_ticks": float(observer.negative_ticks),
+                "ticks": float(observer.ticks), "generated_j": self.generated_energy,
+                "generated_rate_w": self.generated_rate.rate, "passivity_control": float(self.control)}
+
+
+class MasterChannelPort(_ChannelPort):
+    """The master's end: F_R received, x_d''s rate, the variable damper (module docstring). Its generated energy
+    is the backward link's (F_R)."""
+
+    def __init__(self, control: bool, max_damping: float, window: float = 1.0) -> None:
+        # The damper stops the handle in one master tick at most (alpha dt / m = 1, the caller's max_damping): a
+        # larger alpha, held over the device's substeps, would overshoot and make the damper itself active.
+        super().__init__(ForcePortPassivityController(max_damping, enabled=control), window)
+        self._feedback = np.zeros(3)
+        self._feedback_received: float | None = None
 
     def receive_feedback(self, force: ArrayLike, now: float) -> None:
         """F_R as the channel delivered it (kept as received: the damper acts on it afresh at every tick)."""
         self._feedback = finite_array("replica_force", force, (3,)).copy()
         self._feedback_received = finite_scalar("now", now)
-
-    def receive_energy(self, replica_input_energy: float) -> None:
-        """E_in of the replica port, as the channel delivered it."""
-        self.observer.receive(replica_input_energy)
 
     def tick(self, station: MasterStation, now: float, dt: float) -> None:
         """Book one master control tick of ``dt`` [s] before Eq. 3 is evaluated; with ``control`` the station
@@ -114,45 +124,22 @@ class MasterChannelPort:
         self.generated_rate.add(now, self.generated_energy)
 
     def diagnostics(self) -> dict[str, float]:
-        return {**_observer_values(self.observer, self.generated_energy, self.generated_rate.rate, self.control),
-                "damping_n_s_per_m": self.controller.damping}
+        return {**self._observer_values(), "damping_n_s_per_m": self.controller.damping}
 
 
-class ReplicaChannelPort:
-    """The replica's end: x_d' delivered, F_R sent back, the offset's rate correction (module docstring)."""
+class ReplicaChannelPort(_ChannelPort):
+    """The replica's end: x_d' delivered, F_R sent back, the offset's rate correction (module docstring). Its
+    generated energy is the forward link's (x_d')."""
 
     def __init__(self, control: bool, window: float = 1.0) -> None:
-        self.controller = MotionPortPassivityController(MAX_OFFSET_CORRECTION_M, enabled=control)
-        self.generated_rate = WindowedRate(window)
+        super().__init__(MotionPortPassivityController(MAX_OFFSET_CORRECTION_M, enabled=control), window)
         self.force_sent = np.zeros(3)
         self._last_delivery: float | None = None
-
-    @property
-    def control(self) -> bool:
-        return self.controller.enabled
-
-    @property
-    def observer(self) -> ChannelPortObserver:
-        return self.controller.observer
-
-    @property
-    def input_energy(self) -> float:
-        """E_in of this port [J]: what the replica sends on with F_R."""
-        return self.observer.input_energy
-
-    @property
-    def generated_energy(self) -> float:
-        """What the forward link (x_d') let out here beyond what the master put in, as known here [J]: -W_R."""
-        return -self.observer.energy
 
     @property
     def drift(self) -> NDArray[np.float64]:
         """Delivered minus received offset [m] (the motion controller's corrections, summed)."""
         return self.controller.drift
-
-    def receive_energy(self, master_input_energy: float) -> None:
-        """E_in of the master port, as the channel delivered it."""
-        self.observer.receive(master_input_energy)
 
     def sent(self, force: ArrayLike) -> float:
         """F_R as sent back to the master; returns this port's E_in, to travel with it."""
@@ -170,8 +157,7 @@ class ReplicaChannelPort:
 
     def diagnostics(self) -> dict[str, float]:
         drift = self.drift
-        return {**_observer_values(self.observer, self.generated_energy, self.generated_rate.rate, self.control),
-                "gain_m_per_n_s": self.controller.gain,
+        return {**self._observer_values(), "gain_m_per_n_s": self.controller.gain,
                 "offset_drift_m": float(np.linalg.norm(drift)) if drift.size else 0.0}
 
 
