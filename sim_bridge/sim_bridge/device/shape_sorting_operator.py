@@ -38,8 +38,9 @@ watching two cameras and holding the handle:
   spiral about the aligned point until the felt contact gives way: the piece dropped into the hole), insert (to
   ``insert_margin`` below the rim), lock (sideways under the rim), pull (up until the felt pull gives way: the bond
   broke, or ``pull_time``), check (seen: the piece inside the box). A failed insertion lifts, re-aligns and tries
-  again, at most ``max_insert_attempts`` times; a piece left outside the box (dropped, or on the lid) is picked
-  again from where it is seen, at most ``max_piece_attempts`` times.
+  again, at most ``max_insert_attempts`` times; a bond that held through a pull is yanked on the next attempt (the
+  lock and the pull faster, the lock toward the other wall); a piece left outside the box (dropped, or on the lid)
+  is picked again from where it is seen, at most ``max_piece_attempts`` times (one still on the plate is not).
 
 ``moves_started`` logs every phase as (``"<piece>:<phase>"``, start time, a figure: the attempt, the seen error or
 the felt force), for the traces of docs/EXPERIMENTS.md "E2". Nothing here is timed in advance: the same policy runs at
@@ -337,7 +338,8 @@ class ShapeSortingOperator:
         for index, piece in enumerate(SHAPE_SORTING_PIECES):
             done = False
             for attempt in range(1, self.parameters.max_piece_attempts + 1):
-                yield from self._grasp(index, attempt)
+                if not self._bonded(index):   # a piece still on the plate after failed insertions is not re-grasped
+                    yield from self._grasp(index, attempt)
                 if not self._bonded(index):
                     continue
                 done = yield from self._insert(index)
@@ -440,7 +442,7 @@ class ShapeSortingOperator:
                     self._log(f"{name}:dropped", attempt)
                     return False
                 continue
-            yield from self._lock_and_pull(name, inserted)
+            yield from self._lock_and_pull(name, inserted, attempt)
             yield from self._home()
             yield from self._see_result()
             if inside_box(self.seen.pieces[index]):
@@ -465,15 +467,19 @@ class ShapeSortingOperator:
                 return
             yield
 
-    def _lock_and_pull(self, name: str, inserted: NDArray[np.float64]) -> Iterator[None]:
+    def _lock_and_pull(self, name: str, inserted: NDArray[np.float64], attempt: int) -> Iterator[None]:
+        """Jam the piece against the hole's wall and pull. A bond that held through a pull is yanked on the next
+        attempt: the lock and the pull made 1/attempt as long (faster, so the arm's momentum adds to the controller's
+        bounded force when the piece catches), the lock toward the other wall."""
         p = self.parameters
         self._log(f"{name}:lock", float(self._contact[2]))
-        locked = inserted + np.array([p.lock_shift, 0.0, 0.0])
-        yield from self._hand_to(locked, 2.0 * p.ramp)
+        side = 1.0 if attempt % 2 else -1.0
+        locked = inserted + np.array([side * p.lock_shift, 0.0, 0.0])
+        yield from self._hand_to(locked, 2.0 * p.ramp / attempt)
         yield from self._hold(0.5)
         self._log(f"{name}:pull", float(self._contact[2]))
         pulled = np.array([locked[0], locked[1], p.pull])
-        yield from self._hand_to(pulled, 2.0 * p.ramp)
+        yield from self._hand_to(pulled, 2.0 * p.ramp / attempt)
         end, strongest, released = self._now + p.pull_time, 0.0, None
         while self._now < end:
             felt = float(np.linalg.norm(self._contact))
