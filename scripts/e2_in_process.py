@@ -106,12 +106,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--merge", type=Path, nargs="+", default=None,
                         help="instead of running: combine these JSON files (one run each, e.g. one seed a process) "
                              "into --json")
+    parser.add_argument("--plot", type=Path, default=None,
+                        help="with --merge or a run: the replica's |F| against time for each trial, F_max and the "
+                             "operator's phases (PNG)")
     args = parser.parse_args(argv)
     if args.merge:
         runs = [json.loads(path.read_text()) for path in args.merge]
         trials = sorted((row for run in runs for row in run["trials"]), key=lambda row: row["seed"])
-        return summarise(trials, {key: runs[0][key] for key in ("operator", "controller", "delay_s", "duration_s",
-                                                                "jitter")}, args.json)
+        summarise(trials, {key: runs[0][key] for key in ("operator", "controller", "delay_s", "duration_s",
+                                                         "jitter")}, args.json)
+        return plot(trials, args.plot, runs[0]["controller"]) if args.plot else 0
     if args.trials < 1:
         parser.error("--trials must be at least 1")
     script = load_script(REPO / "config" / "operator_scripts" / "shape_sorting.yaml")
@@ -127,8 +131,43 @@ def main(argv: list[str] | None = None) -> int:
                    f"({', '.join(row['pieces_inside']) or 'none'}), peak {row['peak_force_n']} N, "
                    f"{row['time_above_f_max_s']} s above {FORCE_OF_NOTE_N:g} N, {row['limit_violations']} limit "
                    f"violations, {row['wall_s']} s wall")
-    return summarise(trials, {"operator": args.operator, "controller": args.controller, "delay_s": args.delay,
-                              "duration_s": duration, "jitter": not args.no_jitter}, args.json)
+    summarise(trials, {"operator": args.operator, "controller": args.controller, "delay_s": args.delay,
+                       "duration_s": duration, "jitter": not args.no_jitter}, args.json)
+    return plot(trials, args.plot, args.controller) if args.plot and args.operator == "shape_sorting" else 0
+
+
+#: The phases drawn on the force plot, one colour each (the rest of the log is left out of the figure).
+PLOT_PHASES = {"reach": "tab:gray", "grasp": "tab:green", "carry": "tab:blue", "descend": "tab:orange",
+               "search": "tab:purple", "insert": "tab:brown", "lock": "tab:pink", "pull": "tab:red",
+               "done": "black", "gave_up": "black"}
+
+
+def plot(trials: list[dict], path: Path, controller: str) -> int:
+    """One panel per trial: |F_R| against time, F_max, and a line where each phase of PLOT_PHASES starts."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(len(trials), 1, figsize=(12, 2.4 * len(trials)), sharex=True, squeeze=False)
+    for axis, row in zip(axes[:, 0], trials):
+        trace = row["trace"]
+        axis.plot(trace["time"], trace["force_n"], lw=0.7, color="tab:blue")
+        axis.axhline(FORCE_OF_NOTE_N, color="tab:red", ls="--", lw=0.8, label="F_max")
+        for label, start in trace["phases"]:
+            phase = label.split(":", 1)[1]
+            if phase in PLOT_PHASES:
+                axis.axvline(start, color=PLOT_PHASES[phase], lw=0.6, alpha=0.7)
+                axis.text(start, axis.get_ylim()[1] * 0.92, phase, rotation=90, fontsize=5, va="top",
+                          color=PLOT_PHASES[phase])
+        axis.set_ylabel("|F_R| [N]")
+        axis.set_title(f"{controller}, seed {row['seed']}: {len(row['pieces_inside'])} / {len(PIECE_NAMES)} "
+                       f"inside, {row.get('retries', 0)} retries", fontsize=8)
+    axes[-1, 0].set_xlabel("time [s]")
+    figure.tight_layout()
+    figure.savefig(path, dpi=90)
+    print(f"[e2] {path}")
+    return 0
 
 
 def summarise(trials: list[dict], setup: dict, path: Path | None) -> int:
