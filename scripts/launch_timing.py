@@ -2,7 +2,7 @@
 
 On a loaded machine the graph falls behind the wall clock and the arm tracks worse, and a run that only reported
 its error looked like a worse controller (a fresh clone's run at RTF 0.75: error 181 / 51 mm, exit 0). So after
-every realtime run the launcher states three figures against their bounds and says "the machine was starved"
+every realtime run the launcher states four figures against their bounds and says "the machine was starved"
 when one is out, with its own exit code (EXIT_STARVED, docs/SECURITY.md "Exit codes of the launcher"):
 
 - the real-time factor (the report's, after its warm-up) at least REAL_TIME_FACTOR_BOUND, the report's target;
