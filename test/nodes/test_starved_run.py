@@ -1,6 +1,8 @@
-"""One throttled run in the suite: the whole graph under a cgroup CPU quota of 40 % of one CPU (the starvation
-harness, sim_bridge/tools/stress.py) must be flagged by the launcher as starved (its timing.json, and exit code 6
-unless a safety figure broke first), and the arm must not run away. Needs root and the cgroup cpu controller."""
+"""One throttled run in the suite: the whole graph but the recorder under a cgroup CPU quota of 40 % of one CPU
+(the starvation harness, sim_bridge/tools/stress.py; the recorder spared so that the bag holds the run: starved
+with the rest, it wrote no bag at all in an 8 s run) must be flagged by the launcher as starved (its timing.json,
+and exit code 6 unless a safety figure broke first), and the arm must not run away. Needs root and the cgroup cpu
+controller."""
 from __future__ import annotations
 
 import json
@@ -35,8 +37,8 @@ def test_a_graph_at_40_percent_of_one_cpu_is_flagged_as_starved(tmp_path: Path) 
 
     out = tmp_path / "run"
     with reserved_domain() as domain:
-        result = stressed_run(["--duration", "8", "--no-video"], out, LEVEL_PERCENT, log=tmp_path / "run.log",
-                              env=isolated_env(tmp_path / "ros_log", domain))
+        result = stressed_run(["--duration", "8", "--no-video"], out, LEVEL_PERCENT, spare="recorder",
+                              log=tmp_path / "run.log", env=isolated_env(tmp_path / "ros_log", domain))
     log = (tmp_path / "run.log").read_text()
     assert result["throttling"]["nr_throttled"] > 0, "the quota never throttled the graph"
     assert result["exit_code"] not in (EXIT_OK, EXIT_REFUSED, EXIT_NODE_FAILED), log[-3000:]
