@@ -355,7 +355,7 @@ def parse_levels(text: str) -> list[float | None]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="One launcher run at a stated CPU level (scripts/stress.sh).")
-    parser.add_argument("level", help="% of one CPU for the graph (or --node), e.g. 70; 'none': no quota")
+    parser.add_argument("level", help="%% of one CPU for the graph (or --node), e.g. 70; 'none': no quota")
     parser.add_argument("--node", default=None, help="throttle this node's process alone (e.g. replica)")
     parser.add_argument("--spare", default=None, help="leave this node out of the whole graph's quota (recorder)")
     parser.add_argument("--hogs", type=int, default=0, help="busy processes competing for the CPU (niceness 0)")
