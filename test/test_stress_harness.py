@@ -1,0 +1,78 @@
+"""The starvation harness's reading of a run (sim_bridge/tools/stress.py), without a run: the runaway figures from a
+bag's joint states, the per-level summary, the levels and the refusals. The throttled run itself:
+test/nodes/test_starved_run.py."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim_bridge.tools.stress import CpuQuota, StressError, level_summary, parse_levels, runaway_figures
+
+NOMINAL = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+
+
+def _bag(path: Path, velocities: list[list[float]]) -> Path:
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import JointState
+
+    from sim_bridge.recording.bag_writer import BagWriter
+
+    writer = BagWriter(path)
+    writer.add_topic("/joint_states", "sensor_msgs/msg/JointState")
+    for k, velocity in enumerate(velocities):
+        state = JointState(name=[f"panda_joint{j + 1}" for j in range(7)], position=NOMINAL, velocity=velocity)
+        writer.write("/joint_states", serialize_message(state), (k + 1) * 1_000_000)
+    writer.finish()
+    return path
+
+
+def test_a_joint_over_its_datasheet_speed_is_a_runaway(tmp_path: Path) -> None:
+    calm = [[0.1] * 7] * 20
+    quiet = runaway_figures(_bag(tmp_path / "calm", calm), {"free_motion_error_max_m": 0.03,
+                                                              "thresholds": {"error_bound_m": 0.05}})
+    assert not quiet["runaway"] and quiet["joint_states"] == 20
+    assert quiet["max_joint_speed_ratio"] == pytest.approx(0.1 / 2.175, abs=1e-3)
+    assert 0.0 < quiet["max_kinetic_energy_j"] < quiet["kinetic_energy_bound_j"]
+    fast = calm[:10] + [[0.0, 11.0, 0.0, 0.0, 0.0, 0.0, 0.0]] + calm[:9]   # joint 2 at 11 rad/s
+    swung = runaway_figures(_bag(tmp_path / "fast", fast), {"free_motion_error_max_m": 0.03})
+    assert swung["runaway"] and swung["fastest_joint"] == 2
+    assert swung["reasons"][0].startswith("joint 2 at 5.06 x its datasheet speed")
+    assert any(reason.startswith("kinetic energy") for reason in swung["reasons"])
+
+
+def test_a_free_motion_error_over_four_x_b_is_a_runaway(tmp_path: Path) -> None:
+    figures = runaway_figures(_bag(tmp_path / "calm", [[0.0] * 7] * 5), {"free_motion_error_max_m": 0.21,
+                                                                          "thresholds": {"error_bound_m": 0.05}})
+    assert figures["runaway"] and figures["reasons"] == ["free-motion error 210 mm > 4 x_b"]
+
+
+def test_the_level_summary_counts_and_spreads() -> None:
+    rows = [{"exit_code": 6, "flagged_starved": True, "runaway": False, "limit_violations": 0, "holds": None,
+             "real_time_factor": 0.9, "slowest_loop_fraction": 0.5, "recorded_fraction": 1.1,
+             "free_motion_error_max_m": 0.04, "free_motion_error_rms_m": 0.01, "max_joint_speed_ratio": 0.3,
+             "max_kinetic_energy_j": 0.2},
+            {"exit_code": 3, "flagged_starved": True, "runaway": True, "limit_violations": 12, "holds": None,
+             "real_time_factor": 0.7, "slowest_loop_fraction": 0.2, "recorded_fraction": 0.4,
+             "free_motion_error_max_m": 0.3, "free_motion_error_rms_m": 0.1, "max_joint_speed_ratio": 1.4,
+             "max_kinetic_energy_j": 30.0}]
+    summary = level_summary(rows)
+    assert (summary["runs"], summary["runaways"], summary["runs_with_violations"], summary["flagged_starved"]) == \
+        (2, 1, 1, 2)
+    assert summary["runs_with_holds"] is None and summary["violations_where_held"] is None   # no record: unknown
+    assert summary["exit_codes"] == [3, 6]
+    assert summary["real_time_factor"] == [0.7, 0.8, 0.9]
+    assert summary["free_motion_error_max_mm"] == [40.0, 170.0, 300.0]
+    rows[1]["holds"] = 4
+    assert level_summary(rows)["violations_where_held"] == 1
+
+
+def test_levels_and_refusals() -> None:
+    assert parse_levels("150, 100,70%,none") == [150.0, 100.0, 70.0, None]
+    for level in (0.5, float("nan"), 1e6):
+        with pytest.raises(StressError, match="CPU level"):
+            CpuQuota(level)
+    with pytest.raises(StressError, match="period"):
+        CpuQuota(50.0, period_us=10)
+    assert np.isfinite(parse_levels("25")[0])
