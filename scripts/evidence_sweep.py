@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Stability maps from the in-process runner, judged by energy and motion (docs/RESULTS.md).
+"""Stability maps from the in-process runner, judged by energy and motion (docs/EXPERIMENTS.md).
 
 Cells: the one-way delay (E1 scene); three bandwidth sweeps, each named for what it lowers: (a) the command
 bandwidth (the channel's rate cap, the law at full rate; the claim cells, scripts/claims_sweep.py, cap both
@@ -82,7 +82,7 @@ def ports_summary(runs: list[dict]) -> dict:
 
 
 def table(document: dict) -> str:
-    """The cells of a sweep's JSON as a markdown table (docs/RESULTS.md pastes it)."""
+    """The cells of a sweep's JSON as a markdown table (docs/EXPERIMENTS.md pastes it)."""
     lines = ["| cell | lowers | controller | stable k/n | 95 % Wilson | error RMS median [mm] | error max p95 [mm] "
              "| peak force median / p95 [N] | channel generated median [J] | observer W min [J] |",
              "|---|---|---|---|---|---|---|---|---|---|"]

@@ -1,5 +1,5 @@
 """Node groups: named nodes of the graph in one process (fic_teleop_runtime.node_group), each still its own node.
-Fewer processes and DDS participants for less isolation; docs/RESULTS.md ("Node grouping", "Graph levers") has
+Fewer processes and DDS participants for less isolation; docs/RESULTS.md ("Graph levers") has
 the A/B figures.
 
 By default the launcher runs ``DEFAULT_GROUPS``, the best configuration measured on 2 cores: the channel's two

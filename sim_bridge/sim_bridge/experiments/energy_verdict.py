@@ -1,4 +1,4 @@
-"""A stability verdict from energy and motion, in windows sized by the round-trip delay (docs/RESULTS.md).
+"""A stability verdict from energy and motion, in windows sized by the round-trip delay (docs/EXPERIMENTS.md).
 
 The older criterion (sim_bridge.experiments.stability) judges only e = x_d - x_R after a 0.5 s centred detrend,
 which removes most of a 2-4 s oscillation -- the period a loop closed through 0.5-1 s of delay oscillates at --

@@ -1,4 +1,4 @@
-"""One run of an evidence cell on the in-process runner, judged by energy and motion (docs/RESULTS.md).
+"""One run of an evidence cell on the in-process runner, judged by energy and motion (docs/EXPERIMENTS.md).
 
 The seed draws the channel's jitter, the operator's timing and the hand's impedance (RunConfig); the verdict is
 sim_bridge.experiments.energy_verdict's on the arm's and the handle's kinetic energy, the channel's generated

@@ -134,7 +134,7 @@ class RunConfig:
     reaction_time: float = 0.25        # [s] the closed-loop operator's; operator_timing_jitter is added to it
     replica_overrides: dict[str, Any] = field(default_factory=dict)
     master_overrides: dict[str, Any] = field(default_factory=dict)   # master.yaml values replaced
-    # Per-seed variation of the operator (docs/RESULTS.md "Seeds"): the script's clock is shifted by a draw in
+    # Per-seed variation of the operator (docs/EXPERIMENTS.md "Operators"): the script's clock is shifted by a draw in
     # [-operator_timing_jitter, +operator_timing_jitter] s, the hand's stiffness and damping scaled by a draw in
     # [1 - hand_impedance_jitter, 1 + hand_impedance_jitter]; both drawn from the seed, off by default.
     operator_timing_jitter: float = 0.0
