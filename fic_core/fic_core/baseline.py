@@ -107,11 +107,12 @@ class LinearImpedance:
         position_error = finite_floats("position_error", position_error, 3)
         rotation_error = finite_floats("rotation_error", rotation_error, 3)
         twist_error = finite_floats("twist_error", twist_error, 6)
-        return np.array(self._wrench_values(position_error, rotation_error, twist_error), dtype=np.float64)
+        return np.array(self.wrench_values(position_error, rotation_error, twist_error), dtype=np.float64)
 
-    def _wrench_values(self, position_error: list[float], rotation_error: list[float],
-                       twist_error: list[float]) -> list[float]:
-        """``wrench`` on floats its caller has validated (the replica's tick), as a list of 6 floats."""
+    def wrench_values(self, position_error: list[float], rotation_error: list[float],
+                      twist_error: list[float]) -> list[float]:
+        """``wrench`` on Python floats its caller has already validated as finite (the replica's tick), as a list
+        of 6 floats: the same law without ``wrench``'s input checks and arrays."""
         error = position_error + rotation_error
         forces = [k * e + d * r for k, e, d, r in zip(self._stiffness_values, error, self._damping_values, twist_error)]
         if self.max_force is not None:

@@ -38,6 +38,11 @@ class LimitFlag(enum.IntFlag):
     TCP_SPEED = 16
 
 
+#: LimitFlag of every combination of the flags, by its int value: LimitFlag(int) costs a microsecond a call, a
+#: look-up here a few tens of nanoseconds (the replica's tick and the postural optimisation work on ints).
+LIMIT_FLAGS: dict[int, LimitFlag] = {value: LimitFlag(value) for value in range(32)}
+
+
 def _vector(name: str, value: ArrayLike) -> tuple[float, ...]:
     return tuple(float(x) for x in finite_array(name, value, (7,)))
 

@@ -87,13 +87,14 @@ class PoseAttractor:
             twist_error: desired minus measured twist [m/s, rad/s], shape (6,), base frame.
         """
         twist_error = finite_floats("twist_error", twist_error, 6)
-        return np.array(self._wrench_values(finite_floats("position_error", position_error, 3),
-                                            finite_floats("rotation_error", rotation_error, 3), twist_error),
+        return np.array(self.wrench_values(finite_floats("position_error", position_error, 3),
+                                           finite_floats("rotation_error", rotation_error, 3), twist_error),
                         dtype=np.float64)
 
-    def _wrench_values(self, position_error: list[float], rotation_error: list[float],
-                       twist_error: list[float]) -> list[float]:
-        """``wrench`` on floats its caller has validated (the replica's tick), as a list of 6 floats."""
+    def wrench_values(self, position_error: list[float], rotation_error: list[float],
+                      twist_error: list[float]) -> list[float]:
+        """``wrench`` on Python floats its caller has already validated as finite (the replica's tick), as a list
+        of 6 floats: the same law without ``wrench``'s input checks and arrays."""
         return self._translation._step(position_error, twist_error) + \
             self._rotation._step(rotation_error, twist_error[3:])
 

@@ -50,7 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import FicInputError, finite_array, finite_scalar
-from .limits import LimitFlag, PandaLimits
+from .limits import LIMIT_FLAGS, LimitFlag, PandaLimits
 
 #: Half the Franka datasheet joint acceleration limits [rad/s^2]: the deceleration we count on to stop a joint
 #: before its position limit.
@@ -82,7 +82,10 @@ _GUARD_TOLERANCE = 1e-9  # [N m] clips below this are solver round-off, not a gu
 # acceleration bounds set by the velocity limit alone: the braking and next-sample bounds are then looser by far
 # more than their rounding (``_joint_bounds``'s shortcut; the exact comparison would give the same answer).
 _FREE_ROOM_GUARD = 1e-6  # [rad]
-_FLAGS = {value: LimitFlag(value) for value in range(32)}  # LimitFlag(int) costs a microsecond a call
+#: ``PosturalOptimisation.admissible``'s verdicts: each one above VERDICT_REJECTED passes tau_d unshaped.
+VERDICT_REJECTED = 0    # tau_d breaks a constraint (or nearly): the flags and the QP decide
+VERDICT_UNSHAPED = 1    # tau_d breaks none of the QP's constraints
+VERDICT_INSIDE = 2      # and the measured |qd| and q are inside their limits
 
 
 @dataclass(frozen=True)
@@ -131,7 +134,8 @@ class PosturalOptimisation:
         self._negative_torque_values = (-limits.torque_array).tolist()
         self._velocity_values = v_max.tolist()
         self._free_room_values = self._free_room.tolist()
-        self._rate_step = limits.torque_rate * self.control_period
+        #: The torque-rate box's half-width per control period [N m]: rate limit * period.
+        self.rate_step = limits.torque_rate * self.control_period
         self._tcp_speed_squared = limits.tcp_speed * limits.tcp_speed
         self._lower_values = limits.lower_array.tolist()
         self._upper_values = limits.upper_array.tolist()
@@ -145,7 +149,7 @@ class PosturalOptimisation:
         self._horizon = self.horizon
         # The box-flag thresholds of ``_box_flags`` (a torque within 1e-9 N m of its bound sits on it).
         self._torque_edge_values = (limits.torque_array - 1e-9).tolist()
-        self._rate_edge = self._rate_step - 1e-9
+        self._rate_edge = self.rate_step - 1e-9
         # daqp's constraint senses: the 7 simple bounds always hard, the rows hard or (relaxed) soft; by row count.
         self._senses: dict[tuple[int, bool], NDArray[np.int32]] = {}
         self._far_from_limits = True  # the last ``_bounded`` found every joint far from its position limits
@@ -222,7 +226,7 @@ class PosturalOptimisation:
                 q, qd, self._velocity_values, self._lower_values, self._upper_values, self._deceleration_values,
                 self._free_low_values, self._free_high_values):
             if free_low < position < free_high and -velocity_limit <= velocity <= velocity_limit:
-                # Far from both limits (``_admissible``): the velocity limit sets both bounds.
+                # Far from both limits (``admissible``): the velocity limit sets both bounds.
                 a_lo.append((-velocity_limit - velocity) / horizon)
                 a_hi.append((velocity_limit - velocity) / horizon)
                 low_from_position.append(False)
@@ -275,17 +279,18 @@ class PosturalOptimisation:
         torque, flags, change, solved_qp, relaxed, guard, iterations = self._shape_values(
             desired_torque, desired_values, previous_values, q_values, qd, qd_values, bias, mass_matrix_inverse,
             tcp_linear_jacobian, tcp_ahead.tolist(), tcp_ahead_squared)
-        return ShapedTorque(torque, _FLAGS[flags], change, solved_qp, relaxed, guard, iterations)
+        return ShapedTorque(torque, LIMIT_FLAGS[flags], change, solved_qp, relaxed, guard, iterations)
 
-    def _shape_rejected(self, desired_torque: NDArray[np.float64], desired_values: list[float],
-                        previous_values: list[float] | None, q_values: list[float], qd: NDArray[np.float64],
-                        qd_values: list[float], bias: NDArray[np.float64], mass_matrix_inverse: NDArray[np.float64],
-                        tcp_linear_jacobian: NDArray[np.float64]
-                        ) -> tuple[NDArray[np.float64], int, float, bool, bool, bool]:
-        """``shape`` for a tau_d that its fast-path tests already rejected (the replica's ``_admissible`` verdict):
+    def shape_rejected(self, desired_torque: NDArray[np.float64], desired_values: list[float],
+                       previous_values: list[float] | None, q_values: list[float], qd: NDArray[np.float64],
+                       qd_values: list[float], bias: NDArray[np.float64], mass_matrix_inverse: NDArray[np.float64],
+                       tcp_linear_jacobian: NDArray[np.float64]
+                       ) -> tuple[NDArray[np.float64], int, float, bool, bool, bool]:
+        """``shape`` for a tau_d that its fast-path tests already rejected (the replica's ``admissible`` verdict):
         the TCP velocity T ahead as ``shape`` computes it, then ``_shape_values``, without a ShapedTorque.
 
-        Returns (torque, flags as an int, |torque - tau_d|, solved_qp, relaxed, guard_clipped).
+        Returns (torque, flags as an int (LIMIT_FLAGS[flags] is the LimitFlag), |torque - tau_d|, solved_qp,
+        relaxed, guard_clipped). ``bias`` is C qd + g + D qd; the lists are the arrays' values as Python floats.
         """
         ahead = qd + self._horizon * mass_matrix_inverse.dot(desired_torque - bias)
         tcp_ahead = tcp_linear_jacobian.dot(ahead)
@@ -307,7 +312,7 @@ class PosturalOptimisation:
         """
         limits = self.limits
         horizon = self._horizon
-        step = self._rate_step
+        step = self.rate_step
         minv_tau_d = mass_matrix_inverse.dot(desired_torque)
         free_acceleration = mass_matrix_inverse.dot(bias)                  # M^-1 bias: qdd = M^-1 tau - this
         a_lo, a_hi, position_low, position_high, reconciled = self._bounds_values(q_values, qd_values)
@@ -440,7 +445,7 @@ class PosturalOptimisation:
                     and abs(velocity) <= velocity_limit and margin > room):
                 return False
         if previous_torque is not None:
-            step = self._rate_step
+            step = self.rate_step
             for torque, previous in zip(desired_torque, previous_torque):
                 if not abs(torque - previous) <= step:
                     return False
@@ -459,38 +464,38 @@ class PosturalOptimisation:
         if tcp_ahead_squared > self._tcp_speed_squared:
             return False
         return self._bounded(desired_torque, desired_torque if previous_torque is None else previous_torque, q, qd,
-                             acceleration, None) != _REJECTED
+                             acceleration, None) != VERDICT_REJECTED
 
-    def _admissible(self, desired_torque: list[float], previous_torque: list[float] | None, q: list[float],
-                    qd: list[float], acceleration: list[float], tcp_ahead_squared: float,
-                    position_margin: list[float]) -> int:
+    def admissible(self, desired_torque: list[float], previous_torque: list[float] | None, q: list[float],
+                   qd: list[float], acceleration: list[float], tcp_ahead_squared: float,
+                   position_margin: list[float]) -> int:
         """Whether tau_d passes unshaped, on floats: ``_admits_unshaped`` or ``_satisfies_every_limit``.
 
-        Returns _REJECTED (0) if neither holds, else _INSIDE if moreover every joint has |qd| <= v_max and a
-        margin >= 0 in ``position_margin`` (the distance of each joint to its nearest position limit: the
-        measured state is inside its limits; the first test implies it), else _UNSHAPED.
+        Returns VERDICT_REJECTED (0) if neither holds, else VERDICT_INSIDE if moreover every joint has
+        |qd| <= v_max and a margin >= 0 in ``position_margin`` (the distance of each joint to its nearest position limit: the
+        measured state is inside its limits; the first test implies it), else VERDICT_UNSHAPED.
         ``acceleration`` is the predicted qdd = M^-1 (tau_d - bias). The two tests are tried in the order that
         is likely to decide with one of them: the first while the joints are far from their position limits,
         the second after a call that found a joint near one. (Both are exact; only the cost depends on it.)
         """
         if tcp_ahead_squared > self._tcp_speed_squared:
-            return _REJECTED
+            return VERDICT_REJECTED
         if previous_torque is None:
             previous_torque = desired_torque  # no torque-rate bound: |tau_d - tau_d| = 0 <= step
         if self._far_from_limits:
             if self._fast(desired_torque, previous_torque, qd, acceleration, position_margin):
-                return _INSIDE
+                return VERDICT_INSIDE
             return self._bounded(desired_torque, previous_torque, q, qd, acceleration, position_margin)
         verdict = self._bounded(desired_torque, previous_torque, q, qd, acceleration, position_margin)
         if verdict or not self._fast(desired_torque, previous_torque, qd, acceleration, position_margin):
             return verdict
-        return _INSIDE
+        return VERDICT_INSIDE
 
     def _fast(self, desired_torque: list[float], previous_torque: list[float], qd: list[float],
               acceleration: list[float], position_margin: list[float]) -> bool:
         """``_admits_unshaped`` but for the TCP speed, with the velocity T ahead from ``acceleration``."""
         horizon = self._horizon
-        step = self._rate_step
+        step = self.rate_step
         for torque, previous, torque_limit, velocity, qdd, velocity_limit, margin, room in zip(
                 desired_torque, previous_torque, self._torque_values, qd, acceleration, self._velocity_values,
                 position_margin, self._free_room_values):
@@ -501,9 +506,9 @@ class PosturalOptimisation:
 
     def _bounded(self, desired_torque: list[float], previous_torque: list[float], q: list[float], qd: list[float],
                  acceleration: list[float], position_margin: list[float] | None) -> int:
-        """``_satisfies_every_limit`` but for the TCP speed: _REJECTED, or _INSIDE / _UNSHAPED as in
-        ``_admissible`` (_UNSHAPED without ``position_margin``). Records whether every joint was far from its
-        position limits (``_far_from_limits``).
+        """``_satisfies_every_limit`` but for the TCP speed: VERDICT_REJECTED, or VERDICT_INSIDE / VERDICT_UNSHAPED
+        as in ``admissible`` (VERDICT_UNSHAPED without ``position_margin``). Records whether every joint was far
+        from its position limits (``_far_from_limits``).
 
         A joint with |qd| <= v_max and farther than ``_free_room`` (plus _FREE_ROOM_GUARD) from both position
         limits has its acceleration bounds set by the velocity limit alone (the braking and next-sample bounds are
@@ -511,7 +516,7 @@ class PosturalOptimisation:
         only those are computed for it.
         """
         horizon = self._horizon
-        step = self._rate_step
+        step = self.rate_step
         dt = self.control_period
         lag = self._braking_lag
         inside = position_margin is not None
@@ -523,11 +528,11 @@ class PosturalOptimisation:
                                                   self._free_high_values, self._lower_values, self._upper_values,
                                                   self._deceleration_values):
             if not (abs(torque) <= torque_limit and abs(torque - previous) <= step):
-                return _REJECTED
+                return VERDICT_REJECTED
             if free_low < position < free_high and -velocity_limit <= velocity <= velocity_limit:
                 # Far from both limits, |qd| <= v_max: the velocity limit sets both bounds.
                 if not (-velocity_limit - velocity) / horizon <= qdd <= (velocity_limit - velocity) / horizon:
-                    return _REJECTED
+                    return VERDICT_REJECTED
                 if inside:
                     inside = margin >= 0.0
             else:
@@ -535,11 +540,11 @@ class PosturalOptimisation:
                 low, high, _, _, reconciled = _joint_bounds(position, velocity, velocity_limit, lower, upper,
                                                             deceleration, dt, horizon, lag)
                 if reconciled or not low <= qdd <= high:
-                    return _REJECTED
+                    return VERDICT_REJECTED
                 if inside:
                     inside = abs(velocity) <= velocity_limit and margin >= 0.0
         self._far_from_limits = far
-        return _INSIDE if inside else _UNSHAPED
+        return VERDICT_INSIDE if inside else VERDICT_UNSHAPED
 
     def _solve(self, hessian, linear, rows, b_upper, b_lower, relaxed: bool):
         """Solve with hard prediction constraints; on infeasibility, again with them soft (bounds stay hard)."""
@@ -609,10 +614,6 @@ class PosturalOptimisation:
         return flags
 
 
-#: ``PosturalOptimisation._admissible``'s answers: each one above _REJECTED passes tau_d unshaped.
-_REJECTED = 0    # tau_d breaks a constraint (or nearly): the flags and the QP decide
-_UNSHAPED = 1    # tau_d breaks none of the QP's constraints
-_INSIDE = 2      # and the measured |qd| and q are inside their limits
 
 
 def _joint_bounds(position: float, velocity: float, velocity_limit: float, lower: float, upper: float,

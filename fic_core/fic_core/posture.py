@@ -68,7 +68,7 @@ class NullSpacePosture:
         self.task_regularisation = finite_scalar("task_regularisation", task_regularisation, minimum=0.0)
         self.dof = dof
         self._regularisation_matrix = self.task_regularisation * np.eye(6)
-        # The gains as Python floats for the per-joint arithmetic of the replica's tick (``_joint_torque_values``);
+        # The gains as Python floats for the per-joint arithmetic of the replica's tick (``joint_torque_values``);
         # the parameters are fixed at construction.
         self._nominal_values = self.nominal.tolist()
         self._stiffness_values = self.stiffness.tolist()
@@ -93,9 +93,13 @@ class NullSpacePosture:
             torque += self.limit_repulsion(q)
         return torque
 
-    def _joint_torque_values(self, q_values: list[float], qd_values: list[float], q: NDArray[np.float64],
-                             smallest_margin: float) -> list[float]:
-        """``joint_torque`` on validated floats (the replica's tick): the same terms, as a list of floats."""
+    def joint_torque_values(self, q_values: list[float], qd_values: list[float], q: NDArray[np.float64],
+                            smallest_margin: float) -> list[float]:
+        """``joint_torque`` on validated floats (the replica's tick): the same terms, as a list of floats.
+
+        ``q_values``, ``qd_values`` are q and qd as Python floats, ``q`` the same q as an array (for the limit
+        repulsion), ``smallest_margin`` the smallest distance of a joint to its position limits [rad].
+        """
         torque = [stiffness * (nominal - position) - damping * velocity
                   for stiffness, nominal, position, damping, velocity in zip(
                       self._stiffness_values, self._nominal_values, q_values, self._damping_values, qd_values)]
@@ -106,17 +110,20 @@ class NullSpacePosture:
     def projector(self, jacobian: NDArray[np.float64], mass_matrix_inverse: NDArray[np.float64]) -> NDArray[np.float64]:
         """N^T = I - J^T Lambda J M^-1, the dynamically consistent null-space projector for torques (7 x 7)."""
         j_minv = jacobian @ mass_matrix_inverse                      # J M^-1 (6 x 7)
-        lambda_j_minv = self._solve_task(j_minv @ jacobian.T, j_minv)  # Lambda J M^-1 (6 x 7)
+        lambda_j_minv = self.apply_task_inertia(j_minv @ jacobian.T, j_minv)  # Lambda J M^-1 (6 x 7)
         return np.eye(self.dof) - jacobian.T @ lambda_j_minv
 
     def project(self, torque: NDArray[np.float64], jacobian: NDArray[np.float64],
                 mass_matrix_inverse: NDArray[np.float64]) -> NDArray[np.float64]:
         """N^T torque, without forming N^T: torque - J^T Lambda (J M^-1 torque)."""
         j_minv = jacobian @ mass_matrix_inverse
-        return torque - jacobian.T @ self._solve_task(j_minv @ jacobian.T, j_minv @ torque)
+        return torque - jacobian.T @ self.apply_task_inertia(j_minv @ jacobian.T, j_minv @ torque)
 
-    def _solve_task(self, task_inverse_inertia: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Lambda rhs = (J M^-1 J^T + eps I)^-1 rhs, by Cholesky (J M^-1 J^T is symmetric positive semidefinite)."""
+    def apply_task_inertia(self, task_inverse_inertia: NDArray[np.float64],
+                           rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Lambda rhs = (J M^-1 J^T + eps I)^-1 rhs, by Cholesky (J M^-1 J^T is symmetric positive semidefinite):
+        the operational-space inertia Lambda, regularised by ``task_regularisation``, applied to a (6,) or (6, n)
+        ``rhs``, given ``task_inverse_inertia`` = J M^-1 J^T."""
         matrix = task_inverse_inertia + self._regularisation_matrix
         _, solution, info = dposv(matrix, rhs)
         if info != 0:  # not positive definite: only if the regularisation is zero at an exact singularity

@@ -66,8 +66,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.lapack import dposv  # a 6x6 Cholesky solve without numpy.linalg's per-call overhead
 
 from .errors import FicInputError, finite_array, finite_floats, finite_scalar
-from .limits import VIOLATION_TOLERANCE, LimitFlag, PandaLimits, violation_flags
-from .postural_optimisation import _FLAGS, _INSIDE, PosturalOptimisation
+from .limits import LIMIT_FLAGS, VIOLATION_TOLERANCE, LimitFlag, PandaLimits, violation_flags
+from .postural_optimisation import VERDICT_INSIDE, PosturalOptimisation
 from .posture import NullSpacePosture
 from .quaternion import rotation_from_quaternion
 from .robot_model import RobotModel, checked_array
@@ -101,7 +101,7 @@ class TaskController(Protocol):
     """What the replica needs of PoseAttractor (the FIC) and LinearImpedance (the baseline).
 
     Both also offer ``snapshot()`` (the report values of the last tick, computed on read) and
-    ``_wrench_values`` (``wrench`` on floats the replica has validated); a controller without them works too,
+    ``wrench_values`` (``wrench`` on floats the replica has validated); a controller without them works too,
     at the cost of reading its report values at each tick and of ``wrench``'s own input checks.
     """
 
@@ -412,8 +412,11 @@ class ReplicaController:
         # An unshaped tau_d passed the optimisation's torque and torque-rate tests: with the same limits (and a
         # rate step no larger than the violation check's), it is inside the violation check's torque and rate limits too.
         self._verdict_covers_violations = self.optimisation.limits == self.limits and \
-            self.optimisation._rate_step <= self.limits.torque_rate * self.control_period + VIOLATION_TOLERANCE
+            self.optimisation.rate_step <= self.limits.torque_rate * self.control_period + VIOLATION_TOLERANCE
         self._valid_rotation_rows: list[list[float]] | None = None  # the last desired rotation matrix checked
+        # T of the optimisation's velocity predictions, fixed with it at construction (its own fast path keeps
+        # the same copy): the tick's TCP prediction must use the same horizon as the optimisation.
+        self._horizon = self.optimisation.horizon
         # A Pinocchio Data of the commands' own, to compute a command's kinetic energy when it is read (the
         # robot's Data belongs to the next tick by then).
         self._report_dynamics = (robot.model, robot.model.createData())
@@ -483,17 +486,17 @@ class ReplicaController:
         if desired_acceleration is not None:
             desired_acceleration = _desired_acceleration(desired_acceleration)
         robot = self.robot
-        robot.update(q, qd)  # validates q and qd
-        q, qd = robot._q, robot._qd
-        q_values, qd_values = robot._q_values, robot._qd_values
+        state = robot.update(q, qd)  # validates q and qd
+        q, qd = state.q, state.qd
+        q_values, qd_values = state.q_values, state.qd_values
         self._held_position = desired_position
         self._held_rotation = desired_rotation
 
         # Eq. 7: tau_d = C qd + G + J^T (FIC(x~_R) [+ Lambda a_d]) + tau_posture.
-        position = robot._position
-        rotation = robot._rotation
-        jacobian = robot._jacobian
-        twist = robot._twist.tolist()
+        position = state.tcp_position
+        rotation = state.tcp_rotation
+        jacobian = state.tcp_jacobian
+        twist = state.tcp_twist.tolist()
         x, y, z = position.tolist()
         position_error = [desired_position[0] - x, desired_position[1] - y, desired_position[2] - z]
         rotation_error = pin.log3(desired_rotation.dot(rotation.T))
@@ -502,7 +505,7 @@ class ReplicaController:
         else:
             twist_error = [target - actual for target, actual in zip(desired_twist, twist)]
         controller = self.controller
-        wrench_values = getattr(controller, "_wrench_values", None)
+        wrench_values = getattr(controller, "wrench_values", None)
         if wrench_values is not None:  # PoseAttractor, LinearImpedance: on the floats validated above
             wrench = np.array(wrench_values(position_error, rotation_error.tolist(), twist_error))
         else:
@@ -511,15 +514,15 @@ class ReplicaController:
             if wrench.shape != (6,):
                 raise FicInputError(f"the controller returned a mis-shaped wrench: {wrench}")
         limits = self.limits
-        minv = robot._mass_inverse
+        minv = state.mass_matrix_inverse
         margins = [value - lower if value - lower < upper - value else upper - value
                    for value, lower, upper in zip(q_values, self._lower_values, self._upper_values)]
         posture = self.posture
         # Null-space posture, N^T tau_0 = tau_0 - J^T Lambda J M^-1 tau_0 (posture.py), with J M^-1 shared.
-        posture_joint_torque = np.array(posture._joint_torque_values(q_values, qd_values, q, min(margins)))
+        posture_joint_torque = np.array(posture.joint_torque_values(q_values, qd_values, q, min(margins)))
         j_minv = jacobian.dot(minv)
         task_inverse_inertia = j_minv.dot(jacobian.T)  # J M^-1 J^T
-        posture_task_force = posture._solve_task(task_inverse_inertia, j_minv.dot(posture_joint_torque))
+        posture_task_force = posture.apply_task_inertia(task_inverse_inertia, j_minv.dot(posture_joint_torque))
         task_force = wrench - posture_task_force
         feedforward_wrench = None
         if desired_acceleration is not None:
@@ -528,7 +531,7 @@ class ReplicaController:
             if self.feedforward_limit is not None:
                 feedforward_wrench = _limited_wrench(feedforward_wrench, self.feedforward_limit)
             task_force += feedforward_wrench
-        nonlinear = robot._nonlinear
+        nonlinear = state.nonlinear_effects
         # tau_d - (C qd + g) = J^T (FIC [+ Lambda a_d] - Lambda J M^-1 tau_0) + tau_0.
         drive = task_force.dot(jacobian)
         drive += posture_joint_torque
@@ -546,7 +549,7 @@ class ReplicaController:
         # Postural optimisation: M qdd = tau - (C qd + g) - D qd in the prediction (the arm's joint damping).
         # Its fast path first, on floats: the acceleration under tau_d, and the TCP velocity extrapolated T ahead.
         optimisation = self.optimisation
-        horizon = optimisation._horizon
+        horizon = self._horizon
         damping = robot.joint_damping
         acceleration = minv.dot(drive - damping * qd)
         tcp_acceleration = jacobian[:3].dot(acceleration).tolist()
@@ -560,21 +563,21 @@ class ReplicaController:
             if not np.isfinite(wrench).all():
                 raise FicInputError(f"the controller returned a non-finite wrench: {wrench}")
             raise FicInputError(f"the desired torque is not finite: {desired_torque}")
-        verdict = optimisation._admissible(desired_values, previous_values, q_values, qd_values,
-                                           acceleration.tolist(), tcp_ahead_squared, margins)
+        verdict = optimisation.admissible(desired_values, previous_values, q_values, qd_values,
+                                          acceleration.tolist(), tcp_ahead_squared, margins)
         if verdict:
             # tau_d breaks no constraint of the optimisation: it is the command, unshaped (as shape() would say).
             torque, torque_values = desired_torque.copy(), desired_values
             flags, torque_change, solved_qp, relaxed, guard_clipped = _NO_LIMIT, 0.0, False, False, False
         else:
             # The verdict already ran shape()'s fast-path tests (on these floats): straight to the flags and the QP.
-            torque, flags, torque_change, solved_qp, relaxed, guard_clipped = optimisation._shape_rejected(
+            torque, flags, torque_change, solved_qp, relaxed, guard_clipped = optimisation.shape_rejected(
                 desired_torque, desired_values, previous_values, q_values, qd, qd_values, nonlinear + damping * qd,
                 minv, jacobian[:3])
             if not solved_qp:
                 torque = desired_torque.copy()
             torque_values = torque.tolist()
-            flags = _FLAGS[flags]
+            flags = LIMIT_FLAGS[flags]
         # The torque sent: the law's, slewed from the last one sent over the time since it (torque_slew.py).
         law_torque = torque
         self._target = law_torque
@@ -594,7 +597,7 @@ class ReplicaController:
         # command); otherwise the full check on floats, against the interval since the last command sent.
         full_interval = interval >= self.control_period * (1.0 - 1e-9)
         if (tcp_speed <= self._tcp_speed_bound
-                if verdict >= _INSIDE and self._verdict_covers_violations and not slewed and full_interval
+                if verdict >= VERDICT_INSIDE and self._verdict_covers_violations and not slewed and full_interval
                 else self._violation_free(torque_values, qd_values, margins, tcp_speed, interval)):
             violations = _NO_LIMIT
         else:

@@ -48,6 +48,30 @@ def _state_vector(name: str, value: ArrayLike, size: int) -> tuple[NDArray[np.fl
     return array, values
 
 
+class RobotState:
+    """The arm's state and its rigid-body terms at one (q, qd): what ``RobotModel.update`` computed.
+
+    One object per RobotModel, refilled by each ``update`` (a new object a tick would cost about a microsecond of
+    the replica's budget): read its fields right after the update, and copy what must outlive the next one. The
+    arrays q, qd, the TCP pose, Jacobian and twist are fresh each update; ``mass_matrix_inverse`` and
+    ``nonlinear_effects`` are views into Pinocchio's Data, which the next update overwrites.
+    """
+
+    __slots__ = ("q", "qd", "q_values", "qd_values", "tcp_position", "tcp_rotation", "tcp_jacobian", "tcp_twist",
+                 "mass_matrix_inverse", "nonlinear_effects")
+
+    q: NDArray[np.float64]                     # joint positions [rad] (7,)
+    qd: NDArray[np.float64]                    # joint velocities [rad/s] (7,)
+    q_values: list[float]                      # q as Python floats, for per-joint arithmetic on the tick
+    qd_values: list[float]                     # qd as Python floats
+    tcp_position: NDArray[np.float64]          # x_R [m] (3,), base frame
+    tcp_rotation: NDArray[np.float64]          # R, base <- TCP (3, 3)
+    tcp_jacobian: NDArray[np.float64]          # J (6, 7), LOCAL_WORLD_ALIGNED: [v; w] = J qd in the base frame
+    tcp_twist: NDArray[np.float64]             # [v; w] = J qd (6,)
+    mass_matrix_inverse: NDArray[np.float64]   # M(q)^-1 (7, 7), symmetric
+    nonlinear_effects: NDArray[np.float64]     # C(q, qd) qd + G(q) [N m] (7,)
+
+
 class RobotModel:
     """Pinocchio model of the 7-DoF Panda arm (fingers locked, simulator's armature mirrored).
 
@@ -77,13 +101,16 @@ class RobotModel:
                       self.urdf_effort_limit, self.joint_damping):
             array.flags.writeable = False
         self._updated = False
+        #: The terms of the last ``update`` (refilled by each; see RobotState).
+        self.state = RobotState()
         self._zero_acceleration = np.zeros(self.dof)  # qdd = 0 of Jdot qd, made once (read-only to Pinocchio)
         self._zero_acceleration.flags.writeable = False
         # A reference into data.oMf (never resized), fetched once: indexing the vector costs a microsecond a tick.
         self._tcp_placement = self.data.oMf[self.tcp_frame_id]
 
-    def update(self, q: ArrayLike, qd: ArrayLike) -> None:
-        """Compute kinematics and dynamics at (q, qd). Raises FicInputError on NaN/Inf or a wrong shape.
+    def update(self, q: ArrayLike, qd: ArrayLike) -> RobotState:
+        """Compute kinematics and dynamics at (q, qd) and return them (``state``, refilled: see RobotState).
+        Raises FicInputError on NaN/Inf or a wrong shape.
 
         The arrays the accessors return are valid until the next ``update`` (copy them to keep them); ``q``,
         ``qd``, the TCP pose, Jacobian and twist are fresh arrays each update, never overwritten.
@@ -110,22 +137,24 @@ class RobotModel:
         pose = self._tcp_placement.homogeneous  # a new 4x4 array: no copy needed to keep the pose
         # nonLinearEffects and computeMinverse return views of distinct members of `data` (nle, Minv), which only
         # the next update overwrites. Pinocchio 4 fills both triangles of Minv (checked in test_robot_model).
-        self._nonlinear = pin.nonLinearEffects(model, data, q, qd)  # C(q, qd) qd + g(q)
-        self._mass_inverse = pin.computeMinverse(model, data, q)
-        self._jacobian = jacobian
-        self._position = pose[:3, 3]
-        self._rotation = pose[:3, :3]
-        self._q = q
-        self._qd = qd
-        self._q_values = q_values  # the same numbers as Python floats, for per-joint arithmetic (the replica)
-        self._qd_values = qd_values
-        self._twist = jacobian.dot(qd)  # ndarray.dot: half the call overhead of @ on these small arrays
+        state = self.state
+        state.nonlinear_effects = pin.nonLinearEffects(model, data, q, qd)  # C(q, qd) qd + g(q)
+        state.mass_matrix_inverse = pin.computeMinverse(model, data, q)
+        state.tcp_jacobian = jacobian
+        state.tcp_position = pose[:3, 3]
+        state.tcp_rotation = pose[:3, :3]
+        state.q = q
+        state.qd = qd
+        state.q_values = q_values  # the same numbers as Python floats, for per-joint arithmetic (the replica)
+        state.qd_values = qd_values
+        state.tcp_twist = jacobian.dot(qd)  # ndarray.dot: half the call overhead of @ on these small arrays
         # Computed on first use only: the replica's tick does not need them.
         self._gravity = None
         self._mass = None
         self._kinetic_energy = None
         self._bias_acceleration = None
         self._updated = True
+        return state
 
     def _require_update(self) -> None:
         if not self._updated:
@@ -134,42 +163,42 @@ class RobotModel:
     @property
     def q(self) -> NDArray[np.float64]:
         self._require_update()
-        return self._q
+        return self.state.q
 
     @property
     def qd(self) -> NDArray[np.float64]:
         self._require_update()
-        return self._qd
+        return self.state.qd
 
     @property
     def tcp_position(self) -> NDArray[np.float64]:
         """TCP position in the base frame [m] (3,)."""
         self._require_update()
-        return self._position
+        return self.state.tcp_position
 
     @property
     def tcp_rotation(self) -> NDArray[np.float64]:
         """TCP orientation, base <- TCP rotation matrix (3, 3)."""
         self._require_update()
-        return self._rotation
+        return self.state.tcp_rotation
 
     @property
     def tcp_jacobian(self) -> NDArray[np.float64]:
         """6x7 TCP Jacobian, LOCAL_WORLD_ALIGNED: [v; w] = J qd, both in the base frame."""
         self._require_update()
-        return self._jacobian
+        return self.state.tcp_jacobian
 
     @property
     def tcp_twist(self) -> NDArray[np.float64]:
         """TCP twist [v; w] in the base frame (6,)."""
         self._require_update()
-        return self._twist
+        return self.state.tcp_twist
 
     @property
     def tcp_speed(self) -> float:
         """Linear speed of the TCP [m/s]."""
         self._require_update()
-        velocity = self._twist[:3]
+        velocity = self.state.tcp_twist[:3]
         return math.sqrt(velocity @ velocity)
 
     @property
@@ -183,7 +212,7 @@ class RobotModel:
             model, data = self.model, self.data
             # Overwrites data's placements, velocities and accelerations only (not nle or Minv, which the
             # accessors return views of); the pose and Jacobian were kept as arrays of their own.
-            pin.forwardKinematics(model, data, self._q, self._qd, self._zero_acceleration)
+            pin.forwardKinematics(model, data, self.state.q, self.state.qd, self._zero_acceleration)
             self._bias_acceleration = pin.getFrameClassicalAcceleration(model, data, self.tcp_frame_id,
                                                                         _LOCAL_WORLD_ALIGNED).vector.copy()
         return self._bias_acceleration
@@ -193,41 +222,41 @@ class RobotModel:
         """G(q) [N m] (7,)."""
         self._require_update()
         if self._gravity is None:
-            self._gravity = pin.computeGeneralizedGravity(self.model, self.data, self._q).copy()
+            self._gravity = pin.computeGeneralizedGravity(self.model, self.data, self.state.q).copy()
         return self._gravity
 
     @property
     def coriolis(self) -> NDArray[np.float64]:
         """C(q, qd) qd, Coriolis and centrifugal torques [N m] (7,)."""
         self._require_update()
-        return self._nonlinear - self.gravity
+        return self.state.nonlinear_effects - self.gravity
 
     @property
     def nonlinear_effects(self) -> NDArray[np.float64]:
         """C(q, qd) qd + G(q) [N m] (7,)."""
         self._require_update()
-        return self._nonlinear
+        return self.state.nonlinear_effects
 
     @property
     def mass_matrix(self) -> NDArray[np.float64]:
         """M(q) incl. the joint armature [kg m^2] (7, 7), symmetric (Pinocchio 4 fills both triangles)."""
         self._require_update()
         if self._mass is None:
-            self._mass = pin.crba(self.model, self.data, self._q).copy()
+            self._mass = pin.crba(self.model, self.data, self.state.q).copy()
         return self._mass
 
     @property
     def mass_matrix_inverse(self) -> NDArray[np.float64]:
         """M(q)^-1 (7, 7), symmetric."""
         self._require_update()
-        return self._mass_inverse
+        return self.state.mass_matrix_inverse
 
     @property
     def kinetic_energy(self) -> float:
         """0.5 qd^T M(q) qd [J]."""
         self._require_update()
         if self._kinetic_energy is None:
-            self._kinetic_energy = float(pin.computeKineticEnergy(self.model, self.data, self._q, self._qd))
+            self._kinetic_energy = float(pin.computeKineticEnergy(self.model, self.data, self.state.q, self.state.qd))
         return self._kinetic_energy
 
     def joint_position_margin(self, q: ArrayLike | None = None) -> NDArray[np.float64]:

@@ -295,7 +295,7 @@ def test_report_fields_are_those_of_their_own_tick(robot: RobotModel) -> None:
 
 
 class _ForeignController:
-    """A TaskController with only the Protocol's members (no snapshot, no _wrench_values)."""
+    """A TaskController with only the Protocol's members (no snapshot, no wrench_values)."""
 
     controller_name = "foreign"
 
