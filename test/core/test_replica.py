@@ -5,6 +5,8 @@ test/sim/test_replica_on_mujoco.py; Eq. 7 and the QP against independent oracles
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -16,7 +18,7 @@ from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.panda_description import JOINT_DAMPING, NOMINAL_CONFIGURATION
 from fic_core.profile import ForceProfile
 from fic_core.quaternion import rotation_from_quaternion
-from fic_core.replica import ReplicaController
+from fic_core.replica import ReplicaCommand, ReplicaController
 from fic_core.robot_model import RobotModel
 
 DT = 0.001
@@ -292,6 +294,26 @@ def test_report_fields_are_those_of_their_own_tick(robot: RobotModel) -> None:
     assert first.kinetic_energy == robot_energy and second.kinetic_energy > 0.0
     np.testing.assert_allclose(first.tracking_error, [0.03, 0.0, 0.0], atol=1e-12)
     assert not np.allclose(second.stored_energy, energy)
+
+
+def test_the_tick_sets_every_field_of_its_command(robot: RobotModel) -> None:
+    """The tick fills a bare ReplicaCommand field by field (replica.py says why): none may be left unset, and the
+    keyword constructor given the same fields makes a command that reports the same."""
+    replica = ReplicaController(robot, paper_fic())
+    position, rotation = nominal_pose(robot)
+    replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, rotation)
+    command = replica.command(NOMINAL_CONFIGURATION, np.full(7, 0.1), position + [0.02, 0.0, 0.0], rotation,
+                              desired_acceleration=np.ones(3))
+    values = {item.name: getattr(command, item.name) for item in dataclasses.fields(ReplicaCommand)}
+    assert values.pop("_cache") is None
+    copy = ReplicaCommand(**values)
+    for name in ("posture_torque", "feedforward_torque", "tracking_error", "desired_position", "phase",
+                 "latched_max_error", "stored_energy", "torque_ratio", "torque_rate_ratio", "joint_velocity_ratio",
+                 "joint_position_margin"):
+        np.testing.assert_array_equal(getattr(copy, name), getattr(command, name))
+    assert copy.kinetic_energy == command.kinetic_energy > 0.0
+    with pytest.raises(TypeError):
+        ReplicaCommand(*values.values())  # keyword only
 
 
 class _ForeignController:

@@ -58,7 +58,7 @@ def close_loop(robot: RobotModel, replica: ReplicaController, reference, seconds
         sim.step(command.torque)
         # The work of the controller's task wrench on the arm, at the step's mean joint velocity.
         velocity = 0.5 * (before + sim.joint_velocities)
-        run.work += float(command.wrench @ (command._jacobian @ velocity)) * DT
+        run.work += float(command.wrench @ (command.jacobian @ velocity)) * DT
         run.peak_work = max(run.peak_work, run.work)
         target_now = reference((tick + 1) * DT, start)[0]
         position = sim.tcp_pose[0]
