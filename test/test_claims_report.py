@@ -120,3 +120,18 @@ def test_tables_say_how_many_runs_were_too_short_to_judge():
     rows = [_row("c", "fic", 1, None), _row("c", "fic", 2, True)]
     table = claims_markdown(claims_statistics(rows))
     assert "| c passive | fic | 2 | 1/1 (1 not assessed) | 0.21-1.00 | 2/2 |" in table
+
+
+def test_update_readme_replaces_only_the_block(tmp_path):
+    from sim_bridge.experiments.tables import readme_claims
+    path = tmp_path / "claims.json"
+    path.write_text(json.dumps({"runs": _runs()}))
+    readme = tmp_path / "README.md"
+    readme.write_text("# x\n\nbefore\n<!-- claims: begin (generated) -->\nold 1/2\n<!-- claims: end -->\nafter\n")
+    assert main([str(path), "--update-readme", str(readme)]) == 0
+    statistics = json.loads((tmp_path / "claims_statistics.json").read_text())
+    assert readme.read_text() == ("# x\n\nbefore\n<!-- claims: begin (generated) -->\n" + readme_claims(statistics)
+                                  + "<!-- claims: end -->\nafter\n")
+    readme.write_text("no block\n")
+    with pytest.raises(SystemExit):
+        main([str(path), "--update-readme", str(readme)])

@@ -18,6 +18,7 @@ Newcombe's 95 % interval, Boschloo's exact p and Fisher's.
     python -m sim_bridge.experiments.claims_report results/claims.json      # -> results/claims_statistics.json,
                                                                              #    claims_tables.md, claims_*.png
     python -m sim_bridge.experiments.claims_report --readme results/claims_statistics.json   # README's block
+    python -m sim_bridge.experiments.claims_report results/claims.json --update-readme README.md   # all, README too
 """
 from __future__ import annotations
 
@@ -171,6 +172,21 @@ def write_claims_statistics(source: Path, out: Path, seeds_planned: int | None =
     return written
 
 
+README_BEGIN, README_END = "<!-- claims: begin", "<!-- claims: end -->"
+
+
+def update_readme(readme: Path, statistics: dict) -> None:
+    """Replace README's claims block (between its begin and end markers) with the one generated from
+    ``statistics``; ValueError when README has not exactly one block."""
+    from sim_bridge.experiments.tables import readme_claims
+
+    text = readme.read_text()
+    if text.count(README_BEGIN) != 1 or text.count(README_END) != 1:
+        raise ValueError(f"{readme} must hold exactly one '{README_BEGIN} ...' ... '{README_END}' block")
+    start = text.index("\n", text.index(README_BEGIN)) + 1
+    readme.write_text(text[:start] + readme_claims(statistics) + text[text.index(README_END, start):])
+
+
 def main(argv: list[str] | None = None) -> int:
     from sim_bridge.experiments.claims import SEEDS
 
@@ -182,6 +198,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds-planned", type=int, default=SEEDS, help=f"seeds a cell is planned to have ({SEEDS})")
     parser.add_argument("--readme", type=Path, default=None, metavar="STATISTICS_JSON",
                         help="print README's claims block from a statistics JSON written earlier, and nothing else")
+    parser.add_argument("--update-readme", type=Path, default=None, metavar="README",
+                        help="also rewrite README's claims block from the new statistics (after a new --judge)")
     args = parser.parse_args(argv)
     if args.readme is not None:
         from sim_bridge.experiments.tables import readme_claims
@@ -196,6 +214,12 @@ def main(argv: list[str] | None = None) -> int:
                                       args.seeds_planned)
     for name, path in written.items():
         print(f"{name}: {path}")
+    if args.update_readme is not None:
+        try:
+            update_readme(args.update_readme, json.loads(written["json"].read_text()))
+        except (OSError, ValueError) as error:
+            parser.error(str(error))
+        print(f"readme: {args.update_readme} (its claims block)")
     return 0
 
 
