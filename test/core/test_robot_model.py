@@ -113,3 +113,21 @@ def test_wrong_shape_is_rejected(robot: RobotModel) -> None:
 def test_reading_before_update_is_an_error() -> None:
     with pytest.raises(RuntimeError, match="update"):
         _ = RobotModel().tcp_position
+
+
+def test_update_returns_the_state_the_accessors_read(robot: RobotModel) -> None:
+    """``update`` returns ``robot.state`` (one object, refilled): its fields are what the accessors return, and the
+    float lists are q and qd."""
+    rng = np.random.default_rng(5)
+    q, qd = random_configuration(robot, rng), rng.normal(scale=0.3, size=7)
+    state = robot.update(q, qd)
+    assert state is robot.state
+    for field, accessor in (("q", "q"), ("qd", "qd"), ("tcp_position", "tcp_position"),
+                            ("tcp_rotation", "tcp_rotation"), ("tcp_jacobian", "tcp_jacobian"),
+                            ("tcp_twist", "tcp_twist"), ("mass_matrix_inverse", "mass_matrix_inverse"),
+                            ("nonlinear_effects", "nonlinear_effects")):
+        assert getattr(state, field) is getattr(robot, accessor), field
+    assert state.q_values == q.tolist() and state.qd_values == qd.tolist()
+    np.testing.assert_allclose(state.tcp_twist, state.tcp_jacobian @ qd, rtol=1e-12, atol=1e-15)
+    assert robot.update(NOMINAL_CONFIGURATION, np.zeros(7)) is state
+    np.testing.assert_array_equal(state.q, NOMINAL_CONFIGURATION)
