@@ -166,3 +166,39 @@ def test_the_checks_fail_on_a_wrong_figure():
     written = re.search(figure.pattern, readme_results()).groupdict()
     wrong = {**written, "max": f"{float(written['max']) + 0.1:.1f}"}
     assert wrong != figure.expected()
+
+
+# -- the claim sweep: README's generated block and the statistics behind it ---------------------------------------
+CLAIMS_BEGIN, CLAIMS_END = "<!-- claims: begin", "<!-- claims: end -->"
+
+
+def test_readme_claims_block_is_generated_from_the_statistics():
+    """README's block on the FIC papers' claims is claims_report's from results/claims_statistics.json, to the
+    character (a figure changed by hand, or statistics regenerated without README, fails here)."""
+    from sim_bridge.experiments.tables import readme_claims
+
+    text = (REPO / "README.md").read_text()
+    assert text.count(CLAIMS_BEGIN) == 1 and text.count(CLAIMS_END) == 1, "README's Results hold one claims block"
+    start = text.index("\n", text.index(CLAIMS_BEGIN)) + 1
+    assert text[start:text.index(CLAIMS_END, start)] == readme_claims(result("claims_statistics.json")), (
+        "regenerate: python -m sim_bridge.experiments.claims_report --readme results/claims_statistics.json")
+
+
+def test_claims_statistics_are_those_of_the_judged_sweep():
+    """results/claims_statistics.json recomputed from results/claims.json (every run with both verdicts)."""
+    from sim_bridge.experiments.claims_report import claims_statistics, read_runs
+
+    written = result("claims_statistics.json")
+    again = json.loads(json.dumps(claims_statistics(read_runs(REPO / "results" / "claims.json"),
+                                                    written["seeds_planned"])))
+    for field in ("runs_total", "runs_judged", "runs_judged_stable", "cells"):
+        assert written[field] == again[field], field
+    assert len(written["comparisons"]) == len(again["comparisons"])
+    for ours, theirs in zip(written["comparisons"], again["comparisons"]):
+        for verdict in ("stable", "safe"):
+            for key in ("reference_k_n", "baseline_k_n"):
+                assert ours[verdict][key] == theirs[verdict][key], (ours["cell"], verdict, key)
+            for key in ("difference", "boschloo_p", "fisher_p"):
+                expected = theirs[verdict][key]
+                assert ours[verdict][key] == (None if expected is None else pytest.approx(expected, abs=1e-6)), \
+                    (ours["cell"], key)
