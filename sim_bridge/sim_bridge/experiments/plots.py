@@ -193,9 +193,11 @@ def plot_claim_proportions(document: dict, path: Path) -> Path | None:
             ax.axvline(i - 0.5, color="grey", lw=0.5)
     axes[-1, 0].set_xticks(range(len(names)), names, fontsize=7, rotation=30, ha="right")
     handles = [plt.Line2D([], [], color=colours(j), marker="o", ls="-", ms=4) for j in range(len(laws))]
-    fig.suptitle("Claim cells: share of runs judged stable / safe (n under each point)", fontsize=9)
-    fig.tight_layout(rect=(0, 0, 1, 0.97 - 0.02 * (len(panels) < 3)))
-    fig.legend(handles, laws, fontsize=7, ncol=len(laws), loc="upper right")
+    fig.suptitle("Claim cells: share of runs judged stable / safe (n under each point)", fontsize=9, y=0.995)
+    top = 1.0 - 0.75 / fig.get_figheight()          # room for the title and the legend's row
+    fig.tight_layout(rect=(0, 0, 1, top))
+    fig.legend(handles, laws, fontsize=7, ncol=len(laws), loc="upper center", bbox_to_anchor=(0.5, top + 0.4 /
+                                                                                              fig.get_figheight()))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
