@@ -11,7 +11,8 @@ to +-0.1 s, the hand's impedance by up to +-20 %, the reactive hand's latencies 
 the outcome of each trial also gives the operator's phases, its retries and the time it took per piece.
 
     source scripts/env.sh && python scripts/e2_in_process.py --trials 4 --json results/e2_operator_fic.json
-    python scripts/e2_in_process.py --controller linear_bounded --trials 2 --json results/e2_operator_linear_bounded.json
+    python scripts/e2_in_process.py --controller linear --first-seed 3 --trials 1 --json linear_3.json
+    python scripts/e2_in_process.py --merge linear_1.json linear_3.json --json OUT.json --plot OUT.png
 """
 from __future__ import annotations
 

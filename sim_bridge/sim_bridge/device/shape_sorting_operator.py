@@ -117,7 +117,8 @@ class ShapeSortingParameters:
         for name in ("perception_delay", "assumed_one_way_delay", "settle", "velocity_deadband", "entry_depth",
                      "insert_margin", "search_radius", "hover", "clearance"):
             finite_scalar(name, getattr(self, name), minimum=0.0)
-        for name in ("still_speed", "still_window", "max_still_wait", "touch_force", "learnt_stiffness", "learnt_max_force", "velocity_gain", "travel_excursion",
+        for name in ("still_speed", "still_window", "max_still_wait", "touch_force", "learnt_stiffness",
+                     "learnt_max_force", "velocity_gain", "travel_excursion",
                      "ramp", "travel_tolerance", "align_tolerance", "grasp_tolerance", "press_depth", "bond_time",
                      "search_time", "search_turns", "lock_shift", "pull", "pull_time", "home_tolerance"):
             finite_scalar(name, getattr(self, name), minimum=0.0, minimum_inclusive=False)

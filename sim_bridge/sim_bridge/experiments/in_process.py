@@ -391,8 +391,9 @@ def run(config: RunConfig) -> RunResult:
             replica.add_planner_pose(ns, planner.position, orientation, now)
             replica.add_planner_acceleration(planner.acceleration, now)
         if watcher is not None and k % camera_every == 0:
-            video.push(Frame(now, sim.tcp_pose[0], sim.object_poses()["pushable_obstacle"][0]) if sorter is None
-                       else SortingFrame(now, sim.tcp_pose[0], np.array([pose[0] for pose in sim.object_poses().values()])),
+            poses = sim.object_poses()
+            video.push(Frame(now, sim.tcp_pose[0], poses["pushable_obstacle"][0]) if sorter is None
+                       else SortingFrame(now, sim.tcp_pose[0], np.array([pose[0] for pose in poses.values()])),
                        now, now)
         if watcher is not None and k % delivery_every == 0:
             for delivery in video.pop_due(now):
