@@ -313,7 +313,7 @@ class ShapeSortingOperator:
     def _travel(self, label: str, goal, tolerance: float) -> Iterator[None]:
         """Move-and-wait travel in VELOCITY mode until the seen TCP is within ``tolerance`` of ``goal(seen)``."""
         yield from self._mode(True)
-        for step in range(self.parameters.max_corrections):
+        for _ in range(self.parameters.max_corrections):
             error = goal(self.seen) - self.seen.tcp
             self._log(f"{label}", float(np.linalg.norm(error)))
             if np.linalg.norm(error) <= tolerance:
@@ -324,7 +324,7 @@ class ShapeSortingOperator:
     def _align(self, label: str, goal_xy, tolerance: float) -> Iterator[None]:
         """Move-and-wait in OFFSET mode: the hand shifts by the seen x-y error until it is within ``tolerance``."""
         yield from self._mode(False)
-        for step in range(self.parameters.max_corrections):
+        for _ in range(self.parameters.max_corrections):
             error = goal_xy(self.seen)
             self._log(label, float(np.linalg.norm(error)))
             if np.linalg.norm(error) <= tolerance:
