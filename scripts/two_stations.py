@@ -12,8 +12,9 @@
 
 Each channel node sits on the receiving side of its direction, so it measures its hold on its own station's clock
 from the moment the message arrived over the link, and only the two streams the paper's architecture needs cross
-the link: the teleoperation command and the feedback wrench (plus DDS discovery and liveliness, measured in
-link_traffic.json). The master station's /diagnostics and /channel/deliveries are renamed under /master_station/,
+the link: the teleoperation command and the feedback wrench, each with the energy its port put into the channel
+(/master/port_energy, /replica/port_energy: the channel's passivity observers, docs/CONTROL_LAWS.md "The channel's
+ports"), plus DDS discovery and liveliness, measured in link_traffic.json. The master station's /diagnostics and /channel/deliveries are renamed under /master_station/,
 so that the robot station's recorder does not pull them across the link.
 
 The namespaces are `fic_teleop_<tag>_master` and `fic_teleop_<tag>_robot`, joined by a veth pair with addresses
@@ -54,10 +55,12 @@ MASTER_STATION_NODES = {"haptic_device", "fd_adapter", "master", "channel_backwa
 # The master station's topics, recorded there (bag_master/); the robot station's recorder leaves them out.
 MASTER_STATION_TOPICS = ["/haptic/pose", "/haptic/twist", "/haptic/wrench_command", "/operator/joy",
                          "/master/pose", "/master/teleop_command", "/master/feedback_wrench",
+                         "/master/port_energy", "/master/replica_port_energy",
                          "/master_station/diagnostics", "/master_station/channel/deliveries"]
 MASTER_STATION_REMAPS = {"/diagnostics": "/master_station/diagnostics",
                          "/channel/deliveries": "/master_station/channel/deliveries"}
-# The two streams the link is for (the architecture's only cross-station topics).
+# The two streams the link is for, whose stamps the capture reads for the link's latency (their ports' input
+# energies, /master/port_energy and /replica/port_energy, cross with them).
 LINK_STREAMS = ["/master/teleop_command", "/replica/feedback_wrench"]
 # The robot station's recorder: the topic table less what the master station publishes (it would cross the link).
 ROBOT_STATION_EXCLUDED = set(MASTER_STATION_TOPICS) | {"/replica/master_pose"}

@@ -21,6 +21,10 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 INSTALL = REPO / "install"
 CONFIG = REPO / "config"
+#: The launcher's exits that mean "every safety figure kept": 0, and 6 when the computer did not keep real time
+#: (docs/SECURITY.md, "Exit codes of the launcher"). A test whose subject is not real-time performance (a link cut,
+#: scheduling classes, isolation) accepts both: on a loaded machine its run is starved, not failed.
+SAFETY_KEPT_EXITS = (0, 6)
 
 
 # The Panda's model and datasheet limits, one of each per test module (RobotModel keeps the last state it was
