@@ -175,8 +175,6 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
                  {"controller": replica_controller(args.controller), "control_rate": args.control_rate,
                   "channel_passivity_control": tdpa(args),
-                  # its cost starved the realtime replica on 2 loaded cores; lockstep waits for it (docs/RESULTS.md)
-                  "exchanged_energy_observer": lockstep,
                   "answer_every_state": lockstep,
                   # With the loops pre-empting (fifo), a new command used at the next joint state gave a latency p50
                   # of 1.3 and 1.7 ms in two runs, against 1.8-2.6 ms in five without; under niceness the extra
