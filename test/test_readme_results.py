@@ -43,10 +43,6 @@ def one_count(file: str, cell_id: str, controllers: tuple[str, ...], *more_cells
     return str(counts.pop()) if len(counts) == 1 else f"differs: {sorted(counts)}"
 
 
-def in_process_forces() -> list[float]:
-    return [trial["peak_force_n"] for trial in result("e2_in_process.json")["trials"]]
-
-
 def mm(metres: float) -> str:
     return f"{metres * 1e3:.1f}"
 
@@ -127,21 +123,28 @@ FIGURES = [
            lambda: dict(zip(("fic_low", "fic_high", "lin_low", "lin_high"), (f"{v:.2f}" for v in (
                *cell("evidence_closed_loop_5seeds.json", "delay_1", "fic")["stable_interval_95"],
                *cell("evidence_closed_loop_5seeds.json", "delay_1", "linear")["stable_interval_95"]))))),
-    Figure("E2 lockstep: pieces and trials",
-           r"(?P<inside>\d+) of (?P<pieces>\d+) pieces sorted, (?P<complete>\d+) of (?P<trials>\d+) trials complete",
-           lambda: dict(inside=str(result("e2.json")["pieces_inside_total"]),
-                        pieces=str(result("e2.json")["pieces_per_trial"] * len(result("e2.json")["trials"])),
-                        complete=str(result("e2.json")["successful_trials"]),
+    Figure("E2 in-process, shape-sorting operator, FIC at 200 ms: trials, interval, pieces",
+           r"FIC (?P<complete>\d+) of (?P<trials>\d+) trials complete \(Wilson (?P<low>[\d.]+)-(?P<high>[\d.]+)\), "
+           r"(?P<inside>\d+) of (?P<pieces>\d+) pieces",
+           lambda: dict(complete=str(result("e2_operator_fic.json")["complete"]),
+                        trials=str(len(result("e2_operator_fic.json")["trials"])),
+                        low=f"{result('e2_operator_fic.json')['complete_wilson_95'][0]:.2f}",
+                        high=f"{result('e2_operator_fic.json')['complete_wilson_95'][1]:.2f}",
+                        inside=str(result("e2_operator_fic.json")["pieces_inside"]),
+                        pieces=str(3 * len(result("e2_operator_fic.json")["trials"])))),
+    Figure("E2 in-process: the unbounded linear law",
+           r"the unbounded linear law (?P<complete>\d+) of (?P<trials>\d+)",
+           lambda: dict(complete=str(result("e2_operator_linear.json")["complete"]),
+                        trials=str(len(result("e2_operator_linear.json")["trials"])))),
+    Figure("E2 in-process: the FIC's peak forces and limit violations",
+           r"Peak forces (?P<low>\d+)-(?P<high>\d+) N, (?P<violations>\d+) limit violations",
+           lambda: dict(low=f"{min(t['peak_force_n'] for t in result('e2_operator_fic.json')['trials']):.0f}",
+                        high=f"{max(t['peak_force_n'] for t in result('e2_operator_fic.json')['trials']):.0f}",
+                        violations=str(sum(t["limit_violations"] for t in result("e2_operator_fic.json")["trials"])))),
+    Figure("E2 lockstep graph, scripted operator: trials complete",
+           r"\((?P<complete>\d+) of (?P<trials>\d+) trials complete, 2026-12-02\)",
+           lambda: dict(complete=str(result("e2.json")["successful_trials"]),
                         trials=str(len(result("e2.json")["trials"])))),
-    Figure("E2 in-process: pieces and trials",
-           r"(?P<inside>\d+) of (?P<pieces>\d+) pieces, (?P<complete>\d+) of (?P<trials>\d+) trials complete",
-           lambda: dict(inside=str(result("e2_in_process.json")["pieces_inside"]),
-                        pieces=str(3 * len(result("e2_in_process.json")["trials"])),
-                        complete=str(result("e2_in_process.json")["complete"]),
-                        trials=str(len(result("e2_in_process.json")["trials"])))),
-    Figure("E2: peak interaction force",
-           r"Interaction forces up to (?P<force>\d+) N",
-           lambda: dict(force=f"{max(result('e2.json')['peak_force_n_max'], *in_process_forces()):.0f}")),
     Figure("E3: energy, limits, force and error after the loss",
            r"\((?P<before>[\d.]+) J peak before, (?P<after>[\d.]+) J after\), (?P<violations>\d+) limit violations, "
            r"peak force (?P<force>[\d.]+) N, error at most (?P<error>[\d.]+) mm",
