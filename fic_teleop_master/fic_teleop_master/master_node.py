@@ -38,6 +38,7 @@ from fic_teleop_runtime.geometry import xyz, xyzw
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, switch, text
+from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
 
 # Device and teleoperation streams RELIABLE (the channel alone loses on purpose), read 20 deep and written with
 # the streams' deep writer history; button presses are events: a lost toggle would invert the mode for the rest
@@ -210,20 +211,10 @@ class MasterNode(Node):
                                   level=DiagnosticStatus.WARN if problems else DiagnosticStatus.OK,
                                   message="; ".join(problems) if problems else "ok",
                                   values=[KeyValue(key=key, value=value) for key, value in values.items()])
-        port = self._channel_port.diagnostics()
-        port_status = DiagnosticStatus(  # WARN once the delay got energy out here that the replica never put in
-            name="master: channel port", hardware_id="fic_teleop_master",
-            level=DiagnosticStatus.WARN if port["negative_ticks"] > 0 else DiagnosticStatus.OK,
-            message=f"backward link generated {port['generated_j']:.4f} J, {port['generated_rate_w']:.4f} W",
-            values=[KeyValue(key=key, value=f"{value:.9g}") for key, value in port.items()])
-        array = DiagnosticArray(status=[status, port_status])
+        array = DiagnosticArray(status=[status, channel_port_status("master", "backward",
+                                                                    self._channel_port.diagnostics())])
         if self._exchanged is not None:
-            observer = self._exchanged.observer
-            array.status.append(DiagnosticStatus(  # WARN: energy out that neither storage nor sampling accounts for
-                name="master: exchanged energy", hardware_id="fic_teleop_master",
-                level=DiagnosticStatus.WARN if observer.violation_ticks else DiagnosticStatus.OK,
-                message=f"shortfall {observer.shortfall_j:.4g} J, damping needed {observer.damping_needed:.3g} N s/m",
-                values=[KeyValue(key=key, value=value) for key, value in observer.diagnostics().items()]))
+            array.status.append(exchanged_energy_status("master", self._exchanged.observer, "N s/m"))
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_publisher.publish(array)
 

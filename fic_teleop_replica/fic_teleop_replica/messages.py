@@ -15,7 +15,6 @@ from fic_teleop_msgs.msg import FicState, LimitStatus
 from geometry_msgs.msg import PoseStamped
 
 from fic_core.loop_health import HOLDING, RESUMING, LoopHealth
-from fic_core.exchanged_energy_observer import ExchangedEnergyObserver
 from fic_core.replica import ReplicaCommand
 from fic_core.replica_loop import ReplicaLoop
 from fic_teleop_runtime.geometry import set_pose
@@ -98,13 +97,3 @@ def loop_health_status(health: LoopHealth) -> DiagnosticStatus:
         status.level, status.message = DiagnosticStatus.OK, "state ages and tick gaps within their bounds"
     status.values = [KeyValue(key=key, value=value) for key, value in health.diagnostic_values().items()]
     return status
-
-
-def exchanged_energy_status(observer: ExchangedEnergyObserver) -> DiagnosticStatus:
-    """The FIC port's exchanged energy (fic_core.exchanged_energy_ports): WARN once energy came out that neither the
-    storage nor the sampling accounts for (a violation tick)."""
-    return DiagnosticStatus(name="replica: exchanged energy", hardware_id="fic_teleop_replica",
-                            level=DiagnosticStatus.WARN if observer.violation_ticks else DiagnosticStatus.OK,
-                            message=f"shortfall {observer.shortfall_j:.4g} J, damping needed "
-                                    f"{observer.damping_needed:.3g} (N s/m, N m s/rad)",
-                            values=[KeyValue(key=key, value=value) for key, value in observer.diagnostics().items()])

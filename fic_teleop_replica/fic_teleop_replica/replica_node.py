@@ -25,7 +25,6 @@ import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
-from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -52,6 +51,7 @@ from fic_teleop_runtime.geometry import set_xyz, xyz, xyzw
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import RefusalLog, log_notices
 from fic_teleop_runtime.parameters import declare
+from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
 from fic_teleop_runtime.stamps import nanoseconds, seconds
 
 NODE_NAME = "replica"
@@ -278,16 +278,11 @@ class ReplicaNode(Node):
 
     def _publish_diagnostics(self) -> None:
         hold = self._input_guard.streams.reason if self._input_guard.held else None
-        port = self._channel_port.diagnostics()
-        port_status = DiagnosticStatus(  # WARN once the delay got energy out here that the master never put in
-            name="replica: channel port", hardware_id="fic_teleop_replica",
-            level=DiagnosticStatus.WARN if port["negative_ticks"] > 0 else DiagnosticStatus.OK,
-            message=f"forward link generated {port['generated_j']:.4f} J, {port['generated_rate_w']:.4f} W",
-            values=[KeyValue(key=key, value=f"{value:.9g}") for key, value in port.items()])
-        array = DiagnosticArray(status=[messages.diagnostic_status(self._loop, hold, self.statistics()), port_status,
+        array = DiagnosticArray(status=[messages.diagnostic_status(self._loop, hold, self.statistics()),
+                                        channel_port_status("replica", "forward", self._channel_port.diagnostics()),
                                         messages.loop_health_status(self._loop.health)])
         if self._exchanged is not None:
-            array.status.append(messages.exchanged_energy_status(self._exchanged.observer))
+            array.status.append(exchanged_energy_status("replica", self._exchanged.observer, "(N s/m, N m s/rad)"))
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(array)
 
