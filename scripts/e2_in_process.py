@@ -63,11 +63,15 @@ def operator_outcome(moves: list[tuple[str, float, float]], force: np.ndarray, t
     return pieces
 
 
-def trial(seed: int, duration: float, jitter: bool, operator: str, controller: str, delay: float) -> dict:
+def trial(seed: int, duration: float, jitter: bool, operator: str, controller: str, delay: float,
+          paper_law: bool | None = None) -> dict:
+    """One seed's trial. ``paper_law``: the replica's Eq. 7 as the paper writes it (no inertial feedforward, no
+    friction compensation); None: as this script always ran the FIC (written), the baselines as configured."""
+    written = controller == "fic" if paper_law is None else paper_law
     config = RunConfig(scene="shape_sorting", trajectory="fixed", duration=duration, delay=delay, seed=seed,
                        controller=controller, operator=operator,
                        hand="reactive" if operator == "shape_sorting" else "passive",
-                       replica_overrides={"paper_law": True} if controller == "fic" else {},
+                       replica_overrides={"paper_law": True} if written else {},
                        jitter=CHANNEL_JITTER_S if jitter else 0.0,
                        operator_timing_jitter=OPERATOR_TIMING_JITTER_S if jitter else 0.0,
                        hand_impedance_jitter=HAND_IMPEDANCE_JITTER if jitter else 0.0)
