@@ -7,7 +7,7 @@ import sys
 
 from conftest import REPO
 
-RUNTIME = REPO / "fic_teleop_msgs"
+RUNTIME = REPO / "fic_teleop_runtime"
 
 
 def _child(body: str) -> subprocess.CompletedProcess:

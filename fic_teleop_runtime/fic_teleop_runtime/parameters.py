@@ -130,13 +130,13 @@ _RclLoader.add_implicit_resolver(
 
 def config_folder() -> Path:
     """The repository's config/ (FIC_TELEOP_ROOT, set by scripts/env.sh), else the copy installed with this
-    package (share/fic_teleop_msgs/config, for an install sourced without env.sh)."""
+    package (share/fic_teleop_runtime/config, for an install sourced without env.sh)."""
     root = os.environ.get("FIC_TELEOP_ROOT")
     if root:
         return Path(root) / "config"
     from ament_index_python.packages import get_package_share_directory
 
-    return Path(get_package_share_directory("fic_teleop_msgs")) / "config"
+    return Path(get_package_share_directory("fic_teleop_runtime")) / "config"
 
 
 def _flat(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
