@@ -11,7 +11,7 @@ checks the claim without trusting the attractor's own energy functions:
   (phase, e_max, K_C), and the forces it returned are checked against the force law of that state,
   so the storage judged here is the true potential of the forces that were applied.
 
-Used by test_passivity.py (a few hundred cycles) and scripts/passivity_cycles.py (10,000).
+Used by test/core/test_passivity.py (a few hundred cycles) and passivity_cycles.py (10,000).
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from scipy.integrate import cumulative_simpson, quad
 from fic_core.attractor import FractalAttractor
 from fic_core.profile import ForceProfile
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 DT = 1e-3  #: the replica's control period [s]
 
 

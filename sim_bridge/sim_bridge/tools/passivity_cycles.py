@@ -1,13 +1,12 @@
-#!/usr/bin/env python3
 """10,000 random error cycles at dt = 1 ms through the FIC attractor, judged by an independent storage.
 
 Each cycle starts at rest at e = 0 and ends at rest there; its errors reverse inside C, carry noise, take both
 signs, are sometimes sampled and held at 10 Hz, and come with rates that are right, noisy, reversed or unrelated
-(test/core/passivity_oracle.py). Half the batches use the profiles shipped in config/, half random profiles.
+(passivity_oracle.py). Half the batches use the profiles shipped in config/, half random profiles.
 Prints and (with --json) writes min over all samples of W_k - (V_k - V_0) [J] (target >= -1e-6 J), the
 smallest closed-cycle work, the count of D -> C latches and of capped K_C.
 
-With --orientation instead: closed orientation loops (test/core/orientation_loops.py) of 0.2-1.2 rad at 1 kHz,
+With --orientation instead: closed orientation loops (orientation_loops.py) of 0.2-1.2 rad at 1 kHz,
 500 Hz and 100 Hz, the held-moment work per loop of the angle-axis FIC (fic_core/rotational_attractor.py) and of
 the old per-axis rule on the rotation vector, on the shipped rotation profile, below the rate dead-band.
 
@@ -30,17 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "test" / "core"))
-
-from fic_core.attractor import FractalAttractor  # noqa: E402
-from passivity_oracle import judge, random_cycles, random_profile, shipped_profiles, storage_for  # noqa: E402
+from fic_core.attractor import FractalAttractor
+from sim_bridge.tools.passivity_oracle import judge, random_cycles, random_profile, shipped_profiles, storage_for
 
 
 def orientation_table(speed: float) -> list[dict[str, float]]:
     """Held-moment work per closed orientation loop, angle-axis FIC against the old per-axis rule (no switching)."""
     from fic_core.rotational_attractor import RotationalAttractor
-    from orientation_loops import drive_loop, loop_rotation_vectors
+    from sim_bridge.tools.orientation_loops import drive_loop, loop_rotation_vectors
 
     profile = next(value for name, value in shipped_profiles().items() if "replica.yaml:rotation_" in name)
     rows = []
@@ -62,8 +58,8 @@ def held_table() -> list[dict[str, float | str]]:
     from fic_core.attractor_storage import AttractorStorage
     from fic_core.exchanged_energy_observer import ExchangedEnergyObserver
     from fic_core.rotational_attractor import RotationalAttractor
-    from orientation_loops import drive_loop, loop_rotation_vectors
-    from passivity_oracle import push_release_cycle
+    from sim_bridge.tools.orientation_loops import drive_loop, loop_rotation_vectors
+    from sim_bridge.tools.passivity_oracle import push_release_cycle
 
     profiles = shipped_profiles()
     translation = next(value for name, value in profiles.items() if "replica.yaml:translation_" in name)
@@ -129,7 +125,7 @@ def stroke_table() -> list[dict[str, float]]:
     return rows
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--orientation", action="store_true", help="the closed orientation loops instead")
     parser.add_argument("--speed", type=float, default=0.1, help="with --orientation: loop speed [rad/s]")
@@ -140,7 +136,7 @@ def main() -> int:
     parser.add_argument("--samples", type=int, default=1000, help="samples per cycle (dt = 1 ms)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path)
-    arguments = parser.parse_args()
+    arguments = parser.parse_args(argv)
     if arguments.held:
         rows = held_table()
         for row in rows:

@@ -17,7 +17,7 @@ The last two sums are the sampling terms: the held moment's lag, and the differe
 change of the angle over a finite step (d theta = -u . w dt holds exactly only in the limit). Each is second
 order in the step, so over a loop they are O(dt).
 
-Used by test_rotational_attractor.py and test_exchanged_energy_observer.py.
+Used by test/core/test_rotational_attractor.py, test/core/test_exchanged_energy_observer.py and passivity_cycles.py.
 """
 from __future__ import annotations
 
