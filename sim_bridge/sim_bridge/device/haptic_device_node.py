@@ -7,7 +7,9 @@ device's 1 kHz substep between publications. The hand on the handle is the virtu
 (config/operator_scripts/<scene>.yaml, which also presses buttons on /operator/joy for the master), a closed-loop
 one that times its moves from the delayed video of the replica (closed_loop_operator.py: the robot's
 /sim/tcp_pose and /sim/object_poses after the backward channel, on /master/video/tcp_pose and
-/master/video/object_poses; the script still presses the buttons), one steered by /operator/joy axes
+/master/video/object_poses; the script still presses the buttons), the shape-sorting operator of E2 that watches
+the same video (every piece's pose) and feels the rendered force with the force-reactive hand
+(shape_sorting_operator.py, reactive_hand.py; it presses its own buttons), one steered by /operator/joy axes
 (keyboard_operator or a joystick), or none (the handle is free). Time is the node clock, so use_sim_time runs the
 device in the simulator's time.
 """
@@ -32,6 +34,8 @@ from fic_teleop_runtime.stamps import nanoseconds
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.driver_twins import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.reactive_hand import ReactiveHand
+from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
 from sim_bridge.device.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
                                          load_script)
 
@@ -41,7 +45,7 @@ DEVICE_QOS, DEVICE_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
 # Button presses must not be lost (a lost toggle inverts the mode for the rest of the run): RELIABLE, deep.
 JOY_QOS = qos.EVENTS
 
-OPERATOR_SOURCES = ("scripted", "closed_loop", "joy", "none")
+OPERATOR_SOURCES = ("scripted", "closed_loop", "shape_sorting", "joy", "none")
 # The video the closed-loop operator watches: the robot's poses after the backward channel (the launcher adds the
 # two routes to channel_backward). Both carry the capture's stamp; a frame is a TCP pose and an object array of
 # one stamp.
@@ -68,9 +72,10 @@ SCHEMA = Schema(
     number("command_timeout", 0.001, 10.0, "a force command older than this is stale: zero force until a fresh one "
                                            "[s]"),
     text("operator_source", f"the hand on the handle: one of {OPERATOR_SOURCES}"),
-    number("reaction_time", 0.0, 2.0, "closed_loop: a video frame is used this long after it arrived [s]"),
-    number("assumed_one_way_delay", 0.0, 10.0, "closed_loop: the link latency the operator has learnt [s] (the "
-                                               "launcher gives it the run's delay)"),
+    number("reaction_time", 0.0, 2.0, "closed_loop, shape_sorting: a video frame is used this long after it "
+                                      "arrived [s]"),
+    number("assumed_one_way_delay", 0.0, 10.0, "closed_loop, shape_sorting: the link latency the operator has "
+                                               "learnt [s] (the launcher gives it the run's delay)"),
     text("scene", f"scene whose operator script is played: one of {SCENES}"),
     text("script_file", "operator script YAML; empty: config/operator_scripts/<scene>.yaml"),
     number("script_start_time", -1.0, 1e10, "node-clock time of the script's t = 0 [s]; negative: when the node "
@@ -150,6 +155,7 @@ class HapticDeviceNode(Node):
 
         self.scripted: ScriptedOperator | None = None
         self.watcher: ClosedLoopOperator | None = None
+        self.sorter: ShapeSortingOperator | None = None
         self.video_halves: dict[tuple[str, int], np.ndarray] = {}
         self.joy_target: JoyTarget | None = None
         self.joy_axes: list[float] = []
@@ -177,6 +183,23 @@ class HapticDeviceNode(Node):
             self.create_timer(1.0 / JOY_RATE_HZ, self._publish_buttons)
             self.get_logger().info(f"scripted operator: {path} ({script.name}, {script.duration:.1f} s, "
                                    f"{len(script.events)} button presses)")
+        elif self.source == "shape_sorting":
+            if value("scene") != "shape_sorting":
+                raise FicInputError(f"operator_source shape_sorting drives the shape_sorting scene only, not "
+                                    f"{value('scene')!r}")
+            # What it has learnt of the master (K0, F_max, k_v, the dead-band) is config/master.yaml's, the
+            # parameters' defaults; the hand reacts to the force it feels (reactive_hand.py, its mean figures).
+            self.sorter = ShapeSortingOperator(ShapeSortingParameters(
+                perception_delay=value("reaction_time"), assumed_one_way_delay=value("assumed_one_way_delay"),
+                handle_half_extents=tuple(value("half_extents"))))
+            self.hand = ReactiveHand(self.hand.parameters)
+            self.create_subscription(PoseStamped, VIDEO_TCP_TOPIC, self._on_video_tcp, VIDEO_QOS)
+            self.create_subscription(PoseArray, VIDEO_OBJECTS_TOPIC, self._on_video_objects, VIDEO_QOS)
+            self.joy_publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
+            self.create_timer(1.0 / JOY_RATE_HZ, self._publish_buttons)
+            self.get_logger().info(
+                f"shape-sorting operator: watches {VIDEO_TCP_TOPIC} and {VIDEO_OBJECTS_TOPIC}, perception "
+                f"{value('reaction_time'):.2f} s, assumed one-way delay {value('assumed_one_way_delay'):.2f} s")
         elif self.source == "joy":
             self.joy_target = JoyTarget(parameters.half_extents, max_speed=value("joy_max_speed"))
             self.create_subscription(Joy, "/operator/joy", self._on_joy, JOY_QOS)
@@ -223,6 +246,10 @@ class HapticDeviceNode(Node):
         self._video_half("tcp", nanoseconds(message.header.stamp), np.array([p.x, p.y, p.z]))
 
     def _on_video_objects(self, message: PoseArray) -> None:
+        if self.sorter is not None:   # every piece, in the scene's order (scenes.SHAPE_SORTING_PIECES)
+            pieces = np.array([[pose.position.x, pose.position.y, pose.position.z] for pose in message.poses])
+            self._video_half("objects", nanoseconds(message.header.stamp), pieces.reshape(-1, 3))
+            return
         if len(message.poses) <= PUSHABLE_OBSTACLE_INDEX:
             self.get_logger().error(f"refused {VIDEO_OBJECTS_TOPIC} with {len(message.poses)} poses: the "
                                     "superimposition scene has the pushable obstacle", throttle_duration_sec=1.0)
@@ -241,8 +268,14 @@ class HapticDeviceNode(Node):
             for key in [key for key in self.video_halves if key[1] < stamp_ns - VIDEO_PAIRING_WINDOW_NS]:
                 del self.video_halves[key]
             return
-        tcp, obstacle = (position, other) if kind == "tcp" else (other, position)
-        self.watcher.see(self._now(), Frame(stamp_ns * 1e-9, tcp, obstacle))
+        tcp, objects = (position, other) if kind == "tcp" else (other, position)
+        if self.sorter is None:
+            self.watcher.see(self._now(), Frame(stamp_ns * 1e-9, tcp, objects))
+            return
+        try:
+            self.sorter.see(self._now(), SortingFrame(stamp_ns * 1e-9, tcp, objects))
+        except FicInputError as error:
+            self.get_logger().error(f"refused a video frame: {error}", throttle_duration_sec=1.0)
 
     def _on_joy(self, message: Joy) -> None:
         axes = list(message.axes[:3])
@@ -275,6 +308,17 @@ class HapticDeviceNode(Node):
                       else self._watched_target(now))
             self.hand.update(target, self.device.position, dt)
             self.button_queue.extend(event.button for event in self.scripted.poll_events(now - self.script_origin))
+            if self.fd:
+                self._fd_buttons()
+            hand_force = self.hand.force
+        elif self.sorter is not None:
+            rendered = self.device.saturate(command)   # what the motors render: what the hand feels
+            self.sorter.feel(rendered, self.device.position)
+            logged = len(self.sorter.moves_started)
+            self.hand.update(self.sorter.target(now), self.device.position, dt, self.device.velocity, rendered)
+            for phase, start, figure in self.sorter.moves_started[logged:]:
+                self.get_logger().info(f"shape-sorting operator: {phase} at {start:.3f} s ({figure:.4g})")
+            self.button_queue.extend(event.button for event in self.sorter.poll_events(now))
             if self.fd:
                 self._fd_buttons()
             hand_force = self.hand.force
