@@ -88,7 +88,8 @@ def summary(rows: list[dict]) -> str:
         above = sorted(row["time_above_f_max_s"] for row in trials)
         per_piece = f"{sum(durations) / len(durations):.1f}" if durations else "-"
         lines.append(f"| {key[0]} | {key[1]:g} | {complete}/{n} ({low:.2f}-{high:.2f}) | "
-                     f"{pieces}/{n * len(PIECE_NAMES)} ({piece_low:.2f}-{piece_high:.2f}) | {per_piece} | {peaks[n // 2]:.1f} ({peaks[-1]:.1f}) | "
+                     f"{pieces}/{n * len(PIECE_NAMES)} ({piece_low:.2f}-{piece_high:.2f}) | {per_piece} | "
+                     f"{peaks[n // 2]:.1f} ({peaks[-1]:.1f}) | "
                      f"{above[n // 2]:.1f} | {sum(row.get('retries', 0) for row in trials)} | "
                      f"{sum(row['limit_violations'] for row in trials)} |")
     return "\n".join(lines) + "\n"
