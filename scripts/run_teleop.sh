@@ -7,4 +7,4 @@ REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$REPO/scripts/setup.sh"
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
-exec python "$REPO/scripts/teleop_launcher.py" "$@"
+exec python -m fic_teleop_bringup.teleop_launcher "$@"

@@ -7,12 +7,11 @@ import sys
 
 from conftest import REPO
 
-sys.path.insert(0, str(REPO / "scripts"))
-import teleop_launcher  # noqa: E402
+from fic_teleop_bringup import teleop_launcher
 
 
 def test_the_launch_file_is_what_the_generator_writes() -> None:
-    result = subprocess.run([sys.executable, str(REPO / "scripts" / "launch_file.py"), "--check"],
+    result = subprocess.run([sys.executable, "-m", "fic_teleop_bringup.launch_file", "--check"],
                             capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
 

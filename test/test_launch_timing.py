@@ -3,17 +3,15 @@ replica's own loop against their bounds, its own exit code, and a broken safety 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 from conftest import REPO
 
-sys.path.insert(0, str(REPO / "scripts"))
 
-from launch_supervision import EXIT_CODES, EXIT_INPUT_REFUSED, EXIT_LIMIT_VIOLATIONS, EXIT_OK, \
-    EXIT_STARVED  # noqa: E402
-from launch_timing import LOOP_HEALTH_STATUS, LOOP_RATE_BOUND, REAL_TIME_FACTOR_BOUND, exit_code, judge_run, \
-    timing_verdict  # noqa: E402
+from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_INPUT_REFUSED, EXIT_LIMIT_VIOLATIONS, EXIT_OK, \
+    EXIT_STARVED
+from fic_teleop_bringup.launch_timing import LOOP_HEALTH_STATUS, LOOP_RATE_BOUND, REAL_TIME_FACTOR_BOUND, exit_code, \
+    judge_run, timing_verdict
 
 
 def rates(**fractions: float) -> dict[str, dict]:

@@ -10,10 +10,9 @@ import pytest
 from conftest import REPO
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
-sys.path.insert(0, str(REPO / "scripts"))
 
-from launch_supervision import EXIT_INPUT_REFUSED, EXIT_JOINT_STATES_LOST, EXIT_LIMIT_VIOLATIONS, EXIT_NODE_FAILED, \
-    EXIT_OK, EXIT_REFUSED, safety_verdict  # noqa: E402
+from fic_teleop_bringup.launch_supervision import EXIT_INPUT_REFUSED, EXIT_JOINT_STATES_LOST, EXIT_LIMIT_VIOLATIONS, \
+    EXIT_NODE_FAILED, EXIT_OK, EXIT_REFUSED, safety_verdict
 
 
 def _launch(tmp_path: Path, *arguments: str, out: Path | None = None) -> subprocess.CompletedProcess:
@@ -159,7 +158,7 @@ def test_the_robots_velocity_reflex_in_the_bag_is_a_limit_violation(tmp_path: Pa
     (["--time-mode", "lockstep"], None),                # every step, the replica answers each
 ])
 def test_the_default_joint_state_rate_follows_the_mode(arguments, rate) -> None:
-    import teleop_launcher
+    from fic_teleop_bringup import teleop_launcher
 
     args = teleop_launcher.parse_arguments(arguments)
     teleop_launcher.resolve_defaults(args)
@@ -171,8 +170,8 @@ def test_the_default_joint_state_rate_follows_the_mode(arguments, rate) -> None:
 
 
 def test_a_params_file_goes_to_its_node_after_its_config_and_an_unknown_node_is_refused(tmp_path: Path) -> None:
-    import teleop_launcher
-    from launch_checks import ArgumentRefusal
+    from fic_teleop_bringup import teleop_launcher
+    from fic_teleop_bringup.launch_checks import ArgumentRefusal
 
     rates = tmp_path / "rates.yaml"
     rates.write_text("/**:\n  ros__parameters:\n    status_rate: 50.0\n")

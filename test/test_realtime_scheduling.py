@@ -13,8 +13,7 @@ import pytest
 
 from conftest import REPO, SAFETY_KEPT_EXITS
 
-sys.path.insert(0, str(REPO / "scripts"))
-from realtime_scheduling import RealtimeScheduler, loop_threads  # noqa: E402
+from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler, loop_threads
 
 # A child with the thread kinds a node has: its main thread, a thread that keeps the process's name (like rclpy's
 # timer thread), the robot's "physics" thread, a Fast DDS shared-memory receive thread, and Fast DDS threads that

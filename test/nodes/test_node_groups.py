@@ -12,10 +12,9 @@ import pytest
 
 from conftest import REPO, assert_stopped_clean, isolated_env, reserved_domain, unclean_exit
 
-sys.path.insert(0, str(REPO / "scripts"))
-import node_groups  # noqa: E402
-from launch_checks import ArgumentRefusal  # noqa: E402
-from teleop_launcher import NodeSpec, node_command  # noqa: E402
+from fic_teleop_bringup import node_groups
+from fic_teleop_bringup.launch_checks import ArgumentRefusal
+from fic_teleop_bringup.teleop_launcher import NodeSpec, node_command
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 GROUPS = ("channel_forward,channel_backward", "haptic_device,master")

@@ -11,7 +11,6 @@ import os
 import random
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -19,8 +18,7 @@ import pytest
 
 from conftest import CONFIG, REPO, installed_executable
 
-sys.path.insert(0, str(REPO / "scripts"))
-from launch_supervision import die_with_launcher  # noqa: E402
+from fic_teleop_bringup.launch_supervision import die_with_launcher
 
 pytestmark = pytest.mark.nodes
 

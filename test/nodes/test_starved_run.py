@@ -7,16 +7,14 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 from pathlib import Path
 
 import pytest
 
 from conftest import REPO, isolated_env, reserved_domain
 
-sys.path.insert(0, str(REPO / "scripts"))
 
-from launch_supervision import EXIT_NODE_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_STARVED  # noqa: E402
+from fic_teleop_bringup.launch_supervision import EXIT_NODE_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_STARVED
 
 pytestmark = [pytest.mark.nodes, pytest.mark.slow]
 LEVEL_PERCENT = 40.0

@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "scripts"))
 
 import rtps_traffic  # noqa: E402
-import two_stations  # noqa: E402
+from fic_teleop_bringup import two_stations
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 ROOT = os.geteuid() == 0 and shutil.which("ip") is not None and shutil.which("tc") is not None
@@ -107,7 +107,7 @@ def test_fragments_become_one_datagram_with_all_their_wire_bytes() -> None:
 # -- arguments and commands -------------------------------------------------------------------------------------
 
 def _arguments(*argv: str):
-    import teleop_launcher
+    from fic_teleop_bringup import teleop_launcher
     return teleop_launcher.parse_arguments(list(argv))
 
 
@@ -125,7 +125,7 @@ def test_bad_two_station_arguments_are_refused_with_a_reason(argv, words) -> Non
 
 def test_without_root_the_launcher_says_why_and_exits_non_zero(tmp_path: Path, monkeypatch, capsys) -> None:
     # The check reads the effective uid; a user's uid here (a child process as "nobody" cannot run this venv).
-    import teleop_launcher
+    from fic_teleop_bringup import teleop_launcher
     monkeypatch.setattr(two_stations.os, "geteuid", lambda: 1000)
     code = teleop_launcher.main(["--two-stations", "--out", str(tmp_path / "run")])
     err = capsys.readouterr().err

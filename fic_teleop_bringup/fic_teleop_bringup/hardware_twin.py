@@ -12,11 +12,11 @@ twins cannot be is changed here, and said so (docs/HARDWARE.md, "Driver twins").
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import yaml
 
-CONFIG = Path(__file__).resolve().parent.parent / "config"
+from fic_teleop_bringup.workspace import CONFIG
+
 FRANKA_PROFILE = "profiles/franka_ros2/replica.yaml"
 FRANKA_REMAPS = "profiles/franka_ros2/remaps.yaml"
 FD_PROFILE = "profiles/forcedimension/fd_adapter.yaml"

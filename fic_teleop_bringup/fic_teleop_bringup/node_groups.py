@@ -22,7 +22,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
-from launch_checks import ArgumentRefusal
+from fic_teleop_bringup.launch_checks import ArgumentRefusal
 
 UNGROUPABLE = ("recorder",)
 # Measured best on 2 cores (docs/RESULTS.md, "Graph levers"); a group's names absent from a graph are left out.

@@ -42,7 +42,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+from fic_teleop_bringup.workspace import REPO
+
 INSIDE_ENV = "FIC_TWO_STATIONS"          # set in the launcher that runs inside the robot station
 FASTDDS_PROFILE = REPO / "config" / "fastdds_two_stations.xml"
 MASTER_ADDRESS, ROBOT_ADDRESS, PREFIX_LENGTH = "198.51.100.1", "198.51.100.2", 24
@@ -482,9 +483,6 @@ def wait_for_capture(capture: subprocess.Popen, ready: Path, timeout_s: float = 
 def run(argv: list[str], args, run_dir: Path) -> int:
     """The outer process: namespaces up, the launcher inside the robot station, namespaces down (always)."""
     from datetime import datetime
-    if args.print_station_commands:
-        print(station_commands(args, run_dir))
-        return 0
     try:
         check_privileges()
         check_arguments(args)
@@ -522,16 +520,15 @@ def run(argv: list[str], args, run_dir: Path) -> int:
             print(f"[stations] link capped at {args.bandwidth} each way (tbf)", flush=True)
         capture_file = run_dir / "link_capture.json"
         capture = subprocess.Popen(
-            ["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(Path(__file__).with_name("rtps_traffic.py")),
+            ["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(REPO / "scripts" / "rtps_traffic.py"),
              "--interface", pair.robot_interface, "--out", str(capture_file),
              "--name", f"{MASTER_ADDRESS}=master", "--name", f"{ROBOT_ADDRESS}=robot",
              "--stamps", *LINK_STREAMS, "--ready", str(run_dir / "link_capture.ready")],
             stdout=open(run_dir / "link_capture.log", "wb"), stderr=subprocess.STDOUT, start_new_session=True)
         wait_for_capture(capture, run_dir / "link_capture.ready")
         environment = {**os.environ, **station_environment(), INSIDE_ENV: pair.tag}
-        launcher = Path(__file__).with_name("teleop_launcher.py")
-        inner = subprocess.Popen(["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(launcher), *argv,
-                                  "--out", str(run_dir)], env=environment)
+        inner = subprocess.Popen(["ip", "netns", "exec", pair.robot_namespace, sys.executable, "-m",
+                                  "fic_teleop_bringup.teleop_launcher", *argv, "--out", str(run_dir)], env=environment)
         if interrupted.is_set():
             inner.send_signal(signal.SIGINT)
         code = inner.wait()
@@ -561,7 +558,11 @@ def run(argv: list[str], args, run_dir: Path) -> int:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
     try:
-        from station_analysis import analyse_run
+        import importlib.util   # the link's analysis is a tool of scripts/ until it has a package of its own
+        spec = importlib.util.spec_from_file_location("station_analysis", REPO / "scripts" / "station_analysis.py")
+        station_analysis = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(station_analysis)
+        analyse_run = station_analysis.analyse_run
         summary = analyse_run(run_dir, record)
         print(summary)
     except Exception as error:   # the run itself is done; say why its analysis is missing
@@ -570,13 +571,13 @@ def run(argv: list[str], args, run_dir: Path) -> int:
     return code
 
 
-def station_commands(args, run_dir: Path) -> str:
-    """The nodes of this run, station by station, as the commands to start on two real machines."""
+def station_commands(args, run_dir: Path, specs: list, node_spec_class, node_command) -> str:
+    """The nodes of this run, station by station, as the commands to start on two real machines. ``specs``: the
+    launcher's graph of this run, ``node_command(spec)``: its command line (the launcher's own, passed in so that
+    this module does not import the launcher)."""
     import shlex
-    import teleop_launcher
 
-    specs = teleop_launcher.graph(args, run_dir / "bag")
-    adapt_graph(specs, teleop_launcher.NodeSpec, run_dir)
+    adapt_graph(specs, node_spec_class, run_dir)
     pair = StationPair(args.stations_tag)
     environment = " ".join(f"{key}={value}" for key, value in station_environment().items())
     lines = []
@@ -586,7 +587,7 @@ def station_commands(args, run_dir: Path) -> str:
         for spec in specs:
             if pair.namespace_of(spec.name) != namespace:
                 continue
-            command = teleop_launcher.node_command(spec)
+            command = node_command(spec)
             if station == "master":
                 for source, target in MASTER_STATION_REMAPS.items():
                     command += ["-r", f"{source}:={target}"]

@@ -134,7 +134,7 @@ def _integer(text: str | None) -> int | None:
 def judge_run(run_dir: Path, bag: Path, metrics: dict | None, realtime: bool,
               simulated_s: float | None = None) -> Timing:
     """The verdict of a finished run (its bag and report), also written to ``run_dir``/timing.json."""
-    from launch_supervision import diagnostics_records
+    from fic_teleop_bringup.launch_supervision import diagnostics_records
 
     rates: dict[str, dict] = {}
     health = None

@@ -11,7 +11,7 @@ import argparse
 import math
 from pathlib import Path
 
-from launch_isolation import VALID_DOMAIN_RANGES, valid_domain
+from fic_teleop_bringup.launch_isolation import VALID_DOMAIN_RANGES, valid_domain
 
 # The replica's control_rate parameter range (fic_teleop_replica NUMBERS: 1-1000 Hz, at most the joint-state rate).
 CONTROL_RATE_RANGE_HZ = (1.0, 1000.0)

@@ -1,0 +1,662 @@
+#!/usr/bin/env python3
+"""Start the whole teleoperation graph, record it, stop it cleanly, and report it.
+
+This is what `scripts/run_teleop.sh` runs. It is a small launch file in Python (the ROS 2 launch system is not
+available from the wheels): each node is its own process, started with `ros2 run` where the ros2 CLI exists and
+otherwise by executing the very file `ros2 run` would (install/<pkg>/lib/<pkg>/<exe>). Ctrl-C (or the end of
+the run) stops the nodes in reverse order with SIGINT, so the recorder still finalises its bag, then the report
+is written.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import signal
+import threading
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+from fic_teleop_bringup import hardware_twin, node_groups, two_stations
+from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, domain_from_environment, \
+    prepare_run_folder, whole_states_per_tick
+from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
+from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_REFUSED, EXIT_STARVED, die_with_launcher, \
+    failed_nodes, safety_verdict
+from fic_teleop_bringup.launch_timing import exit_code, judge_run
+from fic_teleop_bringup.realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
+from fic_teleop_bringup.workspace import CONFIG, REPO
+from fic_teleop_runtime.params_file import write_node_params
+from fic_teleop_runtime.parameters import file_sections
+from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
+
+SCRIPT_CIRCLE_START_S = 2.0     # circle_start_time of config/operator_scripts/superimposition.yaml
+PLANNER_LAG_S = 0.2             # the harmonic planner's lag behind the circle at 0.126 m/s (measured)
+# --paper-law: the replica's model terms beyond Eq. 7 off (fic_core/replica.py).
+PAPER_LAW = {"planner_feedforward": False, "offset_feedforward": False, "joint_damping_compensation": False}
+REALTIME_START_MARGIN_S = 4.0   # realtime: the script and the circle start this long after launch
+# Realtime on 2 cores, the replica law runs at 500 Hz (the robot holds each command for 2 ms): at 1 kHz a Python
+# replica needs about 80 % of a core here (measured: 775 joint states/s with a core to itself) and, with the rest
+# of the graph, fell behind irregularly (about 350 states/s), which tracked worse than a steady 500 Hz (measured
+# in one session, docs/CONVENTIONS.md "Rates"). Lockstep has no such budget and keeps the paper's 1 kHz.
+REALTIME_CONTROL_RATE_HZ = 500.0
+# Realtime, the robot publishes /joint_states at the replica's 500 Hz: its only other reader is the recorder, and
+# the 1 kHz stream was the graph's largest (a quarter of its messages). A/B of 2026-12-04 (docs/RESULTS.md "Graph
+# levers"): pipeline latency p99 4.1 against 5.0 ms, slowest loop 0.995 against 0.976 of its rate, 5.5 CPU s less
+# per 30 s run. A replica whose period is not a whole number of 2 ms gets them every step; the driver twin keeps the
+# Franka broadcaster's 1 kHz; lockstep publishes every step (the replica answers each).
+REALTIME_JOINT_STATE_RATE_HZ = 500.0
+
+# Scheduler niceness for the loops that close through the robot. On 2 cores the graph uses most of both; with
+# these, the physics, the replica, the channel, the haptic loop and the planner get the CPU first and the
+# recorder, whose deep queues let it wait, takes what is left, instead of all of them being late together. The
+# planner is in: at the default niceness it was starved for seconds at a time (x_d'' stood still while the
+# operator script went on, and the arm ran into the obstacle it was meant to pass). Niceness, not SCHED_FIFO:
+# the rclpy 7.1 EventsExecutor and Fast DDS threads yield in loops that a FIFO thread never leaves (measured
+# here: the replica and the robot at 100 % of a core each under SCHED_FIFO).
+# Each step of niceness is about 1.25x the CPU share against a contending process at 0.
+PRIORITY_NICENESS = {"robot": -15, "replica": -12, "channel_forward": -10, "channel_backward": -10, "master": -10,
+                     "haptic_device": -10, "planner": -10, "fd_adapter": -10}
+
+
+@dataclass
+class NodeSpec:
+    package: str
+    executable: str
+    name: str
+    params_file: str | None = None
+    params: dict = field(default_factory=dict)
+    foreground: bool = False  # the interactive keyboard operator owns the terminal
+    niceness: int | None = None  # negative: ahead of the recorder and planner (PRIORITY_NICENESS); None: unchanged
+    fifo_priority: int | None = None  # SCHED_FIFO priority of its loop threads (realtime_scheduling.py); None: none
+    extra_params_files: list[str] = field(default_factory=list)  # after params_file (a driver profile, config/profiles)
+    remaps: dict[str, str] = field(default_factory=dict)         # topic remaps (a driver profile's remaps.yaml)
+    members: list["NodeSpec"] = field(default_factory=list)      # --group: the nodes sharing this process
+
+
+def node_command(spec: NodeSpec, run_params: Path | None = None) -> list[str]:
+    """The node's command line: its config file, then `run_params`, the launcher's own values for this run
+    (a params file written by fic_teleop_runtime.params_file.write_node_params, so that each value keeps its Python type)."""
+    executable = REPO / "install" / spec.package / "lib" / spec.package / spec.executable
+    if shutil.which("ros2") and os.environ.get("FIC_TELEOP_NO_ROS2_CLI") != "1":
+        command = ["ros2", "run", spec.package, spec.executable]
+    else:
+        command = [str(executable)]
+    command += ["--ros-args", "-r", f"__node:={spec.name}"]
+    if spec.params_file:
+        command += ["--params-file", str(CONFIG / spec.params_file)]
+    for extra in spec.extra_params_files:
+        command += ["--params-file", str(CONFIG / extra)]
+    for source, target in spec.remaps.items():
+        command += ["-r", f"{source}:={target}"]
+    if run_params is not None:
+        command += ["--params-file", str(run_params)]
+    return command
+
+
+def params_files(values: list[str]) -> list[tuple[str, Path]]:
+    """``--params-file NODE=FILE`` values -> [(node, absolute path)]; ArgumentRefusal names a malformed value or a
+    file that cannot be read."""
+    result = []
+    for value in values:
+        node, separator, path = value.partition("=")
+        if not separator or not node or not path:
+            raise ArgumentRefusal(f"--params-file needs NODE=FILE, got {value!r}")
+        resolved = Path(path).expanduser().resolve()
+        if not resolved.is_file() or not os.access(resolved, os.R_OK):
+            raise ArgumentRefusal(f"--params-file {node}: {path} is not a readable file")
+        result.append((node, resolved))
+    return result
+
+
+OPERATORS = ("scripted", "closed-loop")
+# The closed-loop operator's video (sim_bridge/device/haptic_device_node.py reads it), after channel_backward's own
+# routes (config/channel.yaml).
+VIDEO_ROUTES = ["/sim/tcp_pose:/master/video/tcp_pose:geometry_msgs/msg/PoseStamped",
+                "/sim/object_poses:/master/video/object_poses:geometry_msgs/msg/PoseArray"]
+
+
+# Lockstep: the simulation also waits for the nodes that only follow /clock (sim_bridge/robot/peer_barrier.py), by the
+# stamps of what each publishes: the device's handle pose, the master's command, the planner's pose.
+LOCKSTEP_PEERS = ["/haptic/pose", "/master/teleop_command", "/planner/desired_pose"]
+
+
+def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
+    """The paper's architecture (README.md, "Architecture"): device -> master -> channel -> replica -> robot, and back."""
+    lockstep = args.time_mode == "lockstep"
+    sim_time = {"use_sim_time": lockstep}
+    channel = {
+        "delay": args.delay,
+        "jitter": args.jitter,
+        "drop_probability": args.drop,
+        "lost_from": args.blackout_at if args.blackout_at is not None else -1.0,
+        "rate_cap_hz": args.rate_cap,
+        "seed": args.seed,
+    }
+    if args.blackout_window:
+        channel["blackout_windows"] = [float(t) for t in args.blackout_window]
+    operator = "joy" if args.interactive else args.operator.replace("-", "_")
+    # One origin for the operator script and the planner's circle: the script steers around the obstacles where
+    # the circle will be (its circle_start_time, 2 s, less the harmonic planner's lag of about 0.2 s behind its
+    # source at the circle's speed, measured). Sim time starts at 0 in lockstep; in realtime, a few seconds
+    # from now on the wall clock, once every node is up.
+    planner_timing, operator_timing = {}, {}
+    if args.scene == "superimposition" and args.trajectory == "circle" and not args.interactive:
+        origin = 0.0 if lockstep else time.time() + REALTIME_START_MARGIN_S
+        operator_timing = {"script_start_time": origin, **_script_for_delay(args.delay, bag_path.parent)}
+        planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
+    closed_loop = operator == "closed_loop"
+    joint_states, recorded_joint_states = {}, {}
+    if args.joint_state_rate is not None:   # the recorder counts gaps on the same grid (launch_checks.py checks it)
+        joint_states = {"joint_state_rate_hz": args.joint_state_rate}
+        recorded_joint_states = {"joint_states_period": 1.0 / args.joint_state_rate}
+    # The closed-loop operator's video: the robot's poses at a webcam's 30 Hz, over the backward link.
+    video = {"object_pose_rate_hz": VIDEO_RATE_HZ} if closed_loop else {}
+    backward_routes = {"routes": [*_configured_routes("channel_backward"), *VIDEO_ROUTES]} if closed_loop else {}
+    watcher = {"assumed_one_way_delay": args.delay} if closed_loop else {}
+    nodes = [
+        NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
+                 {"scene": args.scene, "mode": args.time_mode, "seed": args.seed, **video,
+                  **({"lockstep_peers": LOCKSTEP_PEERS} if lockstep and not args.no_peer_barrier else {}),
+                  # lockstep starts once the replica and the recorder both read /joint_states: no step unrecorded
+                  **({"lockstep_subscribers": 2} if lockstep else {}), **joint_states}),
+        NodeSpec("sim_bridge", "recorder_node", "recorder", None,
+                 {"bag_path": str(bag_path), **sim_time, **recorded_joint_states,
+                  # --live: the recorder, which holds every topic's bytes already, serves the live view
+                  **({"live_port": args.live_port, "live_host": args.live_host} if args.live else {})}),
+        NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
+                 {"controller": replica_controller(args.controller), "control_rate": args.control_rate,
+                  "channel_passivity_control": tdpa(args),
+                  "answer_every_state": lockstep,
+                  # With the loops pre-empting (fifo), a new command used at the next joint state gave a latency p50
+                  # of 1.3 and 1.7 ms in two runs, against 1.8-2.6 ms in five without; under niceness the extra
+                  # ticks only added load (A/B in one session: no gain).
+                  "tick_on_command": args.scheduling == "fifo",
+                  # the channel's delay must fit inside the replica's command-age bound (input_guard.py)
+                  "max_command_age": 3.0 + args.delay + args.jitter,
+                  **(PAPER_LAW if args.paper_law else {}), **sim_time}),
+        NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml",
+                 {"trajectory": args.trajectory, **planner_timing, **sim_time}),
+        NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {**channel, **sim_time}),
+        NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml",
+                 {**channel, "seed": args.seed + 1, **backward_routes, **sim_time}),  # its own random stream
+        NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml",
+                 {"channel_passivity_control": tdpa(args), **sim_time}),
+        NodeSpec("sim_bridge", "haptic_device_node", "haptic_device", "haptic_device.yaml",
+                 {"scene": args.scene, "operator_source": operator, **operator_timing, **watcher, **sim_time}),
+    ]
+    if args.interactive:
+        nodes.append(NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", None, {}, foreground=True))
+    if args.hardware_twin:
+        nodes = hardware_twin.twin_graph(nodes, lockstep, NodeSpec)
+    by_name = {spec.name: spec for spec in nodes}
+    for node, path in params_files(args.params_file):
+        if node not in by_name:
+            raise ArgumentRefusal(f"--params-file: no node {node!r} in this graph (its nodes: {', '.join(by_name)})")
+        by_name[node].extra_params_files.append(str(path))
+    if args.scheduling != "default":
+        for spec in nodes:
+            spec.niceness = PRIORITY_NICENESS.get(spec.name)
+            if args.scheduling == "fifo":
+                spec.fifo_priority = REALTIME_PRIORITIES.get(spec.name)
+    return nodes
+
+
+def replica_controller(controller: str) -> str:
+    """The replica's law for --controller: linear_tdpa is linear_bounded behind the channel's TDPA."""
+    return "linear_bounded" if controller == "linear_tdpa" else controller
+
+
+def tdpa(args: argparse.Namespace) -> bool:
+    """The channel ports' passivity controllers act (fic_core.channel_ports): --tdpa, or --controller linear_tdpa."""
+    return bool(args.tdpa or args.controller == "linear_tdpa")
+
+
+def _configured_routes(node: str) -> list[str]:
+    """A channel node's routes as config/channel.yaml gives them."""
+    return list(file_sections(CONFIG / "channel.yaml")[node]["routes"])
+
+
+def _script_for_delay(delay: float, run_dir: Path) -> dict[str, str]:
+    """The E1 script timed for the run's one-way delay (the checked-in one anticipates its own, 0.2 s): written
+    into the run folder and given to the device node; nothing at the checked-in delay."""
+    from sim_bridge.device.operator_scripts import SUPERIMPOSITION_DEFAULTS, superimposition_script, write_script
+
+    if math.isclose(delay, float(SUPERIMPOSITION_DEFAULTS["one_way_delay"])):
+        return {}
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = write_script(superimposition_script({"one_way_delay": delay}), run_dir / "operator_script.yaml")
+    return {"script_file": str(path.resolve())}
+
+
+def _prioritised(niceness: int | None):
+    """A preexec function that sets the node's niceness; refused (needs root or CAP_SYS_NICE), the node runs at the
+    default and the launcher says so (Graph.prioritised)."""
+    if niceness is None:
+        return None
+
+    def apply() -> None:
+        try:
+            os.setpriority(os.PRIO_PROCESS, 0, niceness)
+        except OSError:
+            pass
+    return apply
+
+
+class Graph:
+    """The running processes, stopped in reverse start order."""
+
+    def __init__(self, log_dir: Path) -> None:
+        self.log_dir = log_dir
+        self.processes: list[tuple[NodeSpec, subprocess.Popen, object]] = []
+        self.early_exits: list[str] = []  # nodes that ended before the run did
+        self.scheduler = RealtimeScheduler()
+        self.wrap = None   # two stations: runs each node in its station's namespace (two_stations.py)
+
+    def start(self, spec: NodeSpec) -> None:
+        params_dir = self.log_dir.parent / "params"
+        if spec.members:
+            command = node_groups.group_command(spec, node_command,
+                                                lambda name, params: write_node_params(params_dir, name, params))
+        else:
+            command = node_command(spec, write_node_params(params_dir, spec.name, spec.params))
+        # Every node gets SIGTERM if the launcher dies, however it dies (launch_supervision.py); our own executables
+        # start with the stop signals blocked until their handlers are in (a `ros2 run` wrapper would not unblock).
+        preexec = die_with_launcher(os.getpid(), then=_prioritised(spec.niceness),
+                                    block_stop_signals=command[0] != "ros2")
+        if self.wrap is not None:
+            command = self.wrap(spec.name, command)
+        if spec.foreground:
+            process = subprocess.Popen(command, preexec_fn=preexec)
+            log = None
+        else:
+            log = open(self.log_dir / f"{spec.name}.log", "wb")
+            process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+                                       preexec_fn=preexec)
+        self.processes.append((spec, process, log))
+        if spec.members and log is not None:
+            node_groups.link_member_logs(self.log_dir, spec)
+        if spec.fifo_priority is not None:
+            self.scheduler.register(spec.name, process.pid, spec.fifo_priority)
+
+    def prioritised(self) -> dict[str, bool]:
+        """For each node that asked for a negative niceness, whether it runs with it."""
+        granted = {}
+        for spec, process, _ in self.processes:
+            if spec.niceness is not None:
+                try:
+                    granted[spec.name] = os.getpriority(os.PRIO_PROCESS, process.pid) == spec.niceness
+                except OSError:  # already gone
+                    granted[spec.name] = False
+        return granted
+
+    def dead(self) -> list[str]:
+        return [spec.name for spec, process, _ in self.processes if process.poll() is not None and not spec.foreground]
+
+    def foreground_done(self) -> bool:
+        return any(spec.foreground and process.poll() is not None for spec, process, _ in self.processes)
+
+    def stop(self, timeout: float = 15.0) -> dict[str, int]:
+        codes: dict[str, int] = {}
+        for spec, process, log in reversed(self.processes):
+            if spec.name == "recorder":
+                continue  # the recorder stops last, so it records the others' last messages
+            codes[spec.name] = _interrupt(process, timeout)
+        for spec, process, log in self.processes:
+            if spec.name == "recorder":
+                codes[spec.name] = _interrupt(process, 60.0)
+        for spec, _, log in self.processes:
+            if log:
+                log.close()
+                if spec.members:   # each member's own log again (node_groups.split_log)
+                    node_groups.split_log(self.log_dir, spec)
+        return codes
+
+
+def _interrupt(process: subprocess.Popen, timeout: float) -> int:
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+    return process.returncode
+
+
+def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event,
+                      wall_origin: float | None = None, progress=None, watch=None) -> float:
+    """Block until the simulation has run `duration` seconds of its own time (read from /clock), or `stop` is set.
+
+    ``wall_origin`` (realtime, a scripted scene): the duration counts from the first /clock at or after this
+    wall-clock time, when the operator script and the circle start, so that the whole script is run.
+    ``progress(elapsed, joint_state_readers)`` is called at each turn once the run has started, with the number of
+    /joint_states readers; ``watch`` = (topic, seen): ``seen(wall_time)`` for each TeleoperationCommand on it."""
+    import rclpy
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
+
+    from rclpy.signals import SignalHandlerOptions
+
+    # Our own Ctrl-C handling (a flag set by main's signal handler) stops the graph in order; rclpy's would only end
+    # the wait. The handler must not raise: an exception raised while rclpy's C++ layer converts a message comes out
+    # as a pybind11 RuntimeError instead of a KeyboardInterrupt.
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node("fic_teleop_launcher")
+    latest = {"t": None, "start": None}
+
+    def on_clock(message: Clock) -> None:
+        now = message.clock.sec + 1e-9 * message.clock.nanosec
+        latest["t"] = now
+        if latest["start"] is None and (wall_origin is None or time.time() >= wall_origin):
+            latest["start"] = now
+
+    node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+    if watch is not None:
+        from fic_teleop_msgs.msg import TeleoperationCommand
+        topic, seen = watch
+        node.create_subscription(TeleoperationCommand, topic, lambda _message: seen(time.time()),
+                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+    wall_start = time.monotonic()
+    last_print = last_scheduling = 0.0
+    try:
+        while rclpy.ok() and not stop.is_set():
+            rclpy.spin_once(node, timeout_sec=0.1)
+            # Threads appear while the nodes start (executor, DDS participant, the robot's physics thread): look for
+            # new ones often at first, then rarely.
+            since_start = time.monotonic() - wall_start
+            if time.monotonic() - last_scheduling > (0.2 if since_start < 20.0 else 2.0):
+                last_scheduling = time.monotonic()
+                graph_.scheduler.apply()
+            elapsed = 0.0 if latest["start"] is None else latest["t"] - latest["start"]
+            if progress is not None and latest["start"] is not None:
+                # two stations: the link cut counts run time as --duration does
+                progress(elapsed, node.count_subscribers("/joint_states"))
+            if elapsed >= duration or graph_.foreground_done():
+                break
+            dead = graph_.dead()
+            graph_.early_exits = dead
+            if dead:
+                print(f"[run] node(s) exited early: {', '.join(dead)} (see their logs)", file=sys.stderr)
+                break
+            if time.monotonic() - wall_start > wall_limit:
+                print(f"[run] wall-clock limit {wall_limit:.0f} s reached at sim time {elapsed:.1f} s", file=sys.stderr)
+                break
+            if time.monotonic() - last_print > 5.0:
+                last_print = time.monotonic()
+                print(f"[run] sim time {elapsed:5.1f} / {duration:.0f} s", flush=True)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0.0 if latest["start"] is None else latest["t"] - latest["start"]
+
+
+def _report_scheduling(running: Graph, run_dir: Path) -> None:
+    """Say which loops run under SCHED_FIFO (or were refused it), and keep it in run.json."""
+    summary = running.scheduler.summary()
+    if not summary:
+        return
+    refused = running.scheduler.refused()
+    applied = [f"{name} {entry['priority']} ({entry['threads']} threads)" for name, entry in summary.items()
+               if entry["policy"] == "fifo"]
+    if applied:
+        print(f"[run] SCHED_FIFO: {', '.join(applied)}")
+    if refused:
+        print(f"[run] warning: SCHED_FIFO refused for {', '.join(refused)} ({next(iter(refused.values()))}; needs root "
+              "or CAP_SYS_NICE): they run at their niceness, and the pipeline latency is longer (docs/RESULTS.md)",
+              file=sys.stderr)
+    _add_to_run_record(run_dir, "realtime_scheduling", summary)
+
+
+def _add_to_run_record(run_dir: Path, key: str, value) -> None:
+    """Add what the run learned while starting to its run.json."""
+    run_record = json.loads((run_dir / "run.json").read_text())
+    run_record[key] = value
+    (run_dir / "run.json").write_text(json.dumps(run_record, indent=2))
+
+
+def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog="exit codes: " + "; ".join(f"{code} {text}" for code, text
+                                                                       in EXIT_CODES.items()))
+    parser.add_argument("--scene", default="superimposition", choices=["superimposition", "shape_sorting", "free_space"])
+    parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds to run (default 30)")
+    parser.add_argument("--delay", type=float, default=0.2, help="one-way channel delay [s], both ways (default 0.2)")
+    parser.add_argument("--jitter", type=float, default=0.0, help="delay jitter [s]")
+    parser.add_argument("--drop", type=float, default=0.0, help="drop probability in [0, 1]")
+    parser.add_argument("--blackout-at", type=float, default=None,
+                        help="total loss of communication, both ways, from this many seconds after the channel starts")
+    parser.add_argument("--blackout-window", type=float, nargs=2, metavar=("START", "END"), default=None,
+                        help="total loss of communication, both ways, between these times after the channel starts")
+    parser.add_argument("--rate-cap", type=float, default=0.0, help="channel rate cap [Hz], 0 = none (paper: 10 Hz)")
+    parser.add_argument("--controller", default="fic", choices=["fic", "linear", "linear_bounded", "linear_tdpa"],
+                        help="replica controller; linear_tdpa: linear_bounded behind the channel's time-domain "
+                             "passivity controllers (as --tdpa)")
+    parser.add_argument("--tdpa", action="store_true",
+                        help="the channel's time-domain passivity controllers act at both ports around any "
+                             "--controller (the observers always run; docs/CONTROL_LAWS.md, \"The channel's ports\")")
+    parser.add_argument("--paper-law", action="store_true",
+                        help="the replica's Eq. 7 as the paper writes it: no inertial feedforward and no friction "
+                             "compensation (by default both are on, config/replica.yaml)")
+    parser.add_argument("--control-rate", type=float, default=None,
+                        help="replica control rate [Hz] (default: 1000 in lockstep, the paper's rate; 500 in realtime, "
+                             "REALTIME_CONTROL_RATE_HZ)")
+    parser.add_argument("--joint-state-rate", type=float, default=None, metavar="HZ",
+                        help="realtime: the robot's /joint_states rate, a divisor of 1000 not below the replica's "
+                             "control rate (default: the replica's 500 Hz, 1000 with a faster replica or the driver "
+                             "twin; docs/RESULTS.md \"Graph levers\")")
+    parser.add_argument("--trajectory", default=None, choices=["circle", "fixed", "via_points"],
+                        help="planner trajectory (default: the circle for superimposition, a fixed point otherwise)")
+    parser.add_argument("--no-peer-barrier", action="store_true",
+                        help="lockstep: step on the replica's answers only, without waiting for the device, master "
+                             "and planner to keep up (how lockstep ran before; runs then depend on the machine's load)")
+    parser.add_argument("--time-mode", default="realtime", choices=["realtime", "lockstep"],
+                        help="realtime: wall-clock paced; lockstep: the sim waits for each command (deterministic)")
+    parser.add_argument("--interactive", action="store_true", help="drive the operator's hand from the keyboard")
+    parser.add_argument("--operator", default="scripted", choices=OPERATORS,
+                        help="superimposition: scripted (the E1 script, timed for --delay) or closed-loop (times its "
+                             "moves from the replica's video after the backward channel, docs/EXPERIMENTS.md "
+                             "\"Operators\")")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<date-time>)")
+    parser.add_argument("--domain-id", type=int, default=None,
+                        help="ROS_DOMAIN_ID for this run (0-101 or 215-232); default: ROS_DOMAIN_ID if set, else a "
+                             "domain reserved on this machine for the run; refused if another graph is heard on it")
+    parser.add_argument("--wall-limit", type=float, default=None,
+                        help="give up after this many wall-clock seconds (default max(120, 6 x duration); lockstep "
+                             "on a loaded 2-core machine can run at 0.1x real time)")
+    parser.add_argument("--no-report", action="store_true")
+    parser.add_argument("--no-video", action="store_true", help="skip the key frames and the animation")
+    parser.add_argument("--scheduling", choices=["nice", "fifo", "default"], default="nice",
+                        help="nice (default): the loops' nodes at negative niceness, ahead of the recorder; fifo "
+                             "(realtime only, opt-in): also their threads under SCHED_FIFO along the data path, "
+                             "lower pipeline latency but on 2 cores the recorder can lose joint states "
+                             "(scripts/realtime_scheduling.py); default: every node as the shell starts it")
+    parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
+    two_stations.add_arguments(parser)
+    hardware_twin.add_arguments(parser)
+    parser.add_argument("--group", action="append", metavar="NODE,NODE[,...]",
+                        help="run these nodes in one process, each still its own node (repeatable; e.g. "
+                             "channel_forward,channel_backward); replaces the default groups (the channel pair; the "
+                             "device and the master): fewer processes, less isolation (docs/RESULTS.md, \"Graph "
+                             "levers\")")
+    parser.add_argument("--isolated", action="store_true",
+                        help="one process per node, no default groups (each node's crash its own; about 4 CPU s more "
+                             "per 30 s run and a longer latency tail on 2 cores, docs/RESULTS.md)")
+    parser.add_argument("--params-file", action="append", metavar="NODE=FILE", default=[],
+                        help="a ROS 2 params file for one node, read after its config/ file and before the run's own "
+                             "values (repeatable); the node refuses a key it does not declare")
+    parser.add_argument("--live", action="store_true",
+                        help="serve every topic and the arm in 3D on a Foxglove WebSocket server while the run goes "
+                             "(open config/live_view.json in Foxglove or Lichtblick; docs/TOOLS.md)")
+    parser.add_argument("--live-port", type=int, default=8765, help="the live view's port (default 8765)")
+    parser.add_argument("--live-host", default="127.0.0.1",
+                        help="the address the live view binds to (default 127.0.0.1: this machine only)")
+    return parser.parse_args(argv)
+
+
+def resolve_defaults(args: argparse.Namespace) -> None:
+    """The defaults that depend on other arguments (also what scripts/launch_file.py writes the launch file from)."""
+    if args.control_rate is None:
+        args.control_rate = 1000.0 if args.time_mode == "lockstep" else REALTIME_CONTROL_RATE_HZ
+    usable_rate = math.isfinite(args.control_rate) and args.control_rate > 0.0   # else check_options refuses it
+    if args.joint_state_rate is None and args.time_mode == "realtime" and not args.hardware_twin and usable_rate:
+        # 500 Hz when the control period is a whole number of its 2 ms (500, 250, 100 Hz ...): the replica's ticks
+        # fall on its states. Otherwise (a faster replica, or 300 Hz, which would tick every 4 ms) every step.
+        args.joint_state_rate = (REALTIME_JOINT_STATE_RATE_HZ
+                                 if whole_states_per_tick(REALTIME_JOINT_STATE_RATE_HZ, args.control_rate) else 1000.0)
+    if args.no_priority:
+        args.scheduling = "default"
+    if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
+        args.trajectory = "circle" if args.scene == "superimposition" else "fixed"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_arguments(argv)
+    resolve_defaults(args)
+    if args.scheduling == "fifo" and args.time_mode == "lockstep":
+        print("[run] refused: --scheduling fifo is for realtime runs (lockstep waits for every answer and needs no "
+              "pre-emption)", file=sys.stderr)
+        return 2
+    if args.live:
+        from sim_bridge.recording.live_view import port_in_use
+        taken = port_in_use(args.live_host, args.live_port)
+        if taken:
+            print(f"[run] refused: the live view cannot use {args.live_host}:{args.live_port} ({taken}); "
+                  "give another --live-port", file=sys.stderr)
+            return 2
+    run_dir = args.out or REPO / "runs" / datetime.now().strftime("%Y%m%d-%H%M%S")
+    log_dir = run_dir / "logs"
+    bag_path = run_dir / "bag"
+    try:  # the options first: the outer two-station process and the launcher inside both refuse bad ones
+        check_options(args)
+        two_stations.check_arguments(args)
+        params_files(args.params_file)
+        groups = node_groups.parse_groups(args.group)
+        node_groups.check_groups(groups, args)
+    except (ArgumentRefusal, two_stations.StationError) as refusal:
+        print(f"[run] refused: {refusal}", file=sys.stderr)
+        return EXIT_REFUSED
+    if args.two_stations and not two_stations.inside_station():   # namespaces up, this launcher run inside one
+        if args.print_station_commands:
+            print(two_stations.station_commands(args, run_dir, graph(args, run_dir / "bag"), NodeSpec, node_command))
+            return 0
+        return two_stations.run(list(sys.argv[1:] if argv is None else argv), args, run_dir)
+    stations = two_stations.inside_hooks(args, run_dir)
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    # numpy's OpenBLAS would start a worker per core that busy-waits after each call: the nodes' matrices are 7x7,
+    # a worker only costs CPU here (and must never be a FIFO thread, realtime_scheduling.py).
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    os.environ.setdefault("ROS_LOG_DIR", str(log_dir / "ros"))
+    try:  # the rest the run needs, checked before anything starts (launch_checks.py, launch_isolation.py)
+        given = args.domain_id if args.domain_id is not None else domain_from_environment(os.environ.get("ROS_DOMAIN_ID"))
+        prepare_run_folder(run_dir)
+        domain = isolate(given)  # held until this process ends
+    except (ArgumentRefusal, DomainBusy) as refusal:
+        print(f"[run] refused: {refusal}", file=sys.stderr)
+        return EXIT_REFUSED
+    args.domain_id = domain.domain
+    os.environ["ROS_DOMAIN_ID"] = str(domain.domain)
+    if not domain.held:
+        print(f"[run] domain {domain.domain}: reserved by another process (no graph heard on it)")
+    (run_dir / "run.json").write_text(json.dumps({k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()}, indent=2))
+
+    running = Graph(log_dir)
+    interrupted = threading.Event()
+
+    def on_signal(signum, frame):  # the first Ctrl-C or SIGTERM ends the run early; the graph still stops cleanly
+        interrupted.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    wall_start = time.monotonic()
+    sim_elapsed = 0.0
+    print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller}"
+          f" at {args.control_rate:g} Hz, {args.time_mode}; ROS domain {domain.domain}; run folder {run_dir}")
+    try:
+        try:
+            nodes = graph(args, bag_path)
+            groups = node_groups.run_groups(groups, args, nodes)
+            specs = node_groups.grouped(nodes, groups)
+            if groups:
+                print(f"[run] node groups (one process each): {'; '.join(', '.join(g) for g in groups)}"
+                      + ("" if args.group else " (the default; --isolated: one process per node)"))
+                _add_to_run_record(run_dir, "node_groups", groups)
+        except ArgumentRefusal as refusal:   # a node name this graph does not have: nothing started yet
+            print(f"[run] refused: {refusal}", file=sys.stderr)
+            return EXIT_REFUSED
+        # Realtime with a scripted operator: the run's duration counts from the script's start (its origin on the
+        # wall clock), so that the script's last moves are not cut by the nodes' start-up time.
+        script_origin = next((node.params["script_start_time"] for spec in specs for node in (spec.members or [spec])
+                              if "script_start_time" in node.params), None)
+        wall_origin = script_origin if args.time_mode == "realtime" else None
+        if stations is not None:
+            stations.adapt(specs, NodeSpec)
+            running.wrap = stations.wrap
+        for spec in specs:
+            running.start(spec)
+        if stations is not None:
+            stations.started(wall_origin or time.time())
+        granted = running.prioritised()
+        if granted:
+            if all(granted.values()):
+                print(f"[run] scheduler priority (negative niceness) for {', '.join(granted)}")
+            else:
+                print(f"[run] warning: negative niceness refused for "
+                      f"{', '.join(n for n, ok in granted.items() if not ok)} (needs root or CAP_SYS_NICE): on a "
+                      "loaded machine expect a lower real-time factor and a longer pipeline latency", file=sys.stderr)
+            _add_to_run_record(run_dir, "prioritised", granted)
+        if not interrupted.is_set():
+            sim_elapsed = wait_for_sim_time(args.duration, running, stop=interrupted,
+                                            wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
+                                            wall_origin=wall_origin,
+                                            progress=stations.progress if stations is not None else None,
+                                            watch=(stations.watched_topic, stations.command_seen)
+                                            if stations is not None else None)
+        _report_scheduling(running, run_dir)
+    except KeyboardInterrupt:  # only if a signal arrived before our handler was installed
+        interrupted.set()
+    finally:
+        if interrupted.is_set():
+            print("\n[run] interrupted: stopping the graph and finalising the bag", flush=True)
+        # Further Ctrl-Cs only set the flag again: they must not cut the bag's finalisation.
+        if stations is not None:
+            stations.stopped()   # the link up again before the nodes stop
+        codes = running.stop()
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    wall = time.monotonic() - wall_start
+    failed = failed_nodes(codes)
+    print(f"[run] graph stopped after {wall:.1f} s wall, {sim_elapsed:.1f} s simulated"
+          + (f"; nodes with errors: {failed}" if failed else ""))
+    print(f"[run] bag: {bag_path}")
+    metrics, report_failed = None, False
+    if not args.no_report:
+        report_dir = run_dir / "report"
+        command = [sys.executable, "-m", "sim_bridge.report", str(bag_path), "--out", str(report_dir)]
+        if not args.no_video:
+            command.append("--render")
+        report_failed = subprocess.run(command).returncode != 0
+        print(f"[run] report: {report_dir}")
+        metrics_path = report_dir / "metrics.json"
+        metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else None
+    code, reasons = safety_verdict(metrics, codes, running.early_exits, report_failed, bag_path)
+    for reason in reasons:
+        print(f"[run] safety: {reason}", file=sys.stderr)
+    # Whether the computer kept real time, after every run; a broken safety figure still decides the code.
+    timing = judge_run(run_dir, bag_path, metrics, args.time_mode == "realtime", sim_elapsed)
+    for line in timing.lines():
+        print(f"[run] timing: {line}", file=sys.stderr if timing.starved else sys.stdout)
+    code = exit_code(code, timing, EXIT_STARVED)
+    if code:
+        print(f"[run] exit {code}: {EXIT_CODES[code]}", file=sys.stderr)
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
