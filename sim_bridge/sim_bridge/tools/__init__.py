@@ -1,2 +1,4 @@
-"""Tools that run beside the graph: the starvation harness (stress.py) and the seeded random mutation run over
-fic_core (random_mutation.py). Each has a command-line entry in scripts/ (stress.sh, random_mutation.py)."""
+"""Tools that measure or check the project from outside the graph, each run with ``python -m sim_bridge.tools.<name>``
+(docs/TOOLS.md): the starvation harness (stress.py, through scripts/stress.sh), the hand-picked and the seeded random
+mutation runs over fic_core (mutation_check.py, random_mutation.py, one verdict reading in mutation_verdict.py), and
+the independent passivity judge of the attractor (passivity_oracle.py, orientation_loops.py, passivity_cycles.py)."""

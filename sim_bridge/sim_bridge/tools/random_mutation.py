@@ -1,6 +1,6 @@
 """Seeded random mutation testing over all of fic_core, against test/core alone.
 
-scripts/mutation_check.py breaks the laws in hand-picked ways; this breaks them at random. Every place in
+mutation_check.py breaks the laws in hand-picked ways; this breaks them at random. Every place in
 fic_core where an operator or a number can be flipped is a *site*:
 
 - comparison: ``<`` to ``>=`` (negated) and to ``<=`` (boundary moved), likewise ``<=``, ``>``, ``>=``; ``==`` and
@@ -24,11 +24,18 @@ listed with a reason in ``equivalent_mutants.yaml`` beside this file, keyed by m
 line and mutation so that the key survives code moving up or down; they are not run and do not count in the kill
 rate.
 
-    source scripts/env.sh && python scripts/random_mutation.py --seed 1 --sample 60
+    source scripts/env.sh && python -m sim_bridge.tools.random_mutation --seed 1 --sample 60 [--out OUT.json]
+    python -m sim_bridge.tools.random_mutation --count          # how many sites fic_core has, per kind
+    python -m sim_bridge.tools.random_mutation --seed 1 --sample 60 --list   # the sample, without running it
+
+Exits 1 when the kill rate of the non-equivalent mutants is below --require (default 0.9). A mutant pytest could
+not judge (mutation_verdict.py: ERROR) counts in neither the kills nor the survivors.
 """
 from __future__ import annotations
 
+import argparse
 import ast
+import collections
 import json
 import os
 import hashlib
@@ -42,6 +49,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import yaml
+
+from sim_bridge.tools.mutation_verdict import KILLED, SETTINGS_PLUGIN, pytest_verdict, write_settings_plugin
 
 REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "fic_core" / "fic_core"
@@ -58,18 +67,6 @@ _BOOLEAN = {ast.And: ast.Or, ast.Or: ast.And}
 _SYMBOL = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "==", ast.NotEq: "!=", ast.Is: "is",
            ast.IsNot: "is not", ast.In: "in", ast.NotIn: "not in", ast.Add: "+", ast.Sub: "-", ast.Mult: "*",
            ast.Div: "/", ast.Pow: "**", ast.FloorDiv: "//", ast.Mod: "%", ast.And: "and", ast.Or: "or"}
-
-# hypothesis reports the first failing example as it finds it, without shrinking and without a shared example
-# database (one mutant's failing examples would be replayed under the next), as in scripts/mutation_check.py; and
-# derandomised: the same examples for the unmutated tree and every mutant, so that a property that fails on rare
-# random examples neither fails the baseline by chance nor counts as a kill (one did: test_profile's integral).
-_SETTINGS_PLUGIN = "fic_random_mutation_settings"
-_SETTINGS_PLUGIN_TEXT = """from hypothesis import Phase, settings
-
-settings.register_profile("mutation", phases=(Phase.explicit, Phase.generate), database=None, derandomize=True)
-settings.load_profile("mutation")
-"""
-
 
 @dataclass(frozen=True)
 class Site:
@@ -295,7 +292,7 @@ def _pytest(root: Path, folder: str, files: list[Path], timeout: float) -> subpr
                            capture_output=True, text=True, cwd=root)
     if not probe.stdout.strip().startswith(folder):   # else every mutant would survive vacuously
         raise RuntimeError(f"fic_core imported from {probe.stdout.strip()!r}, not {folder}")
-    command = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-p", _SETTINGS_PLUGIN, "-x", "-q", "-rfE",
+    command = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-p", SETTINGS_PLUGIN, "-x", "-q", "-rfE",
                f"--timeout={int(timeout)}", *map(str, files)]
     return subprocess.run(command, env=env, capture_output=True, text=True, cwd=root, timeout=max(timeout, 1.0))
 
@@ -305,12 +302,16 @@ def baseline(root: Path) -> subprocess.CompletedProcess:
     with tempfile.TemporaryDirectory(prefix="fic_random_mutation_") as folder:
         shutil.copytree(root / "fic_core" / "fic_core", Path(folder) / "fic_core",
                         ignore=shutil.ignore_patterns("__pycache__"))
-        (Path(folder) / f"{_SETTINGS_PLUGIN}.py").write_text(_SETTINGS_PLUGIN_TEXT)
+        # Derandomised: the unmutated tree and every mutant see the same examples, so a property that fails on
+        # rare random examples neither fails the baseline by chance nor counts as a kill (one did: test_profile's
+        # integral).
+        write_settings_plugin(Path(folder), derandomize=True)
         return _pytest(root, folder, [root / "test" / "core"], 900.0)
 
 
 def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str, float]:
-    """(verdict, detail, seconds): KILLED with the first failing test (or a timeout), SURVIVED, or NO TESTS."""
+    """(verdict, detail, seconds): KILLED with the first failing test (or a timeout), SURVIVED, ERROR, or NO
+    TESTS."""
     direct, indirect = test_files(site.module, root)
     if not direct and not indirect:
         return "NO TESTS", f"no file of test/core imports {site.module}", 0.0
@@ -318,7 +319,10 @@ def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str,
         copy = Path(folder) / "fic_core"
         shutil.copytree(root / "fic_core" / "fic_core", copy, ignore=shutil.ignore_patterns("__pycache__"))
         (copy / site.module).write_text(mutated_source(site, root))
-        (Path(folder) / f"{_SETTINGS_PLUGIN}.py").write_text(_SETTINGS_PLUGIN_TEXT)
+        # Derandomised: the unmutated tree and every mutant see the same examples, so a property that fails on
+        # rare random examples neither fails the baseline by chance nor counts as a kill (one did: test_profile's
+        # integral).
+        write_settings_plugin(Path(folder), derandomize=True)
         started = time.monotonic()
         result = None
         for files in (direct, indirect):   # the direct importers first: most mutants are killed there
@@ -327,17 +331,12 @@ def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str,
             try:
                 result = _pytest(root, folder, files, timeout - (time.monotonic() - started))
             except subprocess.TimeoutExpired:
-                return "KILLED", f"the tests did not finish in {timeout:.0f} s (a hang counts)", timeout
+                return KILLED, f"the tests did not finish in {timeout:.0f} s (a hang counts)", timeout
             if result.returncode != 0:
                 break
         seconds = time.monotonic() - started
-    if result.returncode == 0:
-        return "SURVIVED", "every test passed", seconds
-    failed = re.findall(r"^(?:FAILED|ERROR) (\S+)", result.stdout, flags=re.MULTILINE)
-    if failed:
-        return "KILLED", failed[0], seconds
-    tail = (result.stdout.strip().splitlines()[-2:] + result.stderr.strip().splitlines()[-2:])
-    return "KILLED", " | ".join(tail)[:300], seconds
+    verdict, detail = pytest_verdict(result)
+    return verdict, detail, seconds
 
 
 def matching(sites: list[Site], previous: dict, verdicts: tuple[str, ...] = ("SURVIVED",)) -> list[Site]:
@@ -390,3 +389,40 @@ def run(seed: int, size: int, timeout: float, module: str | None = None, out: Pa
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(result, indent=2) + "\n")
     return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--sample", type=int, default=60, help="mutants drawn from all of fic_core's sites")
+    parser.add_argument("--module", default=None, help="draw from this fic_core file only (e.g. limits.py)")
+    parser.add_argument("--timeout", type=float, default=240.0, help="seconds for the tests of one mutant")
+    parser.add_argument("--out", type=Path, default=None, help="write every verdict as JSON")
+    parser.add_argument("--require", type=float, default=0.9, help="least kill rate of the non-equivalent mutants")
+    parser.add_argument("--commit", default="HEAD", help="the commit whose fic_core and test/core are run")
+    parser.add_argument("--rerun", type=Path, default=None,
+                        help="run the survivors of an earlier --out JSON again (found by module, line text, change)")
+    parser.add_argument("--list", action="store_true", help="print the sample and exit")
+    parser.add_argument("--count", action="store_true", help="print the number of sites per kind and exit")
+    arguments = parser.parse_args(argv)
+    if arguments.count:
+        sites = all_sites()
+        for kind, count in sorted(collections.Counter(site.kind for site in sites).items()):
+            print(f"{kind:12s} {count}")
+        print(f"{'all':12s} {len(sites)}")
+        return 0
+    if arguments.list:
+        for site in sample(arguments.seed, arguments.sample, arguments.module):
+            print(f"{site.module}:{site.line} {site.kind}: {site.change}    {site.source_line[:90]}")
+        return 0
+    result = run(arguments.seed, arguments.sample, arguments.timeout, arguments.module, arguments.out,
+                 echo=lambda text: print(text, flush=True), commit=arguments.commit,
+                 rerun=json.loads(arguments.rerun.read_text()) if arguments.rerun else None)
+    print(f"commit {result['commit'][:10]}, seed {result['seed']}: {result['sample']} mutants of {result['sites']} "
+          f"sites, {result['equivalent']} equivalent; killed {result['killed']} of {result['non_equivalent']} "
+          f"(kill rate {result['kill_rate']}) in {result['seconds']} s")
+    return 0 if result["kill_rate"] is not None and result["kill_rate"] >= arguments.require else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

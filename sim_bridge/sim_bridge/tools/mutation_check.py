@@ -1,17 +1,16 @@
-#!/usr/bin/env python3
 """Mutation check of the core laws: break each one on purpose and see which test catches it.
 
 Each mutation below is a small textual patch of one law in fic_core (a sign flip, a dropped term, a wrong
-switching condition, a limit loosened). For each, the script copies fic_core/fic_core to a temporary folder,
+switching condition, a limit loosened). For each, the tool copies fic_core/fic_core to a temporary folder,
 applies the patch there (the work tree is never touched), and runs the core tests with that copy first on
-PYTHONPATH, stopping at the first failure. A mutation that no test catches is reported as SURVIVED, and the script
+PYTHONPATH, stopping at the first failure. A mutation that no test catches is reported as SURVIVED, and the tool
 exits 1 if any did: every deliberate break must be caught by at least one test.
 
-    source scripts/env.sh && python scripts/mutation_check.py            # all mutations
-    python scripts/mutation_check.py -k attractor                        # those whose name contains "attractor"
-    python scripts/mutation_check.py --list                              # names only
-    python scripts/mutation_check.py --patches                           # only: does every patch still apply?
-    python scripts/mutation_check.py --table                             # and a Markdown table at the end
+    source scripts/env.sh && python -m sim_bridge.tools.mutation_check   # all mutations
+    python -m sim_bridge.tools.mutation_check -k attractor               # those whose name contains "attractor"
+    python -m sim_bridge.tools.mutation_check --list                     # names only
+    python -m sim_bridge.tools.mutation_check --patches                  # only: does every patch still apply?
+    python -m sim_bridge.tools.mutation_check --table                    # and a Markdown table at the end
 
 A patch whose text is no longer found in the source (the code changed) is reported as STALE and also fails the
 check, so that the list is kept in step with the code.
@@ -20,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -29,7 +27,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+from sim_bridge.tools.mutation_verdict import KILLED, SETTINGS_PLUGIN, pytest_verdict, write_settings_plugin
+
+REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "fic_core" / "fic_core"
 # The core's tests, and the replica closing the loop on the MuJoCo arm.
 TESTS = ["test/core", "test/sim/test_replica_on_mujoco.py"]
@@ -37,18 +37,6 @@ TESTS = ["test/core", "test/sim/test_replica_on_mujoco.py"]
 # under a mutation would stop -x before the real tests). None at present: x_d' = 1e3 m on the MuJoCo arm passes
 # since the input authority bounds x_d' in front of the loop.
 KNOWN_FAILING: list[str] = []
-
-
-# A pytest plugin, written next to the mutated copy and loaded with -p: hypothesis reports the first failing example
-# as it finds it, without shrinking it and without its example database. A mutation only has to be caught;
-# shrinking one failing attractor simulation took minutes, and a shared database would replay one mutation's
-# failing examples under the next.
-_SETTINGS_PLUGIN = "fic_mutation_settings"
-_SETTINGS_PLUGIN_TEXT = """from hypothesis import Phase, settings
-
-settings.register_profile("mutation", phases=(Phase.explicit, Phase.generate), database=None)
-settings.load_profile("mutation")
-"""
 
 
 @dataclass
@@ -370,7 +358,8 @@ MUTATIONS = [
 
 
 def run_mutation(mutation: Mutation, timeout: float) -> tuple[str, str, float]:
-    """(verdict, detail, seconds): CAUGHT with the first failing test, SURVIVED, STALE or ERROR."""
+    """(verdict, detail, seconds): KILLED with the first failing test, SURVIVED, STALE or ERROR
+    (mutation_verdict.py)."""
     source = (PACKAGE / mutation.module).read_text()
     patched = source
     for old, new in mutation.patches:
@@ -381,12 +370,12 @@ def run_mutation(mutation: Mutation, timeout: float) -> tuple[str, str, float]:
         copy = Path(folder) / "fic_core"
         shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
         (copy / mutation.module).write_text(patched)
-        (Path(folder) / f"{_SETTINGS_PLUGIN}.py").write_text(_SETTINGS_PLUGIN_TEXT)
+        write_settings_plugin(Path(folder), derandomize=False)
         env = dict(os.environ)
         env["PYTHONPATH"] = folder + os.pathsep + env.get("PYTHONPATH", "")
         env["PYTHONDONTWRITEBYTECODE"] = "1"
         # A strict xfail that passes under a mutation is not a catch (it would stop -x before the real tests).
-        options = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-p", _SETTINGS_PLUGIN, "-x", "-q",
+        options = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-p", SETTINGS_PLUGIN, "-x", "-q",
                    "-rfE", "--timeout=600",
                    *[f"--deselect={test}" for test in KNOWN_FAILING]]
         # The likely catchers in a run of their own first: pytest collects a file named before its folder in the
@@ -402,17 +391,12 @@ def run_mutation(mutation: Mutation, timeout: float) -> tuple[str, str, float]:
             try:
                 result = subprocess.run(command, env=env, capture_output=True, text=True, cwd=REPO, timeout=timeout)
             except subprocess.TimeoutExpired:
-                return "CAUGHT", f"tests did not finish in {timeout:.0f} s (a hang counts as caught)", timeout
+                return KILLED, f"tests did not finish in {timeout:.0f} s (a hang counts as killed)", timeout
             if result.returncode != 0:
                 break
         seconds = time.monotonic() - started
-    if result.returncode == 0:
-        return "SURVIVED", "every test passed", seconds
-    failed = re.findall(r"^(?:FAILED|ERROR) (\S+)", result.stdout, flags=re.MULTILINE)
-    if result.returncode in (1, 2) and failed:
-        return "CAUGHT", failed[0], seconds
-    tail = result.stdout.strip().splitlines()[-3:] + result.stderr.strip().splitlines()[-3:]
-    return "CAUGHT" if result.returncode == 1 else "ERROR", " | ".join(tail), seconds
+    verdict, detail = pytest_verdict(result)
+    return verdict, detail, seconds
 
 
 def compact(detail: str) -> str:
@@ -433,7 +417,7 @@ def stale_patch(mutation: Mutation) -> str:
     return ""
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("-k", default="", help="only the mutations whose name contains this text")
     parser.add_argument("--list", action="store_true", help="list the mutations and exit")
@@ -441,7 +425,7 @@ def main() -> int:
                         help="only check that every patch still applies (STALE ones), without running the tests")
     parser.add_argument("--table", action="store_true", help="end with a Markdown table of the verdicts")
     parser.add_argument("--timeout", type=float, default=900.0, help="seconds for the tests of one mutation")
-    arguments = parser.parse_args()
+    arguments = parser.parse_args(argv)
     selected = [mutation for mutation in MUTATIONS if arguments.k in mutation.name]
     if arguments.list:
         for mutation in selected:
@@ -459,8 +443,8 @@ def main() -> int:
         verdict, detail, seconds = run_mutation(mutation, arguments.timeout)
         rows.append((mutation.name, verdict, detail, seconds))
         print(f"{verdict:8s} {mutation.name}\n         {detail} ({seconds:.0f} s)", flush=True)
-    bad = sum(verdict != "CAUGHT" for _, verdict, _, _ in rows)
-    print(f"{len(selected) - bad} of {len(selected)} mutations caught in {time.monotonic() - started:.0f} s")
+    bad = sum(verdict != KILLED for _, verdict, _, _ in rows)
+    print(f"{len(selected) - bad} of {len(selected)} mutations killed in {time.monotonic() - started:.0f} s")
     if arguments.table:
         print("\n| mutation | verdict | first failing test | s |\n|---|---|---|---|")
         for name, verdict, detail, seconds in rows:
