@@ -59,6 +59,9 @@ def check_options(args: argparse.Namespace) -> None:
     if getattr(args, "operator", "scripted") == "closed-loop" and (args.scene != "superimposition" or args.interactive):
         raise ArgumentRefusal("--operator closed-loop drives the superimposition scene's scripted run only "
                               f"(got --scene {args.scene}{' --interactive' if args.interactive else ''})")
+    if getattr(args, "operator", "scripted") == "shape-sorting" and (args.scene != "shape_sorting" or args.interactive):
+        raise ArgumentRefusal("--operator shape-sorting drives the shape_sorting scene only "
+                              f"(got --scene {args.scene}{' --interactive' if args.interactive else ''})")
     if args.domain_id is not None and not valid_domain(args.domain_id):
         ranges = " or ".join(f"{low}-{high}" for low, high in VALID_DOMAIN_RANGES)
         raise ArgumentRefusal(f"--domain-id must be {ranges} (the ROS 2 domains with valid DDS ports), "

@@ -115,9 +115,10 @@ def params_files(values: list[str]) -> list[tuple[str, Path]]:
     return result
 
 
-OPERATORS = ("scripted", "closed-loop")
-# The closed-loop operator's video (sim_bridge/device/haptic_device_node.py reads it), after channel_backward's own
-# routes (config/channel.yaml).
+OPERATORS = ("scripted", "closed-loop", "shape-sorting")
+# The video the closed-loop and the shape-sorting operators watch (sim_bridge/device/haptic_device_node.py reads it:
+# the TCP and every movable body, the shape_sorting scene's pieces), after channel_backward's own routes
+# (config/channel.yaml).
 VIDEO_ROUTES = ["/sim/tcp_pose:/master/video/tcp_pose:geometry_msgs/msg/PoseStamped",
                 "/sim/object_poses:/master/video/object_poses:geometry_msgs/msg/PoseArray"]
 
@@ -151,7 +152,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         origin = 0.0 if lockstep else time.time() + REALTIME_START_MARGIN_S
         operator_timing = {"script_start_time": origin, **_script_for_delay(args.delay, bag_path.parent)}
         planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
-    closed_loop = operator == "closed_loop"
+    closed_loop = operator in ("closed_loop", "shape_sorting")   # an operator that watches the video
     joint_states, recorded_joint_states = {}, {}
     if args.joint_state_rate is not None:   # the recorder counts gaps on the same grid (launch_checks.py checks it)
         joint_states = {"joint_state_rate_hz": args.joint_state_rate}
@@ -459,10 +460,12 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--time-mode", default="realtime", choices=["realtime", "lockstep"],
                         help="realtime: wall-clock paced; lockstep: the sim waits for each command (deterministic)")
     parser.add_argument("--interactive", action="store_true", help="drive the operator's hand from the keyboard")
-    parser.add_argument("--operator", default="scripted", choices=OPERATORS,
+    parser.add_argument("--operator", default=None, choices=OPERATORS,
                         help="superimposition: scripted (the E1 script, timed for --delay) or closed-loop (times its "
                              "moves from the replica's video after the backward channel, docs/EXPERIMENTS.md "
-                             "\"Operators\")")
+                             "\"Operators\"); shape_sorting: shape-sorting (looks, aligns and feels through the "
+                             "delay, docs/EXPERIMENTS.md \"E2\") or scripted (default: shape-sorting in the "
+                             "shape_sorting scene, scripted otherwise)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/<date-time>)")
     parser.add_argument("--domain-id", type=int, default=None,
@@ -513,6 +516,8 @@ def resolve_defaults(args: argparse.Namespace) -> None:
                                  if whole_states_per_tick(REALTIME_JOINT_STATE_RATE_HZ, args.control_rate) else 1000.0)
     if args.no_priority:
         args.scheduling = "default"
+    if args.operator is None:    # E2's operator closes the loop through the channel; the others play a script
+        args.operator = "shape-sorting" if args.scene == "shape_sorting" else "scripted"
     if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
         args.trajectory = "circle" if args.scene == "superimposition" else "fixed"
 
