@@ -8,4 +8,4 @@ REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$REPO/scripts/setup.sh"
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
-exec python "$REPO/scripts/bench.py" "$@"
+exec python -m sim_bridge.tools.bench "$@"

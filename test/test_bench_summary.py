@@ -1,19 +1,8 @@
-"""scripts/bench.py's summary over consecutive default runs: each target counted per run, judged against its
-required share (8 of 10 for latency and loop rates, all for losses, violations and tracking)."""
+"""The bench's summary (sim_bridge/tools/bench.py) over consecutive default runs: each target counted per run,
+judged against its required share (8 of 10 for latency and loop rates, all for losses, violations and tracking)."""
 from __future__ import annotations
 
-import importlib.util
-import sys
-
-from conftest import REPO
-
-
-def _bench():
-    spec = importlib.util.spec_from_file_location("bench", REPO / "scripts" / "bench.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["bench"] = module
-    spec.loader.exec_module(module)
-    return module
+from sim_bridge.tools import bench
 
 
 def _run(p99: float, slowest: float, dropped: int = 0, error_max: float = 0.03) -> dict:
@@ -23,7 +12,6 @@ def _run(p99: float, slowest: float, dropped: int = 0, error_max: float = 0.03) 
 
 
 def test_eight_of_ten_is_enough_for_latency_but_one_lost_state_is_not() -> None:
-    bench = _bench()
     runs = [_run(4.0, 0.99)] * 8 + [_run(12.0, 0.90)] * 2
     totals = bench.summary(runs)
     assert totals["met"]["latency p99 < 5 ms"] == 8 and totals["required"]["latency p99 < 5 ms"] == 8

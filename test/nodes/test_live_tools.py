@@ -57,7 +57,7 @@ def running_graph(tmp_path_factory):
     with reserved_domain() as domain:
         env = isolated_env(tmp / "ros_log", domain)
         nodes = {
-            "recorder": _node(env, tmp, "sim_bridge", "recorder_node", "recorder", recorder_params),
+            "recorder": _node(env, tmp, "fic_teleop_tools", "recorder_node", "recorder", recorder_params),
             "robot": _node(env, tmp, "sim_bridge", "robot_node", "robot", CONFIG / "robot.yaml"),
             "master": _node(env, tmp, "fic_teleop_master", "master_node", "master", CONFIG / "master.yaml"),
         }
@@ -201,10 +201,10 @@ def test_recorder_writes_every_joint_state_it_received_while_it_serves_the_live_
     """The view works on the recorder's writer thread, after the bag's write: with a client subscribed to every
     topic, every joint state the recorder received is in the finished bag, in order, and the view's channel got
     them only at its own rate. (Whether the recorder receives every state on a loaded 2-core machine is measured
-    with and without the view by scripts/bench_live_view.py, not asserted here.)"""
+    with and without the view by python -m sim_bridge.tools.bench_live_view, not asserted here.)"""
     import struct
 
-    from sim_bridge.recording.bag_reader import read_messages
+    from fic_teleop_tools.recording.bag_reader import read_messages
 
     assert running_graph.get("client_window_ns") is not None, "the live view test did not run first"
     recorder = running_graph["nodes"]["recorder"]
@@ -237,7 +237,7 @@ def test_a_port_in_use_is_refused_in_one_line_with_nothing_written(tmp_path: Pat
 
         params = write_node_params(tmp_path / "params", "recorder", {"bag_path": str(tmp_path / "bag"),
                                                                       "live_port": port})
-        recorder = _node(ros_env, tmp_path, "sim_bridge", "recorder_node", "recorder", params)
+        recorder = _node(ros_env, tmp_path, "fic_teleop_tools", "recorder_node", "recorder", params)
         assert recorder.process.wait(timeout=STARTUP_TIMEOUT) == 2, recorder.output()
         fatal = [line for line in recorder.output().splitlines() if "FATAL" in line]
         assert len(fatal) == 1 and f"cannot serve the live view on 127.0.0.1:{port}" in fatal[0], recorder.output()

@@ -1,17 +1,28 @@
 """Runs per hour of the sweep engines (sim_bridge.experiments.engine) on one machine: the same job set through the
-process pool and through a Dask LocalCluster, in alternating rounds so that both see the same machine load
-(docs/CLUSTER.md; the command line is scripts/engine_bench.py).
+process pool and through a Dask LocalCluster, in alternating rounds so that both see the same machine load.
+Writes a JSON with the command, the machine's load and every round (docs/CLUSTER.md; docs/EXPERIMENTS.md "The
+engines' runs per hour").
+
+    nice -n 5 python -m sim_bridge.experiments.engine_bench --runs 24 --duration 10 --rounds 2
 
 The jobs are in-process runs of the E1 scene at 1 s one-way delay, each law in turn, each judged as the evidence
 sweep judges it (sim_bridge.experiments.evidence_run.judge): a sweep's unit of work, returning a small row.
 """
 from __future__ import annotations
 
+import argparse
+import json
 import os
+import platform
+import sys
 import time
+from datetime import datetime, timezone
+from pathlib import Path
 
-from sim_bridge.experiments.engine import open_engine
+from sim_bridge.experiments.engine import ENGINES, local_cores, open_engine
 from sim_bridge.experiments.evidence_run import CONTROLLERS, judge
+
+REPO = Path(__file__).resolve().parents[3]
 
 
 def jobs(runs: int, duration: float) -> list[tuple]:
@@ -50,3 +61,37 @@ def alternating_rounds(engines: list[str], workers: int, job_set: list[tuple], r
                             / sum(r["wall_s"] for r in done if r["engine"] == engine))
                for engine in engines}
     return done, summary
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--runs", type=int, default=24, help="jobs a round")
+    parser.add_argument("--duration", type=float, default=10.0, help="simulated seconds a run")
+    parser.add_argument("--rounds", type=int, default=2, help="rounds of each engine, alternating")
+    parser.add_argument("--workers", type=int, default=None, help=f"default: every core ({local_cores()})")
+    parser.add_argument("--engines", nargs="+", default=list(ENGINES), choices=ENGINES)
+    parser.add_argument("--out", type=Path, default=REPO / "results" / "engine_bench.json")
+    args = parser.parse_args(argv)
+
+    def report(row: dict) -> None:
+        print(f"round {row['round']} {row['engine']:>4}: {row['runs']} runs in {row['wall_s']:.1f} s "
+              f"({row['runs_per_hour']:.0f} runs/h; engine start {row['engine_start_s']:.1f} s; "
+              f"load {row['load_1min_before']:.1f} -> {row['load_1min_after']:.1f})", flush=True)
+
+    rounds, summary = alternating_rounds(args.engines, args.workers or local_cores(), jobs(args.runs, args.duration),
+                                         args.rounds, report)
+    arguments = sys.argv[1:] if argv is None else argv
+    document = dict(command="nice -n 5 python -m sim_bridge.experiments.engine_bench " + " ".join(arguments),
+                    date_utc=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"), machine=platform.node(),
+                    cores=local_cores(), niceness=os.nice(0), duration_s=args.duration, runs_per_round=args.runs,
+                    summary=summary, rounds=rounds)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(document, indent=1) + "\n")
+    for engine, figures in summary.items():
+        print(f"{engine:>4}: {figures['total_runs_per_hour']:.0f} runs/h over all rounds "
+              f"({', '.join(f'{value:.0f}' for value in figures['runs_per_hour'])})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,7 +1,7 @@
 """Measure the simulated robot: lockstep steps per second (in process and through the node), realtime step
 lateness and rate through the node with a 1 kHz controller answering, and render time per frame.
 
-    source scripts/env.sh && python scripts/bench_sim.py [--node] [--seconds 10]
+    source scripts/env.sh && python -m sim_bridge.tools.bench_sim [--node] [--seconds 10]
 
 The node figures start robot_node as a real process (domain 90, localhost only) and answer every joint state
 from this process with gravity compensation + damping (Pinocchio), as the replica does.
@@ -20,7 +20,7 @@ from pathlib import Path
 import sim_bridge  # noqa: F401  (selects EGL before mujoco is imported)
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[3]
 
 
 def in_process(scenes: list[str], steps: int) -> None:
@@ -133,12 +133,12 @@ def channel_throughput(messages: int = 20_000) -> None:
     print(f"channel: {(time.perf_counter() - start) / messages * 1e6:.1f} us a message (push + pop, 1 kHz)")
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--node", action="store_true", help="also measure through the robot node (needs ROS)")
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--steps", type=int, default=3000)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     scenes = ["free_space", "superimposition", "shape_sorting"]
     print(f"load average before: {os.getloadavg()}")
     in_process(scenes, args.steps)

@@ -1,16 +1,15 @@
-#!/usr/bin/env python3
 """Benchmarks of the whole system (docs/EXPERIMENTS.md, "Benchmarks"); prints a table and writes results/bench.json.
 
     scripts/bench.sh [--runs 10] [--lockstep-duration 10] [--out results/bench.json]
 
-1. Replica tick compute (median, p99): scripts/bench_core.py (the control law alone, in process).
+1. Replica tick compute (median, p99): bench_core.py (the control law alone, in process).
 2. The default main job, timed end to end: `scripts/run_teleop.sh` with its defaults (superimposition, 200 ms, 30 s,
    realtime, report included; only --out is added, the launcher reserves the domain). While it runs, every node process the
    launcher started is sampled with psutil every 0.5 s: CPU share (CPU seconds / wall seconds, 100 % = one core)
    and peak resident memory (RSS). From its metrics.json: pipeline latency (median, p99) and real-time factor; from
    its bag: the realtime step lateness of the robot sim (/sim/step_lateness, the worst step of each 0.1 s, and the
    robot_sim diagnostics' 10 s p50/p99); and the achieved rate of every loop as a fraction of its nominal rate
-   (sim_bridge/report/loop_rates.py). `--runs N` runs it N times in a row and counts how many runs met each target
+   (fic_teleop_tools/report/loop_rates.py). `--runs N` runs it N times in a row and counts how many runs met each target
    (latency p99 < 5 ms in 8 of 10, every loop >= 95 % in 8 of 10, no lost joint state, no limit violation and the
    free-motion error bounds in all).
 3. Lockstep: the same graph in lockstep (--time-mode lockstep, --no-report): physics steps per wall second with the
@@ -44,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[3]
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
 from sim_bridge.experiments.bag_series import read_run  # noqa: E402
@@ -69,7 +68,7 @@ class NodeSampler(threading.Thread):
         names = [item.split("=", 1)[1] for item in command if item.startswith("__node:=")]
         if names:
             return "+".join(names)   # several: a group of nodes in one process (the launcher's --group)
-        if any("sim_bridge.report" in item for item in command):
+        if any("fic_teleop_tools.report" in item for item in command):
             return "report"
         return None
 
@@ -137,7 +136,7 @@ def run_sampled(command: list[str], log_path: Path) -> tuple[int, float, dict]:
 
 def bench_core(ticks: int, out: Path) -> dict:
     path = out / "bench_core.json"
-    subprocess.run([sys.executable, str(REPO / "scripts" / "bench_core.py"), "--ticks", str(ticks), "--json", str(path)],
+    subprocess.run([sys.executable, "-m", "sim_bridge.tools.bench_core", "--ticks", str(ticks), "--json", str(path)],
                    check=True, cwd=REPO, stdout=subprocess.DEVNULL)
     return json.loads(path.read_text())
 
@@ -160,7 +159,7 @@ def lateness(bag: Path) -> dict:
 def _step_lateness(bag: Path) -> np.ndarray:
     import struct
 
-    from sim_bridge.recording.bag_reader import read_messages
+    from fic_teleop_tools.recording.bag_reader import read_messages
 
     values = []
     for _, channel, message in read_messages(bag):
@@ -184,7 +183,7 @@ TARGETS = {
 def default_run(run_dir: Path, log_path: Path, launcher_args: list[str] = ()) -> dict:
     """One default main job (module docstring, 2.) with the loop rates of its bag; ``launcher_args`` for an A/B
     (e.g. --group)."""
-    from sim_bridge.report.loop_rates import loop_rates
+    from fic_teleop_tools.report.loop_rates import loop_rates
 
     # No --domain-id: the launcher reserves one no other run or test holds (scripts/launch_isolation.py).
     command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), *launcher_args]
@@ -272,12 +271,12 @@ def main(argv: list[str] | None = None) -> int:
                     "machine": {"cpus": os.cpu_count(), "load_average_at_start": list(os.getloadavg())},
                     "commands": {}, "launcher_args": launcher_args}
 
-    print("[bench] replica tick compute (scripts/bench_core.py) ...", flush=True)
+    print("[bench] replica tick compute (sim_bridge.tools.bench_core) ...", flush=True)
     core = bench_core(args.ticks, runs_dir)
     result["replica_tick_us"] = {key: core["replica"].get(key) for key in ("median_us", "p99_us", "max_us", "count")}
     cpu_only = core.get("replica (CPU time)") or {}
     result["replica_tick_cpu_time_us"] = {key: cpu_only.get(key) for key in ("median_us", "p99_us")} if cpu_only else None
-    result["commands"]["replica_tick"] = f".venv/bin/python scripts/bench_core.py --ticks {args.ticks}"
+    result["commands"]["replica_tick"] = f"python -m sim_bridge.tools.bench_core --ticks {args.ticks}"
 
     if not args.skip_default:
         result["default_runs"] = []

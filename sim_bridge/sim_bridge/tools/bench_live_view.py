@@ -1,10 +1,9 @@
-#!/usr/bin/env python3
 """What the live view costs: the default main job twice, without and with `--live` and the official client
 subscribed to every topic for the whole run; each node's CPU time (psutil) and the joint states the recorder
 lost (the report's dropped_joint_states). The machine's load is printed with it: on a shared 2-core machine
 compare the two runs of one call only.
 
-usage: scripts/bench_live_view.py [--duration 30] [--port 8765] [--out runs/bench-live-<time>]
+usage: python -m sim_bridge.tools.bench_live_view [--duration 30] [--port 8765] [--out runs/bench-live-<time>]
 """
 from __future__ import annotations
 
@@ -19,7 +18,7 @@ from pathlib import Path
 
 import psutil
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[3]
 CLIENT = REPO / "test" / "live_view_client"
 
 
@@ -66,12 +65,12 @@ def run(out: Path, duration: float, live_port: int | None) -> dict:
             "load_at_end": os.getloadavg()[0], "wall_s": metrics.get("wall_duration_s"), "run": run_record.get("out")}
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--duration", type=float, default=30.0)
     parser.add_argument("--port", type=int, default=8765)
     parser.add_argument("--out", type=Path, default=REPO / "runs" / f"bench-live-{datetime.now():%Y%m%d-%H%M%S}")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     results = {"without": run(args.out / "without", args.duration, None),
                "with_live_view_and_client": run(args.out / "live", args.duration, args.port)}
     (args.out / "bench_live_view.json").write_text(json.dumps(results, indent=2))

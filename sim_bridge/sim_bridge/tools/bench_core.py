@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Per-tick compute time of the fic_core control steps (the replica's budget: median < 60 us, p99 < 200 us).
 
-    .venv/bin/python scripts/bench_core.py [--ticks 20000] [--json PATH]
+    python -m sim_bridge.tools.bench_core [--ticks 20000] [--json PATH]
 
 - replica: ReplicaController.command (Pinocchio terms, paper Eq. 7 with the FIC, null-space posture, postural
   optimisation) on a realistic moving trajectory: the Panda (Pinocchio forward dynamics, 1 ms, the simulator's
