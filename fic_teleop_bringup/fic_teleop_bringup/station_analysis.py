@@ -1,4 +1,4 @@
-"""What a two-station run (scripts/two_stations.py) measured about its link: stations.json in the run folder.
+"""What a two-station run (two_stations.py) measured about its link: stations.json in the run folder.
 
 - traffic: bytes/s and RTPS samples/s per direction and topic crossing the veth (rtps_traffic.py), while the
   script runs (from 2 s after its start to the link cut or the end) and before it (discovery, start-up);
@@ -44,9 +44,9 @@ def _seconds(time_msg) -> float:
 
 def read_bag(bag: Path, decode: set[str]) -> dict:
     """Per topic: receive (log) times [s]; for the topics in `decode`, the decoded messages too. Read with the
-    project's one sequential bag reader (sim_bridge.recording.bag_reader), so a torn bag reads up to its tail."""
+    project's one sequential bag reader (fic_teleop_tools.recording.bag_reader), so a torn bag reads up to its tail."""
     from mcap_ros2.decoder import DecoderFactory
-    from sim_bridge.recording.bag_reader import read_messages
+    from fic_teleop_tools.recording.bag_reader import read_messages
 
     factory, decoders = DecoderFactory(), {}
     logs: dict[str, list[float]] = {}
@@ -275,7 +275,7 @@ def analyse_run(run_dir: Path, outer_record: dict) -> str:
                          f"{cut['log_lines']['logs_with_a_traceback'] or 'none'}")
     # What each station's recorder lost of its own topics (DDS's message-lost count in its bag's metadata.yaml,
     # "unknown" unless the recorder counted it: count_lost_messages is off by default, config/recorder.yaml).
-    from sim_bridge.report.bag_data import recorder_lost_messages
+    from fic_teleop_tools.report.bag_data import recorder_lost_messages
 
     record["recorder_lost_messages"] = {name: recorder_lost_messages(bag / "metadata.yaml")
                                         for name, bag in (("robot", robot_bag), ("master", master_bag))}
