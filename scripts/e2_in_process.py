@@ -33,6 +33,7 @@ from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANC
 from sim_bridge.experiments.in_process import RunConfig, run  # noqa: E402
 from sim_bridge.experiments.cell_statistics import wilson_interval  # noqa: E402
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box  # noqa: E402
+from sim_bridge.experiments.run_verdict import VerdictInput, judge  # noqa: E402
 
 FORCE_OF_NOTE_N = 10.0   # the replica's F_max: time spent above it is reported, as in the graph's E2 table
 
@@ -84,13 +85,19 @@ def trial(seed: int, duration: float, jitter: bool, operator: str, controller: s
            "limit_violations": result.limit_violations, "operator_time_shift_s": round(result.operator_time_shift, 3),
            "hand_scale": round(result.hand_scale, 3), "wall_s": round(result.wall_s, 1),
            "simulated_s": round(result.simulated_s, 1), "joint_speed_max_rad_s": round(result.joint_speed_max, 2)}
+    verdict = judge(VerdictInput.from_run_result(result, one_way_delay=delay))
+    row["verdict"] = {"stable": verdict.stable, "safe": verdict.safe, "stable_reasons": verdict.stable_reasons,
+                      "safe_reasons": verdict.safe_reasons}
     if operator == "shape_sorting":
         row["pieces"] = operator_outcome(result.operator_moves, force, result.time)
         finished = [piece["end_s"] for piece in row["pieces"].values() if piece["end_s"] is not None]
         row["task_time_s"] = round(max(finished), 2) if len(finished) == len(PIECE_NAMES) else None
         row["retries"] = sum(piece["retries"] for piece in row["pieces"].values())
+        # |x_d - x_R|: beyond x_b (5 cm) the FIC's own force is bounded at F_max, so a force above F_max with the
+        # error beyond x_b is the arm's (its momentum, the model terms), not the operator's command.
         row["trace"] = {"time": np.round(result.time[::25], 3).tolist(),
                         "force_n": np.round(force[::25], 2).tolist(),
+                        "error_m": np.round(result.tracking_error[::25], 4).tolist(),
                         "phases": [(label, round(start, 2)) for label, start, _ in result.operator_moves]}
     return row
 

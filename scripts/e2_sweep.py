@@ -65,6 +65,12 @@ def done_trials(path: Path) -> list[dict]:
     return rows
 
 
+def verdicts(trials: list[dict], name: str) -> str:
+    """k/n of the trials the run verdict judged ``name`` (sim_bridge.experiments.run_verdict); not assessed left out."""
+    judged = [row["verdict"][name] for row in trials if row.get("verdict", {}).get(name) is not None]
+    return f"{sum(judged)}/{len(judged)}"
+
+
 def summary(rows: list[dict]) -> str:
     """A markdown table: per cell, trials complete and pieces inside with their 95 % Wilson intervals, time per
     piece inside, peak force, time above F_max, retries, limit violations."""
@@ -72,8 +78,9 @@ def summary(rows: list[dict]) -> str:
     for row in rows:
         cells[(row["law"], row["delay_s"])].append(row)
     lines = ["| law | delay [s] | trials complete (95 % Wilson) | pieces inside (95 % Wilson) | s per piece inside | "
-             f"peak force [N], median (max) | s above {FORCE_OF_NOTE_N:g} N, median | retries | limit violations |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             f"peak force [N], median (max) | s above {FORCE_OF_NOTE_N:g} N, median | retries | limit violations | "
+             "stable / safe (run verdict) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     order = {parse_cell(cell): index for index, cell in enumerate(DEFAULT_CELLS)}
     for key in sorted(cells, key=lambda key: (order.get(key, len(order)), key)):
         trials = cells[key]
@@ -91,7 +98,8 @@ def summary(rows: list[dict]) -> str:
                      f"{pieces}/{n * len(PIECE_NAMES)} ({piece_low:.2f}-{piece_high:.2f}) | {per_piece} | "
                      f"{peaks[n // 2]:.1f} ({peaks[-1]:.1f}) | "
                      f"{above[n // 2]:.1f} | {sum(row.get('retries', 0) for row in trials)} | "
-                     f"{sum(row['limit_violations'] for row in trials)} |")
+                     f"{sum(row['limit_violations'] for row in trials)} | {verdicts(trials, 'stable')} / "
+                     f"{verdicts(trials, 'safe')} |")
     return "\n".join(lines) + "\n"
 
 
