@@ -520,7 +520,7 @@ def run(argv: list[str], args, run_dir: Path) -> int:
             print(f"[stations] link capped at {args.bandwidth} each way (tbf)", flush=True)
         capture_file = run_dir / "link_capture.json"
         capture = subprocess.Popen(
-            ["ip", "netns", "exec", pair.robot_namespace, sys.executable, str(REPO / "scripts" / "rtps_traffic.py"),
+            ["ip", "netns", "exec", pair.robot_namespace, sys.executable, "-m", "fic_teleop_bringup.rtps_traffic",
              "--interface", pair.robot_interface, "--out", str(capture_file),
              "--name", f"{MASTER_ADDRESS}=master", "--name", f"{ROBOT_ADDRESS}=robot",
              "--stamps", *LINK_STREAMS, "--ready", str(run_dir / "link_capture.ready")],
@@ -558,11 +558,7 @@ def run(argv: list[str], args, run_dir: Path) -> int:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
     try:
-        import importlib.util   # the link's analysis is a tool of scripts/ until it has a package of its own
-        spec = importlib.util.spec_from_file_location("station_analysis", REPO / "scripts" / "station_analysis.py")
-        station_analysis = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(station_analysis)
-        analyse_run = station_analysis.analyse_run
+        from fic_teleop_bringup.station_analysis import analyse_run   # reads bags: only after the run
         summary = analyse_run(run_dir, record)
         print(summary)
     except Exception as error:   # the run itself is done; say why its analysis is missing

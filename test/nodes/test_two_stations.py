@@ -23,10 +23,8 @@ import pytest
 from conftest import SAFETY_KEPT_EXITS
 
 REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "scripts"))
 
-import rtps_traffic  # noqa: E402
-from fic_teleop_bringup import two_stations
+from fic_teleop_bringup import rtps_traffic, two_stations
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 ROOT = os.geteuid() == 0 and shutil.which("ip") is not None and shutil.which("tc") is not None
