@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from sim_bridge.experiments.in_process import RunResult
-from sim_bridge.experiments.run_verdict import VerdictInput, VerdictInputError, judge
+from sim_bridge.experiments.run_verdict import VerdictCriterion, VerdictInput, VerdictInputError, judge
 from sim_bridge.experiments.verdict_cases import (bilateral, cases, critical_gain, delayed_feedback, loop_gain_peak,
                                                   with_limit_cycle)
 
@@ -31,7 +31,7 @@ def test_every_labelled_case_is_judged_right(labelled):
              for case, verdict in labelled if verdict.stable is not case.stable or verdict.safe is not case.safe]
     assert not wrong
     groups = {case.group for case, _ in labelled}
-    assert len(labelled) >= 100 and len(groups) == 10
+    assert len(labelled) >= 100 and len(groups) == 11
 
 
 def test_the_cases_the_older_verdict_got_wrong_are_in_the_set(labelled):
@@ -72,6 +72,20 @@ def test_a_push_into_a_wall_is_contact_not_instability(labelled):
         if case.group == "c holding in contact":
             error = np.linalg.norm(case.data.x_d - case.data.x_R, axis=1)
             assert error.max() > 0.2 and verdict.stable is True and verdict.figures["contact_share"] > 0.4
+
+
+def test_a_collision_burst_at_the_ports_is_contact_not_steady_generation(labelled):
+    """A collision through the delay adds joules at the channel's ports once: over the whole span that reads as more
+    than the rate limit (the verdict before the contact exclusion called such runs unstable), outside contact the
+    channel generates (next to) nothing."""
+    for case, verdict in labelled:
+        if case.group == "c one collision":
+            assert verdict.stable is True and verdict.safe is True
+            assert verdict.figures["channel_generation_rate_all_w"] > VerdictCriterion().port_rate_limit
+            assert verdict.figures["channel_generation_rate_w"] < 0.2 * VerdictCriterion().port_rate_limit
+        if case.name.startswith("energy pumping and a collision"):
+            assert verdict.stable is False
+            assert verdict.figures["channel_generation_rate_w"] == pytest.approx(0.1, abs=0.01)
 
 
 def test_a_limit_cycle_is_reported_with_its_period_and_amplitude():

@@ -17,9 +17,10 @@ span, which starts ``settle`` seconds into the run:
    tracking error x_d - x_R), outside contact. A delay-induced oscillation has a period of at most about 4 round
    trips (its phase lag of pi/2 to pi accrues over one round trip).
 3. STEADY ENERGY GENERATION AT THE CHANNEL'S PORTS, judged as a rate: the channel's generated energy (what left it at
-   both ports minus what entered, the time-domain passivity observers' sum) rises over the judged span by more than
-   ``port_rate_limit`` watts on average. A passive channel generates nothing; a delayed one generates while the
-   operator moves, and a stable loop damps that away without a steady rise.
+   both ports minus what entered, the time-domain passivity observers' sum) rises over the judged span outside
+   contact by more than ``port_rate_limit`` watts on average. A passive channel generates nothing; a delayed one
+   generates while the operator moves, and a stable loop damps that away without a steady rise. A collision makes a
+   burst (the force reaches the handle one delay late, while the hand still moves): contact is left out here too.
 4. RUNAWAY: kinetic energy above ``kinetic_energy_bound``, a joint faster than the Panda datasheet's limit, or a
    tracking error |x_d - x_R| beyond ``runaway_error`` x_b (4 x_b) outside contact.
 5. PARKED far from the target: |x_d - x_R|, or |x_R - command| when the command is known, above ``parked_error`` x_b
@@ -32,8 +33,8 @@ episodes (``collision_gap`` apart: a bounce is one). A count that was not record
 
 CONTACT is told apart from instability with the scene's contact data: a sample is in contact when the F/T force is
 at least ``contact_force`` or was within the last ``contact_hold`` seconds (the free-motion definition of
-docs/EXPERIMENTS.md), or the contact flag is set; the oscillation, runaway-error and parked tests leave out the
-contact samples and ``contact_margin`` + one round trip around them (the hand feels the contact one delay later and
+docs/EXPERIMENTS.md), or the contact flag is set; the oscillation, port-generation, runaway-error and parked tests leave
+out the contact samples and ``contact_margin`` + one round trip around them (the hand feels the contact one delay later and
 the replica sees the hand's answer another delay later). A push into an obstacle is contact, not instability.
 
 ``judge`` is a pure function of the stored series (VerdictInput), so a sweep's runs are re-judged without simulating.
@@ -434,17 +435,28 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         if on_grid["generated"] is not None:
             values = on_grid["generated"].reshape(time.size, -1)[:, 0]
             first = int(np.searchsorted(time, judged_from))
-            rate = float((values[-1] - values[first]) / (time[-1] - time[first]))
-            figures.update(channel_generated_total_j=float(values[-1]), channel_generation_rate_w=rate)
+            span = float(time[-1] - time[first])
+            # Judged outside contact, like the oscillation: a collision through the delay makes a burst at the ports
+            # (the force reaches the handle one delay after the hit, while the hand still moves), which the loop
+            # then damps away; steady generation is what goes on in free motion. The whole span's rate is reported.
+            step_free = free[1:] & free[:-1] & judged[1:] & judged[:-1]
+            free_span = float(np.count_nonzero(step_free) * step)
+            rate_all = float((values[-1] - values[first]) / span)
+            figures.update(channel_generated_total_j=float(values[-1]), channel_generation_rate_all_w=rate_all,
+                           channel_generation_free_s=free_span)
             if on_grid["observers"] is not None:
-                fall = on_grid["observers"][first] - on_grid["observers"][-1]
+                fall = -np.diff(on_grid["observers"], axis=0)[step_free].sum(axis=0) / max(free_span, step)
                 figures["channel_generation_rate_by_direction_w"] = {
-                    "to the handle": float(fall[0] / (time[-1] - time[first])),
-                    "to the replica": float(fall[1] / (time[-1] - time[first]))}
-            if rate > criterion.port_rate_limit:
-                stable_reasons.append(f"steady energy generation at the channel's ports: {rate * 1e3:.0f} mW over the "
-                                      f"judged {time[-1] - time[first]:.1f} s (limit "
-                                      f"{criterion.port_rate_limit * 1e3:.0f} mW)")
+                    "to the handle": float(fall[0]), "to the replica": float(fall[1])}
+            if free_span < max(criterion.min_window, 2.0 * round_trip):
+                notes.append(f"{free_span:.1f} s outside contact: too little to judge the channel's generation rate")
+            else:
+                rate = float(np.diff(values)[step_free].sum() / free_span)
+                figures["channel_generation_rate_w"] = rate
+                if rate > criterion.port_rate_limit:
+                    stable_reasons.append(
+                        f"steady energy generation at the channel's ports: {rate * 1e3:.0f} mW over the "
+                        f"{free_span:.1f} s judged outside contact (limit {criterion.port_rate_limit * 1e3:.0f} mW)")
         else:
             notes.append("no channel port energy: the generation-rate test is skipped")
     elif finite:

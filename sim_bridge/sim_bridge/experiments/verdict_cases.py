@@ -19,10 +19,12 @@
     repeats like the paper's (a planner circling 0.10 m at a lap of 4.5-5.5 s, one avoid move a lap): stable, and
     with 5, 10, 10, 20 mm limit cycles at 1, 2.5, 5 (the lap), 10 s: unstable.
 (c) Runs that fooled the older verdict: parked 150 mm off the target in free motion (unstable: parked); a crash into
-    the obstacle the task steers around every 5 s (stable, NOT SAFE: repeated collisions, the motion between them
-    is the stable loop's); holding a push into a wall with 210 mm between set point and TCP (stable and safe: contact,
+    the obstacle the task steers around every 5 s, each with a burst of channel generation (stable, NOT SAFE:
+    repeated collisions, the motion between them is the stable loop's); one collision with its burst (stable and
+    safe: the burst is contact's, not steady generation); holding a push into a wall with 210 mm between set point and TCP (stable and safe: contact,
     not instability); the same loop with a channel that adds energy along the handle's motion, damped away by the
-    handle's damping so that the motion stays bounded (unstable: steady generation at the ports); a limit-violation
+    handle's damping so that the motion stays bounded, alone and beside one collision (unstable: steady generation
+    at the ports); a limit-violation
     run and a velocity-reflex trip (stable, NOT SAFE).
 
 Every case is deterministic (seeded); ``cases()`` builds them all in a few seconds.
@@ -49,6 +51,7 @@ REFERENCE_DELAYS = (0.0, 0.2, 1.0, 2.0)
 CYCLE_DELAYS = (0.2, 1.0, 2.0)
 CYCLE_AMPLITUDES = (0.005, 0.010, 0.020, 0.030)
 CYCLE_PERIODS = (0.5, 1.0, 2.5, 5.0, 10.0, 16.0)
+COLLISION_BURST_J = 2.7   # [J] a collision's burst at the ports: the median of the claim runs' bursts (1.4-13.9 J)
 DURATION = 40.0       # [s] holds 1.5 periods of 16 s (4 round trips at 2 s) after the 2 s of settling
 
 
@@ -241,7 +244,33 @@ def crash_every_lap(data: VerdictInput, lap: float = 5.0, length: float = 0.4, f
     stopped = np.zeros_like(data.x_R)
     stopped[touching, 1] = -0.02 * np.sin(np.pi * phase[touching] / length)
     return replace(data, contact=touching, force=data.force + pulse, x_R=data.x_R + stopped,
+                   channel_generated=data.channel_generated + _bursts(data, touching),
                    source=f"{data.source}, crash every {lap:g} s")
+
+
+def _bursts(data: VerdictInput, touching: NDArray, energy: float = COLLISION_BURST_J) -> NDArray:
+    """What a collision through the delay adds to the channel's generated energy: ``energy`` joules per contact
+    episode, spread over the episode and the round trip after it (the force reaches the handle one delay after the
+    hit and the hand's answer the replica another delay later), then kept: the loop damps it away, the channel's
+    books keep it."""
+    rising = np.flatnonzero(touching[1:] & ~touching[:-1]) + 1
+    falling = np.flatnonzero(touching[:-1] & ~touching[1:]) + 1
+    added = np.zeros(data.time.size)
+    for start, end in zip(rising, falling):
+        ramp_end = data.time[end - 1] + 2.0 * data.one_way_delay
+        added += energy * np.clip((data.time - data.time[start]) / (ramp_end - data.time[start]), 0.0, 1.0)
+    return added
+
+
+def one_collision(data: VerdictInput, at: float = 15.0, length: float = 0.5, force: float = 80.0) -> VerdictInput:
+    """(c): one collision with the obstacle the task steers around, the F/T impact and the channel's burst with it
+    (``_bursts``), the motion otherwise the stable run's."""
+    touching = (data.time >= at) & (data.time < at + length)
+    pulse = np.zeros_like(data.x_R)
+    pulse[touching, 0] = force * np.sin(np.pi * (data.time[touching] - at) / length)
+    return replace(data, contact=touching, force=data.force + pulse,
+                   channel_generated=data.channel_generated + _bursts(data, touching),
+                   source=f"{data.source}, one collision at {at:g} s")
 
 
 def cases() -> list[LabelledCase]:
@@ -284,6 +313,12 @@ def cases() -> list[LabelledCase]:
         out.append(LabelledCase(f"energy pumping delay={delay:g}s", "c energy pumping", False, True,
                                 pumping(references[(delay, 3)]),
                                 "100 mW of steady generation at the channel's ports, motion unchanged"))
+        out.append(LabelledCase(f"one collision delay={delay:g}s", "c one collision", True, True,
+                                one_collision(references[(delay, 3)]),
+                                f"an 80 N impact and {COLLISION_BURST_J:g} J of channel generation with it"))
+        out.append(LabelledCase(f"energy pumping and a collision delay={delay:g}s", "c energy pumping", False, True,
+                                pumping(one_collision(references[(delay, 3)])),
+                                "100 mW of steady generation in free motion beside one collision"))
         out.append(LabelledCase(f"limit violations delay={delay:g}s", "c limit violation", True, False,
                                 replace(base, limit_violations=3), "3 ticks broke a Panda limit"))
         out.append(LabelledCase(f"reflex trip delay={delay:g}s", "c reflex trip", True, False,
