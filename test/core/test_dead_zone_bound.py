@@ -63,7 +63,7 @@ def test_the_bound_on_the_shipped_translation() -> None:
 
 
 def test_thirty_strokes_between_40_and_33_mm_do_not_cut_the_force_at_40_mm() -> None:
-    """The issue's strokes on the shipped translation: at 40 mm the force stays F_c(40 mm) = 8.89 N after 10 and 30
+    """The ratchet's strokes on the shipped translation: at 40 mm the force stays F_c(40 mm) = 8.89 N after 10 and 30
     strokes (it fell to 6.90 N and 6.79 N with the dead-zone rule), and the port inequality holds."""
     profile = next(value for name, value in SHIPPED.items() if "replica.yaml:translation_" in name)
     rng = np.random.default_rng(4)

@@ -16,7 +16,7 @@ from sim_bridge.tools.passivity_oracle import (DT, judge, push_release_cycle, ra
                                                shipped_profiles, storage_for)
 
 SHIPPED = shipped_profiles()
-#: The replica's translation profile before the passive attractor (F_max = 15 N): the issue's cycle gave -87.5 mJ.
+#: The replica's translation profile before the passive attractor (F_max = 15 N): the cycle below gave -87.5 mJ.
 OLD_TRANSLATION = ForceProfile(200.0, 0.05, 0.5, 15.0)
 
 

@@ -1,4 +1,4 @@
-"""The issue's hostile-input probes, from an outside process, against the real robot simulation and replica.
+"""The hostile-input probes of docs/RESULTS.md, from an outside process, against the real robot simulation and replica.
 
 The robot node (MuJoCo Panda, realtime) and the replica node run as processes; the test process plays the
 channel (a legitimate writer of /replica/teleop_command, x_d' = 0) and watches the simulator's ground-truth TCP
