@@ -2,7 +2,8 @@
 
     replica_node -- /replica/effort_command --> command_relay -- /effort_controller/commands --> franka_ros2
 
-Every replica command is forwarded unchanged at once. When none has come for ``timeout`` (the replica died, hung
+Every replica command is forwarded unchanged at once, with its layout: the label naming the joint state it was
+computed on (fic_core.command_stamp) goes on to the robot, which refuses a torque computed on too old a state. When none has come for ``timeout`` (the replica died, hung
 or lost its host), the relay ramps the command to the rest command over ``ramp_time`` and holds it
 (fic_core.command_watchdog: zero when the arm compensates its own gravity, G(q) at the last joint state otherwise);
 the replica's next command is forwarded again. Each transition is one log line. The simulated robot has this
@@ -20,7 +21,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, MultiArrayLayout
 
 from fic_core.command_watchdog import CommandWatchdog
 from fic_core.errors import FicInputError
@@ -69,9 +70,12 @@ class CommandRelayNode(Node):
     def _now(self) -> float:
         return self._steady.now().nanoseconds * 1e-9
 
-    def _send(self, values: np.ndarray) -> None:
-        message = Float64MultiArray()
-        message.data = values.tolist()
+    def _send(self, values: np.ndarray, layout: MultiArrayLayout | None = None) -> None:
+        """``layout``: the replica command's own (its state stamp); the ramp's commands carry none (computed on no
+        joint state of the replica's)."""
+        message = Float64MultiArray(data=values.tolist())
+        if layout is not None:
+            message.layout = layout
         self._out.publish(message)
 
     def _on_command(self, message: Float64MultiArray) -> None:
@@ -83,7 +87,7 @@ class CommandRelayNode(Node):
             return
         if ended:
             self.get_logger().info("replica commands are back: forwarding them again")
-        self._send(command)
+        self._send(command, message.layout)
 
     def _on_joint_state(self, message: JointState) -> None:
         if len(message.position) != self._robot.model.nq:

@@ -153,3 +153,55 @@ def test_a_second_planner_writer_puts_the_replica_into_its_safe_hold_and_the_han
     held = [status for status in planners.replica_status if status.message.startswith("safe hold")]
     assert held and held[-1].level == DiagnosticStatus.ERROR, [s.message for s in planners.replica_status[-3:]]
     assert moved < 0.01, f"the TCP moved {moved:.3f} m\n{log}"
+
+
+def test_a_second_wrench_writer_puts_the_replica_into_its_safe_hold(start_node, ros_env, rclpy_context) -> None:
+    """/ft_sensor/wrench is F_R, which the replica sends the operator: an outside client's 30 N there would be felt
+    on the handle as the robot's contact. Like a second writer of the joint states, it is a safe hold, named."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from geometry_msgs.msg import WrenchStamped
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    env = dict(ros_env)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
+                                                      env.get("PYTHONPATH")]))
+    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
+                       params={"mode": "realtime", "scene": "free_space"})
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
+    assert "SAFE HOLD" not in replica.output(), replica.output()
+    qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+    intruder = rclpy.create_node("outside_client", context=rclpy_context)
+    statuses: list = []
+    intruder.create_subscription(DiagnosticArray, "/diagnostics",
+                                 lambda m: statuses.extend(s for s in m.status if s.name == "replica"), qos)
+    publisher = intruder.create_publisher(WrenchStamped, "/ft_sensor/wrench", qos)
+
+    def publish() -> None:
+        message = WrenchStamped()
+        message.header.stamp = intruder.get_clock().now().to_msg()
+        message.header.frame_id = "panda_link0"
+        message.wrench.force.x = 30.0
+        publisher.publish(message)
+
+    intruder.create_timer(0.004, publish)
+    executor = SingleThreadedExecutor(context=rclpy_context)
+    executor.add_node(intruder)
+    deadline = time.monotonic() + 60.0
+    try:
+        while time.monotonic() < deadline and not any(s.message.startswith("safe hold") for s in statuses):
+            executor.spin_once(timeout_sec=0.05)
+    finally:
+        executor.remove_node(intruder)
+        intruder.destroy_node()
+    log = replica.output()
+    assert log.count("SAFE HOLD") == 1, log + robot.output()
+    hold_line = next(line for line in log.splitlines() if "SAFE HOLD" in line)
+    print(f"[probe] {hold_line}")
+    assert "/ft_sensor/wrench" in hold_line and "one is the robot's" in hold_line, hold_line
+    # Named by the graph, or counted: by the middleware's match, or by a graph that has the writer before its name
+    assert any(said in hold_line for said in ("/outside_client", "publishers matched on", "not yet named")), hold_line
+    held = [status for status in statuses if status.message.startswith("safe hold")]
+    assert held and held[-1].level == DiagnosticStatus.ERROR

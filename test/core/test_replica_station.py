@@ -1,0 +1,150 @@
+"""The replica station outside ROS (fic_core.replica_station): the input guarding on plain values (one writer per
+guarded stream, joint-state stamps, the teleoperation topic's writers, the set-points after a safe hold), the F/T
+reading through the driver's frame, the driver's command with the state stamp it was computed on, and the loop's
+own hold and resume as the station passes them on."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fic_core.errors import FicInputError
+from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
+from fic_core.replica_station import ROBOT_STREAMS, SET_POINT_STREAMS, ReplicaStation, stream_owner
+
+from config_values import config_values
+
+Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
+QD0 = np.zeros(7)
+PERIOD = 0.002
+
+
+def station(**changes) -> ReplicaStation:
+    values = {**config_values("replica.yaml"), "control_rate": 500.0, "command_period": PERIOD,
+              "exchanged_energy_observer": False, **changes}
+    return ReplicaStation(values)
+
+
+def run(replica: ReplicaStation, start: float, ticks: int) -> float:
+    now = start
+    for _ in range(ticks):
+        now += PERIOD
+        ok, reason = replica.admits_joint_state(now, now)
+        assert ok and not reason
+        replica.joint_state(now, now, Q0, QD0, round(now * 1e9))
+    return now
+
+
+def teleop(replica: ReplicaStation, now: float, offset, writers: int = 1) -> list[tuple[str, str]]:
+    return replica.teleoperation_command(round(now * 1e9), now, mode=0, haptic_gain=0.5, workspace_scale=1.0,
+                                         velocity_gain=2.0, handle_position=np.zeros(3), desired_offset=offset,
+                                         writers=writers)
+
+
+def test_every_guarded_stream_has_its_owner() -> None:
+    assert "/ft_sensor/wrench" in ROBOT_STREAMS and "/planner/desired_pose" in SET_POINT_STREAMS
+    assert stream_owner("/ft_sensor/wrench") == "the robot's"
+    assert stream_owner("/planner/desired_accel") == "the planner's"
+
+
+@pytest.mark.parametrize("topic", ROBOT_STREAMS + SET_POINT_STREAMS)
+def test_a_second_writer_of_a_guarded_stream_is_the_safe_hold_named_once(topic: str) -> None:
+    replica = station()
+    now = run(replica, 0.0, 10)
+    assert replica.writers(topic, ["/robot"]) == "" and not replica.held
+    reason = replica.writers(topic, ["/robot", "/outside_client"])
+    assert topic in reason and "/outside_client" in reason and stream_owner(topic) in reason
+    assert replica.held and replica.hold_reason == reason
+    assert replica.writers(topic, ["/robot", "/outside_client"]) == ""   # said once
+    # From then on nothing is taken: no joint state, no command, no set-point.
+    torques = replica.loop.counts["rejected_joint_states"]
+    assert replica.admits_joint_state(now + PERIOD, now + PERIOD) == (False, "")
+    assert replica.loop.counts["rejected_joint_states"] == torques + 1
+    assert teleop(replica, now, [0.05, 0.0, 0.0]) == [] and replica.loop.counts["teleop_commands"] == 0
+    assert replica.planner_pose(0, [0.5, 0.0, 0.4], [1.0, 0.0, 0.0, 0.0], now) == []
+    assert replica.loop.counts["planner_poses"] == 0
+    assert replica.guard_values()["input_safe_hold"] == reason
+
+
+def test_a_matched_second_writer_holds_before_discovery_names_it() -> None:
+    replica = station()
+    assert replica.matched("/franka/joint_states", 1, "/joint_states") == ""
+    reason = replica.matched("/franka/joint_states", 2, "/joint_states")
+    assert "2 publishers matched on /franka/joint_states" in reason and "the robot's" in reason and replica.held
+
+
+def test_joint_state_stamps_back_in_time_or_from_the_future_hold() -> None:
+    replica = station()
+    now = run(replica, 0.0, 5)
+    usable, reason = replica.admits_joint_state(now - 0.1, now)
+    assert not usable and "went back" in reason and replica.held
+    other = station()
+    usable, reason = other.admits_joint_state(10.0, 0.0)
+    assert not usable and "future" in reason and other.held
+
+
+def test_a_second_teleop_writer_is_refused_while_it_lasts_without_a_hold() -> None:
+    replica = station()
+    now = run(replica, 0.0, 5)
+    notices = teleop(replica, now, [0.01, 0.0, 0.0], writers=2)
+    assert notices and notices[0][0] == "repeated_error" and "2 publishers" in notices[0][1]
+    assert replica.loop.counts["rejected_teleop_commands"] == 1 and replica.authority.refused == 1
+    assert not replica.held and replica.loop.counts["teleop_commands"] == 0
+    assert teleop(replica, now, [0.0, 0.0, 0.0]) == [] and replica.loop.counts["teleop_commands"] == 1
+
+
+def test_a_command_outside_the_workspace_is_clamped_and_said() -> None:
+    replica = station()
+    now = run(replica, 0.0, 5)
+    notices = teleop(replica, now, [10.0, 0.0, 0.0])
+    assert any(level == "repeated_warning" and "workspace" in text for level, text in notices), notices
+    with pytest.raises(FicInputError):
+        teleop(replica, now, [np.nan, 0.0, 0.0])
+
+
+def test_the_wrench_is_taken_in_the_declared_frame_and_refused_to_zero_in_another() -> None:
+    replica = station()
+    force, torque, error = replica.wrench("panda_link0", [1.0, 2.0, 3.0], [0.1, 0.0, 0.0])
+    assert error is None and force.tolist() == [1.0, 2.0, 3.0] and replica.loop.counts["wrenches"] == 1
+    force, torque, error = replica.wrench("tool0", [1.0, 2.0, 3.0], [0.1, 0.0, 0.0])
+    assert isinstance(error, FicInputError) and not force.any() and not torque.any()
+    assert replica.loop.counts["rejected_wrenches"] == 1
+
+
+def test_the_command_names_its_state_and_a_refused_state_repeats_the_last_command() -> None:
+    replica = station()
+    tick, error = replica.named_joint_state(0.002, 0.002, list(ARM_JOINT_NAMES), Q0.tolist(), QD0.tolist(),
+                                            2_000_000)
+    assert error is None and tick.command is not None and tick.state_stamp_ns == 2_000_000
+    # config/replica.yaml: gravity in the command (the simulated Panda), so the command is the law's tau.
+    np.testing.assert_array_equal(tick.command, tick.step.torque)
+    tick2, error = replica.named_joint_state(0.004, 0.004, ["a", "b"], [0.0, 0.0], [0.0, 0.0], 4_000_000)
+    assert isinstance(error, FicInputError) and tick2.state_stamp_ns == 2_000_000
+    np.testing.assert_array_equal(tick2.command, tick.command)
+
+
+def test_the_gravity_compensating_driver_sends_tau_minus_gravity() -> None:
+    plain, franka = station(), station(gravity_compensated_by_robot=True)
+    a = plain.joint_state(0.002, 0.002, Q0, QD0, 2_000_000)
+    b = franka.joint_state(0.002, 0.002, Q0, QD0, 2_000_000)
+    np.testing.assert_allclose(b.command, a.command - plain.loop.robot.gravity, atol=1e-9)
+
+
+def test_the_loops_own_hold_is_said_once_and_the_law_resumes_after_healthy_ticks() -> None:
+    replica = station(loop_resume_ticks=5.0, loop_resume_ramp=0.02)
+    now = run(replica, 0.0, 20)
+    now += 0.1   # a 100 ms gap between ticks: beyond loop_max_tick_gap
+    tick = replica.joint_state(now, now, Q0, QD0, round(now * 1e9))
+    assert tick.hold_began and tick.step.held
+    now += PERIOD
+    tick = replica.joint_state(now, now, Q0, QD0, round(now * 1e9))
+    assert not tick.hold_began and tick.step.held
+    now = run(replica, now, 10)
+    tick = replica.joint_state(now + PERIOD, now + PERIOD, Q0, QD0)
+    assert not tick.step.held and tick.step.command is not None and replica.loop.health.holds == 1
+
+
+def test_feedback_carries_the_ports_input_energy() -> None:
+    replica = station()
+    run(replica, 0.0, 5)
+    assert replica.feedback_sent([1.0, 0.0, 0.0]) == replica.channel_port.input_energy
+    np.testing.assert_array_equal(replica.channel_port.force_sent, [1.0, 0.0, 0.0])
