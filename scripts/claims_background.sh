@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The claim sweep in the background, on a frozen copy of one commit (docs/EXPERIMENTS.md "Claims"):
-#   scripts/claims_background.sh [COMMIT] [claims_sweep.py options...]     (COMMIT: default HEAD)
-# exports COMMIT's tree (git archive) to runs/claims_snapshot_<commit>/ and runs its scripts/claims_sweep.py there,
+#   scripts/claims_background.sh [COMMIT] [claims_sweep options...]     (COMMIT: default HEAD)
+# exports COMMIT's tree (git archive) to runs/claims_snapshot_<commit>/ and runs its claim sweep there (the module
+# sim_bridge.experiments.claims_sweep; a commit from before it had a command line keeps it in scripts/claims_sweep.py),
 # under nice -n 15, detached from the terminal (setsid nohup), logging to results/claims_runs.log, with its series
 # and run lines in this checkout's results/claims_runs/ and results/claims_runs.jsonl. The code and the config are the
 # commit's even while the checkout changes; every run line names that commit. Run it again (same COMMIT) to resume.
@@ -18,8 +19,14 @@ fi
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
 export PYTHONPATH="$SNAPSHOT/sim_bridge:$SNAPSHOT/fic_core${PYTHONPATH:+:$PYTHONPATH}"
+# The pure-Python packages a newer commit split out of sim_bridge, from the snapshot too where it has them.
+for package in fic_teleop_tools fic_teleop_runtime fic_teleop_bringup; do
+  if [[ -d "$SNAPSHOT/$package/$package" ]]; then export PYTHONPATH="$SNAPSHOT/$package:$PYTHONPATH"; fi
+done
 mkdir -p "$REPO/results"
-setsid nohup nice -n 15 python "$SNAPSHOT/scripts/claims_sweep.py" --no-progress \
+if [[ -f "$SNAPSHOT/scripts/claims_sweep.py" ]]; then sweep=("$SNAPSHOT/scripts/claims_sweep.py")
+else sweep=(-m sim_bridge.experiments.claims_sweep); fi
+setsid nohup nice -n 15 python "${sweep[@]}" --no-progress \
   --out-dir "$REPO/results/claims_runs" --jsonl "$REPO/results/claims_runs.jsonl" "$@" \
   >> "$REPO/results/claims_runs.log" 2>&1 < /dev/null &
 echo "claim sweep started: pid $!, commit $COMMIT, log $REPO/results/claims_runs.log"

@@ -1,5 +1,5 @@
-"""The claim cells (sim_bridge/experiments/claims.py, scripts/claims_sweep.py): what a claim run configures, the kept
-series round trip, and a tiny sweep through an executor that resumes where it stopped."""
+"""The claim cells (sim_bridge/experiments/claims.py, claims_sweep.py): what a claim run configures, the kept series
+round trip, and a tiny sweep through an executor that resumes where it stopped."""
 from __future__ import annotations
 
 import dataclasses

@@ -1,7 +1,7 @@
 """One evidence cell (E1 at 0.2 s one-way delay, the FIC) with two seeds on the in-process runner: the small version
-of scripts/evidence_sweep.py that the suite runs. 16.5 s a run is about the shortest the verdict assesses at this
-delay: its motion test removes E1's 5 s lap with the lap's median over 2 laps after 1 s of settling, one lap and one
-0.4 s round trip (energy_verdict.EnergyMotionCriterion.lap_start)."""
+of sim_bridge.experiments.evidence_sweep that the suite runs. 16.5 s a run is about the shortest the verdict
+assesses at this delay: its motion test removes E1's 5 s lap with the lap's median over 2 laps after 1 s of
+settling, one lap and one 0.4 s round trip (energy_verdict.EnergyMotionCriterion.lap_start)."""
 from __future__ import annotations
 
 import numpy as np

@@ -1,6 +1,6 @@
 """The in-process runner against the real graph: one short E1 run (superimposition scene, 200 ms delay both ways)
 in lockstep over DDS and the same seconds in one process, and the runner deterministic per seed. The longer
-figures (10 s, the speed) come from scripts/in_process.py.
+figures (10 s, the speed) come from sim_bridge.experiments.run_in_process.
 
 What can be compared, and how closely (docs/EXPERIMENTS.md, "In-process runner"; measured 2026-12-02 15:18-16:02
 against four lockstep runs of this test's launcher command at load averages 4.2, 8.7, 8.7 and 10.0 on 2 cores,
@@ -47,7 +47,7 @@ def test_in_process_run_agrees_with_a_lockstep_graph_run(tmp_path) -> None:
     out = tmp_path / "run"
     with reserved_domain() as domain:
         env = isolated_env(tmp_path / "ros_log", domain)
-        process = subprocess.run([sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--out", str(out),
+        process = subprocess.run([sys.executable, "-m", "fic_teleop_bringup.teleop_launcher", "--out", str(out),
                                   "--duration", str(DURATION_S), "--time-mode", "lockstep", "--no-video",
                                   "--no-report", "--wall-limit", "400"], env=env, capture_output=True, text=True,
                                  timeout=600)

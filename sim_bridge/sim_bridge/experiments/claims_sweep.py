@@ -4,16 +4,40 @@
 or a Dask cluster's: sim_bridge.experiments.engine), appends each finished run's row to a JSON-lines file and keeps
 its series beside it (claims.execute); ``finished`` reads back what is done, so a sweep stopped anywhere resumes where
 it stopped; ``judged`` applies the run verdict to the kept series.
+
+The command line runs the claim cells (sim_bridge.experiments.claims): channels at full rate, 10 and 5 Hz both
+ways, one-way delay 0, 0.2, 1 and 2 s (and 0.5, 1.5 s at full rate), the closed-loop operator with a passive or a
+force-reactive hand, a task drawn per seed, every law; most important cells first. Each finished run's series goes
+to <out-dir>/<key>.npz and its row (config, seed, wall time, figures, commit) to one line of <jsonl>, as it
+finishes; a re-run skips every run whose line and series are both there. ``--judge`` applies the run verdict
+(sim_bridge.experiments.run_verdict) to every kept series and writes <summary>.json: one record per run with its
+row and both verdicts.
+
+    scripts/experiments.sh claims --quick              # 2 cells x 5 laws x 2 hands, 1 seed, 10 s
+    scripts/experiments.sh claims                      # the full sweep (2800 runs), all local cores
+    scripts/experiments.sh claims --limit 40           # the next 40 runs only
+    scripts/experiments.sh claims --judge              # verdicts on what is kept -> results/claims.json
+    scripts/experiments.sh claims --cluster tcp://host:8786   # on a Dask cluster (docs/CLUSTER.md)
+
+(``scripts/experiments.sh claims ...`` is ``python -m sim_bridge.experiments.claims_sweep ...`` in the workspace.)
 """
 from __future__ import annotations
 
+import argparse
 import json
+import sys
+import time
 from concurrent.futures import Executor, as_completed
 from pathlib import Path
 
 from tqdm import tqdm
 
-from sim_bridge.experiments.claims import ClaimRun, execute, judge_series
+from sim_bridge.experiments.claims import SEEDS, ClaimRun, claim_runs, execute, judge_series, provenance
+from sim_bridge.experiments.engine import add_engine_arguments, engine_from_arguments
+from sim_bridge.experiments.evidence_run import CONTROLLERS
+from sim_bridge.experiments.in_process import HANDS
+
+REPO = Path(__file__).resolve().parents[3]
 
 
 def finished(jsonl: Path, directory: Path) -> dict[str, dict]:
@@ -70,3 +94,64 @@ def judged(rows: list[dict], directory: Path, executor: Executor, progress: bool
                        desc="verdicts", mininterval=5.0):
         out.append({**futures[future], "verdict": future.result()})
     return sorted(out, key=lambda row: row["key"])
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="the two 1 s cells (10 Hz and full rate), 1 seed, 10 s runs, into results/claims_quick*")
+    parser.add_argument("--seeds", type=int, default=None, help=f"seeds a cell (default {SEEDS}; --quick 1)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="run length [s] (default: 30 s, longer beyond 1 s delay; --quick 10 s)")
+    parser.add_argument("--controllers", nargs="+", default=list(CONTROLLERS), choices=CONTROLLERS)
+    parser.add_argument("--hands", nargs="+", default=list(HANDS), choices=HANDS)
+    parser.add_argument("--limit", type=int, default=None, help="run at most this many of the runs not done yet")
+    parser.add_argument("--out-dir", type=Path, default=None, help="series directory (default results/claims_runs)")
+    parser.add_argument("--jsonl", type=Path, default=None, help="run log (default results/claims_runs.jsonl)")
+    parser.add_argument("--judge", action="store_true",
+                        help="no new runs: apply the run verdict to every kept run and write --summary")
+    parser.add_argument("--summary", type=Path, default=None, help="judged runs (default results/claims.json)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar (a log file)")
+    add_engine_arguments(parser)
+    args = parser.parse_args(argv)
+    stem = "claims_quick" if args.quick else "claims"
+    directory = args.out_dir or REPO / "results" / f"{stem}_runs"
+    jsonl = args.jsonl or REPO / "results" / f"{stem}_runs.jsonl"
+    summary = args.summary or REPO / "results" / f"{stem}.json"
+    runs = claim_runs(args.seeds or (1 if args.quick else SEEDS), args.controllers, args.hands, args.quick,
+                      args.duration or (10.0 if args.quick else None))
+    progress = not args.no_progress
+    with engine_from_arguments(args) as engine:
+        if args.judge:
+            rows = list(finished(jsonl, directory).values())
+            # runs_planned: the sweep's runs for these options; fewer judged runs: the sweep had not finished.
+            document = dict(runs_planned=len(runs), runs_judged=len(rows),
+                            runs=judged(rows, directory, engine.executor, progress), engine=engine.describe(),
+                            judged_at=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), **provenance(REPO))
+            summary.parent.mkdir(parents=True, exist_ok=True)
+            summary.write_text(json.dumps(document, indent=1))
+            counts = [(r["verdict"]["stable"], r["verdict"]["safe"]) for r in document["runs"]]
+            print(f"{len(counts)} runs judged -> {summary}: {sum(s is True for s, _ in counts)} stable, "
+                  f"{sum(s is None for s, _ in counts)} not assessed, {sum(safe for _, safe in counts)} safe")
+            return 0
+        done = finished(jsonl, directory)
+        pending = [claim.key for claim in runs if claim.key not in done]
+        if args.limit is not None:   # the first ``limit`` runs not done yet, beside those done
+            keep = set(pending[:args.limit])
+            runs = [claim for claim in runs if claim.key in done or claim.key in keep]
+            pending = pending[:args.limit]
+        source = {**provenance(REPO), "engine": engine.name, "workers": engine.workers}
+        print(f"{len(runs)} runs, {len(pending)} to simulate on {engine.workers} {engine.name} workers, commit "
+              f"{source['commit']}" + (" (tracked files modified)" if source["tree_modified"] else ""), flush=True)
+        start = time.perf_counter()
+        rows, new = sweep(runs, engine.executor, directory, jsonl, source, progress)
+        wall = time.perf_counter() - start
+    if new:
+        print(f"{len(new)} runs in {wall:.0f} s of wall time: {3600.0 * len(new) / wall:.0f} runs per hour, "
+              f"{sum(r['simulated_s'] for r in new) / wall:.2f} simulated s per wall s", flush=True)
+    print(f"{len(rows)} of {len(runs)} runs kept in {directory} and {jsonl}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

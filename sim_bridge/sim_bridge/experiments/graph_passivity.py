@@ -3,11 +3,19 @@
 The graph's figures are its report's (metrics.json: the live observers' last /diagnostics, the bag's tracking
 error); the runner's are those of ``RunConfig`` with the same scene, seed, delay and law, and of the same law
 without TDPA, which says how much energy the scene makes the delay generate in the first place.
+
+The command line runs one lockstep graph run and the same configuration in process and prints both side by side:
+
+    python -m sim_bridge.experiments.graph_passivity --controller linear_tdpa --delay 1.0 --duration 8 --out /tmp/gp
+    python -m sim_bridge.experiments.graph_passivity --controller fic --tdpa --delay 1.0 --duration 8 --out /tmp/gp_fic
 """
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
+import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,3 +52,31 @@ def compare(run_dir: Path, config: RunConfig) -> PortComparison:
                           metrics.get("channel_forward_generated_j"), metrics.get("channel_backward_generated_j"),
                           metrics.get("channel_port_negative_ticks"), float(with_ports.port_energy[-1, 0]),
                           float(with_ports.port_energy[-1, 1]))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--controller", default="linear_tdpa", choices=["fic", "linear_bounded", "linear_tdpa"])
+    parser.add_argument("--tdpa", action="store_true", help="TDPA around the law (linear_tdpa has it already)")
+    parser.add_argument("--delay", type=float, default=1.0)
+    parser.add_argument("--duration", type=float, default=8.0)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", type=Path, required=True, help="the graph run's folder (must not exist)")
+    args = parser.parse_args(argv)
+    launch = [sys.executable, "-m", "fic_teleop_bringup.teleop_launcher", "--out", str(args.out),
+              "--duration", str(args.duration), "--delay", str(args.delay), "--seed", str(args.seed),
+              "--controller", args.controller, "--time-mode", "lockstep", "--no-video", "--wall-limit", "1800",
+              *(["--tdpa"] if args.tdpa else [])]
+    graph = subprocess.run(launch, capture_output=True, text=True)
+    if graph.returncode != 0:
+        print(graph.stdout[-2000:] + graph.stderr[-2000:], file=sys.stderr)
+        print(f"the graph run failed (exit {graph.returncode}); its folder: {args.out}", file=sys.stderr)
+        return 1
+    config = RunConfig(duration=args.duration, delay=args.delay, controller=args.controller, seed=args.seed,
+                       tdpa=args.tdpa)
+    print(json.dumps(dataclasses.asdict(compare(args.out, config)), indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

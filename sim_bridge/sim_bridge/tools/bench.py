@@ -185,7 +185,7 @@ def default_run(run_dir: Path, log_path: Path, launcher_args: list[str] = ()) ->
     (e.g. --group)."""
     from fic_teleop_tools.report.loop_rates import loop_rates
 
-    # No --domain-id: the launcher reserves one no other run or test holds (scripts/launch_isolation.py).
+    # No --domain-id: the launcher reserves one no other run or test holds (fic_teleop_bringup.launch_isolation).
     command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), *launcher_args]
     cpu_before, load_before = psutil.cpu_times(), list(os.getloadavg())
     code, wall, nodes = run_sampled(command, log_path)
@@ -290,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
 
     if not args.skip_lockstep:
         run_dir = runs_dir / "lockstep"
-        command = [sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--time-mode", "lockstep",
+        command = [sys.executable, "-m", "fic_teleop_bringup.teleop_launcher", "--time-mode", "lockstep",
                    "--duration", f"{args.lockstep_duration:g}", "--no-report", "--no-video", "--out", str(run_dir),
                    *launcher_args]
         print(f"[bench] lockstep graph: {' '.join(command[1:])} ...", flush=True)

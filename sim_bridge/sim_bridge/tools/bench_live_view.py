@@ -33,7 +33,7 @@ def _node_name(process: psutil.Process) -> str | None:
 
 
 def run(out: Path, duration: float, live_port: int | None) -> dict:
-    command = [sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--duration", str(duration),
+    command = [sys.executable, "-m", "fic_teleop_bringup.teleop_launcher", "--duration", str(duration),
                "--out", str(out), "--no-video"]
     if live_port:
         command += ["--live", "--live-port", str(live_port)]

@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """Run the teleoperation graph in one process (sim_bridge.experiments.in_process): the same core objects the nodes
 wrap, no DDS. Prints the tracking error, the limit counters and the speed (simulated seconds per wall second and
 per CPU second of this process).
 
-    .venv/bin/python scripts/in_process.py [--scene superimposition] [--duration 10] [--delay 0.2] [--runs 3]
+    python -m sim_bridge.experiments.run_in_process [--scene superimposition] [--duration 10] [--delay 0.2] [--runs 3]
 """
 from __future__ import annotations
 

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Closest approach of the Panda's hand and fingers to the superimposition scene's fixed obstacle, per lap.
 
 Replays a run's recorded /joint_states in the scene's MuJoCo model (the simulator's own, sim_bridge.robot.mujoco_panda)
@@ -6,8 +5,8 @@ and measures the signed distance of every hand and finger geom to the obstacle w
 penetration, i.e. a contact). One line per 5 s lap of the circle: the smallest distance, when, and where the hand
 was. This is how the E1 operator script's margin over the obstacle was measured (docs/EXPERIMENTS.md).
 
-    python scripts/obstacle_clearance.py runs/<run>            # a run folder (or its bag folder)
-    python scripts/obstacle_clearance.py runs/<run> --every 5  # every 5th joint state (default 10)
+    python -m sim_bridge.experiments.obstacle_clearance runs/<run>            # a run folder (or its bag folder)
+    python -m sim_bridge.experiments.obstacle_clearance runs/<run> --every 5  # every 5th joint state (default 10)
 """
 from __future__ import annotations
 
@@ -18,12 +17,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "sim_bridge"))
-
-from fic_core.panda_description import ARM_JOINT_NAMES  # noqa: E402
-from sim_bridge.recording.bag_reader import mcap_file  # noqa: E402
-from sim_bridge.robot.mujoco_panda import build_model  # noqa: E402
+from fic_core.panda_description import ARM_JOINT_NAMES
+from fic_teleop_tools.recording.bag_reader import mcap_file
+from sim_bridge.robot.mujoco_panda import build_model
 
 HAND_BODIES = ("panda_hand", "panda_leftfinger", "panda_rightfinger")
 OBSTACLE_GEOM = "fixed_obstacle"

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """E2 (shape sorting) sweep on the in-process runner: every law at the paper's 200 ms and the FIC and the linear
-law at 0, 0.5 and 1 s, with the closed-loop shape-sorting operator and the force-reactive hand (scripts/e2_in_process.py
-runs one trial). Resumable: every finished trial is one line of the jsonl (--out); a rerun skips the trials already
+law at 0, 0.5 and 1 s, with the closed-loop shape-sorting operator and the force-reactive hand (e2_in_process.py runs
+one trial). Resumable: every finished trial is one line of the jsonl (--out); a rerun skips the trials already
 there, so the sweep can be stopped and restarted at any time. Trials run seed-major (seed 1 of every cell, then
 seed 2, ...), so whatever has finished covers every cell.
 
@@ -10,9 +9,9 @@ compensation), fic_paper_law (Eq. 7 as the paper writes it), linear, linear_boun
 behind the channel's time-domain passivity controllers).
 
     source scripts/env.sh
-    nice -n 5 python scripts/e2_sweep.py --out results/e2_sweep.jsonl --seeds 10            # run (or resume)
-    nice -n 5 python scripts/e2_sweep.py --out results/e2_sweep.jsonl --cells fic@0.2 linear@0.2   # a subset
-    python scripts/e2_sweep.py --out results/e2_sweep.jsonl --summary results/e2_sweep.md       # k/n, Wilson 95 %
+    nice -n 5 python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10   # run (or resume)
+    nice -n 5 python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --cells fic@0.2 linear@0.2
+    python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --summary results/e2_sweep.md  # k/n, Wilson
 """
 from __future__ import annotations
 
@@ -23,12 +22,9 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO / "scripts"))
-
-from e2_in_process import FORCE_OF_NOTE_N, trial  # noqa: E402
-from sim_bridge.experiments.cell_statistics import wilson_interval  # noqa: E402
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES  # noqa: E402
+from sim_bridge.experiments.cell_statistics import wilson_interval
+from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, trial
+from sim_bridge.experiments.shape_sorting import PIECE_NAMES
 
 #: law -> (the runner's controller, the paper's Eq. 7 as written)
 LAWS = {"fic": ("fic", False), "fic_paper_law": ("fic", True), "linear": ("linear", False),

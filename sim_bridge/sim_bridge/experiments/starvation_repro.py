@@ -1,10 +1,9 @@
-#!/usr/bin/env python3
 """The starved-replica reproduction (docs/RESULTS.md "Starvation"): in-process E1 runs whose replica is starved in a
 window (sim_bridge.experiments.in_process.ReplicaStall: ticks far apart, on old states, torques late), with and
 without the replica's own loop check (fic_core.loop_health) and the robot's rule on the age of a torque's state.
 
-    .venv/bin/python scripts/starvation_repro.py --seeds 1 2 --arms old new
-    .venv/bin/python scripts/starvation_repro.py --stalls ticks2-4_age0-150 --seeds 1 2 \
+    python -m sim_bridge.experiments.starvation_repro --seeds 1 2 --arms old new
+    python -m sim_bridge.experiments.starvation_repro --stalls ticks2-4_age0-150 --seeds 1 2 \
         --arms old old_paper_law old_linear_bounded old_fresh_velocity old_dynamics_at_physics_rate robot_rule_only new
 
 Each line: the arm ("old": no loop check, no robot rule, as before them; "new": config/*.yaml as they are; the
@@ -20,13 +19,8 @@ import argparse
 import dataclasses
 import json
 import math
-import sys
-from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "sim_bridge"))
-
-from sim_bridge.experiments.in_process import ReplicaStall, RunConfig, run  # noqa: E402
+from sim_bridge.experiments.in_process import ReplicaStall, RunConfig, run
 
 #: (name, stall) of the runaway's figures: ticks 15-170 ms apart on states 22-178 ms old, and harsher variants.
 STALLS = {
@@ -64,14 +58,14 @@ def one(arm: str, stall: str, seed: int, control_rate: float, duration: float) -
             "violation_ticks": result.limit_violations}
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--arms", nargs="+", default=["old", "new"], choices=ARMS)
     parser.add_argument("--stalls", nargs="+", default=list(STALLS)[:4], choices=list(STALLS))
     parser.add_argument("--control-rate", type=float, default=500.0, help="the realtime graph's 500 Hz by default")
     parser.add_argument("--duration", type=float, default=9.0)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     for stall in args.stalls:
         for seed in args.seeds:
             for arm in args.arms:

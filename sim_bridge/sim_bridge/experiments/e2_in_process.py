@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """E2 (shape sorting) trials on the in-process runner: more seeds than the lockstep graph can run in a session.
 
 With ``--operator shape_sorting`` (the default) each trial is driven by the closed-loop shape-sorting operator
@@ -10,9 +9,9 @@ to +-0.1 s, the hand's impedance by up to +-20 %, the reactive hand's latencies 
 5 ms of channel jitter. A piece counts when it ends inside the box (sim_bridge.experiments.shape_sorting.inside_box);
 the outcome of each trial also gives the operator's phases, its retries and the time it took per piece.
 
-    source scripts/env.sh && python scripts/e2_in_process.py --trials 4 --json results/e2_operator_fic.json
-    python scripts/e2_in_process.py --controller linear --first-seed 3 --trials 1 --json linear_3.json
-    python scripts/e2_in_process.py --merge linear_1.json linear_3.json --json OUT.json --plot OUT.png
+    source scripts/env.sh && python -m sim_bridge.experiments.e2_in_process --trials 4 --json results/e2_operator_fic.json
+    python -m sim_bridge.experiments.e2_in_process --controller linear --first-seed 3 --trials 1 --json linear_3.json
+    python -m sim_bridge.experiments.e2_in_process --merge linear_1.json linear_3.json --json OUT.json --plot OUT.png
 """
 from __future__ import annotations
 
@@ -25,15 +24,15 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-REPO = Path(__file__).resolve().parent.parent
-
-from sim_bridge.device.virtual_operator import load_script  # noqa: E402
-from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER,  # noqa: E402
+from sim_bridge.device.virtual_operator import load_script
+from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER,
                                                  OPERATOR_TIMING_JITTER_S)
-from sim_bridge.experiments.in_process import RunConfig, run  # noqa: E402
-from sim_bridge.experiments.cell_statistics import wilson_interval  # noqa: E402
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box  # noqa: E402
-from sim_bridge.experiments.run_verdict import VerdictInput, judge  # noqa: E402
+from sim_bridge.experiments.in_process import RunConfig, run
+from sim_bridge.experiments.cell_statistics import wilson_interval
+from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box
+from sim_bridge.experiments.run_verdict import VerdictInput, judge
+
+REPO = Path(__file__).resolve().parents[3]
 
 FORCE_OF_NOTE_N = 10.0   # the replica's F_max: time spent above it is reported, as in the graph's E2 table
 
@@ -131,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.trials < 1:
         parser.error("--trials must be at least 1")
     script = load_script(REPO / "config" / "operator_scripts" / "shape_sorting.yaml")
-    # The script's: the graph's E2 duration (scripts/experiments.py); the operator's: three pieces at about 45 s
+    # The script's: the graph's E2 duration (paper_experiments.py); the operator's: three pieces at about 45 s
     # each with a retry's margin.
     duration = args.duration or (round(script.duration + 1.0, 1) if args.operator == "scripted" else 160.0)
     trials = []

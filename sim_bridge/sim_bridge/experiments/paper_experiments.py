@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """The paper's experiments E1-E4 (docs/EXPERIMENTS.md), run through the main job's launcher on the real graph.
 
     scripts/experiments.sh                      # everything, lockstep, results to results/
@@ -6,9 +5,9 @@
     scripts/experiments.sh --quick              # 2 short E4 cells (the in-suite test), results to runs/.../results
     scripts/experiments.sh --time-mode realtime # wall-clock paced instead of lockstep
 
-Every cell is one call of scripts/teleop_launcher.py (what scripts/run_teleop.sh runs): the whole graph as real
+Every cell is one call of the launcher (fic_teleop_bringup.teleop_launcher, what scripts/run_teleop.sh runs): the whole graph as real
 processes over DDS, recorded to an MCAP bag under --runs. Each cell is then analysed from its bag: the report's
-metrics (sim_bridge.report, computed in-process), the sweep stability criterion
+metrics (fic_teleop_tools.report, computed in-process), the sweep stability criterion
 (sim_bridge/experiments/stability.py: judged on the last half of the run), and per experiment:
 
 - E1 superimposition at 200 ms: the default run (superimposition scene, scripted operator, 200 ms each way) with the
@@ -40,7 +39,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[3]
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
 from sim_bridge.experiments.cell_analysis import analyse_cell  # noqa: E402
@@ -61,7 +60,7 @@ def e1_cells(args) -> list[Cell]:
 
 
 def e2_cells(args) -> list[Cell]:
-    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (scripts/e2_twin.py);
+    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (sim_bridge.experiments.e2_twin);
     # --e2-law default runs the same script with the replica's default model terms (docs/EXPERIMENTS.md).
     return [Cell(f"e2_seed{seed}", "E2", {"scene": "shape_sorting", "trajectory": "fixed",
                                           "duration": args.e2_duration, "delay": 0.2, "seed": seed,
@@ -130,7 +129,7 @@ def git_commit() -> str:
 
 
 def replica_max_force() -> float | None:
-    from sim_bridge.report.report import replica_config_defaults
+    from fic_teleop_tools.report.report import replica_config_defaults
 
     return replica_config_defaults().get("max_force_n")
 

@@ -1,8 +1,7 @@
-#!/usr/bin/env python3
 """Stability maps from the in-process runner, judged by energy and motion (docs/EXPERIMENTS.md).
 
 Cells: the one-way delay (E1 scene); three bandwidth sweeps, each named for what it lowers: (a) the command
-bandwidth (the channel's rate cap, the law at full rate; the claim cells, scripts/claims_sweep.py, cap both
+bandwidth (the channel's rate cap, the law at full rate; the claim cells, claims_sweep.py, cap both
 directions with the operator closing the loop), and, stricter than the FIC papers claimed, (b) the FIC feedback
 rate (the Cartesian law J^T FIC + posture at control_rate while the arm's gravity and C qd are compensated at the
 1 kHz physics rate, as on a Franka) and (c) the whole torque loop's rate (gravity included in the held torque); each run with the FIC, the FIC as the
@@ -11,9 +10,9 @@ passive at the channel's ports (linear_tdpa), over seeds (channel jitter, operat
 sim_bridge.experiments.energy_verdict; per cell k/n stable with a 95 % Wilson interval, median/p95 of the error
 and the peak force (sim_bridge.experiments.cell_statistics). Writes <out>.json and <out>_map.png.
 
-    .venv/bin/python scripts/evidence_sweep.py --quick            # 5 cells x 5 controllers x 2 seeds, 20 s
-    .venv/bin/python scripts/evidence_sweep.py --seeds 5 --duration 30 --workers 2
-    .venv/bin/python scripts/evidence_sweep.py --operator closed_loop   # the operator watching the delayed video
+    python -m sim_bridge.experiments.evidence_sweep --quick            # 5 cells x 5 controllers x 2 seeds, 20 s
+    python -m sim_bridge.experiments.evidence_sweep --seeds 5 --duration 30 --workers 2
+    python -m sim_bridge.experiments.evidence_sweep --operator closed_loop   # the operator watching the delayed video
 """
 from __future__ import annotations
 
@@ -31,7 +30,7 @@ from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, 
                                                  OPERATOR_TIMING_JITTER_S, judge)
 from sim_bridge.experiments.in_process import OPERATORS
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 def cells(quick: bool) -> list[dict]:
     """(id, label, what it lowers, runner options)."""
     delays = (0.2, 1.0) if quick else (0.0, 0.2, 0.5, 1.0, 2.0)

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Tune the E2 operator script on the in-process graph (NOT an experiment result).
 
-    .venv/bin/python scripts/e2_twin.py [--script config/operator_scripts/shape_sorting.yaml] [--seed 1] [--tune N]
+    python -m sim_bridge.experiments.e2_twin [--script config/operator_scripts/shape_sorting.yaml] [--seed 1] [--tune N]
 
 The graph in lockstep runs at 0.1-0.3x real time on this shared 2-core machine; tuning the shape-sorting script
 against it costs ~10 minutes a try. This runs the script on sim_bridge.experiments.in_process, which steps the same
@@ -18,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-REPO = Path(__file__).resolve().parent.parent
+from sim_bridge.experiments.in_process import RunConfig, run as run_graph
+from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box
+from sim_bridge.device.virtual_operator import load_script
 
-from sim_bridge.experiments.in_process import RunConfig, run as run_graph  # noqa: E402
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box  # noqa: E402
-from sim_bridge.device.virtual_operator import load_script  # noqa: E402
+REPO = Path(__file__).resolve().parents[3]
 
 
 def run(script_path: Path, seed: int, delay: float, duration: float | None, verbose: bool) -> dict:
@@ -68,7 +67,7 @@ def tune(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--script", type=Path, default=REPO / "config" / "operator_scripts" / "shape_sorting.yaml")
     parser.add_argument("--seed", type=int, default=1)
