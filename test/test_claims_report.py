@@ -135,3 +135,18 @@ def test_update_readme_replaces_only_the_block(tmp_path):
     readme.write_text("no block\n")
     with pytest.raises(SystemExit):
         main([str(path), "--update-readme", str(readme)])
+
+
+def test_each_stable_test_is_counted_where_it_failed():
+    """The table that tells which test decided a law's share: one count per test, a run failing two counts twice."""
+    rows = _runs()
+    reasons = {1: ["sustained oscillation of x_d - x_R: 9.0 mm at 1.60 s"],
+               2: ["steady energy generation at the channel's ports: 80 mW", "runaway: joint 2 at 3.00 rad/s"],
+               3: ["parked: |x_d - x_R| above 100 mm for 4.0 s on end outside contact"]}
+    for row in rows:
+        if row["controller"] == "linear" and row["seed"] in reasons:
+            row["verdict"].update(stable=False, stable_reasons=reasons[row["seed"]])
+    (cell,) = claims_statistics(rows, seeds_planned=20)["cells"]
+    assert cell["laws"]["linear"]["unstable_by_test"] == {"oscillation": 1, "growing energy": 0,
+                                                          "port generation": 1, "runaway": 1, "parked": 1}
+    assert set(cell["laws"]["fic"]["unstable_by_test"].values()) == {0}

@@ -209,13 +209,20 @@ def execute(claim: ClaimRun, directory: str | Path, provenance: dict[str, Any] |
                 figures=figures(claim, result), **(provenance or {}))
 
 
+#: run_verdict figures kept with each judged run in results/claims.json.
+VERDICT_FIGURES = ("channel_generation_rate_w", "channel_generation_rate_all_w", "channel_generation_free_s",
+                   "contact_share", "excluded_share", "energy_growth", "free_error_max_m")
+
+
 def judge_series(path: Path, delay: float) -> dict[str, Any]:
     """The run verdict (sim_bridge.experiments.run_verdict) on a kept series: stable, safe and their reasons."""
     from sim_bridge.experiments.run_verdict import VerdictInput, judge
 
     verdict = judge(VerdictInput.from_run_result(load_series(path), one_way_delay=delay))
+    # The figures a reader checks a verdict against (the rest are recomputed from the series in a second).
+    kept = {name: verdict.figures.get(name) for name in VERDICT_FIGURES}
     return dict(stable=verdict.stable, safe=verdict.safe, stable_reasons=verdict.stable_reasons,
-                safe_reasons=verdict.safe_reasons, notes=verdict.notes)
+                safe_reasons=verdict.safe_reasons, notes=verdict.notes, figures=kept)
 
 
 def provenance(repository: Path) -> dict[str, Any]:

@@ -84,12 +84,29 @@ def figure_of(row: dict, name: str):
     return row.get("figures", row).get(name)
 
 
+#: The stable verdict's tests (sim_bridge.experiments.run_verdict), each named by how its reasons begin.
+UNSTABLE_TESTS = {"oscillation": "sustained oscillation", "growing energy": "growing energy",
+                  "port generation": "steady energy generation", "runaway": "runaway", "parked": "parked"}
+
+
+def unstable_by_test(rows: Sequence[dict]) -> dict[str, int]:
+    """How many of the judged runs each stable test failed (a run may fail several): what a reader needs to see
+    whether one test, or one threshold, decides a law's share."""
+    counts = dict.fromkeys(UNSTABLE_TESTS, 0)
+    for row in rows:
+        reasons = row.get("verdict", {}).get("stable_reasons", []) if isinstance(row.get("verdict"), dict) else []
+        for test, start in UNSTABLE_TESTS.items():
+            counts[test] += any(reason.startswith(start) for reason in reasons)
+    return counts
+
+
 def law_statistics(rows: Sequence[dict]) -> dict:
     """One law on one cell: both verdicts' k/n with Wilson intervals, the seeds, median and p95 of the figures."""
     finished = [row for row in rows if judged(row)]
     out = {"runs": len(rows), "judged": len(finished),
            "seeds": sorted(row.get("seed") for row in finished),
-           **{verdict: proportion([verdict_of(row, verdict) for row in finished]).as_dict() for verdict in VERDICTS}}
+           **{verdict: proportion([verdict_of(row, verdict) for row in finished]).as_dict() for verdict in VERDICTS},
+           "unstable_by_test": unstable_by_test(finished)}
     for field, name in FIGURES.items():
         median, p95 = median_and_p95([figure_of(row, field) for row in finished])
         out[f"{name}_median"], out[f"{name}_p95"] = median, p95

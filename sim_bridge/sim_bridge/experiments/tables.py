@@ -148,6 +148,19 @@ def claims_markdown(document: dict) -> str:
                          f"{safe_interval} | {_pair(s['error_rms_median'], s['error_rms_p95'], 1e3, 1)} | "
                          f"{_pair(s['error_max_median'], s['error_max_p95'], 1e3, 1)} | "
                          f"{_pair(s['peak_force_median'], s['peak_force_p95'], 1.0, 1)} |")
+    from sim_bridge.experiments.claims_report import UNSTABLE_TESTS
+
+    lines += ["", "Which stable test each law's unstable runs failed (a run may fail several; "
+              "sim_bridge/experiments/run_verdict.py):", "",
+              "| cell | law | not stable | " + " | ".join(UNSTABLE_TESTS) + " |",
+              "|---|---|---|" + "---|" * len(UNSTABLE_TESTS)]
+    for cell in document["cells"]:
+        for law, s in cell["laws"].items():
+            failed = s.get("unstable_by_test")
+            if failed is None:
+                continue
+            lines.append(f"| {_cell_label(cell)} | {law} | {s['stable']['n'] - s['stable']['k']} | "
+                         + " | ".join(str(failed[test]) for test in UNSTABLE_TESTS) + " |")
     reference = document.get("reference_law", "fic")
     lines += ["", f"{reference} against each baseline: difference of the shares (reference minus baseline) with "
               "Newcombe's 95 % interval; Boschloo's exact test, two-sided (Fisher's beside it).", "",
