@@ -20,10 +20,6 @@ from fic_teleop_bringup.workspace import CONFIG
 FRANKA_PROFILE = "profiles/franka_ros2/replica.yaml"
 FRANKA_REMAPS = "profiles/franka_ros2/remaps.yaml"
 FD_PROFILE = "profiles/forcedimension/fd_adapter.yaml"
-#: franka_robot_state_broadcaster's convenience_publish_rate in the profile's controllers.yaml [Hz].
-FRANKA_WRENCH_RATE_HZ = 250.0
-#: forcedimension_ros2's controller-manager update_rate (fd_description/config/fd_controllers.yaml) [Hz].
-FD_UPDATE_RATE_HZ = 1000.0
 #: What the recorder takes besides its default topics: the drivers' streams.
 TWIN_TOPICS = ["/franka/joint_states", "/franka_robot_state_broadcaster/external_wrench_in_base_frame",
                "/fd/ee_pose", "/fd/joint_states", "/fd/button_state", "/fd/fd_clutch", "/fd/fd_controller/commands"]
@@ -40,36 +36,23 @@ def franka_remaps(node: str = "replica") -> dict[str, str]:
 
 
 def twin_graph(nodes: list, lockstep: bool, node_spec) -> list:
-    """The default graph's specs, turned into the twin run (``node_spec``: the launcher's NodeSpec)."""
+    """The default graph's specs, turned into the twin run (``node_spec``: the launcher's NodeSpec): its shape. The
+    twins' parameter values (driver interfaces, rates, lockstep allowances) are the hardware_twin run profile's."""
     from sim_bridge.recording.recorder_node import default_topics  # noqa: PLC0415  (only a twin run needs it)
 
     by_name = {spec.name: spec for spec in nodes}
-    robot = by_name["robot"]
-    robot.params.update({"driver_interface": "franka_ros2", "gravity_compensation": True,
-                         # ros2_control's forward controller applies the last command until another comes.
-                         "hold_on_stale_commands": False, "wrench_rate_hz": FRANKA_WRENCH_RATE_HZ})
     replica = by_name["replica"]
     replica.extra_params_files.append(FRANKA_PROFILE)
     replica.remaps.update(franka_remaps())
-    # The twin's arm is the simulated Panda, with its 0.5 N m s/rad joint friction: compensate it as the default
-    # run does (on a real FR3 the profile leaves it off).
-    replica.params["joint_damping_compensation"] = True
-    if lockstep:
-        # Lockstep holds the physics while the operator's side catches up (up to lockstep_peer_timeout, 1 s): no
-        # joint state comes then by design, which is not a driver fault.
-        replica.params["joint_state_timeout"] = 2.0
     recorder = by_name["recorder"]
     recorder.params.update({"joint_states_topic": "/franka/joint_states",
                             "topics": [t for t in default_topics() if t not in ("/joint_states", "/ft_sensor/wrench")]
                             + TWIN_TOPICS})
     device = by_name["haptic_device"]
-    device.params.update({"driver_interface": "forcedimension", "publish_rate_hz": FD_UPDATE_RATE_HZ})
     adapter = node_spec("fic_teleop_master", "fd_adapter_node", "fd_adapter", FD_PROFILE,
                         {"use_sim_time": bool(lockstep)})
-    # The replica's torque reaches the arm through the relay, as on hardware (the profile's remap). Lockstep holds
-    # the replica's commands while the operator's side catches up, as it holds the joint states: same allowance.
-    relay = node_spec("fic_teleop_replica", "command_relay_node", "command_relay", "command_relay.yaml",
-                      {"timeout": 2.0} if lockstep else {})
+    # The replica's torque reaches the arm through the relay, as on hardware (the profile's remap).
+    relay = node_spec("fic_teleop_replica", "command_relay_node", "command_relay", "command_relay.yaml", {})
     nodes = nodes[:nodes.index(replica) + 1] + [relay] + nodes[nodes.index(replica) + 1:]
     index = nodes.index(device)
     return nodes[:index] + [adapter] + nodes[index:]

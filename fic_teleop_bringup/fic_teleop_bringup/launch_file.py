@@ -62,11 +62,16 @@ def generate_launch_description():
 '''
 
 
-def node_table() -> list[tuple]:
+def _default_arguments():
+    """The launcher's options with no arguments: the realtime profile."""
     args = teleop_launcher.parse_arguments([])
     teleop_launcher.resolve_defaults(args)
+    return args
+
+
+def node_table() -> list[tuple]:
     rows = []
-    for spec in teleop_launcher.graph(args, Path("bag")):
+    for spec in teleop_launcher.graph(_default_arguments(), Path("bag")):
         parameters = {key: (0.0 if key in TIMED else value) for key, value in spec.params.items()}
         if spec.name == "recorder":
             parameters["bag_path"] = ""
@@ -77,7 +82,7 @@ def node_table() -> list[tuple]:
 def launch_text() -> str:
     nodes = pprint.pformat(node_table(), width=116, sort_dicts=False).replace("\n", "\n" + " " * 0)
     timed = ", ".join(f"{key!r}: {expression}" for key, expression in TIMED.items())
-    return TEMPLATE.format(margin=teleop_launcher.REALTIME_START_MARGIN_S, nodes=nodes, timed=timed)
+    return TEMPLATE.format(margin=_default_arguments().run_profile["start_margin_s"], nodes=nodes, timed=timed)
 
 
 def main(argv: list[str] | None = None) -> int:

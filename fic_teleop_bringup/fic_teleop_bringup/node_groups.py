@@ -2,11 +2,12 @@
 Fewer processes and DDS participants for less isolation; docs/RESULTS.md ("Graph levers") has
 the A/B figures.
 
-By default the launcher runs ``DEFAULT_GROUPS``, the best configuration measured on 2 cores: the channel's two
-directions in one process and the operator's side (haptic device, the driver twin's adapter, master) in another.
+By default the launcher runs the run profile's ``node_groups``, the best configuration measured on 2 cores: the
+channel's two directions in one process and the operator's side (haptic device, the driver twin's adapter, master)
+in another (fic_teleop_bringup/profiles/realtime.yaml).
 ``--group a,b`` (repeatable) replaces them; ``--isolated`` runs one process per node. No groups under
---scheduling fifo (its priorities are per node thread, realtime_scheduling.py) or --two-stations (each station
-runs its own nodes, and the channel pair is split across them).
+--scheduling fifo (its priorities are per node thread, realtime_scheduling.py); the two_stations profile has none
+(each station runs its own nodes, and the channel pair is split across them).
 
 Which nodes can share: any of the graph's except the recorder (it stops last, after every other node, so that it
 records their last messages) and a foreground node (the keyboard operator owns the terminal).
@@ -25,8 +26,6 @@ from typing import Callable
 from fic_teleop_bringup.launch_checks import ArgumentRefusal
 
 UNGROUPABLE = ("recorder",)
-# Measured best on 2 cores (docs/RESULTS.md, "Graph levers"); a group's names absent from a graph are left out.
-DEFAULT_GROUPS = (("channel_forward", "channel_backward"), ("haptic_device", "fd_adapter", "master"))
 
 
 def parse_groups(values: list[str] | None) -> list[list[str]]:
@@ -54,12 +53,12 @@ def check_groups(groups: list[list[str]], args) -> None:
 
 
 def run_groups(given: list[list[str]], args, specs: list) -> list[list[str]]:
-    """The groups of this run: the ``--group`` ones if given, else ``DEFAULT_GROUPS`` (each with the members this
-    graph has, two at least, none in the foreground), unless the run is --isolated, fifo or two-station."""
-    if given or getattr(args, "isolated", False) or args.scheduling == "fifo" or args.two_stations:
+    """The groups of this run: the ``--group`` ones if given, else the run profile's ``node_groups`` (each with the
+    members this graph has, two at least, none in the foreground), unless the run is --isolated or fifo."""
+    if given or getattr(args, "isolated", False) or args.scheduling == "fifo":
         return given
     groupable = {spec.name for spec in specs if not spec.foreground and spec.name not in UNGROUPABLE}
-    groups = [[name for name in group if name in groupable] for group in DEFAULT_GROUPS]
+    groups = [[name for name in group if name in groupable] for group in args.run_profile["node_groups"]]
     return [group for group in groups if len(group) >= 2]
 
 

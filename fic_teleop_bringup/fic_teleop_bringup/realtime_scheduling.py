@@ -34,9 +34,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-# Node name -> SCHED_FIFO priority (1-99; higher pre-empts lower).
-REALTIME_PRIORITIES = {"robot": 80, "replica": 70, "channel_forward": 65, "master": 60, "haptic_device": 60,
-                       "planner": 55, "channel_backward": 50}
+# Node name -> SCHED_FIFO priority (1-99; higher pre-empts lower): the run profile's fifo_priorities.
 SHARED_MEMORY_THREAD_PREFIX = "dds.shm."
 LOOP_THREAD_NAMES = ("physics",)   # sim_bridge/robot/robot_node.py PHYSICS_THREAD_NAME
 SETTLE_S = 6.0   # [s] a node process is left alone this long after its start (imports, DDS participant, executor)

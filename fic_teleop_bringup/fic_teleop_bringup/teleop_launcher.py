@@ -23,14 +23,14 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-from fic_teleop_bringup import hardware_twin, node_groups, two_stations
+from fic_teleop_bringup import hardware_twin, node_groups, run_profile, two_stations
 from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, domain_from_environment, \
     prepare_run_folder, whole_states_per_tick
 from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
 from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_REFUSED, EXIT_STARVED, die_with_launcher, \
     failed_nodes, safety_verdict
 from fic_teleop_bringup.launch_timing import exit_code, judge_run
-from fic_teleop_bringup.realtime_scheduling import REALTIME_PRIORITIES, RealtimeScheduler
+from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler
 from fic_teleop_bringup.workspace import CONFIG, REPO
 from fic_teleop_runtime.params_file import write_node_params
 from fic_teleop_runtime.parameters import file_sections
@@ -38,31 +38,8 @@ from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
 
 SCRIPT_CIRCLE_START_S = 2.0     # circle_start_time of config/operator_scripts/superimposition.yaml
 PLANNER_LAG_S = 0.2             # the harmonic planner's lag behind the circle at 0.126 m/s (measured)
-# --paper-law: the replica's model terms beyond Eq. 7 off (fic_core/replica.py).
-PAPER_LAW = {"planner_feedforward": False, "offset_feedforward": False, "joint_damping_compensation": False}
-REALTIME_START_MARGIN_S = 4.0   # realtime: the script and the circle start this long after launch
-# Realtime on 2 cores, the replica law runs at 500 Hz (the robot holds each command for 2 ms): at 1 kHz a Python
-# replica needs about 80 % of a core here (measured: 775 joint states/s with a core to itself) and, with the rest
-# of the graph, fell behind irregularly (about 350 states/s), which tracked worse than a steady 500 Hz (measured
-# in one session, docs/CONVENTIONS.md "Rates"). Lockstep has no such budget and keeps the paper's 1 kHz.
-REALTIME_CONTROL_RATE_HZ = 500.0
-# Realtime, the robot publishes /joint_states at the replica's 500 Hz: its only other reader is the recorder, and
-# the 1 kHz stream was the graph's largest (a quarter of its messages). A/B of 2026-12-04 (docs/RESULTS.md "Graph
-# levers"): pipeline latency p99 4.1 against 5.0 ms, slowest loop 0.995 against 0.976 of its rate, 5.5 CPU s less
-# per 30 s run. A replica whose period is not a whole number of 2 ms gets them every step; the driver twin keeps the
-# Franka broadcaster's 1 kHz; lockstep publishes every step (the replica answers each).
-REALTIME_JOINT_STATE_RATE_HZ = 500.0
-
-# Scheduler niceness for the loops that close through the robot. On 2 cores the graph uses most of both; with
-# these, the physics, the replica, the channel, the haptic loop and the planner get the CPU first and the
-# recorder, whose deep queues let it wait, takes what is left, instead of all of them being late together. The
-# planner is in: at the default niceness it was starved for seconds at a time (x_d'' stood still while the
-# operator script went on, and the arm ran into the obstacle it was meant to pass). Niceness, not SCHED_FIFO:
-# the rclpy 7.1 EventsExecutor and Fast DDS threads yield in loops that a FIFO thread never leaves (measured
-# here: the replica and the robot at 100 % of a core each under SCHED_FIFO).
-# Each step of niceness is about 1.25x the CPU share against a contending process at 0.
-PRIORITY_NICENESS = {"robot": -15, "replica": -12, "channel_forward": -10, "channel_backward": -10, "master": -10,
-                     "haptic_device": -10, "planner": -10, "fd_adapter": -10}
+# Every difference between the run modes (rates, clocks, groups, priorities, per-node values) is a run profile,
+# fic_teleop_bringup/profiles/*.yaml (run_profile.py).
 
 
 @dataclass
@@ -73,7 +50,7 @@ class NodeSpec:
     params_file: str | None = None
     params: dict = field(default_factory=dict)
     foreground: bool = False  # the interactive keyboard operator owns the terminal
-    niceness: int | None = None  # negative: ahead of the recorder and planner (PRIORITY_NICENESS); None: unchanged
+    niceness: int | None = None  # negative: ahead of the recorder (the profile's niceness); None: unchanged
     fifo_priority: int | None = None  # SCHED_FIFO priority of its loop threads (realtime_scheduling.py); None: none
     extra_params_files: list[str] = field(default_factory=list)  # after params_file (a driver profile, config/profiles)
     remaps: dict[str, str] = field(default_factory=dict)         # topic remaps (a driver profile's remaps.yaml)
@@ -123,15 +100,11 @@ VIDEO_ROUTES = ["/sim/tcp_pose:/master/video/tcp_pose:geometry_msgs/msg/PoseStam
                 "/sim/object_poses:/master/video/object_poses:geometry_msgs/msg/PoseArray"]
 
 
-# Lockstep: the simulation also waits for the nodes that only follow /clock (sim_bridge/robot/peer_barrier.py), by the
-# stamps of what each publishes: the device's handle pose, the master's command, the planner's pose.
-LOCKSTEP_PEERS = ["/haptic/pose", "/master/teleop_command", "/planner/desired_pose"]
-
-
 def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     """The paper's architecture (README.md, "Architecture"): device -> master -> channel -> replica -> robot, and back."""
+    profile = getattr(args, "run_profile", None) or run_profile.resolve(args)
     lockstep = args.time_mode == "lockstep"
-    sim_time = {"use_sim_time": lockstep}
+    sim_time = {"use_sim_time": profile["use_sim_time"]}
     channel = {
         "delay": args.delay,
         "jitter": args.jitter,
@@ -149,7 +122,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     # from now on the wall clock, once every node is up.
     planner_timing, operator_timing = {}, {}
     if args.scene == "superimposition" and args.trajectory == "circle" and not args.interactive:
-        origin = 0.0 if lockstep else time.time() + REALTIME_START_MARGIN_S
+        origin = (0.0 if profile["use_sim_time"] else time.time()) + profile["start_margin_s"]
         operator_timing = {"script_start_time": origin, **_script_for_delay(args.delay, bag_path.parent)}
         planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
     closed_loop = operator in ("closed_loop", "shape_sorting")   # an operator that watches the video
@@ -164,9 +137,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
                  {"scene": args.scene, "mode": args.time_mode, "seed": args.seed, **video,
-                  **({"lockstep_peers": LOCKSTEP_PEERS} if lockstep and not args.no_peer_barrier else {}),
-                  # lockstep starts once the replica and the recorder both read /joint_states: no step unrecorded
-                  **({"lockstep_subscribers": 2} if lockstep else {}), **joint_states}),
+                  **joint_states}),
         NodeSpec("sim_bridge", "recorder_node", "recorder", None,
                  {"bag_path": str(bag_path), **sim_time, **recorded_joint_states,
                   # --live: the recorder, which holds every topic's bytes already, serves the live view
@@ -174,14 +145,13 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml",
                  {"controller": replica_controller(args.controller), "control_rate": args.control_rate,
                   "channel_passivity_control": tdpa(args),
-                  "answer_every_state": lockstep,
                   # With the loops pre-empting (fifo), a new command used at the next joint state gave a latency p50
                   # of 1.3 and 1.7 ms in two runs, against 1.8-2.6 ms in five without; under niceness the extra
                   # ticks only added load (A/B in one session: no gain).
                   "tick_on_command": args.scheduling == "fifo",
                   # the channel's delay must fit inside the replica's command-age bound (input_guard.py)
                   "max_command_age": 3.0 + args.delay + args.jitter,
-                  **(PAPER_LAW if args.paper_law else {}), **sim_time}),
+                  **sim_time}),
         NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml",
                  {"trajectory": args.trajectory, **planner_timing, **sim_time}),
         NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {**channel, **sim_time}),
@@ -196,16 +166,20 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         nodes.append(NodeSpec("sim_bridge", "keyboard_operator", "keyboard_operator", None, {}, foreground=True))
     if args.hardware_twin:
         nodes = hardware_twin.twin_graph(nodes, lockstep, NodeSpec)
+    for spec in nodes:   # the profile's values for each node, under the options' own
+        spec.params = {**run_profile.node_parameters(profile, spec.name, lockstep), **spec.params}
     by_name = {spec.name: spec for spec in nodes}
+    if args.no_peer_barrier and "robot" in by_name:
+        by_name["robot"].params.pop("lockstep_peers", None)
     for node, path in params_files(args.params_file):
         if node not in by_name:
             raise ArgumentRefusal(f"--params-file: no node {node!r} in this graph (its nodes: {', '.join(by_name)})")
         by_name[node].extra_params_files.append(str(path))
     if args.scheduling != "default":
         for spec in nodes:
-            spec.niceness = PRIORITY_NICENESS.get(spec.name)
+            spec.niceness = profile["niceness"].get(spec.name)
             if args.scheduling == "fifo":
-                spec.fifo_priority = REALTIME_PRIORITIES.get(spec.name)
+                spec.fifo_priority = profile["fifo_priorities"].get(spec.name)
     return nodes
 
 
@@ -446,8 +420,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                         help="the replica's Eq. 7 as the paper writes it: no inertial feedforward and no friction "
                              "compensation (by default both are on, config/replica.yaml)")
     parser.add_argument("--control-rate", type=float, default=None,
-                        help="replica control rate [Hz] (default: 1000 in lockstep, the paper's rate; 500 in realtime, "
-                             "REALTIME_CONTROL_RATE_HZ)")
+                        help="replica control rate [Hz] (default: the profile's control_rate_hz, 1000 in lockstep, "
+                             "the paper's rate; 500 in realtime)")
     parser.add_argument("--joint-state-rate", type=float, default=None, metavar="HZ",
                         help="realtime: the robot's /joint_states rate, a divisor of 1000 not below the replica's "
                              "control rate (default: the replica's 500 Hz, 1000 with a faster replica or the driver "
@@ -457,8 +431,14 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--no-peer-barrier", action="store_true",
                         help="lockstep: step on the replica's answers only, without waiting for the device, master "
                              "and planner to keep up (how lockstep ran before; runs then depend on the machine's load)")
-    parser.add_argument("--time-mode", default="realtime", choices=["realtime", "lockstep"],
-                        help="realtime: wall-clock paced; lockstep: the sim waits for each command (deterministic)")
+    parser.add_argument("--time-mode", default=None, choices=list(run_profile.TIME_MODES),
+                        help="realtime (default): wall-clock paced; lockstep: the sim waits for each command "
+                             "(deterministic; the lockstep profile)")
+    parser.add_argument("--profile", default=None, metavar="NAME|PATH.yaml",
+                        help="a run profile: a built-in one by name (realtime, lockstep, paper_law, hardware_twin, "
+                             "two_stations: the same as their options) or a YAML file of one's own, applied last over "
+                             "the layers its options and the command line select (fic_teleop_bringup/profiles, "
+                             "docs/ARCHITECTURE.md \"Bringup\")")
     parser.add_argument("--interactive", action="store_true", help="drive the operator's hand from the keyboard")
     parser.add_argument("--operator", default=None, choices=OPERATORS,
                         help="superimposition: scripted (the E1 script, timed for --delay) or closed-loop (times its "
@@ -505,15 +485,19 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
 
 
 def resolve_defaults(args: argparse.Namespace) -> None:
-    """The defaults that depend on other arguments (also what scripts/launch_file.py writes the launch file from)."""
+    """The run profile and the defaults that depend on it and on other arguments (also what launch_file.py writes
+    the launch file from). ArgumentRefusal (run_profile.ProfileError) names a profile that cannot be used."""
+    args.run_profile = profile = run_profile.resolve(args)
     if args.control_rate is None:
-        args.control_rate = 1000.0 if args.time_mode == "lockstep" else REALTIME_CONTROL_RATE_HZ
+        args.control_rate = float(profile["control_rate_hz"])
     usable_rate = math.isfinite(args.control_rate) and args.control_rate > 0.0   # else check_options refuses it
-    if args.joint_state_rate is None and args.time_mode == "realtime" and not args.hardware_twin and usable_rate:
-        # 500 Hz when the control period is a whole number of its 2 ms (500, 250, 100 Hz ...): the replica's ticks
-        # fall on its states. Otherwise (a faster replica, or 300 Hz, which would tick every 4 ms) every step.
-        args.joint_state_rate = (REALTIME_JOINT_STATE_RATE_HZ
-                                 if whole_states_per_tick(REALTIME_JOINT_STATE_RATE_HZ, args.control_rate) else 1000.0)
+    joint_state_rate = profile["joint_state_rate_hz"]
+    if args.joint_state_rate is None and joint_state_rate is not None and usable_rate:
+        # The profile's rate when the control period is a whole number of its periods (500 Hz: 500, 250, 100 Hz ...):
+        # the replica's ticks fall on its states. Otherwise (a faster replica, or 300 Hz, which would tick every
+        # 4 ms) every step.
+        args.joint_state_rate = (float(joint_state_rate)
+                                 if whole_states_per_tick(float(joint_state_rate), args.control_rate) else 1000.0)
     if args.no_priority:
         args.scheduling = "default"
     if args.operator is None:    # E2's operator closes the loop through the channel; the others play a script
@@ -524,7 +508,11 @@ def resolve_defaults(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_arguments(argv)
-    resolve_defaults(args)
+    try:
+        resolve_defaults(args)
+    except ArgumentRefusal as refusal:
+        print(f"[run] refused: {refusal}", file=sys.stderr)
+        return EXIT_REFUSED
     if args.scheduling == "fifo" and args.time_mode == "lockstep":
         print("[run] refused: --scheduling fifo is for realtime runs (lockstep waits for every answer and needs no "
               "pre-emption)", file=sys.stderr)

@@ -12,7 +12,7 @@ import pytest
 
 from conftest import REPO, assert_stopped_clean, isolated_env, reserved_domain, unclean_exit
 
-from fic_teleop_bringup import node_groups
+from fic_teleop_bringup import node_groups, run_profile
 from fic_teleop_bringup.launch_checks import ArgumentRefusal
 from fic_teleop_bringup.teleop_launcher import NodeSpec, node_command
 
@@ -74,7 +74,10 @@ def _graph() -> list[NodeSpec]:
 
 
 def _args(**given) -> argparse.Namespace:
-    return argparse.Namespace(**{"scheduling": "nice", "two_stations": False, "isolated": False, **given})
+    args = argparse.Namespace(**{"scheduling": "nice", "two_stations": False, "isolated": False, "time_mode": None,
+                                 "profile": None, **given})
+    args.run_profile = run_profile.resolve(args)   # the groups are the profile's
+    return args
 
 
 def test_the_default_groups_are_the_channel_pair_and_the_operators_side_present_in_the_graph() -> None:
