@@ -2,7 +2,7 @@
 
 The robot node (MuJoCo Panda, realtime) and the replica node run as processes; the test process plays the
 channel (a legitimate writer of /replica/teleop_command, x_d' = 0) and watches the simulator's ground-truth TCP
-(/sim/tcp_pose, which no input of the replica can fake) and /diagnostics. scripts/fault_probes.py is the outside
+(/sim/tcp_pose, which no input of the replica can fake) and /diagnostics. sim_bridge.tools.fault_probes is the outside
 process. Before fic_core.input_authority each of these moved the arm (0.37-0.6 m, docs/RESULTS.md).
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ from conftest import CONFIG, REPO
 rclpy = pytest.importorskip("rclpy")
 pytestmark = pytest.mark.nodes
 
-PROBES = REPO / "scripts" / "fault_probes.py"
+PROBES = ["-m", "sim_bridge.tools.fault_probes"]
 POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
 
 
@@ -104,7 +104,7 @@ class Watcher:
 
 
 def _probe(ros_env: dict[str, str], *arguments: str) -> str:
-    result = subprocess.run([sys.executable, str(PROBES), *arguments], env=ros_env, capture_output=True, text=True,
+    result = subprocess.run([sys.executable, *PROBES, *arguments], env=ros_env, capture_output=True, text=True,
                             timeout=120)
     assert result.returncode == 0, result.stdout + result.stderr
     return result.stdout

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Write config/live_view.json, the Foxglove layout of the live view (`scripts/run_teleop.sh --live`).
 
 Built with the SDK's own layout types (foxglove.layouts), so the file is what Foxglove imports; the test
@@ -7,7 +6,7 @@ serves. Panels: the arm in 3D (its URDF through the server's assets, posed by /l
 (/replica/desired_pose) and x_R (/replica/tcp_pose); the interaction forces; the FIC phases and energy
 (paper Eq. 2: divergence D = 0, convergence C = 1 per axis); the limit flags of the postural optimisation.
 
-usage: scripts/live_view_layout.py [--check]   (--check: exit 1 if config/live_view.json differs)
+usage: python -m sim_bridge.tools.live_view_layout [--check]   (--check: exit 1 if config/live_view.json differs)
 """
 from __future__ import annotations
 
@@ -17,7 +16,7 @@ from pathlib import Path
 
 import foxglove.layouts as fl
 
-LAYOUT_PATH = Path(__file__).resolve().parent.parent / "config" / "live_view.json"
+LAYOUT_PATH = Path(__file__).resolve().parents[3] / "config" / "live_view.json"
 URDF_URL = "package://example-robot-data/robots/panda_description/urdf/panda.urdf"
 AXES = ("x", "y", "z")
 
@@ -101,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     text = layout_text()
     if args.check:
         if not LAYOUT_PATH.exists() or LAYOUT_PATH.read_text() != text:
-            print(f"{LAYOUT_PATH} is not what scripts/live_view_layout.py writes; run it", file=sys.stderr)
+            print(f"{LAYOUT_PATH} is not what python -m sim_bridge.tools.live_view_layout writes; run it",
+                  file=sys.stderr)
             return 1
         return 0
     LAYOUT_PATH.write_text(text)
