@@ -62,7 +62,7 @@ def read_bag(bag: Path, decode: set[str]) -> dict:
 
 
 def traffic_summary(capture: dict, start: float | None, end: float | None) -> dict:
-    from rtps_traffic import summarise
+    from fic_teleop_bringup.rtps_traffic import summarise
     summary = summarise(capture, start, end)
     totals = {direction: round(sum(e["bytes"] for e in topics.values()) / max((end - start), 1e-9), 1)
               if start is not None and end is not None else None for direction, topics in summary.items()}
