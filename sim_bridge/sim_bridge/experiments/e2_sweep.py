@@ -23,7 +23,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from sim_bridge.experiments.cell_statistics import wilson_interval
-from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, trial
+from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, plot, trial
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES
 
 #: law -> (the runner's controller, the paper's Eq. 7 as written)
@@ -108,7 +108,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=DURATION_S, help="simulated s a trial")
     parser.add_argument("--summary", type=Path, default=None,
                         help="instead of running: write the table of what the jsonl holds here ('-': print it)")
+    parser.add_argument("--plot", type=Path, default=None, metavar="PREFIX",
+                        help="instead of running: one PNG a cell, PREFIX_<law>_<delay>.png: |F_R| against time for "
+                             "each trial, F_max and the operator's phases")
     args = parser.parse_args(argv)
+    if args.plot is not None:
+        cells: dict[tuple[str, float], list[dict]] = defaultdict(list)
+        for row in done_trials(args.out):
+            cells[(row["law"], row["delay_s"])].append(row)
+        for (law, delay), trials in sorted(cells.items()):
+            plot(sorted(trials, key=lambda row: row["seed"]), Path(f"{args.plot}_{law}_{delay:g}.png"),
+                 f"{law} at {delay:g} s")
+        return 0
     if args.summary is not None:
         table = summary(done_trials(args.out))
         if str(args.summary) == "-":

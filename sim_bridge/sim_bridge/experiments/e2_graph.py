@@ -1,0 +1,158 @@
+"""E2 (shape sorting) trials on the DDS graph: the launcher in lockstep with the shape-sorting operator (the scene's
+default, --operator shape-sorting), one run a seed, judged as e2_in_process.py judges the runner's trials.
+
+Resumable: each finished trial is one line of the jsonl (--out); a rerun skips the seeds already there. Per trial:
+the pieces inside the box (the robot's ground truth, sim_bridge.experiments.shape_sorting), the operator's phases,
+retries and time per piece (from the device node's log), the peak force and the time above F_max (the replica's
+F/T force in the bag), limit violations, and the run's stable and safe verdicts (the report's verdict.json).
+The seed sets the channel's jitter draws and the bonds' break thresholds; the operator and its hand are the same in
+every graph trial (the in-process runner also varies those by seed).
+
+    source scripts/env.sh
+    nice -n 5 python -m sim_bridge.experiments.e2_graph --out results/e2_graph.jsonl --seeds 1 2 3 4
+    python -m sim_bridge.experiments.e2_graph --out results/e2_graph.jsonl --summary -
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sim_bridge.experiments.cell_statistics import wilson_interval
+from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, operator_outcome
+from sim_bridge.experiments.shape_sorting import PIECE_NAMES, piece_outcomes
+
+DURATION_S = 160.0   # as the in-process trials (e2_in_process.py)
+PHASE = re.compile(r"shape-sorting operator: (\w+:\w+) at ([\d.]+) s \(([-\d.e+naif]+)\)")
+
+
+def run_trial(seed: int, delay: float, controller: str, paper_law: bool, duration: float, runs_dir: Path,
+              wall_limit: float) -> dict:
+    out = runs_dir / f"{controller}{'_paper_law' if paper_law else ''}_{delay:g}_seed{seed}"
+    command = [sys.executable, "-m", "fic_teleop_bringup.teleop_launcher", "--scene", "shape_sorting",
+               "--operator", "shape-sorting", "--time-mode", "lockstep", "--delay", str(delay), "--controller",
+               controller, "--seed", str(seed), "--duration", str(duration), "--no-video", "--out", str(out),
+               "--wall-limit", str(wall_limit), *(["--paper-law"] if paper_law else [])]
+    started = time.monotonic()
+    process = subprocess.run(command, capture_output=True, text=True)
+    wall = time.monotonic() - started
+    (runs_dir / f"{out.name}.launcher.log").write_text(process.stdout + process.stderr)
+    return judge_run(out, seed, delay, controller, paper_law, process.returncode, wall)
+
+
+def judge_run(out: Path, seed: int, delay: float, controller: str, paper_law: bool, returncode: int,
+              wall: float) -> dict:
+    from sim_bridge.experiments.bag_series import read_run
+
+    row = {"law": controller + ("_paper_law" if paper_law else ""), "delay_s": delay, "seed": seed,
+           "launcher_exit_code": returncode, "wall_s": round(wall, 1), "run_dir": str(out)}
+    series = read_run(out / "bag")
+    outcomes = piece_outcomes(series)
+    row["pieces_inside"] = [outcome.name for outcome in outcomes if outcome.inside]
+    force = np.linalg.norm(series.force, axis=1) if series.force.size else np.zeros(1)
+    times = series.wrench_time if series.force.size else np.zeros(1)
+    step = float(np.median(np.diff(times))) if times.size > 1 else 0.0
+    row["simulated_s"] = round(float(times[-1]), 1)
+    row["peak_force_n"] = round(float(force.max()), 1)
+    row["time_above_f_max_s"] = round(float((force > FORCE_OF_NOTE_N).sum() * step), 2)
+    robot = series.diagnostics.get("robot_sim", {})
+    row["bonds"] = {key: robot.get(key) for key in ("bonds_formed", "bond_breaks")}
+    metrics_path, verdict_path = out / "report" / "metrics.json", out / "report" / "verdict.json"
+    metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else {}
+    row["limit_violations"] = metrics.get("limit_violations")
+    verdict = json.loads(verdict_path.read_text()) if verdict_path.exists() else {}
+    row["verdict"] = {key: verdict.get(key) for key in ("stable", "safe", "stable_reasons", "safe_reasons")}
+    log_path = out / "logs" / "haptic_device.log"
+    moves = [(label, float(start), float(value)) for label, start, value in
+             PHASE.findall(log_path.read_text())] if log_path.exists() else []
+    row["pieces"] = operator_outcome(moves, force, times)
+    finished = [piece["end_s"] for piece in row["pieces"].values() if piece["end_s"] is not None]
+    row["task_time_s"] = round(max(finished), 2) if len(finished) == len(PIECE_NAMES) else None
+    row["retries"] = sum(piece["retries"] for piece in row["pieces"].values())
+    decimate = max(1, int(round(0.1 / step))) if step > 0 else 1
+    row["trace"] = {"time": np.round(times[::decimate], 3).tolist(), "force_n": np.round(force[::decimate], 2).tolist(),
+                    "phases": [(label, round(start, 2)) for label, start, _ in moves]}
+    return row
+
+
+def done_rows(path: Path) -> list[dict]:
+    rows = []
+    for line in path.read_text().splitlines() if path.exists() else []:
+        try:
+            rows.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return rows
+
+
+def summary(rows: list[dict]) -> str:
+    by_cell: dict[tuple[str, float], list[dict]] = {}
+    for row in rows:
+        by_cell.setdefault((row["law"], row["delay_s"]), []).append(row)
+    lines = []
+    for (law, delay), trials in sorted(by_cell.items()):
+        n = len(trials)
+        complete = sum(len(row["pieces_inside"]) == len(PIECE_NAMES) for row in trials)
+        pieces = sum(len(row["pieces_inside"]) for row in trials)
+        low, high = wilson_interval(complete, n)
+        piece_low, piece_high = wilson_interval(pieces, n * len(PIECE_NAMES))
+        durations = [piece["duration_s"] for row in trials for piece in row["pieces"].values()
+                     if piece["result"] == "inside"]
+        stable = [row["verdict"]["stable"] for row in trials if row["verdict"].get("stable") is not None]
+        safe = [row["verdict"]["safe"] for row in trials if row["verdict"].get("safe") is not None]
+        lines.append(f"{law} @ {delay:g} s: {complete}/{n} trials complete ({low:.2f}-{high:.2f}), {pieces}/"
+                     f"{n * len(PIECE_NAMES)} pieces inside ({piece_low:.2f}-{piece_high:.2f}), "
+                     f"{(sum(durations) / len(durations)) if durations else float('nan'):.1f} s a piece inside, "
+                     f"peak force {[row['peak_force_n'] for row in trials]} N, above {FORCE_OF_NOTE_N:g} N "
+                     f"{[row['time_above_f_max_s'] for row in trials]} s, retries "
+                     f"{sum(row['retries'] for row in trials)}, limit violations "
+                     f"{sum(row['limit_violations'] or 0 for row in trials)}, stable {sum(stable)}/"
+                     f"{len(stable)}, safe {sum(safe)}/{len(safe)}")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4], help="default 1 2 3 4 (the paper's 4)")
+    parser.add_argument("--delay", type=float, default=0.2)
+    parser.add_argument("--controller", default="fic", choices=("fic", "linear", "linear_bounded", "linear_tdpa"))
+    parser.add_argument("--paper-law", action="store_true", help="the replica's Eq. 7 as the paper writes it")
+    parser.add_argument("--duration", type=float, default=DURATION_S)
+    parser.add_argument("--runs-dir", type=Path, default=Path("runs") / "e2_graph", help="the run folders")
+    parser.add_argument("--wall-limit", type=float, default=7200.0)
+    parser.add_argument("--summary", type=Path, default=None, help="instead of running: print ('-') or write the "
+                                                                   "k/n of the jsonl")
+    args = parser.parse_args(argv)
+    if args.summary is not None:
+        text = summary(done_rows(args.out))
+        print(text, end="") if str(args.summary) == "-" else args.summary.write_text(text)
+        return 0
+    args.runs_dir.mkdir(parents=True, exist_ok=True)
+    law = args.controller + ("_paper_law" if args.paper_law else "")
+    done = {(row["law"], row["delay_s"], row["seed"]) for row in done_rows(args.out)}
+    for seed in args.seeds:
+        if (law, args.delay, seed) in done:
+            continue
+        row = run_trial(seed, args.delay, args.controller, args.paper_law, args.duration, args.runs_dir,
+                        args.wall_limit)
+        with args.out.open("a") as handle:
+            handle.write(json.dumps(row) + "\n")
+            handle.flush()
+            os.fsync(handle.fileno())
+        print(f"[e2-graph] {law}@{args.delay:g} seed {seed}: exit {row['launcher_exit_code']}, "
+              f"{row['simulated_s']} s simulated in {row['wall_s']} s, {len(row['pieces_inside'])}/{len(PIECE_NAMES)} "
+              f"inside, peak {row['peak_force_n']} N, stable {row['verdict']['stable']}, safe {row['verdict']['safe']}",
+              flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
