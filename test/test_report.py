@@ -1,4 +1,4 @@
-"""sim_bridge.report on a synthetic bag with known answers (the metric definitions of docs/EXPERIMENTS.md).
+"""fic_teleop_tools.report on a synthetic bag with known answers (the metric definitions of docs/EXPERIMENTS.md).
 
 The bag is written with rosbags' own rosbag2 writer and serialiser (not ours), so this also shows that the report
 reads any rosbag2 MCAP bag. Scenario (sim time, t = 0 at the first joint state, warm-up 1 s):
@@ -52,7 +52,7 @@ def _pipeline_ms(k: int) -> float:
 def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    from sim_bridge.recording.bag_writer import find_interface_file
+    from fic_teleop_tools.recording.bag_writer import find_interface_file
 
     store = get_typestore(Stores.ROS2_JAZZY)
     for name in ("FicState", "LimitStatus", "ChannelDelivery"):
@@ -144,7 +144,7 @@ def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
 
 
 def test_metrics_of_a_known_session(synthetic_bag, tmp_path):
-    from sim_bridge.report import ReportSettings, make_report
+    from fic_teleop_tools.report import ReportSettings, make_report
 
     bag, truth = synthetic_bag
     analysis, plots = make_report(bag, tmp_path / "report", ReportSettings(warmup_s=WARMUP, max_force_n=15.0))
@@ -187,7 +187,7 @@ def test_metrics_of_a_known_session(synthetic_bag, tmp_path):
 
 
 def test_warmup_changes_what_counts(synthetic_bag, tmp_path):
-    from sim_bridge.report import ReportSettings, analyse, load_bag
+    from fic_teleop_tools.report import ReportSettings, analyse, load_bag
 
     bag, _ = synthetic_bag
     metrics = analyse(load_bag(bag), ReportSettings(warmup_s=0.0)).metrics
@@ -198,18 +198,45 @@ def test_warmup_changes_what_counts(synthetic_bag, tmp_path):
 def test_command_line(synthetic_bag, tmp_path):
     bag, _ = synthetic_bag
     out = tmp_path / "cli"
-    result = subprocess.run([sys.executable, "-m", "sim_bridge.report", str(bag / "synthetic.mcap"), "--out", str(out),
-                             "--warmup", str(WARMUP)], capture_output=True, text=True, timeout=120)
+    result = subprocess.run([sys.executable, "-m", "fic_teleop_tools.report", str(bag / "synthetic.mcap"),
+                             "--out", str(out), "--warmup", str(WARMUP)], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     assert "free_motion_error_rms_m" in result.stdout and "MISSED" in result.stdout  # rtf 0.8 < 0.95
     assert json.loads((out / "metrics.json").read_text())["dropped_joint_states"] == len(SKIPPED_JOINT_STATES)
-    missing = subprocess.run([sys.executable, "-m", "sim_bridge.report", str(tmp_path / "nope")],
+    missing = subprocess.run([sys.executable, "-m", "fic_teleop_tools.report", str(tmp_path / "nope")],
                              capture_output=True, text=True, timeout=60)
     assert missing.returncode == 2 and "cannot read the bag" in missing.stderr
 
 
+def test_recording_report_and_commands_need_no_mujoco(synthetic_bag, tmp_path):
+    """A hardware install records, reports and inspects without the simulator's MuJoCo: with ``mujoco`` made
+    unimportable, the recorder, the bag tools and the commands import and the report runs to its verdict."""
+    bag, _ = synthetic_bag
+    out = tmp_path / "no_mujoco"
+    code = (
+        "import sys\n"
+        "sys.modules['mujoco'] = None  # any 'import mujoco' now raises ImportError\n"
+        "import fic_teleop_tools.recording.recorder_node, fic_teleop_tools.recording.recovery\n"
+        "import fic_teleop_tools.recording.live_view\n"
+        "import fic_teleop_tools.cli.__main__, fic_teleop_tools.cli.bags, fic_teleop_tools.cli.topics\n"
+        "import fic_teleop_tools.cli.params\n"
+        "from fic_teleop_tools.report.__main__ import main\n"
+        f"code = main([{str(bag / 'synthetic.mcap')!r}, '--out', {str(out)!r}, '--warmup', '{WARMUP}'])\n"
+        "assert sys.modules['mujoco'] is None\n"
+        "sys.exit(code)\n")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "free_motion_error_rms_m" in result.stdout and "[verdict]" in result.stdout
+    assert (out / "metrics.json").is_file() and (out / "verdict.json").is_file()
+    # --render is the one part that needs the simulator: refused in one line, not a traceback.
+    render = subprocess.run([sys.executable, "-c", code.replace("'--warmup'", "'--render', '--warmup'")],
+                            capture_output=True, text=True, timeout=120)
+    assert render.returncode == 2 and "--render needs the simulator" in render.stderr
+    assert "Traceback" not in render.stderr
+
+
 def test_key_frames_follow_the_recorded_joint_states(synthetic_bag, tmp_path):
-    from sim_bridge.report import make_report
+    from fic_teleop_tools.report import make_report
 
     bag, _ = synthetic_bag
     _, images = make_report(bag, tmp_path / "frames", key_frame_interval=4.0, scene="free_space")

@@ -14,7 +14,7 @@ import pytest
 
 from conftest import INSTALL, REPO, installed_executable
 
-NODE_PACKAGES = ("fic_teleop_master", "fic_teleop_replica", "fic_teleop_planner", "sim_bridge")
+NODE_PACKAGES = ("fic_teleop_master", "fic_teleop_replica", "fic_teleop_planner", "sim_bridge", "fic_teleop_tools")
 
 
 def _console_scripts(package: str) -> list[str]:

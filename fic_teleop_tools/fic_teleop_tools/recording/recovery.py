@@ -5,8 +5,8 @@ import os
 
 import yaml
 
-from sim_bridge.recording.bag_reader import ReadResult, read_messages
-from sim_bridge.recording.bag_writer import BagSummary, BagWriter
+from fic_teleop_tools.recording.bag_reader import ReadResult, read_messages
+from fic_teleop_tools.recording.bag_writer import BagSummary, BagWriter
 
 
 def recover(src: str | os.PathLike, dst_bag_dir: str | os.PathLike) -> tuple[BagSummary, ReadResult]:

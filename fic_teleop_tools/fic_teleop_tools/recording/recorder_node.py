@@ -1,6 +1,6 @@
 """Recorder node: every topic of the teleoperation graph to a rosbag2-layout MCAP bag (README.md, "What the demo shows").
 
-Wiring only; the file format is sim_bridge.recording.bag_writer. The subscriptions are raw (CDR bytes, never
+Wiring only; the file format is fic_teleop_tools.recording.bag_writer. The subscriptions are raw (CDR bytes, never
 deserialised) and their callbacks only append (topic index, bytes, receive time) to a deque; a writer thread
 drains it into the bag, closes a chunk every `flush_period` (so a SIGKILL loses at most that much), counts
 messages per topic and checks /joint_states for gaps. That keeps the executor thread free to take ~8 topics at
@@ -47,9 +47,9 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from fic_core.errors import FicInputError
-from sim_bridge.recording.bag_writer import BagError, BagWriter, MessageDefinitionError, full_type_name, message_definition, \
+from fic_teleop_tools.recording.bag_writer import BagError, BagWriter, MessageDefinitionError, full_type_name, message_definition, \
     qos_profile_dict
-from sim_bridge.recording.live_view import LiveView, LiveViewError
+from fic_teleop_tools.recording.live_view import LiveView, LiveViewError
 from fic_teleop_runtime.cdr_header import header_stamp
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
@@ -79,7 +79,7 @@ SCHEMA = Schema(
     text("joint_states_topic", "topic whose header stamps are checked for gaps"),
     number("joint_states_period", 1e-6, 1.0, "seconds between consecutive joint-state stamps (the simulator's "
                                              "physics step)"),
-    # The live view (sim_bridge/recording/live_view.py): the recorded topics on a Foxglove WebSocket server.
+    # The live view (fic_teleop_tools/recording/live_view.py): the recorded topics on a Foxglove WebSocket server.
     integer("live_port", 0, 65535, "TCP port of the live view's Foxglove WebSocket server; 0: no live view"),
     text("live_host", "address the live view binds to (127.0.0.1: this machine only)"),
     number("live_rate", 0.1, 1000.0, "most messages a second the live view sends of any one topic"),

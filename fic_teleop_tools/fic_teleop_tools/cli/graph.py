@@ -9,7 +9,7 @@ import rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from sim_bridge.cli.errors import CommandError
+from fic_teleop_tools.cli.errors import CommandError
 
 
 @contextlib.contextmanager

@@ -7,8 +7,8 @@ from rcl_interfaces.msg import ParameterType, ParameterValue
 from rclpy.parameter import get_parameter_value, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 
-from sim_bridge.cli.errors import CommandError
-from sim_bridge.cli.graph import fully_qualified, graph_node
+from fic_teleop_tools.cli.errors import CommandError
+from fic_teleop_tools.cli.graph import fully_qualified, graph_node
 from fic_teleop_runtime.params_file import params_file_text
 
 TYPE_NAMES = {ParameterType.PARAMETER_BOOL: "Boolean", ParameterType.PARAMETER_INTEGER: "Integer",

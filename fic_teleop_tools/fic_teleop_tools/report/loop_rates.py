@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 from fic_teleop_runtime.parameters import file_sections
 
-from sim_bridge.driver_twins import ForceDimensionTopics, FrankaRos2Topics
-from sim_bridge.recording.bag_reader import read_messages
+from fic_teleop_runtime.driver_topics import ForceDimensionTopics, FrankaRos2Topics
+from fic_teleop_tools.recording.bag_reader import read_messages
 
 REPO = Path(__file__).resolve().parents[3]
 

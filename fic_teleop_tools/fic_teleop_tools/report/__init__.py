@@ -1,6 +1,6 @@
 """Turn a recorded session (rosbag2-layout MCAP bag) into metrics.json and the paper-style plots (docs/EXPERIMENTS.md, "Metrics").
 
-    python -m sim_bridge.report <bag folder or .mcap> [--out DIR] [--warmup 2.0] [--f-max 15]
+    python -m fic_teleop_tools.report <bag folder or .mcap> [--out DIR] [--warmup 2.0] [--f-max 15]
 
 Pure Python (mcap, mcap-ros2-support, numpy, matplotlib); no rclpy. See metrics.py for the definitions.
 """

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from sim_bridge.cli.errors import CommandError
+from fic_teleop_tools.cli.errors import CommandError
 
 GROUPS = """the ros2 command each one stands in for:
   topic list [-t]                       ros2 topic list [-t]
@@ -73,14 +73,14 @@ def parser() -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     if args.group == "topic":
-        from sim_bridge.cli import topics
+        from fic_teleop_tools.cli import topics
         if args.verb == "list":
             return topics.topic_list(args.show_types, args.timeout)
         if args.verb == "echo":
             return topics.topic_echo(args.topic, 1 if args.once else args.count, args.timeout, args.field)
         return topics.topic_hz(args.topic, args.window, args.duration, args.timeout)
     if args.group == "param":
-        from sim_bridge.cli import params
+        from fic_teleop_tools.cli import params
         if args.verb == "list":
             print("\n".join(f"  {name}" for name in params.param_list(args.node, args.timeout)))
             return 0
@@ -90,12 +90,12 @@ def run(args: argparse.Namespace) -> int:
             return params.param_set(args.node, args.name, args.value, args.timeout)
         return params.param_dump(args.node, args.timeout)
     if args.group == "node":
-        from sim_bridge.cli.graph import graph_node, node_names, settle
+        from fic_teleop_tools.cli.graph import graph_node, node_names, settle
         with graph_node() as graph:
             names = settle(graph, lambda: node_names(graph), args.timeout)
         print("\n".join(names))
         return 0
-    from sim_bridge.cli import bags
+    from fic_teleop_tools.cli import bags
     if args.verb == "info":
         return bags.bag_info(args.bag)
     if args.verb == "recover":

@@ -1,6 +1,6 @@
 """Read a recorded session into numpy arrays, with the mcap library and mcap-ros2-support only.
 
-Deliberately independent of sim_bridge.recording.bag_writer: the report must read any rosbag2-layout MCAP bag (one
+Deliberately independent of fic_teleop_tools.recording.bag_writer: the report must read any rosbag2-layout MCAP bag (one
 written by `ros2 bag record -s mcap` as well as ours), so it relies on nothing but the files' own schemas.
 Messages are read sequentially (mcap's StreamReader, CRCs checked), so a bag whose recorder was killed (no
 summary, no footer) reads up to its last complete chunk; `BagData.complete` says whether the footer was there.
@@ -22,7 +22,7 @@ import yaml
 from mcap.records import Channel
 from mcap_ros2.decoder import DecoderFactory
 
-from sim_bridge.recording.bag_reader import BagReadError, ReadResult, mcap_file, read_messages
+from fic_teleop_tools.recording.bag_reader import BagReadError, ReadResult, mcap_file, read_messages
 
 # Topics decoded in full (everything else is only counted).
 POSE_TOPICS = ("/replica/desired_pose", "/replica/tcp_pose", "/planner/desired_pose", "/master/pose")

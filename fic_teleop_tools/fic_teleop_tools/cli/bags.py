@@ -1,4 +1,4 @@
-"""bag info / recover / play, on the project's bag reader and writer (sim_bridge.recording)."""
+"""bag info / recover / play, on the project's bag reader and writer (fic_teleop_tools.recording)."""
 from __future__ import annotations
 
 import shutil
@@ -12,10 +12,10 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from fic_core.errors import FicInputError
-from sim_bridge.recording.bag_reader import BagReadError, ReadResult, mcap_file, read_messages
-from sim_bridge.recording.bag_writer import BagError
-from sim_bridge.recording.recovery import recover
-from sim_bridge.cli.errors import CommandError
+from fic_teleop_tools.recording.bag_reader import BagReadError, ReadResult, mcap_file, read_messages
+from fic_teleop_tools.recording.bag_writer import BagError
+from fic_teleop_tools.recording.recovery import recover
+from fic_teleop_tools.cli.errors import CommandError
 from fic_teleop_runtime.message_types import message_class
 
 #: How long `bag play` waits in all, after the last message, for the reliable readers to acknowledge what they
@@ -126,7 +126,7 @@ def bag_play(bag: str, rate: float, topics: list[str] | None, wait_for_subscribe
     from rclpy.duration import Duration
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    from sim_bridge.cli.graph import graph_node
+    from fic_teleop_tools.cli.graph import graph_node
 
     with graph_node("fic_bag_play") as node:
         publishers = {}

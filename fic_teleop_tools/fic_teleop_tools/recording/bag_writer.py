@@ -218,7 +218,7 @@ class BagWriter:
         self.flush_period = float(flush_period)
         self._file = _UnbufferedFile(self.mcap_path)
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=compression_type)
-        self._writer.start(profile="ros2", library="fic_teleop sim_bridge.recording.bag_writer")
+        self._writer.start(profile="ros2", library="fic_teleop fic_teleop_tools.recording.bag_writer")
         self._schemas: dict[str, int] = {}
         self.topics: dict[str, TopicInfo] = {}
         self._by_channel: dict[int, TopicInfo] = {}
@@ -339,7 +339,7 @@ class BagWriter:
             "relative_file_paths": [self.mcap_path.name],
             "files": [{"path": self.mcap_path.name, "starting_time": {"nanoseconds_since_epoch": start},
                        "duration": {"nanoseconds": duration}, "message_count": count}],
-            "custom_data": {"writer": "fic_teleop sim_bridge.recording.bag_writer"},
+            "custom_data": {"writer": "fic_teleop fic_teleop_tools.recording.bag_writer"},
             "ros_distro": "jazzy",
         }}
 

@@ -1,4 +1,4 @@
-"""python -m sim_bridge.report <bag> [--out DIR]: metrics.json, plots and a summary table of a recorded session, and
+"""python -m fic_teleop_tools.report <bag> [--out DIR]: metrics.json, plots and a summary table of a recorded session, and
 the run's two verdicts, stable and safe, with their reasons (sim_bridge.experiments.run_verdict; verdict.json)."""
 from __future__ import annotations
 
@@ -42,7 +42,11 @@ def one_way_delay(run_dir: Path | None) -> float:
 def print_verdict(bag: Path, out: Path, delay: float) -> None:
     """The two verdicts of the session, printed and written to ``out``/verdict.json; a bag the verdict cannot judge
     gets one line saying why."""
-    from sim_bridge.experiments.run_verdict import VerdictInput, VerdictInputError, judge
+    try:  # the verdicts' criteria live with the experiments (sim_bridge.experiments, no MuJoCo in them)
+        from sim_bridge.experiments.run_verdict import VerdictInput, VerdictInputError, judge
+    except ImportError as error:
+        print(f"[report] verdict: not judged, the criteria's package is not installed ({error})", file=sys.stderr)
+        return
 
     try:
         verdict = judge(VerdictInput.from_bag(bag, one_way_delay=delay))
@@ -56,7 +60,7 @@ def print_verdict(bag: Path, out: Path, delay: float) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     defaults = ReportSettings(**replica_config_defaults())
-    parser = argparse.ArgumentParser(prog="python -m sim_bridge.report", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m fic_teleop_tools.report", description=__doc__)
     parser.add_argument("bag", type=Path, help="bag folder (rosbag2 layout) or .mcap file")
     parser.add_argument("--out", type=Path, default=None, help="report folder (default: <bag>_report next to it)")
     parser.add_argument("--warmup", type=float, default=defaults.warmup_s,
@@ -89,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
                                       scene=args.scene)
     except BagReadError as error:
         print(f"[report] cannot read the bag: {error}", file=sys.stderr)
+        return 2
+    except ImportError as error:  # only --render imports the simulator
+        print(f"[report] --render needs the simulator package (sim_bridge, MuJoCo): {error}", file=sys.stderr)
         return 2
     metrics = analysis.metrics
     if not metrics["bag_complete"]:
