@@ -42,7 +42,8 @@ class PlannerSchedule:
             elapsed = now - last
             steps = max(1, math.ceil(elapsed / self.nominal_period - 1e-9))
             for k in range(1, steps + 1):
-                trajectory_time = max(last + elapsed * k / steps - self.origin, 0.0)
+                # The last sample is at ``now`` itself (last + elapsed need not round to it).
+                trajectory_time = max((now if k == steps else last + elapsed * k / steps) - self.origin, 0.0)
                 self.target = self.source.point(trajectory_time, position=self.planner.position)
                 self.planner.step(self.target, elapsed / steps)
         if last is None or now > last:

@@ -1,6 +1,7 @@
 """Planner node: the autonomous part x_d'' of the replica's command (paper Eqs. 5-6, docs/CONTROL_LAWS.md).
 
-A trajectory source (fic_core.trajectories: the paper's circle, a fixed point or via-points, chosen by the
+Wiring around fic_core.planner_station.PlannerStation (the runner steps the same object): its timer calls
+``step(now)`` and publishes what it returns. A trajectory source (fic_core.trajectories: the paper's circle, a fixed point or via-points, chosen by the
 ``trajectory`` parameter) gives the next trajectory point x_t(t); fic_core.HarmonicPlanner turns it into x_d'',
 published as /planner/desired_pose (PoseStamped, panda_link0) at ``publish_rate``, with the planner's
 acceleration on /planner/desired_accel (AccelStamped, same stamp) so that the replica can feed the superimposed
@@ -27,10 +28,8 @@ from rclpy.parameter import Parameter
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
 from fic_core.errors import FicInputError
-from fic_core.planner import HarmonicPlanner
-from fic_core.quaternion import unit_quaternion
-from fic_core.planner_schedule import PlannerSchedule
-from fic_core.trajectories import Circle, FixedPoint, ViaPoints
+from fic_core.planner_station import (PLANNER_PARAMETERS, READ_ONLY, TRAJECTORIES, TRAJECTORY_PARAMETERS,
+                                      PlannerStation, make_source)
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import set_pose, set_xyz
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
@@ -39,12 +38,9 @@ from fic_teleop_runtime.parameters import values as parameter_values
 
 # docs/CONVENTIONS.md: RELIABLE, the streams' deep writer history (a stalled reader, the recorder, loses nothing)
 POSE_QOS, DIAGNOSTICS_QOS = qos.STREAM_WRITER, qos.DIAGNOSTICS
-
-TRAJECTORIES = ("circle", "fixed", "via_points")
-TRAJECTORY_PARAMETERS = ("trajectory", "circle_centre", "circle_diameter", "circle_period", "circle_normal",
-                         "circle_phase", "fixed_point", "via_points", "via_dwell", "via_tolerance", "via_loop")
-PLANNER_PARAMETERS = ("natural_frequency", "max_velocity")
-READ_ONLY = ("publish_rate", "diagnostics_rate", "frame_id", "start_position", "start_delay", "start_time")
+#: The station's tables, kept importable from here (what the node declares and refuses at run time).
+__all__ = ["PLANNER_PARAMETERS", "READ_ONLY", "SCHEMA", "TRAJECTORIES", "TRAJECTORY_PARAMETERS", "PlannerNode",
+           "make_source"]
 
 
 SCHEMA = Schema(
@@ -77,37 +73,15 @@ SCHEMA = Schema(
 )
 
 
-def make_source(values: dict) -> Circle | FixedPoint | ViaPoints:
-    """The trajectory source named by values['trajectory'] (raises FicInputError on bad values)."""
-    kind = values["trajectory"]
-    if kind == "circle":
-        return Circle(values["circle_centre"], values["circle_diameter"], values["circle_period"],
-                      values["circle_normal"], values["circle_phase"])
-    if kind == "fixed":
-        return FixedPoint(values["fixed_point"])
-    if kind == "via_points":
-        return ViaPoints(values["via_points"], values["via_dwell"], values["via_tolerance"], values["via_loop"])
-    raise FicInputError(f"trajectory must be one of {TRAJECTORIES}, got {kind!r}")
-
-
 class PlannerNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("planner", **node_options)
         declare(self, SCHEMA)  # every row with its config/planner.yaml value; unknown keys refused
         value = self._value
-        self._orientation = unit_quaternion(value("orientation"))
-        planner = HarmonicPlanner(value("natural_frequency"), value("max_velocity"))
-        source = make_source({name: value(name) for name in TRAJECTORY_PARAMETERS})
-        start = list(value("start_position") or [])
-        planner.reset(start if start else source.point(0.0))
-        self._frame_id = value("frame_id")
-        # The trajectory's clock: an absolute start time lets another node (the operator script, which plans its
-        # moves around the circle's obstacles) share the same origin; otherwise start_delay after this node.
-        start_time = value("start_time")
-        origin = start_time if start_time >= 0.0 else self._now() + value("start_delay")
         # Stepped in periods no longer than publish_rate's, whatever the timer does (fic_core.planner_schedule).
-        self._schedule = PlannerSchedule(planner, source, origin, 1.0 / value("publish_rate"))
-        self._published = 0
+        self._station = PlannerStation(parameter_values(self, SCHEMA, SCHEMA.names),
+                                       self._now())
+        self._frame_id = value("frame_id")
 
         self._publisher = self.create_publisher(PoseStamped, "/planner/desired_pose", POSE_QOS)
         self._accel_publisher = self.create_publisher(AccelStamped, "/planner/desired_accel", POSE_QOS)
@@ -117,7 +91,7 @@ class PlannerNode(Node):
         self.create_timer(1.0 / value("diagnostics_rate"), self._publish_diagnostics)
         self.get_logger().info(
             f"planner up: trajectory {value('trajectory')}, w_n = {value('natural_frequency')} rad/s, "
-            f"v_d = {value('max_velocity')} m/s, start {np.round(planner.position, 4).tolist()}")
+            f"v_d = {value('max_velocity')} m/s, start {np.round(self._station.planner.position, 4).tolist()}")
 
     # -- parameters -----------------------------------------------------------------------------------------
     def _value(self, name: str):
@@ -125,30 +99,12 @@ class PlannerNode(Node):
         return parameter_values(self, SCHEMA, (name,))[name]
 
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
-        changed = {p.name: p.value for p in parameters}
-        for name, new in changed.items():
-            if name in READ_ONLY:
-                return SetParametersResult(successful=False, reason=f"{name} is fixed at start")
-            if isinstance(new, float) and not math.isfinite(new):
-                return SetParametersResult(successful=False, reason=f"{name} must be finite, got {new}")
-        values = {name: self._value(name) for name in TRAJECTORY_PARAMETERS + PLANNER_PARAMETERS}
-        values.update(changed)
         try:
-            source = make_source(values) if any(n in TRAJECTORY_PARAMETERS for n in changed) else None
-            planner = (HarmonicPlanner(values["natural_frequency"], values["max_velocity"])
-                       if any(n in PLANNER_PARAMETERS for n in changed) else None)
-            orientation = unit_quaternion(changed["orientation"]) if "orientation" in changed else None
-        except (FicInputError, ValueError, TypeError) as error:
+            notices = self._station.configure({p.name: p.value for p in parameters}, self._now())
+        except FicInputError as error:
             return SetParametersResult(successful=False, reason=str(error))
-        if source is not None:
-            self._schedule.restart_trajectory(source, self._now())
-            self.get_logger().info(f"trajectory changed to {values['trajectory']}: its clock restarts")
-        if planner is not None:
-            self._schedule.retune(planner)
-            self.get_logger().info(f"planner retuned: w_n = {values['natural_frequency']} rad/s, "
-                                   f"v_d = {values['max_velocity']} m/s (restarts at rest where it is)")
-        if orientation is not None:
-            self._orientation = orientation
+        for _, text in notices:
+            self.get_logger().info(text)
         return SetParametersResult(successful=True)
 
     # -- loop -----------------------------------------------------------------------------------------------
@@ -156,29 +112,19 @@ class PlannerNode(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _tick(self) -> None:
-        position = self._schedule.advance(self._now())
+        set_point = self._station.step(self._now())
         message = PoseStamped()
         message.header.stamp = self.get_clock().now().to_msg()
         message.header.frame_id = self._frame_id
-        set_pose(message.pose, position, self._orientation)
+        set_pose(message.pose, set_point.position, set_point.orientation)
         self._publisher.publish(message)
         accel = AccelStamped(header=message.header)
-        set_xyz(accel.accel.linear, self._schedule.planner.acceleration)
+        set_xyz(accel.accel.linear, set_point.acceleration)
         self._accel_publisher.publish(accel)
-        self._published += 1
 
     def _publish_diagnostics(self) -> None:
-        planner, target = self._schedule.planner, self._schedule.target
         status = DiagnosticStatus(name="planner", hardware_id="planner", level=DiagnosticStatus.OK, message="ok")
-        status.values = [
-            KeyValue(key="trajectory", value=str(self.get_parameter("trajectory").value)),
-            KeyValue(key="target", value=" ".join(f"{v:.4f}" for v in target)),
-            KeyValue(key="position", value=" ".join(f"{v:.4f}" for v in planner.position)),
-            KeyValue(key="tracking_lag_m", value=f"{np.linalg.norm(target - planner.position):.4f}"),
-            KeyValue(key="speed_m_s", value=f"{np.linalg.norm(planner.velocity):.4f}"),
-            KeyValue(key="phase", value=" ".join(str(int(p)) for p in planner.phase)),
-            KeyValue(key="published", value=str(self._published)),
-        ]
+        status.values = [KeyValue(key=key, value=text) for key, text in self._station.diagnostic_values().items()]
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
         array.status = [status]
