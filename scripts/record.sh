@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Record the running graph to a rosbag2-layout MCAP bag (sim_bridge recorder_node) until Ctrl-C.
+# Record the running graph to a rosbag2-layout MCAP bag (fic_teleop_tools recorder_node) until Ctrl-C.
 # Usage: scripts/record.sh <bag_path> [topic ...]
 #   without topics: every topic the graph discovery finds (except /rosout and /parameter_events);
 #   with topics: only those, subscribed as soon as they appear.
@@ -21,7 +21,7 @@ if [[ $# -gt 0 ]]; then
 else
   params+=(-p "all:=true")
 fi
-if command -v ros2 >/dev/null 2>&1 && ros2 pkg prefix sim_bridge >/dev/null 2>&1; then
-  exec ros2 run sim_bridge recorder_node --ros-args "${params[@]}"
+if command -v ros2 >/dev/null 2>&1 && ros2 pkg prefix fic_teleop_tools >/dev/null 2>&1; then
+  exec ros2 run fic_teleop_tools recorder_node --ros-args "${params[@]}"
 fi
-exec "$REPO/install/sim_bridge/lib/sim_bridge/recorder_node" --ros-args "${params[@]}"
+exec "$REPO/install/fic_teleop_tools/lib/fic_teleop_tools/recorder_node" --ros-args "${params[@]}"

@@ -14,7 +14,7 @@ setup(
     zip_safe=True,
     maintainer="fic_teleop developers",
     maintainer_email="maintainers@fic-teleop.org",
-    description="The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a virtual operator, the delay/dropout channel, and the MCAP recorder.",
+    description="The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a virtual operator, and the delay/dropout channel.",
     license="BSD-3-Clause",
     entry_points={
         "console_scripts": [
@@ -22,7 +22,6 @@ setup(
             "haptic_device_node = sim_bridge.device.haptic_device_node:main",
             "channel_node = sim_bridge.channel.channel_node:main",
             "keyboard_operator = sim_bridge.device.keyboard_operator:main",
-            "recorder_node = sim_bridge.recording.recorder_node:main",
         ],
     },
 )

@@ -121,7 +121,7 @@ def assert_stopped_clean(returncode: int | None, output: str, what: str, expecte
 def recorded_so_far(bag: Path) -> int:
     """Messages in the complete chunks of a bag still being written (the project's torn-bag reader): how far a
     run has got, to wait on instead of a fixed sleep."""
-    from sim_bridge.recording.bag_reader import BagReadError, ReadResult, read_messages
+    from fic_teleop_tools.recording.bag_reader import BagReadError, ReadResult, read_messages
 
     try:
         return sum(1 for _ in read_messages(bag, ReadResult()))

@@ -1,4 +1,4 @@
-"""Two-port energy of the delay channel (sim_bridge.report.metrics.port_energy): a delayed spring is active."""
+"""Two-port energy of the delay channel (fic_teleop_tools.report.metrics.port_energy): a delayed spring is active."""
 from __future__ import annotations
 
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from sim_bridge.report.metrics import port_energy
+from fic_teleop_tools.report.metrics import port_energy
 
 
 @pytest.mark.parametrize("delay", [0.0, 0.05, 0.2])

@@ -1,4 +1,4 @@
-"""metrics.json's live passivity figures from the bag's /diagnostics (sim_bridge.report.metrics): the channel ports'
+"""metrics.json's live passivity figures from the bag's /diagnostics (fic_teleop_tools.report.metrics): the channel ports'
 balance and per-direction figures, and the FIC ports' exchanged energy, from each status's last key-values."""
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from sim_bridge.report.bag_data import BagData
-from sim_bridge.report.metrics import channel_port_metrics, exchanged_energy_metrics
+from fic_teleop_tools.report.bag_data import BagData
+from fic_teleop_tools.report.metrics import channel_port_metrics, exchanged_energy_metrics
 
 
 def bag(diagnostics: dict[str, dict[str, str]]) -> BagData:

@@ -85,7 +85,7 @@ def _header_stamps(bag: Path, topics) -> dict[str, list[float]]:
     from mcap.reader import make_reader
 
     sys.path.insert(0, str(REPO / "sim_bridge"))
-    from sim_bridge.recording.bag_reader import mcap_file
+    from fic_teleop_tools.recording.bag_reader import mcap_file
     from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 
     stamps: dict[str, list[float]] = {topic: [] for topic in topics}

@@ -9,8 +9,8 @@ import pytest
 from rclpy.serialization import serialize_message
 
 from conftest import REPO
-from sim_bridge.recording.bag_reader import read_messages
-from sim_bridge.recording.bag_writer import BagWriter
+from fic_teleop_tools.recording.bag_reader import read_messages
+from fic_teleop_tools.recording.bag_writer import BagWriter
 
 FIC = REPO / "scripts" / "fic"
 STATES = 300

@@ -15,7 +15,7 @@ from fic_teleop_bringup.launch_timing import LOOP_HEALTH_STATUS, LOOP_RATE_BOUND
 
 
 def rates(**fractions: float) -> dict[str, dict]:
-    """Loop rates as sim_bridge.report.loop_rates gives them, at 500 Hz nominal."""
+    """Loop rates as fic_teleop_tools.report.loop_rates gives them, at 500 Hz nominal."""
     return {name.replace("_", " "): {"topic": f"/{name}", "nominal_hz": 500.0, "achieved_hz": 500.0 * fraction,
                                      "fraction": fraction} for name, fraction in fractions.items()}
 
@@ -78,7 +78,7 @@ def test_the_replicas_loop_health_record_is_read_from_the_bag(tmp_path: Path) ->
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from rclpy.serialization import serialize_message
 
-    from sim_bridge.recording.bag_writer import BagWriter
+    from fic_teleop_tools.recording.bag_writer import BagWriter
 
     writer = BagWriter(tmp_path / "bag")
     writer.add_topic("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray")

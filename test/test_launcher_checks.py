@@ -99,7 +99,7 @@ def test_a_refusal_recorded_in_the_bag_is_named_with_its_reason(tmp_path: Path) 
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from rclpy.serialization import serialize_message
 
-    from sim_bridge.recording.bag_writer import BagWriter
+    from fic_teleop_tools.recording.bag_writer import BagWriter
 
     def status(refused: str, reason: str) -> bytes:
         values = {"input_safe_hold": "no", "refused_teleop_commands": refused, "clamped_teleop_commands": "0",
@@ -130,7 +130,7 @@ def test_the_robots_velocity_reflex_in_the_bag_is_a_limit_violation(tmp_path: Pa
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from rclpy.serialization import serialize_message
 
-    from sim_bridge.recording.bag_writer import BagWriter
+    from fic_teleop_tools.recording.bag_writer import BagWriter
 
     def bag(name: str, reflex: str) -> Path:
         writer = BagWriter(tmp_path / name)

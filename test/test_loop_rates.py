@@ -1,4 +1,4 @@
-"""The achieved rate of every loop (sim_bridge/report/loop_rates.py) from bags written with known rates: the
+"""The achieved rate of every loop (fic_teleop_tools/report/loop_rates.py) from bags written with known rates: the
 default graph's streams, the driver twins' streams (/franka/joint_states, /fd/ee_pose) and a two-station run whose
 master station's loops are in its own bag, over that bag's own clock."""
 from __future__ import annotations
@@ -15,7 +15,7 @@ def _bag(path: Path, rates: dict[str, float], seconds: float = 10.0, offset_ns: 
     from rclpy.serialization import serialize_message
     from std_msgs.msg import Empty
 
-    from sim_bridge.recording.bag_writer import BagWriter
+    from fic_teleop_tools.recording.bag_writer import BagWriter
 
     writer = BagWriter(path)
     payload = serialize_message(Empty())
@@ -43,7 +43,7 @@ DEFAULT_STREAMS = {"/joint_states": 1000.0, "/haptic/pose": 250.0, "/haptic/wren
 
 
 def test_the_default_graph_rates_against_config(tmp_path: Path) -> None:
-    from sim_bridge.report.loop_rates import loop_rates
+    from fic_teleop_tools.report.loop_rates import loop_rates
 
     rates = loop_rates(_bag(tmp_path / "bag", DEFAULT_STREAMS), tmp_path)
     assert rates["robot physics"]["fraction"] == pytest.approx(1.0, abs=0.01)
@@ -54,7 +54,7 @@ def test_the_default_graph_rates_against_config(tmp_path: Path) -> None:
 
 
 def test_the_twins_are_judged_on_the_drivers_streams(tmp_path: Path) -> None:
-    from sim_bridge.report.loop_rates import loop_rates
+    from fic_teleop_tools.report.loop_rates import loop_rates
 
     # The twins: /joint_states is franka's 30 Hz joint_state_publisher, the physics shows on /franka/joint_states;
     # the device driver publishes /fd/ee_pose at its 1 kHz and the adapter /haptic/pose at 250 Hz.
@@ -69,7 +69,7 @@ def test_the_twins_are_judged_on_the_drivers_streams(tmp_path: Path) -> None:
 
 
 def test_a_two_station_run_reads_the_master_stations_bag_on_its_own_clock(tmp_path: Path) -> None:
-    from sim_bridge.report.loop_rates import loop_rates
+    from fic_teleop_tools.report.loop_rates import loop_rates
 
     master_side = ("/haptic/pose", "/haptic/wrench_command", "/master/teleop_command")
     robot = {topic: rate for topic, rate in DEFAULT_STREAMS.items() if topic not in master_side}

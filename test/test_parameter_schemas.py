@@ -20,7 +20,7 @@ def _schemas() -> dict[str, object]:
     from fic_teleop_replica import schema as replica
     from sim_bridge.channel import channel_node
     from sim_bridge.device import haptic_device_node, keyboard_operator
-    from sim_bridge.recording import recorder_node
+    from fic_teleop_tools.recording import recorder_node
     from sim_bridge.robot import robot_node
 
     return {"replica": replica.SCHEMA, "master": master_node.SCHEMA, "fd_adapter": fd_adapter_node.SCHEMA,

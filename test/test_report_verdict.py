@@ -1,4 +1,4 @@
-"""``scripts/report.sh <bag>`` prints the session's two verdicts with their reasons (sim_bridge.report and
+"""``scripts/report.sh <bag>`` prints the session's two verdicts with their reasons (fic_teleop_tools.report and
 sim_bridge.experiments.run_verdict), on small synthetic bags written with rosbags' own writer:
 
 - ``oscillating``: 12 s at 0.2 s one-way, x_d - x_R along x a 20 mm sine at 1.3 s (a limit cycle), no limit
@@ -25,7 +25,7 @@ BASE_NS = 10 * 1_000_000_000
 def write_bag(folder: Path, amplitude: float, reflex: str) -> Path:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    from sim_bridge.recording.bag_writer import find_interface_file
+    from fic_teleop_tools.recording.bag_writer import find_interface_file
 
     store = get_typestore(Stores.ROS2_JAZZY)
     for name in ("FicState", "LimitStatus"):
@@ -97,7 +97,7 @@ def bags(tmp_path_factory):
 
 def test_the_report_prints_both_verdicts_with_reasons(bags, tmp_path):
     out = tmp_path / "report"
-    result = subprocess.run([sys.executable, "-m", "sim_bridge.report", str(bags["oscillating"]), "--out", str(out),
+    result = subprocess.run([sys.executable, "-m", "fic_teleop_tools.report", str(bags["oscillating"]), "--out", str(out),
                              "--delay", str(DELAY)], capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     assert "[verdict] one-way delay 0.2 s: NOT STABLE; SAFE" in result.stdout
@@ -109,7 +109,7 @@ def test_the_report_prints_both_verdicts_with_reasons(bags, tmp_path):
 
 
 def test_a_reflex_trip_in_the_diagnostics_makes_a_session_unsafe(bags, tmp_path, capsys):
-    from sim_bridge.report.__main__ import print_verdict
+    from fic_teleop_tools.report.__main__ import print_verdict
 
     print_verdict(bags["quiet"], tmp_path, DELAY)
     printed = capsys.readouterr().out

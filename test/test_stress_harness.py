@@ -17,7 +17,7 @@ def _bag(path: Path, velocities: list[list[float]]) -> Path:
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
 
-    from sim_bridge.recording.bag_writer import BagWriter
+    from fic_teleop_tools.recording.bag_writer import BagWriter
 
     writer = BagWriter(path)
     writer.add_topic("/joint_states", "sensor_msgs/msg/JointState")

@@ -6,7 +6,7 @@ Where each port's power is measurable: at the master, the rate v of the offset x
 s_M times the handle's velocity, 250 Hz; velocity mode: k_v x_M) against the replica force F_R it receives;
 power into the channel P_M = -F_R . v, booked at every master control tick. At the replica, the rate of x_d' as
 delivered against the F_R the replica last sent back; P_R = F_R . v, booked at every delivery. These are the
-ports and signs of the report's ``channel_energy_generated_j`` (sim_bridge.report.metrics). Each side's E_in
+ports and signs of the report's ``channel_energy_generated_j`` (fic_teleop_tools.report.metrics). Each side's E_in
 travels to the other side with that side's messages, so each observer knows only what the channel let through,
 one delay late, as on two machines.
 

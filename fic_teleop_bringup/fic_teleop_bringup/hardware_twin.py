@@ -38,7 +38,7 @@ def franka_remaps(node: str = "replica") -> dict[str, str]:
 def twin_graph(nodes: list, lockstep: bool, node_spec) -> list:
     """The default graph's specs, turned into the twin run (``node_spec``: the launcher's NodeSpec): its shape. The
     twins' parameter values (driver interfaces, rates, lockstep allowances) are the hardware_twin run profile's."""
-    from sim_bridge.recording.recorder_node import default_topics  # noqa: PLC0415  (only a twin run needs it)
+    from fic_teleop_tools.recording.recorder_node import default_topics  # noqa: PLC0415  (only a twin run needs it)
 
     by_name = {spec.name: spec for spec in nodes}
     replica = by_name["replica"]

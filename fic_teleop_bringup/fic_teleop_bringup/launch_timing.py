@@ -6,7 +6,7 @@ every realtime run the launcher states four figures against their bounds and say
 when one is out, with its own exit code (EXIT_STARVED, docs/SECURITY.md "Exit codes of the launcher"):
 
 - the real-time factor (the report's, after its warm-up) at least REAL_TIME_FACTOR_BOUND, the report's target;
-- every loop's achieved rate (sim_bridge/report/loop_rates.py) at least LOOP_RATE_BOUND of its nominal rate; a
+- every loop's achieved rate (fic_teleop_tools/report/loop_rates.py) at least LOOP_RATE_BOUND of its nominal rate; a
   loop with no message at all is not this graph's (or its node failed, which the safety verdict reports);
 - the bag's span of simulated time (the report's duration_s) at least RECORDED_FRACTION_BOUND of the time the
   launcher saw simulated: a starved recorder keeps only part of the run (measured: 3.8 s of a 15 s run with the
@@ -25,7 +25,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-REAL_TIME_FACTOR_BOUND = 0.95   # the report's target (sim_bridge/report/metrics.py TARGETS)
+REAL_TIME_FACTOR_BOUND = 0.95   # the report's target (fic_teleop_tools/report/metrics.py TARGETS)
 # The slowest loop's share of its nominal rate. The default run on a quiet machine keeps 0.976-0.995 (bench of
 # 2026-12-04, docs/RESULTS.md); 0.90 leaves that spread room and still flags a loop that lost a tenth of its ticks.
 LOOP_RATE_BOUND = 0.90
@@ -139,7 +139,7 @@ def judge_run(run_dir: Path, bag: Path, metrics: dict | None, realtime: bool,
     rates: dict[str, dict] = {}
     health = None
     if realtime and bag.exists():
-        from sim_bridge.report.loop_rates import loop_rates
+        from fic_teleop_tools.report.loop_rates import loop_rates
         try:
             rates = loop_rates(bag, run_dir)
         except Exception as error:  # noqa: BLE001 - a torn bag: the verdict goes on without the rates

@@ -250,12 +250,12 @@ def adapt_graph(specs: list, node_spec_class, run_dir: Path) -> None:
         return
     topics = from_recorder_node.params.get("topics") or _default_recorder_topics()
     from_recorder_node.params["topics"] = [t for t in topics if t not in ROBOT_STATION_EXCLUDED]
-    specs.insert(0, node_spec_class("sim_bridge", "recorder_node", "recorder_master", None,
+    specs.insert(0, node_spec_class("fic_teleop_tools", "recorder_node", "recorder_master", None,
                                     {"bag_path": str(run_dir / "bag_master"), "topics": MASTER_STATION_TOPICS}))
 
 
 def _default_recorder_topics() -> list[str]:
-    from sim_bridge.recording.recorder_node import default_topics
+    from fic_teleop_tools.recording.recorder_node import default_topics
     return default_topics()
 
 

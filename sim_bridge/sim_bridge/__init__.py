@@ -1,4 +1,4 @@
-"""The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a virtual operator, the delay/dropout channel, and the MCAP recorder."""
+"""The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a virtual operator, and the delay/dropout channel (the recorder, report and CLI are fic_teleop_tools)."""
 
 import os as _os
 

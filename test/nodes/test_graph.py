@@ -171,7 +171,7 @@ def test_bag_played_into_the_recorder_gives_the_report_the_same_metrics(blackout
     with reserved_domain() as domain:
         env = isolated_env(tmp_path / "ros_log", domain)
         recorder = NodeProcess(
-            [str(installed_executable("sim_bridge", "recorder_node")), "--ros-args",
+            [str(installed_executable("fic_teleop_tools", "recorder_node")), "--ros-args",
              "-r", "__node:=recorder", "-p", f"bag_path:={replayed_bag}", "-p", "all:=true",
              "-p", "discovery_period:=0.1"], env, tmp_path / "recorder.log")
         try:
@@ -187,7 +187,7 @@ def test_bag_played_into_the_recorder_gives_the_report_the_same_metrics(blackout
             returncode = recorder.stop(timeout=60)
     assert_stopped_clean(returncode, recorder.output(), "recorder")
     out = tmp_path / "report"
-    result = subprocess.run([sys.executable, "-m", "sim_bridge.report", str(replayed_bag), "--out", str(out)],
+    result = subprocess.run([sys.executable, "-m", "fic_teleop_tools.report", str(replayed_bag), "--out", str(out)],
                             env=env, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     replayed = json.loads((out / "metrics.json").read_text())

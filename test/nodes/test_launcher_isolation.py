@@ -159,7 +159,7 @@ def test_sigkill_of_the_launcher_leaves_no_node_and_a_finished_bag(tmp_path: Pat
         os.kill(pid, signal.SIGKILL)
     assert not survivors, f"{len(survivors)} nodes outlived the launcher"
     assert (out / "bag" / "metadata.yaml").exists(), "the recorder did not finish the bag"
-    report = subprocess.run([sys.executable, "-m", "sim_bridge.report", str(out / "bag"), "--out",
+    report = subprocess.run([sys.executable, "-m", "fic_teleop_tools.report", str(out / "bag"), "--out",
                              str(out / "report")], capture_output=True, text=True, timeout=300)
     assert report.returncode == 0, report.stderr
     metrics = json.loads((out / "report" / "metrics.json").read_text())

@@ -22,7 +22,7 @@ GROUPS = ("channel_forward,channel_backward", "haptic_device,master")
 
 def _specs() -> list[NodeSpec]:
     return [NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml"),
-            NodeSpec("sim_bridge", "recorder_node", "recorder"),
+            NodeSpec("fic_teleop_tools", "recorder_node", "recorder"),
             NodeSpec("sim_bridge", "channel_node", "channel_forward", "channel.yaml", {"seed": 1}, niceness=-10),
             NodeSpec("sim_bridge", "channel_node", "channel_backward", "channel.yaml", {"seed": 2}),
             NodeSpec("fic_teleop_master", "master_node", "master", "master.yaml")]

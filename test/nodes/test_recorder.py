@@ -133,7 +133,7 @@ def _expected_joint_stamps(count: int, skip: list[int]) -> list[int]:
 
 def _record(start_node, tmp_path, ros_env, params: dict, stop_signal: int):
     bag = tmp_path / "bag"
-    recorder = start_node("sim_bridge", "recorder_node", params={"bag_path": str(bag), **params})
+    recorder = start_node("fic_teleop_tools", "recorder_node", params={"bag_path": str(bag), **params})
     publisher = Publisher(tmp_path, ros_env, COUNT, SKIPPED)
     assert publisher.wait(timeout=40) == 0, publisher.output() + recorder.output()
     assert f"published {COUNT - len(SKIPPED)}" in publisher.output()
@@ -208,10 +208,10 @@ def test_recorder_counts_what_dds_lost_while_it_was_stalled(start_node, tmp_path
     writer no longer holds (here about 110-140 of them). The recorder's count of them (message-lost events) is in
     its log line, its bag's metadata.yaml and the report's metric, and accounts for every sample it did not
     record."""
-    from sim_bridge.report import ReportSettings, analyse, load_bag
+    from fic_teleop_tools.report import ReportSettings, analyse, load_bag
 
     bag = tmp_path / "bag"
-    recorder = start_node("sim_bridge", "recorder_node", params={"bag_path": str(bag), "topics": list(RECORDED),
+    recorder = start_node("fic_teleop_tools", "recorder_node", params={"bag_path": str(bag), "topics": list(RECORDED),
                                                                   "count_lost_messages": True})
     publisher = Publisher(tmp_path, ros_env, COUNT, [], writer_depth=1)
     deadline = time.monotonic() + 40
@@ -248,11 +248,11 @@ def test_recorder_bag_survives_sigkill(start_node, tmp_path, ros_env):
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
     from rosbags.highlevel import AnyReader
-    from sim_bridge.recording.recovery import recover
-    from sim_bridge.report import load_bag
+    from fic_teleop_tools.recording.recovery import recover
+    from fic_teleop_tools.report import load_bag
 
     bag = tmp_path / "bag"
-    recorder = start_node("sim_bridge", "recorder_node",
+    recorder = start_node("fic_teleop_tools", "recorder_node",
                           params={"bag_path": str(bag), "topics": list(RECORDED), "flush_period": 0.2})
     publisher = Publisher(tmp_path, ros_env, 6000, [], wait_for_acks=False)
     deadline = time.monotonic() + 40

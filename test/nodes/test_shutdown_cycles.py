@@ -30,7 +30,7 @@ NODES = [
     ("fic_teleop_planner", "planner_node", "planner.yaml", {}),
     ("sim_bridge", "channel_node", "channel.yaml", {}),
     ("sim_bridge", "haptic_device_node", "haptic_device.yaml", {"scene": "free_space"}),
-    ("sim_bridge", "recorder_node", None, {}),
+    ("fic_teleop_tools", "recorder_node", None, {}),
 ]
 CYCLES = 20
 LATEST_STOP_S = 4.0   # stops spread from at once (Python still importing) to a running graph

@@ -1,4 +1,4 @@
-"""The live view's CDR decoding (sim_bridge.recording.live_view) on bytes from an independent serialiser (the
+"""The live view's CDR decoding (fic_teleop_tools.recording.live_view) on bytes from an independent serialiser (the
 rosbags library), and its /robot_description string read back by rosbags."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 from rosbags.typesys import Stores, get_typestore
 
 from fic_core.panda_description import ARM_JOINT_NAMES
-from sim_bridge.recording.live_view import _cdr_string, joint_positions
+from fic_teleop_tools.recording.live_view import _cdr_string, joint_positions
 
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from mcap_ros2.decoder import DecoderFactory
 
-from sim_bridge.recording.bag_reader import ReadResult, read_messages
+from fic_teleop_tools.recording.bag_reader import ReadResult, read_messages
 
 FIC_STATE = "/replica/fic_state"
 LIMIT_STATUS = "/replica/limit_status"

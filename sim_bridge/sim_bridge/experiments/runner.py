@@ -2,7 +2,7 @@
 
 A cell is one call of scripts/teleop_launcher.py (what scripts/run_teleop.sh runs) with ``--no-video`` and, unless
 the cell asks for the paper-style plots, ``--no-report``; the metrics are then computed here in-process with the
-report's own definitions (sim_bridge.report: load_bag + analyse, no plots), the stability verdict with
+report's own definitions (fic_teleop_tools.report: load_bag + analyse, no plots), the stability verdict with
 sim_bridge.experiments.stability, and scene-specific outcomes (E2 pieces) from the same bag.
 
 No rclpy here: the launcher is a child process. Each cell gets a ROS_DOMAIN_ID that no running process on this
@@ -107,10 +107,10 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
 
 
 def report_metrics(bag: Path) -> dict:
-    """The report's metrics (docs/EXPERIMENTS.md, "Metrics"; sim_bridge.report), computed in-process without plots."""
-    from sim_bridge.report.bag_data import load_bag
-    from sim_bridge.report.metrics import ReportSettings, analyse
-    from sim_bridge.report.report import replica_config_defaults
+    """The report's metrics (docs/EXPERIMENTS.md, "Metrics"; fic_teleop_tools.report), computed in-process without plots."""
+    from fic_teleop_tools.report.bag_data import load_bag
+    from fic_teleop_tools.report.metrics import ReportSettings, analyse
+    from fic_teleop_tools.report.report import replica_config_defaults
 
     analysis = analyse(load_bag(bag), ReportSettings(**replica_config_defaults()))
     return analysis.metrics
