@@ -138,7 +138,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
                  {"scene": args.scene, "mode": args.time_mode, "seed": args.seed, **video,
                   **joint_states}),
-        NodeSpec("sim_bridge", "recorder_node", "recorder", None,
+        NodeSpec("fic_teleop_tools", "recorder_node", "recorder", None,
                  {"bag_path": str(bag_path), **sim_time, **recorded_joint_states,
                   # --live: the recorder, which holds every topic's bytes already, serves the live view
                   **({"live_port": args.live_port, "live_host": args.live_host} if args.live else {})}),
@@ -518,7 +518,7 @@ def main(argv: list[str] | None = None) -> int:
               "pre-emption)", file=sys.stderr)
         return 2
     if args.live:
-        from sim_bridge.recording.live_view import port_in_use
+        from fic_teleop_tools.recording.live_view import port_in_use
         taken = port_in_use(args.live_host, args.live_port)
         if taken:
             print(f"[run] refused: the live view cannot use {args.live_host}:{args.live_port} ({taken}); "
@@ -631,7 +631,7 @@ def main(argv: list[str] | None = None) -> int:
     metrics, report_failed = None, False
     if not args.no_report:
         report_dir = run_dir / "report"
-        command = [sys.executable, "-m", "sim_bridge.report", str(bag_path), "--out", str(report_dir)]
+        command = [sys.executable, "-m", "fic_teleop_tools.report", str(bag_path), "--out", str(report_dir)]
         if not args.no_video:
             command.append("--render")
         report_failed = subprocess.run(command).returncode != 0

@@ -32,7 +32,7 @@ from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
 from fic_teleop_runtime.stamps import nanoseconds
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
-from sim_bridge.driver_twins import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
+from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.reactive_hand import ReactiveHand
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
@@ -90,7 +90,7 @@ SCHEMA = Schema(
     number("joy_timeout", 0.01, 10.0, "axes older than this count as zero (a crashed keyboard stops the hand) [s]"),
     text("frame_id", "frame of pose/twist"),
     text("driver_interface", f"topics to speak: one of {DEVICE_INTERFACES} (forcedimension: the twin of "
-                             "forcedimension_ros2, driver_twins.py; publish_rate_hz is then its update rate)"),
+                             "forcedimension_ros2, driver_topics.py; publish_rate_hz is then its update rate)"),
 )
 
 

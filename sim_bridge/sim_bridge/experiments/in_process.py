@@ -510,8 +510,8 @@ class Agreement:
 def agreement(bag: str | Path, result: RunResult, start: float = 0.5, end: float | None = None) -> Agreement:
     """Compare ``result`` with the bag of a lockstep graph run of the same configuration (the report's tracking
     error: x_d and x_R as the replica published them), from ``start`` to ``end`` (None: the end of both)."""
-    from sim_bridge.report.bag_data import load_bag
-    from sim_bridge.report.metrics import _tracking_error
+    from fic_teleop_tools.report.bag_data import load_bag
+    from fic_teleop_tools.report.metrics import _tracking_error
 
     data = load_bag(bag)
     graph_time, graph_error, _ = _tracking_error(data)

@@ -60,7 +60,7 @@ from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
-from sim_bridge.driver_twins import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
+from fic_teleop_runtime.driver_topics import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
 from sim_bridge.os_thread import name_os_thread
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.peer_barrier import PeerBarrier
@@ -123,7 +123,7 @@ SCHEMA = Schema(
     switch("gravity_compensation", "the arm compensates its own gravity at every physics step, as a Franka under "
                                    "torque control: commands then mean tau - G(q) (mujoco_panda.build_panda_spec)"),
     text("driver_interface", f"topics, QoS, frames and joint names to speak: one of {ROBOT_INTERFACES} "
-                             "(franka_ros2: its twin, driver_twins.py)"),
+                             "(franka_ros2: its twin, driver_topics.py)"),
     switch("hold_on_stale_commands", "replace stale commands by the hold torque (command_timeout); false: apply "
                                      "the last command until another comes, as ros2_control's forward controller "
                                      "does"),
@@ -197,7 +197,7 @@ class RobotNode(Node):
         self._stop = threading.Event()
         self._wall_epoch_ns = self.get_clock().now().nanoseconds
 
-        # The franka_ros2 twin (driver_twins.py): its topics, QoS and frames; the arm compensates its gravity.
+        # The franka_ros2 twin (driver_topics.py): its topics, QoS and frames; the arm compensates its gravity.
         franka = FRANKA_ROS2
         self._joint_state_pub = self.create_publisher(
             JointState, franka.joint_states if self._franka else "/joint_states",
