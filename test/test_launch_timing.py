@@ -1,4 +1,4 @@
-"""The launcher says when the machine was starved (scripts/launch_timing.py): real-time factor, loop rates and the
+"""The launcher says when the machine was starved (fic_teleop_bringup/launch_timing.py): real-time factor, loop rates and the
 replica's own loop against their bounds, its own exit code, and a broken safety figure still wins."""
 from __future__ import annotations
 

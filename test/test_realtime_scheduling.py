@@ -1,4 +1,4 @@
-"""The launcher's real-time scheduling (scripts/realtime_scheduling.py) on a real child process with real threads,
+"""The launcher's real-time scheduling (fic_teleop_bringup/realtime_scheduling.py) on a real child process with real threads,
 and the launcher's refusal to overwrite a run: which threads get SCHED_FIFO, that no other does (nor a thread
 started later), and what happens when the OS refuses."""
 from __future__ import annotations

@@ -28,7 +28,7 @@ TWIN_TOPICS = ["/franka/joint_states", "/franka_robot_state_broadcaster/external
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hardware-twin", action="store_true",
                         help="run through the franka_ros2 and forcedimension_ros2 profiles against simulated twins "
-                             "of those drivers (scripts/hardware_twin.py, docs/HARDWARE.md)")
+                             "of those drivers (fic_teleop_bringup/hardware_twin.py, docs/HARDWARE.md)")
 
 
 def franka_remaps(node: str = "replica") -> dict[str, str]:

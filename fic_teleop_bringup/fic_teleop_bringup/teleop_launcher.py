@@ -460,7 +460,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                         help="nice (default): the loops' nodes at negative niceness, ahead of the recorder; fifo "
                              "(realtime only, opt-in): also their threads under SCHED_FIFO along the data path, "
                              "lower pipeline latency but on 2 cores the recorder can lose joint states "
-                             "(scripts/realtime_scheduling.py); default: every node as the shell starts it")
+                             "(fic_teleop_bringup/realtime_scheduling.py); default: every node as the shell starts it")
     parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
     two_stations.add_arguments(parser)
     hardware_twin.add_arguments(parser)

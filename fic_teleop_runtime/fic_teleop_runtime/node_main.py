@@ -6,7 +6,7 @@ params file; the fd adapter kept rclpy's own signal handlers):
 - ``rclpy.init`` with our stop-signal handlers (stop_signals.py) instead of rclpy's, so a SIGINT or SIGTERM at any
   moment only asks the spin loop to stop, and the node is destroyed before the context goes.
 - A bad start is refused in one FATAL line and exit code ``EXIT_REFUSED`` (2), the launcher's "refused before
-  anything started" (scripts/launch_supervision.py): a malformed params file or ROS argument (RCLError from rcl's
+  anything started" (fic_teleop_bringup/launch_supervision.py): a malformed params file or ROS argument (RCLError from rcl's
   parser), a parameter out of range, of the wrong type or unknown (ParameterException from rclpy, FicInputError
   from our checks), and whatever else the node names in ``refusals`` (an existing bag folder, a taken port).
   No traceback: the line says what to fix. A robot left without commands holds the arm by its own watchdog.
@@ -31,7 +31,7 @@ from fic_core.errors import FicInputError
 from fic_teleop_runtime import stop_signals
 from fic_teleop_runtime.spin import SLICE, spin_until_shutdown
 
-EXIT_REFUSED = 2  # scripts/launch_supervision.py: EXIT_REFUSED, "refused before anything started"
+EXIT_REFUSED = 2  # fic_teleop_bringup/launch_supervision.py: EXIT_REFUSED, "refused before anything started"
 #: What a bad start raises: a parameter the node's schema refuses, a value fic_core refuses.
 INPUT_ERRORS: tuple[type[BaseException], ...] = (FicInputError, ParameterException)
 

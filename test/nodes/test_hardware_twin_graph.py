@@ -15,7 +15,7 @@ from conftest import assert_stopped_clean, run_launcher, unclean_exit
 
 pytestmark = pytest.mark.nodes
 DURATION_S = 8.0
-EXIT_JOINT_STATES_LOST = 4   # scripts/launch_supervision.py
+EXIT_JOINT_STATES_LOST = 4   # fic_teleop_bringup/launch_supervision.py
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The two-station deployment (scripts/two_stations.py, docs/DEPLOYMENT.md).
+"""The two-station deployment (fic_teleop_bringup/two_stations.py, docs/DEPLOYMENT.md).
 
 The RTPS accounting, the argument checks and the command wrapping are tested as code; the split itself is tested
 as a short real run: two network namespaces joined by a veth pair, the master station's nodes in one and the

@@ -67,7 +67,7 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
     run_dir.mkdir(parents=True, exist_ok=True)
     command = [sys.executable, str(LAUNCHER), *cell.arguments(), "--time-mode", time_mode, "--out", str(run_dir),
                # no --domain-id: the launcher reserves a domain no other run or test holds and no graph is heard on
-               # (scripts/launch_isolation.py; a scan of other processes' ROS_DOMAIN_ID gave two runs one domain)
+               # (fic_teleop_bringup/launch_isolation.py; a scan of other processes' ROS_DOMAIN_ID gave two runs one domain)
                "--no-video",
                # lockstep runs at 0.1-0.3x real time on a loaded 2-core machine: let a cell finish
                "--wall-limit", f"{120.0 + 30.0 * float(cell.options.get('duration', 30.0)):.0f}"]

@@ -15,7 +15,7 @@ A run that starves on a loaded machine starves by accident, at an unknown level.
   competing with whatever else runs there.
 
 Then the run's record is read back (``run_figures``): whether the launcher flagged it as starved (its timing.json
-and exit code 6, scripts/launch_timing.py), the replica's holds on its own loop's bounds, the real-time factor,
+and exit code 6, fic_teleop_bringup/launch_timing.py), the replica's holds on its own loop's bounds, the real-time factor,
 the free-motion error, the limit violations, and whether the arm ran away. A runaway is any of: a joint faster
 than its datasheet limit, a kinetic energy above that of the arm's mass moving at the datasheet's 1.7 m/s TCP speed,
 or a free-motion error above 4 x_b; the figures behind each are kept.
@@ -41,7 +41,7 @@ REPO = Path(__file__).resolve().parents[3]
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 DEFAULT_PERIOD_US = 20_000
 RUNAWAY_ERROR_BOUNDS = 4.0          # free-motion error above this many x_b
-EXIT_STARVED = 6                    # scripts/launch_supervision.py (the launcher's module, not imported here)
+EXIT_STARVED = 6                    # fic_teleop_bringup/launch_supervision.py (not imported here)
 V1_ROOT = Path("/sys/fs/cgroup/cpu")
 
 
