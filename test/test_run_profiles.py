@@ -1,4 +1,4 @@
-"""The launcher's run profiles (fic_teleop_bringup/profiles, run_profile.py): every mode's differences come from YAML."""
+"""The launcher's run profiles (fic_teleop_bringup/profiles, run_profile.py): each mode's differences come from YAML."""
 from __future__ import annotations
 
 import shutil
@@ -29,7 +29,8 @@ def test_the_built_in_profiles_are_there_and_every_key_of_theirs_is_known() -> N
     assert set(run_profile.read_layer(PROFILES / "realtime.yaml")) == set(run_profile.KEYS)
 
 
-@pytest.mark.parametrize("name, option, value", [("lockstep", "time_mode", "lockstep"), ("paper_law", "paper_law", True),
+@pytest.mark.parametrize("name, option, value", [("lockstep", "time_mode", "lockstep"),
+                                                 ("paper_law", "paper_law", True),
                                                  ("hardware_twin", "hardware_twin", True),
                                                  ("two_stations", "two_stations", True)])
 def test_a_built_in_profile_by_name_is_its_option(name, option, value) -> None:
