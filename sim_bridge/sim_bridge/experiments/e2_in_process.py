@@ -63,6 +63,30 @@ def operator_outcome(moves: list[tuple[str, float, float]], force: np.ndarray, t
     return pieces
 
 
+#: The contact phases whose forces tell why a piece failed: the press that forms the bond, the insertion, the lock
+#: against the hole's wall and the pull that should break the bond.
+CONTACT_PHASES = ("press_felt", "descend", "search", "insert", "lock", "pull")
+
+
+def phase_forces(row: dict) -> list[tuple[str, float, float, float, float | None]]:
+    """From a trial's trace: each contact phase (CONTACT_PHASES) as (label, start, end, the replica's peak |F_R| in
+    it [N], the largest |x_d - x_R| in it [m] or None when the trace has no error), in order."""
+    trace = row["trace"]
+    time, force = np.asarray(trace["time"]), np.asarray(trace["force_n"])
+    error = np.asarray(trace["error_m"]) if "error_m" in trace else None
+    phases = trace["phases"]
+    result = []
+    for (label, start), (_, end) in zip(phases, [*phases[1:], ("end", float(time[-1]))]):
+        if label.split(":", 1)[1] not in CONTACT_PHASES:
+            continue
+        window = (time >= start) & (time < end)
+        if not window.any():
+            continue
+        result.append((label, start, end, round(float(force[window].max()), 1),
+                       None if error is None else round(float(error[window].max()), 3)))
+    return result
+
+
 def trial(seed: int, duration: float, jitter: bool, operator: str, controller: str, delay: float,
           paper_law: bool | None = None) -> dict:
     """One seed's trial. ``paper_law``: the replica's Eq. 7 as the paper writes it (no inertial feedforward, no

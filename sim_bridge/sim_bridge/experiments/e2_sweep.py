@@ -23,7 +23,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from sim_bridge.experiments.cell_statistics import wilson_interval
-from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, plot, trial
+from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, phase_forces, plot, trial
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES
 
 #: law -> (the runner's controller, the paper's Eq. 7 as written)
@@ -99,6 +99,27 @@ def summary(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def why(rows: list[dict]) -> str:
+    """The failed pieces' contact phases (phase_forces) and the operator's own log of them."""
+    lines = []
+    for row in rows:
+        failed = [name for name, piece in row.get("pieces", {}).items() if piece["result"] != "inside"]
+        if not failed:
+            continue
+        lines.append(f"{row['law']}@{row['delay_s']:g} seed {row['seed']}: {len(row['pieces_inside'])}/"
+                     f"{len(PIECE_NAMES)} inside; not inside: {', '.join(failed)}")
+        for shape in failed:
+            piece = row["pieces"][shape]
+            felt = [value for phase, _, value in piece["phases"] if phase == "pulled"]
+            lines.append(f"  {shape}: {piece['grasps']} grasp(s), {piece['insertions']} insertion(s); the strongest "
+                         f"pull the operator felt in each pull [N]: {felt}")
+            for label, start, end, force, error in phase_forces(row):
+                if label.startswith(f"{shape}:"):
+                    lines.append(f"    {label:28s} {start:7.2f}-{end:7.2f} s  peak |F_R| {force:5.1f} N"
+                                 + (f"  max |x_d - x_R| {error * 1000:5.1f} mm" if error is not None else ""))
+    return "\n".join(lines) + ("\n" if lines else "")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True, help="the jsonl of finished trials (read, then appended)")
@@ -111,7 +132,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plot", type=Path, default=None, metavar="PREFIX",
                         help="instead of running: one PNG a cell, PREFIX_<law>_<delay>.png: |F_R| against time for "
                              "each trial, F_max and the operator's phases")
+    parser.add_argument("--why", action="store_true",
+                        help="instead of running: for every trial that left a piece outside, each failed piece's "
+                             "contact phases with the replica's peak force and largest |x_d - x_R| in each, and what "
+                             "the operator logged (the felt force, the seen error)")
     args = parser.parse_args(argv)
+    if args.why:
+        print(why(done_trials(args.out)), end="")
+        return 0
     if args.plot is not None:
         cells: dict[tuple[str, float], list[dict]] = defaultdict(list)
         for row in done_trials(args.out):
