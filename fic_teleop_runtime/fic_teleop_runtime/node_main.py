@@ -29,6 +29,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from fic_core.errors import FicInputError
 from fic_teleop_runtime import stop_signals
+from fic_teleop_runtime.parameters import START_ARGUMENTS
 from fic_teleop_runtime.spin import SLICE, spin_until_shutdown
 
 EXIT_REFUSED = 2  # fic_teleop_bringup/launch_supervision.py: EXIT_REFUSED, "refused before anything started"
@@ -94,9 +95,12 @@ def run_entries(entries: Sequence[NodeEntry], args: Sequence[str] | None = None,
     except RCLError as exc:  # e.g. a malformed --params-file
         refuse(entries[0].name, f"bad ROS arguments or parameter file: {exc}")
     nodes: list[tuple[NodeEntry, Node]] = []
+    process_arguments = tuple(sys.argv if args is None else args)
     try:
         for index, entry in enumerate(entries):
             options = {} if node_arguments is None else {"cli_args": list(node_arguments[index])}
+            # What the node's parameter declaration checks the given keys against (parameters.declare).
+            START_ARGUMENTS.set(process_arguments + tuple(options.get("cli_args", ())))
             try:
                 nodes.append((entry, entry.make(**options)))
             except RCLError as exc:  # a member's own malformed --params-file

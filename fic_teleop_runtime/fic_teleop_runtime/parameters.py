@@ -23,7 +23,9 @@ import difflib
 import math
 import os
 import re
+import sys
 from collections.abc import Iterable, Mapping, Sequence
+from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,6 +41,9 @@ from fic_core.errors import FicInputError
 Type = Parameter.Type
 #: Parameters rclpy itself declares or reads on every node; a params file may give them.
 _RCLPY_OWN_PREFIXES = ("qos_overrides.",)
+#: The ROS arguments of the node being built (the process's, then the node's own when it shares a process):
+#: node_main.run_entries sets them; None: the process's command line.
+START_ARGUMENTS: ContextVar[tuple[str, ...] | None] = ContextVar("START_ARGUMENTS", default=None)
 _ARRAY_TYPES = (Type.BOOL_ARRAY, Type.INTEGER_ARRAY, Type.DOUBLE_ARRAY, Type.STRING_ARRAY, Type.BYTE_ARRAY)
 
 
@@ -239,6 +244,30 @@ def check_keys(given: Iterable[str], schema: Schema, node_name: str, also_known:
             raise unknown_key_error(name, schema.names, node_name)
 
 
+def given_keys(arguments: Sequence[str], node_name: str) -> set[str]:
+    """The parameter names the ROS arguments give node ``node_name``: the keys of every ``--params-file``'s
+    sections that apply to it (the wildcard and its own name, as rcl applies them) and every ``-p``/``--param``
+    rule (``name:=value``, or ``node:name:=value`` for this node). Only what follows ``--ros-args``, up to ``--``,
+    is a ROS argument."""
+    names: set[str] = set()
+    in_ros_arguments = False
+    items = iter(arguments)
+    for item in items:
+        if item == "--ros-args":
+            in_ros_arguments = True
+        elif item == "--":
+            in_ros_arguments = False
+        elif in_ros_arguments and item == "--params-file":
+            values = node_values(file_sections(Path(next(items, ""))), node_name)
+            names.update(values or {})
+        elif in_ros_arguments and item in ("-p", "--param"):
+            name = next(items, "").partition(":=")[0]
+            target, _, own = name.rpartition(":")
+            if not target or target.lstrip("/") == node_name.lstrip("/"):
+                names.add(own)
+    return names
+
+
 # --- declaring on a node -----------------------------------------------------------------------------------------
 def defaults_for(schema: Schema, node_name: str, folder: Path | None = None) -> dict[str, Any]:
     """The node's defaults from its config file, typed and checked; every row not ``optional`` must be there."""
@@ -258,10 +287,12 @@ def declare(node: Node, schema: Schema) -> dict[str, Any]:
     """Declare every row of ``schema`` on ``node`` with its default from config/, after refusing any key given at
     start that no row declares; returns name -> value (``values``). Raises FicInputError or rclpy's
     ParameterException (wrong type, out of range), which run_node turns into one FATAL line."""
-    # Overrides are what the params files and -p gave this node; rclpy keeps them on the node (and has no public
-    # accessor for them). Parameters rclpy declared itself (use_sim_time, ...) are declared before ours.
-    overrides = dict(node._parameter_overrides)  # noqa: SLF001
-    check_keys(overrides, schema, node.get_name(), also_known=node._parameters)  # noqa: SLF001
+    # What the params files and -p of the start gave this node, read from the ROS arguments (rclpy applies them
+    # but names them nowhere in its public API). Parameters rclpy declared itself (use_sim_time, ...) and any the
+    # node declared before are already listed on the node.
+    arguments = START_ARGUMENTS.get()
+    given = given_keys(sys.argv if arguments is None else arguments, node.get_name())
+    check_keys(given, schema, node.get_name(), also_known=node.list_parameters([], 0).names)
     defaults = defaults_for(schema, node.get_name())
     for row in schema.rows:
         default = defaults.get(row.name)
