@@ -49,3 +49,14 @@ def test_hold_torque_brings_a_moving_arm_to_rest_where_it_is():
     for _ in range(500):  # and stays there: gravity is compensated, nothing drifts
         sim.step(sim.hold_torque())
     assert np.abs(sim.joint_positions - resting).max() < 1e-4
+
+
+def test_a_torque_on_a_state_older_than_the_bound_is_refused_and_counted():
+    from sim_bridge.robot.watchdog import CommandStateAge
+
+    rule = CommandStateAge(0.02)
+    assert rule.admits(1.0, 1.019) and rule.admits(1.0, 1.0) and rule.refused == 0
+    assert not rule.admits(1.0, 1.0201) and rule.refused == 1
+    nanoseconds = CommandStateAge(20_000_000)   # robot_node's: on its stamp grid
+    assert nanoseconds.admits(1_000_000_000, 1_020_000_000) and not nanoseconds.admits(1_000_000_000, 1_020_000_001)
+    assert CommandStateAge(float("inf")).admits(0.0, 1e9)   # the runner's "no such rule"

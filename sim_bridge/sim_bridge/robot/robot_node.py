@@ -68,7 +68,7 @@ from sim_bridge.robot.render import StateTape, check_video_path, default_view, l
 from sim_bridge.robot.scenes import SCENE_NAMES
 from sim_bridge.robot.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
 from sim_bridge.robot.velocity_reflex import VelocityReflex
-from sim_bridge.robot.watchdog import CommandWatchdog, WatchdogEvent
+from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog, WatchdogEvent
 
 # 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 1000. A reliable writer overwrites samples a
 # slow reader has not acknowledged once its history is full, so a deep history (one second, only memory) is what
@@ -160,8 +160,7 @@ class RobotNode(Node):
         self._lockstep_timeout = p["lockstep_timeout"]
         self._lockstep_subscribers = p["lockstep_subscribers"]
         self._watchdog = CommandWatchdog(p["command_timeout"])
-        self._command_state_timeout_ns = round(p["command_state_timeout"] * 1e9)
-        self._stale_state_commands = 0
+        self._state_age = CommandStateAge(round(p["command_state_timeout"] * 1e9))   # on the stamp grid [ns]
         self._gate = LockstepGate()
         self._barrier = (PeerBarrier(p["lockstep_peers"], p["lockstep_peer_lag"], p["lockstep_peer_timeout"])
                          if self._mode == "lockstep" and p["lockstep_peers"] else None)
@@ -279,14 +278,13 @@ class RobotNode(Node):
         state_ns = command_state_stamp_ns(message.layout.dim[0].label)
         if state_ns is None:
             return False
-        age_ns = self._wall_epoch_ns + self._sim.steps * round(TIMESTEP * 1e9) - state_ns
-        if age_ns <= self._command_state_timeout_ns:
+        newest_ns = self._wall_epoch_ns + self._sim.steps * round(TIMESTEP * 1e9)
+        if self._state_age.admits(state_ns, newest_ns):
             return False
-        self._stale_state_commands += 1
         self.get_logger().warning(
-            f"refused a torque command computed on a joint state {age_ns * 1e-6:.1f} ms old (command_state_timeout "
-            f"{self._command_state_timeout_ns * 1e-6:g} ms; {self._stale_state_commands} so far): not applied",
-            throttle_duration_sec=1.0)
+            f"refused a torque command computed on a joint state {(newest_ns - state_ns) * 1e-6:.1f} ms old "
+            f"(command_state_timeout {self._state_age.timeout * 1e-6:g} ms; {self._state_age.refused} so far): "
+            "not applied", throttle_duration_sec=1.0)
         return True
 
     # --- lockstep peers (executor thread) -------------------------------------------------------------------------
@@ -507,7 +505,7 @@ class RobotNode(Node):
             "reflex": "" if self._reflex is None or self._reflex.event is None else self._reflex.event.message,
             "commands_accepted": str(self._accepted_commands),
             "commands_rejected": str(self._rejected_commands),
-            "commands_on_old_states": str(self._stale_state_commands),
+            "commands_on_old_states": str(self._state_age.refused),
             "lockstep_answered": str(self._gate.answered_steps),
             "lockstep_timeouts": str(self._gate.timeouts),
         }

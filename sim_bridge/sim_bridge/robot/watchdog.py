@@ -73,3 +73,22 @@ class CommandWatchdog:
             return WatchdogEvent(True, now, age, f"torque commands stale ({age:.3f} s > {self._timeout:.3f} s): "
                                                  "holding the arm (gravity compensation + damping)")
         return None
+
+
+class CommandStateAge:
+    """The robot's rule on the state a torque was computed on (fic_core.command_stamp): a torque computed on a joint
+    state older than ``timeout`` against the newest state the robot has published is never applied, and does not
+    release the watchdog, so neither a starved controller's late torque nor the first one after a hold acts on an arm
+    that has moved on (docs/SECURITY.md). Times in any one unit (robot_node: nanoseconds on its stamp grid; the
+    in-process runner: simulated seconds); ``timeout`` may be infinite (no such rule)."""
+
+    def __init__(self, timeout: float) -> None:
+        self.timeout = timeout
+        self.refused = 0   # torques refused so far
+
+    def admits(self, state_time: float, newest_state_time: float) -> bool:
+        """Whether a torque computed on the state of ``state_time`` may be applied (counted when not)."""
+        if newest_state_time - state_time <= self.timeout:
+            return True
+        self.refused += 1
+        return False
