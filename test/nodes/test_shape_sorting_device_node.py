@@ -77,7 +77,7 @@ def test_a_frame_without_every_piece_is_refused_and_the_node_goes_on(rclpy_conte
 
 def test_the_operator_feels_the_force_the_motors_render(rclpy_context) -> None:
     node = _node(rclpy_context)
-    node.command_force, node.command_time = np.array([0.0, 0.0, 50.0]), node._now()   # beyond the 20 N saturation
+    node.station.command(np.array([0.0, 0.0, 50.0]), node._now())   # beyond the 20 N saturation
     node._tick()
     # The handle has barely moved in one tick: the learnt centring spring is about zero, so the felt contact is the
     # rendered force, saturated as the motors saturate it.
@@ -90,11 +90,11 @@ def test_its_first_travel_switches_the_master_to_velocity_mode_with_a_button(rcl
     node = _node(rclpy_context, reaction_time=0.0)
     pieces = _start_pieces()
     deadline = time.monotonic() + 5.0
-    while BUTTON_TOGGLE_MODE not in node.button_queue and time.monotonic() < deadline:
+    while BUTTON_TOGGLE_MODE not in node.station.buttons and time.monotonic() < deadline:
         _send_frame(node, node._now(), HIGH_TCP, pieces)      # the robot seen at rest
         node._tick()
         time.sleep(0.01)
-    assert list(node.button_queue) == [BUTTON_TOGGLE_MODE]
+    assert list(node.station.buttons) == [BUTTON_TOGGLE_MODE]
     assert any(label.endswith(":reach") for label, _, _ in node.sorter.moves_started)
 
 

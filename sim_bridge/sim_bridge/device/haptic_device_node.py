@@ -11,13 +11,13 @@ one that times its moves from the delayed video of the replica (closed_loop_oper
 the same video (every piece's pose) and feels the rendered force with the force-reactive hand
 (shape_sorting_operator.py, reactive_hand.py; it presses its own buttons), one steered by /operator/joy axes
 (keyboard_operator or a joystick), or none (the handle is free). Time is the node clock, so use_sim_time runs the
-device in the simulator's time.
+device in the simulator's time. The device, the hand and what drives it are one object, device_station.py's
+DeviceStation, which the in-process runner steps too: this node is its wiring (topics, timers, log lines).
 """
 from __future__ import annotations
 
 import math
 import os
-from collections import deque
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +32,7 @@ from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
 from fic_teleop_runtime.stamps import nanoseconds
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
+from sim_bridge.device.device_station import DeviceStation
 from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.reactive_hand import ReactiveHand
@@ -149,19 +150,11 @@ class HapticDeviceNode(Node):
             self.pose_publisher = self.create_publisher(PoseStamped, "/haptic/pose", DEVICE_WRITER_QOS)
             self.twist_publisher = self.create_publisher(TwistStamped, "/haptic/twist", DEVICE_WRITER_QOS)
             self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_command, DEVICE_QOS)
-        self.command_force = np.zeros(3)
-        self.command_time: float | None = None
-        self.stale_warned = False
-
         self.scripted: ScriptedOperator | None = None
         self.watcher: ClosedLoopOperator | None = None
         self.sorter: ShapeSortingOperator | None = None
         self.video_halves: dict[tuple[str, int], np.ndarray] = {}
         self.joy_target: JoyTarget | None = None
-        self.joy_axes: list[float] = []
-        self.joy_time = -math.inf
-        self.button_queue: deque[int] = deque()
-        self.button_down = False
         if self.source in ("scripted", "closed_loop"):
             scene = value("scene")
             if self.source == "closed_loop" and scene != "superimposition":
@@ -211,6 +204,10 @@ class HapticDeviceNode(Node):
         start = value("script_start_time")
         self.script_origin = now if start < 0.0 else start
         self.last_time = now
+        # forcedimension_ros2's effort controller holds the last force with no timeout.
+        self.station = DeviceStation(self.device, self.hand, script=self.scripted, watcher=self.watcher or self.sorter,
+                                     joy_target=self.joy_target, command_timeout=None if self.fd else self.command_timeout,
+                                     joy_timeout=self.joy_timeout, script_origin=self.script_origin)
         self.create_timer(1.0 / value("publish_rate_hz"), self._tick)
 
     def _now(self) -> float:
@@ -223,11 +220,8 @@ class HapticDeviceNode(Node):
             self.get_logger().error(f"refused /haptic/wrench_command with a non-finite force {force.tolist()}",
                                     throttle_duration_sec=1.0)
             return
-        self.command_force = force
-        self.command_time = self._now()
-        if self.stale_warned:
+        if self.station.command(force, self._now()):
             self.get_logger().info("force commands are fresh again")
-            self.stale_warned = False
 
     def _on_fd_command(self, message: Float64MultiArray) -> None:
         """forcedimension_ros2's write(): the first three entries are the force in fd_base; a NaN anywhere renders
@@ -238,8 +232,7 @@ class HapticDeviceNode(Node):
                                     throttle_duration_sec=1.0)
             return
         force = np.array(data[:3], dtype=float)
-        self.command_force = force if np.all(np.isfinite(data)) else np.zeros(3)
-        self.command_time = self._now()
+        self.station.command(force if np.all(np.isfinite(data)) else np.zeros(3), self._now())
 
     def _on_video_tcp(self, message: PoseStamped) -> None:
         p = message.pose.position
@@ -282,53 +275,29 @@ class HapticDeviceNode(Node):
         if not all(math.isfinite(a) for a in axes):
             self.get_logger().error("refused /operator/joy with non-finite axes", throttle_duration_sec=1.0)
             return
-        self.joy_axes = axes
-        self.joy_time = self._now()
+        self.station.axes(axes, self._now())
 
     # -- loop -----------------------------------------------------------------------------------------------
-    def _current_command(self, now: float) -> np.ndarray:
-        if self.fd:
-            return self.command_force  # the driver's forward controller: held, no timeout
-        if self.command_time is not None and now - self.command_time <= self.command_timeout:
-            return self.command_force
-        if self.command_time is not None and not self.stale_warned:
-            # Once per stale episode, not every tick: a lost master makes the handle go limp, which is safe.
-            self.get_logger().warning(f"force command stale (older than {self.command_timeout:.3f} s): "
-                                      "rendering zero force")
-            self.stale_warned = True
-        return np.zeros(3)
-
     def _tick(self) -> None:
         now = self._now()
         dt = min(max(now - self.last_time, 0.0), LONGEST_STEP)
         self.last_time = now
-        command = self._current_command(now)
-        if self.scripted is not None:
-            target = (self.scripted.target(now - self.script_origin) if self.watcher is None
-                      else self._watched_target(now))
-            self.hand.update(target, self.device.position, dt)
-            self.button_queue.extend(event.button for event in self.scripted.poll_events(now - self.script_origin))
-            if self.fd:
-                self._fd_buttons()
-            hand_force = self.hand.force
-        elif self.sorter is not None:
-            rendered = self.device.saturate(command)   # what the motors render: what the hand feels
-            self.sorter.feel(rendered, self.device.position)
-            logged = len(self.sorter.moves_started)
-            self.hand.update(self.sorter.target(now), self.device.position, dt, self.device.velocity, rendered)
-            for phase, start, figure in self.sorter.moves_started[logged:]:
+        step = self.station.step(now, dt)
+        if step.stale_now:
+            # Once per stale episode, not every tick: a lost master makes the handle go limp, which is safe.
+            self.get_logger().warning(f"force command stale (older than {self.command_timeout:.3f} s): "
+                                      "rendering zero force")
+        for move in step.moves:
+            if self.sorter is not None:
+                phase, start, figure = move
                 self.get_logger().info(f"shape-sorting operator: {phase} at {start:.3f} s ({figure:.4g})")
-            self.button_queue.extend(event.button for event in self.sorter.poll_events(now))
-            if self.fd:
-                self._fd_buttons()
-            hand_force = self.hand.force
-        elif self.joy_target is not None:
-            axes = self.joy_axes if now - self.joy_time <= self.joy_timeout else []
-            self.hand.update(self.joy_target.update(axes, dt), self.device.position, dt)
-            hand_force = self.hand.force
-        else:
-            hand_force = np.zeros(3)
-        state = self.device.step(command, hand_force, dt)
+            else:
+                name, start, passing = move
+                self.get_logger().info(f"closed-loop operator starts its {name} move at {start:.2f} s for the "
+                                       f"passing it predicts at {passing:.2f} s")
+        if self.fd and (self.scripted is not None or self.sorter is not None):
+            self._fd_buttons()
+        state, command = step.state, step.command
         stamp = self.get_clock().now().to_msg()
         pose = PoseStamped()
         pose.header.stamp, pose.header.frame_id = stamp, self.frame_id
@@ -351,22 +320,14 @@ class HapticDeviceNode(Node):
         self.pose_publisher.publish(pose)
         self.twist_publisher.publish(twist)
 
-    def _watched_target(self, now: float) -> np.ndarray:
-        started = len(self.watcher.moves_started)
-        target = self.watcher.target(now)
-        for move, start, passing in self.watcher.moves_started[started:]:
-            self.get_logger().info(f"closed-loop operator starts its {move} move at {start:.2f} s for the "
-                                   f"passing it predicts at {passing:.2f} s")
-        return target
-
     def _fd_buttons(self) -> None:
         """The device's one button carries the script's mode toggles (held for one publication, released for
         the next, so two toggles stay two); the other scripted presses still go to /operator/joy."""
         if self.fd_button_pressed:
             self.fd_button_pressed = False
             return
-        if self.button_queue and self.button_queue[0] == 0:
-            self.button_queue.popleft()
+        if self.station.buttons and self.station.buttons[0] == 0:
+            self.station.buttons.popleft()
             self.fd_button_pressed = True
             self.get_logger().info("operator presses the device button")
 
@@ -377,13 +338,10 @@ class HapticDeviceNode(Node):
         message.header.stamp = self.get_clock().now().to_msg()
         message.axes = [0.0, 0.0, 0.0]
         message.buttons = [0] * BUTTON_COUNT
-        if not self.button_down and self.button_queue and not (self.fd and self.button_queue[0] == 0):
-            button = self.button_queue.popleft()
+        button = self.station.press(skip_first=self.fd)
+        if button is not None:
             message.buttons[button] = 1
-            self.button_down = True
             self.get_logger().info(f"operator presses button {button}")
-        else:
-            self.button_down = False
         self.joy_publisher.publish(message)
 
 
