@@ -138,6 +138,9 @@ def main(argv: list[str] | None = None) -> int:
     args.runs_dir.mkdir(parents=True, exist_ok=True)
     law = args.controller + ("_paper_law" if args.paper_law else "")
     done = {(row["law"], row["delay_s"], row["seed"]) for row in done_rows(args.out)}
+    if args.out.exists() and args.out.stat().st_size and not args.out.read_bytes().endswith(b"\n"):
+        with args.out.open("a") as handle:   # a line cut short by a stopped run: the next trial starts a line
+            handle.write("\n")
     for seed in args.seeds:
         if (law, args.delay, seed) in done:
             continue

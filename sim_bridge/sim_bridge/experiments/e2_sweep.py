@@ -163,6 +163,9 @@ def main(argv: list[str] | None = None) -> int:
     todo = [(law, delay, seed) for seed in range(1, args.seeds + 1) for law, delay in cells
             if (law, delay, seed) not in done]
     print(f"[e2-sweep] {len(done)} trials done, {len(todo)} to run", flush=True)
+    if args.out.exists() and args.out.stat().st_size and not args.out.read_bytes().endswith(b"\n"):
+        with args.out.open("a") as handle:   # a line cut short by a stopped run: the next trial starts a line
+            handle.write("\n")
     for law, delay, seed in todo:
         controller, paper_law = LAWS[law]
         row = trial(seed, args.duration, True, "shape_sorting", controller, delay, paper_law=paper_law)
