@@ -116,8 +116,21 @@ def test_a_missing_value_or_a_wrong_type_is_refused(tmp_path: Path) -> None:
 
 
 def test_an_empty_list_takes_the_declared_type() -> None:
-    from fic_teleop_runtime.parameters import Type, defaults_for
+    from fic_teleop_runtime.parameters import RCLPY_TYPES, Type, defaults_for
 
     robot = _schemas()["robot"]
-    assert robot.row("lockstep_peers").type == Type.STRING_ARRAY
+    assert RCLPY_TYPES[robot.row("lockstep_peers").kind] == Type.STRING_ARRAY
     assert defaults_for(robot, "robot", CONFIG)["lockstep_peers"] == []
+
+
+def test_the_declared_range_is_the_rows_own() -> None:
+    """The descriptor rclpy enforces carries the bounds ``ParameterRow.checked`` uses: one range, written once."""
+    from fic_teleop_runtime.parameters import descriptor
+
+    for schema in _schemas().values():
+        for row in schema.rows:
+            ranges = [*descriptor(row).floating_point_range, *descriptor(row).integer_range]
+            if row.low is None:
+                assert not ranges, row.name
+            else:
+                assert (ranges[0].from_value, ranges[0].to_value) == (row.low, row.high), row.name

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from .channel_passivity_observer import ChannelPortObserver
 from .errors import finite_array, finite_scalar
 from .master_station import MasterStation
+from .parameter_row import ParameterRow, number, rows_by_name, switch
 from .passivity_controller import ForcePortPassivityController, MotionPortPassivityController
 from .teleoperation import TeleoperationMode
 from .windowed_rate import WindowedRate
@@ -34,15 +35,16 @@ from .windowed_rate import WindowedRate
 #: a quarter of the input authority's 1 m/s bound on x_d''s speed, so a correction never looks like a jump.
 MAX_OFFSET_CORRECTION_M = 0.001
 
-#: Parameters the master and the replica node both declare, fixed at start (name: description; name: (low, high,
-#: description)); the master's damping bound is one of the master's own (fic_core.master_station).
-CHANNEL_PORT_SWITCHES = {
-    "channel_passivity_control": "TDPA: the channel port's passivity controller acts (true) or its time-domain "
-                                 "passivity observer only watches (false)",
-}
-CHANNEL_PORT_NUMBERS = {
-    "channel_energy_window": (0.01, 600.0, "sliding window of the channel port's generated-energy rate [s]"),
-}
+#: Parameters the master and the replica node both declare, fixed at start; the master's damping bound is one of the
+#: master's own (fic_core.master_station).
+CHANNEL_PORT_SWITCHES: dict[str, ParameterRow] = rows_by_name(
+    switch("channel_passivity_control", "TDPA: the channel port's passivity controller acts (true) or its "
+                                        "time-domain passivity observer only watches (false)", read_only=True),
+)
+CHANNEL_PORT_NUMBERS: dict[str, ParameterRow] = rows_by_name(
+    number("channel_energy_window", 0.01, 600.0, "sliding window of the channel port's generated-energy rate [s]",
+           read_only=True),
+)
 
 
 def port_velocity(mode: TeleoperationMode, workspace_scale: float, velocity_gain: float,

@@ -25,15 +25,16 @@ from .attractor import FractalAttractor
 from .attractor_storage import AttractorStorage
 from .exchanged_energy_observer import DEFAULT_TOLERANCE_J, ExchangedEnergyObserver
 from .master_station import MasterStation
+from .parameter_row import ParameterRow, rows_by_name, switch
 from .pose_attractor import PoseAttractor, PoseAttractorSnapshot
 from .replica import ReplicaCommand
 
-#: The switch both nodes declare (name: description), fixed at start.
-EXCHANGED_ENERGY_SWITCHES = {
-    "exchanged_energy_observer": "book the FIC port's held effort times its measured displacement against the "
-                                 "attractor's storage (fic_core.exchanged_energy_ports) and publish it on "
-                                 "/diagnostics",
-}
+#: The switch both nodes declare, fixed at start.
+EXCHANGED_ENERGY_SWITCHES: dict[str, ParameterRow] = rows_by_name(
+    switch("exchanged_energy_observer", "book the FIC port's held effort times its measured displacement against "
+                                        "the attractor's storage (fic_core.exchanged_energy_ports) and publish it "
+                                        "on /diagnostics", read_only=True),
+)
 
 
 class ReplicaExchangedEnergy:

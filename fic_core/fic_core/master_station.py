@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from .attractor import FractalAttractor
 from .errors import FicInputError, finite_array, finite_scalar
 from .master import MasterLaw
+from .parameter_row import ParameterRow, number, rows_by_name
 from .operator_buttons import HAPTIC_GAIN_STEP, ButtonEdges, OperatorButton
 from .profile import ForceProfile
 from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
@@ -34,34 +35,40 @@ INTEGRATOR_PARAMETERS = ("workspace_scale", "velocity_gain", "velocity_deadband"
 READ_ONLY = ("control_rate", "network_rate", "diagnostics_rate", "frame_id", "channel_max_damping")
 Notice = tuple[str, str]
 
-#: The master's numeric parameters, name: (low, high, description, read-only); their values are config/master.yaml's
+#: The master's numeric parameters (fic_core.parameter_row rows); their values are config/master.yaml's
 #: alone (one home for each value).
-MASTER_NUMBERS: dict[str, tuple[float, float, str, bool]] = {
-    "stiffness": (1.0, 5000.0, "K0 of the handle's FIC [N/m] (Eq. 1)", False),
-    "saturation_error": (1e-3, 1.0, "x_b of the handle's FIC [m]", False),
-    "saturation_start": (0.0, 0.99, "xi of the handle's FIC, in [0, 1)", False),
-    "max_force": (0.1, 100.0, "F_max of the handle's FIC [N] (>= xi*K0*x_b)", False),
-    "rate_deadband": (0.0, 1.0, "dead-band on d|x_M|/dt for entering the convergence phase [m/s]", False),
-    "haptic_gain": (0.0, 10.0, "K_H: share of the replica force rendered on the handle (Eq. 3), in [0, 1]; "
-                    "values above 1 are clamped to 1 with a warning", False),
-    "max_device_force": (0.0, 1000.0, "norm limit of the device force [N] (sigma.7: ~20 N continuous); "
-                         "0: no limit", False),
-    "workspace_scale": (0.01, 100.0, "s_M: offset-mode scale", False),
-    "velocity_gain": (0.0, 100.0, "k_v: velocity-mode gain [1/s]", False),
-    "velocity_deadband": (0.0, 0.1, "velocity mode ignores |x_M| below this [m] so a resting hand does not "
-                          "drift", False),
-    "feedback_timeout": (0.001, 60.0, "F_R older than this (receipt time) is treated as zero [s]", False),
-    "pose_timeout": (0.001, 60.0, "no /haptic/pose for this long: the wrench command is zero [s]", False),
-    "handle_extrapolation": (0.0, 0.05, "the longest the last handle pose is carried forward by its velocity to a "
-                             "network tick's stamp [s]; 0: sent as received (docs/CONTROL_LAWS.md)", False),
-    "control_rate": (1.0, 5000.0, "/haptic/wrench_command rate [Hz]", True),
-    "network_rate": (1.0, 5000.0, "/master/pose and /master/teleop_command rate [Hz]", True),
-    "diagnostics_rate": (0.01, 100.0, "/diagnostics rate [Hz]", True),
+MASTER_NUMBERS: dict[str, ParameterRow] = rows_by_name(
+    number("stiffness", 1.0, 5000.0, "K0 of the handle's FIC [N/m] (Eq. 1)"),
+    number("saturation_error", 0.001, 1.0, "x_b of the handle's FIC [m]"),
+    number("saturation_start", 0.0, 0.99, "xi of the handle's FIC, in [0, 1)"),
+    number("max_force", 0.1, 100.0, "F_max of the handle's FIC [N] (>= xi*K0*x_b)"),
+    number("rate_deadband", 0.0, 1.0, "dead-band on d|x_M|/dt for entering the convergence phase [m/s]"),
+    number("haptic_gain", 0.0, 10.0, "K_H: share of the replica force rendered on the handle (Eq. 3), in [0, 1]; "
+                                     "values above 1 are clamped to 1 with a warning"),
+    number("max_device_force", 0.0, 1000.0, "norm limit of the device force [N] (sigma.7: ~20 N continuous); 0: no "
+                                            "limit"),
+    number("workspace_scale", 0.01, 100.0, "s_M: offset-mode scale"),
+    number("velocity_gain", 0.0, 100.0, "k_v: velocity-mode gain [1/s]"),
+    number("velocity_deadband", 0.0, 0.1, "velocity mode ignores |x_M| below this [m] so a resting hand does not "
+                                          "drift"),
+    number("feedback_timeout", 0.001, 60.0, "F_R older than this (receipt time) is treated as zero [s]"),
+    number("pose_timeout", 0.001, 60.0, "no /haptic/pose for this long: the wrench command is zero [s]"),
+    number("handle_extrapolation", 0.0, 0.05, "the longest the last handle pose is carried forward by its velocity to "
+                                              "a network tick's stamp [s]; 0: sent as received (docs/CONTROL_LAWS.md)"),
+    number("control_rate", 1.0, 5000.0, "/haptic/wrench_command rate [Hz]", read_only=True),
+    number("network_rate", 1.0, 5000.0, "/master/pose and /master/teleop_command rate [Hz]", read_only=True),
+    number("diagnostics_rate", 0.01, 100.0, "/diagnostics rate [Hz]", read_only=True),
     # The channel's master port (fic_core.channel_ports: the master node builds it, MasterStation does not read it).
-    "channel_max_damping": (0.0, 1e6, "bound on the TDPA damper alpha at the channel's master port [N s/m]: "
-                            "the handle's mass times control_rate stops the handle in one tick", True),
-}
+    number("channel_max_damping", 0.0, 1000000.0, "bound on the TDPA damper alpha at the channel's master port [N "
+                                                  "s/m]: the handle's mass times control_rate stops the handle in one "
+                                                  "tick", read_only=True),
+)
 
+
+
+def _checked(values: Mapping[str, Any]) -> dict[str, Any]:
+    """The numbers of ``values`` that are rows of MASTER_NUMBERS, each checked against its row (its range)."""
+    return {name: MASTER_NUMBERS[name].checked(value) for name, value in values.items() if name in MASTER_NUMBERS}
 
 
 def _attractor(values: Mapping[str, Any]) -> FractalAttractor:
@@ -84,6 +91,7 @@ class MasterStation:
     """Eq. 3 and the teleoperation command for a parameter mapping (the master's parameters; module docstring)."""
 
     def __init__(self, values: Mapping[str, Any]) -> None:
+        values = {**values, **_checked(values)}
         self.parameters = dict(values)
         self.law = MasterLaw(_attractor(values), 0.0, _device_limit(values["max_device_force"]))
         self.law.set_haptic_gain(values["haptic_gain"])
@@ -116,6 +124,7 @@ class MasterStation:
                 raise FicInputError(f"{name} is fixed at start")
             if isinstance(new, float) and not np.isfinite(new):
                 raise FicInputError(f"{name} must be finite, got {new}")
+        changes = {**changes, **_checked(changes)}
         values = {**self.parameters, **changes}
         attractor = _attractor(values) if any(name in PROFILE_PARAMETERS for name in changes) else None
         for name in INTEGRATOR_PARAMETERS:  # checked before anything is applied

@@ -1,14 +1,13 @@
 """The replica's parameters as one plain mapping, and the controller built from it.
 
-``REPLICA_NUMBERS`` and ``REPLICA_SWITCHES`` are the schema (name: description[, range]) the node declares its
-parameters from and the in-process runner reads config/replica.yaml against. The defaults are config/replica.yaml's
+``REPLICA_NUMBERS`` and ``REPLICA_SWITCHES`` are the schema (name: fic_core.parameter_row rows) the node declares
+its parameters from and the in-process runner reads config/replica.yaml against. The defaults are config/replica.yaml's
 alone (one home for each value): ``checked`` needs every parameter, refuses a value outside its range and names
 it; ``build_replica_controller`` makes the ReplicaController (paper Eq. 7 with the FIC, or the linear baseline, a
 null-space posture and the postural optimisation) for a mapping.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -16,89 +15,87 @@ from .attractor import PoseAttractor
 from .baseline import LinearImpedance
 from .errors import FicInputError
 from .limits import PandaLimits
+from .parameter_row import ParameterRow, number, rows_by_name, switch
 from .postural_optimisation import PosturalOptimisation
 from .posture import NullSpacePosture
 from .profile import ForceProfile
 from .replica import ReplicaController
 from .robot_model import RobotModel
 
-#: name: (description, low, high) of the numbers (config/replica.yaml holds their values).
-REPLICA_NUMBERS: dict[str, tuple[str, float, float]] = {
-    "translation_stiffness": ("FIC K0 of translation [N/m] (paper Sec. III: 200)", 1.0, 1.0e5),
-    "translation_saturation_error": ("FIC x_b of translation [m] (paper: 0.05)", 1.0e-4, 1.0),
-    "translation_saturation_start": ("FIC xi of translation, in [0, 1)", 0.0, 0.99),
-    "translation_max_force": ("FIC F_max of translation [N], >= xi*K0*x_b", 0.01, 500.0),
-    "rotation_stiffness": ("FIC K0 of rotation [N m/rad]", 0.1, 1.0e4),
-    "rotation_saturation_error": ("FIC x_b of rotation [rad]", 1.0e-3, 3.14),
-    "rotation_saturation_start": ("FIC xi of rotation, in [0, 1)", 0.0, 0.99),
-    "rotation_max_force": ("FIC F_max of rotation [N m], >= xi*K0*x_b", 0.01, 100.0),
-    "rate_deadband_translation": ("FIC dead-band on d|e|/dt for entering C, translation [m/s]", 0.0, 1.0),
-    "rate_deadband_rotation": ("FIC dead-band on d|e|/dt for entering C, rotation [rad/s]", 0.0, 10.0),
-    "linear_translation_damping": ("baseline (controller: linear) damping [N s/m]; K = translation_stiffness",
-                                   0.0, 1.0e4),
-    "linear_rotation_damping": ("baseline damping of rotation [N m s/rad]; K = rotation_stiffness",
-                                0.0, 1.0e3),
-    "posture_stiffness": ("null-space pull toward the nominal configuration [N m/rad]", 0.0, 500.0),
-    "posture_damping": ("null-space joint damping [N m s/rad]", 0.0, 100.0),
-    "posture_limit_band": ("joint-limit repulsion acts within this distance of a URDF limit [rad]", 0.01, 1.0),
-    "posture_limit_stiffness": ("joint-limit repulsion gain [N m/rad]", 0.0, 1000.0),
-    "velocity_horizon": ("horizon of the velocity-limit predictions of the postural optimisation [s]",
-                         0.001, 1.0),
-    "control_rate": ("control law rate [Hz]; below the joint-state rate the torque is held in between",
-                     1.0, 1000.0),
-    "command_period": ("period of /joint_states and of the published commands [s] (torque slew step)",
-                       1.0e-4, 0.1),
-    "master_timeout": ("teleoperation commands older than this (by receipt) are stale: x_d' is held [s]",
-                       0.01, 60.0),
-    "resume_speed": ("speed at which x_d' moves to the commanded value after a stale period [m/s]",
-                     0.001, 2.0),
-    "set_point_acceleration_filter": ("time constant of the acceleration estimate of x_d' (fed forward when "
-                                      "offset_feedforward is true) [s]", 0.0, 1.0),
-    "set_point_extrapolation": ("x_d' and x_d'' move on along their last velocity for at most this long "
-                                "after a sample (first-order hold between samples) [s]; 0: held as steps",
-                                0.0, 0.5),
-    "desired_velocity_filter": ("time constant of the x_d velocity estimate fed to the FIC's error rate [s]; "
-                                "0 disables it (zero desired twist)", 0.0, 1.0),
-    "pose_rate": ("rate of /replica/desired_pose, /replica/tcp_pose, /replica/feedback_wrench [Hz]",
-                  1.0, 1000.0),
-    "status_rate": ("rate of /replica/fic_state and /replica/limit_status [Hz]; LimitStatus flags are OR-ed "
-                    "over the ticks since the last message and its tick counters are cumulative, so a lower "
-                    "rate loses no count", 1.0, 1000.0),
-    "diagnostics_rate": ("rate of /diagnostics [Hz]", 0.1, 10.0),
+#: The numbers (config/replica.yaml holds their values).
+REPLICA_NUMBERS: dict[str, ParameterRow] = rows_by_name(
+    number("translation_stiffness", 1.0, 100000.0, "FIC K0 of translation [N/m] (paper Sec. III: 200)"),
+    number("translation_saturation_error", 0.0001, 1.0, "FIC x_b of translation [m] (paper: 0.05)"),
+    number("translation_saturation_start", 0.0, 0.99, "FIC xi of translation, in [0, 1)"),
+    number("translation_max_force", 0.01, 500.0, "FIC F_max of translation [N], >= xi*K0*x_b"),
+    number("rotation_stiffness", 0.1, 10000.0, "FIC K0 of rotation [N m/rad]"),
+    number("rotation_saturation_error", 0.001, 3.14, "FIC x_b of rotation [rad]"),
+    number("rotation_saturation_start", 0.0, 0.99, "FIC xi of rotation, in [0, 1)"),
+    number("rotation_max_force", 0.01, 100.0, "FIC F_max of rotation [N m], >= xi*K0*x_b"),
+    number("rate_deadband_translation", 0.0, 1.0, "FIC dead-band on d|e|/dt for entering C, translation [m/s]"),
+    number("rate_deadband_rotation", 0.0, 10.0, "FIC dead-band on d|e|/dt for entering C, rotation [rad/s]"),
+    number("linear_translation_damping", 0.0, 10000.0, "baseline (controller: linear) damping [N s/m]; K = "
+                                                       "translation_stiffness"),
+    number("linear_rotation_damping", 0.0, 1000.0, "baseline damping of rotation [N m s/rad]; K = rotation_stiffness"),
+    number("posture_stiffness", 0.0, 500.0, "null-space pull toward the nominal configuration [N m/rad]"),
+    number("posture_damping", 0.0, 100.0, "null-space joint damping [N m s/rad]"),
+    number("posture_limit_band", 0.01, 1.0, "joint-limit repulsion acts within this distance of a URDF limit [rad]"),
+    number("posture_limit_stiffness", 0.0, 1000.0, "joint-limit repulsion gain [N m/rad]"),
+    number("velocity_horizon", 0.001, 1.0, "horizon of the velocity-limit predictions of the postural optimisation "
+                                           "[s]"),
+    number("control_rate", 1.0, 1000.0, "control law rate [Hz]; below the joint-state rate the torque is held in "
+                                        "between"),
+    number("command_period", 0.0001, 0.1, "period of /joint_states and of the published commands [s] (torque slew "
+                                          "step)"),
+    number("master_timeout", 0.01, 60.0, "teleoperation commands older than this (by receipt) are stale: x_d' is held "
+                                         "[s]"),
+    number("resume_speed", 0.001, 2.0, "speed at which x_d' moves to the commanded value after a stale period [m/s]"),
+    number("set_point_acceleration_filter", 0.0, 1.0, "time constant of the acceleration estimate of x_d' (fed "
+                                                      "forward when offset_feedforward is true) [s]"),
+    number("set_point_extrapolation", 0.0, 0.5, "x_d' and x_d'' move on along their last velocity for at most this "
+                                                "long after a sample (first-order hold between samples) [s]; 0: held "
+                                                "as steps"),
+    number("desired_velocity_filter", 0.0, 1.0, "time constant of the x_d velocity estimate fed to the FIC's error "
+                                                "rate [s]; 0 disables it (zero desired twist)"),
+    number("pose_rate", 1.0, 1000.0, "rate of /replica/desired_pose, /replica/tcp_pose, /replica/feedback_wrench [Hz]"),
+    number("status_rate", 1.0, 1000.0, "rate of /replica/fic_state and /replica/limit_status [Hz]; LimitStatus flags "
+                                       "are OR-ed over the ticks since the last message and its tick counters are "
+                                       "cumulative, so a lower rate loses no count"),
+    number("diagnostics_rate", 0.1, 10.0, "rate of /diagnostics [Hz]"),
     # The replica watching its own loop (fic_core.loop_health, docs/SECURITY.md "The replica's own loop").
-    "loop_max_state_age": ("a control tick on a joint state older than this holds the arm instead of applying the "
-                           "law (gravity and joint damping) [s]", 0.001, 10.0),
-    "loop_max_tick_gap": ("control ticks further apart than this hold the arm the same way [s]", 0.001, 10.0),
-    "loop_resume_ticks": ("healthy control ticks in a row before the law takes over from a hold", 1.0, 100000.0),
-    "loop_resume_ramp": ("the law is blended in from the hold over this long after a hold [s]", 0.0, 10.0),
-}
+    number("loop_max_state_age", 0.001, 10.0, "a control tick on a joint state older than this holds the arm instead "
+                                              "of applying the law (gravity and joint damping) [s]"),
+    number("loop_max_tick_gap", 0.001, 10.0, "control ticks further apart than this hold the arm the same way [s]"),
+    number("loop_resume_ticks", 1.0, 100000.0, "healthy control ticks in a row before the law takes over from a hold"),
+    number("loop_resume_ramp", 0.0, 10.0, "the law is blended in from the hold over this long after a hold [s]"),
+)
 
-#: name: description of the on/off parameters.
-REPLICA_SWITCHES: dict[str, str] = {
-    "answer_every_state": "publish a command for every joint state (the held torque between control ticks), "
-                          "as the simulator's lockstep mode needs; false: only at control ticks, the robot "
-                          "holding the last command in between (realtime; saves a 1 kHz stream when "
-                          "control_rate is below 1 kHz)",
-    "tick_on_command": "also run a control tick at the first joint state after a new teleoperation command, "
-                       "instead of waiting for the control_rate grid, which restarts from that tick: the "
-                       "command is applied up to one control period sooner, for at most one extra tick per "
-                       "command (the launcher sets it with --scheduling fifo; off, the law runs at "
-                       "control_rate exactly, as the bandwidth sweep needs)",
-    "paper_law": "true: exactly paper Eq. 7 (C qd + G + J^T FIC) with the posture and the postural "
-                 "optimisation, nothing else: the planner and offset feedforward and the joint friction "
-                 "compensation are off whatever their own parameters say (docs/CONTROL_LAWS.md, 'Terms "
-                 "beyond Eq. 7')",
-    "planner_feedforward": "feed the planner's acceleration (/planner/desired_accel) forward through the "
-                           "task-space inertia, J^T Lambda a_d (beyond paper Eq. 7: the FIC compensates no "
-                           "inertia)",
-    "offset_feedforward": "feed the estimated acceleration of the teleoperated x_d' forward the same way "
-                          "(beyond paper Eq. 7; fic_core.set_point: from the stamps of successive commands, "
-                          "low-pass filtered)",
-    "joint_damping_compensation": "add D qd, the arm's viscous joint friction, to tau_d as Eq. 7 adds C qd "
-                                  "(beyond the paper; fic_core.replica)",
-    "use_planner_orientation": "track the orientation of /planner/desired_pose; false holds the TCP "
-                               "orientation found at start (the planner plans positions, paper Eqs. 5-6)",
-}
+#: The on/off parameters.
+REPLICA_SWITCHES: dict[str, ParameterRow] = rows_by_name(
+    switch("answer_every_state", "publish a command for every joint state (the held torque between control ticks), as "
+                                 "the simulator's lockstep mode needs; false: only at control ticks, the robot "
+                                 "holding the last command in between (realtime; saves a 1 kHz stream when "
+                                 "control_rate is below 1 kHz)"),
+    switch("tick_on_command", "also run a control tick at the first joint state after a new teleoperation command, "
+                              "instead of waiting for the control_rate grid, which restarts from that tick: the "
+                              "command is applied up to one control period sooner, for at most one extra tick per "
+                              "command (the launcher sets it with --scheduling fifo; off, the law runs at "
+                              "control_rate exactly, as the bandwidth sweep needs)"),
+    switch("paper_law", "true: exactly paper Eq. 7 (C qd + G + J^T FIC) with the posture and the postural "
+                        "optimisation, nothing else: the planner and offset feedforward and the joint friction "
+                        "compensation are off whatever their own parameters say (docs/CONTROL_LAWS.md, 'Terms beyond "
+                        "Eq. 7')"),
+    switch("planner_feedforward", "feed the planner's acceleration (/planner/desired_accel) forward through the "
+                                  "task-space inertia, J^T Lambda a_d (beyond paper Eq. 7: the FIC compensates no "
+                                  "inertia)"),
+    switch("offset_feedforward", "feed the estimated acceleration of the teleoperated x_d' forward the same way "
+                                 "(beyond paper Eq. 7; fic_core.set_point: from the stamps of successive commands, "
+                                 "low-pass filtered)"),
+    switch("joint_damping_compensation", "add D qd, the arm's viscous joint friction, to tau_d as Eq. 7 adds C qd "
+                                         "(beyond the paper; fic_core.replica)"),
+    switch("use_planner_orientation", "track the orientation of /planner/desired_pose; false holds the TCP "
+                                      "orientation found at start (the planner plans positions, paper Eqs. 5-6)"),
+)
 
 CONTROLLERS = ("fic", "linear", "linear_bounded")
 CONTROLLER_DESCRIPTION = ("task-space law: 'fic' (the paper's Fractal Impedance Controller) or 'linear' (the "
@@ -121,17 +118,8 @@ def checked(values: Mapping[str, Any]) -> dict[str, Any]:
     if missing:
         raise FicInputError(f"replica parameters missing: {', '.join(missing)}")
     result = dict(values)
-    for name, (_, low, high) in REPLICA_NUMBERS.items():
-        try:
-            number = float(result[name])
-        except (TypeError, ValueError):
-            raise FicInputError(f"{name} must be a number, got {result[name]!r}") from None
-        if isinstance(result[name], bool) or not math.isfinite(number) or not low <= number <= high:
-            raise FicInputError(f"{name} must be a finite number in [{low:g}, {high:g}], got {result[name]}")
-        result[name] = number
-    for name in REPLICA_SWITCHES:
-        if not isinstance(result[name], bool):
-            raise FicInputError(f"{name} must be true or false, got {result[name]!r}")
+    for row in (*REPLICA_NUMBERS.values(), *REPLICA_SWITCHES.values()):
+        result[row.name] = row.checked(result[row.name])
     if result["paper_law"]:  # Eq. 7 + posture + postural optimisation only
         result.update(planner_feedforward=False, offset_feedforward=False, joint_damping_compensation=False)
     if result["controller"] not in CONTROLLERS:

@@ -37,7 +37,7 @@ from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
-from fic_teleop_runtime.parameters import Schema, declare, integer, number, switch, text
+from fic_teleop_runtime.parameters import Schema, declare, integer, text
 from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
 
 # Device and teleoperation streams RELIABLE (the channel alone loses on purpose), read 20 deep and written with
@@ -45,15 +45,11 @@ from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_e
 # of the run (fic_teleop_runtime.qos).
 STREAM_QOS, STREAM_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
 JOY_QOS, DIAGNOSTICS_QOS = qos.EVENTS, qos.DIAGNOSTICS
-SCHEMA = Schema("master.yaml", (number(name, low, high, description, read_only)
-                                for name, (low, high, description, read_only) in MASTER_NUMBERS.items()),
+SCHEMA = Schema("master.yaml", MASTER_NUMBERS.values(),
                 integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
                                       "(x_d' += k_v*x_M*dt)"),
                 text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True),
-                (switch(name, description, read_only=True) for name, description in CHANNEL_PORT_SWITCHES.items()),
-                (number(name, low, high, description, read_only=True)
-                 for name, (low, high, description) in CHANNEL_PORT_NUMBERS.items()),
-                (switch(name, description, read_only=True) for name, description in EXCHANGED_ENERGY_SWITCHES.items()))
+                CHANNEL_PORT_SWITCHES.values(), CHANNEL_PORT_NUMBERS.values(), EXCHANGED_ENERGY_SWITCHES.values())
 
 
 class MasterNode(Node):

@@ -8,18 +8,10 @@ from fic_core.exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES
 from fic_core.replica_parameters import CONTROLLER_DESCRIPTION, REPLICA_NUMBERS, REPLICA_SWITCHES
 from fic_teleop_replica.driver_interface import DRIVER_PARAMETERS
 from fic_teleop_replica.input_guard import AUTHORITY_PARAMETERS
-from fic_teleop_runtime.parameters import Schema, number, switch, text
+from fic_teleop_runtime.parameters import Schema, text
 
-LOOP_PARAMETERS = (
-    text("controller", CONTROLLER_DESCRIPTION),
-    *(number(name, low, high, description) for name, (description, low, high) in REPLICA_NUMBERS.items()),
-    *(switch(name, description) for name, description in REPLICA_SWITCHES.items()),
-)
+LOOP_PARAMETERS = (text("controller", CONTROLLER_DESCRIPTION), *REPLICA_NUMBERS.values(), *REPLICA_SWITCHES.values())
 #: The channel's replica port (fic_core.channel_ports) and the FIC port's exchanged-energy observer, fixed at start.
-CHANNEL_PORT_PARAMETERS = (
-    *(switch(name, description, read_only=True) for name, description in CHANNEL_PORT_SWITCHES.items()),
-    *(number(name, low, high, description, read_only=True)
-      for name, (low, high, description) in CHANNEL_PORT_NUMBERS.items()),
-    *(switch(name, description, read_only=True) for name, description in EXCHANGED_ENERGY_SWITCHES.items()),
-)
+CHANNEL_PORT_PARAMETERS = (*CHANNEL_PORT_SWITCHES.values(), *CHANNEL_PORT_NUMBERS.values(),
+                           *EXCHANGED_ENERGY_SWITCHES.values())
 SCHEMA = Schema("replica.yaml", LOOP_PARAMETERS, DRIVER_PARAMETERS, AUTHORITY_PARAMETERS, CHANNEL_PORT_PARAMETERS)

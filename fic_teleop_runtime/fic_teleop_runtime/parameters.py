@@ -1,4 +1,5 @@
-"""Each node's parameters as one declarative table (``Declared`` rows), the one place a node declares them from.
+"""Each node's parameters as one declarative table (fic_core.parameter_row rows), the one place a node declares them
+from.
 
 One source for each value: a row holds the name, type, description, range and whether it is fixed at start; the
 default lives only in the node's file under config/ (``config/<node>.yaml``, or the one the row table names).
@@ -20,7 +21,6 @@ declared by its own type and read back as an empty list.
 from __future__ import annotations
 
 import difflib
-import math
 import os
 import re
 import sys
@@ -37,6 +37,9 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from fic_core.errors import FicInputError
+from fic_core.parameter_row import LISTS, Kind, ParameterRow
+# The row constructors, for the nodes' tables (one row type for fic_core's tables and the nodes').
+from fic_core.parameter_row import integer, number, numbers, switch, text, texts  # noqa: F401
 
 Type = Parameter.Type
 #: Parameters rclpy itself declares or reads on every node; a params file may give them.
@@ -44,54 +47,23 @@ _RCLPY_OWN_PREFIXES = ("qos_overrides.",)
 #: The ROS arguments of the node being built (the process's, then the node's own when it shares a process):
 #: node_main.run_entries sets them; None: the process's command line.
 START_ARGUMENTS: ContextVar[tuple[str, ...] | None] = ContextVar("START_ARGUMENTS", default=None)
-_ARRAY_TYPES = (Type.BOOL_ARRAY, Type.INTEGER_ARRAY, Type.DOUBLE_ARRAY, Type.STRING_ARRAY, Type.BYTE_ARRAY)
 
 
-@dataclass(frozen=True)
-class Declared:
-    """One parameter of a node: ``low``/``high`` bound a number (inclusive); ``read_only``: fixed at start;
-    ``optional``: may be left unset (declared by type only, value None), e.g. a list whose absence means none."""
-
-    name: str
-    type: Type
-    description: str
-    low: float | None = None
-    high: float | None = None
-    read_only: bool = False
-    optional: bool = False
-
-    def descriptor(self) -> ParameterDescriptor:
-        descriptor = ParameterDescriptor(description=self.description, read_only=self.read_only)
-        if self.low is not None and self.type in (Type.DOUBLE, Type.DOUBLE_ARRAY):
-            descriptor.floating_point_range = [FloatingPointRange(from_value=float(self.low),
-                                                                  to_value=float(self.high), step=0.0)]
-        elif self.low is not None and self.type in (Type.INTEGER, Type.INTEGER_ARRAY):
-            descriptor.integer_range = [IntegerRange(from_value=int(self.low), to_value=int(self.high), step=1)]
-        return descriptor
+#: rclpy's type of each kind of row.
+RCLPY_TYPES = {Kind.NUMBER: Type.DOUBLE, Kind.INTEGER: Type.INTEGER, Kind.SWITCH: Type.BOOL, Kind.TEXT: Type.STRING,
+               Kind.NUMBERS: Type.DOUBLE_ARRAY, Kind.INTEGERS: Type.INTEGER_ARRAY, Kind.TEXTS: Type.STRING_ARRAY}
 
 
-def number(name: str, low: float, high: float, description: str, read_only: bool = False) -> Declared:
-    return Declared(name, Type.DOUBLE, description, low, high, read_only)
-
-
-def integer(name: str, low: int, high: int, description: str, read_only: bool = False) -> Declared:
-    return Declared(name, Type.INTEGER, description, low, high, read_only)
-
-
-def switch(name: str, description: str, read_only: bool = False) -> Declared:
-    return Declared(name, Type.BOOL, description, read_only=read_only)
-
-
-def text(name: str, description: str, read_only: bool = False) -> Declared:
-    return Declared(name, Type.STRING, description, read_only=read_only)
-
-
-def numbers(name: str, description: str, read_only: bool = False, optional: bool = False) -> Declared:
-    return Declared(name, Type.DOUBLE_ARRAY, description, read_only=read_only, optional=optional)
-
-
-def texts(name: str, description: str, read_only: bool = False, optional: bool = False) -> Declared:
-    return Declared(name, Type.STRING_ARRAY, description, read_only=read_only, optional=optional)
+def descriptor(row: ParameterRow) -> ParameterDescriptor:
+    """The row as rclpy declares it: its description, fixed at start or not, and its range, which rclpy then
+    enforces on every change (``param set``) with the bounds ``row.checked`` uses."""
+    result = ParameterDescriptor(description=row.description, read_only=row.read_only)
+    if row.low is not None and row.kind in (Kind.NUMBER, Kind.NUMBERS):
+        result.floating_point_range = [FloatingPointRange(from_value=float(row.low), to_value=float(row.high),
+                                                          step=0.0)]
+    elif row.low is not None and row.kind in (Kind.INTEGER, Kind.INTEGERS):
+        result.integer_range = [IntegerRange(from_value=int(row.low), to_value=int(row.high), step=1)]
+    return result
 
 
 @dataclass(frozen=True)
@@ -99,12 +71,12 @@ class Schema:
     """A node's rows and the file under config/ that holds their defaults."""
 
     config_file: str
-    rows: tuple[Declared, ...]
+    rows: tuple[ParameterRow, ...]
 
-    def __init__(self, config_file: str, *rows: Declared | Iterable[Declared]) -> None:
-        flat: list[Declared] = []
+    def __init__(self, config_file: str, *rows: ParameterRow | Iterable[ParameterRow]) -> None:
+        flat: list[ParameterRow] = []
         for row in rows:
-            flat.extend([row] if isinstance(row, Declared) else row)
+            flat.extend([row] if isinstance(row, ParameterRow) else row)
         names = [row.name for row in flat]
         duplicates = sorted({name for name in names if names.count(name) > 1})
         if duplicates:
@@ -116,7 +88,7 @@ class Schema:
     def names(self) -> tuple[str, ...]:
         return tuple(row.name for row in self.rows)
 
-    def row(self, name: str) -> Declared:
+    def row(self, name: str) -> ParameterRow:
         return next(row for row in self.rows if row.name == name)
 
 
@@ -185,48 +157,10 @@ def node_values(sections: Mapping[str, Mapping[str, Any]], node_name: str) -> di
     return result
 
 
-def typed(row: Declared, value: Any, where: str) -> Any:
-    """``value`` checked against the row: of its type as rcl reads a params file (a double is written with a
-    point, ``200.0``: rcl reads ``200`` as an integer and rclpy then refuses it for a double) and inside its range;
-    FicInputError names the parameter."""
-    def fail(expected: str) -> FicInputError:
-        return FicInputError(f"{where}: {row.name} must be {expected}, got {value!r}")
-
-    def one_number(item: Any) -> float:
-        if not isinstance(item, float):
-            raise fail("a number with a decimal point (a double)")
-        return item
-
-    kind = row.type
-    if kind == Type.DOUBLE:
-        value = one_number(value)
-    elif kind == Type.INTEGER:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise fail("an integer")
-    elif kind == Type.BOOL:
-        if not isinstance(value, bool):
-            raise fail("true or false")
-    elif kind == Type.STRING:
-        if not isinstance(value, str):
-            raise fail("a string")
-    elif kind == Type.DOUBLE_ARRAY:
-        if not isinstance(value, (list, tuple)):
-            raise fail("a list of numbers")
-        value = [one_number(item) for item in value]
-    elif kind == Type.STRING_ARRAY:
-        if not isinstance(value, (list, tuple)) or not all(isinstance(item, str) for item in value):
-            raise fail("a list of strings")
-        value = list(value)
-    elif kind == Type.INTEGER_ARRAY:
-        if not isinstance(value, (list, tuple)) or not all(isinstance(i, int) and not isinstance(i, bool)
-                                                           for i in value):
-            raise fail("a list of integers")
-        value = list(value)
-    if row.low is not None:
-        items = value if isinstance(value, list) else [value]
-        if not all(math.isfinite(item) and row.low <= item <= row.high for item in items):
-            raise fail(f"in [{row.low:g}, {row.high:g}]")
-    return value
+def typed(row: ParameterRow, value: Any, where: str) -> Any:
+    """``value`` of a params file checked against the row (``ParameterRow.checked`` as rcl reads the file: a
+    double written with a point); FicInputError names the parameter."""
+    return row.checked(value, where, exact=True)
 
 
 def unknown_key_error(name: str, known: Sequence[str], node_name: str) -> FicInputError:
@@ -300,9 +234,9 @@ def declare(node: Node, schema: Schema) -> dict[str, Any]:
             # No value, or an empty list: rcl reads ``[]`` in a params file as a value of no type, and rclpy would
             # type an empty default as a byte array. Declared by the row's type and left unset: ``values`` reads
             # an unset list as empty.
-            node.declare_parameter(row.name, row.type, row.descriptor())
+            node.declare_parameter(row.name, RCLPY_TYPES[row.kind], descriptor(row))
         else:
-            node.declare_parameter(row.name, default, row.descriptor())
+            node.declare_parameter(row.name, default, descriptor(row))
     result = values(node, schema)
     unset = [row.name for row in schema.rows if result[row.name] is None and not row.optional]
     if unset:
@@ -317,5 +251,5 @@ def values(node: Node, schema: Schema, names: Iterable[str] | None = None) -> di
         try:
             result[name] = node.get_parameter(name).value
         except ParameterUninitializedException:
-            result[name] = [] if schema.row(name).type in _ARRAY_TYPES else None
+            result[name] = [] if schema.row(name).kind in LISTS else None
     return result

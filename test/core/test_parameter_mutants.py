@@ -32,7 +32,7 @@ def test_a_rate_gate_needs_a_positive_rate_and_period() -> None:
 def test_every_value_the_master_may_be_set_to_passes_the_replicas_authority(name: str) -> None:
     """The master node's parameter range (MASTER_NUMBERS, its descriptors) inside the replica's authority bound on
     the same figure: else a master set within its own range would be refused by the replica. Both ends pass."""
-    low, high = MASTER_NUMBERS[name][:2]
+    low, high = MASTER_NUMBERS[name].low, MASTER_NUMBERS[name].high
     bound_low, bound_high = getattr(AuthorityBounds(), name)
     assert bound_low <= low and high <= bound_high
     defaults = config_values("master.yaml")
@@ -93,7 +93,8 @@ def test_the_shipped_master_values_lie_inside_their_declared_ranges() -> None:
     """config/master.yaml against MASTER_NUMBERS (the master node's descriptors refuse a value outside): each
     shipped value inside its range, each range non-empty."""
     values = config_values("master.yaml")
-    for name, (low, high, _, _) in MASTER_NUMBERS.items():
+    for name, row in MASTER_NUMBERS.items():
+        low, high = row.low, row.high
         assert low < high, name
         if name in values:
             assert low <= values[name] <= high, (name, values[name], low, high)

@@ -1,0 +1,54 @@
+"""fic_core.parameter_row: the one row type and its one check, the same for fic_core's tables, the params-file loader
+and (through the descriptor) rclpy's declaration."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from fic_core.errors import FicInputError
+from fic_core.parameter_row import Kind, ParameterRow, number, numbers, rows_by_name, switch, texts
+
+
+def test_a_number_inside_its_range_passes_and_outside_is_refused_by_name() -> None:
+    row = number("stiffness", 1.0, 5000.0, "K0")
+    assert row.checked(200.0) == 200.0
+    assert row.checked(200) == 200.0 and isinstance(row.checked(200), float)   # in-process: an int is a number
+    for bad in (0.5, 5000.5, math.nan, math.inf):
+        with pytest.raises(FicInputError, match=r"master.yaml: stiffness must be in \[1, 5000\]"):
+            row.checked(bad, "master.yaml")
+    for bad in (True, "200", None):
+        with pytest.raises(FicInputError, match="stiffness must be a number"):
+            row.checked(bad)
+
+
+def test_a_params_file_needs_a_double_written_as_one() -> None:
+    """rcl reads ``200`` as an integer, which rclpy then refuses for a double: the loader says so first."""
+    with pytest.raises(FicInputError, match="a number with a decimal point"):
+        number("stiffness", 1.0, 5000.0, "K0").checked(200, exact=True)
+
+
+def test_lists_switches_and_texts() -> None:
+    assert numbers("via", "points").checked([1, 2.5]) == [1.0, 2.5]
+    assert ParameterRow("gains", Kind.NUMBERS, "", 0.0, 1.0).checked((0.5,)) == [0.5]
+    with pytest.raises(FicInputError, match=r"gains must be in \[0, 1\]"):
+        ParameterRow("gains", Kind.NUMBERS, "", 0.0, 1.0).checked([0.5, 2.0])
+    with pytest.raises(FicInputError, match="a list of strings"):
+        texts("topics", "").checked(["/a", 3])
+    with pytest.raises(FicInputError, match="true or false"):
+        switch("paper_law", "").checked(1)
+
+
+def test_a_table_refuses_a_name_given_twice() -> None:
+    assert list(rows_by_name(switch("a", ""), switch("b", ""))) == ["a", "b"]
+    with pytest.raises(ValueError, match="'a' given twice"):
+        rows_by_name(switch("a", ""), switch("a", ""))
+
+
+def test_the_replica_and_master_tables_are_rows_and_fic_core_checks_them() -> None:
+    from fic_core.master_station import MASTER_NUMBERS
+    from fic_core.replica_parameters import REPLICA_NUMBERS, REPLICA_SWITCHES
+
+    for row in (*REPLICA_NUMBERS.values(), *REPLICA_SWITCHES.values(), *MASTER_NUMBERS.values()):
+        assert isinstance(row, ParameterRow)
+    assert MASTER_NUMBERS["control_rate"].read_only and not MASTER_NUMBERS["stiffness"].read_only
