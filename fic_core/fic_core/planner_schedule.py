@@ -41,11 +41,16 @@ class PlannerSchedule:
         if last is not None and now > last:
             elapsed = now - last
             steps = max(1, math.ceil(elapsed / self.nominal_period - 1e-9))
+            # A tick on time integrates one nominal period: the clock's rounding of now - last (1e-16 s of a
+            # floating clock) is not the planner's time, so a node and the in-process runner, whose clocks round
+            # differently, step it alike.
+            on_time = steps == 1 and abs(elapsed - self.nominal_period) <= 1e-9 * self.nominal_period
+            step = self.nominal_period if on_time else elapsed / steps
             for k in range(1, steps + 1):
                 # The last sample is at ``now`` itself (last + elapsed need not round to it).
                 trajectory_time = max((now if k == steps else last + elapsed * k / steps) - self.origin, 0.0)
                 self.target = self.source.point(trajectory_time, position=self.planner.position)
-                self.planner.step(self.target, elapsed / steps)
+                self.planner.step(self.target, step)
         if last is None or now > last:
             self._last_time = now
         return self.planner.position

@@ -4,7 +4,7 @@
     closed-loop operator watching the camera frames that come back through the channel (30 Hz, backward delay)
       -> fic_core.MasterStation (master node: force 250 Hz, x_d' 100 Hz)
       -> Channel forward (channel node: delay, jitter, drop, blackouts, rate cap, seeded; delivered at 250 Hz)
-      -> fic_core.ReplicaLoop (replica node, every joint state answered as in lockstep)  <- HarmonicPlanner 100 Hz
+      -> fic_core.ReplicaStation (replica node, every joint state answered as in lockstep)  <- PlannerStation 100 Hz
       -> PandaSimulation (robot node, 1 kHz; F/T at 250 Hz)  -> F_R at pose_rate -> Channel backward -> master
 
 Parameters come from config/*.yaml with the launcher's overrides for lockstep (control_rate 1000, every joint state
@@ -29,15 +29,13 @@ import numpy as np
 import yaml
 
 from fic_core.channel_ports import ChannelPorts
-from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
-from fic_core.planner import HarmonicPlanner
-from fic_core.quaternion import unit_quaternion
-from fic_core.replica_loop import ReplicaLoop
-from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
-from fic_core.trajectories import Circle, FixedPoint, LapVaryingCircle
+from fic_core.planner_station import PlannerStation
+from fic_core.replica_station import ReplicaStation
+from fic_core.trajectories import LapVaryingCircle
 from sim_bridge.channel.channel import Channel, ChannelConfig
+from sim_bridge.device.device_station import DeviceStation
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.operator_scripts import superimposition_script
@@ -45,6 +43,7 @@ from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
 from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
 from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog
 
 REPO = Path(__file__).resolve().parents[3]
 STEP = 0.001                     # the robot's physics step and joint-state period [s]
@@ -70,11 +69,10 @@ MOVE_TIMING_SPREAD_S = 0.1                 # each move's timing, +- about the pr
 WANDER_AMPLITUDE_RANGE_M = (0.005, 0.02)   # the hand's random excursions
 WANDER_PERIOD_RANGE_S = (1.0, 4.0)
 WANDER_MEAN_GAP_S = 3.0
-#: config/replica.yaml also holds the node's input authority (fic_core.input_authority) and driver keys, not
-#: ReplicaLoop's: only REPLICA_LOOP_PARAMETERS go to the loop, the authority's bounds to the loop's CommandAuthority,
-#: which judges every delivered command here as in the node (ReplicaLoop.teleoperation_command: the workspace clamp
-#: of x_d', its speed bound, forgotten at a resume); the node's one-writer and stream checks have nothing to check
-#: in one process.
+#: The replica side is the node's fic_core.ReplicaStation on config/replica.yaml: its input authority judges every
+#: delivered command here as in the node (the workspace clamp of x_d', its speed bound, forgotten at a resume), its
+#: stream guard sees every joint state's stamp, its driver makes the command and F_R. Its one-writer checks have one
+#: writer to see in one process. The exchanged-energy observer (an observer only, about 30 us a tick) is left off.
 
 
 def _parameters(name: str) -> dict[str, Any]:
@@ -206,16 +204,16 @@ def _every(rate: float) -> int:
 def run(config: RunConfig) -> RunResult:
     """One run of the graph (module docstring)."""
     r, m, h = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("haptic_device.yaml")
-    authority = CommandAuthority(AuthorityBounds.from_parameters(r))
-    r = {name: value for name, value in r.items() if name in REPLICA_LOOP_PARAMETERS}
     pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
     # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (fic_core.channel_ports).
     tdpa = config.tdpa or config.controller == "linear_tdpa"
     law = "linear_bounded" if config.controller == "linear_tdpa" else config.controller
-    replica = ReplicaLoop({**r, "controller": law,
-                           "control_rate": config.control_rate,
-                           "answer_every_state": True, **config.replica_overrides}, authority=authority)
+    ports = ChannelPorts(tdpa, m["channel_max_damping"], m["channel_energy_window"])
+    station = ReplicaStation({**r, "controller": law, "control_rate": config.control_rate,
+                              "answer_every_state": True, "exchanged_energy_observer": False,
+                              **config.replica_overrides}, channel_port=ports.replica)
+    replica = station.loop
     master = MasterStation({**m, **config.master_overrides})
     device = HapticDevice(HapticDeviceParameters(
         mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
@@ -276,23 +274,17 @@ def run(config: RunConfig) -> RunResult:
     backward = Channel(ChannelConfig(**channel, seed=config.seed + 1))
     # The video shares the backward link (delay, jitter, drops, blackouts) but not the command's rate cap.
     video = Channel(ChannelConfig(**{**channel, "rate_cap_hz": 0.0}, seed=config.seed + 2))
-    source: Circle | LapVaryingCircle | FixedPoint
+    source: LapVaryingCircle | None = None   # None: the planner's own (config/planner.yaml's circle or point)
     if trajectory == "circle" and config.task_variation:
         source = LapVaryingCircle.randomised(pl["circle_centre"], np.random.default_rng([config.seed, 31337]),
                                              config.duration, TASK_PERIOD_RANGE_S, TASK_DIAMETER_RANGE_M,
                                              pl["circle_normal"], TASK_PHASE_RANGES_RAD)
         drawn["task"] = dict(periods=source.periods.tolist(), diameters=source.diameters.tolist(), phase=source.phase)
-    elif trajectory == "circle":
-        source = Circle(pl["circle_centre"], pl["circle_diameter"], pl["circle_period"], pl["circle_normal"],
-                        pl["circle_phase"])
-    else:
-        source = FixedPoint(pl["fixed_point"])
-    planner = HarmonicPlanner(pl["natural_frequency"], pl["max_velocity"])
-    planner.reset(source.point(0.0))
-    planner_origin = SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0
-    orientation = unit_quaternion(pl["orientation"])   # as the planner node publishes it
+    # The planner node's station, its trajectory's clock on the launcher's origin (shared with the E1 script).
+    planner = PlannerStation({**pl, "trajectory": "circle" if trajectory == "circle" else "fixed", "start_position": [],
+                              "start_time": SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0},
+                             0.0, source)
     sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
-    ports = ChannelPorts(tdpa, m["channel_max_damping"], m["channel_energy_window"])
     tick_dynamics, no_damping = np.zeros(7), np.zeros(7)
     log_ports = []
 
@@ -302,41 +294,38 @@ def run(config: RunConfig) -> RunResult:
     joy_every, camera_every = _every(JOY_RATE_HZ), _every(CAMERA_RATE_HZ)
     fixed_obstacle = sim.model.geom("fixed_obstacle").id if config.scene == "superimposition" else -1
     log_contact = []
-    device_command, command_time = np.zeros(3), None
-    buttons: deque[int] = deque()
-    button_down = False
+    # The device node's station: the device, the operator's hand and what drives it, the buttons' queue.
+    device_station = DeviceStation(device, hand, script=operator, watcher=watcher,
+                                   command_timeout=h["command_timeout"], script_origin=time_shift)
     ft_wrench = None
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
     log_m, log_arm, log_handle, log_target = [], [], [], []
-    target = np.zeros(3)
     arm_velocity, arm_momentum = np.zeros(sim.model.nv), np.zeros(sim.model.nv)
     arm_dof = np.array([sim.model.jnt_dofadr[sim.model.joint(name).id] for name in ARM_JOINT_NAMES])
     state = device.state
-    command_timeout = _parameters("robot.yaml")["command_timeout"]
+    robot_values = _parameters("robot.yaml")
     stall_draws = np.random.default_rng([config.seed, 104729])
-    replica_wakes, robot_torque, robot_torque_time = 0.0, None, -math.inf
+    replica_wakes, robot_torque = 0.0, None
     in_flight: deque[tuple[float, np.ndarray, float]] = deque()   # a starved replica's torques on their way
-    # robot.yaml's command_state_timeout: a torque computed on an older joint state is never applied (robot_node).
-    command_state_timeout = _parameters("robot.yaml").get("command_state_timeout", math.inf) \
-        if config.robot_command_state_timeout is None else config.robot_command_state_timeout
-    robot = {"held": True, "engagements": 0, "refused": 0, "speed": 0.0}
+    # The robot node's watchdogs: its stale-command hold (command_timeout) and its rule on the state a torque was
+    # computed on (command_state_timeout: a torque on an older state is never applied).
+    watchdog = CommandWatchdog(robot_values["command_timeout"])
+    state_age = CommandStateAge(robot_values.get("command_state_timeout", math.inf)
+                                if config.robot_command_state_timeout is None else config.robot_command_state_timeout)
+    robot = {"speed": 0.0}
     oldest_state = max((window.max_state_age for window in config.replica_stalls), default=0.0)
     past_states: deque[tuple[float, np.ndarray, np.ndarray]] = deque(maxlen=int(round(oldest_state / STEP)) + 1)
 
     def robot_holding() -> np.ndarray:
-        """No new torque this step: the robot's last one until command_timeout, then its watchdog's hold."""
-        fresh = robot_torque is not None and now - robot_torque_time <= command_timeout
-        if not fresh and not robot["held"] and robot_torque is not None:
-            robot["engagements"] += 1
-        robot["held"] = not fresh
-        return robot_torque if fresh else sim.hold_torque()
+        """No new torque this step: the robot's last one until its watchdog holds the arm."""
+        watchdog.check(now)
+        return sim.hold_torque() if watchdog.holding or robot_torque is None else robot_torque
 
     def robot_takes(state_time: float) -> bool:
-        """Whether the robot applies a torque computed on the joint state of ``state_time`` (robot_node's rule)."""
-        if now - state_time > command_state_timeout:
-            robot["refused"] += 1
+        """Whether the robot applies a torque computed on the joint state of ``state_time`` (then it is fresh)."""
+        if not state_age.admits(state_time, now):
             return False
-        robot["held"] = False
+        watchdog.command_received(now)
         return True
 
     steps = int(round(config.duration / STEP))
@@ -346,36 +335,21 @@ def run(config: RunConfig) -> RunResult:
         ns = k * 1_000_000
         # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
         if k % device_every == 0:
-            script_time = max(now - time_shift, 0.0)
-            target = operator.target(script_time) if watcher is None else watcher.target(now)
-            fresh = command_time is not None and now - command_time <= h["command_timeout"]
-            if sorter is not None:   # it feels the force the motors render on the handle
-                sorter.feel(device.saturate(device_command) if fresh else np.zeros(3), device.position)
-            if reactive:   # it feels the force the motors render on the handle
-                assert isinstance(hand, ReactiveHand)
-                hand.update(target, device.position, device_every * STEP if k else 0.0, device.velocity,
-                            device.saturate(device_command) if fresh else np.zeros(3))
-            else:
-                hand.update(target, device.position, device_every * STEP if k else 0.0)
-            buttons.extend(event.button for event in (operator.poll_events(script_time) if sorter is None
-                                                      else sorter.poll_events(now)))
-            state = device.step(device_command if fresh else np.zeros(3), hand.force, device_every * STEP if k else 0.0)
+            state = device_station.step(now, device_every * STEP if k else 0.0).state
             master.add_pose(state.position, (0.0, 0.0, 0.0, 1.0), now)
             master.add_twist(state.velocity, now)
         if k % joy_every == 0:
             pressed = [0, 0, 0]
-            if not button_down and buttons:
-                pressed[buttons.popleft()] = 1
-                button_down = True
-            else:
-                button_down = False
+            button = device_station.press()
+            if button is not None:
+                pressed[button] = 1
             master.press(pressed)
         if k % master_every == 0:
             # The channel's master port (fic_core.channel_ports): booked, and with TDPA damped, before Eq. 3.
             ports.master.tick(master, now, master_every * STEP)
             force, _ = master.force(now)
             if force is not None:
-                device_command, command_time = force, now
+                device_station.command(force, now)
         if k % network_every == 0:
             offset = master.desired_offset(now)
             if offset is not None:
@@ -385,11 +359,9 @@ def run(config: RunConfig) -> RunResult:
                               master.network_handle_position.copy(),
                               ports.master.input_energy), now, now)
         if k % planner_every == 0:
-            if k:
-                planner.step(source.point(max(now - planner_origin, 0.0), position=planner.position),
-                             planner_every * STEP)
-            replica.add_planner_pose(ns, planner.position, orientation, now)
-            replica.add_planner_acceleration(planner.acceleration, now)
+            set_point = planner.step(now)
+            station.planner_pose(ns, set_point.position, set_point.orientation, now)
+            station.planner_acceleration(set_point.acceleration, now)
         if watcher is not None and k % camera_every == 0:
             poses = sim.object_poses()
             video.push(Frame(now, sim.tcp_pose[0], poses["pushable_obstacle"][0]) if sorter is None
@@ -401,26 +373,26 @@ def run(config: RunConfig) -> RunResult:
         if k % delivery_every == 0:
             for delivery in forward.pop_due(now):
                 stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle, energy = delivery.payload
-                ports.replica.receive_energy(energy)
-                offset = ports.replica.delivery(offset, now)
-                replica.teleoperation_command(stamp_ns, now, mode=mode, haptic_gain=haptic_gain,
+                station.teleoperation_command(stamp_ns, now, mode=mode, haptic_gain=haptic_gain,
                                               workspace_scale=workspace_scale, velocity_gain=velocity_gain,
-                                              handle_position=handle, desired_offset=offset)
+                                              handle_position=handle, desired_offset=offset,
+                                              master_input_energy=energy)
             for delivery in backward.pop_due(now):
                 feedback, energy = delivery.payload
                 ports.master.receive_feedback(feedback, now)
                 ports.master.receive_energy(energy)
                 master.add_feedback(feedback, now)
         # Robot side: the joint state of step k, the replica's answer, the physics step.
-        if k % wrench_every == 0:
-            ft_wrench = sim.ft_wrench()[:3].copy()
+        if k % wrench_every == 0:   # F_R through the driver's declared frame, as the node takes /ft_sensor/wrench
+            reading = sim.ft_wrench()
+            ft_wrench = station.wrench(station.driver.base_frame, reading[:3], reading[3:])[0]
         stall = None
         if config.replica_stalls:
             stall = next((window for window in config.replica_stalls if window.start <= now < window.end), None)
             while in_flight and in_flight[0][0] <= now:
                 _, torque, state_time = in_flight.popleft()
                 if robot_takes(state_time):
-                    robot_torque_time, robot_torque = now, torque
+                    robot_torque = torque
             if stall is not None and now < replica_wakes or in_flight:
                 sim.step(robot_holding())   # the replica sleeps, or its last torque is still on its way
                 robot["speed"] = max(robot["speed"], float(np.abs(sim.joint_velocities).max()))
@@ -432,10 +404,16 @@ def run(config: RunConfig) -> RunResult:
             state_time, q_state, qd_state = past_states[max(len(past_states) - 1 - back, 0)]
             if not stall.stale_velocity:
                 qd_state = sim.joint_velocities
-            result = replica.joint_state(state_time, now, q_state, qd_state)
         else:
-            state_time = now
-            result = replica.joint_state(now, now, sim.joint_positions, sim.joint_velocities)
+            state_time, q_state, qd_state = now, sim.joint_positions, sim.joint_velocities
+        # The stream guard sees every state's stamp, as in the node; not the old states of a stall's model, drawn
+        # one per wake independently, so out of order, which a reader's queue never delivers.
+        if (stall is None or stall.max_state_age == 0.0) and not station.admits_joint_state(state_time, now)[0]:
+            sim.step(robot_holding())   # never here: the simulated robot is the one writer
+            continue
+        tick = station.joint_state(state_time, now, q_state, qd_state, ns)
+        result = tick.step
+        result.torque = tick.command
         if stall is not None:
             replica_wakes = now + float(stall_draws.uniform(stall.min_gap, stall.max_gap))
             if result.torque is not None and stall.max_delay > 0.0:
@@ -443,7 +421,7 @@ def run(config: RunConfig) -> RunResult:
                                   result.torque.copy(), state_time))
                 result.torque = None
         if result.poses_due and replica.last_command is not None and ft_wrench is not None:
-            backward.push((ft_wrench, ports.replica.sent(ft_wrench)), now, now)
+            backward.push((ft_wrench, station.feedback_sent(ft_wrench)), now, now)
             command = replica.last_command
             log_t.append(now)
             log_d.append(command.desired_position)
@@ -451,7 +429,7 @@ def run(config: RunConfig) -> RunResult:
             log_f.append(ft_wrench)
             log_o.append(replica.desired.offset)
             log_m.append(state.position)
-            log_target.append(np.asarray(target, dtype=float).copy())
+            log_target.append(np.asarray(device_station.target, dtype=float).copy())
             log_handle.append(0.5 * device.parameters.mass * float(state.velocity @ state.velocity))
             arm_velocity[arm_dof] = sim.joint_velocities
             mujoco.mj_mulM(sim.model, sim.data, arm_momentum, arm_velocity)   # M(q) qd of the arm's joints
@@ -467,7 +445,7 @@ def run(config: RunConfig) -> RunResult:
                 tick_dynamics = replica.robot.nonlinear_effects.copy()
             torque = torque - tick_dynamics + sim.hold_torque(no_damping)
         if torque is not None and robot_takes(state_time):
-            robot_torque, robot_torque_time = torque, now
+            robot_torque = torque
             sim.step(torque)
         else:   # before the first command (the hold), or a starved replica's torque not yet arrived
             sim.step(robot_holding())
@@ -481,8 +459,8 @@ def run(config: RunConfig) -> RunResult:
                      replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports),
                      obstacle_contact=np.array(log_contact, dtype=bool),
                      operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,
-                     joint_speed_max=robot["speed"], robot_watchdog_engagements=robot["engagements"],
-                     stale_torques_refused=robot["refused"], replica_holds=replica.health.holds)
+                     joint_speed_max=robot["speed"], robot_watchdog_engagements=watchdog.engagements,
+                     stale_torques_refused=state_age.refused, replica_holds=replica.health.holds)
 
 
 def _touches(sim: PandaSimulation, geom: int) -> bool:
