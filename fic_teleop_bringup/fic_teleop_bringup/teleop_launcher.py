@@ -210,20 +210,9 @@ def _script_for_delay(delay: float, run_dir: Path) -> dict[str, str]:
     return {"script_file": str(path.resolve())}
 
 
-AUTOGROUP = Path("/proc/self/autogroup")
-
-
 def _prioritised(niceness: int | None):
     """A preexec function that sets the node's niceness; refused (needs root or CAP_SYS_NICE), the node runs at the
-    default and the launcher says so (Graph.prioritised).
-
-    A node started in a session of its own (``start_new_session``) is, under the kernel's autogroup scheduling
-    (kernel.sched_autogroup_enabled, on here), one scheduling entity at niceness 0 against every other session on
-    the machine, whatever its own niceness: that orders only the node's threads among themselves. Measured on the
-    loaded 2-core machine (docs/RESULTS.md, "Tick gaps"): a 500 Hz loop at niceness -10 beside two busy siblings
-    in its session waited up to 218-363 ms for a core with its session's autogroup at 0, at most 24-30 ms with it
-    at -19. So the node's session (its autogroup) takes the node's niceness too; a node that shares the launcher's
-    session (the foreground one) is left as it is, so the user's shell is never reniced."""
+    default and the launcher says so (Graph.prioritised)."""
     if niceness is None:
         return None
 
@@ -232,20 +221,7 @@ def _prioritised(niceness: int | None):
             os.setpriority(os.PRIO_PROCESS, 0, niceness)
         except OSError:
             pass
-        if os.getsid(0) == os.getpid():   # the leader of a session of its own: the autogroup is the node's alone
-            try:
-                AUTOGROUP.write_text(str(niceness))
-            except OSError:   # no autogroup scheduling in this kernel, or not allowed: the niceness alone
-                pass
     return apply
-
-
-def autogroup_niceness(pid: int) -> int | None:
-    """The niceness of ``pid``'s autogroup (``/proc/<pid>/autogroup``: "/autogroup-N nice K"); None if unknown."""
-    try:
-        return int(Path(f"/proc/{pid}/autogroup").read_text().split()[-1])
-    except (OSError, ValueError, IndexError):
-        return None
 
 
 class Graph:
@@ -293,9 +269,6 @@ class Graph:
                     granted[spec.name] = os.getpriority(os.PRIO_PROCESS, process.pid) == spec.niceness
                 except OSError:  # already gone
                     granted[spec.name] = False
-                group = autogroup_niceness(process.pid) if not spec.foreground else None
-                if group is not None:   # its own session's autogroup must carry the niceness too (_prioritised)
-                    granted[spec.name] = granted[spec.name] and group == spec.niceness
         return granted
 
     def dead(self) -> list[str]:
