@@ -14,7 +14,7 @@ the CPU time of the kernel's memory-monitoring thread (kdamond). The watcher its
     python scripts/stall_watch.py --out runs/x/stalls.jsonl [--names replica_node robot_node] [--stall-ms 100]
 
 Runs until SIGINT/SIGTERM; one JSON line per event (``self_gap``, ``stall_start``, ``stall_sample``, ``stall_end``).
-The gap study in docs/RESULTS.md ("Tick gaps") was made with it.
+The tick-gap study in docs/RESULTS.md ("Starvation") was made with it.
 """
 from __future__ import annotations
 
