@@ -76,3 +76,21 @@ def test_levels_and_refusals() -> None:
     with pytest.raises(StressError, match="period"):
         CpuQuota(50.0, period_us=10)
     assert np.isfinite(parse_levels("25")[0])
+
+
+def test_a_velocity_reflex_trip_in_the_robots_log_is_a_runaway_without_a_bag(tmp_path: Path) -> None:
+    from sim_bridge.tools.stress import run_figures
+
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    (logs / "robot.log").write_text(
+        "[INFO] [1.0] [robot]: robot_sim ready\n"
+        "[ERROR] [2.0] [robot]: reflex: panda_joint6 moved at 2.871 rad/s, beyond its limit 2.610 rad/s by more "
+        "than 10%\n")
+    row = run_figures(tmp_path, 3)
+    assert row["runaway"] is True and row["reflex_trips"] == 1
+    assert any("panda_joint6 moved at 2.871" in reason for reason in row["reasons"])
+    assert "no bag" not in row["reasons"]
+    (logs / "robot.log").write_text("[INFO] [1.0] [robot]: robot_sim ready\n")
+    quiet = run_figures(tmp_path, 1)
+    assert quiet["runaway"] is None and quiet["reflex_trips"] == 0

@@ -18,7 +18,8 @@ Then the run's record is read back (``run_figures``): whether the launcher flagg
 and exit code 6, fic_teleop_bringup/launch_timing.py), the replica's holds on its own loop's bounds, the real-time factor,
 the free-motion error, the limit violations, and whether the arm ran away. A runaway is any of: a joint faster
 than its datasheet limit, a kinetic energy above that of the arm's mass moving at the datasheet's 1.7 m/s TCP speed,
-or a free-motion error above 4 x_b; the figures behind each are kept.
+or a free-motion error above 4 x_b (from the bag), or a trip of the simulated robot's velocity reflex (from its log,
+which a starved recorder cannot lose); the figures behind each are kept.
 
     scripts/stress.sh 70 [--node replica] [--hogs 1 --hog-cpus 0] -- --duration 20      # one run at 70 %
     scripts/bench.sh --stress 150,100,70,50 --runs 20                                 # the table per level
@@ -293,6 +294,19 @@ def runaway_figures(bag: Path, metrics: dict) -> dict:
             "max_kinetic_energy_j": round(worst_energy, 3), "kinetic_energy_bound_j": round(energy_bound, 2)}
 
 
+def reflex_trips(run_dir: Path) -> list[str]:
+    """The simulated robot's velocity-reflex lines in the run's logs (a joint more than 10 % past its datasheet speed
+    stops the arm; sim_bridge/robot/velocity_reflex.py). A starved recorder can miss the joint states of that moment
+    (measured: a run at 50 % whose bag held 0 of them, its robot's log the trip at 1.10 x joint 6's speed); the
+    robot's own log does not, so a trip is a runaway whatever the bag holds."""
+    trips = []
+    for log in sorted((run_dir / "logs").glob("robot*.log")):
+        for line in log.read_text(encoding="utf-8", errors="replace").splitlines():
+            if "]: reflex: " in line:
+                trips.append(line.split("]: reflex: ", 1)[1][:160])
+    return trips
+
+
 def run_figures(run_dir: Path, exit_code: int) -> dict:
     """One run's row: the launcher's verdict, the replica's holds, RTF, error, violations, runaway."""
     metrics_path = run_dir / "report" / "metrics.json"
@@ -302,6 +316,12 @@ def run_figures(run_dir: Path, exit_code: int) -> dict:
     figures = timing.get("figures") or {}
     bag = run_dir / "bag"
     runaway = runaway_figures(bag, metrics) if bag.exists() else {"runaway": None, "reasons": ["no bag"]}
+    trips = reflex_trips(run_dir)
+    runaway["reflex_trips"] = len(trips)
+    if trips:
+        runaway["runaway"] = True
+        runaway["reasons"] = [reason for reason in runaway["reasons"] if reason != "no bag"] + \
+            [f"the robot's velocity reflex: {trip}" for trip in trips]
     return {"exit_code": exit_code, "flagged_starved": bool(timing.get("starved")),
             "starved_reasons": timing.get("reasons"), "holds": figures.get("loop_holds"),
             "max_state_age_ms": figures.get("max_state_age_ms"),
