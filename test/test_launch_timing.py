@@ -56,7 +56,15 @@ def test_a_loop_with_no_message_is_not_this_graphs_and_unknown_figures_are_said(
     timing = timing_verdict(QUIET, silent, None)
     assert not timing.starved and timing.figures["slowest_loop"] == "replica control"
     assert "no loop-health record in the bag" in timing.lines()[2]
-    assert timing_verdict(None, {}, None).lines()[-1] == "real time not known (no figure measured)"
+    assert not timing_verdict(QUIET, {}, None).starved
+
+
+def test_a_realtime_run_with_no_timing_figure_at_all_is_starved() -> None:
+    """A bag without the replica's streams (a recorder starved before it wrote them) exited 0 before."""
+    timing = timing_verdict(None, {}, None)
+    assert timing.starved and "no timing figure could be measured" in timing.lines()[-1]
+    assert exit_code(0, timing, 6) == 6
+    assert not timing_verdict(None, {}, None, realtime=False).starved
 
 
 def test_lockstep_is_not_judged() -> None:

@@ -15,6 +15,9 @@ when one is out, with its own exit code (EXIT_STARVED, docs/SECURITY.md "Exit co
   state older, or after a gap longer, than the replica's bounds (loop_max_state_age, loop_max_tick_gap). Its largest
   state age and tick gap are reported with it. A bag without the record: the figure is unknown, not a pass.
 
+A realtime run with none of these figures (no bag streams to measure them) is not shown to have kept real time,
+and gets the starved code too.
+
 Lockstep runs are not judged: the simulation waits for every answer, so no figure of theirs says the computer
 was too slow for the arm.
 """
@@ -107,6 +110,11 @@ def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[st
         if holds:
             timing.reasons.append(f"the replica held the arm {holds} times on its own loop's bounds (the last: "
                                   f"{health.get('last_hold_reason', 'not recorded')})")
+    if rtf is None and not running and not (health and LOOP_HEALTH_KEY in health):
+        # Nothing to show the run kept real time: a recorder starved before it wrote the replica's streams, or a
+        # replica that never ticked. Measured: such runs under a 50 % CPU quota exited 0 before this line.
+        timing.reasons.append("no timing figure could be measured (no real-time factor, no loop rate, no "
+                              "loop-health record in the bag)")
     timing.starved = bool(timing.reasons)
     return timing
 
