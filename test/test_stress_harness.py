@@ -42,10 +42,14 @@ def test_a_joint_over_its_datasheet_speed_is_a_runaway(tmp_path: Path) -> None:
     assert any(reason.startswith("kinetic energy") for reason in swung["reasons"])
 
 
-def test_a_free_motion_error_over_four_x_b_is_a_runaway(tmp_path: Path) -> None:
+def test_a_free_motion_error_over_four_x_b_with_a_still_arm_is_lost_tracking_not_a_runaway(tmp_path: Path) -> None:
+    """A held arm stays put while its set point moves on: the error is reported, the arm did not run away."""
     figures = runaway_figures(_bag(tmp_path / "calm", [[0.0] * 7] * 5), {"free_motion_error_max_m": 0.21,
                                                                           "thresholds": {"error_bound_m": 0.05}})
-    assert figures["runaway"] and figures["reasons"] == ["free-motion error 210 mm > 4 x_b"]
+    assert not figures["runaway"] and figures["reasons"] == []
+    assert figures["lost_tracking"] and figures["lost_tracking_reason"] == "free-motion error 210 mm > 4 x_b"
+    assert not runaway_figures(_bag(tmp_path / "near", [[0.0] * 7] * 5),
+                               {"free_motion_error_max_m": 0.19})["lost_tracking"]
 
 
 def test_the_level_summary_counts_and_spreads() -> None:

@@ -18,8 +18,9 @@ Then the run's record is read back (``run_figures``): whether the launcher flagg
 and exit code 6, fic_teleop_bringup/launch_timing.py), the replica's holds on its own loop's bounds, the real-time factor,
 the free-motion error, the limit violations, and whether the arm ran away. A runaway is any of: a joint faster
 than its datasheet limit, a kinetic energy above that of the arm's mass moving at the datasheet's 1.7 m/s TCP speed,
-or a free-motion error above 4 x_b (from the bag), or a trip of the simulated robot's velocity reflex (from its log,
-which a starved recorder cannot lose); the figures behind each are kept.
+or a trip of the simulated robot's velocity reflex (from its log, which a starved recorder cannot lose); the
+figures behind each are kept. A free-motion error above 4 x_b is reported as lost tracking, beside it: a held arm
+stays put while its set point moves on.
 
     scripts/stress.sh 70 [--node replica] [--hogs 1 --hog-cpus 0] -- --duration 20      # one run at 70 %
     scripts/bench.sh --stress 150,100,70,50 --runs 20                                 # the table per level
@@ -287,9 +288,13 @@ def runaway_figures(bag: Path, metrics: dict) -> dict:
         reasons.append(f"joint {worst_joint} at {worst_ratio:.2f} x its datasheet speed")
     if worst_energy > energy_bound:
         reasons.append(f"kinetic energy {worst_energy:.1f} J > {energy_bound:.1f} J")
-    if error_max is not None and error_max > RUNAWAY_ERROR_BOUNDS * bound:
-        reasons.append(f"free-motion error {error_max * 1e3:.0f} mm > {RUNAWAY_ERROR_BOUNDS:g} x_b")
-    return {"runaway": bool(reasons), "reasons": reasons, "joint_states": len(q),
+    # A large error alone is lost tracking, not a runaway: while the replica holds (damping and gravity) the arm
+    # stays where it was and the set point moves on (measured: 201-259 mm after 22-40 holds with every joint at most
+    # 0.55 of its datasheet speed). It is reported beside the runaway, never folded into it.
+    lost_tracking = error_max is not None and error_max > RUNAWAY_ERROR_BOUNDS * bound
+    return {"runaway": bool(reasons), "reasons": reasons, "lost_tracking": lost_tracking,
+            "lost_tracking_reason": f"free-motion error {error_max * 1e3:.0f} mm > {RUNAWAY_ERROR_BOUNDS:g} x_b"
+            if lost_tracking else None, "joint_states": len(q),
             "max_joint_speed_ratio": round(worst_ratio, 3), "fastest_joint": worst_joint,
             "max_kinetic_energy_j": round(worst_energy, 3), "kinetic_energy_bound_j": round(energy_bound, 2)}
 
@@ -337,7 +342,7 @@ def run_figures(run_dir: Path, exit_code: int) -> dict:
 
 
 def level_summary(rows: list[dict]) -> dict:
-    """Per level: runs, runaways, runs with limit violations (and of those, the ones where the replica held),
+    """Per level: runs, runaways, runs that lost tracking, runs with limit violations (and of those, the ones where the replica held),
     holds, RTF and error (min / median / max), how many runs the launcher flagged as starved."""
     def spread(values: list) -> list | None:
         values = [v for v in values if v is not None]
@@ -346,6 +351,7 @@ def level_summary(rows: list[dict]) -> dict:
 
     recorded = any(row.get("holds") is not None for row in rows)   # a replica with its loop-health record
     return {"runs": len(rows), "runaways": sum(bool(row.get("runaway")) for row in rows),
+            "lost_tracking": sum(bool(row.get("lost_tracking")) for row in rows),
             "runs_with_violations": sum(bool(row.get("limit_violations")) for row in rows),
             "violations_where_held": sum(bool(row.get("limit_violations")) and bool(row.get("holds")) for row in rows)
             if recorded else None,
