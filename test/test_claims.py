@@ -71,7 +71,7 @@ def test_a_sweep_through_an_executor_keeps_every_run_and_resumes(tmp_path: Path)
     assert list(claims_sweep.finished(jsonl, directory)) == [runs[0].key]
 
 
-@pytest.mark.skipif(importlib.util.find_spec("sim_bridge.experiments.run_verdict") is None,
+@pytest.mark.skipif(importlib.util.find_spec("fic_teleop_tools.verdict.run_verdict") is None,
                     reason="the run verdict is not in this tree")
 def test_the_verdict_applies_to_a_kept_series(tmp_path: Path) -> None:
     from sim_bridge.experiments.claims import judge_series

@@ -209,20 +209,21 @@ def test_command_line(synthetic_bag, tmp_path):
 
 
 def test_recording_report_and_commands_need_no_mujoco(synthetic_bag, tmp_path):
-    """A hardware install records, reports and inspects without the simulator's MuJoCo: with ``mujoco`` made
-    unimportable, the recorder, the bag tools and the commands import and the report runs to its verdict."""
+    """A hardware install records, reports and inspects without the simulator: with ``mujoco`` and ``sim_bridge``
+    made unimportable, the recorder, the bag tools and the commands import and the report runs to its verdict."""
     bag, _ = synthetic_bag
     out = tmp_path / "no_mujoco"
     code = (
         "import sys\n"
         "sys.modules['mujoco'] = None  # any 'import mujoco' now raises ImportError\n"
+        "sys.modules['sim_bridge'] = None  # nor is the simulator package needed, the verdicts included\n"
         "import fic_teleop_tools.recording.recorder_node, fic_teleop_tools.recording.recovery\n"
         "import fic_teleop_tools.recording.live_view\n"
         "import fic_teleop_tools.cli.__main__, fic_teleop_tools.cli.bags, fic_teleop_tools.cli.topics\n"
         "import fic_teleop_tools.cli.params\n"
         "from fic_teleop_tools.report.__main__ import main\n"
         f"code = main([{str(bag / 'synthetic.mcap')!r}, '--out', {str(out)!r}, '--warmup', '{WARMUP}'])\n"
-        "assert sys.modules['mujoco'] is None\n"
+        "assert sys.modules['mujoco'] is None and sys.modules['sim_bridge'] is None\n"
         "sys.exit(code)\n")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr

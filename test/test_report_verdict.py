@@ -1,5 +1,5 @@
 """``scripts/report.sh <bag>`` prints the session's two verdicts with their reasons (fic_teleop_tools.report and
-sim_bridge.experiments.run_verdict), on small synthetic bags written with rosbags' own writer:
+fic_teleop_tools.verdict.run_verdict), on small synthetic bags written with rosbags' own writer:
 
 - ``oscillating``: 12 s at 0.2 s one-way, x_d - x_R along x a 20 mm sine at 1.3 s (a limit cycle), no limit
   violation, the robot's reflex untouched and no safe hold: NOT STABLE (a sustained oscillation of x_d - x_R at

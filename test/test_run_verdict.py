@@ -1,4 +1,4 @@
-"""The run verdict (sim_bridge.experiments.run_verdict) on its labelled validation set
+"""The run verdict (fic_teleop_tools.verdict.run_verdict) on its labelled validation set
 (sim_bridge.experiments.verdict_cases) and on the ways a run reaches it (an in-process RunResult, a bag).
 
 The labels come from mathematics, not from the verdict: the delayed-feedback loop's boundary is checked here against
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from sim_bridge.experiments.in_process import RunResult
-from sim_bridge.experiments.run_verdict import VerdictCriterion, VerdictInput, VerdictInputError, judge
+from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput, VerdictInputError, judge
 from sim_bridge.experiments.verdict_cases import (bilateral, cases, critical_gain, delayed_feedback, loop_gain_peak,
                                                   with_limit_cycle)
 

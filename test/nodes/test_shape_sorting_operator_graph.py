@@ -48,7 +48,7 @@ def test_the_operator_presses_the_first_piece_until_it_feels_it_and_sees_it_bond
 
 
 def test_the_piece_rose_on_the_bond_and_the_run_is_safe(sorting_run: Path) -> None:
-    from sim_bridge.experiments.bag_series import read_run
+    from fic_teleop_tools.verdict.bag_series import read_run
     from sim_bridge.experiments.shape_sorting import piece_outcomes
 
     series = read_run(sorting_run / "bag")

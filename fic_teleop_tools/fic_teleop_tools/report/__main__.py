@@ -1,5 +1,5 @@
 """python -m fic_teleop_tools.report <bag> [--out DIR]: metrics.json, plots and a summary table of a recorded session, and
-the run's two verdicts, stable and safe, with their reasons (sim_bridge.experiments.run_verdict; verdict.json)."""
+the run's two verdicts, stable and safe, with their reasons (fic_teleop_tools.verdict.run_verdict; verdict.json)."""
 from __future__ import annotations
 
 import argparse
@@ -42,11 +42,7 @@ def one_way_delay(run_dir: Path | None) -> float:
 def print_verdict(bag: Path, out: Path, delay: float) -> None:
     """The two verdicts of the session, printed and written to ``out``/verdict.json; a bag the verdict cannot judge
     gets one line saying why."""
-    try:  # the verdicts' criteria live with the experiments (sim_bridge.experiments, no MuJoCo in them)
-        from sim_bridge.experiments.run_verdict import VerdictInput, VerdictInputError, judge
-    except ImportError as error:
-        print(f"[report] verdict: not judged, the criteria's package is not installed ({error})", file=sys.stderr)
-        return
+    from fic_teleop_tools.verdict.run_verdict import VerdictInput, VerdictInputError, judge
 
     try:
         verdict = judge(VerdictInput.from_bag(bag, one_way_delay=delay))

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_bridge.experiments.bag_series import read_run
+from fic_teleop_tools.verdict.bag_series import read_run
 from sim_bridge.experiments.runner import Cell, report_metrics, stability_of, write_json
 from sim_bridge.experiments.shape_sorting import piece_outcomes
 from sim_bridge.experiments.stability import StabilityCriterion

@@ -215,8 +215,8 @@ VERDICT_FIGURES = ("channel_generation_rate_w", "channel_generation_rate_all_w",
 
 
 def judge_series(path: Path, delay: float) -> dict[str, Any]:
-    """The run verdict (sim_bridge.experiments.run_verdict) on a kept series: stable, safe and their reasons."""
-    from sim_bridge.experiments.run_verdict import VerdictInput, judge
+    """The run verdict (fic_teleop_tools.verdict.run_verdict) on a kept series: stable, safe and their reasons."""
+    from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
 
     verdict = judge(VerdictInput.from_run_result(load_series(path), one_way_delay=delay))
     # The figures a reader checks a verdict against (the rest are recomputed from the series in a second).

@@ -84,7 +84,7 @@ def figure_of(row: dict, name: str):
     return row.get("figures", row).get(name)
 
 
-#: The stable verdict's tests (sim_bridge.experiments.run_verdict), each named by how its reasons begin.
+#: The stable verdict's tests (fic_teleop_tools.verdict.run_verdict), each named by how its reasons begin.
 UNSTABLE_TESTS = {"oscillation": "sustained oscillation", "growing energy": "growing energy",
                   "port generation": "steady energy generation", "runaway": "runaway", "parked": "parked"}
 

@@ -10,7 +10,7 @@ ways, one-way delay 0, 0.2, 1 and 2 s (and 0.5, 1.5 s at full rate), the closed-
 force-reactive hand, a task drawn per seed, every law; most important cells first. Each finished run's series goes
 to <out-dir>/<key>.npz and its row (config, seed, wall time, figures, commit) to one line of <jsonl>, as it
 finishes; a re-run skips every run whose line and series are both there. ``--judge`` applies the run verdict
-(sim_bridge.experiments.run_verdict) to every kept series and writes <summary>.json: one record per run with its
+(fic_teleop_tools.verdict.run_verdict) to every kept series and writes <summary>.json: one record per run with its
 row and both verdicts.
 
     scripts/experiments.sh claims --quick              # 2 cells x 5 laws x 2 hands, 1 seed, 10 s

@@ -49,7 +49,7 @@ def run_trial(seed: int, delay: float, controller: str, paper_law: bool, duratio
 
 def judge_run(out: Path, seed: int, delay: float, controller: str, paper_law: bool, returncode: int,
               wall: float) -> dict:
-    from sim_bridge.experiments.bag_series import read_run
+    from fic_teleop_tools.verdict.bag_series import read_run
 
     row = {"law": controller + ("_paper_law" if paper_law else ""), "delay_s": delay, "seed": seed,
            "launcher_exit_code": returncode, "wall_s": round(wall, 1), "run_dir": str(out)}

@@ -30,7 +30,7 @@ from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANC
 from sim_bridge.experiments.in_process import RunConfig, run
 from sim_bridge.experiments.cell_statistics import wilson_interval
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box
-from sim_bridge.experiments.run_verdict import VerdictInput, judge
+from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
 
 REPO = Path(__file__).resolve().parents[3]
 

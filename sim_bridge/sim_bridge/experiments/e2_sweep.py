@@ -62,7 +62,7 @@ def done_trials(path: Path) -> list[dict]:
 
 
 def verdicts(trials: list[dict], name: str) -> str:
-    """k/n of the trials the run verdict judged ``name`` (sim_bridge.experiments.run_verdict); not assessed left out."""
+    """k/n of the trials the run verdict judged ``name`` (fic_teleop_tools.verdict.run_verdict); not assessed left out."""
     judged = [row["verdict"][name] for row in trials if row.get("verdict", {}).get(name) is not None]
     return f"{sum(judged)}/{len(judged)}"
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_bridge.experiments.bag_series import read_run
+from fic_teleop_tools.verdict.bag_series import read_run
 from sim_bridge.experiments.runner import CONTROLLERS
 
 

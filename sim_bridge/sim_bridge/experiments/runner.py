@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from sim_bridge.experiments.bag_series import RunSeries, read_run
+from fic_teleop_tools.verdict.bag_series import RunSeries, read_run
 from sim_bridge.experiments.stability import StabilityCriterion, StabilityInputError, assess_stability
 
 REPO = Path(os.environ.get("FIC_TELEOP_ROOT") or Path(__file__).resolve().parents[3])

@@ -10,7 +10,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from sim_bridge.experiments.bag_series import RunSeries
+from fic_teleop_tools.verdict.bag_series import RunSeries
 from sim_bridge.robot.scenes import (SHAPE_SORTING_PIECES, SORTER_CENTRE_XY, SORTER_HALF_SIZE_XY, SORTER_PLATE_THICKNESS,
                                SORTER_TOP_HEIGHT, SORTER_WALL_THICKNESS, TABLE_TOP_HEIGHT)
 

@@ -151,7 +151,7 @@ def claims_markdown(document: dict) -> str:
     from sim_bridge.experiments.claims_report import UNSTABLE_TESTS
 
     lines += ["", "Which stable test each law's unstable runs failed (a run may fail several; "
-              "sim_bridge/experiments/run_verdict.py):", "",
+              "fic_teleop_tools/verdict/run_verdict.py):", "",
               "| cell | law | not stable | " + " | ".join(UNSTABLE_TESTS) + " |",
               "|---|---|---|" + "---|" * len(UNSTABLE_TESTS)]
     for cell in document["cells"]:

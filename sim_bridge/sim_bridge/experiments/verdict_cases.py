@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from sim_bridge.experiments.run_verdict import VerdictInput
+from fic_teleop_tools.verdict.run_verdict import VerdictInput
 
 STEP = 0.001          # [s] integration step
 SAMPLE = 0.01         # [s] the series' period (the runner's 100 Hz poses)
@@ -357,7 +357,7 @@ def _confusion(rows: list[dict], label: str, verdict: str) -> dict[str, int]:
 def held_out(seeds: range = range(10, 18)) -> dict:
     """The same reference loop on seeds the thresholds were not chosen on, bare (stable) and with 5 mm limit cycles
     at 0.5, 2.5, 5 and 16 s and a 10 mm one at 1 s (unstable): how often the verdict is wrong outside the set."""
-    from sim_bridge.experiments.run_verdict import judge
+    from fic_teleop_tools.verdict.run_verdict import judge
 
     false_alarms, misses, runs, cycles = [], [], 0, 0
     for delay in REFERENCE_DELAYS:
@@ -380,7 +380,7 @@ def validate(with_held_out: bool = True) -> dict:
     import time as wall_clock
     from dataclasses import asdict
 
-    from sim_bridge.experiments.run_verdict import VerdictCriterion, judge
+    from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, judge
 
     rows, seconds = [], 0.0
     for case in cases():

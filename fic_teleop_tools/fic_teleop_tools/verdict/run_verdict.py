@@ -12,7 +12,7 @@ span, which starts ``settle`` seconds into the run:
    oscillation. Rising in EVERY window, not just last against first: an operator's aperiodic moves make the peaks go
    up and down, a growing oscillation makes them rise.
 2. SUSTAINED OSCILLATION at any period from 0.2 s to the longest the span holds 1.5 times (which must reach
-   max(4 round trips, ``min_longest_period``), else the run is not assessed): sim_bridge.experiments.oscillation_scan
+   max(4 round trips, ``min_longest_period``), else the run is not assessed): fic_teleop_tools.verdict.oscillation_scan
    on each motion minus its known command (x_M minus the hand's target; x_d and x_R minus the commanded motion; the
    tracking error x_d - x_R), outside contact. A delay-induced oscillation has a period of at most about 4 round
    trips (its phase lag of pi/2 to pi accrues over one round trip).
@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fic_core.arm_profile import arm_profile
-from sim_bridge.experiments.oscillation_scan import Oscillation, ScanSettings, scan
+from fic_teleop_tools.verdict.oscillation_scan import Oscillation, ScanSettings, scan
 
 X_B = 0.05   # [m] the paper's error bound x_b (Sec. III)
 
@@ -147,11 +147,11 @@ class VerdictInput:
 
     @classmethod
     def from_bag(cls, path: str | Path, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
-        """From a recorded session (sim_bridge.experiments.bag_series.read_run): the tracking error and the
+        """From a recorded session (fic_teleop_tools.verdict.bag_series.read_run): the tracking error and the
         controller's energy of /replica/fic_state, the F/T force, the joint speeds, the limit counter and the
         nodes' last diagnostics (the robot's reflex and holds, the replica's safe hold). A bag holds no command and
         no obstacle flag: its motion test is on x_d - x_R, its contact is the force's."""
-        from sim_bridge.experiments.bag_series import read_run
+        from fic_teleop_tools.verdict.bag_series import read_run
 
         run = read_run(path, joint_states=True)
         time = run.fic_time
