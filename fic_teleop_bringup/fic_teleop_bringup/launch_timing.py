@@ -63,11 +63,16 @@ class Timing:
                      f"{_show(f.get('max_tick_gap_ms'), '.1f')} ms (bound: no hold)"
                      if f.get("loop_holds") is not None else
                      "replica loop: no loop-health record in the bag (state age not known)")
-        known = f.get("real_time_factor") is not None or slowest or f.get("loop_holds") is not None
         lines.append("STARVED: the machine did not keep real time, so the run's tracking figures are the computer's "
                      "as much as the controller's: " + "; ".join(self.reasons) if self.starved
-                     else "the computer kept real time" if known else "real time not known (no figure measured)")
+                     else "the computer kept real time")
         return lines
+
+    @property
+    def measured(self) -> bool:
+        """Whether any timing figure was measured (a real-time factor, a loop rate or a loop-health record)."""
+        f = self.figures
+        return f.get("real_time_factor") is not None or bool(f.get("slowest_loop")) or f.get("loop_holds") is not None
 
 
 def _show(value, spec: str) -> str:
@@ -110,7 +115,7 @@ def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[st
         if holds:
             timing.reasons.append(f"the replica held the arm {holds} times on its own loop's bounds (the last: "
                                   f"{health.get('last_hold_reason', 'not recorded')})")
-    if rtf is None and not running and not (health and LOOP_HEALTH_KEY in health):
+    if not timing.measured:
         # Nothing to show the run kept real time: a recorder starved before it wrote the replica's streams, or a
         # replica that never ticked. Measured: such runs under a 50 % CPU quota exited 0 before this line.
         timing.reasons.append("no timing figure could be measured (no real-time factor, no loop rate, no "

@@ -33,9 +33,9 @@ episodes (``collision_gap`` apart: a bounce is one). A count that was not record
 
 CONTACT is told apart from instability with the scene's contact data: a sample is in contact when the F/T force is
 at least ``contact_force`` or was within the last ``contact_hold`` seconds (the free-motion definition of
-docs/EXPERIMENTS.md), or the contact flag is set; the oscillation, port-generation, runaway-error and parked tests leave
-out the contact samples and ``contact_margin`` + one round trip around them (the hand feels the contact one delay later and
-the replica sees the hand's answer another delay later). A push into an obstacle is contact, not instability.
+docs/EXPERIMENTS.md), or the contact flag is set; the oscillation, port-generation, runaway-error and parked tests
+leave out the contact samples and ``contact_margin`` + one round trip around them (the hand feels the contact one
+delay later and the replica sees the hand's answer another delay later). A push into an obstacle is contact, not instability.
 
 ``judge`` is a pure function of the stored series (VerdictInput), so a sweep's runs are re-judged without simulating.
 """
@@ -441,17 +441,22 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
             # then damps away; steady generation is what goes on in free motion. The whole span's rate is reported.
             step_free = free[1:] & free[:-1] & judged[1:] & judged[:-1]
             free_span = float(np.count_nonzero(step_free) * step)
+
+            def free_rise_rate(series: NDArray) -> NDArray:
+                """The series' rise over the judged steps outside contact, per second of them."""
+                return np.diff(series, axis=0)[step_free].sum(axis=0) / max(free_span, step)
+
             rate_all = float((values[-1] - values[first]) / span)
             figures.update(channel_generated_total_j=float(values[-1]), channel_generation_rate_all_w=rate_all,
                            channel_generation_free_s=free_span)
             if on_grid["observers"] is not None:
-                fall = -np.diff(on_grid["observers"], axis=0)[step_free].sum(axis=0) / max(free_span, step)
+                fall = -free_rise_rate(on_grid["observers"])
                 figures["channel_generation_rate_by_direction_w"] = {
                     "to the handle": float(fall[0]), "to the replica": float(fall[1])}
             if free_span < max(criterion.min_window, 2.0 * round_trip):
                 notes.append(f"{free_span:.1f} s outside contact: too little to judge the channel's generation rate")
             else:
-                rate = float(np.diff(values)[step_free].sum() / free_span)
+                rate = float(free_rise_rate(values))
                 figures["channel_generation_rate_w"] = rate
                 if rate > criterion.port_rate_limit:
                     stable_reasons.append(

@@ -21,11 +21,11 @@
 (c) Runs that fooled the older verdict: parked 150 mm off the target in free motion (unstable: parked); a crash into
     the obstacle the task steers around every 5 s, each with a burst of channel generation (stable, NOT SAFE:
     repeated collisions, the motion between them is the stable loop's); one collision with its burst (stable and
-    safe: the burst is contact's, not steady generation); holding a push into a wall with 210 mm between set point and TCP (stable and safe: contact,
-    not instability); the same loop with a channel that adds energy along the handle's motion, damped away by the
-    handle's damping so that the motion stays bounded, alone and beside one collision (unstable: steady generation
-    at the ports); a limit-violation
-    run and a velocity-reflex trip (stable, NOT SAFE).
+    safe: the burst is contact's, not steady generation); holding a push into a wall with 210 mm between set point
+    and TCP (stable and safe: contact, not instability); the same loop with a channel that adds energy along the
+    handle's motion, damped away by the handle's damping so that the motion stays bounded, alone and beside one
+    collision (unstable: steady generation at the ports); a limit-violation run and a velocity-reflex trip (stable,
+    NOT SAFE).
 
 Every case is deterministic (seeded); ``cases()`` builds them all in a few seconds.
 """

@@ -357,7 +357,8 @@ def stress_bench(args: argparse.Namespace, launcher_args: list[str], out: Path) 
             print(f"[bench]   exit {row['exit_code']}, starved {row['flagged_starved']}, RTF "
                   f"{row['real_time_factor']}, holds {row['holds']}, violations {row['limit_violations']}, "
                   f"runaway {row['runaway']} {row['reasons'] or ''}"
-                  + (f", lost tracking ({row['lost_tracking_reason']})" if row.get("lost_tracking") else ""), flush=True)
+                  + (f", lost tracking ({row['lost_tracking_reason']})" if row.get("lost_tracking") else ""),
+                  flush=True)
             result["levels"] = {f"{k} {label(lv)}": level_summary([r for r in result["runs"]
                                                                   if r["kind"] == k and r["level_percent"] == lv])
                                 for k in ("single", "two_stations") for lv in levels
@@ -380,8 +381,8 @@ def stress_markdown(result: dict) -> str:
     hogs = f", {result['hogs']} CPU hogs" if result.get("hogs") else ""
     lines = [f"Stress bench {result['generated']}: `{result['command']}`; quota period {result['period_us']} us on "
              f"{throttled}{hogs}; load average {load} ({machine['cpus']} cores).", "",
-             "| runs | level (% of one CPU) | n | runaways | lost tracking | with violations (held) | with holds | flagged starved "
-             "| exit codes | RTF min / med / max | slowest loop min / med / max | bag's share of the run min / med "
+             "| runs | level (% of one CPU) | n | runaways | lost tracking | with violations (held) | with holds "
+             "| flagged starved | exit codes | RTF min / med / max | slowest loop min / med / max | bag's share of the run min / med "
              "| error max mm min / med / max | error RMS mm med | max joint speed / datasheet |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
@@ -393,7 +394,8 @@ def stress_markdown(result: dict) -> str:
     for key, level in (result.get("levels") or {}).items():
         kind, _, percent = key.partition(" ")
         lines.append(f"| {kind.replace('_', '-')} | {percent} | {level['runs']} | {level['runaways']} | "
-                     f"{_known(level.get('lost_tracking'))} | {level['runs_with_violations']} ({_known(level['violations_where_held'])}) | "
+                     f"{_known(level.get('lost_tracking'))} | "
+                     f"{level['runs_with_violations']} ({_known(level['violations_where_held'])}) | "
                      f"{_known(level['runs_with_holds'])} | "
                      f"{level['flagged_starved']} | {', '.join(map(str, level['exit_codes']))} | "
                      f"{show(level['real_time_factor'])} | {show(level['slowest_loop_fraction'])} | "

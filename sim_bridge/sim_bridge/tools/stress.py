@@ -342,8 +342,8 @@ def run_figures(run_dir: Path, exit_code: int) -> dict:
 
 
 def level_summary(rows: list[dict]) -> dict:
-    """Per level: runs, runaways, runs that lost tracking, runs with limit violations (and of those, the ones where the replica held),
-    holds, RTF and error (min / median / max), how many runs the launcher flagged as starved."""
+    """Per level: runs, runaways, runs that lost tracking, runs with limit violations (and of those, the ones where
+    the replica held), holds, RTF and error (min / median / max), how many runs the launcher flagged as starved."""
     def spread(values: list) -> list | None:
         values = [v for v in values if v is not None]
         return [round(float(min(values)), 3), round(float(np.median(values)), 3), round(float(max(values)), 3)] \
