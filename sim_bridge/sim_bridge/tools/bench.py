@@ -33,6 +33,7 @@ import json
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 import threading
@@ -252,6 +253,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--hogs", type=int, default=0, help="--stress: busy processes competing (niceness 0)")
     parser.add_argument("--hog-cpus", default="", help="--stress: pin the hogs to these CPUs, e.g. 0")
     parser.add_argument("--period-us", type=int, default=None, help="--stress: the quota's CFS period [us]")
+    parser.add_argument("--graph-lock", type=Path, default=None,
+                        help="--stress: flock this file around each run (e.g. /tmp/fic_graph.lock)")
+    parser.add_argument("--stop-at", default=None, metavar="HH:MM",
+                        help="--stress: start no run at or after this local time (a rerun resumes)")
     args = parser.parse_args(argv)
     launcher_args = shlex.split(args.launcher_args)
     if args.stress is not None:
@@ -317,54 +322,68 @@ def main(argv: list[str] | None = None) -> int:
 
 def stress_bench(args: argparse.Namespace, launcher_args: list[str], out: Path) -> int:
     """--stress: the harness's runs, level by level in turn (module docstring), summarised per level."""
-    from sim_bridge.tools.stress import DEFAULT_PERIOD_US, StressError, level_summary, parse_levels, run_figures, \
-        stressed_run
+    from sim_bridge.tools.stress import DEFAULT_PERIOD_US, DEFAULT_SHARES, StressError, level_summary, parse_levels, \
+        resumed, run_figures, stressed_run
 
     levels = parse_levels(args.stress)
 
     def label(level: float | None) -> str:
         return "none" if level is None else f"{level:g}"
     runs_dir = args.runs_dir or REPO / "runs" / f"stress-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
-    runs_dir.mkdir(parents=True, exist_ok=True)
     cpus = [int(c) for c in args.hog_cpus.split(",") if c.strip()] or None
     period = args.period_us or DEFAULT_PERIOD_US
     result: dict = {"generated": datetime.now().isoformat(timespec="seconds"), "levels_percent_of_one_cpu": levels,
                     "node": args.stress_node, "spare": args.spare, "hogs": args.hogs, "hog_cpus": cpus, "period_us": period,
-                    "launcher_args": launcher_args,
+                    "shares": DEFAULT_SHARES, "launcher_args": launcher_args, "runs_dir": str(runs_dir),
                     "machine": {"cpus": os.cpu_count(), "load_average_at_start": list(os.getloadavg())},
                     "command": "scripts/bench.sh " + " ".join(shlex.quote(a) for a in sys.argv[1:]), "runs": []}
+    try:   # a rerun with the same settings keeps the finished runs and makes only the missing ones
+        result = resumed(out, result)
+    except StressError as error:
+        print(f"[bench] refused: {error}", file=sys.stderr)
+        return 2
+    runs_dir = Path(result.get("runs_dir") or runs_dir)
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    finished = {row["name"] for row in result["runs"]}
     plan = [(kind, index) for index in range(max(args.runs, args.two_stations_runs))
             for kind in ("single", "two_stations")
             if index < (args.runs if kind == "single" else args.two_stations_runs)]
-    for kind, index in plan:
-        for level in levels:
-            name = f"{kind}-{label(level)}-{index + 1}"
-            extra = ["--two-stations"] if kind == "two_stations" else []
-            print(f"[bench] stress {name} ...", flush=True)
-            cpu_before = psutil.cpu_times()
-            try:
-                run = stressed_run([*launcher_args, *extra, "--no-video"], runs_dir / name,
-                                   level, node=args.stress_node, spare=args.spare, hogs=args.hogs,
-                                   hog_cpus=cpus, period_us=period, log=runs_dir / f"{name}.log")
-            except StressError as error:
-                print(f"[bench] refused: {error}", file=sys.stderr)
-                return 2
-            row = {"name": name, "kind": kind, "level_percent": level, **run,
-                   **run_figures(runs_dir / name, run["exit_code"]),
-                   "load_average_after": list(os.getloadavg()),
-                   "machine_cpu_during_run": machine_shares(cpu_before, psutil.cpu_times())}
-            result["runs"].append(row)
-            print(f"[bench]   exit {row['exit_code']}, starved {row['flagged_starved']}, RTF "
-                  f"{row['real_time_factor']}, holds {row['holds']}, violations {row['limit_violations']}, "
-                  f"runaway {row['runaway']} {row['reasons'] or ''}"
-                  + (f", lost tracking ({row['lost_tracking_reason']})" if row.get("lost_tracking") else ""),
-                  flush=True)
-            result["levels"] = {f"{k} {label(lv)}": level_summary([r for r in result["runs"]
-                                                                  if r["kind"] == k and r["level_percent"] == lv])
-                                for k in ("single", "two_stations") for lv in levels
-                                if any(r["kind"] == k for r in result["runs"])}
-            result["machine"]["load_average_at_end"] = list(os.getloadavg())
-            write_json(out, result)   # after every run: an interrupted bench keeps what it measured
+    for kind, index, level in [(kind, index, level) for kind, index in plan for level in levels]:
+        name = f"{kind}-{label(level)}-{index + 1}"
+        if name in finished:
+            continue
+        if args.stop_at and datetime.now().strftime("%H:%M") >= args.stop_at:
+            print(f"[bench] {args.stop_at} reached: no new run (a rerun resumes)", flush=True)
+            break
+        if (runs_dir / name).exists():   # a run interrupted before its row was written: made again
+            shutil.rmtree(runs_dir / name)
+        extra = ["--two-stations"] if kind == "two_stations" else []
+        print(f"[bench] stress {name} ...", flush=True)
+        cpu_before = psutil.cpu_times()
+        try:
+            run = stressed_run([*launcher_args, *extra, "--no-video"], runs_dir / name,
+                               level, node=args.stress_node, spare=args.spare, hogs=args.hogs,
+                               hog_cpus=cpus, period_us=period, log=runs_dir / f"{name}.log",
+                               graph_lock=args.graph_lock)
+        except StressError as error:
+            print(f"[bench] refused: {error}", file=sys.stderr)
+            return 2
+        row = {"name": name, "kind": kind, "level_percent": level, **run,
+               **run_figures(runs_dir / name, run["exit_code"]),
+               "load_average_after": list(os.getloadavg()),
+               "machine_cpu_during_run": machine_shares(cpu_before, psutil.cpu_times())}
+        result["runs"].append(row)
+        print(f"[bench]   exit {row['exit_code']}, starved {row['flagged_starved']}, RTF "
+              f"{row['real_time_factor']}, holds {row['holds']}, violations {row['limit_violations']}, "
+              f"runaway {row['runaway']} {row['reasons'] or ''}"
+              + (f", lost tracking ({row['lost_tracking_reason']})" if row.get("lost_tracking") else ""),
+              flush=True)
+        result["levels"] = {f"{k} {label(lv)}": level_summary([r for r in result["runs"]
+                                                              if r["kind"] == k and r["level_percent"] == lv])
+                            for k in ("single", "two_stations") for lv in levels
+                            if any(r["kind"] == k for r in result["runs"])}
+        result["machine"]["load_average_at_end"] = list(os.getloadavg())
+        write_json(out, result)   # after every run: an interrupted bench keeps what it measured
     print(stress_markdown(result))
     print(f"[bench] {out}")
     return 0

@@ -10,7 +10,11 @@ A run that starves on a loaded machine starves by accident, at an unknown level.
   the whole graph but one (``spare``, the recorder): that node's process leaves the cgroup as soon as it appears,
   so that the bag, the harness's instrument, holds the whole run.
   The default period, 20 ms, is short enough that a throttled graph is stopped for at most a few ticks of the
-  replica's 2 ms at a time at the lower levels (a 100 ms period let it run 50 ms and stop 50 ms at 50 %);
+  replica's 2 ms at a time at the lower levels (a 100 ms period let it run 50 ms and stop 50 ms at 50 %).
+  A quota is a ceiling only: beside other busy sessions (each one entity of weight 1024 under the kernel's
+  autogroup scheduling) a group of the default weight got less than its level. So the group also gets a high
+  weight (``shares``, default 8192: v1 ``cpu.shares``, v2 ``cpu.weight`` scaled alike), and under competing load
+  the graph gets its quota, so that the level is the share the graph had;
 - optional CPU hogs: busy processes pinned to given CPUs (``sched_setaffinity``), outside the cgroup, at niceness 0,
   competing with whatever else runs there.
 
@@ -42,6 +46,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[3]
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 DEFAULT_PERIOD_US = 20_000
+DEFAULT_SHARES = 8192               # the quota group's CPU weight (v1 cpu.shares; 1024 is a niceness-0 session's)
 RUNAWAY_ERROR_BOUNDS = 4.0          # free-motion error above this many x_b
 EXIT_STARVED = 6                    # fic_teleop_bringup/launch_supervision.py (not imported here)
 V1_ROOT = Path("/sys/fs/cgroup/cpu")
@@ -54,12 +59,16 @@ class StressError(RuntimeError):
 class CpuQuota:
     """A cgroup holding its tasks to ``level_percent`` % of one CPU; removed (tasks back in the parent) on close."""
 
-    def __init__(self, level_percent: float, period_us: int = DEFAULT_PERIOD_US, name: str | None = None) -> None:
+    def __init__(self, level_percent: float, period_us: int = DEFAULT_PERIOD_US, name: str | None = None,
+                 shares: int = DEFAULT_SHARES) -> None:
         if not (np.isfinite(level_percent) and 1.0 <= level_percent <= 100.0 * (os.cpu_count() or 1)):
             raise StressError(f"a CPU level must be in [1, {100 * (os.cpu_count() or 1)}] % of one CPU, "
                               f"got {level_percent}")
         if not 1000 <= period_us <= 1_000_000:
             raise StressError(f"the quota period must be in [1000, 1000000] us, got {period_us}")
+        if not 2 <= shares <= 262_144:
+            raise StressError(f"the quota group's CPU shares must be in [2, 262144], got {shares}")
+        self.shares = int(shares)
         self.level_percent, self.period_us = float(level_percent), int(period_us)
         self.quota_us = max(1000, round(self.level_percent / 100.0 * self.period_us))
         name = name or f"fic_stress_{os.getpid()}_{int(time.monotonic() * 1e3)}"
@@ -70,8 +79,11 @@ class CpuQuota:
             if self.version == 1:
                 (self.path / "cpu.cfs_period_us").write_text(str(self.period_us))
                 (self.path / "cpu.cfs_quota_us").write_text(str(self.quota_us))
+                (self.path / "cpu.shares").write_text(str(self.shares))
             else:
                 (self.path / "cpu.max").write_text(f"{self.quota_us} {self.period_us}")
+                # v2's weight is 100 where v1's shares are 1024, in [1, 10000]
+                (self.path / "cpu.weight").write_text(str(min(10_000, max(1, round(self.shares * 100 / 1024)))))
         except OSError as error:
             self.close()
             raise StressError(f"cannot set a CPU quota in {self.path}: {error.strerror or error}") from None
@@ -184,13 +196,40 @@ def _node_processes(root: int, node: str) -> list[int]:
 def stressed_run(launcher_args: list[str], out: Path, level_percent: float | None, *, node: str | None = None,
                  spare: str | None = None, hogs: int = 0, hog_cpus: list[int] | None = None,
                  period_us: int = DEFAULT_PERIOD_US, log: Path | None = None,
-                 env: dict[str, str] | None = None) -> dict:
+                 env: dict[str, str] | None = None, graph_lock: Path | None = None,
+                 shares: int = DEFAULT_SHARES) -> dict:
     """One launcher run at ``level_percent`` % of one CPU (None: no quota), the whole graph or ``node`` alone, in
     ``env`` (default: this process's environment); returns the launcher's exit code, the wall time and the
     kernel's throttling counts. ``spare``: a node of the whole graph left out of the quota (the recorder: starved
-    with the rest, it kept as little as 2 % of a run, and the runaway check then sees only that)."""
+    with the rest, it kept as little as 2 % of a run, and the runaway check then sees only that). ``graph_lock``: a
+    file locked (flock, exclusive) for this run alone, so that one graph at a time runs on the machine however many
+    runs a bench makes; the wait for it is returned (``lock_wait_s``)."""
+    waited = time.monotonic()
+    lock_file = _locked(graph_lock) if graph_lock is not None else None
+    try:
+        result = _stressed_run(launcher_args, out, level_percent, node=node, spare=spare, hogs=hogs,
+                               hog_cpus=hog_cpus, period_us=period_us, log=log, env=env, shares=shares,
+                               lock_wait_s=round(time.monotonic() - waited, 1))
+    finally:
+        if lock_file is not None:
+            lock_file.close()   # closing the file releases its flock
+    return result
+
+
+def _locked(path: Path):
+    """``path`` opened and flock-ed exclusively (blocking): the same lock as ``flock PATH command``."""
+    import fcntl
+
+    handle = open(path, "a")
+    fcntl.flock(handle.fileno(), fcntl.LOCK_EX)
+    return handle
+
+
+def _stressed_run(launcher_args: list[str], out: Path, level_percent: float | None, *, node: str | None,
+                  spare: str | None, hogs: int, hog_cpus: list[int] | None, period_us: int, log: Path | None,
+                  env: dict[str, str] | None, shares: int, lock_wait_s: float) -> dict:
     command = [sys.executable, str(LAUNCHER), "--out", str(out), *launcher_args]
-    quota = CpuQuota(level_percent, period_us) if level_percent is not None else None
+    quota = CpuQuota(level_percent, period_us, shares=shares) if level_percent is not None else None
     hog = CpuHogs(hogs, hog_cpus) if hogs else None
     started = time.monotonic()
     try:
@@ -220,7 +259,8 @@ def stressed_run(launcher_args: list[str], out: Path, level_percent: float | Non
         if quota is not None:
             quota.close()
     return {"exit_code": code, "wall_s": round(time.monotonic() - started, 1), "throttling": throttling,
-            "node_moved": None if node is None and spare is None else bool(watcher and watcher.joined)}
+            "node_moved": None if node is None and spare is None else bool(watcher and watcher.joined),
+            "shares": shares if quota is not None else None, "lock_wait_s": lock_wait_s}
 
 
 class _NodeWatcher(threading.Thread):
@@ -370,6 +410,29 @@ def level_summary(rows: list[dict]) -> dict:
             "max_kinetic_energy_j": spread([row.get("max_kinetic_energy_j") for row in rows])}
 
 
+#: What makes two benches the same bench: a rerun with these equal resumes the first (``resumed``).
+BENCH_SETTINGS = ("levels_percent_of_one_cpu", "node", "spare", "hogs", "hog_cpus", "period_us", "shares",
+                  "launcher_args")
+
+
+def resumed(out: Path, result: dict) -> dict:
+    """A bench about to write ``out``: the bench already there if it has the same settings (``BENCH_SETTINGS``),
+    its finished runs kept and their run folder reused, so that a rerun with the same arguments runs only the runs
+    it lacks; ``result`` itself if ``out`` holds none. A bench of other settings is not overwritten: StressError."""
+    if not out.exists():
+        return result
+    try:
+        earlier = json.loads(out.read_text())
+    except (OSError, ValueError) as error:
+        raise StressError(f"{out} holds no bench that can be resumed ({error}); give another --out") from None
+    differing = [key for key in BENCH_SETTINGS if earlier.get(key) != result.get(key)]
+    if differing:
+        raise StressError(f"{out} holds a bench with other settings ({', '.join(differing)}: "
+                          f"{', '.join(repr(earlier.get(key)) for key in differing)}); give another --out")
+    return {**earlier, "command": result["command"],
+            "resumed": [*earlier.get("resumed", []), result["generated"]]}
+
+
 def parse_levels(text: str) -> list[float | None]:
     """"150,100,70,50" -> [150.0, 100.0, 70.0, 50.0] (% of one CPU); "none" (no quota) -> None."""
     levels: list[float | None] = []
@@ -388,6 +451,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--hog-cpus", default="", help="pin the hogs to these CPUs, e.g. 0 or 0,1")
     parser.add_argument("--period-us", type=int, default=DEFAULT_PERIOD_US, help="the quota's CFS period")
     parser.add_argument("--out", type=Path, default=None, help="run folder (default runs/stress-<level>-<time>)")
+    parser.add_argument("--graph-lock", type=Path, default=None,
+                        help="flock this file around the run (e.g. /tmp/fic_graph.lock: one graph at a time)")
+    parser.add_argument("--shares", type=int, default=DEFAULT_SHARES,
+                        help="the quota group's CPU weight (v1 cpu.shares; a niceness-0 session is 1024)")
     argv = list(sys.argv[1:] if argv is None else argv)
     split = argv.index("--") if "--" in argv else len(argv)   # after "--": the launcher's options
     args = parser.parse_args(argv[:split])
@@ -398,8 +465,8 @@ def main(argv: list[str] | None = None) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
         result = stressed_run(launcher_args, out, level, node=args.node, spare=args.spare, hogs=args.hogs,
-                              hog_cpus=cpus,
-                              period_us=args.period_us, log=out.parent / f"{out.name}.log")
+                              hog_cpus=cpus, period_us=args.period_us, log=out.parent / f"{out.name}.log",
+                              graph_lock=args.graph_lock, shares=args.shares)
     except StressError as error:
         print(f"[stress] refused: {error}", file=sys.stderr)
         return 2
