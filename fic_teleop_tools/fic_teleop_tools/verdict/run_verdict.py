@@ -48,6 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fic_core.arm_profile import arm_profile
+from fic_core.teleoperation import TeleoperationMode
 from fic_teleop_tools.verdict.oscillation_scan import Oscillation, ScanSettings, scan
 
 X_B = 0.05   # [m] the paper's error bound x_b (Sec. III)
@@ -95,7 +96,7 @@ class VerdictInput:
     x_R: NDArray | None = None                      # the replica's TCP position (n, 3) [m]
     x_d: NDArray | None = None                      # the replica's set point (n, 3) [m]
     x_M: NDArray | None = None                      # the handle position (n, 3) [m]
-    command: NDArray | None = None                  # commanded TCP motion: planner + hand's target one delay later
+    command: NDArray | None = None                  # commanded TCP motion one delay later (from_run_result)
     planner: NDArray | None = None                  # the planner's part of it (n, 3) [m]: x_M answers it too
     operator_target: NDArray | None = None          # the hand's target for x_M (n, 3) [m]
     tracking_error: NDArray | None = None           # x_d - x_R (n, 3) [m]; from x_d and x_R when not given
@@ -120,11 +121,20 @@ class VerdictInput:
     @classmethod
     def from_run_result(cls, result, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
         """From an in-process run (sim_bridge.experiments.in_process.RunResult, or one loaded by
-        evidence_run.load_series): the commanded motion is the planner's plus the hand's target one delay later
-        (offset mode), as the replica receives it."""
+        evidence_run.load_series): the commanded motion as the replica receives it, one delay later. In offset mode
+        throughout (or when the run did not record the master's mode) it is the planner's plus the hand's target
+        (x_d' = s_M x_M with s_M = 1, Eq. 3). Once the master was in velocity mode the hand's target is a velocity
+        command, not a place: x_d' is the integral of k_v x_M (Eq. 3), and after it an offset-mode stretch continues
+        from that integral, so the command is the planner's plus the x_d' the master sent."""
         time = np.asarray(result.time, dtype=float)
         command = None
-        if result.planner is not None and result.operator_target is not None:
+        mode = getattr(result, "command_mode", None)
+        sent = getattr(result, "sent_offset", None)
+        velocity = mode is not None and len(mode) == len(time) and bool(np.any(np.asarray(mode) != TeleoperationMode.OFFSET))
+        if velocity and result.planner is not None and sent is not None:
+            command = result.planner + np.column_stack([np.interp(time - one_way_delay, time, sent[:, axis])
+                                                        for axis in range(3)])
+        elif result.planner is not None and result.operator_target is not None:
             later = np.column_stack([np.interp(time - one_way_delay, time, result.operator_target[:, axis])
                                      for axis in range(3)])
             command = result.planner + later

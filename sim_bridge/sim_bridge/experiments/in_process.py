@@ -186,6 +186,10 @@ class RunResult:
     robot_watchdog_engagements: int = 0
     stale_torques_refused: int = 0
     replica_holds: int = 0
+    # The master's side of the command at those stamps: its mode (n,) (fic_core.teleoperation.TeleoperationMode) and
+    # the x_d' it sent last (n, 3) [m]; the run verdict's command in velocity mode (VerdictInput.from_run_result).
+    command_mode: np.ndarray | None = None
+    sent_offset: np.ndarray | None = None
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -300,6 +304,7 @@ def run(config: RunConfig) -> RunResult:
     ft_wrench = None
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
     log_m, log_arm, log_handle, log_target = [], [], [], []
+    log_mode, log_sent = [], []
     arm_velocity, arm_momentum = np.zeros(sim.model.nv), np.zeros(sim.model.nv)
     arm_dof = np.array([sim.model.jnt_dofadr[sim.model.joint(name).id] for name in ARM_JOINT_NAMES])
     state = device.state
@@ -430,6 +435,8 @@ def run(config: RunConfig) -> RunResult:
             log_o.append(replica.desired.offset)
             log_m.append(state.position)
             log_target.append(np.asarray(device_station.target, dtype=float).copy())
+            log_mode.append(int(master.integrator.mode))
+            log_sent.append(master.integrator.desired_offset)
             log_handle.append(0.5 * device.parameters.mass * float(state.velocity @ state.velocity))
             arm_velocity[arm_dof] = sim.joint_velocities
             mujoco.mj_mulM(sim.model, sim.data, arm_momentum, arm_velocity)   # M(q) qd of the arm's joints
@@ -460,7 +467,8 @@ def run(config: RunConfig) -> RunResult:
                      obstacle_contact=np.array(log_contact, dtype=bool),
                      operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,
                      joint_speed_max=robot["speed"], robot_watchdog_engagements=watchdog.engagements,
-                     stale_torques_refused=state_age.refused, replica_holds=replica.health.holds)
+                     stale_torques_refused=state_age.refused, replica_holds=replica.health.holds,
+                     command_mode=np.array(log_mode, dtype=int), sent_offset=np.array(log_sent).reshape(-1, 3))
 
 
 def _touches(sim: PandaSimulation, geom: int) -> bool:
