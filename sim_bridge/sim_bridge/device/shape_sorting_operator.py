@@ -64,6 +64,11 @@ from sim_bridge.robot.scenes import (PIECE_HEIGHT, SHAPE_SORTING_PIECES, SORTER_
 
 Vector3 = NDArray[np.float64]
 
+#: [s] simulated length of one E2 trial with this operator, wherever E2 runs (the graph, the in-process runner, the
+#: paper's experiments): three pieces at 41-43 s each (measured on the graph at 200 ms each way, docs/EXPERIMENTS.md
+#: "E2") after a 4 s start, with room for a retry.
+TRIAL_DURATION_S = 160.0
+
 
 class SortingFrame(NamedTuple):
     """One camera frame, base frame [m]: the replica's TCP (the plate's lower face) and each piece's centre in the

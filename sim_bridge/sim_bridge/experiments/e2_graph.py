@@ -27,9 +27,9 @@ import numpy as np
 
 from sim_bridge.experiments.cell_statistics import wilson_interval
 from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, operator_outcome
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES, piece_outcomes
 
-DURATION_S = 160.0   # as the in-process trials (e2_in_process.py)
 PHASE = re.compile(r"shape-sorting operator: (\w+:\w+) at ([\d.]+) s \(([-\d.e+naif]+)\)")
 
 
@@ -125,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--delay", type=float, default=0.2)
     parser.add_argument("--controller", default="fic", choices=("fic", "linear", "linear_bounded", "linear_tdpa"))
     parser.add_argument("--paper-law", action="store_true", help="the replica's Eq. 7 as the paper writes it")
-    parser.add_argument("--duration", type=float, default=DURATION_S)
+    parser.add_argument("--duration", type=float, default=TRIAL_DURATION_S)
     parser.add_argument("--runs-dir", type=Path, default=Path("runs") / "e2_graph", help="the run folders")
     parser.add_argument("--wall-limit", type=float, default=7200.0)
     parser.add_argument("--summary", type=Path, default=None, help="instead of running: print ('-') or write the "

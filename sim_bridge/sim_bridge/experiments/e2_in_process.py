@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from sim_bridge.device.virtual_operator import load_script
 from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER,
                                                  OPERATOR_TIMING_JITTER_S)
@@ -134,7 +135,8 @@ def main(argv: list[str] | None = None) -> int:
                                                             "linear, linear_bounded, linear_tdpa")
     parser.add_argument("--delay", type=float, default=0.2, help="one way [s] (default 0.2, the paper's)")
     parser.add_argument("--duration", type=float, default=None,
-                        help="simulated s (default: the script's 111.5 s; the operator's 160 s)")
+                        help=f"simulated s (default: the operator's {TRIAL_DURATION_S:g} s; the script's "
+                             "length + 1 s)")
     parser.add_argument("--no-jitter", action="store_true", help="every trial as the lockstep graph's (seeds then "
                                                                   "differ only in the bonds' draws)")
     parser.add_argument("--json", type=Path, default=None, help="write the trials here")
@@ -154,9 +156,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.trials < 1:
         parser.error("--trials must be at least 1")
     script = load_script(REPO / "config" / "operator_scripts" / "shape_sorting.yaml")
-    # The script's: the graph's E2 duration (paper_experiments.py); the operator's: three pieces at about 45 s
-    # each with a retry's margin.
-    duration = args.duration or (round(script.duration + 1.0, 1) if args.operator == "scripted" else 160.0)
+    # The operator's trial length, as on the graph (paper_experiments.py, e2_graph.py); the script's own length.
+    duration = args.duration or (round(script.duration + 1.0, 1) if args.operator == "scripted" else TRIAL_DURATION_S)
     trials = []
     seeds = range(args.first_seed, args.first_seed + args.trials)
     for seed in tqdm(seeds, unit="trial", file=sys.stdout, dynamic_ncols=True):

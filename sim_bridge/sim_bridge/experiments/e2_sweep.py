@@ -22,6 +22,7 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from sim_bridge.experiments.cell_statistics import wilson_interval
 from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, phase_forces, plot, trial
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES
@@ -32,7 +33,6 @@ LAWS = {"fic": ("fic", False), "fic_paper_law": ("fic", True), "linear": ("linea
 #: The cells in the order each seed runs them: the paper's delay for every law, then the delay sweep.
 DEFAULT_CELLS = ("fic@0.2", "fic_paper_law@0.2", "linear@0.2", "linear_bounded@0.2", "linear_tdpa@0.2",
                  "fic@0", "linear@0", "fic@0.5", "linear@0.5", "fic@1", "linear@1")
-DURATION_S = 160.0   # the operator's three pieces at about 45 s each with a retry's margin (e2_in_process.py)
 
 
 def parse_cell(text: str) -> tuple[str, float]:
@@ -126,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cells", type=parse_cell, nargs="+", default=None, metavar="LAW@DELAY",
                         help=f"default: {' '.join(DEFAULT_CELLS)}")
     parser.add_argument("--seeds", type=int, default=10, help="seeds 1..N a cell (default 10)")
-    parser.add_argument("--duration", type=float, default=DURATION_S, help="simulated s a trial")
+    parser.add_argument("--duration", type=float, default=TRIAL_DURATION_S, help="simulated s a trial")
     parser.add_argument("--summary", type=Path, default=None,
                         help="instead of running: write the table of what the jsonl holds here ('-': print it)")
     parser.add_argument("--plot", type=Path, default=None, metavar="PREFIX",

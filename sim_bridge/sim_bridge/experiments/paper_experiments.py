@@ -12,9 +12,10 @@ metrics (fic_teleop_tools.report, computed in-process), the sweep stability crit
 
 - E1 superimposition at 200 ms: the default run (superimposition scene, scripted operator, 200 ms each way) with the
   report's plots.
-- E2 shape sorting: the scripted operator (config/operator_scripts/shape_sorting.yaml) picks each of the three
-  pieces by the adhesive bond, inserts it, locks and pulls until the bond breaks; trials with different seeds (the
-  bond's break thresholds and the channel's draws); success = the piece ends inside the box (/sim/object_poses).
+- E2 shape sorting: the scene's default operator (sim_bridge.device.shape_sorting_operator: it looks, aligns and
+  feels through the delay) picks each of the three pieces by the adhesive bond, inserts it, locks and pulls until the
+  bond breaks, for its TRIAL_DURATION_S; trials with different seeds (the bond's break thresholds and the channel's
+  draws); success = the piece ends inside the box (/sim/object_poses).
 - E3 blackout: the E2 task with total communication loss from --e3-blackout-at on (during contact); energy, limit
   violations, forces and stability after the loss.
 - E4 sweeps: one-way delay (both ways) at the full rate, and the rate (channel rate cap AND replica control rate)
@@ -42,6 +43,7 @@ from tqdm import tqdm
 REPO = Path(__file__).resolve().parents[3]
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S  # noqa: E402
 from sim_bridge.experiments.cell_analysis import analyse_cell  # noqa: E402
 from sim_bridge.experiments.plots import plot_e2_forces, plot_e3, plot_stability_map, plot_sweep  # noqa: E402
 from sim_bridge.experiments.runner import CONTROLLERS, Cell, LaunchOutcome, launch, write_json  # noqa: E402
@@ -144,7 +146,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                         help="results folder (default: results/, or <runs>/results with --quick)")
     parser.add_argument("--runs", type=Path, default=None, help="run folders with the bags (default runs/experiments-<time>)")
     parser.add_argument("--e1-duration", type=float, default=30.0)
-    parser.add_argument("--e2-duration", type=float, default=None, help="default: the operator script's length")
+    parser.add_argument("--e2-duration", type=float, default=TRIAL_DURATION_S,
+                        help="simulated s a trial (default: the shape-sorting operator's, the scene's default "
+                             "operator)")
     parser.add_argument("--e2-trials", type=int, default=4)
     parser.add_argument("--e2-law", choices=["paper", "default"], default="paper",
                         help="E2 and E3: the replica law the operator script was tuned against (paper: Eq. 7 as "
@@ -170,8 +174,6 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     args.runs = args.runs or REPO / "runs" / f"experiments-{stamp}"
     args.results = args.results or (args.runs / "results" if args.quick else REPO / "results")
     script = shape_sorting_script_timing()
-    if args.e2_duration is None:
-        args.e2_duration = round(script["length_s"] + 1.0, 1)
     if args.e3_blackout_at is None:
         args.e3_blackout_at = round(script["first_press_s"], 1)  # mid-press on the first piece: contact
     if args.e3_duration is None:
