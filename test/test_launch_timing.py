@@ -1,5 +1,6 @@
-"""The launcher says when the machine was starved (fic_teleop_bringup/launch_timing.py): real-time factor, loop rates and the
-replica's own loop against their bounds, its own exit code, and a broken safety figure still wins."""
+"""The launcher says when the machine was starved (fic_teleop_bringup/launch_timing.py): real-time factor, loop rates
+and the replica's own loop against the realtime profile's bounds, its own exit code, and a broken safety figure still
+wins."""
 from __future__ import annotations
 
 import json
@@ -10,8 +11,17 @@ from conftest import REPO
 
 from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_INPUT_REFUSED, EXIT_LIMIT_VIOLATIONS, EXIT_OK, \
     EXIT_STARVED
-from fic_teleop_bringup.launch_timing import LOOP_HEALTH_STATUS, LOOP_RATE_BOUND, REAL_TIME_FACTOR_BOUND, exit_code, \
-    judge_run, timing_verdict
+from fic_teleop_bringup import run_profile
+from fic_teleop_bringup.launch_timing import LOOP_HEALTH_STATUS, TimingBounds, exit_code, judge_run, timing_verdict
+from fic_teleop_bringup.workspace import PROFILES
+
+BOUNDS = TimingBounds.from_profile(run_profile.read_layer(PROFILES / "realtime.yaml"))
+REAL_TIME_FACTOR_BOUND, LOOP_RATE_BOUND = BOUNDS.real_time_factor, BOUNDS.loop_rate_fraction
+
+
+def verdict(*arguments, **options):
+    """The verdict against the realtime profile's bounds."""
+    return timing_verdict(*arguments, bounds=BOUNDS, **options)
 
 
 def rates(**fractions: float) -> dict[str, dict]:
@@ -25,7 +35,7 @@ HEALTHY = {"holds": "0", "held_ticks": "0", "max_state_age_ms": "6.1", "max_tick
 
 
 def test_a_run_that_kept_real_time_is_not_starved() -> None:
-    timing = timing_verdict(QUIET, rates(replica_control=0.99, planner=0.97), HEALTHY)
+    timing = verdict(QUIET, rates(replica_control=0.99, planner=0.97), HEALTHY)
     assert timing.judged and not timing.starved and timing.reasons == []
     assert timing.figures["slowest_loop"] == "planner" and timing.figures["max_state_age_ms"] == 6.1
     assert timing.lines()[-1] == "the computer kept real time"
@@ -33,12 +43,12 @@ def test_a_run_that_kept_real_time_is_not_starved() -> None:
 
 
 def test_each_figure_out_of_its_bound_starves_the_run_and_is_named() -> None:
-    slow_clock = timing_verdict({"real_time_factor": REAL_TIME_FACTOR_BOUND - 0.01}, rates(replica_control=0.99),
+    slow_clock = verdict({"real_time_factor": REAL_TIME_FACTOR_BOUND - 0.01}, rates(replica_control=0.99),
                                 HEALTHY)
     assert slow_clock.starved and slow_clock.reasons == ["real-time factor 0.940 < 0.95"]
-    slow_loop = timing_verdict(QUIET, rates(replica_control=LOOP_RATE_BOUND - 0.02, planner=0.99), HEALTHY)
+    slow_loop = verdict(QUIET, rates(replica_control=LOOP_RATE_BOUND - 0.02, planner=0.99), HEALTHY)
     assert slow_loop.starved and slow_loop.reasons == ["loops below 90% of their rate: replica control 440 of 500 Hz"]
-    held = timing_verdict(QUIET, rates(replica_control=0.99), {**HEALTHY, "holds": "2",
+    held = verdict(QUIET, rates(replica_control=0.99), {**HEALTHY, "holds": "2",
                                                                 "last_hold_reason": "state 61.0 ms old"})
     assert held.starved and held.figures["loop_holds"] == 2
     assert held.reasons == ["the replica held the arm 2 times on its own loop's bounds (the last: state 61.0 ms old)"]
@@ -46,35 +56,35 @@ def test_each_figure_out_of_its_bound_starves_the_run_and_is_named() -> None:
 
 
 def test_at_the_bounds_the_run_is_not_starved() -> None:
-    timing = timing_verdict({"real_time_factor": REAL_TIME_FACTOR_BOUND}, rates(replica_control=LOOP_RATE_BOUND),
+    timing = verdict({"real_time_factor": REAL_TIME_FACTOR_BOUND}, rates(replica_control=LOOP_RATE_BOUND),
                             HEALTHY)
     assert not timing.starved
 
 
 def test_a_loop_with_no_message_is_not_this_graphs_and_unknown_figures_are_said() -> None:
     silent = rates(replica_control=0.99, master_force=0.0)
-    timing = timing_verdict(QUIET, silent, None)
+    timing = verdict(QUIET, silent, None)
     assert not timing.starved and timing.figures["slowest_loop"] == "replica control"
     assert "no loop-health record in the bag" in timing.lines()[2]
-    assert not timing_verdict(QUIET, {}, None).starved
+    assert not verdict(QUIET, {}, None).starved
 
 
 def test_a_realtime_run_with_no_timing_figure_at_all_is_starved() -> None:
     """A bag without the replica's streams (a recorder starved before it wrote them) exited 0 before."""
-    timing = timing_verdict(None, {}, None)
+    timing = verdict(None, {}, None)
     assert timing.starved and "no timing figure could be measured" in timing.lines()[-1]
     assert exit_code(0, timing, 6) == 6
-    assert not timing_verdict(None, {}, None, realtime=False).starved
+    assert not verdict(None, {}, None, realtime=False).starved
 
 
 def test_lockstep_is_not_judged() -> None:
-    timing = timing_verdict({"real_time_factor": 0.1}, rates(replica_control=0.2), {"holds": "3"}, realtime=False)
+    timing = verdict({"real_time_factor": 0.1}, rates(replica_control=0.2), {"holds": "3"}, realtime=False)
     assert not timing.judged and not timing.starved
     assert exit_code(EXIT_OK, timing, EXIT_STARVED) == EXIT_OK
 
 
 def test_a_safety_failure_wins_over_starvation() -> None:
-    starved = timing_verdict({"real_time_factor": 0.7}, rates(replica_control=0.99), HEALTHY)
+    starved = verdict({"real_time_factor": 0.7}, rates(replica_control=0.99), HEALTHY)
     assert exit_code(EXIT_OK, starved, EXIT_STARVED) == EXIT_STARVED
     for safety in (1, EXIT_LIMIT_VIOLATIONS, EXIT_INPUT_REFUSED):
         assert exit_code(safety, starved, EXIT_STARVED) == safety
@@ -96,7 +106,7 @@ def test_the_replicas_loop_health_record_is_read_from_the_bag(tmp_path: Path) ->
             name=LOOP_HEALTH_STATUS, values=[KeyValue(key=key, value=v) for key, v in values.items()])])),
             (k + 1) * 1_000_000_000)
     writer.finish()
-    timing = judge_run(tmp_path, tmp_path / "bag", QUIET, realtime=True)
+    timing = judge_run(tmp_path, tmp_path / "bag", QUIET, BOUNDS, realtime=True)
     assert timing.starved and timing.figures["loop_holds"] == 1
     assert json.loads((tmp_path / "timing.json").read_text())["starved"] is True
 
@@ -104,13 +114,13 @@ def test_the_replicas_loop_health_record_is_read_from_the_bag(tmp_path: Path) ->
 def test_a_bag_that_holds_only_part_of_the_run_is_starved() -> None:
     """A starved recorder kept 3.8 s of a 15 s run (measured at 70 % of one CPU): every other figure would describe
     that part alone."""
-    partial = timing_verdict({"real_time_factor": 1.0, "duration_s": 3.8}, rates(replica_control=0.99), HEALTHY,
+    partial = verdict({"real_time_factor": 1.0, "duration_s": 3.8}, rates(replica_control=0.99), HEALTHY,
                              simulated_s=15.0)
     assert partial.starved and partial.reasons == ["the bag holds 3.8 s of the 15.0 s simulated (the recorder fell "
                                                    "behind)"]
-    whole = timing_verdict({"real_time_factor": 1.0, "duration_s": 18.5}, rates(replica_control=0.99), HEALTHY,
+    whole = verdict({"real_time_factor": 1.0, "duration_s": 18.5}, rates(replica_control=0.99), HEALTHY,
                            simulated_s=15.0)
     assert not whole.starved and "the bag holds 18.5 s of the 15.0 s simulated" in whole.lines()[2]
     nan_rates = {"planner": {"topic": "/planner/desired_pose", "nominal_hz": 100.0, "achieved_hz": float("nan"),
                              "fraction": float("nan")}}
-    assert timing_verdict(QUIET, nan_rates, HEALTHY).figures.get("slowest_loop") is None
+    assert verdict(QUIET, nan_rates, HEALTHY).figures.get("slowest_loop") is None

@@ -9,6 +9,7 @@ import yaml
 
 from fic_teleop_bringup import run_profile, teleop_launcher
 from fic_teleop_bringup.launch_supervision import EXIT_REFUSED
+from fic_teleop_bringup.launch_timing import TimingBounds, timing_verdict
 from fic_teleop_bringup.workspace import PROFILES
 
 BUILT_IN = ("realtime", "lockstep", "paper_law", "hardware_twin", "two_stations")
@@ -25,8 +26,10 @@ def test_the_built_in_profiles_are_there_and_every_key_of_theirs_is_known() -> N
     for name in run_profile.builtin_names():
         layer = run_profile.read_layer(PROFILES / f"{name}.yaml")   # raises on an unknown key or node
         assert layer["description"] and layer["options"], name
-    # the base gives every key, so that each layer need only name what it changes
-    assert set(run_profile.read_layer(PROFILES / "realtime.yaml")) == set(run_profile.KEYS)
+    # the base gives every key but a mode's own section, so that each layer need only name what it changes
+    assert set(run_profile.read_layer(PROFILES / "realtime.yaml")) == set(run_profile.KEYS) - set(run_profile.MODE_KEYS)
+    for key, name in run_profile.MODE_KEYS.items():
+        assert key in run_profile.read_layer(PROFILES / f"{name}.yaml")
 
 
 @pytest.mark.parametrize("name, option, value", [("lockstep", "time_mode", "lockstep"),
@@ -92,6 +95,16 @@ def test_a_profile_of_ones_own_selects_layers_by_its_options_and_comes_last(tmp_
     ({"node_groups": [["channel_forward", "chanel_backward"]]}, "did you mean 'channel_backward'?"),
     ({"control_rate_hz": "fast"}, "control_rate_hz: int or float needed"),
     ({"use_sim_time": 1}, "use_sim_time: bool needed"),
+    ({"timing_bounds": {"real_time_factr": 0.9}}, "in profile bad timing_bounds; did you mean 'real_time_factor'?"),
+    ({"timing_bounds": {"loop_rate_fraction": 90}}, "timing_bounds loop_rate_fraction: a share in (0, 1] needed"),
+    ({"timing_bounds": {"recorded_fraction": 0}}, "timing_bounds recorded_fraction: a share in (0, 1] needed"),
+    ({"stations": {"mastr": {}}}, "in profile bad stations; did you mean 'master'?"),
+    ({"stations": {"master": {"adress": "10.0.0.1"}}}, "did you mean 'address'?"),
+    ({"stations": {"robot": {"address": "10.0.0.300"}}}, "stations robot address: an IPv4 address needed"),
+    ({"stations": {"master": {"nodes": ["haptic_devise"]}}}, "did you mean 'haptic_device'?"),
+    ({"stations": {"prefix_length": 40}}, "stations prefix_length: 8-30 needed"),
+    ({"stations": {"namespace_prefix": "Lab-"}}, "stations namespace_prefix: 1-32 characters"),
+    ({"stations": {"link_streams": ["master/teleop_command"]}}, "stations link_streams: a topic name"),
 ])
 def test_a_misspelt_or_mistyped_profile_is_refused_in_one_line(tmp_path, capsys, content, words) -> None:
     path = tmp_path / "bad.yaml"
@@ -108,3 +121,38 @@ def test_a_misspelt_or_mistyped_profile_is_refused_in_one_line(tmp_path, capsys,
 def test_an_unknown_profile_name_is_refused_naming_the_nearest(tmp_path, capsys) -> None:
     assert teleop_launcher.main(["--profile", "lockstop", "--out", str(tmp_path / "run")]) == EXIT_REFUSED
     assert "did you mean 'lockstep'?" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("stations, words", [
+    ({"master": {"nodes": ["haptic_device", "fd_adapter", "master", "channel_backward", "keyboard_operator",
+                           "recorder_master", "planner"]}}, "planner in both stations"),
+    ({"robot": {"nodes": ["robot", "recorder", "replica", "channel_forward"]}}, "command_relay, planner in neither"),
+    ({"robot": {"address": "198.51.100.1"}}, "both stations at 198.51.100.1"),
+    ({"robot": {"address": "198.51.101.2"}}, "198.51.101.2 is not in 198.51.100.0/24"),
+])
+def test_a_two_station_layout_that_does_not_hold_together_is_refused(tmp_path, capsys, stations, words) -> None:
+    """Each layer's values are checked as it is read; the merged layout of a two-station run as a whole."""
+    path = tmp_path / "layout.yaml"
+    path.write_text(yaml.safe_dump({"options": {"two_stations": True}, "stations": stations}))
+    assert teleop_launcher.main(["--profile", str(path), "--out", str(tmp_path / "run")]) == EXIT_REFUSED
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and words in err, err
+
+
+def test_the_starved_verdicts_bounds_are_the_profiles(tmp_path, monkeypatch) -> None:
+    """The bounds of "the machine was starved" (launch_timing.py) come from realtime.yaml and follow it."""
+    args, _ = _run()
+    bounds = TimingBounds.from_profile(args.run_profile)
+    realtime = yaml.safe_load((PROFILES / "realtime.yaml").read_text())["timing_bounds"]
+    assert (bounds.real_time_factor, bounds.loop_rate_fraction, bounds.recorded_fraction) == \
+        (realtime["real_time_factor"], realtime["loop_rate_fraction"], realtime["recorded_fraction"])
+    slow = {"real_time_factor": 0.8}
+    assert timing_verdict(slow, {}, None, bounds).starved
+    copy = tmp_path / "profiles"
+    shutil.copytree(PROFILES, copy)
+    realtime["real_time_factor"] = 0.75
+    whole = yaml.safe_load((copy / "realtime.yaml").read_text())
+    (copy / "realtime.yaml").write_text(yaml.safe_dump({**whole, "timing_bounds": realtime}))
+    monkeypatch.setattr(run_profile, "PROFILES", copy)
+    args, _ = _run()
+    assert not timing_verdict(slow, {}, None, TimingBounds.from_profile(args.run_profile)).starved

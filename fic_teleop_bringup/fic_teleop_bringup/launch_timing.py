@@ -3,14 +3,14 @@
 On a loaded machine the graph falls behind the wall clock and the arm tracks worse, and a run that only reported
 its error looked like a worse controller (a fresh clone's run at RTF 0.75: error 181 / 51 mm, exit 0). So after
 every realtime run the launcher states four figures against their bounds and says "the machine was starved"
-when one is out, with its own exit code (EXIT_STARVED, docs/SECURITY.md "Exit codes of the launcher"):
+when one is out, with its own exit code (EXIT_STARVED, docs/SECURITY.md "Exit codes of the launcher"). The bounds
+are the run profile's ``timing_bounds`` (fic_teleop_bringup/profiles/realtime.yaml, where each is explained):
 
-- the real-time factor (the report's, after its warm-up) at least REAL_TIME_FACTOR_BOUND, the report's target;
-- every loop's achieved rate (fic_teleop_tools/report/loop_rates.py) at least LOOP_RATE_BOUND of its nominal rate; a
-  loop with no message at all is not this graph's (or its node failed, which the safety verdict reports);
-- the bag's span of simulated time (the report's duration_s) at least RECORDED_FRACTION_BOUND of the time the
-  launcher saw simulated: a starved recorder keeps only part of the run (measured: 3.8 s of a 15 s run with the
-  graph at 70 % of one CPU), and every other figure would then describe that part alone;
+- the real-time factor (the report's, after its warm-up) at least ``real_time_factor``;
+- every loop's achieved rate (fic_teleop_tools/report/loop_rates.py) at least ``loop_rate_fraction`` of its nominal
+  rate; a loop with no message at all is not this graph's (or its node failed, which the safety verdict reports);
+- the bag's span of simulated time (the report's duration_s) at least ``recorded_fraction`` of the time the
+  launcher saw simulated: a starved recorder keeps only part of the run;
 - the replica's own loop (its "replica loop health" record on /diagnostics): no hold, i.e. no control tick on a
   state older, or after a gap longer, than the replica's bounds (loop_max_state_age, loop_max_tick_gap). Its largest
   state age and tick gap are reported with it. A bag without the record: the figure is unknown, not a pass.
@@ -28,19 +28,27 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-REAL_TIME_FACTOR_BOUND = 0.95   # the report's target (fic_teleop_tools/report/metrics.py TARGETS)
-# The slowest loop's share of its nominal rate. The default run on a quiet machine keeps 0.976-0.995 (bench of
-# 2026-12-04, docs/RESULTS.md); 0.90 leaves that spread room and still flags a loop that lost a tenth of its ticks.
-LOOP_RATE_BOUND = 0.90
-RECORDED_FRACTION_BOUND = 0.90
 LOOP_HEALTH_STATUS = "replica loop health"   # fic_core/loop_health.py diagnostic_values, as the replica names it
 LOOP_HEALTH_KEY = "holds"
+
+
+@dataclass(frozen=True)
+class TimingBounds:
+    """The run profile's ``timing_bounds``: the least real-time factor, loop-rate share and recorded share."""
+    real_time_factor: float
+    loop_rate_fraction: float
+    recorded_fraction: float
+
+    @classmethod
+    def from_profile(cls, profile: dict) -> "TimingBounds":
+        return cls(**profile["timing_bounds"])
 
 
 @dataclass
 class Timing:
     """The verdict: ``starved`` with one reason per figure out of bounds; ``figures`` as measured (None: unknown)."""
     judged: bool
+    bounds: TimingBounds | None = None
     starved: bool = False
     reasons: list[str] = field(default_factory=list)
     figures: dict = field(default_factory=dict)
@@ -49,15 +57,15 @@ class Timing:
         """What the launcher prints, one line per figure and the verdict."""
         if not self.judged:
             return ["lockstep: the simulation waits for every answer, real time is not judged"]
-        f = self.figures
+        f, bounds = self.figures, self.bounds
         rtf = f.get("real_time_factor")
-        lines = [f"real-time factor {_show(rtf, '.3f')} (bound >= {REAL_TIME_FACTOR_BOUND:g})"]
+        lines = [f"real-time factor {_show(rtf, '.3f')} (bound >= {bounds.real_time_factor:g})"]
         slowest = f.get("slowest_loop")
         lines.append(f"slowest loop {slowest} at {_show(f.get('slowest_loop_fraction'), '.3f')} of its rate "
-                     f"(bound >= {LOOP_RATE_BOUND:g})" if slowest else "loop rates: none measured")
+                     f"(bound >= {bounds.loop_rate_fraction:g})" if slowest else "loop rates: none measured")
         if f.get("recorded_s") is not None:
             lines.append(f"the bag holds {f['recorded_s']:.1f} s of the {f['simulated_s']:.1f} s simulated "
-                         f"(bound >= {RECORDED_FRACTION_BOUND:.0%})")
+                         f"(bound >= {bounds.recorded_fraction:.0%})")
         lines.append(f"replica loop: {_show(f.get('loop_holds'), 'd')} holds, state age max "
                      f"{_show(f.get('max_state_age_ms'), '.1f')} ms, tick gap max "
                      f"{_show(f.get('max_tick_gap_ms'), '.1f')} ms (bound: no hold)"
@@ -80,20 +88,20 @@ def _show(value, spec: str) -> str:
 
 
 def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[str, str] | None,
-                   realtime: bool = True, simulated_s: float | None = None) -> Timing:
+                   bounds: TimingBounds, realtime: bool = True, simulated_s: float | None = None) -> Timing:
     """The verdict from the report's metrics.json, the loop rates, the replica's last loop-health record and the
-    simulated time the launcher saw (``simulated_s``)."""
+    simulated time the launcher saw (``simulated_s``), against the run profile's ``bounds``."""
     if not realtime:
         return Timing(judged=False)
-    timing = Timing(judged=True)
+    timing = Timing(judged=True, bounds=bounds)
     rtf = (metrics or {}).get("real_time_factor")
     timing.figures["real_time_factor"] = rtf
-    if rtf is not None and rtf < REAL_TIME_FACTOR_BOUND:
-        timing.reasons.append(f"real-time factor {rtf:.3f} < {REAL_TIME_FACTOR_BOUND:g}")
+    if rtf is not None and rtf < bounds.real_time_factor:
+        timing.reasons.append(f"real-time factor {rtf:.3f} < {bounds.real_time_factor:g}")
     recorded = (metrics or {}).get("duration_s")
     if recorded is not None and simulated_s:
         timing.figures.update(recorded_s=recorded, simulated_s=simulated_s)
-        if recorded < RECORDED_FRACTION_BOUND * simulated_s:
+        if recorded < bounds.recorded_fraction * simulated_s:
             timing.reasons.append(f"the bag holds {recorded:.1f} s of the {simulated_s:.1f} s simulated (the "
                                   "recorder fell behind)")
     running = {name: row for name, row in rates.items()
@@ -104,9 +112,9 @@ def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[st
         timing.figures.update(slowest_loop=name, slowest_loop_fraction=row["fraction"],
                               loop_fractions={loop: r["fraction"] for loop, r in running.items()})
         slow = [f"{loop} {r['achieved_hz']:g} of {r['nominal_hz']:g} Hz" for loop, r in running.items()
-                if r["fraction"] < LOOP_RATE_BOUND]
+                if r["fraction"] < bounds.loop_rate_fraction]
         if slow:
-            timing.reasons.append(f"loops below {LOOP_RATE_BOUND:.0%} of their rate: {', '.join(slow)}")
+            timing.reasons.append(f"loops below {bounds.loop_rate_fraction:.0%} of their rate: {', '.join(slow)}")
     if health and LOOP_HEALTH_KEY in health:
         holds = int(health[LOOP_HEALTH_KEY])
         timing.figures.update(loop_holds=holds, held_ticks=_integer(health.get("held_ticks")),
@@ -144,9 +152,10 @@ def _integer(text: str | None) -> int | None:
     return int(value) if value is not None else None
 
 
-def judge_run(run_dir: Path, bag: Path, metrics: dict | None, realtime: bool,
+def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBounds, realtime: bool,
               simulated_s: float | None = None) -> Timing:
-    """The verdict of a finished run (its bag and report), also written to ``run_dir``/timing.json."""
+    """The verdict of a finished run (its bag and report) against the profile's ``bounds``, also written to
+    ``run_dir``/timing.json."""
     from fic_teleop_bringup.launch_supervision import diagnostics_records
 
     rates: dict[str, dict] = {}
@@ -158,6 +167,6 @@ def judge_run(run_dir: Path, bag: Path, metrics: dict | None, realtime: bool,
         except Exception as error:  # noqa: BLE001 - a torn bag: the verdict goes on without the rates
             print(f"[run] timing: loop rates not measured ({error})")
         health = diagnostics_records(bag, {LOOP_HEALTH_STATUS: LOOP_HEALTH_KEY}).get(LOOP_HEALTH_STATUS)
-    timing = timing_verdict(metrics, rates, health, realtime, simulated_s)
+    timing = timing_verdict(metrics, rates, health, bounds, realtime, simulated_s)
     (run_dir / "timing.json").write_text(json.dumps(asdict(timing), indent=2) + "\n")
     return timing

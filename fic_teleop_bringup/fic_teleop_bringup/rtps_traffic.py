@@ -341,7 +341,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--interface", required=True)
     parser.add_argument("--out", required=True)
     parser.add_argument("--name", action="append", default=[], metavar="ADDRESS=NAME",
-                        help="name an IPv4 address in the directions (e.g. 198.51.100.1=master)")
+                        help="name an IPv4 address in the directions (e.g. <master's address>=master)")
     parser.add_argument("--stamps", nargs="*", default=[], metavar="TOPIC",
                         help="header-stamped ROS topics whose samples' stamps and wire times are kept")
     parser.add_argument("--ready", metavar="FILE", help="written once the capture socket is bound")

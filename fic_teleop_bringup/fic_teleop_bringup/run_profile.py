@@ -9,12 +9,21 @@ A run's profile is built from layers, each a YAML file naming only what it chang
 
 A layer's ``options`` turn launcher options on, so ``--profile lockstep`` is ``--time-mode lockstep`` and a file of
 one's own with ``options: {time_mode: lockstep, paper_law: true}`` takes both layers and then its own values. Maps
-merge key by key (``parameters``, ``niceness``); lists and numbers replace. A key no layer of the schema knows is
-refused in one line naming the nearest known one; so is a node name no graph has.
+merge key by key (``parameters``, ``niceness``, ``timing_bounds``, ``stations`` and each station in it); lists and
+numbers replace. A key no layer of the schema knows is refused in one line naming the nearest known one; so is a node
+name no graph has, and a value out of its range (a timing bound outside (0, 1], an address that is not IPv4).
+
+Two sections are more than a map of values: ``timing_bounds`` (realtime.yaml), the bounds of the launcher's "the
+machine was starved" verdict (launch_timing.py), and ``stations`` (two_stations.yaml), the two-station layout: which
+node runs in which station, the namespaces, the link's addresses and streams (two_stations.py). A layer may change
+one value of either; the merged profile of a run must then hold a whole, consistent section (``resolve``).
 """
 from __future__ import annotations
 
 import argparse
+import ipaddress
+import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -41,13 +50,31 @@ KEYS: dict[str, type | tuple[type, ...]] = {
     "fifo_priorities": dict,
     "parameters": dict,
     "parameters_in_lockstep": dict,
+    "timing_bounds": dict,
+    "stations": dict,
 }
+#: Keys that only their mode's layer gives (realtime.yaml, the base, gives every other one).
+MODE_KEYS = {"stations": "two_stations"}
+#: The bounds of the "machine was starved" verdict (launch_timing.py): each a share, in (0, 1].
+TIMING_BOUNDS = ("real_time_factor", "loop_rate_fraction", "recorded_fraction")
+#: The two-station layout (two_stations.py): the keys of ``stations`` and of each station in it.
+STATION_NAMES = ("master", "robot")
+STATIONS: dict[str, type | tuple[type, ...]] = {"namespace_prefix": str, "prefix_length": int, "link_streams": list,
+                                                 "master": dict, "robot": dict}
+STATION: dict[str, type | tuple[type, ...]] = {"address": str, "nodes": list, "topics": list, "remaps": dict,
+                                                "not_recorded": list}
+#: What each station must give once the layers are merged (the others default to none).
+STATION_REQUIRED = ("address", "nodes")
+# ip-netns names a file under /run/netns; the tag and the station's name follow the prefix (at most 8 + 7 more).
+_NAMESPACE_PREFIX = re.compile(r"^[a-z0-9_]{1,32}$")
+_TOPIC = re.compile(r"^(/[A-Za-z][A-Za-z0-9_]*)+$")
 OPTIONS: dict[str, type | tuple[type, ...]] = {"time_mode": str, "paper_law": bool, "hardware_twin": bool,
                                                "two_stations": bool}
 #: The nodes a graph of the launcher can hold (teleop_launcher.graph, hardware_twin.py, two_stations.py).
 NODES = ("robot", "recorder", "replica", "planner", "channel_forward", "channel_backward", "master", "haptic_device",
          "keyboard_operator", "fd_adapter", "command_relay", "recorder_master")
-_MERGED_BY_KEY = ("options", "niceness", "fifo_priorities", "parameters", "parameters_in_lockstep")
+_MERGED_BY_KEY = ("options", "niceness", "fifo_priorities", "parameters", "parameters_in_lockstep", "timing_bounds",
+                  "stations")
 
 
 class ProfileError(ArgumentRefusal):
@@ -98,7 +125,79 @@ def read_layer(path: Path) -> dict[str, Any]:
         for name in group:
             if name not in NODES:
                 raise _unknown(f"{where} node_groups", name, NODES, "node")
+    if "timing_bounds" in layer:
+        _check_timing_bounds(layer["timing_bounds"], f"{where} timing_bounds")
+    if "stations" in layer:
+        _check_stations(layer["stations"], f"{where} stations")
     return layer
+
+
+def _check_timing_bounds(bounds: dict, where: str) -> None:
+    _check_keys(bounds, {key: (int, float) for key in TIMING_BOUNDS}, where)
+    for key, value in bounds.items():
+        if not (math.isfinite(value) and 0.0 < value <= 1.0):
+            raise ProfileError(f"{where} {key}: a share in (0, 1] needed, got {value!r}")
+
+
+def _check_stations(stations: dict, where: str) -> None:
+    """One layer's ``stations``: known keys, values in range; a layer may give only some of them."""
+    _check_keys(stations, STATIONS, where)
+    prefix = stations.get("namespace_prefix")
+    if prefix is not None and not _NAMESPACE_PREFIX.match(prefix):
+        raise ProfileError(f"{where} namespace_prefix: 1-32 characters of a-z, 0-9 and _ needed, got {prefix!r}")
+    length = stations.get("prefix_length")
+    if length is not None and not 8 <= length <= 30:
+        raise ProfileError(f"{where} prefix_length: 8-30 needed (a subnet holding both addresses), got {length!r}")
+    _check_topics(stations.get("link_streams", []), f"{where} link_streams")
+    for station in STATION_NAMES:
+        if station not in stations:
+            continue
+        given, here = stations[station], f"{where} {station}"
+        _check_keys(given, STATION, here)
+        if "address" in given:
+            try:
+                ipaddress.IPv4Address(given["address"])
+            except ValueError:
+                raise ProfileError(f"{here} address: an IPv4 address needed, got {given['address']!r}") from None
+        for name in given.get("nodes", []):
+            if name not in NODES:
+                raise _unknown(f"{here} nodes", name, NODES, "node")
+        _check_topics(given.get("topics", []), f"{here} topics")
+        _check_topics(given.get("not_recorded", []), f"{here} not_recorded")
+        for source, target in given.get("remaps", {}).items():
+            _check_topics([source, target], f"{here} remaps")
+
+
+def _check_topics(topics: list, where: str) -> None:
+    for topic in topics:
+        if not isinstance(topic, str) or not _TOPIC.match(topic):
+            raise ProfileError(f"{where}: a topic name such as /master/pose needed, got {topic!r}")
+
+
+def check_stations_whole(stations: dict | None) -> None:
+    """The merged ``stations`` of a two-station run: both stations with their address and nodes, every node of the
+    launcher's graphs in exactly one station, the two addresses distinct and in one subnet."""
+    where = "profile stations"
+    if not stations:
+        raise ProfileError(f"{where}: a two-station run needs the station layout (profiles/two_stations.yaml)")
+    for key in ("namespace_prefix", "prefix_length", "link_streams", *STATION_NAMES):
+        if key not in stations:
+            raise ProfileError(f"{where}: {key} missing")
+    for station in STATION_NAMES:
+        for key in STATION_REQUIRED:
+            if key not in stations[station]:
+                raise ProfileError(f"{where} {station}: {key} missing")
+    master, robot = (set(stations[station]["nodes"]) for station in STATION_NAMES)
+    if master & robot:
+        raise ProfileError(f"{where}: {', '.join(sorted(master & robot))} in both stations")
+    if set(NODES) - master - robot:
+        raise ProfileError(f"{where}: {', '.join(sorted(set(NODES) - master - robot))} in neither station")
+    addresses = [ipaddress.IPv4Address(stations[station]["address"]) for station in STATION_NAMES]
+    if addresses[0] == addresses[1]:
+        raise ProfileError(f"{where}: both stations at {addresses[0]}")
+    network = ipaddress.IPv4Network(f"{addresses[0]}/{stations['prefix_length']}", strict=False)
+    if addresses[1] not in network:
+        raise ProfileError(f"{where}: {addresses[1]} is not in {network}, the master's subnet")
 
 
 def resolve(args: argparse.Namespace) -> dict[str, Any]:
@@ -120,6 +219,8 @@ def resolve(args: argparse.Namespace) -> dict[str, Any]:
     if own is not None and str(args.profile) not in names:
         profile = merged(profile, own)
         names.append(str(args.profile))
+    if getattr(args, "two_stations", False):
+        check_stations_whole(profile.get("stations"))
     profile["layers"] = names
     return profile
 

@@ -29,7 +29,7 @@ from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, dom
 from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
 from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_REFUSED, EXIT_STARVED, die_with_launcher, \
     failed_nodes, safety_verdict
-from fic_teleop_bringup.launch_timing import exit_code, judge_run
+from fic_teleop_bringup.launch_timing import TimingBounds, exit_code, judge_run
 from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler
 from fic_teleop_bringup.workspace import CONFIG, REPO
 from fic_teleop_runtime.params_file import write_node_params
@@ -642,7 +642,8 @@ def main(argv: list[str] | None = None) -> int:
     for reason in reasons:
         print(f"[run] safety: {reason}", file=sys.stderr)
     # Whether the computer kept real time, after every run; a broken safety figure still decides the code.
-    timing = judge_run(run_dir, bag_path, metrics, args.time_mode == "realtime", sim_elapsed)
+    timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile),
+                       args.time_mode == "realtime", sim_elapsed)
     for line in timing.lines():
         print(f"[run] timing: {line}", file=sys.stderr if timing.starved else sys.stdout)
     code = exit_code(code, timing, EXIT_STARVED)

@@ -1,25 +1,23 @@
 """Two stations on one machine: the master station and the robot station, each in its own network namespace.
 
-`scripts/run_teleop.sh --two-stations` comes here (teleop_launcher.py hands over). What runs where
-(docs/DEPLOYMENT.md):
-
-- master station: the haptic device (or its driver) with the virtual operator, the master, the master-side
-  channel `channel_backward` (replica -> master: it takes /replica/feedback_wrench from the link and delays it),
-  and a recorder of the station's own topics (bag_master/);
-- robot station: the robot simulation (or its driver), the replica, the planner, the robot-side channel
-  `channel_forward` (master -> replica: it takes /master/teleop_command from the link), and the recorder whose
-  bag (bag/) the report reads.
+`scripts/run_teleop.sh --two-stations` comes here (teleop_launcher.py hands over). What runs where is the run
+profile's ``stations`` (fic_teleop_bringup/profiles/two_stations.yaml, docs/DEPLOYMENT.md), read into a
+`StationLayout`: the master station holds the haptic device with the operator, the master, the master-side channel
+`channel_backward` and a recorder of its own topics (bag_master/); the robot station the robot, the replica, the
+planner, the robot-side channel `channel_forward` and the recorder whose bag (bag/) the report reads.
 
 Each channel node sits on the receiving side of its direction, so it measures its hold on its own station's clock
 from the moment the message arrived over the link, and only the two streams the paper's architecture needs cross
 the link: the teleoperation command and the feedback wrench, each with the energy its port put into the channel
 (/master/port_energy, /replica/port_energy: the channel's passivity observers, docs/CONTROL_LAWS.md "The channel's
-ports"), plus DDS discovery and liveliness, measured in link_traffic.json. The master station's /diagnostics and /channel/deliveries are renamed under /master_station/,
-so that the robot station's recorder does not pull them across the link.
+ports"), plus DDS discovery and liveliness, measured in link_traffic.json. The master station's remaps (its
+/diagnostics and /channel/deliveries under /master_station/) keep the robot station's recorder from pulling them
+across the link.
 
-The namespaces are `fic_teleop_<tag>_master` and `fic_teleop_<tag>_robot`, joined by a veth pair with addresses
-198.51.100.1 (master) and 198.51.100.2 (robot) of the documentation range; nothing is routed elsewhere. Discovery
-is Fast DDS's simple discovery by unicast to the two addresses, multicast off (config/fastdds_two_stations.xml).
+The namespaces are `<namespace_prefix><tag>_master` and `..._robot`, joined by a veth pair with the profile's two
+addresses; nothing is routed elsewhere. Discovery is Fast DDS's simple discovery by unicast to the two addresses,
+multicast off: config/fastdds_two_stations.xml, which the run copies into its folder with the profile's addresses
+as the initial peers (`write_fastdds_profile`).
 
 Process layout: this module's `run` (the outer process, in the host's namespace) checks root, removes a leftover
 pair of namespaces or refuses if one is in use, creates the pair, caps the bandwidth (tbf) if asked, starts the
@@ -39,47 +37,71 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from fic_teleop_bringup.workspace import REPO
 
 INSIDE_ENV = "FIC_TWO_STATIONS"          # set in the launcher that runs inside the robot station
 FASTDDS_PROFILE = REPO / "config" / "fastdds_two_stations.xml"
-MASTER_ADDRESS, ROBOT_ADDRESS, PREFIX_LENGTH = "198.51.100.1", "198.51.100.2", 24
-NAMESPACE_PREFIX = "fic_teleop_"
+RUN_FASTDDS_PROFILE = "fastdds_two_stations.xml"   # its copy in the run folder, with the profile's addresses
 TAG_PATTERN = re.compile(r"^[a-z0-9]{1,8}$")
 
-# Which node runs where (by launcher node name); every other node runs on the robot station.
-MASTER_STATION_NODES = {"haptic_device", "fd_adapter", "master", "channel_backward", "keyboard_operator",
-                        "recorder_master"}
-# The master station's topics, recorded there (bag_master/); the robot station's recorder leaves them out.
-MASTER_STATION_TOPICS = ["/haptic/pose", "/haptic/twist", "/haptic/wrench_command", "/operator/joy",
-                         "/master/pose", "/master/teleop_command", "/master/feedback_wrench",
-                         "/master/port_energy", "/master/replica_port_energy",
-                         "/master_station/diagnostics", "/master_station/channel/deliveries"]
-MASTER_STATION_REMAPS = {"/diagnostics": "/master_station/diagnostics",
-                         "/channel/deliveries": "/master_station/channel/deliveries"}
-# The two streams the link is for, whose stamps the capture reads for the link's latency (their ports' input
-# energies, /master/port_energy and /replica/port_energy, cross with them).
-LINK_STREAMS = ["/master/teleop_command", "/replica/feedback_wrench"]
-# The robot station's recorder: the topic table less what the master station publishes (it would cross the link).
-ROBOT_STATION_EXCLUDED = set(MASTER_STATION_TOPICS) | {"/replica/master_pose"}
+
+@dataclass(frozen=True)
+class StationLayout:
+    """The run profile's ``stations`` (profiles/two_stations.yaml; run_profile.check_stations_whole has checked it):
+    which node runs in which station, the namespaces' prefix, the link's addresses and the streams it is for."""
+
+    namespace_prefix: str
+    prefix_length: int
+    master_address: str
+    robot_address: str
+    master_nodes: frozenset[str]
+    robot_nodes: frozenset[str]
+    link_streams: tuple[str, ...]
+    master_topics: tuple[str, ...] = ()                     # recorded in the master station (bag_master/)
+    master_remaps: dict[str, str] = field(default_factory=dict)
+    robot_not_recorded: tuple[str, ...] = ()                # left out of the robot station's recorder as well
+
+    @classmethod
+    def from_profile(cls, profile: dict) -> "StationLayout":
+        stations = profile["stations"]
+        master, robot = stations["master"], stations["robot"]
+        return cls(namespace_prefix=stations["namespace_prefix"], prefix_length=stations["prefix_length"],
+                   master_address=master["address"], robot_address=robot["address"],
+                   master_nodes=frozenset(master["nodes"]), robot_nodes=frozenset(robot["nodes"]),
+                   link_streams=tuple(stations["link_streams"]), master_topics=tuple(master.get("topics", ())),
+                   master_remaps=dict(master.get("remaps", {})),
+                   robot_not_recorded=tuple(robot.get("not_recorded", ())))
+
+    @property
+    def robot_station_excluded(self) -> set[str]:
+        """What the robot station's recorder leaves out of its topic table (it would cross the link)."""
+        return set(self.master_topics) | set(self.robot_not_recorded)
+
+    def station_of(self, node_name: str) -> str:
+        if node_name in self.master_nodes:
+            return "master"
+        if node_name in self.robot_nodes:
+            return "robot"
+        raise StationError(f"node {node_name} is in neither station of the profile's stations")
 
 
 @dataclass(frozen=True)
 class StationPair:
-    """Names of the two namespaces and the veth ends of one two-station run."""
+    """Names of the two namespaces and the veth ends of one two-station run, in the profile's layout."""
 
+    layout: StationLayout
     tag: str = "run"
 
     @property
     def master_namespace(self) -> str:
-        return f"{NAMESPACE_PREFIX}{self.tag}_master"
+        return f"{self.layout.namespace_prefix}{self.tag}_master"
 
     @property
     def robot_namespace(self) -> str:
-        return f"{NAMESPACE_PREFIX}{self.tag}_robot"
+        return f"{self.layout.namespace_prefix}{self.tag}_robot"
 
     @property
     def master_interface(self) -> str:       # interface names: at most 15 characters
@@ -90,7 +112,7 @@ class StationPair:
         return f"fic{self.tag}r"
 
     def namespace_of(self, node_name: str) -> str:
-        return self.master_namespace if node_name in MASTER_STATION_NODES else self.robot_namespace
+        return self.master_namespace if self.layout.station_of(node_name) == "master" else self.robot_namespace
 
 
 class StationError(RuntimeError):
@@ -158,10 +180,11 @@ def create(pair: StationPair) -> None:
     _ip("netns", "add", pair.robot_namespace)
     _ip("link", "add", pair.master_interface, "netns", pair.master_namespace, "type", "veth",
         "peer", "name", pair.robot_interface, "netns", pair.robot_namespace)
-    for namespace, interface, address in ((pair.master_namespace, pair.master_interface, MASTER_ADDRESS),
-                                          (pair.robot_namespace, pair.robot_interface, ROBOT_ADDRESS)):
+    layout = pair.layout
+    for namespace, interface, address in ((pair.master_namespace, pair.master_interface, layout.master_address),
+                                          (pair.robot_namespace, pair.robot_interface, layout.robot_address)):
         _ip("-n", namespace, "link", "set", "lo", "up")
-        _ip("-n", namespace, "addr", "add", f"{address}/{PREFIX_LENGTH}", "dev", interface)
+        _ip("-n", namespace, "addr", "add", f"{address}/{layout.prefix_length}", "dev", interface)
         _ip("-n", namespace, "link", "set", interface, "up")
 
 
@@ -230,16 +253,33 @@ def qdisc_statistics(pair: StationPair) -> dict:
 
 # -- the hooks the launcher calls (inside the robot station) ----------------------------------------------------
 
-def station_environment() -> dict[str, str]:
+_INITIAL_PEERS = re.compile(r"<initialPeersList>.*?</initialPeersList>", re.DOTALL)
+_ADDRESS = re.compile(r"<address>[^<]*</address>")
+
+
+def write_fastdds_profile(layout: StationLayout, path: Path) -> Path:
+    """config/fastdds_two_stations.xml with the layout's two addresses as its initial peers (master, then robot), at
+    ``path``: discovery goes to the addresses the veth pair has, whatever the profile sets them to."""
+    text = FASTDDS_PROFILE.read_text()
+    peers = _INITIAL_PEERS.findall(text)
+    if len(peers) != 1 or len(_ADDRESS.findall(peers[0])) != 2:
+        raise StationError(f"{FASTDDS_PROFILE}: one initialPeersList with two addresses (master, robot) needed")
+    addresses = iter((layout.master_address, layout.robot_address))
+    filled = _ADDRESS.sub(lambda _: f"<address>{next(addresses)}</address>", peers[0])
+    path.write_text(text.replace(peers[0], filled))
+    return path
+
+
+def station_environment(fastdds_profile: Path) -> dict[str, str]:
     """What every node of both stations needs in its environment: the shared Fast DDS profile and discovery."""
-    return {"FASTRTPS_DEFAULT_PROFILES_FILE": str(FASTDDS_PROFILE),
-            "FASTDDS_DEFAULT_PROFILES_FILE": str(FASTDDS_PROFILE),
+    return {"FASTRTPS_DEFAULT_PROFILES_FILE": str(fastdds_profile),
+            "FASTDDS_DEFAULT_PROFILES_FILE": str(fastdds_profile),
             # SUBNET: rmw_fastrtps leaves the profile's discovery (unicast to the two stations) as it is;
             # LOCALHOST would pin every participant to 127.0.0.1.
             "ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}
 
 
-def adapt_graph(specs: list, node_spec_class, run_dir: Path) -> None:
+def adapt_graph(specs: list, node_spec_class, run_dir: Path, layout: StationLayout) -> None:
     """Split the single-host graph: the robot station's recorder records its own station's topics, and the master
     station gets a recorder for its own (first in the list, so it is stopped after the others)."""
     from_recorder_node = None
@@ -249,9 +289,10 @@ def adapt_graph(specs: list, node_spec_class, run_dir: Path) -> None:
     if from_recorder_node is None:
         return
     topics = from_recorder_node.params.get("topics") or _default_recorder_topics()
-    from_recorder_node.params["topics"] = [t for t in topics if t not in ROBOT_STATION_EXCLUDED]
+    excluded = layout.robot_station_excluded
+    from_recorder_node.params["topics"] = [t for t in topics if t not in excluded]
     specs.insert(0, node_spec_class("fic_teleop_tools", "recorder_node", "recorder_master", None,
-                                    {"bag_path": str(run_dir / "bag_master"), "topics": MASTER_STATION_TOPICS}))
+                                    {"bag_path": str(run_dir / "bag_master"), "topics": list(layout.master_topics)}))
 
 
 def _default_recorder_topics() -> list[str]:
@@ -259,19 +300,25 @@ def _default_recorder_topics() -> list[str]:
     return default_topics()
 
 
-def wrap_command(node_name: str, command: list[str], pair: StationPair, clock_offset_s: float = 0.0) -> list[str]:
+def master_remap_arguments(layout: StationLayout) -> list[str]:
+    """The master station's remaps as ROS arguments (after the --ros-args the launcher already put in)."""
+    arguments = []
+    for source, target in layout.master_remaps.items():
+        arguments += ["-r", f"{source}:={target}"]
+    return arguments
+
+
+def wrap_command(node_name: str, command: list[str], pair: StationPair, fastdds_profile: Path,
+                 clock_offset_s: float = 0.0) -> list[str]:
     """The node's command run in its station: `ip netns exec <ns> env ... <command>` (exec all the way down, so
     the pid the launcher holds is the node's). Master-station nodes get their renamed topics and, for a clock
     test, a shifted wall clock (libfaketime)."""
     namespace = pair.namespace_of(node_name)
-    environment = [f"{key}={value}" for key, value in station_environment().items()]
+    environment = [f"{key}={value}" for key, value in station_environment(fastdds_profile).items()]
     if namespace == pair.master_namespace:
         if clock_offset_s:
             environment += faketime_environment(clock_offset_s)
-        remaps = []
-        for source, target in MASTER_STATION_REMAPS.items():
-            remaps += ["-r", f"{source}:={target}"]
-        command = command + remaps   # after the --ros-args the launcher already put in
+        command = command + master_remap_arguments(pair.layout)
     return ["ip", "netns", "exec", namespace, "env", *environment, *command]
 
 
@@ -348,8 +395,8 @@ class LinkCut:
         print(f"[stations] link UP after {self.events['up_wall'] - self.events['down_wall']:.2f} s", flush=True)
 
 
-def pair_from_environment() -> StationPair:
-    return StationPair(os.environ.get(INSIDE_ENV, "run"))
+def pair_from_environment(layout: StationLayout) -> StationPair:
+    return StationPair(layout, os.environ.get(INSIDE_ENV, "run"))
 
 
 def inside_station() -> bool:
@@ -361,7 +408,7 @@ def add_arguments(parser) -> None:
     group = parser.add_argument_group("two stations (root; docs/DEPLOYMENT.md)")
     group.add_argument("--two-stations", action="store_true",
                        help="run the master station and the robot station in two network namespaces joined by a "
-                            "veth pair (198.51.100.1 / .2), removed afterwards")
+                            "veth pair (the two_stations profile's layout and addresses), removed afterwards")
     group.add_argument("--link-down-at", type=float, default=None, metavar="T",
                        help="set the link between the stations down T seconds into the run (with --two-stations)")
     group.add_argument("--link-down-for", type=float, default=5.0, metavar="S",
@@ -406,12 +453,13 @@ class InsideStation:
 
     def __init__(self, args, run_dir: Path) -> None:
         self.args, self.run_dir = args, run_dir
-        self.pair = pair_from_environment()
+        self.pair = pair_from_environment(StationLayout.from_profile(args.run_profile))
+        self.fastdds_profile = run_dir / RUN_FASTDDS_PROFILE   # written by `run`, the outer process
         self.stop = threading.Event()
         self.cut: LinkCut | None = None
 
     def adapt(self, specs: list, node_spec_class) -> None:
-        adapt_graph(specs, node_spec_class, self.run_dir)
+        adapt_graph(specs, node_spec_class, self.run_dir, self.pair.layout)
         offset = self.args.station_clock_offset
         for spec in specs:
             # A wall-clock time given to a master-station node is read on that station's clock.
@@ -420,14 +468,15 @@ class InsideStation:
                 spec.params["script_start_time"] += offset
         stations = {spec.name: ("master" if self.pair.namespace_of(spec.name) == self.pair.master_namespace
                                 else "robot") for spec in specs}
-        print(f"[stations] master station ({self.pair.master_namespace}, {MASTER_ADDRESS}): "
+        layout = self.pair.layout
+        print(f"[stations] master station ({self.pair.master_namespace}, {layout.master_address}): "
               f"{', '.join(n for n, s in stations.items() if s == 'master')}; robot station "
-              f"({self.pair.robot_namespace}, {ROBOT_ADDRESS}): {', '.join(n for n, s in stations.items() if s == 'robot')}",
-              flush=True)
+              f"({self.pair.robot_namespace}, {layout.robot_address}): "
+              f"{', '.join(n for n, s in stations.items() if s == 'robot')}", flush=True)
         self._record({"stations": stations})
 
     def wrap(self, node_name: str, command: list[str]) -> list[str]:
-        return wrap_command(node_name, command, self.pair, self.args.station_clock_offset)
+        return wrap_command(node_name, command, self.pair, self.fastdds_profile, self.args.station_clock_offset)
 
     def started(self, origin_wall: float) -> None:
         self._record({"origin_wall": origin_wall})
@@ -489,7 +538,8 @@ def run(argv: list[str], args, run_dir: Path) -> int:
     except StationError as error:
         print(f"[stations] refused: {error}", file=sys.stderr)
         return 2
-    pair = StationPair(args.stations_tag)
+    pair = StationPair(StationLayout.from_profile(args.run_profile), args.stations_tag)
+    layout = pair.layout
     try:
         for note in clear_leftovers(pair):
             print(f"[stations] {note}")
@@ -497,8 +547,9 @@ def run(argv: list[str], args, run_dir: Path) -> int:
         print(f"[stations] refused: {error}", file=sys.stderr)
         return 2
     run_dir.mkdir(parents=True, exist_ok=True)
+    fastdds_profile = write_fastdds_profile(layout, run_dir / RUN_FASTDDS_PROFILE)
     record: dict = {"pair": {"master_namespace": pair.master_namespace, "robot_namespace": pair.robot_namespace,
-                             "master_address": MASTER_ADDRESS, "robot_address": ROBOT_ADDRESS},
+                             "master_address": layout.master_address, "robot_address": layout.robot_address},
                     "started": datetime.now().isoformat(timespec="seconds")}
     interrupted = threading.Event()
     inner: subprocess.Popen | None = None
@@ -513,8 +564,8 @@ def run(argv: list[str], args, run_dir: Path) -> int:
     code = 1
     try:
         create(pair)
-        print(f"[stations] namespaces {pair.master_namespace} ({MASTER_ADDRESS}) and {pair.robot_namespace} "
-              f"({ROBOT_ADDRESS}) joined by veth {pair.master_interface} <-> {pair.robot_interface}", flush=True)
+        print(f"[stations] namespaces {pair.master_namespace} ({layout.master_address}) and {pair.robot_namespace} "
+              f"({layout.robot_address}) joined by veth {pair.master_interface} <-> {pair.robot_interface}", flush=True)
         if args.bandwidth:
             record["bandwidth"] = cap_bandwidth(pair, parse_rate(args.bandwidth))
             print(f"[stations] link capped at {args.bandwidth} each way (tbf)", flush=True)
@@ -522,11 +573,11 @@ def run(argv: list[str], args, run_dir: Path) -> int:
         capture = subprocess.Popen(
             ["ip", "netns", "exec", pair.robot_namespace, sys.executable, "-m", "fic_teleop_bringup.rtps_traffic",
              "--interface", pair.robot_interface, "--out", str(capture_file),
-             "--name", f"{MASTER_ADDRESS}=master", "--name", f"{ROBOT_ADDRESS}=robot",
-             "--stamps", *LINK_STREAMS, "--ready", str(run_dir / "link_capture.ready")],
+             "--name", f"{layout.master_address}=master", "--name", f"{layout.robot_address}=robot",
+             "--stamps", *layout.link_streams, "--ready", str(run_dir / "link_capture.ready")],
             stdout=open(run_dir / "link_capture.log", "wb"), stderr=subprocess.STDOUT, start_new_session=True)
         wait_for_capture(capture, run_dir / "link_capture.ready")
-        environment = {**os.environ, **station_environment(), INSIDE_ENV: pair.tag}
+        environment = {**os.environ, **station_environment(fastdds_profile), INSIDE_ENV: pair.tag}
         inner = subprocess.Popen(["ip", "netns", "exec", pair.robot_namespace, sys.executable, "-m",
                                   "fic_teleop_bringup.teleop_launcher", *argv, "--out", str(run_dir)], env=environment)
         if interrupted.is_set():
@@ -573,19 +624,19 @@ def station_commands(args, run_dir: Path, specs: list, node_spec_class, node_com
     this module does not import the launcher)."""
     import shlex
 
-    adapt_graph(specs, node_spec_class, run_dir)
-    pair = StationPair(args.stations_tag)
-    environment = " ".join(f"{key}={value}" for key, value in station_environment().items())
+    pair = StationPair(StationLayout.from_profile(args.run_profile), args.stations_tag)
+    adapt_graph(specs, node_spec_class, run_dir, pair.layout)
+    # On two machines each uses config/fastdds_two_stations.xml with the machines' own addresses (docs/DEPLOYMENT.md).
+    environment = " ".join(f"{key}={value}" for key, value in station_environment(FASTDDS_PROFILE).items())
     lines = []
     for station, namespace in (("master", pair.master_namespace), ("robot", pair.robot_namespace)):
-        address = MASTER_ADDRESS if station == "master" else ROBOT_ADDRESS
+        address = pair.layout.master_address if station == "master" else pair.layout.robot_address
         lines.append(f"# {station} station ({address}): source scripts/env.sh; export {environment} ROS_DOMAIN_ID=<d>")
         for spec in specs:
             if pair.namespace_of(spec.name) != namespace:
                 continue
             command = node_command(spec)
             if station == "master":
-                for source, target in MASTER_STATION_REMAPS.items():
-                    command += ["-r", f"{source}:={target}"]
+                command += master_remap_arguments(pair.layout)
             lines.append(shlex.join(command) + " &")
     return "\n".join(lines)

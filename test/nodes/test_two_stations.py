@@ -109,6 +109,14 @@ def _arguments(*argv: str):
     return teleop_launcher.parse_arguments(list(argv))
 
 
+def _layout(*argv: str) -> two_stations.StationLayout:
+    """The station layout of a two-station run's profile (profiles/two_stations.yaml, then ``argv``'s)."""
+    from fic_teleop_bringup import teleop_launcher
+    args = _arguments("--two-stations", *argv)
+    teleop_launcher.resolve_defaults(args)
+    return two_stations.StationLayout.from_profile(args.run_profile)
+
+
 @pytest.mark.parametrize("argv, words", [
     (["--link-down-at", "5"], "need --two-stations"),
     (["--two-stations", "--time-mode", "lockstep"], "realtime only"),
@@ -140,20 +148,45 @@ def test_rates_read_as_tc_writes_them() -> None:
 
 
 def test_master_station_nodes_run_in_their_namespace_with_their_topics_renamed() -> None:
-    pair = two_stations.StationPair("t1")
-    master = two_stations.wrap_command("master", ["master_node", "--ros-args"], pair)
+    pair = two_stations.StationPair(_layout(), "t1")
+    fastdds = Path("/run/fastdds_two_stations.xml")
+    master = two_stations.wrap_command("master", ["master_node", "--ros-args"], pair, fastdds)
     assert master[:4] == ["ip", "netns", "exec", "fic_teleop_t1_master"]
     assert "/diagnostics:=/master_station/diagnostics" in master
-    assert "ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET" in master
-    replica = two_stations.wrap_command("replica", ["replica_node", "--ros-args"], pair)
+    assert "ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET" in master and f"FASTDDS_DEFAULT_PROFILES_FILE={fastdds}" in master
+    replica = two_stations.wrap_command("replica", ["replica_node", "--ros-args"], pair, fastdds)
     assert replica[3] == "fic_teleop_t1_robot" and not any(":=" in part for part in replica)
+
+
+def test_the_station_layout_is_the_profiles(tmp_path: Path) -> None:
+    """Which node runs where, the namespaces and the link's addresses come from the run profile: a profile of one's
+    own that moves the planner and readdresses the link moves them in the commands and in Fast DDS's peers."""
+    import yaml
+    own = tmp_path / "moved.yaml"
+    own.write_text(yaml.safe_dump({"stations": {"namespace_prefix": "lab_", "prefix_length": 16,
+                                                "master": {"address": "10.1.0.1",
+                                                           "nodes": ["haptic_device", "fd_adapter", "master",
+                                                                     "channel_backward", "keyboard_operator",
+                                                                     "recorder_master", "planner"]},
+                                                "robot": {"address": "10.1.2.2",
+                                                          "nodes": ["robot", "recorder", "replica",
+                                                                    "channel_forward", "command_relay"]}}}))
+    layout = _layout("--profile", str(own))
+    pair = two_stations.StationPair(layout, "t2")
+    assert pair.namespace_of("planner") == "lab_t2_master" and pair.namespace_of("replica") == "lab_t2_robot"
+    assert layout.link_streams == ("/master/teleop_command", "/replica/feedback_wrench")   # the built-in layer's
+    written = two_stations.write_fastdds_profile(layout, tmp_path / "fastdds.xml").read_text()
+    peers = re.search(r"<initialPeersList>.*?</initialPeersList>", written, re.DOTALL).group(0)
+    assert re.findall(r"<address>([^<]*)</address>", peers) == ["10.1.0.1", "10.1.2.2"]
+    default = _layout()
+    assert default.station_of("planner") == "robot" and default.master_address != "10.1.0.1"
 
 
 # -- the real split -----------------------------------------------------------------------------------------------
 
 @NEEDS_ROOT
 def test_leftover_namespaces_are_removed_and_busy_ones_refused() -> None:
-    pair = two_stations.StationPair(f"l{os.getpid() % 100000}")
+    pair = two_stations.StationPair(_layout(), f"l{os.getpid() % 100000}")
     try:
         subprocess.run(["ip", "netns", "add", pair.master_namespace], check=True)
         notes = two_stations.clear_leftovers(pair)
