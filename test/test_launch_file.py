@@ -35,7 +35,7 @@ def test_the_launch_file_starts_the_launchers_nodes_with_their_config_and_values
 
 
 def test_the_live_view_layout_is_what_its_generator_writes() -> None:
-    result = subprocess.run([sys.executable, "-m", "sim_bridge.tools.live_view_layout", "--check"],
+    result = subprocess.run([sys.executable, "-m", "fic_teleop_tools.recording.live_view_layout", "--check"],
                             capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
 

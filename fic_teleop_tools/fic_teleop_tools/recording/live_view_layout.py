@@ -1,12 +1,13 @@
 """Write config/live_view.json, the Foxglove layout of the live view (`scripts/run_teleop.sh --live`).
 
-Built with the SDK's own layout types (foxglove.layouts), so the file is what Foxglove imports; the test
-test/test_live_view_layout.py regenerates it and compares, and checks every topic it plots is one the recorder
-serves. Panels: the arm in 3D (its URDF through the server's assets, posed by /live/transforms) with x_d
-(/replica/desired_pose) and x_R (/replica/tcp_pose); the interaction forces; the FIC phases and energy
-(paper Eq. 2: divergence D = 0, convergence C = 1 per axis); the limit flags of the postural optimisation.
+Built with the SDK's own layout types (foxglove.layouts), so the file is what Foxglove imports;
+test/test_launch_file.py regenerates it and compares. Panels: the arm in 3D (its URDF through the server's assets,
+posed by /live/transforms) with x_d (/replica/desired_pose) and x_R (/replica/tcp_pose); the interaction forces; the
+FIC phases and energy (paper Eq. 2: divergence D = 0, convergence C = 1 per axis); the limit flags of the postural
+optimisation.
 
-usage: python -m sim_bridge.tools.live_view_layout [--check]   (--check: exit 1 if config/live_view.json differs)
+usage: python -m fic_teleop_tools.recording.live_view_layout [--check]
+       (--check: exit 1 if config/live_view.json differs)
 """
 from __future__ import annotations
 
@@ -100,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     text = layout_text()
     if args.check:
         if not LAYOUT_PATH.exists() or LAYOUT_PATH.read_text() != text:
-            print(f"{LAYOUT_PATH} is not what python -m sim_bridge.tools.live_view_layout writes; run it",
+            print(f"{LAYOUT_PATH} is not what python -m fic_teleop_tools.recording.live_view_layout writes; run it",
                   file=sys.stderr)
             return 1
         return 0
