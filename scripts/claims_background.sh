@@ -29,15 +29,15 @@ else sweep=(-m sim_bridge.experiments.claims_sweep); fi
 # Under autogroup scheduling (Linux's default on desktops and many servers) a nice value only orders threads within
 # one session: a setsid'd job still takes a full share against every other session. A CPU cgroup with a low weight is
 # what makes it background; as root, the sweep joins one (cgroup v1 cpu.shares, or v2 cpu.weight), FIC_BACKGROUND_SHARES
-# out of the default 1024 (256 unless set). Without root it falls back to nice alone, and says so.
+# out of the default 1024 (768 unless set: its own group, beside other background work). Without root it falls back to nice alone, and says so.
 join_background_cgroup() {
-  local shares="${FIC_BACKGROUND_SHARES:-256}"
+  local shares="${FIC_BACKGROUND_SHARES:-768}"
   if [[ -d /sys/fs/cgroup/cpu && -w /sys/fs/cgroup/cpu ]]; then
-    mkdir -p /sys/fs/cgroup/cpu/fic_background && echo "$shares" > /sys/fs/cgroup/cpu/fic_background/cpu.shares &&
-      echo "$1" > /sys/fs/cgroup/cpu/fic_background/cgroup.procs && return 0
+    mkdir -p /sys/fs/cgroup/cpu/fic_claims && echo "$shares" > /sys/fs/cgroup/cpu/fic_claims/cpu.shares &&
+      echo "$1" > /sys/fs/cgroup/cpu/fic_claims/cgroup.procs && return 0
   elif [[ -f /sys/fs/cgroup/cgroup.controllers && -w /sys/fs/cgroup ]]; then
-    mkdir -p /sys/fs/cgroup/fic_background && echo $(( shares * 100 / 1024 > 0 ? shares * 100 / 1024 : 1 )) \
-      > /sys/fs/cgroup/fic_background/cpu.weight && echo "$1" > /sys/fs/cgroup/fic_background/cgroup.procs && return 0
+    mkdir -p /sys/fs/cgroup/fic_claims && echo $(( shares * 100 / 1024 > 0 ? shares * 100 / 1024 : 1 )) \
+      > /sys/fs/cgroup/fic_claims/cpu.weight && echo "$1" > /sys/fs/cgroup/fic_claims/cgroup.procs && return 0
   fi
   echo "claim sweep: no writable CPU cgroup (not root?): it runs under nice alone and competes with other sessions" >&2
 }
