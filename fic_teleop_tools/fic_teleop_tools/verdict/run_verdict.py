@@ -130,7 +130,8 @@ class VerdictInput:
         command = None
         mode = getattr(result, "command_mode", None)
         sent = getattr(result, "sent_offset", None)
-        velocity = mode is not None and len(mode) == len(time) and bool(np.any(np.asarray(mode) != TeleoperationMode.OFFSET))
+        velocity = mode is not None and len(mode) == len(time) and \
+            bool(np.any(np.asarray(mode) != TeleoperationMode.OFFSET))
         if velocity and result.planner is not None and sent is not None:
             command = result.planner + np.column_stack([np.interp(time - one_way_delay, time, sent[:, axis])
                                                         for axis in range(3)])

@@ -69,6 +69,7 @@ def judge_run(out: Path, seed: int, delay: float, controller: str, paper_law: bo
     row["limit_violations"] = metrics.get("limit_violations")
     verdict = json.loads(verdict_path.read_text()) if verdict_path.exists() else {}
     row["verdict"] = {key: verdict.get(key) for key in ("stable", "safe", "stable_reasons", "safe_reasons")}
+    row["stale_holds"], row["wall_pace"] = stale_holds(out), pace(out)
     log_path = out / "logs" / "haptic_device.log"
     moves = [(label, float(start), float(value)) for label, start, value in
              PHASE.findall(log_path.read_text())] if log_path.exists() else []
@@ -80,6 +81,62 @@ def judge_run(out: Path, seed: int, delay: float, controller: str, paper_law: bo
     row["trace"] = {"time": np.round(times[::decimate], 3).tolist(), "force_n": np.round(force[::decimate], 2).tolist(),
                     "phases": [(label, round(start, 2)) for label, start, _ in moves]}
     return row
+
+
+HOLD = re.compile(r"\[(\d+\.\d+)\] \[robot\]: watchdog: torque commands stale \(([\d.]+) s > ([\d.]+) s\)")
+
+
+def stale_holds(out: Path) -> list[dict]:
+    """Each stale-command hold of the robot in a lockstep run, with the clocks around it: the simulated time, the
+    wall time the simulation took for the watchdog's bound (command_timeout, simulated) before it, and how many
+    torque commands the replica published in that span (the bag's receive times). In lockstep the robot waits for
+    each state's answer at most lockstep_timeout of wall time and then steps on the last command; so a hold means
+    one bound's worth of consecutive steps whose answers came later than that in wall time. Answers published in
+    the span say the replica was computing its law, late: the machine's scheduling, not the law's silence."""
+    from mcap.reader import make_reader
+
+    log_path, bags = out / "logs" / "robot.log", sorted((out / "bag").glob("*.mcap"))
+    if not log_path.exists() or not bags:
+        return []
+    holds = [(float(wall), float(bound)) for wall, _, bound in HOLD.findall(log_path.read_text())]
+    if not holds:
+        return []
+    clock_wall, clock_sim, command_wall = [], [], []
+    with bags[0].open("rb") as handle:
+        for _, channel, message in make_reader(handle).iter_messages(topics=["/clock",
+                                                                             "/effort_controller/commands"]):
+            if channel.topic == "/clock":   # rosgraph_msgs/Clock in CDR: a 4-byte header, int32 sec, uint32 nanosec
+                data = message.data
+                clock_sim.append(int.from_bytes(data[4:8], "little", signed=True)
+                                 + int.from_bytes(data[8:12], "little") * 1e-9)
+                clock_wall.append(message.log_time * 1e-9)
+            else:
+                command_wall.append(message.log_time * 1e-9)
+    order = np.argsort(clock_wall)
+    wall, simulated = np.asarray(clock_wall)[order], np.asarray(clock_sim)[order]
+    commands = np.sort(np.asarray(command_wall))
+    rows = []
+    for at_wall, bound in holds:
+        at = float(np.interp(at_wall, wall, simulated))
+        began = float(np.interp(at - bound, simulated, wall))
+        rows.append({"t_s": round(at, 3), "wall_s_for_bound": round(at_wall - began, 2),
+                     "commands_in_bound": int(((commands > began) & (commands <= at_wall)).sum())})
+    return rows
+
+
+def pace(out: Path) -> dict:
+    """Wall seconds per simulated millisecond over the run (the bag's /clock receive times)."""
+    from mcap.reader import make_reader
+
+    bags = sorted((out / "bag").glob("*.mcap"))
+    if not bags:
+        return {}
+    with bags[0].open("rb") as handle:
+        stamps = np.sort([message.log_time * 1e-9 for _, _, message in
+                          make_reader(handle).iter_messages(topics=["/clock"])])
+    steps = np.diff(stamps)
+    return {"median_ms": round(float(np.median(steps)) * 1e3, 1),
+            "p99_ms": round(float(np.percentile(steps, 99)) * 1e3, 1), "steps_over_50_ms": int((steps > 0.05).sum())}
 
 
 def done_rows(path: Path) -> list[dict]:
@@ -130,7 +187,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--wall-limit", type=float, default=7200.0)
     parser.add_argument("--summary", type=Path, default=None, help="instead of running: print ('-') or write the "
                                                                    "k/n of the jsonl")
+    parser.add_argument("--holds", action="store_true", help="instead of running: for each trial of the jsonl, the "
+                                                             "robot's stale-command holds with the clocks around "
+                                                             "them (stale_holds) and the run's wall pace")
     args = parser.parse_args(argv)
+    if args.holds:
+        for row in done_rows(args.out):
+            out = Path(row["run_dir"])
+            print(f"{row['law']}@{row['delay_s']:g} seed {row['seed']}: wall per simulated ms {pace(out)}")
+            for hold in stale_holds(out):
+                print(f"  hold at {hold['t_s']:.3f} s: the bound before it took {hold['wall_s_for_bound']} s of wall "
+                      f"time, {hold['commands_in_bound']} replica commands published in it")
+        return 0
     if args.summary is not None:
         text = summary(done_rows(args.out))
         print(text, end="") if str(args.summary) == "-" else args.summary.write_text(text)
