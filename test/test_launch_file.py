@@ -40,6 +40,45 @@ def test_the_live_view_layout_is_what_its_generator_writes() -> None:
     assert result.returncode == 0, result.stderr
 
 
+def test_every_field_the_live_view_layout_plots_is_a_recorded_topics_field() -> None:
+    """A panel on a topic the recorder does not serve, or on a field its message lacks, would stay empty in Foxglove
+    without a word: each message path of config/live_view.json names a recorded topic and resolves on its type."""
+    import json
+    import re
+
+    from fic_teleop_msgs.msg import FicState, LimitStatus
+    from geometry_msgs.msg import PoseStamped, WrenchStamped
+
+    from fic_teleop_tools.recording.recorder_node import default_topics
+
+    types = {"/ft_sensor/wrench": WrenchStamped, "/haptic/wrench_command": WrenchStamped,
+             "/replica/fic_state": FicState, "/replica/limit_status": LimitStatus,
+             "/replica/desired_pose": PoseStamped, "/replica/tcp_pose": PoseStamped}
+
+    def strings(value):
+        if isinstance(value, dict):
+            for item in value.values():
+                yield from strings(item)
+        elif isinstance(value, list):
+            for item in value:
+                yield from strings(item)
+        elif isinstance(value, str):
+            yield value
+
+    paths = [s for s in strings(json.loads((REPO / "config" / "live_view.json").read_text())) if s.startswith("/")]
+    assert paths, "the layout plots no topic"
+    for path in paths:
+        topic, _, fields = path.partition(".")
+        assert topic in default_topics(), f"{path}: {topic} is not recorded"
+        message = types[topic]()
+        for field in filter(None, fields.split(".")):
+            name, index = re.fullmatch(r"(\w+)(?:\[(\d+)\])?", field).groups()
+            kinds = message.get_fields_and_field_types()
+            assert name in kinds, f"{path}: {type(message).__name__} has no {name}"
+            assert index is None or kinds[name].startswith("sequence"), f"{path}: {name} is not a sequence"
+            message = getattr(message, name)
+
+
 def test_the_e1_script_the_device_plays_is_timed_for_the_runs_delay(tmp_path) -> None:
     from sim_bridge.device.virtual_operator import load_script
 
