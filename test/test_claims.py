@@ -34,7 +34,15 @@ def test_the_sweep_runs_the_claim_first_and_covers_the_grid_and_the_delay_sweep(
     assert {(d, r) for d in (0.0, 0.2, 1.0, 2.0) for r in (0.0, 10.0, 5.0)} <= grid
     assert {d for d, r in grid if r == 0.0} == {0.0, 0.2, 0.5, 1.0, 1.5, 2.0}
     runs = claim_runs()
-    assert len(runs) == len(cells) * 5 * 2 * 20 == len({r.key for r in runs})
+    claims = [r for r in runs if r.force_feedback]
+    assert len(claims) == len(cells) * 5 * 2 * 20 and len(runs) == len({r.key for r in runs})
+    # The open-loop controls come last: the 10 Hz claim cells, the reactive hand, every law and seed, K_H = 0.
+    controls = runs[len(claims):]
+    assert all(not r.force_feedback for r in controls) and len(controls) == 2 * 5 * 20
+    assert {(r.cell, r.hand) for r in controls} == {("delay_1__rate_10__feedback_off", "reactive"),
+                                                    ("delay_0.2__rate_10__feedback_off", "reactive")}
+    assert controls[0].config().master_overrides == {"haptic_gain": 0.0} and claims[0].config().master_overrides == {}
+    assert not any(r.force_feedback is False for r in claim_runs(quick=True))
     first = runs[:20]   # seed 1 of both claim cells: every law with both hands
     assert {(r.cell, r.controller, r.hand) for r in first} == {
         (c, law, hand) for c in ("delay_1__rate_10", "delay_1__rate_full")

@@ -14,6 +14,14 @@ and the force feedback are each sample-and-held between the link's deliveries. S
   (in_process.TASK_*, MOVE_*, WANDER_* ranges), in the paper's superimposition scene with both obstacles;
 - every law of the evidence sweeps (evidence_run.CONTROLLERS), the same seeds for every law and hand (paired).
 
+Control cells (``force_feedback=False``, the cell's name ends in ``__feedback_off``): the same runs with the master's
+haptic gain K_H = 0 (paper Eq. 3), so no force loop closes through the channel: the hand feels the handle's own
+centring spring alone and the replica follows the command the hand and handle make (the operator still times its
+moves from the delayed video, a sampled loop of one decision a move). The bilateral force loop whose delay the
+claims are about is open, so an oscillation the verdict finds there is the operator's own or the replica's answer
+to it; read beside the claim cell with feedback on, it tells what the closed loop adds (docs/EXPERIMENTS.md
+"Claims", "Open-loop controls").
+
 A run is one ``ClaimRun``; ``execute`` simulates it, keeps its series (``save_series``: every per-sample field of the
 RunResult at ``SERIES_RATE_HZ``, float32, and its scalars) and returns one JSON-ready row of figures. The verdict is
 applied to the kept series afterwards (``judge_series``), so a changed verdict never needs a new simulation.
@@ -41,6 +49,9 @@ CLAIM_RATES_HZ = (0.0, 10.0, 5.0)
 #: The delay sweep at full rate adds these to the claim delays.
 SWEEP_EXTRA_DELAYS_S = (0.5, 1.5)
 SEEDS = 20
+#: The open-loop control cells (delay, rate): the two claim cells at 10 Hz, the force-reactive hand.
+CONTROL_CELLS = ((1.0, 10.0), (0.2, 10.0))
+CONTROL_HANDS = ("reactive",)
 #: Kept series rate [Hz]: the replica's 100 Hz poses every second sample. The verdict's shortest period (0.2 s) is
 #: 10 samples; peaks (error, force) are taken from the full-rate run into the row before the series is thinned.
 SERIES_RATE_HZ = 50.0
@@ -62,6 +73,7 @@ class ClaimRun:
     hand: str             # in_process.HANDS
     seed: int
     duration: float       # [s]
+    force_feedback: bool = True   # False: the master's K_H = 0, an open-loop control run (module docstring)
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
@@ -74,7 +86,8 @@ class ClaimRun:
 
     @property
     def cell(self) -> str:
-        return f"delay_{self.delay:g}__rate_{'full' if self.rate_hz == 0.0 else f'{self.rate_hz:g}'}"
+        return (f"delay_{self.delay:g}__rate_{'full' if self.rate_hz == 0.0 else f'{self.rate_hz:g}'}"
+                + ("" if self.force_feedback else "__feedback_off"))
 
     @property
     def key(self) -> str:
@@ -86,6 +99,7 @@ class ClaimRun:
         return RunConfig(scene="superimposition", duration=self.duration, delay=self.delay, rate_cap=self.rate_hz,
                          controller="fic" if paper_law else self.controller,
                          replica_overrides={"paper_law": True} if paper_law else {},
+                         master_overrides={} if self.force_feedback else {"haptic_gain": 0.0},
                          seed=self.seed, operator="closed_loop", hand=self.hand, task_variation=True,
                          jitter=CHANNEL_JITTER_S, operator_timing_jitter=OPERATOR_TIMING_JITTER_S,
                          hand_impedance_jitter=HAND_IMPEDANCE_JITTER)
@@ -93,7 +107,8 @@ class ClaimRun:
 
 def claim_cells(quick: bool = False) -> list[tuple[int, float, float]]:
     """(tier, delay, rate) in the order they are run: tier 1 is the claim itself (1 s with 10 Hz both ways, and 1 s
-    at full rate), tier 2 the paper's 0.2 s at every rate, tier 3 the rest of the grid and the delay sweep."""
+    at full rate), tier 2 the paper's 0.2 s at every rate, tier 3 the rest of the grid and the delay sweep. The
+    open-loop controls (CONTROL_CELLS) come after them (``claim_runs``)."""
     if quick:
         return [(1, 1.0, 10.0), (1, 1.0, 0.0)]
     first = [(1, 1.0, 10.0), (1, 1.0, 0.0)]
@@ -105,19 +120,29 @@ def claim_cells(quick: bool = False) -> list[tuple[int, float, float]]:
 
 
 def claim_runs(seeds: int = SEEDS, controllers: Iterable[str] = CONTROLLERS, hands: Iterable[str] = HANDS,
-               quick: bool = False, duration: float | None = None) -> list[ClaimRun]:
+               quick: bool = False, duration: float | None = None, controls: bool = True) -> list[ClaimRun]:
     """Every run, most important first: by tier; within a tier seed by seed over its cells, every law and hand at a
-    seed together (an interrupted sweep leaves paired, comparable runs)."""
+    seed together (an interrupted sweep leaves paired, comparable runs); then the open-loop controls (not with
+    ``quick``), the same seeds and laws."""
     controllers, hands = tuple(controllers), tuple(hands)
     cells = claim_cells(quick)
     out = []
+
+    def length(delay: float) -> float:
+        return duration if duration is not None else duration_for(delay)
+
     for tier in sorted({c[0] for c in cells}):
         for seed in range(1, seeds + 1):
             for _, delay, rate in (c for c in cells if c[0] == tier):
                 for controller in controllers:
                     for hand in hands:
-                        out.append(ClaimRun(delay, rate, controller, hand, seed,
-                                            duration if duration is not None else duration_for(delay)))
+                        out.append(ClaimRun(delay, rate, controller, hand, seed, length(delay)))
+    if controls and not quick:
+        for seed in range(1, seeds + 1):
+            for delay, rate in CONTROL_CELLS:
+                for controller in controllers:
+                    for hand in (h for h in hands if h in CONTROL_HANDS):
+                        out.append(ClaimRun(delay, rate, controller, hand, seed, length(delay), force_feedback=False))
     return out
 
 

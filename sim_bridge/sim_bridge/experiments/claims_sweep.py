@@ -105,6 +105,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="run length [s] (default: 30 s, longer beyond 1 s delay; --quick 10 s)")
     parser.add_argument("--controllers", nargs="+", default=list(CONTROLLERS), choices=CONTROLLERS)
     parser.add_argument("--hands", nargs="+", default=list(HANDS), choices=HANDS)
+    parser.add_argument("--cells", nargs="+", default=None,
+                        help="only these cells (their names, e.g. delay_1__rate_10__feedback_off); default every cell")
     parser.add_argument("--limit", type=int, default=None, help="run at most this many of the runs not done yet")
     parser.add_argument("--out-dir", type=Path, default=None, help="series directory (default results/claims_runs)")
     parser.add_argument("--jsonl", type=Path, default=None, help="run log (default results/claims_runs.jsonl)")
@@ -120,6 +122,12 @@ def main(argv: list[str] | None = None) -> int:
     summary = args.summary or REPO / "results" / f"{stem}.json"
     runs = claim_runs(args.seeds or (1 if args.quick else SEEDS), args.controllers, args.hands, args.quick,
                       args.duration or (10.0 if args.quick else None))
+    if args.cells:
+        known = {claim.cell for claim in runs}
+        unknown = sorted(set(args.cells) - known)
+        if unknown:
+            parser.error(f"--cells: no such cell {', '.join(unknown)} (cells: {', '.join(sorted(known))})")
+        runs = [claim for claim in runs if claim.cell in args.cells]
     progress = not args.no_progress
     with engine_from_arguments(args) as engine:
         if args.judge:

@@ -187,6 +187,14 @@ README_CLAIM_CELLS = (
     ("delay_1__rate_10", "1 s one-way delay and the link at 10 Hz both ways, together"),
     ("delay_0.2__rate_10", "the link at 10 Hz both ways, the paper's 0.2 s delay"),
 )
+#: The open-loop controls README reads beside the claims (sim_bridge.experiments.claims CONTROL_CELLS): the same runs
+#: with the force feedback off, where no loop closes through the channel. Not a claim: what they show is how much of
+#: a claim cell's instability the closed loop adds.
+README_CONTROL_CELLS = (
+    ("delay_1__rate_10__feedback_off", "control: 1 s and 10 Hz, the force feedback off (no force loop through the channel)"),
+    ("delay_0.2__rate_10__feedback_off", "control: 0.2 s and 10 Hz, the force feedback off"),
+)
+CONTROL_READING = "control, not a claim"
 #: A claim of stability is read as "stable in nearly every run": reproduced when the FIC's stable share has a Wilson
 #: 95 % lower bound of at least this (at 20 seeds: 19 or 20 of 20), not reproduced when the upper bound is below
 #: it, undecided in between (too few runs, or a share near it).
@@ -229,9 +237,13 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
         return f"{share['k']}/{share['n']} ({low:.2f}-{high:.2f})"
 
     readings: list[str] = []
-    for cell_id, meaning in README_CLAIM_CELLS:
+    controls = [(cell_id, meaning, True) for cell_id, meaning in README_CONTROL_CELLS
+                if any(key[0] == cell_id for key in cells)]
+    for cell_id, meaning, control in [(c, m, False) for c, m in README_CLAIM_CELLS] + controls:
         for hand in hands:
             cell = cells.get((cell_id, hand))
+            if control and cell is None:
+                continue
             laws = cell["laws"] if cell else {}
             ours = laws.get(reference, {})
             baselines = ", ".join(f"{law} {s['stable']['k']}/{s['stable']['n']}" for law, s in laws.items()
@@ -244,8 +256,9 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
                 low, high = comparison["difference_interval_95"]
                 differences.append(f"{law} {comparison['difference']:+.2f} ({low:+.2f} to {high:+.2f}; "
                                    f"p {_p(comparison['boschloo_p'])})")
-            reading = claim_reading(ours.get("stable"))
-            readings.append(reading)
+            reading = CONTROL_READING if control else claim_reading(ours.get("stable"))
+            if not control:
+                readings.append(reading)
             lines.append(f"| {meaning} (`{cell_id}`) | {hand or '-'} | {share_text(ours.get('stable'))} | "
                          f"{share_text(ours.get('safe'))} | {baselines} | {'; '.join(differences) or '-'} | "
                          f"{reading} |")
