@@ -12,6 +12,11 @@ at the control rate. Around them:
 - Staleness watchdog: no teleoperation command for ``master_timeout`` (by receipt) -> x_d' is held where it was.
   When commands return (and for the very first one) the difference between the held and the commanded x_d' is
   given back at ``resume_speed``: x_d does not jump at a resume.
+- After the replica's own hold (fic_core.loop_health): x_d moved on while the arm was held, by as much as the
+  set-points moved meanwhile (225 mm after a 6 s hold under a 40 % CPU quota). The law does not come back onto that
+  error: ``anchor`` puts x_d at the arm's TCP at the resume and the difference is given back at ``resume_speed``,
+  as the jumps above, so the FIC never starts far from its attractor (its saturated force with no damping took the
+  wrist to 0.73 of its datasheet speed within 0.3 s of such a resume, docs/RESULTS.md "Stress").
 - Feedforward acceleration (beyond paper Eq. 7, fic_core.replica): the planner's own (while fresh), plus the
   estimate of x_d''s acceleration from the command stamps (while not stale). A jump being given back moves at
   constant speed: it adds none.
@@ -75,6 +80,8 @@ class DesiredPose:
         self._offset_hold = self._hold()
         self._planner_jump = ShrinkingOffset()   # start pose - first planner pose, given back
         self._offset_jump = ShrinkingOffset()    # x_d' held - x_d' commanded at a resume, given back
+        self._hold_jump = ShrinkingOffset()      # the TCP - x_d at the end of the loop's hold, given back
+        self._anchor: NDArray[np.float64] | None = None   # the TCP the next update starts x_d from
         self.started = False
         self.start_position = np.zeros(3)
         self.start_rotation = np.eye(3)
@@ -120,6 +127,16 @@ class DesiredPose:
     def offset(self) -> NDArray[np.float64]:
         """x_d' in use [m], a copy."""
         return self._offset.copy()
+
+    @property
+    def anchored(self) -> bool:
+        """Whether the difference between x_d and the TCP at the last ``anchor`` is still being given back."""
+        return self._hold_jump.active
+
+    def anchor(self, position: ArrayLike) -> None:
+        """The next ``update`` starts x_d at ``position`` (the TCP after the loop's hold) and gives the difference to
+        the set-points back at resume_speed (module docstring)."""
+        self._anchor = finite_array("anchor_position", position, (3,)).copy()
 
     @property
     def command_unused(self) -> bool:
@@ -179,6 +196,12 @@ class DesiredPose:
         if notice:
             notices.append(notice)
         position = self._update_planner(now, dt) + self._offset  # x_d = x_d'' + x_d'
+        if self._anchor is not None:
+            self._hold_jump.start(self._anchor, position, self._parameters.resume_speed)
+            self._anchor = None
+            position = position + self._hold_jump.offset   # this tick: the TCP itself
+        elif self._hold_jump.active:
+            position = self._hold_jump.apply(position, dt)
         p = self._parameters
         rotation = self._planner_rotation if p.use_planner_orientation and self._planner_rotation is not None \
             else self.start_rotation

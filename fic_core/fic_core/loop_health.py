@@ -14,7 +14,13 @@ A starved two-station run swung the simulated arm over its base at up to 11 rad/
   since the last tick (a robot that runs slower than real time without stalling). A replica whose states queue up
   behind a busy process sees them age against the offset of its healthy ticks: a latency that grows slower than
   the allowance goes unnoticed by this check (the tick gap still holds);
-- the tick gap: the receiver's clock since the previous control tick;
+- the tick gap: the receiver's clock since the previous control tick, and the state gap: the arm's own clock (the
+  joint states' stamps) between the states of two control ticks. They differ when the robot's clock does not
+  keep the receiver's: a simulated robot that fell behind steps its backlog in a burst on the last torque
+  (measured under a 40 % CPU quota: ticks at most 50 ms apart on the replica's clock whose states were 54-66 ms
+  apart, one torque applied for up to 82 ms of the arm's time). The arm runs on one torque for the state gap,
+  whatever the receiver saw, and the law on a sample-and-hold that long is what swung the wrist past its speed
+  (docs/RESULTS.md, "Stress"): beyond max_tick_gap either way the loop holds;
 - the command gap: the receiver's clock since the previous torque sent.
 
 Beyond ``max_state_age`` or ``max_tick_gap`` the loop is unhealthy: the replica stops applying the law and holds,
@@ -79,12 +85,15 @@ class LoopHealth:
         self.command_gap = 0.0          # [s] before the last command
         self.max_state_age_seen = 0.0
         self.max_tick_gap_seen = 0.0
+        self.state_gap = 0.0            # [s] between the states of the last two ticks (the arm's clock)
+        self.max_state_gap_seen = 0.0
         self.max_command_gap_seen = 0.0
         self.holds = 0                  # transitions into the hold
         self.held_ticks = 0             # control ticks answered with the hold torque
         self.reason = ""                # why the last hold began
         self._last_tick: float | None = None
         self._last_command: float | None = None
+        self._last_state_time: float | None = None
         self._healthy_run = 0
         self._resume_start: float | None = None
         self._entered_hold = False
@@ -100,9 +109,14 @@ class LoopHealth:
         once, the notice of a transition (into the hold, or back to the law)."""
         raw = now - state_time
         gap = 0.0 if self._last_tick is None else max(now - self._last_tick, 0.0)
+        # The state gap from the last tick whose state was fresh: one after an old state says how old that was,
+        # which the age check has said already.
+        state_gap = 0.0 if self._last_state_time is None else max(state_time - self._last_state_time, 0.0)
         self._last_tick = now
         if not (math.isfinite(raw) and math.isfinite(gap)):
             raw = gap = math.inf
+        if not math.isfinite(state_gap):
+            state_gap = math.inf
         # After a long gap the offset is taken afresh (module docstring), and this tick's state has no known age: a
         # robot that stalled and a state that waited in a starved replica's queue look alike until the next ticks.
         self._age_known = not (self.clock_offset is None or gap > self.bounds.max_tick_gap)
@@ -115,13 +129,19 @@ class LoopHealth:
         self.state_age, self.tick_gap = age, gap
         self.max_state_age_seen = max(self.max_state_age_seen, age)
         self.max_tick_gap_seen = max(self.max_tick_gap_seen, gap)
+        self.state_gap = state_gap
+        self.max_state_gap_seen = max(self.max_state_gap_seen, state_gap)
         bounds = self.bounds
+        self._last_state_time = state_time if age <= bounds.max_state_age and math.isfinite(state_time) else None
         self._entered_hold = False
         problems = []
         if age > bounds.max_state_age:
             problems.append(f"state {age * 1e3:.1f} ms old (bound {bounds.max_state_age * 1e3:g} ms)")
         if gap > bounds.max_tick_gap:
             problems.append(f"control ticks {gap * 1e3:.1f} ms apart (bound {bounds.max_tick_gap * 1e3:g} ms)")
+        elif state_gap > bounds.max_tick_gap:
+            problems.append(f"the states of two control ticks {state_gap * 1e3:.1f} ms apart on the arm's clock "
+                            f"(bound {bounds.max_tick_gap * 1e3:g} ms)")
         if problems:
             self._healthy_run = 0
             self._resume_start = None
@@ -218,6 +238,7 @@ class LoopHealth:
                 "command_gap_ms": f"{self.command_gap * 1e3:.1f}",
                 "max_state_age_ms": f"{self.max_state_age_seen * 1e3:.1f}",
                 "max_tick_gap_ms": f"{self.max_tick_gap_seen * 1e3:.1f}",
+                "max_state_gap_ms": f"{self.max_state_gap_seen * 1e3:.1f}",
                 "max_command_gap_ms": f"{self.max_command_gap_seen * 1e3:.1f}",
                 "holds": str(self.holds),
                 "held_ticks": str(self.held_ticks),

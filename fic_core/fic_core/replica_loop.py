@@ -19,7 +19,8 @@ tick are checked against loop_max_state_age and loop_max_tick_gap; beyond them t
 (gravity and joint damping, as the robot's own watchdog; on a stale state gravity once, then nothing, so that the
 robot's own watchdog holds the arm on its own state) instead of the law, until loop_resume_ticks healthy ticks
 in a row; the law then starts afresh (the task controller's phases and latches reset, the slew from the hold
-torque) and is blended in over loop_resume_ramp.
+torque, x_d from the arm's TCP with the set-points' progress during the hold given back at resume_speed) and is
+blended in over loop_resume_ramp.
 """
 from __future__ import annotations
 
@@ -265,10 +266,16 @@ class ReplicaLoop:
                            dt: float, notices: list[tuple[str, str]]) -> ReplicaCommand:
         """The law's tick; on the way back from a hold, started afresh from the hold torque and blended in."""
         health = self.health
-        if health.resumed_at_this_tick(now) and self._hold_torque is not None:
-            # The controller's phases and latched errors belong to the states before the hold; the slew starts
-            # from the torque the arm has now.
-            self.controller.reset(self._hold_torque)
+        if health.resumed_at_this_tick(now):
+            # x_d moved on during the hold: the law starts at the arm's TCP, the rest given back at resume_speed
+            # (fic_core.desired_pose), never onto the error the hold left.
+            self.robot.update(q, qd)
+            self.desired.anchor(self.robot.tcp_position)
+            self.velocity_filter.reset()   # x_d's step onto the TCP is no velocity of the set-points
+            if self._hold_torque is not None:
+                # The controller's phases and latched errors belong to the states before the hold; the slew starts
+                # from the torque the arm has now.
+                self.controller.reset(self._hold_torque)
         command = self._control(q, qd, time, now, dt, notices)
         fraction = health.law_fraction(now)
         if fraction < 1.0:
