@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fic_core.loop_health import HEALTHY, HOLDING, LoopHealth, LoopHealthBounds
+from fic_core.loop_health import HEALTHY, HOLDING, RESUMING, LoopHealth, LoopHealthBounds
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.robot_model import RobotModel
@@ -47,6 +47,15 @@ def test_states_further_apart_on_the_arms_clock_than_the_bound_hold_though_the_t
     stalled.tick(0.302, 0.004)
     assert stalled.state == HOLDING and "control ticks 300.0 ms apart" in stalled.reason
     assert stalled.state_gap == pytest.approx(0.002)
+    # The first state of a run may have waited in the reader's queue while the process started: the gap to the
+    # next one is no torque the arm ran on (none was sent before), nor is the gap after a long one.
+    starting = LoopHealth(BOUNDS)
+    starting.tick(10.0, 9.946)
+    assert starting.tick(10.004, 10.0) == "" and starting.state == HEALTHY
+    starting.tick(10.2, 10.196)   # a long gap: held, and its state's age is not known
+    for k in range(BOUNDS.resume_ticks):   # the next state 62 ms on: not a gap the arm ran one torque over
+        starting.tick(10.202 + 0.002 * k, 10.258 + 0.002 * k)
+    assert starting.holds == 1 and starting.state == RESUMING
 
 
 def _planner_pose(replica: ReplicaLoop, position: np.ndarray, now: float) -> None:
