@@ -12,9 +12,8 @@ times its moves from what it sees, as the paper's operator did watching the repl
   measured simple reaction times to a visual onset are 0.19-0.25 s (Kosinski 2008, "A literature review on
   reaction time", Clemson University). The runner draws it per seed.
 - PLANNING from what it sees: the robot's angle about the circle's centre in the latest usable frame, and its
-  angular speed (the median over the frames of the last ``estimation_window`` seconds, used once most of those
-  frames show that one speed: the robot seen circling steadily), predict when the replica will pass each
-  obstacle. The operator moves its hand so that the offset reaches the replica for that passing:
+  angular speed (the median over the frames of the last ``estimation_window`` seconds), predict when the replica
+  will pass each obstacle. The operator moves its hand so that the offset reaches the replica for that passing:
   its command takes the one-way delay to arrive and the handle ``handle_lag`` to follow the hand, so it aims at
   the robot's phase at ``now + assumed_one_way_delay + handle_lag``. ``assumed_one_way_delay`` is the latency the
   operator has learnt by practice (an expert, as in the paper); the runner gives it the cell's delay. A frame's
@@ -36,9 +35,8 @@ times its moves from what it sees, as the paper's operator did watching the repl
   ``wander_amplitude_range`` metres in a random direction, lasting ``wander_period_range`` seconds, starting at
   exponentially distributed gaps of mean ``wander_mean_gap`` s (a hand that is never quite still, at random times).
 
-With nothing seen circling steadily yet (the robot at rest before its circle starts, on its way out from the
-circle's centre onto the circle, held at an obstacle, or no frame arrived) the hand stays at the origin: the
-operator does not know when the robot will come.
+With nothing seen moving yet (the robot at rest before its circle starts, or no frame arrived) the hand stays at
+the origin: the operator does not know when the robot will come.
 """
 from __future__ import annotations
 
@@ -74,8 +72,6 @@ class ClosedLoopParameters:
     handle_lag: float = 0.15                 # [s] the handle behind the hand (the script's figure)
     estimation_window: float = 1.0           # [s] of seen frames for the angular speed
     min_angular_speed: float = 0.3           # [rad/s] slower than this the robot is not seen circling
-    steady_tolerance: float = 0.4            # a frame-to-frame speed this close to the median (fraction of it) ...
-    steady_fraction: float = 0.6             # ... for this much of the window: the robot is seen circling steadily
     circle_centre: tuple[float, float] = (0.45, 0.0)   # [m] x, y (sim_bridge.robot.scenes.CIRCLE_CENTRE)
     circle_radius: float = 0.10              # [m]
     on_path_distance: float = 0.06           # [m] the pushable obstacle's centre this close to the path: still there
@@ -103,12 +99,10 @@ class ClosedLoopParameters:
         for name in ("reaction_time", "assumed_one_way_delay", "handle_lag", "avoid_offset", "avoid_lift",
                      "avoid_early", "push_inward", "push_outward", "push_hold"):
             finite_scalar(name, getattr(self, name), minimum=0.0)
-        for name in ("estimation_window", "min_angular_speed", "steady_tolerance", "circle_radius",
-                     "on_path_distance", "hold", "ramp"):
+        for name in ("estimation_window", "min_angular_speed", "circle_radius", "on_path_distance", "hold",
+                     "ramp"):
             finite_scalar(name, getattr(self, name), minimum=0.0, minimum_inclusive=False)
         finite_array("circle_centre", self.circle_centre, shape=(2,))
-        # Above one half: a window that is half at rest cannot pass for steady circling.
-        finite_scalar("steady_fraction", self.steady_fraction, minimum=0.5, minimum_inclusive=False, maximum=1.0)
         finite_scalar("move_timing_spread", self.move_timing_spread, minimum=0.0)
         finite_scalar("wander_mean_gap", self.wander_mean_gap, minimum=0.0, minimum_inclusive=False)
         for name, low_bound in (("move_amplitude_range", 0.0), ("move_duration_range", 1e-3),
@@ -243,8 +237,7 @@ class ClosedLoopOperator:
 
     def _angular_speed(self) -> float | None:
         """The median of the frame-to-frame angular speeds in the video's time (a jump in the seen pose is one
-        outlier, not a new speed); None unless the robot is seen circling steadily (``steady_fraction`` of the
-        speeds within ``steady_tolerance`` of the median)."""
+        outlier, not a new speed)."""
         if len(self._usable) < 3 or self._usable[-1][1] - self._usable[0][1] < 0.5 * self.parameters.estimation_window:
             return None
         times, angles = np.array([u[1] for u in self._usable]), np.array([u[2] for u in self._usable])
@@ -252,16 +245,8 @@ class ClosedLoopOperator:
         keep = steps > 1e-6
         if not keep.any():
             return None
-        speeds = np.diff(angles)[keep] / steps[keep]
-        speed = float(np.median(speeds))
-        if abs(speed) < self.parameters.min_angular_speed:
-            return None
-        # Seen circling steadily: most of the window shows this one speed. A window that still holds the robot at
-        # rest, or its way out from the circle's centre onto the circle, has a median somewhere between 0 and the
-        # circling speed that rises with every new frame; a move planned on it is planned on a speed the robot
-        # never had, and on which value the median held at the tick it was first used.
-        steady = np.abs(speeds - speed) <= self.parameters.steady_tolerance * abs(speed)
-        return speed if float(np.mean(steady)) >= self.parameters.steady_fraction else None
+        speed = float(np.median(np.diff(angles)[keep] / steps[keep]))
+        return speed if abs(speed) >= self.parameters.min_angular_speed else None
 
     # -- acting ------------------------------------------------------------------------------------------------
     def _target_at(self, time: float) -> Vector3:
