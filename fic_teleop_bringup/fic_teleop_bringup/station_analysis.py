@@ -29,13 +29,30 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:   # two_stations.py runs this analysis and hands its layout in: no import back
+    from fic_teleop_bringup.two_stations import StationLayout
+
 DELIVERY_TOPICS = {"robot": "/channel/deliveries", "master": "/master_station/channel/deliveries"}
-ROBOT_STREAMS = ["/joint_states", "/clock", "/ft_sensor/wrench", "/replica/fic_state", "/replica/tcp_pose",
-                 "/planner/desired_pose", "/replica/teleop_command"]
-MASTER_STREAMS = ["/haptic/pose", "/master/teleop_command", "/haptic/wrench_command", "/master/feedback_wrench"]
+#: The streams whose longest gaps a link cut is judged by, each with the node that publishes it (docs/INTERFACES.md).
+#: Which station a stream belongs to is its publisher's station in the run profile's layout (`station_streams`).
+GAP_STREAM_PUBLISHERS = {"/joint_states": "robot", "/clock": "robot", "/ft_sensor/wrench": "robot",
+                         "/replica/fic_state": "replica", "/replica/tcp_pose": "replica",
+                         "/planner/desired_pose": "planner", "/replica/teleop_command": "channel_forward",
+                         "/haptic/pose": "haptic_device", "/master/teleop_command": "master",
+                         "/haptic/wrench_command": "master", "/master/feedback_wrench": "channel_backward"}
+
+
+def station_streams(layout: "StationLayout") -> dict[str, list[str]]:
+    """{"robot": [...], "master": [...]}: each gap stream on the side of the station its publisher runs in, so a
+    profile that moves a node moves its stream's statistics with it (its own station's recorder should lose none)."""
+    streams: dict[str, list[str]] = {"robot": [], "master": []}
+    for topic, publisher in GAP_STREAM_PUBLISHERS.items():
+        streams[layout.station_of(publisher)].append(topic)
+    return streams
 
 
 def _seconds(time_msg) -> float:
@@ -178,8 +195,10 @@ def clock_figures(robot: dict, master: dict, capture: dict, warmup_origin: float
     return result
 
 
-def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path, master_ahead_s: float = 0.0) -> dict:
-    """`master_ahead_s`: the master station's clock offset (estimated), taken off its bag's receive times."""
+def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path, layout: "StationLayout",
+                     master_ahead_s: float = 0.0) -> dict:
+    """`master_ahead_s`: the master station's clock offset (estimated), taken off its bag's receive times; `layout`:
+    the run's stations (which station's bag holds each gap stream)."""
     down, up = events["down_wall"], events["up_wall"]
     result: dict = {"down_s": round(up - down, 3), "down_at_run_s": events.get("down_run_s")}
     master = {"logs": {topic: times - master_ahead_s for topic, times in master["logs"].items()}}
@@ -203,9 +222,10 @@ def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path, mas
         after = times[times >= up]
         result[f"first_{name}_after_up_s"] = round(float(after[0] - up), 3) if len(after) else None
     window = (down, up)
-    result["robot_station_streams"] = {t: _gap_stats(robot["logs"].get(t, np.empty(0)), window) for t in ROBOT_STREAMS}
-    result["master_station_streams"] = {t: _gap_stats(master["logs"].get(t, np.empty(0)), window)
-                                        for t in MASTER_STREAMS}
+    # Each stream from its own station's bag (bag/ for the robot station, bag_master/ for the master station's).
+    for station, topics in station_streams(layout).items():
+        bag = robot if station == "robot" else master
+        result[f"{station}_station_streams"] = {t: _gap_stats(bag["logs"].get(t, np.empty(0)), window) for t in topics}
     result["log_lines"] = _log_lines(run_dir / "logs")
     return result
 
@@ -226,7 +246,8 @@ def _log_lines(log_dir: Path) -> dict:
     return lines
 
 
-def analyse_run(run_dir: Path, outer_record: dict) -> str:
+def analyse_run(run_dir: Path, outer_record: dict, layout: "StationLayout") -> str:
+    """stations.json of a finished run and the lines to print; ``layout``: the run profile's stations."""
     path = run_dir / "stations.json"
     record = json.loads(path.read_text()) if path.exists() else {}
     record.update(outer_record)
@@ -267,7 +288,7 @@ def analyse_run(run_dir: Path, outer_record: dict) -> str:
                          f"corrected p50 {clocks.get('corrected_latency_ms', {}).get('p50')} ms")
         if "down_wall" in events and "up_wall" in events:
             ahead = (clocks.get("master_clock_ahead_estimate_ms") or 0.0) * 1e-3
-            record["link_cut"] = link_cut_figures(robot, master, events, run_dir, ahead)
+            record["link_cut"] = link_cut_figures(robot, master, events, run_dir, layout, ahead)
             cut = record["link_cut"]
             lines.append(f"[stations] link cut {cut['down_s']} s: first command used {cut.get('first_command_used_after_up_s')}"
                          f" s after link-up ({cut.get('that_command_was')}); master: "

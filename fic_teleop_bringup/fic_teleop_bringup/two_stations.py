@@ -610,7 +610,7 @@ def run(argv: list[str], args, run_dir: Path) -> int:
             signal.signal(signum, handler)
     try:
         from fic_teleop_bringup.station_analysis import analyse_run   # reads bags: only after the run
-        summary = analyse_run(run_dir, record)
+        summary = analyse_run(run_dir, record, layout)
         print(summary)
     except Exception as error:   # the run itself is done; say why its analysis is missing
         print(f"[stations] could not analyse the run: {error!r}", file=sys.stderr)
