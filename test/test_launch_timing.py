@@ -6,13 +6,16 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from conftest import REPO
 
 
 from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_INPUT_REFUSED, EXIT_LIMIT_VIOLATIONS, EXIT_OK, \
     EXIT_STARVED
 from fic_teleop_bringup import run_profile
-from fic_teleop_bringup.launch_timing import LOOP_HEALTH_STATUS, TimingBounds, exit_code, judge_run, timing_verdict
+from fic_teleop_bringup.launch_timing import LOOP_HEALTH_STATUS, SimulatedWindow, TimingBounds, exit_code, judge_run, \
+    recorded_in_window, timing_verdict
 from fic_teleop_bringup.workspace import PROFILES
 
 BOUNDS = TimingBounds.from_profile(run_profile.read_layer(PROFILES / "realtime.yaml"))
@@ -114,13 +117,47 @@ def test_the_replicas_loop_health_record_is_read_from_the_bag(tmp_path: Path) ->
 def test_a_bag_that_holds_only_part_of_the_run_is_starved() -> None:
     """A starved recorder kept 3.8 s of a 15 s run (measured at 70 % of one CPU): every other figure would describe
     that part alone."""
-    partial = verdict({"real_time_factor": 1.0, "duration_s": 3.8}, rates(replica_control=0.99), HEALTHY,
-                             simulated_s=15.0)
-    assert partial.starved and partial.reasons == ["the bag holds 3.8 s of the 15.0 s simulated (the recorder fell "
-                                                   "behind)"]
-    whole = verdict({"real_time_factor": 1.0, "duration_s": 18.5}, rates(replica_control=0.99), HEALTHY,
-                           simulated_s=15.0)
-    assert not whole.starved and "the bag holds 18.5 s of the 15.0 s simulated" in whole.lines()[2]
+    partial = verdict(QUIET, rates(replica_control=0.99), HEALTHY, recorded_s=3.8, simulated_s=15.0)
+    assert partial.starved and partial.reasons == ["the bag holds 3.8 s of the run's 15.0 s simulated (the recorder "
+                                                   "fell behind)"]
+    whole = verdict(QUIET, rates(replica_control=0.99), HEALTHY, recorded_s=15.0, simulated_s=15.0)
+    assert not whole.starved and "the bag holds 15.0 s of the run's 15.0 s simulated" in whole.lines()[2]
     nan_rates = {"planner": {"topic": "/planner/desired_pose", "nominal_hz": 100.0, "achieved_hz": float("nan"),
                              "fraction": float("nan")}}
     assert verdict(QUIET, nan_rates, HEALTHY).figures.get("slowest_loop") is None
+
+
+def test_the_bags_share_is_of_the_runs_window_on_the_simulations_clock() -> None:
+    """A 6 s run (--duration 6) whose script starts 4 s after the graph: the launcher counts 3.8 to 9.8 s of simulated
+    time, the recorder (started with the graph) holds /clock from 0 to 10.4 s. The share is the window's 6.0 of 6.0 s,
+    not the bag's whole 10.4 s span ("9.8 s of the 6.0 s" was printed before)."""
+    window = SimulatedWindow(3.8, 9.8)
+    whole_bag = np.round(np.arange(0.0, 10.4, 0.01), 2)            # /clock at 100 Hz, start margin and shutdown too
+    assert abs(window.length_s - 6.0) < 1e-9 and abs(recorded_in_window(whole_bag, window) - 6.0) < 1e-9
+    lost_tail = whole_bag[whole_bag <= 5.0]                        # a recorder that stopped writing at 5 s
+    assert abs(recorded_in_window(lost_tail, window) - 1.2) < 1e-9
+    late_start = whole_bag[whole_bag >= 8.0]                       # one that wrote nothing before 8 s
+    assert abs(recorded_in_window(late_start, window) - 1.8) < 1e-9
+    assert recorded_in_window(np.empty(0), window) == 0.0
+    starved = verdict(QUIET, rates(replica_control=0.99), HEALTHY, recorded_s=recorded_in_window(lost_tail, window),
+                      simulated_s=window.length_s)
+    assert starved.starved and "the bag holds 1.2 s of the run's 6.0 s simulated" in starved.reasons[0]
+
+
+def test_judge_run_reads_the_bags_clock_for_its_share(tmp_path: Path) -> None:
+    """judge_run reads the bag's /clock stamps and judges their part of the run's window."""
+    from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
+    from builtin_interfaces.msg import Time
+
+    from fic_teleop_tools.recording.bag_writer import BagWriter
+
+    writer = BagWriter(tmp_path / "bag")
+    writer.add_topic("/clock", "rosgraph_msgs/msg/Clock")
+    for k in range(0, 500):                                         # 0 to 4.99 s of simulated time at 100 Hz
+        writer.write("/clock", serialize_message(Clock(clock=Time(sec=k // 100, nanosec=(k % 100) * 10_000_000))),
+                     1_000_000_000 + k * 10_000_000)
+    writer.finish()
+    timing = judge_run(tmp_path, tmp_path / "bag", QUIET, BOUNDS, realtime=True, window=SimulatedWindow(3.8, 9.8))
+    assert abs(timing.figures["recorded_s"] - 1.19) < 1e-6 and timing.figures["simulated_s"] == 6.0
+    assert timing.starved and "the recorder fell behind" in timing.reasons[0]

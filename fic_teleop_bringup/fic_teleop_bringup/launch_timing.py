@@ -9,8 +9,11 @@ are the run profile's ``timing_bounds`` (fic_teleop_bringup/profiles/realtime.ya
 - the real-time factor (the report's, after its warm-up) at least ``real_time_factor``;
 - every loop's achieved rate (fic_teleop_tools/report/loop_rates.py) at least ``loop_rate_fraction`` of its nominal
   rate; a loop with no message at all is not this graph's (or its node failed, which the safety verdict reports);
-- the bag's span of simulated time (the report's duration_s) at least ``recorded_fraction`` of the time the
-  launcher saw simulated: a starved recorder keeps only part of the run;
+- the part of the run's window the bag holds at least ``recorded_fraction`` of that window: a starved recorder
+  keeps only part of the run. The window is the launcher's ``--duration`` on the simulation's clock (from the first
+  /clock at or after the script's start to the last /clock it saw, `SimulatedWindow`), and the bag's part of it is
+  read on the same clock, from the bag's own /clock stamps (`recorded_in_window`). Not the bag's whole span: the
+  recorder starts with the graph, before the start margin, so a 6 s run's bag spans about 10 s of simulated time;
 - the replica's own loop (its "replica loop health" record on /diagnostics): no hold, i.e. no control tick on a
   state older, or after a gap longer, than the replica's bounds (loop_max_state_age, loop_max_tick_gap). Its largest
   state age and tick gap are reported with it. A bag without the record: the figure is unknown, not a pass.
@@ -28,6 +31,8 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 LOOP_HEALTH_STATUS = "replica loop health"   # fic_core/loop_health.py diagnostic_values, as the replica names it
 LOOP_HEALTH_KEY = "holds"
 
@@ -42,6 +47,41 @@ class TimingBounds:
     @classmethod
     def from_profile(cls, profile: dict) -> "TimingBounds":
         return cls(**profile["timing_bounds"])
+
+
+@dataclass(frozen=True)
+class SimulatedWindow:
+    """The run's ``--duration`` as the launcher counted it, on the simulation's clock [s]: from the first /clock at or
+    after the script's start to the last /clock it saw."""
+    start_s: float
+    end_s: float
+
+    @property
+    def length_s(self) -> float:
+        return max(self.end_s - self.start_s, 0.0)
+
+
+def recorded_in_window(clock_stamps: np.ndarray, window: SimulatedWindow) -> float:
+    """Seconds of ``window`` the bag holds: from its first /clock stamp inside the window to its last (both clocks are
+    the simulation's, so a bag that also holds the start margin and the shutdown holds exactly the window)."""
+    stamps = np.asarray(clock_stamps, dtype=float)
+    inside = stamps[(stamps >= window.start_s) & (stamps <= window.end_s)]
+    return float(inside.max() - inside.min()) if len(inside) else 0.0
+
+
+def bag_clock_stamps(bag: Path) -> np.ndarray:
+    """The simulation times [s] of the bag's /clock messages (empty without any)."""
+    from mcap_ros2.decoder import DecoderFactory
+    from fic_teleop_tools.recording.bag_reader import read_messages
+
+    factory, decode, stamps = DecoderFactory(), None, []
+    for schema, channel, message in read_messages(bag):
+        if channel.topic != "/clock" or schema is None:
+            continue
+        decode = decode or factory.decoder_for(channel.message_encoding, schema)
+        clock = decode(message.data).clock
+        stamps.append(clock.sec + 1e-9 * clock.nanosec)
+    return np.array(stamps)
 
 
 @dataclass
@@ -64,7 +104,7 @@ class Timing:
         lines.append(f"slowest loop {slowest} at {_show(f.get('slowest_loop_fraction'), '.3f')} of its rate "
                      f"(bound >= {bounds.loop_rate_fraction:g})" if slowest else "loop rates: none measured")
         if f.get("recorded_s") is not None:
-            lines.append(f"the bag holds {f['recorded_s']:.1f} s of the {f['simulated_s']:.1f} s simulated "
+            lines.append(f"the bag holds {f['recorded_s']:.1f} s of the run's {f['simulated_s']:.1f} s simulated "
                          f"(bound >= {bounds.recorded_fraction:.0%})")
         lines.append(f"replica loop: {_show(f.get('loop_holds'), 'd')} holds, state age max "
                      f"{_show(f.get('max_state_age_ms'), '.1f')} ms, tick gap max "
@@ -88,9 +128,11 @@ def _show(value, spec: str) -> str:
 
 
 def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[str, str] | None,
-                   bounds: TimingBounds, realtime: bool = True, simulated_s: float | None = None) -> Timing:
+                   bounds: TimingBounds, realtime: bool = True, recorded_s: float | None = None,
+                   simulated_s: float | None = None) -> Timing:
     """The verdict from the report's metrics.json, the loop rates, the replica's last loop-health record and the
-    simulated time the launcher saw (``simulated_s``), against the run profile's ``bounds``."""
+    bag's share of the run (``recorded_s`` of the ``simulated_s`` the launcher counted, `recorded_in_window`),
+    against the run profile's ``bounds``."""
     if not realtime:
         return Timing(judged=False)
     timing = Timing(judged=True, bounds=bounds)
@@ -98,11 +140,10 @@ def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[st
     timing.figures["real_time_factor"] = rtf
     if rtf is not None and rtf < bounds.real_time_factor:
         timing.reasons.append(f"real-time factor {rtf:.3f} < {bounds.real_time_factor:g}")
-    recorded = (metrics or {}).get("duration_s")
-    if recorded is not None and simulated_s:
-        timing.figures.update(recorded_s=recorded, simulated_s=simulated_s)
-        if recorded < bounds.recorded_fraction * simulated_s:
-            timing.reasons.append(f"the bag holds {recorded:.1f} s of the {simulated_s:.1f} s simulated (the "
+    if recorded_s is not None and simulated_s:
+        timing.figures.update(recorded_s=round(recorded_s, 3), simulated_s=round(simulated_s, 3))
+        if recorded_s < bounds.recorded_fraction * simulated_s:
+            timing.reasons.append(f"the bag holds {recorded_s:.1f} s of the run's {simulated_s:.1f} s simulated (the "
                                   "recorder fell behind)")
     running = {name: row for name, row in rates.items()
                if row.get("fraction") is not None and math.isfinite(row["fraction"]) and row["achieved_hz"] > 0}
@@ -153,9 +194,9 @@ def _integer(text: str | None) -> int | None:
 
 
 def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBounds, realtime: bool,
-              simulated_s: float | None = None) -> Timing:
+              window: SimulatedWindow | None = None) -> Timing:
     """The verdict of a finished run (its bag and report) against the profile's ``bounds``, also written to
-    ``run_dir``/timing.json."""
+    ``run_dir``/timing.json. ``window``: the run's duration as the launcher counted it (None: not known)."""
     from fic_teleop_bringup.launch_supervision import diagnostics_records
 
     rates: dict[str, dict] = {}
@@ -167,6 +208,13 @@ def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBoun
         except Exception as error:  # noqa: BLE001 - a torn bag: the verdict goes on without the rates
             print(f"[run] timing: loop rates not measured ({error})")
         health = diagnostics_records(bag, {LOOP_HEALTH_STATUS: LOOP_HEALTH_KEY}).get(LOOP_HEALTH_STATUS)
-    timing = timing_verdict(metrics, rates, health, bounds, realtime, simulated_s)
+    recorded_s = None
+    if realtime and bag.exists() and window is not None and window.length_s > 0:
+        try:
+            recorded_s = recorded_in_window(bag_clock_stamps(bag), window)
+        except Exception as error:  # noqa: BLE001 - a torn bag: the verdict goes on without the share
+            print(f"[run] timing: the bag's share of the run not measured ({error})")
+    timing = timing_verdict(metrics, rates, health, bounds, realtime, recorded_s,
+                            window.length_s if window is not None else None)
     (run_dir / "timing.json").write_text(json.dumps(asdict(timing), indent=2) + "\n")
     return timing

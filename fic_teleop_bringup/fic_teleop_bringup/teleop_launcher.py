@@ -29,7 +29,7 @@ from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, dom
 from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
 from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_REFUSED, EXIT_STARVED, die_with_launcher, \
     failed_nodes, safety_verdict
-from fic_teleop_bringup.launch_timing import TimingBounds, exit_code, judge_run
+from fic_teleop_bringup.launch_timing import SimulatedWindow, TimingBounds, exit_code, judge_run
 from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler
 from fic_teleop_bringup.workspace import CONFIG, REPO
 from fic_teleop_runtime.params_file import write_node_params
@@ -306,8 +306,9 @@ def _interrupt(process: subprocess.Popen, timeout: float) -> int:
 
 
 def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event,
-                      wall_origin: float | None = None, progress=None, watch=None) -> float:
-    """Block until the simulation has run `duration` seconds of its own time (read from /clock), or `stop` is set.
+                      wall_origin: float | None = None, progress=None, watch=None) -> SimulatedWindow:
+    """Block until the simulation has run `duration` seconds of its own time (read from /clock), or `stop` is set;
+    return the run's window on that clock (what the bag's share is judged against, launch_timing.py).
 
     ``wall_origin`` (realtime, a scripted scene): the duration counts from the first /clock at or after this
     wall-clock time, when the operator script and the circle start, so that the whole script is run.
@@ -369,7 +370,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
-    return 0.0 if latest["start"] is None else latest["t"] - latest["start"]
+    return SimulatedWindow(0.0, 0.0) if latest["start"] is None else SimulatedWindow(latest["start"], latest["t"])
 
 
 def _report_scheduling(running: Graph, run_dir: Path) -> None:
@@ -569,7 +570,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     wall_start = time.monotonic()
-    sim_elapsed = 0.0
+    window = SimulatedWindow(0.0, 0.0)   # the run's duration on the simulation's clock (launch_timing.py)
     print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller}"
           f" at {args.control_rate:g} Hz, {args.time_mode}; ROS domain {domain.domain}; run folder {run_dir}")
     try:
@@ -606,7 +607,7 @@ def main(argv: list[str] | None = None) -> int:
                       "loaded machine expect a lower real-time factor and a longer pipeline latency", file=sys.stderr)
             _add_to_run_record(run_dir, "prioritised", granted)
         if not interrupted.is_set():
-            sim_elapsed = wait_for_sim_time(args.duration, running, stop=interrupted,
+            window = wait_for_sim_time(args.duration, running, stop=interrupted,
                                             wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
                                             wall_origin=wall_origin,
                                             progress=stations.progress if stations is not None else None,
@@ -625,7 +626,7 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     wall = time.monotonic() - wall_start
     failed = failed_nodes(codes)
-    print(f"[run] graph stopped after {wall:.1f} s wall, {sim_elapsed:.1f} s simulated"
+    print(f"[run] graph stopped after {wall:.1f} s wall, {window.length_s:.1f} s simulated"
           + (f"; nodes with errors: {failed}" if failed else ""))
     print(f"[run] bag: {bag_path}")
     metrics, report_failed = None, False
@@ -643,7 +644,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[run] safety: {reason}", file=sys.stderr)
     # Whether the computer kept real time, after every run; a broken safety figure still decides the code.
     timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile),
-                       args.time_mode == "realtime", sim_elapsed)
+                       args.time_mode == "realtime", window)
     for line in timing.lines():
         print(f"[run] timing: {line}", file=sys.stderr if timing.starved else sys.stdout)
     code = exit_code(code, timing, EXIT_STARVED)
