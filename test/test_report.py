@@ -195,6 +195,21 @@ def test_warmup_changes_what_counts(synthetic_bag, tmp_path):
     assert metrics["peak_interaction_force_n"] == pytest.approx(50.0)  # and so does the spike
 
 
+def test_the_real_time_factor_target_is_the_runs_bound(synthetic_bag):
+    """The report's own target judges a bag recorded without the launcher; a run profile's bound, handed in by the
+    launcher (--real-time-factor-target), replaces it, so the report and the launcher's verdict judge by one value."""
+    from fic_teleop_tools.report import TARGETS, ReportSettings, analyse, load_bag, summary_table
+
+    bag, _ = synthetic_bag
+    data = load_bag(bag)
+    own = analyse(data, ReportSettings(warmup_s=WARMUP)).metrics["targets"]["real_time_factor"]
+    assert own == {"target": f">= {TARGETS['real_time_factor'][1]}", "met": False}        # rtf 0.8
+    lenient = analyse(data, ReportSettings(warmup_s=WARMUP, real_time_factor_target=0.75)).metrics
+    assert lenient["targets"]["real_time_factor"] == {"target": ">= 0.75", "met": True}
+    assert [line for line in summary_table(lenient).splitlines() if line.startswith("real_time_factor")][0] \
+        .endswith(">= 0.75  ok")
+
+
 def test_command_line(synthetic_bag, tmp_path):
     bag, _ = synthetic_bag
     out = tmp_path / "cli"

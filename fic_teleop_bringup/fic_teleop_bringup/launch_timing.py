@@ -6,7 +6,9 @@ every realtime run the launcher states four figures against their bounds and say
 when one is out, with its own exit code (EXIT_STARVED, docs/SECURITY.md "Exit codes of the launcher"). The bounds
 are the run profile's ``timing_bounds`` (fic_teleop_bringup/profiles/realtime.yaml, where each is explained):
 
-- the real-time factor (the report's, after its warm-up) at least ``real_time_factor``;
+- the real-time factor (the report's, after its warm-up) at least ``real_time_factor``: the report's own target
+  (fic_teleop_tools/report/metrics.py TARGETS) unless a profile sets it, and then the launcher hands it to the
+  report too, so that the report's table and this verdict judge by one bound;
 - every loop's achieved rate (fic_teleop_tools/report/loop_rates.py) at least ``loop_rate_fraction`` of its nominal
   rate; a loop with no message at all is not this graph's (or its node failed, which the safety verdict reports);
 - the part of the run's window the bag holds at least ``recorded_fraction`` of that window: a starved recorder
@@ -32,6 +34,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS
 
 LOOP_HEALTH_STATUS = "replica loop health"   # fic_core/loop_health.py diagnostic_values, as the replica names it
 LOOP_HEALTH_KEY = "holds"
@@ -46,7 +49,11 @@ class TimingBounds:
 
     @classmethod
     def from_profile(cls, profile: dict) -> "TimingBounds":
-        return cls(**profile["timing_bounds"])
+        """The profile's bounds; without its own ``real_time_factor``, the report's target (one value in one place:
+        fic_teleop_tools/report/metrics.py TARGETS, which the report also judges a bag recorded without us by)."""
+        bounds = dict(profile["timing_bounds"])
+        bounds.setdefault("real_time_factor", REPORT_TARGETS["real_time_factor"][1])
+        return cls(**bounds)
 
 
 @dataclass(frozen=True)

@@ -55,7 +55,8 @@ KEYS: dict[str, type | tuple[type, ...]] = {
 }
 #: Keys that only their mode's layer gives (realtime.yaml, the base, gives every other one).
 MODE_KEYS = {"stations": "two_stations"}
-#: The bounds of the "machine was starved" verdict (launch_timing.py): each a share, in (0, 1].
+#: The bounds of the "machine was starved" verdict (launch_timing.py): each a share, in (0, 1]. real_time_factor is
+#: optional: without it, the report's own target (launch_timing.TimingBounds.from_profile).
 TIMING_BOUNDS = ("real_time_factor", "loop_rate_fraction", "recorded_fraction")
 #: The two-station layout (two_stations.py): the keys of ``stations`` and of each station in it.
 STATION_NAMES = ("master", "robot")

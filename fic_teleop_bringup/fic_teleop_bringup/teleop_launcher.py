@@ -632,7 +632,8 @@ def main(argv: list[str] | None = None) -> int:
     metrics, report_failed = None, False
     if not args.no_report:
         report_dir = run_dir / "report"
-        command = [sys.executable, "-m", "fic_teleop_tools.report", str(bag_path), "--out", str(report_dir)]
+        command = [sys.executable, "-m", "fic_teleop_tools.report", str(bag_path), "--out", str(report_dir),
+                   "--real-time-factor-target", repr(TimingBounds.from_profile(args.run_profile).real_time_factor)]
         if not args.no_video:
             command.append("--render")
         report_failed = subprocess.run(command).returncode != 0

@@ -70,6 +70,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scene", default="superimposition", help="scene drawn in the key frames (default %(default)s)")
     parser.add_argument("--key-frame-interval", type=float, default=5.0,
                         help="seconds of sim time between key frames (default %(default)s)")
+    parser.add_argument("--real-time-factor-target", type=float, default=None,
+                        help="least real-time factor the report judges (default: the report's own target, "
+                             "metrics.TARGETS; the launcher passes its run profile's bound)")
     parser.add_argument("--delay", type=float, default=None,
                         help="one-way delay [s] the verdict judges against (default: the run folder's channel "
                              "params, else config/channel.yaml)")
@@ -78,11 +81,14 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--warmup must be >= 0")
     if args.delay is not None and not args.delay >= 0.0:
         parser.error("--delay must be >= 0")
+    if args.real_time_factor_target is not None and not 0.0 < args.real_time_factor_target <= 1.0:
+        parser.error("--real-time-factor-target must be in (0, 1]")
     out = args.out or args.bag.with_name(args.bag.name.removesuffix(".mcap") + "_report")
     # A launcher's run folder holds the bag and the run's params (the joint states' rate, if not every step).
     run_dir = args.bag.parent if (args.bag.parent / "params").is_dir() else None
     settings = ReportSettings(warmup_s=args.warmup, max_force_n=args.f_max, error_bound_m=args.x_b,
-                              joint_states_period_s=joint_states_period(run_dir))
+                              joint_states_period_s=joint_states_period(run_dir),
+                              real_time_factor_target=args.real_time_factor_target)
     try:
         analysis, plots = make_report(args.bag, out, settings,
                                       key_frame_interval=args.key_frame_interval if args.render else None,

@@ -8,7 +8,7 @@ from pathlib import Path
 import yaml
 
 from .bag_data import load_bag
-from .metrics import TARGETS, Analysis, ReportSettings, analyse
+from .metrics import Analysis, ReportSettings, analyse
 from .plots import plot_all
 
 SUMMARY_KEYS = [
@@ -69,11 +69,11 @@ def _format(value, unit: str) -> str:
 def summary_table(metrics: dict) -> str:
     rows = []
     for key, unit in SUMMARY_KEYS:
-        target = TARGETS.get(key)
+        target = metrics.get("targets", {}).get(key)     # as this run's report judged it (its own bound)
         check = ""
         if target:
-            met = metrics.get("targets", {}).get(key, {}).get("met")
-            check = f"{target[0]} {target[1]:g}  " + ("ok" if met else ("n/a" if met is None else "MISSED"))
+            met = target.get("met")
+            check = f"{target['target']}  " + ("ok" if met else ("n/a" if met is None else "MISSED"))
         rows.append((key, _format(metrics.get(key), unit), check))
     width = max(len(r[0]) for r in rows)
     value_width = max(len(r[1]) for r in rows)
