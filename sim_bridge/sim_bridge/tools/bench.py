@@ -47,6 +47,7 @@ import psutil
 REPO = Path(__file__).resolve().parents[3]
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
+from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS  # noqa: E402
 from fic_teleop_tools.verdict.bag_series import read_run  # noqa: E402
 from sim_bridge.experiments.runner import write_json  # noqa: E402
 
@@ -170,14 +171,21 @@ def _step_lateness(bag: Path) -> np.ndarray:
     return np.asarray(values)
 
 #: The targets of the default main job on this machine (module docstring, 2.): per run, and how many of
-#: the runs must meet each.
+#: the runs must meet each. The latency and error bounds are the report's (fic_teleop_tools/report/metrics.py), kept
+#: there once; "every loop >= 95 %" is this bench's own, stricter than the launcher's "starved" bound (90 %).
+_LATENCY_P99_MS = REPORT_TARGETS["pipeline_latency_p99_ms"][1]
+_ERROR_MAX_M = REPORT_TARGETS["free_motion_error_max_m"][1]
+_ERROR_RMS_M = REPORT_TARGETS["free_motion_error_rms_m"][1]
 TARGETS = {
-    "latency p99 < 5 ms": (lambda run: (run["pipeline_latency_p99_ms"] or float("inf")) < 5.0, 0.8),
+    f"latency p99 < {_LATENCY_P99_MS:g} ms":
+        (lambda run: (run["pipeline_latency_p99_ms"] or float("inf")) < _LATENCY_P99_MS, 0.8),
     "every loop >= 95 % of nominal": (lambda run: (run["slowest_loop_fraction"] or 0.0) >= 0.95, 0.8),
     "0 lost joint states": (lambda run: run["dropped_joint_states"] == 0, 1.0),
     "0 limit violations": (lambda run: run["metrics"].get("limit_violations") == 0, 1.0),
-    "free-motion error max < 50 mm": (lambda run: (run["metrics"].get("free_motion_error_max_m") or 1.0) < 0.05, 1.0),
-    "free-motion error RMS < 10 mm": (lambda run: (run["metrics"].get("free_motion_error_rms_m") or 1.0) < 0.01, 1.0),
+    f"free-motion error max < {_ERROR_MAX_M * 1e3:g} mm":
+        (lambda run: (run["metrics"].get("free_motion_error_max_m") or 1.0) < _ERROR_MAX_M, 1.0),
+    f"free-motion error RMS < {_ERROR_RMS_M * 1e3:g} mm":
+        (lambda run: (run["metrics"].get("free_motion_error_rms_m") or 1.0) < _ERROR_RMS_M, 1.0),
 }
 
 
