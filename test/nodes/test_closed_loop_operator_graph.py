@@ -78,20 +78,20 @@ def test_the_operator_times_its_moves_as_the_in_process_operator_does(closed_loo
     # The fixed obstacle first (avoid), then the pushable one (push): what the operator saw decides each.
     assert [move[0] for move in graph_moves][:2] == ["avoid", "push"], graph_moves
     assert [move[0] for move in runner_moves][:2] == ["avoid", "push"], runner_moves
-    # They start when the runner's do: 0-0.37 s apart in fifteen lockstep runs at load 8-20 (2026-12-04/05).
+    # They start when the runner's do: 0-0.37 s apart in nineteen lockstep runs at load 8-20 (2026-12-04/05).
     for (_, graph_start, _), (_, runner_start, _) in zip(graph_moves[:2], runner_moves[:2]):
         assert graph_start == pytest.approx(runner_start, abs=0.6)
     # The push's passing against the one that happened (the planner's x_d crossing the pushable obstacle's angle in
     # the bag, the first after the move's start), the graph's and the runner's. It is planned on frames of the arm
-    # held at the fixed obstacle and let go, a speed estimate of 0.8-1.8 rad/s where the lap is 1.26 rad/s: twelve
+    # held at the fixed obstacle and let go, a speed estimate of 0.8-1.8 rad/s where the lap is 1.26 rad/s: sixteen
     # runs (2026-12-05) predicted 5.13-6.13 s for a passing at 5.53-5.55 s, the runner 5.35 s. Within 0.8 s; a lap
     # off fails, and so does a speed half the robot's (+1.2 s, planned about 1.2 s ahead).
     # Not held: the passings of the moves planned on a speed window that holds the start or the first lap's contact
     # (docs/EXPERIMENTS.md, "Operators"). The first avoid's is planned on frames half of which show the robot not yet
     # turning (0.41 rad/s), about a second after the real passing at 3.04 s, and moves with how many frames the node
     # took in at one tick (3.42-4.20 s in the graph, 4.15 s in the runner). The next avoid is usually the second
-    # lap's (7.71-8.40 s for 8.04 s in ten runs), but in two it was played at 4.8-4.9 s for a passing at 6.45-6.58 s,
-    # from a window of the arm let go.
+    # lap's (7.71-8.47 s for 8.04 s in fourteen runs), but in two it was played at 4.8-4.9 s for a passing at
+    # 6.45-6.58 s, from a window of the arm let go.
     passings = _passing_times(closed_loop_run / "bag", PUSHABLE_OBSTACLE_ANGLE)
     push_start, push_passing = graph_moves[1][1], graph_moves[1][2]
     actual = min((t for t in passings if t > push_start), default=math.inf)
