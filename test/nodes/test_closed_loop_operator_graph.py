@@ -99,14 +99,42 @@ def test_the_operator_times_its_moves_as_the_in_process_operator_does(closed_loo
     assert runner_moves[1][2] == pytest.approx(actual, abs=0.8), (runner_moves, passings)
 
 
+def _settled_free_motion_errors(bag: Path, hold: float) -> np.ndarray:
+    """|x_d - x_R| at the replica's pose stamps with no F/T sample of |F| >= 1 N in the ``hold`` seconds before: the
+    report's free motion (fic_teleop_tools.report.metrics.free_motion_flags) with a longer hold."""
+    from mcap_ros2.reader import read_ros2_messages
+
+    from fic_teleop_tools.report.metrics import free_motion_flags
+
+    mcap_file = str(next(bag.glob("*.mcap")))
+    series: dict[str, dict[int, np.ndarray]] = {}
+    for topic in ("/replica/desired_pose", "/replica/tcp_pose", "/ft_sensor/wrench"):
+        series[topic] = {}
+        for message in read_ros2_messages(mcap_file, topics=[topic]):
+            stamp, ros = message.ros_msg.header.stamp, message.ros_msg
+            value = ros.wrench.force if topic == "/ft_sensor/wrench" else ros.pose.position
+            series[topic][stamp.sec * 1_000_000_000 + stamp.nanosec] = np.array([value.x, value.y, value.z])
+    force_ns = np.array(sorted(series["/ft_sensor/wrench"]))
+    force = np.array([np.linalg.norm(series["/ft_sensor/wrench"][ns]) for ns in force_ns])
+    free = free_motion_flags(force_ns * 1e-9, force, 1.0, hold)
+    common = sorted(set(series["/replica/desired_pose"]) & set(series["/replica/tcp_pose"]))
+    latest = np.searchsorted(force_ns, common, side="right") - 1
+    return np.array([np.linalg.norm(series["/replica/desired_pose"][ns] - series["/replica/tcp_pose"][ns])
+                     for ns, index in zip(common, latest) if index >= 0 and free[index]])
+
+
 def test_the_closed_loop_run_is_safe_and_tracks(closed_loop_run: Path) -> None:
     metrics = json.loads((closed_loop_run / "report" / "metrics.json").read_text())
     assert metrics["limit_violations"] == 0
     assert metrics["dropped_joint_states"] == 0
-    # One 12 s run (2026-12-02 15:23): 53 mm max, 16 mm RMS in free motion (the scripted E1 run: about 40 / 12 mm);
-    # a loaded suite run of 8 s (2026-12-03), whose operator planned a push as well as its avoid moves: 87 / 31.8 mm.
-    # The operator's plan follows the video's arrival, which the lockstep barrier does not pace, so it varies with
-    # the load. The FIC saturates its force beyond x_b = 50 mm: twice that at most, an RMS within x_b; more would be
-    # a loop that lost the target.
-    assert metrics["free_motion_error_max_m"] < 0.1
+    # The FIC saturates its force beyond x_b = 50 mm: an RMS within x_b; more would be a loop that lost the target.
+    # Sixteen 8-8.5 s lockstep runs (2026-12-05): free-motion RMS 18-33 mm.
     assert metrics["free_motion_error_rms_m"] < 0.05
+    # The report's free-motion maximum (free 0.2 s after |F| < 1 N) was 53-96 mm in those runs, every time at
+    # 3.5-4.1 s: the arm let go from the fixed obstacle, which it is held at on the first lap ("Operators"), its
+    # error still falling from 0.14-0.16 m. Held instead once free for 1 s: 27-62 mm in the sixteen runs, within
+    # 80 mm; an arm that does not come back to the target within a second of free motion fails.
+    settled = _settled_free_motion_errors(closed_loop_run / "bag", hold=1.0)
+    assert settled.size > 100 and settled.max() < 0.08, (settled.size, settled.max(initial=0.0))   # 263-425 samples
+
+
