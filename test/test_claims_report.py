@@ -150,3 +150,23 @@ def test_each_stable_test_is_counted_where_it_failed():
     assert cell["laws"]["linear"]["unstable_by_test"] == {"oscillation": 1, "growing energy": 0,
                                                           "port generation": 1, "runaway": 1, "parked": 1}
     assert set(cell["laws"]["fic"]["unstable_by_test"].values()) == {0}
+
+
+def test_an_open_loop_control_is_shown_beside_its_claim_cell_and_left_out_of_the_tally():
+    from sim_bridge.experiments.tables import readme_claims
+
+    rows = [_row("delay_1__rate_10", "fic", seed, seed <= 9, hand="reactive") for seed in range(1, 21)]
+    rows += [_row("delay_1__rate_10__feedback_off", "fic", seed, seed <= 11, hand="reactive") for seed in range(1, 21)]
+    rows += [_row("delay_1__rate_10__feedback_off", "linear", seed, seed <= 15, hand="reactive")
+             for seed in range(1, 21)]
+    block = readme_claims(claims_statistics(rows, seeds_planned=20))
+    assert ("| control: 1 s and 10 Hz, the force feedback off (no force loop through the channel) "
+            "(`delay_1__rate_10__feedback_off`) | reactive | 11/20 ") in block
+    assert "| control, not a claim |" in block
+    # The tally counts the 3 claim rows only (the control is not a claim).
+    assert "Of these 3 claim rows: 0 reproduced, 1 not reproduced, 0 undecided at the seeds judged so far, 2 without" in block
+    difference, low, high = newcombe_difference_interval(9, 20, 11, 20)
+    assert (f"fic 9/20 with, 11/20 without; linear" not in block)   # linear has no claim-cell runs: not listed
+    assert block.rstrip().endswith(f"fic, with minus without: {difference:+.2f} ({low:+.2f} to {high:+.2f}; "
+                                   f"p {boschloo_p(9, 20, 11, 20):.3f}).")
+    assert "(`delay_1__rate_10`) (reactive hand), " not in block and "fic 9/20 with, 11/20 without." in block

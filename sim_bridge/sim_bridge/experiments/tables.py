@@ -267,4 +267,38 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
     lines += ["", f"Of these {len(readings)} claim rows: {tally['reproduced']} reproduced, {tally['not reproduced']} "
               f"not reproduced, {tally['undecided']} undecided at the seeds judged so far, {tally['no run']} without a "
               "judged run yet."]
+    lines += _control_sentences(cells, controls, hands, reference)
     return "\n".join(lines) + "\n"
+
+
+def _control_sentences(cells: dict, controls: list, hands: list, reference: str) -> list[str]:
+    """For each open-loop control with runs: every law's stable k/n with the force loop (its claim cell) and
+    without it, and for the reference law the difference (with minus without) with Newcombe's interval and
+    Boschloo's p: how much of a claim cell's instability the closed force loop adds."""
+    from sim_bridge.experiments.cell_statistics import boschloo_p, newcombe_difference_interval
+
+    out = []
+    for cell_id, _, _ in controls:
+        claim_id = cell_id.removesuffix("__feedback_off")
+        for hand in hands:
+            closed, open_ = cells.get((claim_id, hand)), cells.get((cell_id, hand))
+            if not closed or not open_:
+                continue
+            shares = []
+            for law, without in open_["laws"].items():
+                with_loop = closed["laws"].get(law, {}).get("stable")
+                if with_loop and with_loop["n"] and without["stable"]["n"]:
+                    shares.append((law, with_loop, without["stable"]))
+            if not shares:
+                continue
+            text = "; ".join(f"{law} {w['k']}/{w['n']} with, {o['k']}/{o['n']} without" for law, w, o in shares)
+            sentence = (f"Open-loop control of `{claim_id}` ({hand} hand), stable with the force loop and without it "
+                        f"(K_H = 0, `{cell_id}`): {text}.")
+            ours = next(((w, o) for law, w, o in shares if law == reference), None)
+            if ours:
+                (w, o) = ours
+                difference, low, high = newcombe_difference_interval(w["k"], w["n"], o["k"], o["n"])
+                sentence += (f" {reference}, with minus without: {difference:+.2f} ({low:+.2f} to {high:+.2f}; "
+                             f"p {_p(boschloo_p(w['k'], w['n'], o['k'], o['n']))}).")
+            out += ["", sentence]
+    return out
