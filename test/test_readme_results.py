@@ -68,7 +68,52 @@ def bench_range(name: str) -> tuple[float, float]:
     low, _, high = result("bench.json")["default_summary"]["min_median_max"][name]
     return low, high
 
+def claim_share(cell_id: str, hand: str, law: str = "fic") -> dict:
+    """A law's stable share {k, n, interval_95} on a claim cell (results/claims_statistics.json)."""
+    return next(c for c in result("claims_statistics.json")["cells"]
+                if c["cell"] == cell_id and c.get("hand") == hand)["laws"][law]["stable"]
+
+
+def k_n(share: dict) -> str:
+    return f"{share['k']}/{share['n']}"
+
+
+def peak_gain(law: str) -> dict:
+    """A law's response on the 1 s + 10 Hz open-loop control (results/replica_response.json)."""
+    return next(r for r in result("replica_response.json")["responses"]
+                if r["cell"] == "delay_1__rate_10__feedback_off" and r["law"] == law)
+
+
+def quartiles_at_peak(law: str) -> tuple[float, float]:
+    response = peak_gain(law)
+    index = response["gain_median"].index(max(response["gain_median"]))
+    return response["gain_q25"][index], response["gain_q75"][index]
+
+
+LINEAR_LAWS = ("linear", "linear_bounded", "linear_tdpa")
+
 FIGURES = [
+    Figure("claims: the passive hand's reproduced rows",
+           r"So far \(2026-12-05, (?P<runs>[\d,]+) runs\): at 1 s with the link at full rate, and at the paper's 0\.2 s "
+           r"with the link at 10 Hz, the FIC is stable in (?P<full>\d+/\d+) and (?P<ten>\d+/\d+) runs with the passive",
+           lambda: dict(runs=f"{result('claims_statistics.json')['runs_judged']:,}",
+                        full=k_n(claim_share("delay_1__rate_full", "passive")),
+                        ten=k_n(claim_share("delay_0.2__rate_10", "passive")))),
+    Figure("claims: 1 s + 10 Hz with the reactive hand, against linear_tdpa",
+           r"\((?P<fic>\d+/\d+) at 1 s, below `linear_tdpa`'s (?P<tdpa>\d+/\d+), Boschloo p (?P<p>[\d.]+)\)",
+           lambda: dict(fic=k_n(claim_share("delay_1__rate_10", "reactive")),
+                        tdpa=k_n(claim_share("delay_1__rate_10", "reactive", "linear_tdpa")),
+                        p=f"{next(c for c in result('claims_statistics.json')['comparisons'] if c['cell'] == 'delay_1__rate_10' and c.get('hand') == 'reactive' and c['baseline'] == 'linear_tdpa')['stable']['boschloo_p']:.3f}")),
+    Figure("claims: the open-loop control at 1 s + 10 Hz",
+           r"the FIC is as often unstable, (?P<control>\d+/\d+)\.",
+           lambda: dict(control=k_n(claim_share("delay_1__rate_10__feedback_off", "reactive")))),
+    Figure("claims: the replica's resonance under a 10 Hz held command",
+           r"move (?P<fic>[\d.]+) times what it is told at (?P<f>[\d.]+) Hz \(quartiles (?P<q25>[\d.]+)-(?P<q75>[\d.]+)\), "
+           r"the linear laws' (?P<low>[\d.]+)-(?P<high>[\d.]+)",
+           lambda: dict(fic=f"{peak_gain('fic')['peak_gain']:.2f}", f=f"{peak_gain('fic')['peak_frequency_hz']:.1f}",
+                        q25=f"{quartiles_at_peak('fic')[0]:.2f}", q75=f"{quartiles_at_peak('fic')[1]:.2f}",
+                        low=f"{min(peak_gain(law)['peak_gain'] for law in LINEAR_LAWS):.2f}",
+                        high=f"{max(peak_gain(law)['peak_gain'] for law in LINEAR_LAWS):.2f}")),
     Figure("bench: free-motion error of the ten default runs",
            r"free-motion tracking error max (?P<max_low>[\d.]+)-(?P<max_high>[\d.]+) mm .{0,40}RMS "
            r"(?P<rms_low>[\d.]+)-(?P<rms_high>[\d.]+) mm",
