@@ -105,8 +105,11 @@ FIGURES = [
                         tdpa=k_n(claim_share("delay_1__rate_10", "reactive", "linear_tdpa")),
                         p=f"{next(c for c in result('claims_statistics.json')['comparisons'] if c['cell'] == 'delay_1__rate_10' and c.get('hand') == 'reactive' and c['baseline'] == 'linear_tdpa')['stable']['boschloo_p']:.3f}")),
     Figure("claims: the open-loop control at 1 s + 10 Hz",
-           r"the FIC is as often unstable, (?P<control>\d+/\d+)\.",
-           lambda: dict(control=k_n(claim_share("delay_1__rate_10__feedback_off", "reactive")))),
+           r"the FIC is as often unstable, (?P<control>\d+/\d+) stable at 1 s and (?P<control_02>\d+/\d+) at 0\.2 s "
+           r"\((?P<closed_02>\d+/\d+) with the loop\)\.",
+           lambda: dict(control=k_n(claim_share("delay_1__rate_10__feedback_off", "reactive")),
+                        control_02=k_n(claim_share("delay_0.2__rate_10__feedback_off", "reactive")),
+                        closed_02=k_n(claim_share("delay_0.2__rate_10", "reactive")))),
     Figure("claims: the replica's resonance under a 10 Hz held command",
            r"move (?P<fic>[\d.]+) times what it is told at (?P<f>[\d.]+) Hz \(quartiles (?P<q25>[\d.]+)-(?P<q75>[\d.]+)\), "
            r"the linear laws' (?P<low>[\d.]+)-(?P<high>[\d.]+)",
