@@ -32,10 +32,15 @@ AUTHORITY_PARAMETERS = (
 )
 
 
+UNNAMED = "a node not yet named in discovery"
+#: After a hold that could not name every writer: how long the graph is still asked for their names [s].
+NAMING_WINDOW_S = 30.0
+
+
 def _node_name(info) -> str:
     """A writer's node, as the graph knows it (a writer discovered before its node's name: said so)."""
     if info.node_name == "_NODE_NAME_UNKNOWN_":
-        return "a node not yet named in discovery"
+        return UNNAMED
     return f"{info.node_namespace.rstrip('/')}/{info.node_name}"
 
 
@@ -50,6 +55,9 @@ class InputGuard:
         # name them as the station knows them.
         self._streams = {node.resolve_topic_name(topic): topic for topic in ROBOT_STREAMS + SET_POINT_STREAMS}
         self._teleop_topic = node.resolve_topic_name(TELEOP_STREAM)
+        # A hold whose line could not name every writer (the middleware's match, or discovery, came before the
+        # node names): the stream and until when the graph is asked again, so that the writer is still named.
+        self._unnamed: tuple[str, float] | None = None
         node.create_timer(PUBLISHER_CHECK_PERIOD_S, self._check_publishers)
 
     def teleop_writers(self) -> int:
@@ -69,22 +77,48 @@ class InputGuard:
         self._check_publishers()  # names the writers if the graph has them already
         reason = self._station.matched(resolved, status.current_count, self._streams[resolved])
         if reason:
-            self.hold(reason)
+            self.hold(reason, resolved)
+
+    def _writers(self, resolved: str) -> list[str]:
+        return [_node_name(info) for info in self._node.get_publishers_info_by_topic(resolved)]
 
     def _check_publishers(self) -> None:
         if self._station.held:
+            self._name_late_writers()
             return
         for resolved, topic in self._streams.items():
-            writers = [_node_name(info) for info in self._node.get_publishers_info_by_topic(resolved)]
+            writers = self._writers(resolved)
             reason = self._station.writers(resolved, writers, topic)
             if reason:
-                self.hold(reason)
+                self.hold(reason, resolved)
                 return
 
-    def hold(self, reason: str) -> None:
-        """The safe hold latched (``reason``, once): one error line, /diagnostics at once."""
+    def _name_late_writers(self) -> None:
+        """After a hold that could not name every writer: one more line once discovery has their names."""
+        if self._unnamed is None:
+            return
+        resolved, until = self._unnamed
+        writers = self._writers(resolved)
+        if len(writers) > 1 and UNNAMED not in writers:
+            self._node.get_logger().error(f"SAFE HOLD: the writers on {self._streams[resolved]}, now named by "
+                                          f"discovery: {', '.join(sorted(writers))}")
+            self._unnamed = None
+        elif self._clock_s() > until:
+            self._node.get_logger().error(f"SAFE HOLD: the writers on {self._streams[resolved]} were not all named "
+                                          f"within {NAMING_WINDOW_S:g} s: {', '.join(sorted(writers)) or 'none left'}")
+            self._unnamed = None
+
+    def _clock_s(self) -> float:
+        return self._node.get_clock().now().nanoseconds * 1e-9
+
+    def hold(self, reason: str, resolved: str | None = None) -> None:
+        """The safe hold latched (``reason``, once): one error line, /diagnostics at once. When the line could not
+        name every writer of ``resolved``, the graph is asked again until it can (``_name_late_writers``)."""
         self._node.get_logger().error(
             f"SAFE HOLD: {reason}. The replica sends no more torques (no joint state or set-point can be trusted to "
             "be its owner's): the robot's own command watchdog holds the arm, until the replica is restarted "
             "(fic_core.input_authority)")
+        if resolved is not None and resolved in self._streams and (
+                UNNAMED in reason or UNNAMED in self._writers(resolved) or len(self._writers(resolved)) <= 1):
+            self._unnamed = (resolved, self._clock_s() + NAMING_WINDOW_S)
         self._on_hold()
