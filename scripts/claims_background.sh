@@ -27,9 +27,11 @@ mkdir -p "$REPO/results"
 if [[ -f "$SNAPSHOT/scripts/claims_sweep.py" ]]; then sweep=("$SNAPSHOT/scripts/claims_sweep.py")
 else sweep=(-m sim_bridge.experiments.claims_sweep); fi
 # Under autogroup scheduling (Linux's default on desktops and many servers) a nice value only orders threads within
-# one session: a setsid'd job still takes a full share against every other session. A CPU cgroup with a low weight is
-# what makes it background; as root, the sweep joins one (cgroup v1 cpu.shares, or v2 cpu.weight), FIC_BACKGROUND_SHARES
-# out of the default 1024 (768 unless set: its own group, beside other background work). Without root it falls back to nice alone, and says so.
+# one session: a setsid'd job still takes a full share against every other session. A CPU cgroup with a low weight
+# is what makes it background; as root, this script joins one (cgroup v1 cpu.shares, or v2 cpu.weight) before it
+# starts the sweep, so the sweep and its workers are in it from their first instruction: FIC_BACKGROUND_SHARES out
+# of the default 1024 (768 unless set: its own group, beside other background work). Without root it falls back to
+# nice alone, and says so.
 join_background_cgroup() {
   local shares="${FIC_BACKGROUND_SHARES:-768}"
   if [[ -d /sys/fs/cgroup/cpu && -w /sys/fs/cgroup/cpu ]]; then
@@ -41,9 +43,8 @@ join_background_cgroup() {
   fi
   echo "claim sweep: no writable CPU cgroup (not root?): it runs under nice alone and competes with other sessions" >&2
 }
+join_background_cgroup "$$" || true
 setsid nohup nice -n 15 python "${sweep[@]}" --no-progress \
   --out-dir "$REPO/results/claims_runs" --jsonl "$REPO/results/claims_runs.jsonl" "$@" \
   >> "$REPO/results/claims_runs.log" 2>&1 < /dev/null &
-sweep_pid=$!
-join_background_cgroup "$sweep_pid" || true
-echo "claim sweep started: pid $sweep_pid, commit $COMMIT, log $REPO/results/claims_runs.log"
+echo "claim sweep started: pid $!, commit $COMMIT, log $REPO/results/claims_runs.log"

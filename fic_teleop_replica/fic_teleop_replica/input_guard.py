@@ -118,7 +118,8 @@ class InputGuard:
             f"SAFE HOLD: {reason}. The replica sends no more torques (no joint state or set-point can be trusted to "
             "be its owner's): the robot's own command watchdog holds the arm, until the replica is restarted "
             "(fic_core.input_authority)")
-        if resolved is not None and resolved in self._streams and (
-                UNNAMED in reason or UNNAMED in self._writers(resolved) or len(self._writers(resolved)) <= 1):
-            self._unnamed = (resolved, self._clock_s() + NAMING_WINDOW_S)
+        if resolved is not None and resolved in self._streams:
+            writers = self._writers(resolved)   # one graph lookup: is every writer named by now?
+            if UNNAMED in reason or UNNAMED in writers or len(writers) <= 1:
+                self._unnamed = (resolved, self._clock_s() + NAMING_WINDOW_S)
         self._on_hold()

@@ -188,10 +188,11 @@ README_CLAIM_CELLS = (
     ("delay_0.2__rate_10", "the link at 10 Hz both ways, the paper's 0.2 s delay"),
 )
 #: The open-loop controls README reads beside the claims (sim_bridge.experiments.claims CONTROL_CELLS): the same runs
-#: with the force feedback off, where no force loop closes through the channel. Not a claim: what they show is how much of
-#: a claim cell's instability the closed loop adds.
+#: with the force feedback off, where no force loop closes through the channel. Not a claim: what they show is how
+#: much of a claim cell's instability the closed loop adds.
 README_CONTROL_CELLS = (
-    ("delay_1__rate_10__feedback_off", "control: 1 s and 10 Hz, the force feedback off (no force loop through the channel)"),
+    ("delay_1__rate_10__feedback_off",
+     "control: 1 s and 10 Hz, the force feedback off (no force loop through the channel)"),
     ("delay_0.2__rate_10__feedback_off", "control: 0.2 s and 10 Hz, the force feedback off"),
 )
 CONTROL_READING = "control, not a claim"
