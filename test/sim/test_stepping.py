@@ -7,7 +7,8 @@ import pytest
 
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from sim_bridge.robot.mujoco_panda import PandaSimulation
-from sim_bridge.robot.stepping import LockstepGate, RealtimePacer, ZeroOrderHold
+from sim_bridge.robot.stepping import LockstepCommand, LockstepGate, RealtimePacer, ZeroOrderHold
+from sim_bridge.robot.watchdog import CommandWatchdog
 
 STEPS = 400
 
@@ -69,6 +70,75 @@ def test_lockstep_gate_times_out_and_a_late_answer_is_not_taken_for_the_next_sta
     threading.Timer(0.005, gate.deliver, args=(answer,)).start()  # answer to state 2, from another thread
     command, fresh = gate.wait(timeout=30.0)  # returns at the answer, however late a loaded machine runs the timer
     assert fresh and command is answer and gate.answered_steps == 1
+
+
+STEP_NS = 1_000_000
+
+
+def test_lockstep_gate_matches_a_stamped_answer_to_the_state_it_names():
+    gate = LockstepGate()
+    first, prompt, stale = np.zeros(7), np.ones(7), np.full(7, 2.0)
+    gate.state_published(0)
+    gate.deliver(first, 0)
+    assert gate.wait(timeout=0.0) == (first, True)
+    gate.state_published(STEP_NS)          # state 1: the controller is late for it
+    assert gate.wait(timeout=0.001)[1] is False
+    gate.state_published(2 * STEP_NS)      # its newest-only reader never saw state 1 and answers state 2 at once
+    gate.deliver(prompt, 2 * STEP_NS)
+    command, fresh = gate.wait(timeout=0.0)
+    assert fresh and command is prompt and gate.late_answers == 0   # counting took this for state 1's late answer
+    gate.state_published(3 * STEP_NS)
+    gate.deliver(stale, STEP_NS)           # an answer to a state older than one already answered: not taken
+    assert gate.wait(timeout=0.0) == (prompt, False) and gate.late_answers == 1
+    assert gate.latest_named() == (prompt, 2 * STEP_NS)
+
+
+def _starved_controller_run(stamped: bool, steps: int = 400) -> tuple[CommandWatchdog, list[float]]:
+    """The shape-sorting graph trials' pattern: a replica starved of CPU answers only some states, each at once on
+    the newest state it reads (depth 1), and the robot steps on after its wait for the others times out. The
+    controller here answers two states of every three (the third it never reads); the robot's side is the node's:
+    LockstepGate, LockstepCommand and the 50 ms stale-command watchdog on simulated time."""
+    gate, watchdog = LockstepGate(), CommandWatchdog(0.05)
+    applied = LockstepCommand(gate, watchdog)
+    ages = []
+    for k in range(steps):
+        now = k * 1e-3
+        gate.state_published(k * STEP_NS)
+        if k % 3 != 1:
+            gate.deliver(np.full(7, float(k)), k * STEP_NS if stamped else None)
+        command, fresh = gate.wait(timeout=0.0)
+        applied.take(command, fresh, now)
+        watchdog.check(now)
+        if applied.command is not None and not watchdog.holding:
+            ages.append(now - applied.command[0] * 1e-3)   # each command carries its state's index
+    return watchdog, ages
+
+
+def test_lockstep_watchdog_counts_the_age_of_the_applied_torque_on_the_simulated_clock():
+    watchdog, ages = _starved_controller_run(stamped=True)
+    assert watchdog.engagements == 0 and max(ages) == pytest.approx(1e-3)
+    # The same answers without the stamps they carry are matched by count: after the first missed state every
+    # prompt answer is taken for the one before's late answer, the step is not released, the robot steps on the
+    # last command it took as fresh, and the watchdog holds an arm whose controller answered within 1 ms.
+    unstamped, _ = _starved_controller_run(stamped=False)
+    assert unstamped.engagements >= 1
+
+
+def test_lockstep_command_does_not_end_a_hold_on_a_torque_older_than_the_bound():
+    gate, watchdog = LockstepGate(), CommandWatchdog(0.05)
+    applied = LockstepCommand(gate, watchdog)
+    gate.state_published(0)
+    gate.deliver(np.zeros(7), 0)
+    applied.take(*gate.wait(timeout=0.0), 0.0)
+    watchdog.check(0.0)
+    assert not watchdog.holding
+    assert watchdog.check(0.051) is not None and watchdog.holding   # silence: the hold
+    gate.deliver(np.ones(7), 10 * STEP_NS)                          # a torque on the state of 10 ms, at 120 ms
+    assert applied.take(*gate.poll_any(), 0.120) is None and watchdog.holding
+    assert applied.command is not None and applied.command[0] == 0.0
+    gate.deliver(np.full(7, 2.0), 115 * STEP_NS)                    # one on a state 5 ms old ends it
+    event = applied.take(*gate.poll_any(), 0.120)
+    assert event is not None and not event.engaged and not watchdog.holding and applied.command[0] == 2.0
 
 
 def test_lockstep_gate_resync_after_a_burst():

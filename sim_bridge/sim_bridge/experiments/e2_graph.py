@@ -83,6 +83,7 @@ def judge_run(out: Path, seed: int, delay: float, controller: str, paper_law: bo
     return row
 
 
+NAMED_STATE = re.compile(rb"joints@state_stamp_ns=(\d+)")
 HOLD = re.compile(r"\[(\d+\.\d+)\] \[robot\]: watchdog: torque commands stale \(([\d.]+) s > ([\d.]+) s\)")
 
 
@@ -92,7 +93,10 @@ def stale_holds(out: Path) -> list[dict]:
     torque commands the replica published in that span (the bag's receive times). In lockstep the robot waits for
     each state's answer at most lockstep_timeout of wall time and then steps on the last command; so a hold means
     one bound's worth of consecutive steps whose answers came later than that in wall time. Answers published in
-    the span say the replica was computing its law, late: the machine's scheduling, not the law's silence."""
+    the span say the replica was computing its law, late: the machine's scheduling, not the law's silence. And the
+    state the newest of them was computed on (the stamp each command names, fic_core.command_stamp): its age at the
+    hold in simulated ms (``newest_state_age_ms``, None when the commands name none) is what the watchdog should
+    have seen; the robot before it matched answers to states by count, and took prompt answers for late ones."""
     from mcap.reader import make_reader
 
     log_path, bags = out / "logs" / "robot.log", sorted((out / "bag").glob("*.mcap"))
@@ -101,7 +105,7 @@ def stale_holds(out: Path) -> list[dict]:
     holds = [(float(wall), float(bound)) for wall, _, bound in HOLD.findall(log_path.read_text())]
     if not holds:
         return []
-    clock_wall, clock_sim, command_wall = [], [], []
+    clock_wall, clock_sim, command_wall, command_state = [], [], [], []
     with bags[0].open("rb") as handle:
         for _, channel, message in make_reader(handle).iter_messages(topics=["/clock",
                                                                              "/effort_controller/commands"]):
@@ -112,15 +116,21 @@ def stale_holds(out: Path) -> list[dict]:
                 clock_wall.append(message.log_time * 1e-9)
             else:
                 command_wall.append(message.log_time * 1e-9)
+                named = NAMED_STATE.search(message.data)   # the layout label, read from the CDR bytes
+                command_state.append(int(named.group(1)) * 1e-9 if named else np.nan)
     order = np.argsort(clock_wall)
     wall, simulated = np.asarray(clock_wall)[order], np.asarray(clock_sim)[order]
-    commands = np.sort(np.asarray(command_wall))
+    by_arrival = np.argsort(command_wall)
+    commands, states = np.asarray(command_wall)[by_arrival], np.asarray(command_state, dtype=float)[by_arrival]
     rows = []
     for at_wall, bound in holds:
         at = float(np.interp(at_wall, wall, simulated))
         began = float(np.interp(at - bound, simulated, wall))
+        before = states[commands <= at_wall]
+        before = before[np.isfinite(before)]
         rows.append({"t_s": round(at, 3), "wall_s_for_bound": round(at_wall - began, 2),
-                     "commands_in_bound": int(((commands > began) & (commands <= at_wall)).sum())})
+                     "commands_in_bound": int(((commands > began) & (commands <= at_wall)).sum()),
+                     "newest_state_age_ms": round((at - float(before.max())) * 1e3, 1) if before.size else None})
     return rows
 
 
@@ -203,7 +213,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{row['law']}@{row['delay_s']:g} seed {row['seed']}: wall per simulated ms {pace(out)}")
             for hold in stale_holds(out):
                 print(f"  hold at {hold['t_s']:.3f} s: the bound before it took {hold['wall_s_for_bound']} s of wall "
-                      f"time, {hold['commands_in_bound']} replica commands published in it")
+                      f"time, {hold['commands_in_bound']} replica commands published in it, the newest computed on "
+                      f"a state {hold.get('newest_state_age_ms')} ms old")
         return 0
     if args.summary is not None:
         text = summary(done_rows(args.out))

@@ -22,13 +22,14 @@ reads the model while it moves); the executor thread only receives commands. Mod
   ``lockstep_peers`` (header-stamped topics of the nodes that only follow /clock: the device, the master, the
   planner) are waited for too: no step past t until each has published a stamp >= t - ``lockstep_peer_lag``
   (peer_barrier.py), so that the operator's side keeps up with the simulation instead of falling behind it.
-  The effort command carries no stamp: the controller must answer every joint state once, in order, and the
-  n-th command is taken as the answer to the n-th state (a late answer after a timeout is not mistaken for the
-  next state's). While the watchdog holds (commands stopped), steps are
+  A command that names the joint state it was computed on (fic_core.command_stamp, the replica's) answers that
+  state; one that names none is taken in order, the n-th command as the answer to the n-th state (a late answer
+  after a timeout is not mistaken for the next state's). While the watchdog holds (commands stopped), steps are
   paced by the wall clock instead of waiting: the world and /clock keep moving for whoever is still listening.
 
-Safety (watchdog.py): commands older than ``command_timeout`` (wall seconds in realtime, simulated seconds in
-lockstep) are replaced by the hold torque (gravity compensation + damping); each transition is logged once.
+Safety (watchdog.py): commands older than ``command_timeout`` (wall seconds in realtime; in lockstep simulated
+seconds since the state the newest command was computed on) are replaced by the hold torque (gravity compensation +
+damping); each transition is logged once.
 Commands with NaN/Inf or a length other than 7 are rejected with an error log and never reach the physics.
 Realtime: a command that names the joint state it was computed on (the replica's do, fic_core.command_stamp) is
 refused when that state is older than ``command_state_timeout`` against the newest state published: it is never
@@ -66,7 +67,7 @@ from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.peer_barrier import PeerBarrier
 from sim_bridge.robot.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
 from sim_bridge.robot.scenes import SCENE_NAMES
-from sim_bridge.robot.stepping import STEPPING_MODES, LockstepGate, RealtimePacer, ZeroOrderHold
+from sim_bridge.robot.stepping import STEPPING_MODES, LockstepCommand, LockstepGate, RealtimePacer, ZeroOrderHold
 from sim_bridge.robot.velocity_reflex import VelocityReflex
 from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog, WatchdogEvent
 
@@ -82,6 +83,7 @@ PEER_QOS = qos.best_effort(10)
 BASE_FRAME = "panda_link0"
 SUBSCRIBER_WAIT_S = 60.0  # lockstep: longest wall-clock wait for the /joint_states readers before the first step
 STEPS_PER_SECOND = round(1.0 / TIMESTEP)
+STEP_NS = round(TIMESTEP * 1e9)   # a step on the stamp grid [ns]
 
 SCHEMA = Schema(
     "robot.yaml",
@@ -193,6 +195,7 @@ class RobotNode(Node):
         self._accepted_commands = 0
         self._last_command_count = 0
         self._last_command: np.ndarray | None = None
+        self._applied = LockstepCommand(self._gate, self._watchdog)   # lockstep: the command the arm gets
         self._stop = threading.Event()
         self._wall_epoch_ns = self.get_clock().now().nanoseconds
 
@@ -268,14 +271,12 @@ class RobotNode(Node):
             return
         self._accepted_commands += 1
         self._hold.update(command, time.monotonic())
-        self._gate.deliver(command)
+        self._gate.deliver(command, _named_state_ns(message))
 
     def _computed_on_old_state(self, message: Float64MultiArray) -> bool:
         """Whether the command names a joint state older than command_state_timeout against the newest one published
         (both on the simulation's stamp grid); counted and said (throttled) if so."""
-        if len(message.layout.dim) != 1:
-            return False
-        state_ns = command_state_stamp_ns(message.layout.dim[0].label)
+        state_ns = _named_state_ns(message)
         if state_ns is None:
             return False
         newest_ns = self._wall_epoch_ns + self._sim.steps * round(TIMESTEP * 1e9)
@@ -378,7 +379,7 @@ class RobotNode(Node):
         self._log_event(self._watchdog.check(self._sim.time))
         late_steps = 0  # consecutive steps whose wait saw only late answers
         while not self._stop.is_set():
-            self._gate.state_published()  # before publishing: an instant answer must count
+            self._gate.state_published(self._sim.steps * STEP_NS)  # before publishing: an instant answer must count
             self._publish_state()
             started = self._last_command is not None
             if started and self._watchdog.holding:
@@ -399,11 +400,10 @@ class RobotNode(Node):
                     late_steps = 0
             if self._stop.is_set():
                 return
-            if fresh:
-                self._log_event(self._watchdog.command_received(self._sim.time))
-                self._last_command = command
-            elif not started:
+            if not fresh and not started:
                 continue  # no command ever: wait at t=0, re-publishing the initial state
+            self._log_event(self._applied.take(command, fresh, self._sim.time))
+            self._last_command = self._applied.command
             self._log_event(self._watchdog.check(self._sim.time))
             if self._barrier is not None:
                 for topic in self._barrier.wait(self._sim.time):
@@ -556,6 +556,13 @@ class RobotNode(Node):
                                   self._snapshot_dir, self._snapshot_interval, self._video_fps)
             for path in written:
                 rclpy.logging.get_logger("sim_bridge.robot.robot_node").info(f"wrote {path}")
+
+
+def _named_state_ns(message: Float64MultiArray) -> int | None:
+    """The joint state stamp [ns] a torque command names (fic_core.command_stamp), None if it names none."""
+    if len(message.layout.dim) != 1:
+        return None
+    return command_state_stamp_ns(message.layout.dim[0].label)
 
 
 def _pose(position: np.ndarray, quaternion_wxyz: np.ndarray) -> Pose:

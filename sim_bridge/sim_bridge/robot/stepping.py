@@ -21,6 +21,7 @@ from typing import Callable
 import numpy as np
 
 from fic_core.errors import finite_scalar
+from sim_bridge.robot.watchdog import CommandWatchdog, WatchdogEvent
 
 STEPPING_MODES: tuple[str, ...] = ("realtime", "lockstep")
 
@@ -91,39 +92,61 @@ class RealtimePacer:
 class LockstepGate:
     """Hands the command for each published state from the subscriber's thread to the simulation thread.
 
-    The effort-command message carries no stamp, so order is what ties a command to a state: the controller
-    answers every state once, in order, so the n-th command delivered answers the n-th state published (FIFO).
-    A step is released when the answer to the newest published state has arrived. After a timeout the late answer
-    to the skipped state still arrives; counting keeps it from being taken for the next state (which would make
-    every later command lag its state by one step, for good). ``resync`` declares every published state answered:
-    after draining a burst (start, resuming after a hold) or when the counts have drifted apart.
+    A command that names the joint state it was computed on (fic_core.command_stamp: the replica's do) is matched
+    to the states by that stamp: the step is released when a command computed on the newest published state has
+    arrived, and a command on an older state is a late answer (applied in place of an older one, never taken for
+    the newest state's). The replica reads its joint states newest-only, so after a step it was late for it may
+    never see that state and answer the next one at once; counting would take that prompt answer for the missed
+    state's late one, and stay one behind until a resync (measured in the shape-sorting graph trials: the robot
+    stepped on a 50 ms old torque and held the arm while the replica answered states 0-3 ms old, docs/EXPERIMENTS.md).
+    A command without a stamp falls back to order: the n-th such command answers the n-th state published (FIFO);
+    after a timeout the late answer to the skipped state is counted, not taken for the next state's.
+    ``resync`` declares every published state answered: after draining a burst (start, resuming after a hold) or
+    when the counts have drifted apart.
     """
 
     def __init__(self) -> None:
         self._condition = threading.Condition()
         self._published = 0
         self._delivered = 0
+        self._published_stamp: int | None = None   # [ns] of the newest state published, when given
+        self._answered_stamp: int | None = None    # [ns] the newest state a delivered command names
         self._latest: np.ndarray | None = None
+        self._latest_state_ns: int | None = None   # the state the latest command names (None: it names none)
         self._interrupted = False
         self._polled = 0
         self.timeouts = 0
         self.answered_steps = 0
         self.late_answers = 0  # commands that answered an older state than the newest published
 
-    def state_published(self) -> None:
+    def state_published(self, stamp_ns: int | None = None) -> None:
+        """A state is about to be published (before it is: an instant answer must count), stamped ``stamp_ns``."""
         with self._condition:
             self._published += 1
+            if stamp_ns is not None:
+                self._published_stamp = stamp_ns
 
     def _answered(self) -> bool:
-        return self._delivered >= self._published or self._interrupted
+        if self._interrupted:
+            return True
+        if self._published_stamp is not None and self._answered_stamp is not None:
+            return self._answered_stamp >= self._published_stamp
+        return self._delivered >= self._published
 
-    def deliver(self, command: np.ndarray) -> None:
-        """Called from the subscription callback with a validated command."""
+    def deliver(self, command: np.ndarray, state_stamp_ns: int | None = None) -> None:
+        """Called from the subscription callback with a validated command, and the stamp of the state it names."""
         with self._condition:
-            self._latest = command
             self._delivered += 1
-            if self._delivered < self._published:
-                self.late_answers += 1
+            if state_stamp_ns is None:
+                self._latest, self._latest_state_ns = command, None
+                if self._delivered < self._published:
+                    self.late_answers += 1
+            else:
+                if self._published_stamp is None or state_stamp_ns < self._published_stamp:
+                    self.late_answers += 1
+                if self._answered_stamp is None or state_stamp_ns >= self._answered_stamp:
+                    self._answered_stamp = state_stamp_ns   # older than one already delivered: not taken
+                    self._latest, self._latest_state_ns = command, state_stamp_ns
             self._condition.notify_all()
 
     def wait(self, timeout: float, count_timeout: bool = True) -> tuple[np.ndarray | None, bool]:
@@ -154,6 +177,11 @@ class LockstepGate:
                 if self._delivered == seen or self._interrupted:
                     return self._latest
 
+    def latest_named(self) -> tuple[np.ndarray | None, int | None]:
+        """(the latest command taken, the stamp [ns] of the state it names, None if it names none), as one pair."""
+        with self._condition:
+            return self._latest, self._latest_state_ns
+
     def poll_any(self) -> tuple[np.ndarray | None, bool]:
         """Non-blocking: (latest command, whether any command arrived since the last poll_any or wait)."""
         with self._condition:
@@ -164,13 +192,48 @@ class LockstepGate:
     def resync(self) -> None:
         with self._condition:
             self._delivered = self._published
-            self._polled = self._delivered
+            self._polled = self._delivered   # (stamped answers need no resync: each names its state)
 
     def interrupt(self) -> None:
         """Wake a waiting simulation thread (shutdown)."""
         with self._condition:
             self._interrupted = True
             self._condition.notify_all()
+
+
+class LockstepCommand:
+    """Lockstep: the command the arm gets, and the simulated time its watchdog counts that command's age from.
+
+    A command that names its joint state (the replica's) is newest by that stamp: a late answer, to a state before
+    the one just published, is still newer than the torque held so far, so it is applied; and its age is counted
+    from its state, so the watchdog measures on the simulated clock how old the torque on the arm is, not whether
+    the answers' count lines up with the states' (LockstepGate). One whose state is already older than the
+    watchdog's bound does not end a hold. A command that names no state is the newest state's answer when the gate
+    releases the step (``fresh``), as before stamps.
+    """
+
+    def __init__(self, gate: LockstepGate, watchdog: CommandWatchdog) -> None:
+        self._gate = gate
+        self._watchdog = watchdog
+        self.command: np.ndarray | None = None
+        self.state_ns: int | None = None   # the state the applied command names (None: it names none)
+
+    def take(self, command: np.ndarray | None, fresh: bool, now: float) -> WatchdogEvent | None:
+        """After the step's wait (its ``command``, ``fresh``) at simulated time ``now``: the watchdog's release
+        event, if this ends a hold."""
+        latest, named_ns = self._gate.latest_named()
+        if named_ns is None:
+            if not fresh:
+                return None
+            self.command, self.state_ns = command, None
+            return self._watchdog.command_received(now)
+        if self.state_ns is not None and named_ns <= self.state_ns:
+            return None
+        state_time = min(named_ns * 1e-9, now)
+        if self._watchdog.holding and now - state_time > self._watchdog.timeout:
+            return None
+        self.command, self.state_ns = latest, named_ns
+        return self._watchdog.command_received(state_time)
 
 
 class ZeroOrderHold:
