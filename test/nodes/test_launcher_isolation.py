@@ -71,8 +71,11 @@ def test_two_runs_started_together_each_match_a_solo_run(solo_run: dict, tmp_pat
         assert metrics["limit_violations"] == 0
         # A second run's joint states in this bag would double their rate per simulated second. The count itself
         # is no measure: the bag runs on past the requested 3 s while the launcher stops the graph, and how far
-        # depends on the load (3092 against a solo 3775 with two runs on 2 cores, CI).
-        assert metrics["duration_s"] >= 3.0 - 0.05
+        # depends on the load (3092 against a solo 3775 with two runs on 2 cores, CI). The span is the rate's
+        # denominator only, held to the share of the window the launcher itself asks a bag to hold
+        # (profiles/realtime.yaml recorded_fraction, 0.9): two lockstep runs on 2 cores once ended their bag 2.943 s
+        # into the 3 s window (CI, 2026-12-05), the recorder's last /clock still queued when the graph stopped.
+        assert metrics["duration_s"] >= 3.0 * 0.9
         assert _joint_state_rate(metrics) == pytest.approx(_joint_state_rate(solo_run), rel=0.05)
         # Lockstep with the peer barrier: the same run, to within what the machine's load changes in it. Two runs
         # sharing 2 cores skip more barrier waits (a peer held past lockstep_peer_timeout is not waited for) than
