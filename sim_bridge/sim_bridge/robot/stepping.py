@@ -97,8 +97,8 @@ class LockstepGate:
     arrived, and a command on an older state is a late answer (applied in place of an older one, never taken for
     the newest state's). The replica reads its joint states newest-only, so after a step it was late for it may
     never see that state and answer the next one at once; counting would take that prompt answer for the missed
-    state's late one, and stay one behind until a resync (measured in the shape-sorting graph trials: the robot
-    stepped on a 50 ms old torque and held the arm while the replica answered states 0-3 ms old, docs/EXPERIMENTS.md).
+    state's late one, and stay one behind until a resync (the shape-sorting graph trials: 27 stale-command holds of
+    the arm, at each of which the newest answer had been computed on a state 1-19 ms old, docs/EXPERIMENTS.md).
     A command without a stamp falls back to order: the n-th such command answers the n-th state published (FIFO);
     after a timeout the late answer to the skipped state is counted, not taken for the next state's.
     ``resync`` declares every published state answered: after draining a burst (start, resuming after a hold) or
