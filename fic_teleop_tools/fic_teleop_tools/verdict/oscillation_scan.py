@@ -23,9 +23,12 @@ A window in which the command itself repeats at P along the same axis (a sinusoi
 the command as a residual's must) with an amplitude at least 1/``forced_share`` times the residual's is the loop's
 forced answer to that command (a replica lagging a planner that circles at P, a
 hand giving way to the force that lag sends back), not an oscillation of its own: such a window does not count as
-oscillating. The blind spot, stated: a limit cycle along an axis and at a period where the command moves over the
-whole span, smaller than ``forced_share`` of the command there (50 mm against the paper's 0.20 m circle at its lap
-period), is taken for the forced answer; an aperiodic command masks nothing.
+oscillating. run_verdict uses this excuse only where it cannot fit the loop's forced answer to its exogenous input
+(fic_teleop_tools.verdict.forced_answer), which replaces it: its blind spot, a limit cycle along an axis and at a
+period where the command moves over the whole span, smaller than ``forced_share`` of the command there (50 mm
+against the paper's 0.20 m circle at its lap period), taken for the forced answer; and a loop whose answer at P is
+more than ``forced_share`` of its command (|H - 1| > 0.5, an under-damped replica at its resonance), whose forced
+swing is never excused.
 """
 from __future__ import annotations
 
@@ -49,6 +52,7 @@ class ScanSettings:
     forced_share: float = 0.5        # residual under this share of the command's amplitude at P: forced answer
     free_share: float = 0.8          # a window is judged when this share of it is outside contact
     samples_per_period: int = 12     # the series is block-averaged to about this many samples a period
+    max_period: float | None = None  # [s] the longest period scanned (None: the longest the span holds)
 
 
 @dataclass
@@ -127,7 +131,10 @@ def scan(time: NDArray, free: NDArray, start: float, settings: ScanSettings,
     thinned: dict[int, tuple[NDArray, NDArray, NDArray]] = {}
     best: dict[str, Oscillation | None] = {name: None for name in signals}
     closest = {name: Oscillation(False, 0.0, 0.0, 0.0, 0.0, 0, 0.0, longest) for name in signals}
-    for period in periods(settings, longest):
+    grid = periods(settings, longest)
+    if settings.max_period is not None:
+        grid = grid[grid <= settings.max_period * (1.0 + 1e-9)]
+    for period in grid:
         stride = max(1, int(period / (settings.samples_per_period * step)))
         if stride not in thinned:
             # Block means, not every stride-th sample: a faster oscillation averages out instead of aliasing into a

@@ -14,8 +14,16 @@ span, which starts ``settle`` seconds into the run:
 2. SUSTAINED OSCILLATION at any period from 0.2 s to the longest the span holds 1.5 times (which must reach
    max(4 round trips, ``min_longest_period``), else the run is not assessed): fic_teleop_tools.verdict.oscillation_scan
    on each motion minus its known command (x_M minus the hand's target; x_d and x_R minus the commanded motion; the
-   tracking error x_d - x_R), outside contact. A delay-induced oscillation has a period of at most about 4 round
-   trips (its phase lag of pi/2 to pi accrues over one round trip).
+   tracking error x_d - x_R), outside contact, LESS THE LOOP'S FORCED ANSWER to its exogenous input
+   (fic_teleop_tools.verdict.forced_answer: causal kernels from the planner's motion and the operator's planned
+   target, fitted over the run and predicted out of sample, beside a free sinusoid at the period where what a first
+   fit leaves oscillates). A stable but under-damped loop swings about its command at its resonance whenever the
+   command moves there; that swing is its answer to the input, not an oscillation of its own, and the fit takes it
+   out. The fit's peak gain from the operator's target to x_R (``resonance_gain`` at ``resonance_period_s``) is
+   reported, so that an under-damped loop stays visible. Without exogenous input (a bag) the motion is scanned as it
+   is, with the command's excuse of oscillation_scan where a command is known: conservative, and the notes say so.
+   A delay-induced oscillation has a period of at most about 4 round trips (its phase lag of pi/2 to pi accrues over
+   one round trip).
 3. STEADY ENERGY GENERATION AT THE CHANNEL'S PORTS, judged as a rate: the channel's generated energy (what left it at
    both ports minus what entered, the time-domain passivity observers' sum) rises over the judged span outside
    contact by more than ``port_rate_limit`` watts on average. A passive channel generates nothing; a delayed one
@@ -49,6 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fic_core.arm_profile import arm_profile
 from fic_core.teleoperation import TeleoperationMode
+from fic_teleop_tools.verdict.forced_answer import Channel, ForcedAnswer, ForcedSettings, dominant_period, fit
 from fic_teleop_tools.verdict.oscillation_scan import Oscillation, ScanSettings, scan
 
 X_B = 0.05   # [m] the paper's error bound x_b (Sec. III)
@@ -81,6 +90,7 @@ class VerdictCriterion:
     resample_period: float = 0.01        # [s] the uniform grid the series are judged on
     joint_speed_limit: tuple[float, ...] = arm_profile("panda").joint_velocity   # [rad/s] the datasheet's
     scan: ScanSettings = field(default_factory=ScanSettings)
+    forced: ForcedSettings = field(default_factory=ForcedSettings)
 
     def longest_period_needed(self, one_way_delay: float) -> float:
         return max(self.round_trips_judged * 2.0 * one_way_delay, self.min_longest_period)
@@ -277,6 +287,38 @@ def _energy_windows(time: NDArray, energy: NDArray, free: NDArray, start: float,
     return peaks
 
 
+def _exogenous_channels(name: str, on_grid: dict, delay: float) -> list[Channel]:
+    """The exogenous inputs a motion answers (fic_teleop_tools.verdict.forced_answer), at the shifts at which they
+    enter the delayed loop. The replica's side (x_d, x_R, their difference) sees the planner at once and the
+    operator's target one delay later; the handle (x_M) its target at once and the planner one delay later (the force
+    of the replica's lag behind it); through a closed force loop each comes back one round trip later. ``unit``: the
+    motion's reference holds that input with gain 1 (the command is the planner plus the target one delay later).
+    Never x_M, x_d or what the replica received: they carry the loop's own oscillation."""
+    planner, target, command = on_grid["planner"], on_grid["target"], on_grid["command"]
+    if name == "x_M - operator target":
+        if target is None:
+            return []
+        wanted = [("operator target", target, 0.0, True)]
+        if planner is not None:
+            wanted += [("planner", planner, delay, False)]
+        wanted += [("operator target", target, 2.0 * delay, False)]
+    elif planner is not None and target is not None:
+        unit = name != "x_d - x_R"
+        wanted = [("planner", planner, 0.0, unit), ("operator target", target, delay, unit),
+                  ("planner", planner, 2.0 * delay, False), ("operator target", target, 3.0 * delay, False)]
+    elif command is not None and target is None and planner is None:
+        # The command alone (a run that recorded it but not its parts): exogenous as a whole.
+        wanted = [("command", command, 0.0, name != "x_d - x_R"), ("command", command, 2.0 * delay, False)]
+    else:
+        return []
+    channels: list[Channel] = []
+    for channel_name, series, shift, unit in wanted:
+        if any(c.name == channel_name and abs(c.shift - shift) < 1e-9 for c in channels):
+            continue   # no delay: the echoes coincide with the inputs
+        channels.append(Channel(channel_name, series, shift, unit))
+    return channels
+
+
 def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunVerdict:
     """The two verdicts of one run (module docstring)."""
     criterion = criterion or VerdictCriterion()
@@ -420,7 +462,8 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
                                       f"{criterion.energy_growth_ratio:g}x)")
         else:
             notes.append("no energy series: the growth test is skipped")
-        # 2. Sustained oscillation, per motion minus its command.
+        # 2. Sustained oscillation, per motion minus its command, less the loop's forced answer to its exogenous
+        # input (fic_teleop_tools.verdict.forced_answer).
         signals: dict[str, tuple[NDArray, NDArray | None]] = {}
         if on_grid["x_M"] is not None:
             reference = on_grid["target"] if on_grid["target"] is not None else np.zeros_like(on_grid["x_M"])
@@ -433,15 +476,83 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
                 signals[f"{name} - command"] = (on_grid[name] - on_grid["command"], on_grid["command"])
         if on_grid["error"] is not None:
             signals["x_d - x_R"] = (on_grid["error"], on_grid["command"])
-        oscillations: dict[str, Oscillation] = scan(time, free, judged_from, criterion.scan, signals)
+        # The motions as they are (reported: what the rule without the fit would say), then the fit of each to the
+        # exogenous input; where what a first fit leaves oscillates, the fit again with a free sinusoid at that period
+        # (forced_answer.fit's free_period), so that the kernels cannot take a free oscillation for an answer to the
+        # input; then the scan of what the fit leaves.
+        before: dict[str, Oscillation] = scan(time, free, judged_from, criterion.scan, signals)
+        # The fit's samples: the judged span outside contact and contact_margin around it (the linear answer does not
+        # hold while the obstacle holds the arm). The round trip the other tests add is kept in: what contact sets
+        # going in the loop is not the input's answer, but it is only a disturbance to a least-squares fit, and the
+        # fit needs the samples.
+        use = judged & ~_dilated(contact, int(round(criterion.contact_margin / step)))
+        first: dict[str, tuple[NDArray, list[Channel], ForcedAnswer]] = {}
+        for name, (residual, _) in signals.items():
+            channels = _exogenous_channels(name, on_grid, data.one_way_delay) if criterion.forced.enabled else []
+            answer = fit(time, residual, channels, use, criterion.forced) if channels else None
+            if answer is not None:
+                first[name] = (residual, channels, answer)
+        hints = scan(time, free, judged_from, criterion.scan,
+                     {name: (residual - answer.predicted, None) for name, (residual, _, answer) in first.items()}) \
+            if first else {}
+        scanned: dict[str, tuple[NDArray, NDArray | None]] = {}
+        answers: dict[str, ForcedAnswer] = {}
+        for name, (residual, known) in signals.items():
+            if name not in first:
+                scanned[name] = (residual, known)
+                continue
+            _, channels, answer = first[name]
+            if hints[name].amplitude > 0.0:
+                # The free oscillation's period, refined on what each fit leaves until it settles (the scan's grid
+                # is 7 % coarse; a periodogram of the motion itself would be pulled towards the resonance's peak).
+                period = hints[name].period
+                for _ in range(criterion.forced.period_rounds):
+                    found = dominant_period(time, residual - answer.predicted, use, period)
+                    settled = abs(found - period) < 0.005 * period
+                    period = found
+                    answer = fit(time, residual, channels, use, criterion.forced, free_period=period) or answer
+                    if settled:
+                        break
+            answers[name] = answer
+            # The fitted answer replaces the command's excuse (a window whose command repeats at P with twice the
+            # residual's amplitude): what the input explains is gone already, and the excuse would hide a free
+            # oscillation at a period where the command repeats.
+            scanned[name] = (residual - answer.predicted, None)
+        if not answers:
+            notes.append("no exogenous input (the planner's motion, the operator's planned target) or too little "
+                         "motion outside contact to fit the loop's answer to it: the oscillation test keeps the "
+                         "conservative rule (a stable but under-damped loop's answer to the operator's motion reads "
+                         "as oscillation)")
+        elif len(answers) < len(signals):
+            notes.append(f"no forced answer fitted for {', '.join(n for n in signals if n not in answers)}: scanned "
+                         "with it (conservative)")
+        oscillations: dict[str, Oscillation] = scan(time, free, judged_from, criterion.scan, scanned)
+        found_all = {**{f"{name} (with its forced answer)": found for name, found in before.items()}, **oscillations}
         figures["oscillation"] = {name: found.as_dict() for name, found in oscillations.items()}
+        figures["oscillation_with_forced_answer"] = {name: found_all[f"{name} (with its forced answer)"].as_dict()
+                                                     for name in answers}
+        figures["forced_answer"] = {name: answer.as_dict() for name, answer in answers.items()}
+        resonance = next((answers[name].gain for name in ("x_R - command", "x_d - command", "x_M - operator target")
+                          if name in answers and answers[name].gain is not None), None)
+        if resonance is not None:
+            motion = next(name for name in ("x_R - command", "x_d - command", "x_M - operator target")
+                          if name in answers and answers[name].gain is not None).split(" - ")[0]
+            figures.update(resonance_gain=resonance["peak_gain"], resonance_period_s=resonance["period_s"],
+                           resonance_of=motion)
         for name, found in oscillations.items():
             if found.sustained:
                 stable_reasons.append(
-                    f"sustained oscillation of {name}: {found.amplitude * 1e3:.1f} mm at {found.period:.2f} s in "
+                    f"sustained oscillation of {name}{' beyond its forced answer' if name in answers else ''}: "
+                    f"{found.amplitude * 1e3:.1f} mm at {found.period:.2f} s in "
                     f"{found.window_share:.0%} of {found.windows} windows (sinusoid explains "
                     f"{found.explained_share:.0%}; limits {criterion.scan.amplitude * 1e3:g} mm, "
                     f"{criterion.scan.explained_share:.0%}, {criterion.scan.sustained_share:.0%} of windows)")
+            elif name in answers and found_all[f"{name} (with its forced answer)"].sustained:
+                forced = found_all[f"{name} (with its forced answer)"]
+                share = float(np.mean(answers[name].explained_share))
+                notes.append(f"{name}: {forced.amplitude * 1e3:.1f} mm at {forced.period:.2f} s is the loop's forced "
+                             f"answer to its exogenous input (the fit explains {share:.0%} of it; what it leaves "
+                             f"does not oscillate), not counted")
         # 3. Steady generation at the channel's ports.
         if on_grid["generated"] is not None:
             values = on_grid["generated"].reshape(time.size, -1)[:, 0]
