@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete, lfilter
 
-from fic_teleop_tools.verdict.forced_answer import Channel, fit
+from fic_teleop_tools.verdict.forced_answer import Channel, ForcedSettings, fit
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, judge
-from fic_teleop_tools.verdict.forced_answer import ForcedSettings
 from sim_bridge.experiments.verdict_cases import (HAND_DAMPING, HAND_STIFFNESS, HANDLE_MASS, RESONANT_MASS, resonance,
                                                   resonant_plant, replica_limit_cycle)
 
@@ -31,7 +30,8 @@ def driven():
     rng = np.random.default_rng(3)
     time = np.arange(0.0, 30.0, 0.01)
     u = np.zeros((time.size, 3))
-    u[:, 0] = lfilter(*_band(), rng.standard_normal(time.size)) * 0.01 + np.cumsum(rng.standard_normal(time.size)) * 1e-4
+    u[:, 0] = lfilter(*_band(), rng.standard_normal(time.size)) * 0.01 \
+        + np.cumsum(rng.standard_normal(time.size)) * 1e-4
     answer = _second_order(u[:, 0], 0.7, 0.3, 0.01)
     residual = np.zeros_like(u)
     residual[:, 0] = np.interp(time - 0.2, time, answer) - np.interp(time - 0.2, time, u[:, 0])

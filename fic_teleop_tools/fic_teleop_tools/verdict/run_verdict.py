@@ -507,9 +507,9 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
                 # is 7 % coarse; a periodogram of the motion itself would be pulled towards the resonance's peak).
                 period = hints[name].period
                 for _ in range(criterion.forced.period_rounds):
-                    found = dominant_period(time, residual - answer.predicted, use, period)
-                    settled = abs(found - period) < 0.005 * period
-                    period = found
+                    refined = dominant_period(time, residual - answer.predicted, use, period)
+                    settled = abs(refined - period) < 0.005 * period
+                    period = refined
                     answer = fit(time, residual, channels, use, criterion.forced, free_period=period) or answer
                     if settled:
                         break
@@ -527,10 +527,8 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
             notes.append(f"no forced answer fitted for {', '.join(n for n in signals if n not in answers)}: scanned "
                          "with it (conservative)")
         oscillations: dict[str, Oscillation] = scan(time, free, judged_from, criterion.scan, scanned)
-        found_all = {**{f"{name} (with its forced answer)": found for name, found in before.items()}, **oscillations}
         figures["oscillation"] = {name: found.as_dict() for name, found in oscillations.items()}
-        figures["oscillation_with_forced_answer"] = {name: found_all[f"{name} (with its forced answer)"].as_dict()
-                                                     for name in answers}
+        figures["oscillation_with_forced_answer"] = {name: before[name].as_dict() for name in answers}
         figures["forced_answer"] = {name: answer.as_dict() for name, answer in answers.items()}
         resonance = next((answers[name].gain for name in ("x_R - command", "x_d - command", "x_M - operator target")
                           if name in answers and answers[name].gain is not None), None)
@@ -547,12 +545,12 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
                     f"{found.window_share:.0%} of {found.windows} windows (sinusoid explains "
                     f"{found.explained_share:.0%}; limits {criterion.scan.amplitude * 1e3:g} mm, "
                     f"{criterion.scan.explained_share:.0%}, {criterion.scan.sustained_share:.0%} of windows)")
-            elif name in answers and found_all[f"{name} (with its forced answer)"].sustained:
-                forced = found_all[f"{name} (with its forced answer)"]
+            elif name in answers and before[name].sustained:
+                forced = before[name]
                 share = float(np.mean(answers[name].explained_share))
                 notes.append(f"{name}: {forced.amplitude * 1e3:.1f} mm at {forced.period:.2f} s is the loop's forced "
-                             f"answer to its exogenous input (the fit explains {share:.0%} of it; what it leaves "
-                             f"does not oscillate), not counted")
+                             f"answer to its exogenous input (the fit explains {share:.0%} of its variance, mean over "
+                             f"the axes; what it leaves does not oscillate), not counted")
         # 3. Steady generation at the channel's ports.
         if on_grid["generated"] is not None:
             values = on_grid["generated"].reshape(time.size, -1)[:, 0]

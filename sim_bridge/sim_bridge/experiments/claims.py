@@ -236,7 +236,8 @@ def execute(claim: ClaimRun, directory: str | Path, provenance: dict[str, Any] |
 
 #: run_verdict figures kept with each judged run in results/claims.json.
 VERDICT_FIGURES = ("channel_generation_rate_w", "channel_generation_rate_all_w", "channel_generation_free_s",
-                   "contact_share", "excluded_share", "energy_growth", "free_error_max_m")
+                   "contact_share", "excluded_share", "energy_growth", "free_error_max_m", "resonance_gain",
+                   "resonance_period_s")
 
 
 def judge_series(path: Path, delay: float) -> dict[str, Any]:

@@ -110,6 +110,12 @@ def law_statistics(rows: Sequence[dict]) -> dict:
     for field, name in FIGURES.items():
         median, p95 = median_and_p95([figure_of(row, field) for row in finished])
         out[f"{name}_median"], out[f"{name}_p95"] = median, p95
+    # The verdict's resonant amplification (run_verdict: the peak gain of x_R to the operator's planned target, the
+    # period of the peak), kept so that a forced resonance the verdict no longer calls an oscillation stays visible.
+    verdict_figures = [row["verdict"].get("figures") or {} for row in finished if isinstance(row.get("verdict"), dict)]
+    out["resonance_gain_median"], out["resonance_gain_p95"] = median_and_p95(
+        [f.get("resonance_gain") for f in verdict_figures])
+    out["resonance_period_median_s"] = median_and_p95([f.get("resonance_period_s") for f in verdict_figures])[0]
     return out
 
 

@@ -269,7 +269,27 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
               f"not reproduced, {tally['undecided']} undecided at the seeds judged so far, {tally['no run']} without a "
               "judged run yet."]
     lines += _control_sentences(cells, controls, hands, reference)
+    lines += _resonance_sentences(cells, controls, hands)
     return "\n".join(lines) + "\n"
+
+
+def _resonance_sentences(cells: dict, controls: list, hands: list) -> list[str]:
+    """For each open-loop control with runs: every law's resonant amplification as the verdict found it (the
+    median over the judged runs of the peak gain of x_R to the operator's planned target, at the median period)."""
+    out = []
+    for cell_id, _, _ in controls:
+        for hand in hands:
+            cell = cells.get((cell_id, hand))
+            laws = [(law, s) for law, s in (cell["laws"].items() if cell else ())
+                    if s.get("resonance_gain_median") is not None]
+            if not laws:
+                continue
+            text = "; ".join(f"{law} {s['resonance_gain_median']:.2f} at {s['resonance_period_median_s']:.2f} s"
+                             for law, s in laws)
+            out += ["", f"Resonant amplification the verdict found on `{cell_id}` ({hand} hand; the peak gain of x_R "
+                        f"to the operator's planned target, median over the judged runs, at the median period): "
+                        f"{text}."]
+    return out
 
 
 def _control_sentences(cells: dict, controls: list, hands: list, reference: str) -> list[str]:

@@ -300,7 +300,8 @@ def resonance(mass: float = RESONANT_MASS, natural_hz: float = RESONANT_NATURAL_
     every m, D, K > 0 (Routh-Hurwitz for a second-order polynomial): stable."""
     w = 2.0 * math.pi * natural_hz
     peak = 1.0 / (2.0 * damping_ratio * math.sqrt(1.0 - damping_ratio ** 2))
-    return mass * w * w, 2.0 * damping_ratio * mass * w, peak, 2.0 * math.pi / (w * math.sqrt(1.0 - 2.0 * damping_ratio ** 2))
+    period = 2.0 * math.pi / (w * math.sqrt(1.0 - 2.0 * damping_ratio ** 2))
+    return mass * w * w, 2.0 * damping_ratio * mass * w, peak, period
 
 
 def _claim_like_task(rng: np.random.Generator, time: NDArray) -> tuple[NDArray, NDArray]:
@@ -437,8 +438,9 @@ def cases() -> list[LabelledCase]:
     for (delay, rate, seed), data in resonant.items():
         out.append(LabelledCase(f"resonant replica delay={delay:g}s rate={rate:g}Hz seed={seed}",
                                 "a resonant replica, forced", True, True, data,
-                                f"a stable under-damped replica (gain {peak_gain:.2f} at {peak_period:.2f} s) answering "
-                                f"a non-repeating command{' held at ' + format(rate, 'g') + ' Hz' if rate else ''}"))
+                                f"a stable under-damped replica (gain {peak_gain:.2f} at {peak_period:.2f} s) "
+                                f"answering a non-repeating command"
+                                f"{' held at ' + format(rate, 'g') + ' Hz' if rate else ''}"))
     for index, (delay, rate, amplitude) in enumerate(
             (d, r, a) for d in RESONANT_DELAYS for r in RESONANT_RATES_HZ for a in CYCLE_AMPLITUDES):
         data = replica_limit_cycle(resonant[(delay, rate, 1 + index % 2)], amplitude, peak_period)
