@@ -170,3 +170,22 @@ def test_an_open_loop_control_is_shown_beside_its_claim_cell_and_left_out_of_the
     assert block.rstrip().endswith(f"fic, with minus without: {difference:+.2f} ({low:+.2f} to {high:+.2f}; "
                                    f"p {boschloo_p(9, 20, 11, 20):.3f}).")
     assert "(`delay_1__rate_10`) (reactive hand), " not in block and "fic 9/20 with, 11/20 without." in block
+
+
+def test_the_resonant_amplification_the_verdict_found_is_summarised_per_law():
+    """The verdict's resonance_gain of each run (kept in claims.json) as a median per law and cell, and on an open-loop
+    control in README's block, so that a forced resonance the verdict does not call an oscillation stays visible."""
+    from sim_bridge.experiments.tables import readme_claims
+
+    rows = [_row("delay_1__rate_10__feedback_off", "fic", seed, True, hand="reactive") for seed in range(1, 6)]
+    for row, gain, period in zip(rows, (1.6, 1.8, 1.7, 2.0, 1.9), (1.5, 1.6, 1.6, 1.7, 1.5)):
+        row["verdict"]["figures"] = dict(resonance_gain=gain, resonance_period_s=period)
+    rows += [_row("delay_1__rate_10__feedback_off", "linear", seed, True, hand="reactive") for seed in range(1, 6)]
+    statistics = claims_statistics(rows, seeds_planned=20)
+    laws = statistics["cells"][0]["laws"]
+    assert laws["fic"]["resonance_gain_median"] == pytest.approx(1.8)
+    assert laws["fic"]["resonance_period_median_s"] == pytest.approx(1.6)
+    assert laws["linear"]["resonance_gain_median"] is None
+    block = readme_claims(statistics)
+    assert "Resonant amplification the verdict found on `delay_1__rate_10__feedback_off` (reactive hand" in block
+    assert block.rstrip().endswith("fic 1.80 at 1.60 s.")
