@@ -123,7 +123,8 @@ def dominant_period(time: NDArray, residual: NDArray, use: NDArray, period: floa
 
 
 def fit(time: NDArray, residual: NDArray, channels: list[Channel], use: NDArray,
-        settings: ForcedSettings | None = None, free_period: float | None = None) -> ForcedAnswer | None:
+        settings: ForcedSettings | None = None, free_period: float | None = None,
+        design: dict | None = None) -> ForcedAnswer | None:
     """The forced answer of ``residual`` (n, k) to ``channels`` on the uniform ``time`` (n,), fitted on the samples
     ``use`` (n,) marks (the judged span outside contact, module docstring). None when the marked span holds fewer
     than ``rows_per_parameter`` rows a parameter.
@@ -131,8 +132,12 @@ def fit(time: NDArray, residual: NDArray, channels: list[Channel], use: NDArray,
     ``free_period``: a period at which the residual may hold an oscillation of its own (the one the scan found in the
     residual before the fit). A sinusoid of that period, its amplitude and phase free to drift linearly over the run,
     is fitted beside the kernels and not counted in the forced answer: the kernels then cannot take a free
-    oscillation for an answer to the input where the input happens to move at that period."""
+    oscillation for an answer to the input where the input happens to move at that period.
+
+    ``design``: a dict the caller keeps for one ``time`` and one set of channels (names and shifts), in which the
+    regressors are kept between fits (they do not depend on the residual or the free period)."""
     settings = settings or ForcedSettings()
+    design = {} if design is None else design
     if not channels or time.size < 4:
         return None
     step = float(time[1] - time[0])
@@ -143,23 +148,32 @@ def fit(time: NDArray, residual: NDArray, channels: list[Channel], use: NDArray,
     parameters, hats = 0, 0
     kernels = []
     for axis in range(residual.shape[1]):
-        regressors, hats = _regressors(time, channels, axis, settings)
+        if axis not in design:
+            full, hats = _regressors(time, channels, axis, settings)
+            design[axis] = (full, _blocks(full, size), hats)
+        regressors, x_all, hats = design[axis]
         forced_columns = regressors.shape[1]
         if free_period is not None and free_period > 0.0:
             phase = 2.0 * np.pi * time / free_period
             ramp = (time - time[0]) / max(time[-1] - time[0], step)
-            regressors = np.column_stack([regressors, np.sin(phase), np.cos(phase), ramp * np.sin(phase),
-                                          ramp * np.cos(phase)])
+            free = np.column_stack([np.sin(phase), np.cos(phase), ramp * np.sin(phase), ramp * np.cos(phase)])
+            regressors = np.column_stack([regressors, free])
+            x_all = np.column_stack([x_all, _blocks(free, size)])
         parameters = regressors.shape[1]
         if np.count_nonzero(rows) * (settings.folds - 1) / settings.folds < settings.rows_per_parameter * parameters:
             return None
-        x_all, y_all = _blocks(regressors, size), _blocks(residual[:, axis], size)
+        y_all = _blocks(residual[:, axis], size)
         x, y = x_all[rows], y_all[rows]
-        # Scaled columns: the hats' regressors are a step smaller than the direct terms.
+        # Scaled columns (the hats' regressors are a step smaller than the direct terms); least squares by the normal
+        # equations, a fold's by taking its rows out of the whole run's (a column of zeros gets a zero coefficient).
         scale = np.maximum(np.sqrt(np.mean(x * x, axis=0)), 1e-12)
+        scaled = x / scale
+        gram, moment = scaled.T @ scaled, scaled.T @ y
+        ridge = 1e-10 * max(float(np.trace(gram)), 1e-300) / parameters * np.eye(parameters)
 
         def solve(keep: NDArray) -> NDArray:
-            return np.linalg.lstsq(x[keep] / scale, y[keep], rcond=None)[0] / scale
+            out = scaled[~keep]
+            return np.linalg.solve(gram - out.T @ out + ridge, moment - out.T @ y[~keep]) / scale
 
         # Out of sample: each of ``folds`` contiguous stretches of the run is predicted by the kernels fitted on the
         # others. A linear loop's answer is the same in every stretch, so it is predicted; a fit that explains an

@@ -487,9 +487,11 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         # fit needs the samples.
         use = judged & ~_dilated(contact, int(round(criterion.contact_margin / step)))
         first: dict[str, tuple[NDArray, list[Channel], ForcedAnswer]] = {}
+        designs: dict[tuple, dict] = {}   # the regressors of one set of channels, shared by the fits that use it
         for name, (residual, _) in signals.items():
             channels = _exogenous_channels(name, on_grid, data.one_way_delay) if criterion.forced.enabled else []
-            answer = fit(time, residual, channels, use, criterion.forced) if channels else None
+            design = designs.setdefault(tuple((c.name, c.shift) for c in channels), {})
+            answer = fit(time, residual, channels, use, criterion.forced, design=design) if channels else None
             if answer is not None:
                 first[name] = (residual, channels, answer)
         hints = scan(time, free, judged_from, criterion.scan,
@@ -510,7 +512,8 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
                     refined = dominant_period(time, residual - answer.predicted, use, period)
                     settled = abs(refined - period) < 0.005 * period
                     period = refined
-                    answer = fit(time, residual, channels, use, criterion.forced, free_period=period) or answer
+                    answer = fit(time, residual, channels, use, criterion.forced, free_period=period,
+                                 design=designs[tuple((c.name, c.shift) for c in channels)]) or answer
                     if settled:
                         break
             answers[name] = answer

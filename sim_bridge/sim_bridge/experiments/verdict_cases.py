@@ -512,7 +512,9 @@ def _confusion(rows: list[dict], label: str, verdict: str) -> dict[str, int]:
 
 def held_out(seeds: range = range(10, 18)) -> dict:
     """The same reference loop on seeds the thresholds were not chosen on, bare (stable) and with 5 mm limit cycles
-    at 0.5, 2.5, 5 and 16 s and a 10 mm one at 1 s (unstable): how often the verdict is wrong outside the set."""
+    at 0.5, 2.5, 5 and 16 s and a 10 mm one at 1 s (unstable), and the resonant replica on four of those seeds at
+    each delay and rate, bare (stable) and with a 5 mm limit cycle at its resonant period (unstable): how often the
+    verdict is wrong outside the set."""
     from fic_teleop_tools.verdict.run_verdict import judge
 
     false_alarms, misses, runs, cycles = [], [], 0, 0
@@ -528,6 +530,19 @@ def held_out(seeds: range = range(10, 18)) -> dict:
                 cycles += 1
                 if judge(with_limit_cycle(base, amplitude, period)).stable is not False:
                     misses.append(f"{amplitude * 1e3:g} mm at {period:g} s, delay {delay:g} s seed {seed}")
+    # The resonant replica (forced, stable) and with a 5 mm limit cycle at its resonant period (unstable).
+    period = resonance()[3]
+    for delay in RESONANT_DELAYS:
+        for rate in RESONANT_RATES_HZ:
+            for seed in seeds[:4]:
+                base = resonant_plant(delay, seed, rate)
+                runs += 1
+                if judge(base).stable is not True:
+                    false_alarms.append(f"resonant replica delay {delay:g} s rate {rate:g} Hz seed {seed}")
+                cycles += 1
+                if judge(replica_limit_cycle(base, 0.005, period)).stable is not False:
+                    misses.append(f"5 mm at {period:.2f} s on the resonant replica, delay {delay:g} s rate {rate:g} "
+                                  f"Hz seed {seed}")
     return dict(stable_runs=runs, false_alarms=false_alarms, limit_cycle_runs=cycles, missed=misses)
 
 
