@@ -593,6 +593,54 @@ def validate(with_held_out: bool = True) -> dict:
         groups=groups, held_out=held_out() if with_held_out else None, rows=rows)
 
 
+def claims_comparison(cells: list[str], laws: list[str], hand: str = "reactive") -> dict:
+    """The kept claim runs of ``cells`` and ``laws`` (results/claims_runs.jsonl and its series) judged by the run
+    verdict with and without the forced-answer fit: what the fit changes, per cell and law, on the same runs, and
+    the resonant gain the verdict found (a subset of ``claims_sweep --judge``, for a machine too busy for all)."""
+    import json
+    from pathlib import Path
+
+    from sim_bridge.experiments.claims import load_series
+    from fic_teleop_tools.verdict.forced_answer import ForcedSettings
+    from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, judge
+
+    repo = Path(__file__).resolve().parents[3]
+    rows: dict[str, dict] = {}
+    for line in (repo / "results" / "claims_runs.jsonl").read_text().splitlines():
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if row.get("cell") in cells and row.get("controller") in laws and row.get("hand") == hand:
+            rows[row["key"]] = row
+    without_fit = replace(VerdictCriterion(), forced=ForcedSettings(enabled=False))
+    out: dict[str, dict] = {}
+    for key, row in sorted(rows.items()):
+        path = repo / "results" / "claims_runs" / row["series"]
+        if not path.exists():
+            continue
+        data = VerdictInput.from_run_result(load_series(path), one_way_delay=row["delay"])
+        new, old = judge(data), judge(data, without_fit)
+        entry = out.setdefault(f"{row['cell']} {row['controller']}", dict(runs=0, stable_without_fit=0, stable=0,
+                                                                          changed=[], resonance_gain=[],
+                                                                          resonance_period_s=[]))
+        entry["runs"] += 1
+        entry["stable_without_fit"] += old.stable is True
+        entry["stable"] += new.stable is True
+        if new.stable is not old.stable:
+            entry["changed"].append(dict(seed=row["seed"], without_fit=old.stable, now=new.stable,
+                                         reasons=new.stable_reasons[:2]))
+        entry["resonance_gain"].append(new.figures.get("resonance_gain"))
+        entry["resonance_period_s"].append(new.figures.get("resonance_period_s"))
+    for entry in out.values():
+        gains = [g for g in entry["resonance_gain"] if g is not None]
+        periods = [p for p in entry["resonance_period_s"] if p is not None]
+        entry["resonance_gain_median"] = float(np.median(gains)) if gains else None
+        entry["resonance_gain_quartiles"] = [float(q) for q in np.percentile(gains, [25, 75])] if gains else None
+        entry["resonance_period_median_s"] = float(np.median(periods)) if periods else None
+    return dict(hand=hand, cells=cells, laws=laws, by_cell_and_law=out)
+
+
 def main(argv: list[str] | None = None) -> int:
     import argparse
     import json
@@ -602,7 +650,21 @@ def main(argv: list[str] | None = None) -> int:
                                      description="Judge the labelled validation set; write the confusion matrices.")
     parser.add_argument("--out", type=Path, default=None, help="JSON file (default: print a summary only)")
     parser.add_argument("--no-held-out", action="store_true", help="skip the held-out seeds (about half the time)")
+    parser.add_argument("--claims-cells", nargs="+", default=None, metavar="CELL",
+                        help="instead: judge the kept claim runs of these cells (reactive hand) with and without the "
+                             "forced-answer fit (claims_comparison) and write --out")
+    parser.add_argument("--laws", nargs="+", default=["fic"], help="with --claims-cells: the laws (default fic)")
     args = parser.parse_args(argv)
+    if args.claims_cells:
+        result = claims_comparison(args.claims_cells, args.laws)
+        for name, entry in result["by_cell_and_law"].items():
+            print(f"{name}: stable {entry['stable_without_fit']}/{entry['runs']} without the fit, "
+                  f"{entry['stable']}/{entry['runs']} with it; resonant gain {entry['resonance_gain_median']} at "
+                  f"{entry['resonance_period_median_s']} s")
+        if args.out is not None:
+            args.out.write_text(json.dumps(result, indent=1) + "\n")
+            print(f"wrote {args.out}")
+        return 0
     result = validate(with_held_out=not args.no_held_out)
     for group, counts in result["groups"].items():
         print(f"{group:40s} {counts['right']:3d}/{counts['cases']:<3d} right (without the fit "
