@@ -317,7 +317,7 @@ def run(config: RunConfig) -> RunResult:
     watchdog = CommandWatchdog(robot_values["command_timeout"])
     state_age = CommandStateAge(robot_values.get("command_state_timeout", math.inf)
                                 if config.robot_command_state_timeout is None else config.robot_command_state_timeout)
-    robot = {"speed": 0.0}
+    joint_speed_max = 0.0   # the fastest joint over every physics step [rad/s]
     oldest_state = max((window.max_state_age for window in config.replica_stalls), default=0.0)
     past_states: deque[tuple[float, np.ndarray, np.ndarray]] = deque(maxlen=int(round(oldest_state / STEP)) + 1)
 
@@ -400,7 +400,7 @@ def run(config: RunConfig) -> RunResult:
                     robot_torque = torque
             if stall is not None and now < replica_wakes or in_flight:
                 sim.step(robot_holding())   # the replica sleeps, or its last torque is still on its way
-                robot["speed"] = max(robot["speed"], float(np.abs(sim.joint_velocities).max()))
+                joint_speed_max = max(joint_speed_max, max(map(abs, sim.joint_velocities.tolist())))
                 continue
         if oldest_state > 0.0:
             past_states.append((now, sim.joint_positions.copy(), sim.joint_velocities.copy()))
@@ -456,7 +456,8 @@ def run(config: RunConfig) -> RunResult:
             sim.step(torque)
         else:   # before the first command (the hold), or a starved replica's torque not yet arrived
             sim.step(robot_holding())
-        robot["speed"] = max(robot["speed"], float(np.abs(sim.joint_velocities).max()))
+        # max |qd| on Python floats: the value numpy's abs().max() gives, at a third of its cost per step.
+        joint_speed_max = max(joint_speed_max, max(map(abs, sim.joint_velocities.tolist())))
     wall = wall_clock.perf_counter() - wall
     desired, offset = np.array(log_d), np.array(log_o)
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
@@ -466,7 +467,7 @@ def run(config: RunConfig) -> RunResult:
                      replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports),
                      obstacle_contact=np.array(log_contact, dtype=bool),
                      operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,
-                     joint_speed_max=robot["speed"], robot_watchdog_engagements=watchdog.engagements,
+                     joint_speed_max=joint_speed_max, robot_watchdog_engagements=watchdog.engagements,
                      stale_torques_refused=state_age.refused, replica_holds=replica.health.holds,
                      command_mode=np.array(log_mode, dtype=int), sent_offset=np.array(log_sent).reshape(-1, 3))
 
