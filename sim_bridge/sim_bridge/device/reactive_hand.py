@@ -34,6 +34,7 @@ range for a seed; test/sim/test_reactive_hand.py checks that the hand alone on t
 """
 from __future__ import annotations
 
+import math
 from bisect import bisect_right
 from collections import deque
 from dataclasses import dataclass
@@ -120,8 +121,11 @@ class ReactiveHand(Hand):
         position = finite_array("handle_position", handle_position, shape=(3,))
         velocity = np.zeros(3) if handle_velocity is None else finite_array("handle_velocity", handle_velocity,
                                                                             shape=(3,))
-        felt = 0.0 if felt_force is None else float(np.linalg.norm(finite_array("felt_force", felt_force,
-                                                                                 shape=(3,))))
+        if felt_force is None:
+            felt = 0.0
+        else:   # |F|: math.sqrt(F.F), the value np.linalg.norm gives a float vector, without its dispatch
+            felt_vector = finite_array("felt_force", felt_force, shape=(3,))
+            felt = math.sqrt(float(felt_vector.dot(felt_vector)))
         dt = finite_scalar("dt", dt, minimum=0.0)
         self._time += dt
         r = self.reactive
@@ -145,7 +149,11 @@ class ReactiveHand(Hand):
     def force(self, position: Vector3, velocity: Vector3) -> Vector3:
         parameters = self.parameters
         scale = 1.0 + self._cocontraction
-        force = (scale * parameters.stiffness * (self.target + self.correction - position)
-                 - scale * parameters.damping * velocity + self._reflex)
+        stiffness, damping = scale * parameters.stiffness, scale * parameters.damping
+        # Per axis on Python floats, the operations and their order of the array form (Hand.force).
+        force = np.array([stiffness * (aim + shift - at) - damping * speed + reflex
+                          for aim, shift, at, speed, reflex in zip(self.target.tolist(), self.correction.tolist(),
+                                                                   position.tolist(), velocity.tolist(),
+                                                                   self._reflex.tolist())])
         return norm_bounded(force, parameters.max_force)
 

@@ -84,8 +84,11 @@ class Hand:
     def force(self, position: Vector3, velocity: Vector3) -> Vector3:
         """Force of the hand on the handle at the given handle state (called at every device substep)."""
         parameters = self.parameters
-        force = (parameters.stiffness * (self.target + self.correction - position)
-                 - parameters.damping * velocity)
+        stiffness, damping = parameters.stiffness, parameters.damping
+        # k (target + correction - x) - b v per axis on Python floats (the same operations in the same order as on
+        # arrays, at a fraction of numpy's per-call cost on 3-vectors; this runs at every 1 kHz device substep).
+        force = np.array([stiffness * (aim + shift - at) - damping * speed for aim, shift, at, speed
+                          in zip(self.target.tolist(), self.correction.tolist(), position.tolist(), velocity.tolist())])
         return norm_bounded(force, parameters.max_force)
 
 
