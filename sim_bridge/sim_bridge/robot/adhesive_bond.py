@@ -13,6 +13,8 @@ left it: a pull that just broke the bond must not re-form it on the next millise
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 
 import mujoco
@@ -105,16 +107,17 @@ class AdhesiveBond:
         torque_on_hand = -(torque_on_piece + cross(data.xpos[piece] - point, force_on_piece))
         return np.concatenate([-force_on_piece, torque_on_hand])
 
-    def _plate_normal_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-        """Normal contact force between the plate and each piece (0 when not touching)."""
-        forces = np.zeros(len(self._pieces))
+    def _plate_normal_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray | None:
+        """Normal contact force between the plate and each piece (0 when not touching); None when the plate
+        touches nothing at all (every force 0)."""
         if data.ncon == 0:
-            return forces
+            return None
         contacts = data.contact
         # Python lists and a dict, not numpy: with tens of contacts, per-call numpy overhead dominates at 1 kHz.
         geom1, geom2 = contacts.geom1.tolist(), contacts.geom2.tolist()
         if self._plate_geom not in geom1 and self._plate_geom not in geom2:
-            return forces
+            return None
+        forces = np.zeros(len(self._pieces))
         active = contacts.efc_address.tolist()
         wrench = np.zeros(6)
         for i in range(data.ncon):
@@ -128,27 +131,14 @@ class AdhesiveBond:
                 mujoco.mj_contactForce(model, data, i, wrench)
                 forces[piece] += wrench[0]
         return forces
-        contacts = data.contact  # struct of arrays: vectorised filtering keeps the 1 kHz loop cheap
-        first_is_plate = contacts.geom1 == self._plate_geom
-        second_is_plate = contacts.geom2 == self._plate_geom
-        if not (first_is_plate.any() or second_is_plate.any()):
-            return forces
-        other_body = np.where(first_is_plate, model.geom_bodyid[contacts.geom2], model.geom_bodyid[contacts.geom1])
-        relevant = np.flatnonzero((first_is_plate | second_is_plate) & (contacts.efc_address >= 0))
-        wrench = np.zeros(6)
-        for i in relevant:
-            hits = np.flatnonzero(self._piece_ids == other_body[i])
-            if hits.size:
-                mujoco.mj_contactForce(model, data, int(i), wrench)
-                forces[hits[0]] += wrench[0]
-        return forces
 
     def update(self, model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray) -> np.ndarray:
         """Call once per step after the forces: returns the bond's wrench on the hand about ``point`` (world
         frame; zeros without a bond), then breaks an overloaded bond or forms one on a firm press."""
         if self._active is not None:
             wrench = self._wrench_on_hand(model, data, point)
-            force = float(np.linalg.norm(wrench[:3]))
+            linear = wrench[:3]
+            force = math.sqrt(float(linear.dot(linear)))   # np.linalg.norm's value, without its dispatch, at 1 kHz
             self.state.bond_force = force
             if force > self.state.break_threshold:
                 data.eq_active[self._weld_ids[self._active]] = 0
@@ -162,6 +152,15 @@ class AdhesiveBond:
                 self.state.bond_force = 0.0
             return wrench  # it acted during this step, up to the break
         normal = self._plate_normal_forces(model, data)
+        if normal is None:
+            if self._parameters.formation_force > 0.0:
+                # The plate touches nothing (most steps): no press counts on, no broken piece is still on the plate,
+                # nothing forms (what the general case below gives for zero forces, without its arrays).
+                if self._press_steps.any():
+                    self._press_steps[:] = 0
+                self._must_separate.clear()
+                return np.zeros(6)
+            normal = np.zeros(len(self._pieces))
         firm = normal >= self._parameters.formation_force
         self._press_steps = np.where(firm, self._press_steps + 1, 0)
         self._must_separate = {k for k in self._must_separate if normal[k] > 0.0}

@@ -34,38 +34,26 @@ class WristWrench:
     def contact_wrench(self, model: mujoco.MjModel, data: mujoco.MjData, tcp_position: np.ndarray) -> np.ndarray:
         """Sum of contact forces on the end-effector, (fx, fy, fz, tx, ty, tz) about ``tcp_position``."""
         total = np.zeros(6)
-        if data.ncon == 0:
+        count = data.ncon
+        if count == 0:
             return total
         contacts = data.contact
         geom1, geom2 = contacts.geom1.tolist(), contacts.geom2.tolist()
+        end_effector = self._end_effector_geoms
+        # Exactly one side on the end-effector (internal contacts exert no net force); most steps have none, and
+        # then the constraint rows are not read.
+        touching = [i for i in range(count) if (geom1[i] in end_effector) != (geom2[i] in end_effector)]
+        if not touching:
+            return total
         active = contacts.efc_address.tolist()
-        for i in range(data.ncon):
-            on_first = geom1[i] in self._end_effector_geoms
-            # Exactly one side on the end-effector (internal contacts exert no net force), and only contacts with
-            # constraint rows (excluded or inactive ones carry no force).
-            if on_first == (geom2[i] in self._end_effector_geoms) or active[i] < 0:
+        for i in touching:
+            if active[i] < 0:   # only contacts with constraint rows (excluded or inactive ones carry no force)
                 continue
             mujoco.mj_contactForce(model, data, i, self._contact_wrench)
             frame = contacts.frame[i].reshape(3, 3)
             force = frame.T @ self._contact_wrench[:3]  # on geom2, world frame
             torque = frame.T @ self._contact_wrench[3:]
-            if on_first:  # the end-effector is geom1: it receives the reaction
-                force, torque = -force, -torque
-            total[:3] += force
-            total[3:] += torque + cross(contacts.pos[i] - tcp_position, force)
-        return total
-        contacts = data.contact  # struct of arrays: vectorised filtering keeps the 1 kHz loop cheap
-        on_first = self._is_end_effector[model.geom_bodyid[contacts.geom1]]
-        on_second = self._is_end_effector[model.geom_bodyid[contacts.geom2]]
-        # Only contacts with exactly one side on the end-effector (internal ones exert no net force), and only
-        # those with constraint rows (excluded or inactive contacts carry no force).
-        relevant = np.flatnonzero((on_first != on_second) & (contacts.efc_address >= 0))
-        for i in relevant:
-            mujoco.mj_contactForce(model, data, int(i), self._contact_wrench)
-            frame = contacts.frame[i].reshape(3, 3)
-            force = frame.T @ self._contact_wrench[:3]  # on geom2, world frame
-            torque = frame.T @ self._contact_wrench[3:]
-            if on_first[i]:  # the end-effector is geom1: it receives the reaction
+            if geom1[i] in end_effector:  # the end-effector is geom1: it receives the reaction
                 force, torque = -force, -torque
             total[:3] += force
             total[3:] += torque + cross(contacts.pos[i] - tcp_position, force)
