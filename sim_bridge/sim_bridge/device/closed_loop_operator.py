@@ -165,6 +165,9 @@ class ClosedLoopOperator:
         )
         self._frames: deque[tuple[float, Frame]] = deque()       # (arrival time, frame), arrival order
         self._usable: deque[tuple[float, float, float]] = deque()  # (capture time, stamp, corrected angle)
+        # The angular speed of the frames in _usable, kept until they change (the device asks at 250 Hz, frames
+        # come at 30 Hz and the median over them is the dearest part of a target): None before it is computed.
+        self._speed: tuple[float | None] | None = None
         self._last_angle: float | None = None
         self._targets: list[tuple[float, Vector3]] = []          # efference copy: (time, hand target)
         self._target_times: list[float] = []
@@ -230,6 +233,7 @@ class ClosedLoopOperator:
                 angle = self._last_angle + (angle - self._last_angle + math.pi) % (2.0 * math.pi) - math.pi
             self._last_angle = angle
             self._usable.append((capture, frame.stamp, angle))
+            self._speed = None
             while self._usable and self._usable[0][1] < frame.stamp - p.estimation_window:
                 self._usable.popleft()
             seen = frame.pushable_obstacle[:2] - np.asarray(p.circle_centre)
@@ -237,7 +241,12 @@ class ClosedLoopOperator:
 
     def _angular_speed(self) -> float | None:
         """The median of the frame-to-frame angular speeds in the video's time (a jump in the seen pose is one
-        outlier, not a new speed)."""
+        outlier, not a new speed); computed once for each set of usable frames."""
+        if self._speed is None:
+            self._speed = (self._median_angular_speed(),)
+        return self._speed[0]
+
+    def _median_angular_speed(self) -> float | None:
         if len(self._usable) < 3 or self._usable[-1][1] - self._usable[0][1] < 0.5 * self.parameters.estimation_window:
             return None
         times, angles = np.array([u[1] for u in self._usable]), np.array([u[2] for u in self._usable])
