@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import finite_array, finite_scalar
 
-_ZERO_ANGULAR = np.zeros(3)  # the twist's angular part (concatenate copies it: the twist is always a new array)
+_ZERO_ANGULAR = [0.0, 0.0, 0.0]  # the twist's angular part (the twist is always a new array)
 
 
 class DesiredVelocityFilter:
@@ -40,6 +40,10 @@ class DesiredVelocityFilter:
         if self.time_constant <= 0.0 or previous is None:
             return None
         dt = finite_scalar("dt", dt, minimum=0.0, minimum_inclusive=False)
-        raw = (position - previous) / dt
-        self._velocity = self._velocity + (raw - self._velocity) * (dt / (self.time_constant + dt))
-        return np.concatenate((self._velocity, _ZERO_ANGULAR))
+        blend = dt / (self.time_constant + dt)
+        # v + ((x_d - x_d,prev) / dt - v) * blend per axis on Python floats: the array form's operations in its
+        # order (the same numbers), without numpy's per-call cost on 3-vectors at 1 kHz.
+        velocity = [speed + ((now - before) / dt - speed) * blend
+                    for now, before, speed in zip(position.tolist(), previous.tolist(), self._velocity.tolist())]
+        self._velocity = np.array(velocity)
+        return np.array(velocity + _ZERO_ANGULAR)

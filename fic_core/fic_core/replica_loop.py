@@ -82,6 +82,8 @@ class ReplicaLoop:
         #: The same bounds on the planner's x_d'' (workspace about the start pose, speed), from the first state on.
         self.planner_authority = SetPointAuthority(self.authority.bounds)
         self._pending_planner_pose: tuple[int, NDArray[np.float64], NDArray[np.float64], float] | None = None
+        self._planner_quaternion: tuple | None = None   # the last planner orientation and its rotation matrix
+        self._planner_rotation = np.eye(3)
         # The arm's datasheet limits (fic_core.arm_profile: Panda by default, an FR3 behind franka_ros2).
         self.limits = PandaLimits.from_robot(self.robot) if limits is None else limits
         self.parameters = checked(values)
@@ -160,7 +162,17 @@ class ReplicaLoop:
         """x_d'' of the planner (orientation as a quaternion x, y, z, w), bounded by the planner authority (the
         workspace about the start pose, the speed). Before the first joint state the newest pose waits for it."""
         def add() -> None:
-            rotation = rotation_from_quaternion(quaternion_xyzw)
+            # The planner's orientation rarely changes between its poses: the last one's rotation is reused for the
+            # same four numbers (a NaN never equals itself, so a bad one is always checked and refused).
+            try:
+                key: tuple | None = tuple(quaternion_xyzw)
+            except TypeError:   # not a sequence: rotation_from_quaternion says why
+                key = None
+            if key is not None and key == self._planner_quaternion:
+                rotation = self._planner_rotation.copy()
+            else:
+                rotation = rotation_from_quaternion(quaternion_xyzw)
+                self._planner_quaternion, self._planner_rotation = key, rotation.copy()
             target = finite_array("planner_position", position, (3,))
             if not self.desired.started:
                 self._pending_planner_pose = (stamp_ns, target, rotation, now)
