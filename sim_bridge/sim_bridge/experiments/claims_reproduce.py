@@ -70,7 +70,7 @@ def differences(kept: Path, fresh: Path, row: dict[str, Any], again: dict[str, A
 def reproduce(key: str, row: dict[str, Any], directory: Path, scratch: Path) -> tuple[list[str], float, float]:
     """(the differences, the wall time and the CPU time [s] of the new simulation and its saving) for one kept
     run."""
-    claim = ClaimRun(**{name: row[name] for name in CLAIM_FIELDS})
+    claim = ClaimRun(**{name: row[name] for name in CLAIM_FIELDS if name in row})   # older lines: feedback on
     if claim.key != key:
         raise ValueError(f"the run line of {key} describes {claim.key}")
     cpu = time.process_time()
