@@ -92,6 +92,16 @@ def quartiles_at_peak(law: str) -> tuple[float, float]:
 
 LINEAR_LAWS = ("linear", "linear_bounded", "linear_tdpa")
 
+
+def refit(cell_id: str) -> dict:
+    """The FIC's reactive-hand runs of a cell judged with and without the forced-answer fit
+    (results/verdict_forced_answer_claims.json, sim_bridge.experiments.verdict_cases --claims-cells)."""
+    return result("verdict_forced_answer_claims.json")["by_cell_and_law"][f"{cell_id} fic"]
+
+
+def refit_k_n(cell_id: str, field: str = "stable") -> str:
+    return f"{refit(cell_id)[field]}/{refit(cell_id)['runs']}"
+
 FIGURES = [
     Figure("claims: the passive hand's reproduced rows",
            r"So far \(2026-12-05, (?P<runs>[\d,]+) runs\): at 1 s with the link at full rate, and at the paper's 0\.2 s "
@@ -117,6 +127,24 @@ FIGURES = [
                         q25=f"{quartiles_at_peak('fic')[0]:.2f}", q75=f"{quartiles_at_peak('fic')[1]:.2f}",
                         low=f"{min(peak_gain(law)['peak_gain'] for law in LINEAR_LAWS):.2f}",
                         high=f"{max(peak_gain(law)['peak_gain'] for law in LINEAR_LAWS):.2f}")),
+    Figure("claims: the FIC's runs judged with the forced answer taken out",
+           r"the FIC's runs of these cells are stable in (?P<off_1>\d+/\d+) and (?P<off_02>\d+/\d+) without the force "
+           r"loop \(1 s and 0\.2 s; the earlier rule: (?P<old_off_1>\d+/\d+) and (?P<old_off_02>\d+/\d+)\) and in "
+           r"(?P<on_1>\d+/\d+) and (?P<on_02>\d+/\d+) with it \((?P<old_on_1>\d+/\d+) and (?P<old_on_02>\d+/\d+)\), "
+           r"and the verdict reports the resonance it took out: the FIC's arm moves (?P<gain>[\d.]+) times the "
+           r"operator's planned offset at (?P<period>[\d.]+) s .{0,400}?; (?P<worse>\d+) runs the earlier rule passed "
+           r"now fail so",
+           lambda: dict(off_1=refit_k_n("delay_1__rate_10__feedback_off"),
+                        off_02=refit_k_n("delay_0.2__rate_10__feedback_off"),
+                        old_off_1=refit_k_n("delay_1__rate_10__feedback_off", "stable_without_fit"),
+                        old_off_02=refit_k_n("delay_0.2__rate_10__feedback_off", "stable_without_fit"),
+                        on_1=refit_k_n("delay_1__rate_10"), on_02=refit_k_n("delay_0.2__rate_10"),
+                        old_on_1=refit_k_n("delay_1__rate_10", "stable_without_fit"),
+                        old_on_02=refit_k_n("delay_0.2__rate_10", "stable_without_fit"),
+                        gain=f"{refit('delay_1__rate_10__feedback_off')['resonance_gain_median']:.2f}",
+                        period=f"{refit('delay_1__rate_10__feedback_off')['resonance_period_median_s']:.2f}",
+                        worse=str(sum(1 for entry in result("verdict_forced_answer_claims.json")[
+                            "by_cell_and_law"].values() for change in entry["changed"] if change["now"] is False)))),
     Figure("bench: free-motion error of the ten default runs",
            r"free-motion tracking error max (?P<max_low>[\d.]+)-(?P<max_high>[\d.]+) mm .{0,40}RMS "
            r"(?P<rms_low>[\d.]+)-(?P<rms_high>[\d.]+) mm",
