@@ -486,16 +486,16 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         # going in the loop is not the input's answer, but it is only a disturbance to a least-squares fit, and the
         # fit needs the samples.
         use = judged & ~_dilated(contact, int(round(criterion.contact_margin / step)))
-        first: dict[str, tuple[NDArray, list[Channel], ForcedAnswer]] = {}
+        first: dict[str, tuple[NDArray, list[Channel], ForcedAnswer, dict]] = {}
         designs: dict[tuple, dict] = {}   # the regressors of one set of channels, shared by the fits that use it
         for name, (residual, _) in signals.items():
             channels = _exogenous_channels(name, on_grid, data.one_way_delay) if criterion.forced.enabled else []
             design = designs.setdefault(tuple((c.name, c.shift) for c in channels), {})
             answer = fit(time, residual, channels, use, criterion.forced, design=design) if channels else None
             if answer is not None:
-                first[name] = (residual, channels, answer)
+                first[name] = (residual, channels, answer, design)
         hints = scan(time, free, judged_from, criterion.scan,
-                     {name: (residual - answer.predicted, None) for name, (residual, _, answer) in first.items()}) \
+                     {name: (residual - answer.predicted, None) for name, (residual, _, answer, _) in first.items()}) \
             if first else {}
         scanned: dict[str, tuple[NDArray, NDArray | None]] = {}
         answers: dict[str, ForcedAnswer] = {}
@@ -503,7 +503,7 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
             if name not in first:
                 scanned[name] = (residual, known)
                 continue
-            _, channels, answer = first[name]
+            _, channels, answer, design = first[name]
             if hints[name].amplitude > 0.0:
                 # The free oscillation's period, refined on what each fit leaves until it settles (the scan's grid
                 # is 7 % coarse; a periodogram of the motion itself would be pulled towards the resonance's peak).
@@ -513,7 +513,7 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
                     settled = abs(refined - period) < 0.005 * period
                     period = refined
                     answer = fit(time, residual, channels, use, criterion.forced, free_period=period,
-                                 design=designs[tuple((c.name, c.shift) for c in channels)]) or answer
+                                 design=design) or answer
                     if settled:
                         break
             answers[name] = answer
@@ -533,13 +533,12 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
         figures["oscillation"] = {name: found.as_dict() for name, found in oscillations.items()}
         figures["oscillation_with_forced_answer"] = {name: before[name].as_dict() for name in answers}
         figures["forced_answer"] = {name: answer.as_dict() for name, answer in answers.items()}
-        resonance = next((answers[name].gain for name in ("x_R - command", "x_d - command", "x_M - operator target")
-                          if name in answers and answers[name].gain is not None), None)
-        if resonance is not None:
-            motion = next(name for name in ("x_R - command", "x_d - command", "x_M - operator target")
-                          if name in answers and answers[name].gain is not None).split(" - ")[0]
+        resonant = next((name for name in ("x_R - command", "x_d - command", "x_M - operator target")
+                         if name in answers and answers[name].gain is not None), None)
+        if resonant is not None:
+            resonance = answers[resonant].gain
             figures.update(resonance_gain=resonance["peak_gain"], resonance_period_s=resonance["period_s"],
-                           resonance_of=motion)
+                           resonance_of=resonant.split(" - ")[0])
         for name, found in oscillations.items():
             if found.sustained:
                 stable_reasons.append(
