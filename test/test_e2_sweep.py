@@ -68,3 +68,9 @@ def test_a_failed_piece_shows_its_contact_phases_forces_and_errors() -> None:
 def test_a_malformed_cell_is_refused(cell: str) -> None:
     with pytest.raises(SystemExit):
         e2_sweep.main(["--out", "/tmp/unused.jsonl", "--cells", cell])
+
+
+def test_the_default_cells_are_every_law_at_every_delay_the_paper_s_first() -> None:
+    cells = [e2_sweep.parse_cell(cell) for cell in e2_sweep.DEFAULT_CELLS]
+    assert sorted(cells) == sorted((law, delay) for law in e2_sweep.LAWS for delay in (0.0, 0.2, 0.5, 1.0))
+    assert cells[:len(e2_sweep.LAWS)] == [(law, 0.2) for law in e2_sweep.LAWS]

@@ -1,6 +1,5 @@
-"""E2 (shape sorting) sweep on the in-process runner: every law at the paper's 200 ms and the FIC and the linear
-law at 0, 0.5 and 1 s, with the closed-loop shape-sorting operator and the force-reactive hand (e2_in_process.py runs
-one trial). Resumable: every finished trial is one line of the jsonl (--out); a rerun skips the trials already
+"""E2 (shape sorting) sweep on the in-process runner: every law at the paper's 200 ms and at 0, 0.5 and 1 s, with
+the closed-loop shape-sorting operator and the force-reactive hand (e2_in_process.py runs one trial). Resumable: every finished trial is one line of the jsonl (--out); a rerun skips the trials already
 there, so the sweep can be stopped and restarted at any time. Trials run seed-major (seed 1 of every cell, then
 seed 2, ...), so whatever has finished covers every cell.
 
@@ -11,6 +10,9 @@ behind the channel's time-domain passivity controllers).
     source scripts/env.sh
     nice -n 5 python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10   # run (or resume)
     nice -n 5 python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --cells fic@0.2 linear@0.2
+    # the paper's cell first, every law to 10 seeds, then the default cells (the 200 ms ones are skipped as done)
+    python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10 --cells fic@0.2 \
+        fic_paper_law@0.2 linear@0.2 linear_bounded@0.2 linear_tdpa@0.2
     python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --summary results/e2_sweep.md  # k/n, Wilson
 """
 from __future__ import annotations
@@ -30,9 +32,10 @@ from sim_bridge.experiments.shape_sorting import PIECE_NAMES
 #: law -> (the runner's controller, the paper's Eq. 7 as written)
 LAWS = {"fic": ("fic", False), "fic_paper_law": ("fic", True), "linear": ("linear", False),
         "linear_bounded": ("linear_bounded", False), "linear_tdpa": ("linear_tdpa", False)}
-#: The cells in the order each seed runs them: the paper's delay for every law, then the delay sweep.
-DEFAULT_CELLS = ("fic@0.2", "fic_paper_law@0.2", "linear@0.2", "linear_bounded@0.2", "linear_tdpa@0.2",
-                 "fic@0", "linear@0", "fic@0.5", "linear@0.5", "fic@1", "linear@1")
+#: The delays each way [s]: the paper's 200 ms first, then the sweep's 0, 0.5 and 1 s.
+DELAYS_S = (0.2, 0.0, 0.5, 1.0)
+#: The cells in the order each seed runs them: every law at the paper's delay, then every law at each other delay.
+DEFAULT_CELLS = tuple(f"{law}@{delay:g}" for delay in DELAYS_S for law in LAWS)
 
 
 def parse_cell(text: str) -> tuple[str, float]:
@@ -124,7 +127,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True, help="the jsonl of finished trials (read, then appended)")
     parser.add_argument("--cells", type=parse_cell, nargs="+", default=None, metavar="LAW@DELAY",
-                        help=f"default: {' '.join(DEFAULT_CELLS)}")
+                        help="the cells to run, seed-major; default: every law at every delay, "
+                             f"{' '.join(DEFAULT_CELLS)}")
     parser.add_argument("--seeds", type=int, default=10, help="seeds 1..N a cell (default 10)")
     parser.add_argument("--duration", type=float, default=TRIAL_DURATION_S, help="simulated s a trial")
     parser.add_argument("--summary", type=Path, default=None,
