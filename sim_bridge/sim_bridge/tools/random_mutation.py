@@ -29,7 +29,10 @@ rate.
     python -m sim_bridge.tools.random_mutation --seed 1 --sample 60 --list   # the sample, without running it
 
 Exits 1 when the kill rate of the non-equivalent mutants is below --require (default 0.9). A mutant pytest could
-not judge (mutation_verdict.py: ERROR) counts in neither the kills nor the survivors.
+not judge (mutation_verdict.py: ERROR) counts in neither the kills nor the survivors; exits 2 when test/core fails,
+or does not finish within --baseline-timeout, on the unmutated tree. A mutant whose tests outrun --timeout counts as
+killed (a hang), and the result says how many kills were such (``killed_by_timeout``): on a starved machine a slow
+run looks like a hang, so give a --timeout well above the time the unmutated tests take there.
 """
 from __future__ import annotations
 
@@ -297,8 +300,18 @@ def _pytest(root: Path, folder: str, files: list[Path], timeout: float) -> subpr
     return subprocess.run(command, env=env, capture_output=True, text=True, cwd=root, timeout=max(timeout, 1.0))
 
 
-def baseline(root: Path) -> subprocess.CompletedProcess:
-    """test/core on the unmutated tree: a mutant counts only if these pass."""
+#: Seconds for test/core on the unmutated tree. In the machine's background CPU group, beside a loaded suite, it
+#: took longer than 900 s (2026-12-05); the per-mutant --timeout is smaller, as a mutant runs only its importers.
+BASELINE_TIMEOUT = 3600.0
+
+#: The start of a kill's detail when the mutant's tests did not finish in time (run_mutant): counted apart in the
+#: result (``killed_by_timeout``), as on a starved machine a slow run and a hang look alike.
+TIMEOUT_DETAIL = "the tests did not finish in"
+
+
+def baseline(root: Path, timeout: float = BASELINE_TIMEOUT) -> subprocess.CompletedProcess:
+    """test/core on the unmutated tree: a mutant counts only if these pass (RuntimeError if they did not finish
+    within ``timeout`` seconds)."""
     with tempfile.TemporaryDirectory(prefix="fic_random_mutation_") as folder:
         shutil.copytree(root / "fic_core" / "fic_core", Path(folder) / "fic_core",
                         ignore=shutil.ignore_patterns("__pycache__"))
@@ -306,7 +319,11 @@ def baseline(root: Path) -> subprocess.CompletedProcess:
         # rare random examples neither fails the baseline by chance nor counts as a kill (one did: test_profile's
         # integral).
         write_settings_plugin(Path(folder), derandomize=True)
-        return _pytest(root, folder, [root / "test" / "core"], 900.0)
+        try:
+            return _pytest(root, folder, [root / "test" / "core"], timeout)
+        except subprocess.TimeoutExpired:
+            raise RuntimeError(f"test/core did not finish on the unmutated tree in {timeout:.0f} s (a loaded "
+                               f"machine: give a longer --baseline-timeout)") from None
 
 
 def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str, float]:
@@ -331,7 +348,7 @@ def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str,
             try:
                 result = _pytest(root, folder, files, timeout - (time.monotonic() - started))
             except subprocess.TimeoutExpired:
-                return KILLED, f"the tests did not finish in {timeout:.0f} s (a hang counts)", timeout
+                return KILLED, f"{TIMEOUT_DETAIL} {timeout:.0f} s (a hang counts)", timeout
             if result.returncode != 0:
                 break
         seconds = time.monotonic() - started
@@ -350,7 +367,8 @@ def matching(sites: list[Site], previous: dict, verdicts: tuple[str, ...] = ("SU
 
 
 def run(seed: int, size: int, timeout: float, module: str | None = None, out: Path | None = None,
-        echo=print, commit: str = "HEAD", rerun: dict | None = None) -> dict:
+        echo=print, commit: str = "HEAD", rerun: dict | None = None,
+        baseline_timeout: float = BASELINE_TIMEOUT) -> dict:
     """Run a seeded sample of ``commit``'s fic_core against its test/core; returns (and writes to ``out``) every
     verdict and the kill rate. With ``rerun`` (an earlier run's JSON): its survivors again instead of a sample.
     Raises RuntimeError when test/core fails on the unmutated tree."""
@@ -361,7 +379,7 @@ def run(seed: int, size: int, timeout: float, module: str | None = None, out: Pa
                               check=True).stdout.strip()
     with tempfile.TemporaryDirectory(prefix="fic_random_mutation_tree_") as tree:
         root = snapshot(revision, Path(tree))
-        unmutated = baseline(root)
+        unmutated = baseline(root, baseline_timeout)
         if unmutated.returncode != 0:
             raise RuntimeError("test/core fails on the unmutated tree: " + unmutated.stdout.strip()[-400:])
         sites = len(all_sites(root))
@@ -381,9 +399,11 @@ def run(seed: int, size: int, timeout: float, module: str | None = None, out: Pa
                  f"               {site.source_line[:100]}\n               {detail} ({seconds:.0f} s)")
     counted = [row for row in rows if row["verdict"] in ("KILLED", "SURVIVED", "NO TESTS")]
     killed = sum(row["verdict"] == "KILLED" for row in counted)
+    timed_out = sum(row["verdict"] == "KILLED" and row["detail"].startswith(TIMEOUT_DETAIL) for row in counted)
     result = {"commit": revision, "seed": seed, "sample": len(rows), "sites": sites, "module": module,
               "equivalent": sum(row["verdict"] == "EQUIVALENT" for row in rows), "non_equivalent": len(counted),
-              "killed": killed, "kill_rate": round(killed / len(counted), 3) if counted else None,
+              "killed": killed, "killed_by_timeout": timed_out,
+              "kill_rate": round(killed / len(counted), 3) if counted else None,
               "seconds": round(time.monotonic() - started), "mutants": rows}
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -397,6 +417,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sample", type=int, default=60, help="mutants drawn from all of fic_core's sites")
     parser.add_argument("--module", default=None, help="draw from this fic_core file only (e.g. limits.py)")
     parser.add_argument("--timeout", type=float, default=240.0, help="seconds for the tests of one mutant")
+    parser.add_argument("--baseline-timeout", type=float, default=BASELINE_TIMEOUT,
+                        help="seconds for test/core on the unmutated tree")
     parser.add_argument("--out", type=Path, default=None, help="write every verdict as JSON")
     parser.add_argument("--require", type=float, default=0.9, help="least kill rate of the non-equivalent mutants")
     parser.add_argument("--commit", default="HEAD", help="the commit whose fic_core and test/core are run")
@@ -415,12 +437,18 @@ def main(argv: list[str] | None = None) -> int:
         for site in sample(arguments.seed, arguments.sample, arguments.module):
             print(f"{site.module}:{site.line} {site.kind}: {site.change}    {site.source_line[:90]}")
         return 0
-    result = run(arguments.seed, arguments.sample, arguments.timeout, arguments.module, arguments.out,
-                 echo=lambda text: print(text, flush=True), commit=arguments.commit,
-                 rerun=json.loads(arguments.rerun.read_text()) if arguments.rerun else None)
+    try:
+        result = run(arguments.seed, arguments.sample, arguments.timeout, arguments.module, arguments.out,
+                     echo=lambda text: print(text, flush=True), commit=arguments.commit,
+                     rerun=json.loads(arguments.rerun.read_text()) if arguments.rerun else None,
+                     baseline_timeout=arguments.baseline_timeout)
+    except RuntimeError as error:   # the unmutated tree failed or did not finish: no mutant can be judged
+        print(f"[random_mutation] {error}", file=sys.stderr)
+        return 2
     print(f"commit {result['commit'][:10]}, seed {result['seed']}: {result['sample']} mutants of {result['sites']} "
           f"sites, {result['equivalent']} equivalent; killed {result['killed']} of {result['non_equivalent']} "
-          f"(kill rate {result['kill_rate']}) in {result['seconds']} s")
+          f"(kill rate {result['kill_rate']}; {result['killed_by_timeout']} of the kills by the timeout) in "
+          f"{result['seconds']} s")
     return 0 if result["kill_rate"] is not None and result["kill_rate"] >= arguments.require else 1
 
 
