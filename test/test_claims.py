@@ -91,6 +91,31 @@ def test_the_verdict_applies_to_a_kept_series(tmp_path: Path) -> None:
     assert verdict["safe"] in (True, False) and verdict["stable"] in (True, False, None)
 
 
+def test_judging_again_reuses_only_verdicts_of_the_same_verdict_code_and_row(tmp_path: Path) -> None:
+    """--reuse-verdicts: a row judged before by the same verdict code keeps its verdict (nothing is submitted for
+    it); a changed row, a new row, or a summary of another verdict code is judged again."""
+    code = claims_sweep.verdict_code()
+    assert len(code) == 16 and code == claims_sweep.verdict_code()
+    rows = [dict(key=f"run{i}", series=f"run{i}.npz", delay=0.2, wall_s=1.0) for i in range(3)]
+    summary = tmp_path / "claims.json"
+    judged_rows = [{**rows[0], "verdict": {"stable": True}}, {**rows[1], "wall_s": 2.0, "verdict": {"stable": True}}]
+    summary.write_text(json.dumps(dict(verdict_code=code, runs=judged_rows)))
+
+    class Recording(ThreadPoolExecutor):
+        submitted: list = []
+
+        def submit(self, function, path, delay):   # no series on disk: record what would be judged
+            self.submitted.append(Path(path).name)
+            return super().submit(lambda: {"stable": False})
+
+    with Recording(max_workers=1) as executor:
+        out = claims_sweep.judged(rows, tmp_path, executor, progress=False,
+                                  earlier=claims_sweep.reusable(summary, code))
+    assert Recording.submitted == ["run1.npz", "run2.npz"]
+    assert [row["verdict"]["stable"] for row in out] == [True, False, False]
+    assert claims_sweep.reusable(summary, "another code") == {} and claims_sweep.reusable(None, code) == {}
+
+
 def test_the_command_reaches_the_replica_at_the_links_rate_and_is_held_in_between() -> None:
     # x_d' in use at the replica's 100 Hz poses (the replica smooths each new command over a few ticks): at full rate
     # it moves on at every tick once the handle moves; at 10 Hz in one burst after each delivery, at most one a

@@ -57,7 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fic_core.arm_profile import arm_profile
 from fic_core.teleoperation import TeleoperationMode
-from fic_teleop_tools.verdict.forced_answer import Channel, ForcedAnswer, ForcedSettings, dominant_period, fit
+from fic_teleop_tools.verdict.forced_answer import Channel, ForcedAnswer, ForcedSettings, fit, free_oscillation_period
 from fic_teleop_tools.verdict.oscillation_scan import Oscillation, ScanSettings, scan
 
 X_B = 0.05   # [m] the paper's error bound x_b (Sec. III)
@@ -505,17 +505,13 @@ def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunV
                 continue
             _, channels, answer, design = first[name]
             if hints[name].amplitude > 0.0:
-                # The free oscillation's period, refined on what each fit leaves until it settles (the scan's grid
-                # is 7 % coarse; a periodogram of the motion itself would be pulled towards the resonance's peak).
-                period = hints[name].period
-                for _ in range(criterion.forced.period_rounds):
-                    refined = dominant_period(time, residual - answer.predicted, use, period)
-                    settled = abs(refined - period) < 0.005 * period
-                    period = refined
-                    answer = fit(time, residual, channels, use, criterion.forced, free_period=period,
-                                 design=design) or answer
-                    if settled:
-                        break
+                # The free oscillation's period: where a sinusoid fitted jointly with the kernels leaves least, near
+                # the scan's (its grid is 7 % coarse; a periodogram of what the kernels alone leave is pulled off a
+                # cycle at the resonance, where the kernels took part of it).
+                period = free_oscillation_period(time, residual, channels, use, hints[name].period,
+                                                 criterion.forced, design=design)
+                answer = fit(time, residual, channels, use, criterion.forced, free_period=period,
+                             design=design) or answer
             answers[name] = answer
             # The fitted answer replaces the command's excuse (a window whose command repeats at P with twice the
             # residual's amplitude): what the input explains is gone already, and the excuse would hide a free

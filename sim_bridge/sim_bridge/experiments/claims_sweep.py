@@ -11,7 +11,10 @@ force-reactive hand, a task drawn per seed, every law; most important cells firs
 to <out-dir>/<key>.npz and its row (config, seed, wall time, figures, commit) to one line of <jsonl>, as it
 finishes; a re-run skips every run whose line and series are both there. ``--judge`` applies the run verdict
 (fic_teleop_tools.verdict.run_verdict) to every kept series and writes <summary>.json: one record per run with its
-row and both verdicts.
+row and both verdicts. ``--judge --reuse-verdicts <summary>`` takes a run's verdict from an earlier summary instead
+of judging it again when that summary was judged by the same verdict code (``verdict_code``: a hash of the sources a
+verdict depends on) and the run's row is the same; the rest are judged (a sweep judged while it ran, then its last
+runs, gives what one judgement of the finished sweep gives).
 
     scripts/experiments.sh claims --quick              # 2 cells x 5 laws x 2 hands, 1 seed, 10 s
     scripts/experiments.sh claims                      # the full sweep (2800 runs), all local cores
@@ -24,6 +27,7 @@ row and both verdicts.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
 import time
@@ -86,10 +90,44 @@ def sweep(runs: list[ClaimRun], executor: Executor, directory: Path, jsonl: Path
     return [done[claim.key] for claim in runs if claim.key in done], new
 
 
-def judged(rows: list[dict], directory: Path, executor: Executor, progress: bool = True) -> list[dict]:
-    """Every row with the run verdict of its kept series (``verdict``)."""
-    futures = {executor.submit(judge_series, directory / row["series"], row["delay"]): row for row in rows}
-    out = []
+def verdict_code() -> str:
+    """A hash of the sources a claim run's verdict depends on: the run verdict's package, the Panda's limits it judges
+    against and the code that loads a kept series (claims.py, with judge_series)."""
+    import fic_core.arm_profile
+    import fic_teleop_tools.verdict
+    import sim_bridge.experiments.claims
+
+    files = sorted(Path(fic_teleop_tools.verdict.__file__).resolve().parent.glob("*.py"))
+    files += [Path(fic_core.arm_profile.__file__).resolve(), Path(sim_bridge.experiments.claims.__file__).resolve()]
+    digest = hashlib.sha256()
+    for path in files:
+        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def reusable(summary: Path | None, code: str) -> dict[str, dict]:
+    """The judged rows of an earlier ``summary`` by key, when it was judged by the verdict ``code``; else none."""
+    if summary is None or not summary.exists():
+        return {}
+    document = json.loads(summary.read_text())
+    if document.get("verdict_code") != code:
+        return {}
+    return {row["key"]: row for row in document.get("runs", []) if "verdict" in row}
+
+
+def judged(rows: list[dict], directory: Path, executor: Executor, progress: bool = True,
+           earlier: dict[str, dict] | None = None) -> list[dict]:
+    """Every row with the run verdict of its kept series (``verdict``); a row ``earlier`` holds unchanged (its verdict
+    from the same verdict code) keeps that verdict."""
+    earlier = earlier or {}
+    out, pending = [], []
+    for row in rows:
+        before = earlier.get(row["key"])
+        if before is not None and {k: v for k, v in before.items() if k != "verdict"} == row:
+            out.append(before)
+        else:
+            pending.append(row)
+    futures = {executor.submit(judge_series, directory / row["series"], row["delay"]): row for row in pending}
     for future in tqdm(as_completed(futures), total=len(futures), unit="run", disable=not progress,
                        desc="verdicts", mininterval=5.0):
         out.append({**futures[future], "verdict": future.result()})
@@ -114,6 +152,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="no new runs: apply the run verdict to every kept run and write --summary")
     parser.add_argument("--summary", type=Path, default=None, help="judged runs (default results/claims.json)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar (a log file)")
+    parser.add_argument("--reuse-verdicts", type=Path, default=None, metavar="SUMMARY",
+                        help="with --judge: keep the verdicts of an earlier summary judged by the same verdict code "
+                             "for runs whose row is unchanged, judge the rest")
     add_engine_arguments(parser)
     args = parser.parse_args(argv)
     stem = "claims_quick" if args.quick else "claims"
@@ -132,10 +173,20 @@ def main(argv: list[str] | None = None) -> int:
     with engine_from_arguments(args) as engine:
         if args.judge:
             rows = list(finished(jsonl, directory).values())
+            code = verdict_code()
+            earlier = reusable(args.reuse_verdicts, code)
+            if args.reuse_verdicts is not None and not earlier:
+                print(f"{args.reuse_verdicts}: no verdicts of this verdict code ({code}) to reuse: judging every run",
+                      flush=True)
+            start = time.perf_counter()
+            judged_rows = judged(rows, directory, engine.executor, progress, earlier)
+            reused = sum(1 for row in judged_rows if earlier.get(row["key"]) is row)
             # runs_planned: the sweep's runs for these options; fewer judged runs: the sweep had not finished.
-            document = dict(runs_planned=len(runs), runs_judged=len(rows),
-                            runs=judged(rows, directory, engine.executor, progress), engine=engine.describe(),
+            document = dict(runs_planned=len(runs), runs_judged=len(rows), runs=judged_rows, verdict_code=code,
+                            verdicts_reused=reused, engine=engine.describe(),
                             judged_at=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), **provenance(REPO))
+            print(f"{len(rows) - reused} runs judged in {time.perf_counter() - start:.0f} s of wall time"
+                  + (f", {reused} verdicts reused from {args.reuse_verdicts}" if reused else ""), flush=True)
             summary.parent.mkdir(parents=True, exist_ok=True)
             summary.write_text(json.dumps(document, indent=1))
             counts = [(r["verdict"]["stable"], r["verdict"]["safe"]) for r in document["runs"]]
