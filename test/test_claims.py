@@ -108,11 +108,15 @@ def test_judging_again_reuses_only_verdicts_of_the_same_verdict_code_and_row(tmp
             self.submitted.append(Path(path).name)
             return super().submit(lambda: {"stable": False})
 
+    saved: list[list[dict]] = []
     with Recording(max_workers=1) as executor:
         out = claims_sweep.judged(rows, tmp_path, executor, progress=False,
-                                  earlier=claims_sweep.reusable(summary, code))
+                                  earlier=claims_sweep.reusable(summary, code), checkpoint=saved.append, every=0.0)
     assert Recording.submitted == ["run1.npz", "run2.npz"]
     assert [row["verdict"]["stable"] for row in out] == [True, False, False]
+    # A checkpoint after each judged run: every row, the ones not judged yet without a verdict.
+    assert [[("verdict" in row) for row in rows_so_far] for rows_so_far in saved] == [[True, True, False],
+                                                                                      [True, True, True]]
     assert claims_sweep.reusable(summary, "another code") == {} and claims_sweep.reusable(None, code) == {}
 
 

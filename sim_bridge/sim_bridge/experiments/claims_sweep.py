@@ -33,6 +33,7 @@ import sys
 import time
 from concurrent.futures import Executor, as_completed
 from pathlib import Path
+from typing import Callable
 
 from tqdm import tqdm
 
@@ -116,9 +117,11 @@ def reusable(summary: Path | None, code: str) -> dict[str, dict]:
 
 
 def judged(rows: list[dict], directory: Path, executor: Executor, progress: bool = True,
-           earlier: dict[str, dict] | None = None) -> list[dict]:
+           earlier: dict[str, dict] | None = None, checkpoint: Callable[[list[dict]], None] | None = None,
+           every: float = 120.0) -> list[dict]:
     """Every row with the run verdict of its kept series (``verdict``); a row ``earlier`` holds unchanged (its verdict
-    from the same verdict code) keeps that verdict."""
+    from the same verdict code) keeps that verdict. ``checkpoint``, when given, receives every ``every`` seconds the
+    rows judged so far and the rest without a verdict (so that a judgement stopped anywhere resumes from it)."""
     earlier = earlier or {}
     out, pending = [], []
     for row in rows:
@@ -128,9 +131,16 @@ def judged(rows: list[dict], directory: Path, executor: Executor, progress: bool
         else:
             pending.append(row)
     futures = {executor.submit(judge_series, directory / row["series"], row["delay"]): row for row in pending}
+    waiting = {row["key"]: row for row in pending}
+    last = time.monotonic()
     for future in tqdm(as_completed(futures), total=len(futures), unit="run", disable=not progress,
                        desc="verdicts", mininterval=5.0):
-        out.append({**futures[future], "verdict": future.result()})
+        row = futures[future]
+        out.append({**row, "verdict": future.result()})
+        del waiting[row["key"]]
+        if checkpoint is not None and time.monotonic() - last >= every:
+            checkpoint(sorted(out + list(waiting.values()), key=lambda r: r["key"]))
+            last = time.monotonic()
     return sorted(out, key=lambda row: row["key"])
 
 
@@ -155,6 +165,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--reuse-verdicts", type=Path, default=None, metavar="SUMMARY",
                         help="with --judge: keep the verdicts of an earlier summary judged by the same verdict code "
                              "for runs whose row is unchanged, judge the rest")
+    parser.add_argument("--checkpoint", action="store_true",
+                        help="with --judge: write --summary every 2 min with the runs judged so far (the rest without "
+                             "a verdict); --reuse-verdicts on the same file resumes a stopped judgement")
     add_engine_arguments(parser)
     args = parser.parse_args(argv)
     stem = "claims_quick" if args.quick else "claims"
@@ -179,16 +192,29 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{args.reuse_verdicts}: no verdicts of this verdict code ({code}) to reuse: judging every run",
                       flush=True)
             start = time.perf_counter()
-            judged_rows = judged(rows, directory, engine.executor, progress, earlier)
-            reused = sum(1 for row in judged_rows if earlier.get(row["key"]) is row)
-            # runs_planned: the sweep's runs for these options; fewer judged runs: the sweep had not finished.
-            document = dict(runs_planned=len(runs), runs_judged=len(rows), runs=judged_rows, verdict_code=code,
-                            verdicts_reused=reused, engine=engine.describe(),
-                            judged_at=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), **provenance(REPO))
+
+            def document_of(judged_rows: list[dict]) -> dict:
+                # runs_planned: the sweep's runs for these options; fewer judged runs: the sweep (or the judgement)
+                # had not finished.
+                return dict(runs_planned=len(runs), runs_judged=sum(1 for r in judged_rows if "verdict" in r),
+                            runs=judged_rows, verdict_code=code,
+                            verdicts_reused=sum(1 for r in judged_rows if earlier.get(r["key"]) is r),
+                            engine=engine.describe(), judged_at=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                            **provenance(REPO))
+
+            def write(document: dict) -> None:
+                summary.parent.mkdir(parents=True, exist_ok=True)
+                partial = summary.with_name(summary.name + ".part")
+                partial.write_text(json.dumps(document, indent=1))
+                partial.replace(summary)
+
+            judged_rows = judged(rows, directory, engine.executor, progress, earlier,
+                                 checkpoint=(lambda so_far: write(document_of(so_far))) if args.checkpoint else None)
+            document = document_of(judged_rows)
+            reused = document["verdicts_reused"]
             print(f"{len(rows) - reused} runs judged in {time.perf_counter() - start:.0f} s of wall time"
                   + (f", {reused} verdicts reused from {args.reuse_verdicts}" if reused else ""), flush=True)
-            summary.parent.mkdir(parents=True, exist_ok=True)
-            summary.write_text(json.dumps(document, indent=1))
+            write(document)
             counts = [(r["verdict"]["stable"], r["verdict"]["safe"]) for r in document["runs"]]
             print(f"{len(counts)} runs judged -> {summary}: {sum(s is True for s, _ in counts)} stable, "
                   f"{sum(s is None for s, _ in counts)} not assessed, {sum(safe for _, safe in counts)} safe")
