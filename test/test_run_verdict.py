@@ -28,13 +28,7 @@ def labelled():
 
 #: Labelled cases the verdict gets wrong, each with why (docs/EXPERIMENTS.md, "The verdict's validation"): a new miss
 #: fails the suite, and so does a fixed one until it is taken off this list.
-KNOWN_MISSES = {
-    # A 10 mm limit cycle at the resonant replica's own period beside a larger forced answer at nearly the same
-    # period (the operator input's narrow band sits on the resonance): the free sinusoid's period settles
-    # 5 % off (1.54 s against 1.46 s), the kernels take part of the cycle, what is left oscillates in 36 % of the
-    # windows. The 5, 20 and 30 mm ones and the 10 mm one at 10 Hz and at 0.2 s are caught.
-    "resonant replica + limit cycle 10mm delay=1s rate=0Hz",
-}
+KNOWN_MISSES: set[str] = set()
 
 
 def test_every_labelled_case_is_judged_right(labelled):
