@@ -46,13 +46,19 @@ ROBOT_STREAMS = ("/joint_states", "/effort_controller/commands", "/ft_sensor/wre
 #: planner runs). The poses of two writers cannot be told apart, and flipping between them moves x_d'' (an outside
 #: client's 0.3 m away moved a resting hand 0.34 m).
 SET_POINT_STREAMS = ("/planner/desired_pose", "/planner/desired_accel")
+#: The master port's E_in as the channel relays it (/master/port_energy on the operator's side): the channel-port
+#: passivity controller of the replica's side spends it, so a second writer could fake the energy the operator put in
+#: and, with that controller on, move the corrected set-point; without it, fake the port's books. One writer.
+CHANNEL_STREAMS = ("/replica/master_port_energy",)
 #: x_d': one writer (the channel, or the master without one); a second one's commands are refused while it lasts.
 TELEOP_STREAM = "/replica/teleop_command"
 
 
 def stream_owner(topic: str) -> str:
     """Whose the one legitimate writer of a guarded stream is (its name before any remap)."""
-    return "the robot's" if topic in ROBOT_STREAMS else "the planner's"
+    if topic in ROBOT_STREAMS:
+        return "the robot's"
+    return "the channel's" if topic in CHANNEL_STREAMS else "the planner's"
 
 
 @dataclass
@@ -270,4 +276,4 @@ class ReplicaStation:
         return {**self.guard_values(), **self.loop.statistics()}
 
 
-__all__ = ["ROBOT_STREAMS", "SET_POINT_STREAMS", "TELEOP_STREAM", "ReplicaStation", "ReplicaTick", "stream_owner"]
+__all__ = ["CHANNEL_STREAMS", "ROBOT_STREAMS", "SET_POINT_STREAMS", "TELEOP_STREAM", "ReplicaStation", "ReplicaTick", "stream_owner"]

@@ -74,9 +74,9 @@ class ReplicaNode(Node):
         self._feedback_pub = publisher(WrenchStamped, "/replica/feedback_wrench", qos.STREAM_WRITER)
         self._diagnostics_pub = publisher(DiagnosticArray, "/diagnostics", qos.DIAGNOSTICS)
         self._port_energy_pub = publisher(Vector3Stamped, "/replica/port_energy", qos.STREAM_WRITER)
-        self.create_subscription(Vector3Stamped, "/replica/master_port_energy", self._on_master_port_energy,
-                                 qos.STREAM)
         guard = self._input_guard   # the guarded streams: a second writer matched is the safe hold at once
+        self.create_subscription(Vector3Stamped, "/replica/master_port_energy", self._on_master_port_energy,
+                                 qos.STREAM, event_callbacks=guard.stream_events("/replica/master_port_energy"))
         self.create_subscription(JointState, "/joint_states", self._on_joint_state_bytes, qos.NEWEST, raw=True,
                                  event_callbacks=guard.stream_events("/joint_states"))
         self.create_subscription(WrenchStamped, "/ft_sensor/wrench", self._on_wrench, qos.NEWEST,

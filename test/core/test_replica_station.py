@@ -9,7 +9,7 @@ import pytest
 
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
-from fic_core.replica_station import ROBOT_STREAMS, SET_POINT_STREAMS, ReplicaStation, stream_owner
+from fic_core.replica_station import CHANNEL_STREAMS, ROBOT_STREAMS, SET_POINT_STREAMS, ReplicaStation, stream_owner
 
 from config_values import config_values
 
@@ -44,9 +44,10 @@ def test_every_guarded_stream_has_its_owner() -> None:
     assert "/ft_sensor/wrench" in ROBOT_STREAMS and "/planner/desired_pose" in SET_POINT_STREAMS
     assert stream_owner("/ft_sensor/wrench") == "the robot's"
     assert stream_owner("/planner/desired_accel") == "the planner's"
+    assert stream_owner("/replica/master_port_energy") == "the channel's"
 
 
-@pytest.mark.parametrize("topic", ROBOT_STREAMS + SET_POINT_STREAMS)
+@pytest.mark.parametrize("topic", ROBOT_STREAMS + SET_POINT_STREAMS + CHANNEL_STREAMS)
 def test_a_second_writer_of_a_guarded_stream_is_the_safe_hold_named_once(topic: str) -> None:
     replica = station()
     now = run(replica, 0.0, 10)

@@ -215,3 +215,62 @@ def test_a_second_wrench_writer_puts_the_replica_into_its_safe_hold(start_node, 
     assert any(said in hold_line for said in ("/outside_client", "publishers matched on", "not yet named")), hold_line
     held = [status for status in statuses if status.message.startswith("safe hold")]
     assert held and held[-1].level == DiagnosticStatus.ERROR
+
+
+def test_a_second_master_port_energy_writer_puts_the_replica_into_its_safe_hold(start_node, ros_env,
+                                                                              rclpy_context) -> None:
+    """/replica/master_port_energy is the master port's E_in as the channel relays it (the replica's channel-port
+    passivity controller spends it): with the test playing the channel's relay, an outside client's second writer
+    there is a safe hold, named as the channel's stream."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from geometry_msgs.msg import Vector3Stamped
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    env = dict(ros_env)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
+                                                      env.get("PYTHONPATH")]))
+    start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
+               params={"mode": "realtime", "scene": "free_space"})
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
+    qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
+    nodes = [rclpy.create_node(name, context=rclpy_context) for name in ("channel_reverse", "outside_client")]
+    statuses: list = []
+    nodes[0].create_subscription(DiagnosticArray, "/diagnostics",
+                                 lambda m: statuses.extend(s for s in m.status if s.name == "replica"), qos)
+    executor = SingleThreadedExecutor(context=rclpy_context)
+    for node in nodes:
+        executor.add_node(node)
+
+    def writer(node, energy: float):
+        publisher = node.create_publisher(Vector3Stamped, "/replica/master_port_energy", qos)
+
+        def publish() -> None:
+            message = Vector3Stamped()
+            message.header.stamp = node.get_clock().now().to_msg()
+            message.vector.x = energy
+            publisher.publish(message)
+        node.create_timer(0.01, publish)
+
+    def spin(seconds: float, until=lambda: False) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline and not until():
+            executor.spin_once(timeout_sec=0.05)
+
+    try:
+        writer(nodes[0], 0.0)          # the relay alone: one writer, no hold
+        spin(3.0)
+        assert "SAFE HOLD" not in replica.output(), replica.output()
+        writer(nodes[1], 5.0)          # the outside client's E_in
+        spin(60.0, lambda: any(s.message.startswith("safe hold") for s in statuses))
+    finally:
+        for node in nodes:
+            executor.remove_node(node)
+            node.destroy_node()
+    log = replica.output()
+    assert log.count("The replica sends no more torques") == 1, log
+    hold_line = next(line for line in log.splitlines() if "SAFE HOLD" in line)
+    print(f"[probe] {hold_line}")
+    assert "/replica/master_port_energy" in hold_line and "one is the channel's" in hold_line, hold_line
