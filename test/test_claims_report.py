@@ -115,6 +115,20 @@ def test_readme_block_reads_the_statistics_and_says_when_a_cell_has_no_runs(tmp_
                           "far, 2 without a judged run yet.\n")
 
 
+def test_readme_block_of_a_finished_sweep_says_all_runs_judged(tmp_path, capsys):
+    """Every claim cell, law and hand at its planned seeds: the block says so, not "so far"."""
+    from sim_bridge.experiments.tables import README_CLAIM_CELLS
+    rows = [_row(cell, law, seed, True, hand=hand) for cell, _ in README_CLAIM_CELLS for law in ("fic", "linear")
+            for hand in ("passive", "reactive") for seed in (1, 2)]
+    path = tmp_path / "claims_statistics.json"
+    path.write_text(json.dumps(claims_statistics(rows, seeds_planned=2)))
+    assert main(["--readme", str(path)]) == 0
+    block = capsys.readouterr().out
+    assert block.startswith(f"All {len(rows)} runs of the claim sweep judged (2 seeds a law, cell and hand). ")
+    assert "so far" not in block and "resumes" not in block
+    assert "undecided at 2 seeds.\n" in block
+
+
 def test_tables_say_how_many_runs_were_too_short_to_judge():
     from sim_bridge.experiments.tables import claims_markdown
     rows = [_row("c", "fic", 1, None), _row("c", "fic", 2, True)]

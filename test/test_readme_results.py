@@ -104,7 +104,7 @@ def refit_k_n(cell_id: str, field: str = "stable") -> str:
 
 FIGURES = [
     Figure("claims: the passive hand's reproduced rows",
-           r"So far \(2026-12-05, (?P<runs>[\d,]+) runs\): at 1 s with the link at full rate, and at the paper's 0\.2 s "
+           r"The whole sweep \(2026-12-05, (?P<runs>[\d,]+) runs\): at 1 s with the link at full rate, and at the paper's 0\.2 s "
            r"with the link at 10 Hz, the FIC is stable in (?P<full>\d+/\d+) and (?P<ten>\d+/\d+) runs with the passive",
            lambda: dict(runs=f"{result('claims_statistics.json')['runs_judged']:,}",
                         full=k_n(claim_share("delay_1__rate_full", "passive")),

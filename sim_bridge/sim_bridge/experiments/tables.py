@@ -222,9 +222,17 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
     hands = sorted({c.get("hand") for c in statistics.get("cells", [])}, key=str) or [None]
     comparisons = {(c["cell"], c.get("hand"), c["baseline"]): c for c in statistics.get("comparisons", [])}
     judged_n = [s["stable"]["n"] for c in statistics.get("cells", []) for s in c["laws"].values()]
-    lines = [f"Judged so far: {statistics.get('runs_judged', 0)} runs of the claim sweep"
-             + (f" ({min(judged_n)}-{max(judged_n)} judged seeds a law, cell and hand, of {planned} planned)"
-                if judged_n else "") + "; the sweep resumes where it stopped. A claim is read as reproduced when "
+    # Every law, cell and hand at its planned seeds: the sweep is complete and nothing is "so far" any more.
+    complete = (bool(judged_n) and planned is not None and min(judged_n) >= planned
+                and all((cell_id, hand) in cells for cell_id, _ in README_CLAIM_CELLS for hand in hands))
+    if complete:
+        opening = (f"All {statistics.get('runs_judged', 0)} runs of the claim sweep judged ({planned} seeds a law, "
+                   "cell and hand)")
+    else:
+        opening = (f"Judged so far: {statistics.get('runs_judged', 0)} runs of the claim sweep"
+                   + (f" ({min(judged_n)}-{max(judged_n)} judged seeds a law, cell and hand, of {planned} planned)"
+                      if judged_n else "") + "; the sweep resumes where it stopped")
+    lines = [opening + ". A claim is read as reproduced when "
              f"the FIC's stable share has a Wilson 95 % lower bound of at least {REPRODUCED_SHARE:.2f}, not "
              "reproduced when the upper bound is below it, undecided otherwise.", "",
              f"| claim, as the literature means it | hand | {reference} stable | {reference} safe | baselines stable "
@@ -266,8 +274,9 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
     tally = {name: sum(1 for r in readings if r.startswith(name)) for name in ("reproduced", "not reproduced",
                                                                                  "undecided", "no run")}
     lines += ["", f"Of these {len(readings)} claim rows: {tally['reproduced']} reproduced, {tally['not reproduced']} "
-              f"not reproduced, {tally['undecided']} undecided at the seeds judged so far, {tally['no run']} without a "
-              "judged run yet."]
+              f"not reproduced, {tally['undecided']} undecided "
+              + (f"at {planned} seeds." if complete else
+                 f"at the seeds judged so far, {tally['no run']} without a judged run yet.")]
     lines += _control_sentences(cells, controls, hands, reference)
     lines += _resonance_sentences(cells, controls, hands)
     return "\n".join(lines) + "\n"
