@@ -12,12 +12,48 @@ from typing import Callable
 
 import pytest
 
+from sim_bridge.experiments.cell_statistics import wilson_interval
+
 REPO = Path(__file__).resolve().parents[1]
 
 
 @cache
 def result(name: str) -> dict:
     return json.loads((REPO / "results" / name).read_text())
+
+
+def jsonl(name: str) -> list[dict]:
+    """The rows of a results/ jsonl (one finished trial a line)."""
+    return [json.loads(line) for line in (REPO / "results" / name).read_text().splitlines() if line.strip()]
+
+
+def complete(trial: dict) -> bool:
+    """An E2 trial is complete when all three pieces ended inside the box."""
+    return len(trial["pieces_inside"]) == 3
+
+
+def interval(k: int, n: int) -> dict:
+    low, high = wilson_interval(k, n)
+    return dict(low=f"{low:.2f}", high=f"{high:.2f}")
+
+
+def e2_sweep_at_200ms() -> dict:
+    """The in-process sweep keeps running and appending trials (seed-major), so the README states k of n for its
+    first n seeds a law: each k is recomputed from results/e2_sweep.jsonl's trials of seeds 1..n, and the FIC's
+    interval from them."""
+    said = re.search(r"at 200 ms: the default FIC \d+ of (?P<fic>\d+) .*?as written \d+ of (?P<fic_paper_law>\d+) .*?"
+                     r"linear \d+ of (?P<linear>\d+), linear_bounded \d+ of (?P<linear_bounded>\d+), linear_tdpa \d+ of "
+                     r"(?P<linear_tdpa>\d+)", readme_results())
+    if said is None:
+        return {}
+    trials = jsonl("e2_sweep.jsonl")
+    expected = {}
+    for law, n in said.groupdict().items():
+        kept = {t["seed"]: t for t in trials if t["law"] == law and t["delay_s"] == 0.2 and t["seed"] <= int(n)}
+        expected[law] = f"{sum(complete(t) for t in kept.values())} of {len(kept)}"
+        if law == "fic":
+            expected.update(interval(sum(complete(t) for t in kept.values()), len(kept)))
+    return expected
 
 
 @cache
@@ -199,24 +235,26 @@ FIGURES = [
            lambda: dict(zip(("fic_low", "fic_high", "lin_low", "lin_high"), (f"{v:.2f}" for v in (
                *cell("evidence_closed_loop_5seeds.json", "delay_1", "fic")["stable_interval_95"],
                *cell("evidence_closed_loop_5seeds.json", "delay_1", "linear")["stable_interval_95"]))))),
-    Figure("E2 in-process, shape-sorting operator, FIC at 200 ms: trials, interval, pieces",
-           r"FIC (?P<complete>\d+) of (?P<trials>\d+) trials complete \(Wilson (?P<low>[\d.]+)-(?P<high>[\d.]+)\), "
-           r"(?P<inside>\d+) of (?P<pieces>\d+) pieces",
-           lambda: dict(complete=str(result("e2_operator_fic.json")["complete"]),
-                        trials=str(len(result("e2_operator_fic.json")["trials"])),
-                        low=f"{result('e2_operator_fic.json')['complete_wilson_95'][0]:.2f}",
-                        high=f"{result('e2_operator_fic.json')['complete_wilson_95'][1]:.2f}",
-                        inside=str(result("e2_operator_fic.json")["pieces_inside"]),
-                        pieces=str(3 * len(result("e2_operator_fic.json")["trials"])))),
-    Figure("E2 in-process: the unbounded linear law",
-           r"the unbounded linear law (?P<complete>\d+) of (?P<trials>\d+)",
-           lambda: dict(complete=str(result("e2_operator_linear.json")["complete"]),
-                        trials=str(len(result("e2_operator_linear.json")["trials"])))),
-    Figure("E2 in-process: the FIC's peak forces and limit violations",
-           r"Peak forces (?P<low>\d+)-(?P<high>\d+) N, (?P<violations>\d+) limit violations",
-           lambda: dict(low=f"{min(t['peak_force_n'] for t in result('e2_operator_fic.json')['trials']):.0f}",
-                        high=f"{max(t['peak_force_n'] for t in result('e2_operator_fic.json')['trials']):.0f}",
-                        violations=str(sum(t["limit_violations"] for t in result("e2_operator_fic.json")["trials"])))),
+    Figure("E2 graph, the replica's default law at 200 ms: trials complete and their interval",
+           r"the FIC completes (?P<complete>\d+) of (?P<trials>\d+) graph trials \(Wilson (?P<low>[\d.]+)-(?P<high>[\d.]+)\)",
+           lambda: dict(complete=str(sum(complete(t) for t in jsonl("e2_graph_fic.jsonl"))),
+                        trials=str(len(jsonl("e2_graph_fic.jsonl"))),
+                        **interval(sum(complete(t) for t in jsonl("e2_graph_fic.jsonl")),
+                                   len(jsonl("e2_graph_fic.jsonl"))))),
+    Figure("E2 graph, the replica's default law: pieces, their interval, peak forces",
+           r"default law (?P<inside>\d+) of (?P<pieces>\d+) pieces \((?P<low>[\d.]+)-(?P<high>[\d.]+)\), .{0,30}?, peak "
+           r"(?P<peak_low>[\d.]+)-(?P<peak_high>[\d.]+) N",
+           lambda: dict(inside=str(sum(len(t["pieces_inside"]) for t in jsonl("e2_graph_fic.jsonl"))),
+                        pieces=str(3 * len(jsonl("e2_graph_fic.jsonl"))),
+                        **interval(sum(len(t["pieces_inside"]) for t in jsonl("e2_graph_fic.jsonl")),
+                                   3 * len(jsonl("e2_graph_fic.jsonl"))),
+                        peak_low=f"{min(t['peak_force_n'] for t in jsonl('e2_graph_fic.jsonl')):.1f}",
+                        peak_high=f"{max(t['peak_force_n'] for t in jsonl('e2_graph_fic.jsonl')):.1f}")),
+    Figure("E2 in process at 200 ms, every law (the sweep grows: checked on the seeds the README counts)",
+           r"at 200 ms: the default FIC (?P<fic>\d+ of \d+) \((?P<low>[\d.]+)-(?P<high>[\d.]+)\), as written "
+           r"(?P<fic_paper_law>\d+ of \d+) \([\d.]+-[\d.]+\), linear (?P<linear>\d+ of \d+), linear_bounded "
+           r"(?P<linear_bounded>\d+ of \d+), linear_tdpa (?P<linear_tdpa>\d+ of \d+)",
+           lambda: e2_sweep_at_200ms()),
     Figure("E2 lockstep graph, scripted operator: trials complete",
            r"\((?P<complete>\d+) of (?P<trials>\d+) trials complete, 2026-12-02\)",
            lambda: dict(complete=str(result("e2.json")["successful_trials"]),
