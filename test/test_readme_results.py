@@ -138,6 +138,50 @@ def refit(cell_id: str) -> dict:
 def refit_k_n(cell_id: str, field: str = "stable") -> str:
     return f"{refit(cell_id)[field]}/{refit(cell_id)['runs']}"
 
+
+def comparison(cell_id: str, hand: str, baseline: str) -> dict:
+    """FIC against one baseline on a claim cell and hand: stable-share difference, interval, Boschloo p."""
+    return next(c for c in result("claims_statistics.json")["comparisons"]
+                if c["cell"] == cell_id and c.get("hand") == hand and c["baseline"] == baseline)["stable"]
+
+
+def law_safe(cell_id: str, hand: str, law: str) -> int:
+    return next(c for c in result("claims_statistics.json")["cells"]
+                if c["cell"] == cell_id and c.get("hand") == hand)["laws"][law]["safe"]["k"]
+
+
+def one_count_of(values) -> str:
+    """README gives one figure for several baselines: it must be the same for all of them."""
+    found = set(values)
+    return found.pop() if len(found) == 1 else f"differs: {sorted(found)}"
+
+
+def p_text(p: float) -> str:
+    return f"{p:.3f}"
+
+
+SWEEP_DELAYS = ("0", "0.2", "0.5", "1", "1.5", "2")
+
+
+def delay_sweep(hand: str) -> str:
+    return ", ".join(str(claim_share(f"delay_{d}__rate_full", hand)["k"]) for d in SWEEP_DELAYS[:-1]) + \
+        f" and {claim_share('delay_2__rate_full', hand)['k']}"
+
+
+def above_paper_law() -> dict:
+    """Where the FIC is above the paper's own law in the full-rate delay sweep (Boschloo p < 0.05, either hand)."""
+    found = [(cell["cell"], comparison(cell["cell"], cell["hand"], "fic_paper_law"))
+             for cell in result("claims_statistics.json")["cells"] if cell["cell"].endswith("__rate_full")]
+    found = [(c, s) for c, s in found if s["difference"] > 0 and s["boschloo_p"] < 0.05]
+    delays = sorted({float(c.split("__")[0][len("delay_"):]) for c, _ in found})
+    names = [f"{d:g}" for d in delays]
+    return dict(delays=", ".join(names[:-1]) + f" and {names[-1]}",
+                low=f"{min(s['difference'] for _, s in found):.2f}", high=f"{max(s['difference'] for _, s in found):.2f}",
+                p_high=p_text(max(s["boschloo_p"] for _, s in found)),
+                p_low="below 0.001" if min(s["boschloo_p"] for _, s in found) < 0.001
+                else p_text(min(s["boschloo_p"] for _, s in found)))
+
+
 FIGURES = [
     Figure("claims: the passive hand's reproduced rows",
            r"The whole sweep \(2026-12-05, (?P<runs>[\d,]+) runs\): at 1 s with the link at full rate, and at the paper's 0\.2 s "
@@ -145,6 +189,60 @@ FIGURES = [
            lambda: dict(runs=f"{result('claims_statistics.json')['runs_judged']:,}",
                         full=k_n(claim_share("delay_1__rate_full", "passive")),
                         ten=k_n(claim_share("delay_0.2__rate_10", "passive")))),
+    Figure("claims: the reactive hand at 1 s, full rate",
+           r"with the force-reactive hand (?P<fic>\d+/\d+) at 1 s full rate",
+           lambda: dict(fic=k_n(claim_share("delay_1__rate_full", "reactive")))),
+    Figure("claims: 0.2 s + 10 Hz with the reactive hand, against every baseline",
+           r"at the paper's 0\.2 s \((?P<fic>\d+/\d+) against (?P<low>\d+)-(?P<high>\d+)/20; FIC minus each baseline "
+           r"(?P<d_least>-[\d.]+) to (?P<d_most>-[\d.]+), Boschloo p (?P<p_low>[\d.]+)-(?P<p_high>[\d.]+)\)",
+           lambda: dict(fic=k_n(claim_share("delay_0.2__rate_10", "reactive")),
+                        low=str(min(claim_share("delay_0.2__rate_10", "reactive", b)["k"] for b in BASELINES)),
+                        high=str(max(claim_share("delay_0.2__rate_10", "reactive", b)["k"] for b in BASELINES)),
+                        d_most=f"{min(comparison('delay_0.2__rate_10', 'reactive', b)['difference'] for b in BASELINES):.2f}",
+                        d_least=f"{max(comparison('delay_0.2__rate_10', 'reactive', b)['difference'] for b in BASELINES):.2f}",
+                        p_low=p_text(min(comparison("delay_0.2__rate_10", "reactive", b)["boschloo_p"] for b in BASELINES)),
+                        p_high=p_text(max(comparison("delay_0.2__rate_10", "reactive", b)["boschloo_p"] for b in BASELINES)))),
+    Figure("claims: 1 s + 10 Hz with the passive hand",
+           r"at 1 s with both 10 Hz and the passive hand, (?P<fic>\d+/\d+) \(undecided\)",
+           lambda: dict(fic=k_n(claim_share("delay_1__rate_10", "passive")))),
+    Figure("claims: the delay sweep at full rate, both hands",
+           r"the FIC is stable in (?P<passive>[\d, ]+ and \d+) of 20 with the passive hand at 0, 0\.2, 0\.5, 1, 1\.5 and 2 s, "
+           r"and (?P<reactive>[\d, ]+ and \d+) with the reactive one",
+           lambda: dict(passive=delay_sweep("passive"), reactive=delay_sweep("reactive"))),
+    Figure("claims: the delay sweep against the paper's own law",
+           r"above the paper's own law at (?P<delays>[\d., ]+ and [\d.]+) s \(with one hand or both, by "
+           r"(?P<low>[\d.]+)-(?P<high>[\d.]+), Boschloo p (?P<p_low>below 0\.001|[\d.]+) to (?P<p_high>[\d.]+)\)",
+           above_paper_law),
+    Figure("claims: 1.5 s with the passive hand",
+           r"1\.5 s with the passive hand \((?P<fic>\d+/\d+) against `linear_bounded`'s and `linear_tdpa`'s "
+           r"(?P<base>\d+/\d+), (?P<d>-[\d.]+), p (?P<p>[\d.]+)\)",
+           lambda: dict(fic=k_n(claim_share("delay_1.5__rate_full", "passive")),
+                        base=one_count_of(k_n(claim_share("delay_1.5__rate_full", "passive", b))
+                                          for b in ("linear_bounded", "linear_tdpa")),
+                        d=one_count_of(f"{comparison('delay_1.5__rate_full', 'passive', b)['difference']:.2f}"
+                                       for b in ("linear_bounded", "linear_tdpa")),
+                        p=one_count_of(p_text(comparison("delay_1.5__rate_full", "passive", b)["boschloo_p"])
+                                       for b in ("linear_bounded", "linear_tdpa")))),
+    Figure("claims: 2 s at 10 and 5 Hz, reactive hand, against linear_bounded",
+           r"\((?P<fic10>\d+/\d+) against (?P<lb10>\d+/\d+) at 10 Hz, (?P<fic5>\d+/\d+) against (?P<lb5>\d+/\d+) at 5 Hz, "
+           r"p (?P<p10>[\d.]+) and (?P<p5>[\d.]+)\)",
+           lambda: dict(fic10=k_n(claim_share("delay_2__rate_10", "reactive")),
+                        lb10=k_n(claim_share("delay_2__rate_10", "reactive", "linear_bounded")),
+                        fic5=k_n(claim_share("delay_2__rate_5", "reactive")),
+                        lb5=k_n(claim_share("delay_2__rate_5", "reactive", "linear_bounded")),
+                        p10=p_text(comparison("delay_2__rate_10", "reactive", "linear_bounded")["boschloo_p"]),
+                        p5=p_text(comparison("delay_2__rate_5", "reactive", "linear_bounded")["boschloo_p"]))),
+    Figure("claims: SAFE beyond 1 s at full rate",
+           r"the FIC (?P<fic_low>\d+)-(?P<fic_high>\d+) of 20 at 1\.5-2 s full rate, the baselines "
+           r"(?P<base_low>\d+)-(?P<base_high>\d+)\)",
+           lambda: dict(fic_low=str(min(law_safe(f"delay_{d}__rate_full", h, "fic") for d in ("1.5", "2")
+                                        for h in ("passive", "reactive"))),
+                        fic_high=str(max(law_safe(f"delay_{d}__rate_full", h, "fic") for d in ("1.5", "2")
+                                         for h in ("passive", "reactive"))),
+                        base_low=str(min(law_safe(f"delay_{d}__rate_full", h, b) for d in ("1.5", "2")
+                                         for h in ("passive", "reactive") for b in BASELINES)),
+                        base_high=str(max(law_safe(f"delay_{d}__rate_full", h, b) for d in ("1.5", "2")
+                                          for h in ("passive", "reactive") for b in BASELINES)))),
     Figure("claims: 1 s + 10 Hz with the reactive hand, against linear_tdpa",
            r"\((?P<fic>\d+/\d+) at 1 s, below `linear_tdpa`'s (?P<tdpa>\d+/\d+), Boschloo p (?P<p>[\d.]+)\)",
            lambda: dict(fic=k_n(claim_share("delay_1__rate_10", "reactive")),
