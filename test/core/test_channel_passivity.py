@@ -213,3 +213,14 @@ def test_the_motion_port_correction_follows_its_written_out_law() -> None:
     np.testing.assert_allclose(delivered, expected, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(gains, expected_gain, rtol=1e-9, atol=1e-15)
     assert controller.observer.energy == pytest.approx(expected_energy[-1], abs=1e-12)
+
+
+def test_a_disabled_motion_port_delivers_a_new_offset_even_at_the_same_instant() -> None:
+    """Disabled, the controller passes the offset through unchanged, also on a repeat at the same instant (dt = 0);
+    enabled, a repeat at the same instant books nothing and keeps what it delivered."""
+    disabled = MotionPortPassivityController(0.01, enabled=False)
+    disabled.step([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0.0)
+    np.testing.assert_array_equal(disabled.step([0.1, 0.0, 0.0], [1.0, 0.0, 0.0], 0.0), [0.1, 0.0, 0.0])
+    enabled = MotionPortPassivityController(0.01, enabled=True)
+    enabled.step([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0.0)
+    np.testing.assert_array_equal(enabled.step([0.1, 0.0, 0.0], [1.0, 0.0, 0.0], 0.0), [0.0, 0.0, 0.0])

@@ -45,3 +45,9 @@ def test_changes_are_checked_before_any_is_applied() -> None:
     notices = station.configure({"trajectory": "fixed", "natural_frequency": 4.0}, 1.0)
     assert len(notices) == 2 and station.planner.natural_frequency == 4.0
     assert station.schedule.origin == 1.0 and station.diagnostic_values()["trajectory"] == "fixed"
+
+
+def test_the_station_integrates_one_publish_period_a_tick() -> None:
+    """The schedule's nominal step is the period of config/planner.yaml's publish_rate, 1 / rate."""
+    station = PlannerStation(values(publish_rate=250.0), 0.0)
+    assert station.schedule.nominal_period == pytest.approx(1.0 / 250.0)
