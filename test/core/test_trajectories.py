@@ -88,3 +88,14 @@ def test_invalid_inputs_are_rejected() -> None:
             source.point(math.nan)
     with pytest.raises(FicInputError, match="position"):
         ViaPoints([[0, 0, 0]]).point(0.0, position=[math.nan, 0, 0])
+
+
+def test_a_via_point_is_reached_by_the_distance_to_it_then_dwelt_on() -> None:
+    """With a position given, the dwell starts once the position is within the tolerance of the via-point (the
+    distance |position - point|), and the next via-point follows dwell_s later; far away, it never starts."""
+    source = ViaPoints([[0.5, 0.0, 0.3], [0.6, 0.0, 0.3]], dwell_s=0.5, tolerance=0.002)
+    np.testing.assert_array_equal(source.point(0.0, position=[0.5, 0.0, 0.3005]), [0.5, 0.0, 0.3])
+    np.testing.assert_array_equal(source.point(0.6, position=[0.5, 0.0, 0.3]), [0.6, 0.0, 0.3])
+    far = ViaPoints([[0.5, 0.0, 0.3], [0.6, 0.0, 0.3]], dwell_s=0.5, tolerance=0.002)
+    far.point(0.0, position=[0.4, 0.0, 0.3])
+    np.testing.assert_array_equal(far.point(5.0, position=[0.4, 0.0, 0.3]), [0.5, 0.0, 0.3])
