@@ -115,3 +115,10 @@ def test_the_rotation_angle_rate_reads_each_axis_of_the_rate(axis: int) -> None:
         assert not attractor.phase.any(), angle   # D (the phase is the angle's, given on each axis)
     attractor.moment(0.19 * unit, -0.5 * unit)
     assert attractor.phase.all()
+
+
+def test_a_new_postural_optimisation_has_solved_no_qp(robot: RobotModel) -> None:
+    """The count of QP solves the replica's diagnostics report ("qp_solves") starts at 0 and counts only solves."""
+    from fic_core.postural_optimisation import PosturalOptimisation
+
+    assert PosturalOptimisation(PandaLimits.from_robot(robot), DT).qp_count == 0

@@ -203,3 +203,12 @@ def test_stamps_drifting_behind_the_clock_are_not_old_but_a_queued_state_is() ->
     assert health.holds == 0 and now - stamp > 0.9   # a second behind, no hold
     health.tick(now + PERIOD, stamp + 0.8 * PERIOD - 0.05)
     assert health.state == HOLDING and health.state_age > 0.045
+
+
+def test_the_bounds_cannot_be_changed_behind_their_check() -> None:
+    """The bounds are checked once, when made; a frozen dataclass keeps a later assignment (a node's parameter
+    callback, say) from slipping an unchecked bound in: a change goes through a new, checked LoopHealthBounds."""
+    import dataclasses
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        BOUNDS.max_tick_gap = -1.0   # type: ignore[misc]
