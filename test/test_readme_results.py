@@ -13,6 +13,7 @@ from typing import Callable
 import pytest
 
 from sim_bridge.experiments.cell_statistics import wilson_interval
+from sim_bridge.experiments.shape_sorting import PIECE_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -28,8 +29,8 @@ def jsonl(name: str) -> list[dict]:
 
 
 def complete(trial: dict) -> bool:
-    """An E2 trial is complete when all three pieces ended inside the box."""
-    return len(trial["pieces_inside"]) == 3
+    """An E2 trial is complete when every piece ended inside the box (as e2_sweep's summary counts it)."""
+    return len(trial["pieces_inside"]) == len(PIECE_NAMES)
 
 
 def interval(k: int, n: int) -> dict:
@@ -73,10 +74,15 @@ def stable_count(file: str, cell_id: str, controller: str) -> str:
     return str(cell(file, cell_id, controller)["stable"])
 
 
+def one_count_of(values) -> str:
+    """README gives one figure for several laws, cells or baselines: it must be the same for all of them."""
+    found = set(values)
+    return found.pop() if len(found) == 1 else f"differs: {sorted(found)}"
+
+
 def one_count(file: str, cell_id: str, controllers: tuple[str, ...], *more_cells: str) -> str:
     """The stable count README gives for several laws (or cells) at once: it must be the same for all of them."""
-    counts = {cell(file, c_id, c)["stable"] for c_id in (cell_id, *more_cells) for c in controllers}
-    return str(counts.pop()) if len(counts) == 1 else f"differs: {sorted(counts)}"
+    return one_count_of(str(cell(file, c_id, c)["stable"]) for c_id in (cell_id, *more_cells) for c in controllers)
 
 
 def mm(metres: float) -> str:
@@ -104,10 +110,10 @@ def bench_range(name: str) -> tuple[float, float]:
     low, _, high = result("bench.json")["default_summary"]["min_median_max"][name]
     return low, high
 
-def claim_share(cell_id: str, hand: str, law: str = "fic") -> dict:
-    """A law's stable share {k, n, interval_95} on a claim cell (results/claims_statistics.json)."""
+def claim_share(cell_id: str, hand: str, law: str = "fic", verdict: str = "stable") -> dict:
+    """A law's stable (or safe) share {k, n, interval_95} on a claim cell (results/claims_statistics.json)."""
     return next(c for c in result("claims_statistics.json")["cells"]
-                if c["cell"] == cell_id and c.get("hand") == hand)["laws"][law]["stable"]
+                if c["cell"] == cell_id and c.get("hand") == hand)["laws"][law][verdict]
 
 
 def k_n(share: dict) -> str:
@@ -145,22 +151,23 @@ def comparison(cell_id: str, hand: str, baseline: str) -> dict:
                 if c["cell"] == cell_id and c.get("hand") == hand and c["baseline"] == baseline)["stable"]
 
 
-def law_safe(cell_id: str, hand: str, law: str) -> int:
-    return next(c for c in result("claims_statistics.json")["cells"]
-                if c["cell"] == cell_id and c.get("hand") == hand)["laws"][law]["safe"]["k"]
-
-
-def one_count_of(values) -> str:
-    """README gives one figure for several baselines: it must be the same for all of them."""
-    found = set(values)
-    return found.pop() if len(found) == 1 else f"differs: {sorted(found)}"
-
-
 def p_text(p: float) -> str:
     return f"{p:.3f}"
 
 
 SWEEP_DELAYS = ("0", "0.2", "0.5", "1", "1.5", "2")
+
+
+def against_each(cell_id: str, figure: str, hand: str = "reactive") -> list[float]:
+    """A figure of the FIC's comparison with each baseline on a claim cell (difference, boschloo_p, ...)."""
+    return [comparison(cell_id, hand, baseline)[figure] for baseline in BASELINES]
+
+
+def safe_range(laws: tuple[str, ...]) -> tuple[int, int]:
+    """(least, most) SAFE runs of ``laws`` at 1.5 and 2 s, full rate, either hand."""
+    counts = [claim_share(f"delay_{d}__rate_full", hand, law, "safe")["k"] for d in ("1.5", "2")
+              for hand in ("passive", "reactive") for law in laws]
+    return min(counts), max(counts)
 
 
 def delay_sweep(hand: str) -> str:
@@ -176,7 +183,8 @@ def above_paper_law() -> dict:
     delays = sorted({float(c.split("__")[0][len("delay_"):]) for c, _ in found})
     names = [f"{d:g}" for d in delays]
     return dict(delays=", ".join(names[:-1]) + f" and {names[-1]}",
-                low=f"{min(s['difference'] for _, s in found):.2f}", high=f"{max(s['difference'] for _, s in found):.2f}",
+                low=f"{min(s['difference'] for _, s in found):.2f}",
+                high=f"{max(s['difference'] for _, s in found):.2f}",
                 p_high=p_text(max(s["boschloo_p"] for _, s in found)),
                 p_low="below 0.001" if min(s["boschloo_p"] for _, s in found) < 0.001
                 else p_text(min(s["boschloo_p"] for _, s in found)))
@@ -198,10 +206,10 @@ FIGURES = [
            lambda: dict(fic=k_n(claim_share("delay_0.2__rate_10", "reactive")),
                         low=str(min(claim_share("delay_0.2__rate_10", "reactive", b)["k"] for b in BASELINES)),
                         high=str(max(claim_share("delay_0.2__rate_10", "reactive", b)["k"] for b in BASELINES)),
-                        d_most=f"{min(comparison('delay_0.2__rate_10', 'reactive', b)['difference'] for b in BASELINES):.2f}",
-                        d_least=f"{max(comparison('delay_0.2__rate_10', 'reactive', b)['difference'] for b in BASELINES):.2f}",
-                        p_low=p_text(min(comparison("delay_0.2__rate_10", "reactive", b)["boschloo_p"] for b in BASELINES)),
-                        p_high=p_text(max(comparison("delay_0.2__rate_10", "reactive", b)["boschloo_p"] for b in BASELINES)))),
+                        d_most=f"{min(against_each('delay_0.2__rate_10', 'difference')):.2f}",
+                        d_least=f"{max(against_each('delay_0.2__rate_10', 'difference')):.2f}",
+                        p_low=p_text(min(against_each("delay_0.2__rate_10", "boschloo_p"))),
+                        p_high=p_text(max(against_each("delay_0.2__rate_10", "boschloo_p"))))),
     Figure("claims: 1 s + 10 Hz with the passive hand",
            r"at 1 s with both 10 Hz and the passive hand, (?P<fic>\d+/\d+) \(undecided\)",
            lambda: dict(fic=k_n(claim_share("delay_1__rate_10", "passive")))),
@@ -235,19 +243,13 @@ FIGURES = [
     Figure("claims: SAFE beyond 1 s at full rate",
            r"the FIC (?P<fic_low>\d+)-(?P<fic_high>\d+) of 20 at 1\.5-2 s full rate, the baselines "
            r"(?P<base_low>\d+)-(?P<base_high>\d+)\)",
-           lambda: dict(fic_low=str(min(law_safe(f"delay_{d}__rate_full", h, "fic") for d in ("1.5", "2")
-                                        for h in ("passive", "reactive"))),
-                        fic_high=str(max(law_safe(f"delay_{d}__rate_full", h, "fic") for d in ("1.5", "2")
-                                         for h in ("passive", "reactive"))),
-                        base_low=str(min(law_safe(f"delay_{d}__rate_full", h, b) for d in ("1.5", "2")
-                                         for h in ("passive", "reactive") for b in BASELINES)),
-                        base_high=str(max(law_safe(f"delay_{d}__rate_full", h, b) for d in ("1.5", "2")
-                                          for h in ("passive", "reactive") for b in BASELINES)))),
+           lambda: dict(zip(("fic_low", "fic_high"), map(str, safe_range(("fic",)))),
+                        **dict(zip(("base_low", "base_high"), map(str, safe_range(BASELINES)))))),
     Figure("claims: 1 s + 10 Hz with the reactive hand, against linear_tdpa",
            r"\((?P<fic>\d+/\d+) at 1 s, below `linear_tdpa`'s (?P<tdpa>\d+/\d+), Boschloo p (?P<p>[\d.]+)\)",
            lambda: dict(fic=k_n(claim_share("delay_1__rate_10", "reactive")),
                         tdpa=k_n(claim_share("delay_1__rate_10", "reactive", "linear_tdpa")),
-                        p=f"{next(c for c in result('claims_statistics.json')['comparisons'] if c['cell'] == 'delay_1__rate_10' and c.get('hand') == 'reactive' and c['baseline'] == 'linear_tdpa')['stable']['boschloo_p']:.3f}")),
+                        p=p_text(comparison("delay_1__rate_10", "reactive", "linear_tdpa")["boschloo_p"]))),
     Figure("claims: the open-loop control at 1 s + 10 Hz",
            r"the FIC is as often unstable, (?P<control>\d+/\d+) stable at 1 s and (?P<control_02>\d+/\d+) at 0\.2 s "
            r"\((?P<closed_02>\d+/\d+) with the loop\)\.",

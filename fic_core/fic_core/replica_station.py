@@ -276,4 +276,5 @@ class ReplicaStation:
         return {**self.guard_values(), **self.loop.statistics()}
 
 
-__all__ = ["CHANNEL_STREAMS", "ROBOT_STREAMS", "SET_POINT_STREAMS", "TELEOP_STREAM", "ReplicaStation", "ReplicaTick", "stream_owner"]
+__all__ = ["CHANNEL_STREAMS", "ROBOT_STREAMS", "SET_POINT_STREAMS", "TELEOP_STREAM", "ReplicaStation", "ReplicaTick",
+           "stream_owner"]

@@ -53,7 +53,8 @@ class InputGuard:
         self._on_hold = on_hold  # called once, when the safe hold latches (the node publishes diagnostics)
         # The names after the node's remaps (a driver profile renames /joint_states): count the writers there,
         # name them as the station knows them.
-        self._streams = {node.resolve_topic_name(topic): topic for topic in ROBOT_STREAMS + SET_POINT_STREAMS + CHANNEL_STREAMS}
+        self._streams = {node.resolve_topic_name(topic): topic
+                         for topic in ROBOT_STREAMS + SET_POINT_STREAMS + CHANNEL_STREAMS}
         self._teleop_topic = node.resolve_topic_name(TELEOP_STREAM)
         # A hold whose line could not name every writer (the middleware's match, or discovery, came before the
         # node names): the stream and until when the graph is asked again, so that the writer is still named.
@@ -65,9 +66,10 @@ class InputGuard:
         return self._node.count_publishers(self._teleop_topic)
 
     def stream_events(self, topic: str) -> SubscriptionEventCallbacks:
-        """For a guarded stream's subscription (ROBOT_STREAMS, SET_POINT_STREAMS, CHANNEL_STREAMS): the middleware's writer-matched
-        event, which comes with a second writer's first message or within a message or two (the graph lookup every
-        PUBLISHER_CHECK_PERIOD_S lets a loaded machine run the law on that writer's data for as long)."""
+        """For a guarded stream's subscription (ROBOT_STREAMS, SET_POINT_STREAMS, CHANNEL_STREAMS): the middleware's
+        writer-matched event, which comes with a second writer's first message or within a message or two (the
+        graph lookup every PUBLISHER_CHECK_PERIOD_S lets a loaded machine run the law on that writer's data for as
+        long)."""
         resolved = self._node.resolve_topic_name(topic)
         return SubscriptionEventCallbacks(matched=lambda status: self._on_writers(resolved, status))
 

@@ -23,6 +23,19 @@ pytestmark = pytest.mark.nodes
 POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
 
 
+def robot_and_replica(start_node, ros_env):
+    """The simulated robot (free space, realtime) and the replica at 500 Hz, from this checkout's build: the graph
+    every probe here writes into."""
+    env = dict(ros_env)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
+                                                      env.get("PYTHONPATH")]))
+    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
+                       params={"mode": "realtime", "scene": "free_space"})
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    return robot, replica
+
+
 class Planners:
     """The legitimate planner (x_d'' where the replica's TCP started) and, once ``intrude`` is called, an outside
     client publishing x_d'' ``offset`` away; also watches /sim/tcp_pose and the replica's /diagnostics."""
@@ -120,13 +133,7 @@ def test_a_second_planner_writer_puts_the_replica_into_its_safe_hold_and_the_han
                                                                                        rclpy_context) -> None:
     from diagnostic_msgs.msg import DiagnosticStatus
 
-    env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
-                                                      env.get("PYTHONPATH")]))
-    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
-                       params={"mode": "realtime", "scene": "free_space"})
-    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    robot, replica = robot_and_replica(start_node, ros_env)
     planners = Planners(rclpy_context)
     try:
         assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
@@ -172,13 +179,7 @@ def test_a_second_wrench_writer_puts_the_replica_into_its_safe_hold(start_node, 
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
-                                                      env.get("PYTHONPATH")]))
-    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
-                       params={"mode": "realtime", "scene": "free_space"})
-    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    robot, replica = robot_and_replica(start_node, ros_env)
     assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
     assert "SAFE HOLD" not in replica.output(), replica.output()
     qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
@@ -227,13 +228,7 @@ def test_a_second_master_port_energy_writer_puts_the_replica_into_its_safe_hold(
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
-                                                      env.get("PYTHONPATH")]))
-    start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
-               params={"mode": "realtime", "scene": "free_space"})
-    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    _, replica = robot_and_replica(start_node, ros_env)
     assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
     qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
     nodes = [rclpy.create_node(name, context=rclpy_context) for name in ("channel_reverse", "outside_client")]

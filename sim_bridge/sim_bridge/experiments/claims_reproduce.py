@@ -49,16 +49,12 @@ def one_key_a_cell(rows: dict[str, dict[str, Any]], commit: str, cells: int) -> 
     return list(keys.values())[:cells]
 
 
-def recorded_since(kept: Path, fresh: Path) -> list[str]:
-    """The series fields the new simulation records and the kept one did not (added by a later commit)."""
-    with np.load(kept) as old, np.load(fresh) as new:
-        return sorted(set(new.files) - set(old.files))
-
-
-def differences(kept: Path, fresh: Path, row: dict[str, Any], again: dict[str, Any]) -> list[str]:
-    """What differs between a kept run (its series and row) and the same run simulated again."""
+def differences(kept: Path, fresh: Path, row: dict[str, Any], again: dict[str, Any]) -> tuple[list[str], list[str]]:
+    """What differs between a kept run (its series and row) and the same run simulated again, and the series fields
+    only the new simulation records (added by a later commit)."""
     out = []
     with np.load(kept) as old, np.load(fresh) as new:
+        added = sorted(set(new.files) - set(old.files))
         # A field the kept series lacks was recorded only since (a newer commit records more); one the new series
         # lacks is a difference: what the kept run showed can no longer be compared.
         if set(old.files) - set(new.files):
@@ -73,19 +69,21 @@ def differences(kept: Path, fresh: Path, row: dict[str, Any], again: dict[str, A
     for name, value in row["figures"].items():
         if again["figures"].get(name) != value:
             out.append(f"figure {name}: {value!r} then, {again['figures'].get(name)!r} now")
-    return out
+    return out, added
 
 
-def reproduce(key: str, row: dict[str, Any], directory: Path, scratch: Path) -> tuple[list[str], float, float]:
-    """(the differences, the wall time and the CPU time [s] of the new simulation and its saving) for one kept
-    run."""
+def reproduce(key: str, row: dict[str, Any], directory: Path,
+              scratch: Path) -> tuple[list[str], list[str], float, float]:
+    """(the differences, the fields recorded only since, the wall time and the CPU time [s] of the new simulation
+    and its saving) for one kept run."""
     claim = ClaimRun(**{name: row[name] for name in CLAIM_FIELDS if name in row})   # older lines: feedback on
     if claim.key != key:
         raise ValueError(f"the run line of {key} describes {claim.key}")
     cpu = time.process_time()
     again = execute(claim, scratch)
     cpu = time.process_time() - cpu
-    return differences(directory / row["series"], scratch / f"{key}.npz", row, again), again["wall_total_s"], cpu
+    found, added = differences(directory / row["series"], scratch / f"{key}.npz", row, again)
+    return found, added, again["wall_total_s"], cpu
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -106,9 +104,8 @@ def main(argv: list[str] | None = None) -> int:
     failed = 0
     with tempfile.TemporaryDirectory() as scratch:
         for key in keys:
-            found, wall, cpu = reproduce(key, rows[key], args.out_dir, Path(scratch))
+            found, added, wall, cpu = reproduce(key, rows[key], args.out_dir, Path(scratch))
             failed += bool(found)
-            added = recorded_since(args.out_dir / rows[key]["series"], Path(scratch) / f"{key}.npz")
             print(f"{key} (commit {str(rows[key].get('commit'))[:12]}): "
                   + ("identical" if not found else "DIFFERS in " + "; ".join(found))
                   + (f" (fields recorded only since: {', '.join(added)})" if added else "")
