@@ -212,6 +212,19 @@ def start_node(ros_env: dict[str, str], tmp_path: Path):
         pytest.fail("a node did not stop clean:\n" + "\n".join(problems), pytrace=False)
 
 
+def robot_and_replica(start_node, ros_env: dict[str, str]):
+    """The simulated robot (free space, realtime) and the replica at 500 Hz from this checkout's build, started by
+    the ``start_node`` fixture: the graph the input probes write into."""
+    env = dict(ros_env)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
+                                                      env.get("PYTHONPATH")]))
+    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
+                       params={"mode": "realtime", "scene": "free_space"})
+    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
+                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    return robot, replica
+
+
 def _parameter_literal(value) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"

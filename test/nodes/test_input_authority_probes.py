@@ -7,7 +7,6 @@ process. Before fic_core.input_authority each of these moved the arm (0.37-0.6 m
 """
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import threading
@@ -18,7 +17,7 @@ import numpy as np
 import pytest
 
 from config_values import config_values
-from conftest import CONFIG, REPO
+from conftest import robot_and_replica
 
 rclpy = pytest.importorskip("rclpy")
 pytestmark = pytest.mark.nodes
@@ -129,13 +128,7 @@ def _probed(ros_env: dict[str, str], watcher: Watcher, settle: float, *arguments
 
 
 def _arm(start_node, ros_env, rclpy_context, channel: bool):
-    env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
-                                                      env.get("PYTHONPATH")]))
-    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
-                       params={"mode": "realtime", "scene": "free_space"})
-    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+    robot, replica = robot_and_replica(start_node, ros_env)
     watcher = Watcher(rclpy_context, channel)
     assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
     # The probe must be the only other writer: wait out any writer of an earlier test still in discovery.

@@ -7,7 +7,6 @@ client (x_d'' 0.3 m away). Before the set-point streams were guarded, the same c
 """
 from __future__ import annotations
 
-import os
 import threading
 import time
 
@@ -15,25 +14,13 @@ import numpy as np
 import pytest
 
 from config_values import config_values
-from conftest import CONFIG, REPO
+from conftest import robot_and_replica
 
 rclpy = pytest.importorskip("rclpy")
 pytestmark = pytest.mark.nodes
 
 POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
 
-
-def robot_and_replica(start_node, ros_env):
-    """The simulated robot (free space, realtime) and the replica at 500 Hz, from this checkout's build: the graph
-    every probe here writes into."""
-    env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
-                                                      env.get("PYTHONPATH")]))
-    robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
-                       params={"mode": "realtime", "scene": "free_space"})
-    replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
-    return robot, replica
 
 
 class Planners:
