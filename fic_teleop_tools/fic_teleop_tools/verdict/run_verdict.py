@@ -54,6 +54,7 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from threadpoolctl import threadpool_limits
 
 from fic_core.arm_profile import arm_profile
 from fic_core.teleoperation import TeleoperationMode
@@ -321,7 +322,13 @@ def _exogenous_channels(name: str, on_grid: dict, delay: float) -> list[Channel]
 
 def judge(data: VerdictInput, criterion: VerdictCriterion | None = None) -> RunVerdict:
     """The two verdicts of one run (module docstring)."""
-    criterion = criterion or VerdictCriterion()
+    # One BLAS thread: the fits are small least-squares problems, and BLAS's threads spin while they wait, so with
+    # numpy's default threads a judgement on a busy machine cost about 5 CPU-s instead of 0.2 (docs/RESULTS.md).
+    with threadpool_limits(limits=1):
+        return _judge(data, criterion or VerdictCriterion())
+
+
+def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
     raw_time = np.asarray(data.time, dtype=float)
     if raw_time.ndim != 1 or raw_time.size < 8 or not np.all(np.isfinite(raw_time)) or np.any(np.diff(raw_time) <= 0):
         raise VerdictInputError("time must be a finite, strictly increasing 1-D array of at least 8 samples")
