@@ -4,6 +4,11 @@ Translation runs the paper's Eq. 2 per base-frame axis (fic_core/attractor.py). 
 runs it on the rotation angle theta = |log3(R_d R^T)| along the rotation axis (fic_core/rotational_attractor.py):
 a conservative moment field on SO(3), where the per-axis rule on the rotation vector was not
 (docs/CONTROL_LAWS.md, "Rotation"). The 6-vectors are ordered x, y, z, rx, ry, rz.
+
+On a late tick (``late_tick``: the last torque was held longer than the nominal period) each axis also gets the
+damper that gives back what its spring loses to that sample-and-hold, B = K (T - T_0)/2 on the error rate
+(fic_core/sampled_spring_damping.py); on ticks on time the wrench is Eq. 2's alone. The snapshot reports the FIC's
+forces, without that damper.
 """
 from __future__ import annotations
 
@@ -14,6 +19,7 @@ from fic_core.attractor import DEFAULT_RATE_DEADBAND, AttractorSnapshot, Fractal
 from fic_core.errors import finite_floats, finite_scalar
 from fic_core.profile import ForceProfile
 from fic_core.rotational_attractor import AngleAxisSnapshot, RotationalAttractor
+from fic_core.sampled_spring_damping import hold_damping
 
 
 class PoseAttractorSnapshot:
@@ -65,6 +71,7 @@ class PoseAttractor:
         rate_deadband_rotation = finite_scalar("rate_deadband_rotation", rate_deadband_rotation, minimum=0.0)
         self._translation = FractalAttractor(translation, 3, rate_deadband_translation)
         self._rotation = RotationalAttractor(rotation, rate_deadband_rotation)
+        self._late = 0.0   # [s] T - T_0 of this tick's sample-and-hold (fic_core/sampled_spring_damping.py)
 
     @property
     def translation(self) -> FractalAttractor:
@@ -77,6 +84,11 @@ class PoseAttractor:
     def reset(self) -> None:
         self._translation.reset()
         self._rotation.reset()
+
+    def late_tick(self, late: float) -> None:
+        """The next wrenches are for a torque held ``late`` = T - T_0 seconds beyond the nominal period
+        (sampled_spring_damping.late_hold; 0.0: on time, Eq. 2 alone)."""
+        self._late = float(late) if late > 0.0 else 0.0
 
     def wrench(self, position_error: ArrayLike, rotation_error: ArrayLike, twist_error: ArrayLike) -> NDArray[np.float64]:
         """FIC wrench [N, N m]: Eq. 2 per translational axis, the angle-axis FIC on orientation.
@@ -95,8 +107,25 @@ class PoseAttractor:
                       twist_error: list[float]) -> list[float]:
         """``wrench`` on Python floats its caller has already validated as finite (the replica's tick), as a list
         of 6 floats: the same law without ``wrench``'s input checks and arrays."""
-        return self._translation._step(position_error, twist_error) + \
+        wrench = self._translation._step(position_error, twist_error) + \
             self._rotation._step(rotation_error, twist_error[3:])
+        if self._late > 0.0:
+            self._add_hold_damping(wrench, twist_error)
+        return wrench
+
+    def _add_hold_damping(self, wrench: list[float], twist_error: list[float]) -> None:
+        """B = K (T - T_0)/2 per axis on the error rate, K the axis's stiffness in its phase: K_0 in D (the
+        profile's largest slope), K_C in C; the rotation's one angle sets the isotropic rotational damper."""
+        translation = self._translation._state
+        stiffness = self._translation.profile.stiffness
+        for axis in range(3):
+            k = translation[3][axis] if translation[1][axis] else stiffness
+            wrench[axis] += hold_damping(k, self._late) * twist_error[axis]
+        angle = self._rotation._state.scalar
+        k = angle[3][0] if angle[1][0] else self._rotation.profile.stiffness
+        damping = hold_damping(k, self._late)
+        for axis in range(3, 6):
+            wrench[axis] += damping * twist_error[axis]
 
     def snapshot(self) -> PoseAttractorSnapshot:
         """The state after the last ``wrench`` call (phase, latched_max_error, last_force, stored_energy on read)."""

@@ -20,7 +20,9 @@ tick are checked against loop_max_state_age and loop_max_tick_gap; beyond them t
 robot's own watchdog holds the arm on its own state) instead of the law, until loop_resume_ticks healthy ticks
 in a row; the law then starts afresh (the task controller's phases and latches reset, the slew from the hold
 torque, x_d from the arm's TCP with the set-points' progress during the hold given back at resume_speed) and is
-blended in over loop_resume_ramp.
+blended in over loop_resume_ramp. Inside the bounds a late tick (the states more than 1.5 control periods apart)
+tells the FIC how long its last torque was held, and it adds the damper that gives back what its springs lost to
+that sample-and-hold (fic_core.sampled_spring_damping).
 """
 from __future__ import annotations
 
@@ -43,6 +45,7 @@ from .quaternion import rotation_from_quaternion
 from .replica import ReplicaCommand, ReplicaController
 from .replica_parameters import build_replica_controller, checked
 from .robot_model import RobotModel
+from .sampled_spring_damping import late_hold
 
 COUNTERS = ("joint_states", "control_ticks", "teleop_commands", "planner_poses", "wrenches", "rejected_joint_states",
             "rejected_teleop_commands", "rejected_planner_poses", "rejected_wrenches", "controller_errors")
@@ -302,6 +305,11 @@ class ReplicaLoop:
         sample = self.desired.update(now, dt)
         notices.extend(("warning", text) for text in sample.notices)
         desired_twist = self.velocity_filter.update(sample.position, dt)
+        late_tick = getattr(self.controller.controller, "late_tick", None)
+        if late_tick is not None:
+            # The last torque was held dt (the states' interval): on a late tick the FIC gives back what its
+            # springs lose to that sample-and-hold (fic_core.sampled_spring_damping), up to the loop's own bound.
+            late_tick(late_hold(dt, self.schedule.control_period, self.health.bounds.max_tick_gap))
         try:
             command = self.controller.command(q, qd, sample.position, sample.rotation, desired_twist,
                                               desired_acceleration=sample.acceleration, time=time)
