@@ -1,0 +1,233 @@
+"""E2 (shape sorting): the force at the bond in each lock and pull, beside the law's force and the F/T sensor's.
+
+Why a piece stays on the plate is a question about three forces that the trial rows do not keep: the bond's own
+force (the weld's constraint force on the piece, robot/adhesive_bond.py, which breaks the bond above its drawn
+threshold), the law's Cartesian force FIC(x~_R) (paper Eq. 7's controller term: per axis at most F_max = 10 N, so at
+most sqrt(2) F_max = 14.1 N with two axes past x_b, as in a lock (x) held while pulling (z)) and the F/T sensor's
+|F_R| at the replica, which the trials report. This reads them per lock-and-pull window (from the operator's
+``lock`` to the phase after its ``pulled``: the return from the pull is in it):
+
+- in process, by running one trial (e2_in_process.trial, the sweep's or the graph's twin's draws) with the
+  simulation and the replica station recorded at every 1 ms physics step; the trial itself is the same;
+- on the graph, from a run folder: the bag's /replica/fic_state (the law's force and error per axis, 100 Hz),
+  /ft_sensor/wrench and the robot's /diagnostics (the bond's force, 1 Hz samples: not peaks), and the robot log's
+  bond events (formed with its threshold, broke at a force).
+
+    source scripts/env.sh
+    python -m sim_bridge.experiments.e2_bond_pulls --seed 3 --law fic --json results/e2_bond_pulls_fic_3.json
+    python -m sim_bridge.experiments.e2_bond_pulls --seed 3 --law fic --no-jitter ...     # the graph's twin
+    python -m sim_bridge.experiments.e2_bond_pulls --graph runs/e2_graph_fic/fic_0.2_seed3 --jsonl \
+        results/e2_graph_fic.jsonl
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import math
+import re
+import sys
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from sim_bridge.experiments import in_process
+from sim_bridge.experiments.e2_sweep import LAWS
+
+STEP_S = 0.001
+#: x_b of config/replica.yaml (paper Sec. III): beyond it an axis of Eq. 1 is saturated toward F_max.
+SATURATION_ERROR_M = 0.05
+#: The phases of one lock-and-pull (shape_sorting_operator._lock_and_pull); the window runs to the next other phase.
+PULL_PHASES = ("lock", "pull", "pulled")
+
+
+class _Recorder:
+    """Per physics step: the bond's force, its threshold, the law's force |FIC| (translation), its inertial
+    feedforward |Lambda a_d| and the number of translation axes with |x_d - x_R| beyond x_b."""
+
+    def __init__(self) -> None:
+        self.station = None
+        self.rows: list[tuple[float, float, float, float, float, int]] = []
+
+    def record(self, simulation) -> None:
+        bond = simulation.bond_state
+        command = None if self.station is None else self.station.loop.last_command
+        law = feedforward = 0.0
+        saturated = 0
+        if command is not None:
+            wrench = command.wrench
+            law = math.sqrt(float(wrench[0] ** 2 + wrench[1] ** 2 + wrench[2] ** 2))
+            if command.feedforward_wrench is not None:
+                feedforward = float(np.linalg.norm(command.feedforward_wrench[:3]))
+            saturated = sum(abs(e) > SATURATION_ERROR_M for e in command.tracking_error_values[:3])
+        self.rows.append((simulation.steps * STEP_S, bond.bond_force if bond.bonded_piece else 0.0,
+                          bond.break_threshold if bond.bonded_piece else 0.0, law, feedforward, saturated))
+
+
+@contextlib.contextmanager
+def recording() -> Iterator[_Recorder]:
+    """in_process.run with its simulation and replica station swapped for recording subclasses (same behaviour)."""
+    recorder = _Recorder()
+    simulation_class, station_class = in_process.PandaSimulation, in_process.ReplicaStation
+
+    class RecordedSimulation(simulation_class):
+        def step(self, torque) -> None:
+            super().step(torque)
+            recorder.record(self)
+
+    class RecordedStation(station_class):
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, **kwargs)
+            recorder.station = self
+
+    in_process.PandaSimulation, in_process.ReplicaStation = RecordedSimulation, RecordedStation
+    try:
+        yield recorder
+    finally:
+        in_process.PandaSimulation, in_process.ReplicaStation = simulation_class, station_class
+
+
+def windows(phases: list[tuple[str, float]], end: float) -> list[tuple[str, float, float]]:
+    """(piece, start, end) of each lock-and-pull: from a ``lock`` to the first later phase not in PULL_PHASES."""
+    found = []
+    for index, (label, start) in enumerate(phases):
+        piece, phase = label.split(":", 1)
+        if phase != "lock":
+            continue
+        stop = next((later for name, later in phases[index + 1:] if name.split(":", 1)[1] not in PULL_PHASES), end)
+        found.append((piece, start, stop))
+    return found
+
+
+def in_process_pulls(seed: int, law: str, delay: float, jitter: bool, duration: float) -> dict:
+    """One trial recorded (module docstring): its row (without the trace) and one entry per lock-and-pull."""
+    from sim_bridge.experiments.e2_in_process import trial
+
+    controller, paper_law = LAWS[law]
+    with recording() as recorder:
+        row = trial(seed, duration, jitter, "shape_sorting", controller, delay, paper_law=paper_law)
+    series = np.array(recorder.rows)
+    time, force = np.asarray(row["trace"]["time"]), np.asarray(row["trace"]["force_n"])
+    entries = []
+    for piece, start, stop in windows(row["trace"]["phases"], float(series[-1, 0])):
+        inside = (series[:, 0] >= start) & (series[:, 0] < stop)
+        part = series[inside]
+        bonded = part[part[:, 2] > 0.0]
+        peak = int(np.argmax(part[:, 1])) if part.size else 0
+        trace_window = (time >= start) & (time < stop)
+        entries.append({
+            "piece": piece, "start_s": round(start, 2), "end_s": round(stop, 2),
+            "threshold_n": round(float(bonded[0, 2]), 1) if bonded.size else None,
+            "bond_peak_n": round(float(part[:, 1].max()), 1) if part.size else None,
+            "broke": bool(bonded.size and part[-1, 2] == 0.0),
+            "law_peak_n": round(float(part[:, 3].max()), 1) if part.size else None,
+            "law_at_bond_peak_n": round(float(part[peak, 3]), 1) if part.size else None,
+            "feedforward_peak_n": round(float(part[:, 4].max()), 1) if part.size else None,
+            "axes_beyond_x_b_at_bond_peak": int(part[peak, 5]) if part.size else None,
+            "ft_peak_n_4hz": round(float(force[trace_window].max()), 1) if trace_window.any() else None})
+    felt = [value for piece in row["pieces"].values() for phase, _, value in piece["phases"] if phase == "pulled"]
+    summary = {key: row[key] for key in ("seed", "pieces_inside", "peak_force_n", "time_above_f_max_s", "retries",
+                                         "operator_time_shift_s", "hand_scale", "wall_s")}
+    return {"law": law, "delay_s": delay, "jitter": jitter, **summary, "felt_pulls_n": felt, "pulls": entries}
+
+
+BOND_EVENT = re.compile(r"bond with (\w+) (formed \(breaks above ([\d.]+) N\)|broke at ([\d.]+) N)")
+
+
+def graph_pulls(run_dir: Path, row: dict) -> dict:
+    """One graph trial (its folder and its e2_graph row): one entry per lock-and-pull (module docstring)."""
+    from mcap_ros2.decoder import DecoderFactory
+
+    from fic_teleop_tools.recording.bag_reader import ReadResult, read_messages
+
+    bag = run_dir / "bag"
+    factory, decoders = DecoderFactory(), {}
+    law_rows, bond_rows = [], []
+    for schema, channel, message in read_messages(bag, ReadResult()):
+        if channel.topic not in ("/replica/fic_state", "/diagnostics"):
+            continue
+        decoder = decoders.get(channel.id)
+        if decoder is None:
+            decoder = decoders[channel.id] = factory.decoder_for(channel.message_encoding, schema)
+        msg = decoder(message.data)
+        stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        if channel.topic == "/replica/fic_state":
+            law_rows.append((stamp, math.sqrt(sum(f * f for f in msg.force[:3])),
+                             sum(abs(e) > SATURATION_ERROR_M for e in msg.error[:3])))
+        else:
+            for status in msg.status:
+                values = {kv.key: kv.value for kv in status.values}
+                if "bond_force_n" in values:
+                    bond_rows.append((stamp, float(values["bond_force_n"]), values.get("bonded_piece", "")))
+    law = np.array(sorted(law_rows)) if law_rows else np.zeros((0, 3))
+    bond_time = np.array([r[0] for r in bond_rows])
+    bond_force = np.array([r[1] for r in bond_rows])
+    events = []
+    log = run_dir / "logs" / "robot.log"
+    for line in log.read_text().splitlines() if log.exists() else []:
+        found = BOND_EVENT.search(line)
+        if found:
+            events.append((found.group(1), "formed" if found.group(3) else "broke",
+                           float(found.group(3) or found.group(4))))
+    time, force = np.asarray(row["trace"]["time"]), np.asarray(row["trace"]["force_n"])
+    entries = []
+    for piece, start, stop in windows([tuple(p) for p in row["trace"]["phases"]], float(time[-1])):
+        in_law = (law[:, 0] >= start) & (law[:, 0] < stop) if law.size else np.zeros(0, bool)
+        in_bond = (bond_time >= start) & (bond_time < stop)
+        in_trace = (time >= start) & (time < stop)
+        part = law[in_law]
+        peak = int(np.argmax(part[:, 1])) if part.size else 0
+        entries.append({
+            "piece": piece, "start_s": round(start, 2), "end_s": round(stop, 2),
+            "bond_samples_max_n_1hz": round(float(bond_force[in_bond].max()), 1) if in_bond.any() else None,
+            "law_peak_n_100hz": round(float(part[:, 1].max()), 1) if part.size else None,
+            "axes_beyond_x_b_at_law_peak": int(part[peak, 2]) if part.size else None,
+            "ft_peak_n_10hz": round(float(force[in_trace].max()), 1) if in_trace.any() else None})
+    felt = [value for piece in row["pieces"].values() for phase, _, value in piece["phases"] if phase == "pulled"]
+    return {"law": row["law"], "delay_s": row["delay_s"], "seed": row["seed"], "pieces_inside": row["pieces_inside"],
+            "bond_events": events, "felt_pulls_n": felt, "pulls": entries}
+
+
+def table(result: dict) -> str:
+    """A markdown table of one trial's lock-and-pulls."""
+    keys = [key for key in result["pulls"][0]] if result["pulls"] else []
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    lines += ["| " + " | ".join(str(entry[key]) for key in keys) + " |" for entry in result["pulls"]]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seed", type=int, default=3)
+    parser.add_argument("--law", choices=tuple(LAWS), default="fic")
+    parser.add_argument("--delay", type=float, default=0.2)
+    parser.add_argument("--duration", type=float, default=None, help="simulated s (default: the operator's trial)")
+    parser.add_argument("--no-jitter", action="store_true",
+                        help="the graph's twin: no per-seed operator draws, no channel jitter")
+    parser.add_argument("--graph", type=Path, default=None, help="instead of running: a graph trial's run folder")
+    parser.add_argument("--jsonl", type=Path, default=None, help="with --graph: the e2_graph jsonl holding its row")
+    parser.add_argument("--json", type=Path, default=None, help="write the result here")
+    args = parser.parse_args(argv)
+    if args.graph is not None:
+        if args.jsonl is None:
+            parser.error("--graph needs --jsonl (the trial's row: its phases and trace)")
+        rows = [json.loads(line) for line in args.jsonl.read_text().splitlines() if line.strip()]
+        row = next((r for r in rows if Path(r["run_dir"]).resolve() == args.graph.resolve()), None)
+        if row is None:
+            parser.error(f"{args.jsonl} has no row whose run_dir is {args.graph}")
+        result = graph_pulls(args.graph, row)
+    else:
+        from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
+
+        result = in_process_pulls(args.seed, args.law, args.delay, not args.no_jitter,
+                                  args.duration or TRIAL_DURATION_S)
+    print(json.dumps({key: value for key, value in result.items() if key != "pulls"}))
+    print(table(result), end="")
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

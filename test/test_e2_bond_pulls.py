@@ -1,0 +1,55 @@
+"""The E2 bond-pull reader (sim_bridge.experiments.e2_bond_pulls): the lock-and-pull windows from the operator's
+phases, what the recorder takes from the simulation and the replica at a step, and that recording leaves the
+runner's classes as they were and records every physics step of a run."""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from sim_bridge.experiments import e2_bond_pulls, in_process
+
+
+def test_a_window_runs_from_the_lock_to_the_first_phase_after_the_pull() -> None:
+    phases = [("cuboid:insert", 20.0), ("cuboid:lock", 22.0), ("cuboid:pull", 23.0), ("cuboid:pulled", 26.0),
+              ("cuboid:carry", 28.0), ("cuboid:lock", 40.0), ("cuboid:pull", 41.0), ("cuboid:pulled", 44.0),
+              ("cuboid:done", 47.5), ("star_prism:lock", 90.0), ("star_prism:pull", 91.0)]
+    assert e2_bond_pulls.windows(phases, 100.0) == [("cuboid", 22.0, 28.0), ("cuboid", 40.0, 47.5),
+                                                    ("star_prism", 90.0, 100.0)]
+
+
+def _command(force: list[float], error: list[float], feedforward: list[float] | None) -> SimpleNamespace:
+    return SimpleNamespace(wrench=np.array([*force, 0.0, 0.0, 0.0]), tracking_error_values=error,
+                           feedforward_wrench=None if feedforward is None else np.array([*feedforward, 0.0, 0.0, 0.0]))
+
+
+def test_the_recorder_takes_the_bond_force_only_while_bonded_and_counts_saturated_axes() -> None:
+    recorder = e2_bond_pulls._Recorder()
+    bonded = SimpleNamespace(steps=1500, bond_state=SimpleNamespace(bonded_piece="piece_cuboid", bond_force=13.5,
+                                                                    break_threshold=18.1))
+    recorder.station = SimpleNamespace(loop=SimpleNamespace(last_command=_command([6.0, 0.0, 8.0], [0.06, 0.0, -0.07],
+                                                                                  [3.0, 4.0, 0.0])))
+    recorder.record(bonded)
+    free = SimpleNamespace(steps=1501, bond_state=SimpleNamespace(bonded_piece=None, bond_force=9.0,
+                                                                  break_threshold=18.1))
+    recorder.station.loop.last_command = _command([0.0, 0.0, 2.0], [0.0, 0.0, 0.01], None)
+    recorder.record(free)
+    assert recorder.rows == [(pytest.approx(1.5), 13.5, 18.1, pytest.approx(10.0), pytest.approx(5.0), 2),
+                             (pytest.approx(1.501), 0.0, 0.0, pytest.approx(2.0), 0.0, 0)]
+
+
+def test_recording_records_every_physics_step_and_restores_the_runner() -> None:
+    simulation, station = in_process.PandaSimulation, in_process.ReplicaStation
+    with e2_bond_pulls.recording() as recorder:
+        result = in_process.run(in_process.RunConfig(scene="shape_sorting", trajectory="fixed", duration=0.2,
+                                                     delay=0.0, seed=3, operator="scripted"))
+    assert in_process.PandaSimulation is simulation and in_process.ReplicaStation is station
+    assert len(recorder.rows) == round(result.simulated_s / e2_bond_pulls.STEP_S)
+    assert recorder.station is not None
+    times = np.array([row[0] for row in recorder.rows])
+    assert np.all(np.diff(times) > 0)
+    with pytest.raises(RuntimeError):
+        with e2_bond_pulls.recording():
+            raise RuntimeError("a failed run")
+    assert in_process.PandaSimulation is simulation and in_process.ReplicaStation is station
