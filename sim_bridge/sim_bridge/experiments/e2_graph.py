@@ -11,6 +11,14 @@ every graph trial (the in-process runner also varies those by seed).
     source scripts/env.sh
     nice -n 5 python -m sim_bridge.experiments.e2_graph --out results/e2_graph.jsonl --seeds 1 2 3 4
     python -m sim_bridge.experiments.e2_graph --out results/e2_graph.jsonl --summary -
+    # the docs' tables: every graph law in one (e2_sweep's columns), and graph against the runner seed by seed
+    python -m sim_bridge.experiments.e2_graph --table results/e2_graph_fic.jsonl results/e2_graph_stamped.jsonl \
+        results/e2_graph_linear.jsonl
+    python -m sim_bridge.experiments.e2_graph --agreement results/e2_sweep.jsonl --table results/e2_graph_fic.jsonl \
+        results/e2_graph_linear.jsonl
+
+--controller picks the replica's law (config/replica.yaml's ``controller``: fic, or a baseline with the same
+stiffness), --paper-law the FIC's Eq. 7 as the paper writes it.
 """
 from __future__ import annotations
 
@@ -191,9 +199,43 @@ def summary(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def piece_times(row: dict) -> str:
+    """The range of the time per piece inside, 's0-s1' ('-' when none went in)."""
+    durations = [piece["duration_s"] for piece in row.get("pieces", {}).values() if piece["result"] == "inside"]
+    return f"{min(durations):.1f}-{max(durations):.1f}" if durations else "-"
+
+
+def verdict_text(row: dict) -> str:
+    verdict = row.get("verdict", {})
+    return ", ".join({True: "yes", False: "no", None: "-"}[verdict.get(key)] for key in ("stable", "safe"))
+
+
+def agreement(graph_rows: list[dict], runner_rows: list[dict]) -> str:
+    """A markdown table: each graph trial beside the runner's trial of the same law, delay and seed (graph / runner):
+    pieces inside, retries, task time, time per piece inside, peak force, time above F_max, stable and safe."""
+    runner = {(row["law"], row["delay_s"], row["seed"]): row for row in runner_rows}
+    lines = ["| law | seed | pieces inside | retries | task time [s] | s per piece inside | peak force [N] | "
+             f"s above {FORCE_OF_NOTE_N:g} N | stable, safe |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for row in sorted(graph_rows, key=lambda row: (row["law"], row["delay_s"], row["seed"])):
+        twin = runner.get((row["law"], row["delay_s"], row["seed"]))
+        if twin is None:
+            continue
+
+        def pair(value) -> str:
+            return f"{value(row)} / {value(twin)}"
+
+        lines.append(f"| {row['law']}@{row['delay_s']:g} | {row['seed']} | "
+                     f"{pair(lambda r: len(r['pieces_inside']))} | {pair(lambda r: r.get('retries', 0))} | "
+                     f"{pair(lambda r: r.get('task_time_s') or '-')} | {pair(piece_times)} | "
+                     f"{pair(lambda r: r['peak_force_n'])} | {pair(lambda r: r['time_above_f_max_s'])} | "
+                     f"{pair(verdict_text)} |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--out", type=Path, default=None, help="the jsonl of finished trials (read, then appended)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4], help="default 1 2 3 4 (the paper's 4)")
     parser.add_argument("--delay", type=float, default=0.2)
     parser.add_argument("--controller", default="fic", choices=("fic", "linear", "linear_bounded", "linear_tdpa"))
@@ -206,7 +248,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--holds", action="store_true", help="instead of running: for each trial of the jsonl, the "
                                                              "robot's stale-command holds with the clocks around "
                                                              "them (stale_holds) and the run's wall pace")
+    parser.add_argument("--table", type=Path, nargs="+", default=None, metavar="JSONL",
+                        help="instead of running: e2_sweep's markdown table of these graph jsonl files together "
+                             "(one row a law and delay), or with --agreement the trials they hold")
+    parser.add_argument("--agreement", type=Path, default=None, metavar="RUNNER_JSONL",
+                        help="with --table: each graph trial beside the runner's trial of the same law, delay and "
+                             "seed in this jsonl (e2_sweep's), as a markdown table")
     args = parser.parse_args(argv)
+    if args.agreement is not None and args.table is None:
+        parser.error("--agreement needs --table (the graph's jsonl files)")
+    if args.table is not None:
+        from sim_bridge.experiments.e2_sweep import summary as sweep_table
+
+        rows = [row for path in args.table for row in done_rows(path)]
+        print(agreement(rows, done_rows(args.agreement)) if args.agreement else sweep_table(rows), end="")
+        return 0
+    if args.out is None:
+        parser.error("--out is needed (the trials' jsonl), except with --table")
     if args.holds:
         for row in done_rows(args.out):
             out = Path(row["run_dir"])
