@@ -24,19 +24,23 @@ def _command(force: list[float], error: list[float], feedforward: list[float] | 
                            feedforward_wrench=None if feedforward is None else np.array([*feedforward, 0.0, 0.0, 0.0]))
 
 
-def test_the_recorder_takes_the_bond_force_only_while_bonded_and_counts_saturated_axes() -> None:
+def test_the_recorder_takes_the_bond_force_while_bonded_and_at_its_break_and_counts_saturated_axes() -> None:
     recorder = e2_bond_pulls._Recorder()
     bonded = SimpleNamespace(steps=1500, bond_state=SimpleNamespace(bonded_piece="piece_cuboid", bond_force=13.5,
-                                                                    break_threshold=18.1))
+                                                                    break_threshold=18.1, breaks=0,
+                                                                    last_break_force=0.0))
     recorder.station = SimpleNamespace(loop=SimpleNamespace(last_command=_command([6.0, 0.0, 8.0], [0.06, 0.0, -0.07],
                                                                                   [3.0, 4.0, 0.0])))
     recorder.record(bonded)
-    free = SimpleNamespace(steps=1501, bond_state=SimpleNamespace(bonded_piece=None, bond_force=9.0,
-                                                                  break_threshold=18.1))
+    broken = SimpleNamespace(steps=1501, bond_state=SimpleNamespace(bonded_piece=None, bond_force=0.0,
+                                                                    break_threshold=18.1, breaks=1,
+                                                                    last_break_force=18.3))
     recorder.station.loop.last_command = _command([0.0, 0.0, 2.0], [0.0, 0.0, 0.01], None)
-    recorder.record(free)
+    recorder.record(broken)
+    recorder.record(SimpleNamespace(steps=1502, bond_state=broken.bond_state))
     assert recorder.rows == [(pytest.approx(1.5), 13.5, 18.1, pytest.approx(10.0), pytest.approx(5.0), 2),
-                             (pytest.approx(1.501), 0.0, 0.0, pytest.approx(2.0), 0.0, 0)]
+                             (pytest.approx(1.501), 18.3, 18.1, pytest.approx(2.0), 0.0, 0),
+                             (pytest.approx(1.502), 0.0, 0.0, pytest.approx(2.0), 0.0, 0)]
 
 
 def test_recording_records_every_physics_step_and_restores_the_runner() -> None:

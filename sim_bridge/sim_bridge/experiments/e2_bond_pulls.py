@@ -49,9 +49,11 @@ class _Recorder:
     def __init__(self) -> None:
         self.station = None
         self.rows: list[tuple[float, float, float, float, float, int]] = []
+        self._breaks = 0
 
     def record(self, simulation) -> None:
         bond = simulation.bond_state
+        broke, self._breaks = bond.breaks > self._breaks, bond.breaks
         command = None if self.station is None else self.station.loop.last_command
         law = feedforward = 0.0
         saturated = 0
@@ -61,8 +63,11 @@ class _Recorder:
             if command.feedforward_wrench is not None:
                 feedforward = float(np.linalg.norm(command.feedforward_wrench[:3]))
             saturated = sum(abs(e) > SATURATION_ERROR_M for e in command.tracking_error_values[:3])
-        self.rows.append((simulation.steps * STEP_S, bond.bond_force if bond.bonded_piece else 0.0,
-                          bond.break_threshold if bond.bonded_piece else 0.0, law, feedforward, saturated))
+        if broke:   # the step the bond broke on: the force that broke it (the bond is gone after the step)
+            force, threshold = bond.last_break_force, bond.break_threshold
+        else:
+            force, threshold = (bond.bond_force, bond.break_threshold) if bond.bonded_piece else (0.0, 0.0)
+        self.rows.append((simulation.steps * STEP_S, force, threshold, law, feedforward, saturated))
 
 
 @contextlib.contextmanager
@@ -113,17 +118,18 @@ def in_process_pulls(seed: int, law: str, delay: float, jitter: bool, duration: 
     for piece, start, stop in windows(row["trace"]["phases"], float(series[-1, 0])):
         inside = (series[:, 0] >= start) & (series[:, 0] < stop)
         part = series[inside]
-        bonded = part[part[:, 2] > 0.0]
+        bonded = part[part[:, 2] > 0.0]   # a bond that broke in the window: its last row with a threshold broke it
         peak = int(np.argmax(part[:, 1])) if part.size else 0
         trace_window = (time >= start) & (time < stop)
         entries.append({
             "piece": piece, "start_s": round(start, 2), "end_s": round(stop, 2),
             "threshold_n": round(float(bonded[0, 2]), 1) if bonded.size else None,
             "bond_peak_n": round(float(part[:, 1].max()), 1) if part.size else None,
-            "broke": bool(bonded.size and part[-1, 2] == 0.0),
+            "broke": bool(bonded.size and bonded[-1, 1] > bonded[-1, 2]),
             "law_peak_n": round(float(part[:, 3].max()), 1) if part.size else None,
             "law_at_bond_peak_n": round(float(part[peak, 3]), 1) if part.size else None,
             "feedforward_peak_n": round(float(part[:, 4].max()), 1) if part.size else None,
+            "feedforward_at_bond_peak_n": round(float(part[peak, 4]), 1) if part.size else None,
             "axes_beyond_x_b_at_bond_peak": int(part[peak, 5]) if part.size else None,
             "ft_peak_n_4hz": round(float(force[trace_window].max()), 1) if trace_window.any() else None})
     felt = [value for piece in row["pieces"].values() for phase, _, value in piece["phases"] if phase == "pulled"]
