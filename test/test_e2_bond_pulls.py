@@ -57,3 +57,13 @@ def test_recording_records_every_physics_step_and_restores_the_runner() -> None:
         with e2_bond_pulls.recording():
             raise RuntimeError("a failed run")
     assert in_process.PandaSimulation is simulation and in_process.ReplicaStation is station
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")   # the run verdict on 1 s: empty judged spans, not ours
+def test_a_short_trial_gives_its_row_and_the_100_hz_series_without_pulls() -> None:
+    result = e2_bond_pulls.in_process_pulls(3, "fic", 0.2, False, 1.0)
+    assert result["pulls"] == [] and result["felt_pulls_n"] == [] and result["seed"] == 3
+    series = result["series"]
+    assert len(series["time"]) == len(series["bond_n"]) == len(series["law_n"]) == 100
+    assert np.allclose(np.diff(series["time"]), 0.01)
+    assert max(series["bond_n"]) == 0.0   # nothing is grasped in the first second

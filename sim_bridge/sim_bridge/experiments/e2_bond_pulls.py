@@ -133,9 +133,18 @@ def in_process_pulls(seed: int, law: str, delay: float, jitter: bool, duration: 
             "axes_beyond_x_b_at_bond_peak": int(part[peak, 5]) if part.size else None,
             "ft_peak_n_4hz": round(float(force[trace_window].max()), 1) if trace_window.any() else None})
     felt = [value for piece in row["pieces"].values() for phase, _, value in piece["phases"] if phase == "pulled"]
+    # The series at 100 Hz for the plot: each 10 ms's largest bond and law force (a one-step peak is kept).
+    usable = len(series) // 10 * 10
+    blocks = series[:usable].reshape(-1, 10, series.shape[1])
+    plotted = {"time": np.round(blocks[:, 0, 0], 2).tolist(), "bond_n": np.round(blocks[:, :, 1].max(1), 2).tolist(),
+               "threshold_n": np.round(blocks[:, :, 2].max(1), 1).tolist(),
+               "law_n": np.round(blocks[:, :, 3].max(1), 2).tolist(),
+               "feedforward_n": np.round(blocks[:, :, 4].max(1), 2).tolist(),
+               "ft_time": row["trace"]["time"], "ft_n": row["trace"]["force_n"]}
     summary = {key: row[key] for key in ("seed", "pieces_inside", "peak_force_n", "time_above_f_max_s", "retries",
                                          "operator_time_shift_s", "hand_scale", "wall_s")}
-    return {"law": law, "delay_s": delay, "jitter": jitter, **summary, "felt_pulls_n": felt, "pulls": entries}
+    return {"law": law, "delay_s": delay, "jitter": jitter, **summary, "felt_pulls_n": felt, "pulls": entries,
+            "series": plotted}
 
 
 BOND_EVENT = re.compile(r"bond with (\w+) (formed \(breaks above ([\d.]+) N\)|broke at ([\d.]+) N)")
@@ -228,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
 
         result = in_process_pulls(args.seed, args.law, args.delay, not args.no_jitter,
                                   args.duration or TRIAL_DURATION_S)
-    print(json.dumps({key: value for key, value in result.items() if key != "pulls"}))
+    print(json.dumps({key: value for key, value in result.items() if key not in ("pulls", "series")}))
     print(table(result), end="")
     if args.json:
         args.json.write_text(json.dumps(result, indent=1) + "\n")
