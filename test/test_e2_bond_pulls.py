@@ -3,6 +3,7 @@ phases, what the recorder takes from the simulation and the replica at a step, a
 runner's classes as they were and records every physics step of a run."""
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 import numpy as np
@@ -67,3 +68,16 @@ def test_a_short_trial_gives_its_row_and_the_100_hz_series_without_pulls() -> No
     assert len(series["time"]) == len(series["bond_n"]) == len(series["law_n"]) == 100
     assert np.allclose(np.diff(series["time"]), 0.01)
     assert max(series["bond_n"]) == 0.0   # nothing is grasped in the first second
+
+
+def test_the_plot_draws_one_panel_a_result(tmp_path) -> None:
+    series = {"time": [0.0, 0.01, 0.02], "bond_n": [0.0, 12.0, 18.2], "threshold_n": [0.0, 18.1, 18.1],
+              "law_n": [1.0, 14.1, 14.1], "feedforward_n": [0.0, 10.0, 3.0], "ft_time": [0.0, 0.25], "ft_n": [0.0, 9.0]}
+    result = {"law": "fic", "delay_s": 0.2, "seed": 3, "jitter": True, "pieces_inside": [], "series": series,
+              "pulls": [{"start_s": 0.0, "end_s": 0.02, "broke": True}]}
+    path = tmp_path / "bond.json"
+    path.write_text(json.dumps(result))
+    assert e2_bond_pulls.main(["--plot", str(tmp_path / "bond.png"), "--results", str(path), str(path)]) == 0
+    assert (tmp_path / "bond.png").stat().st_size > 10_000
+    with pytest.raises(SystemExit):
+        e2_bond_pulls.main(["--plot", str(tmp_path / "none.png")])

@@ -18,6 +18,7 @@ most sqrt(2) F_max = 14.1 N with two axes past x_b, as in a lock (x) held while 
     python -m sim_bridge.experiments.e2_bond_pulls --seed 3 --law fic --no-jitter ...     # the graph's twin
     python -m sim_bridge.experiments.e2_bond_pulls --graph runs/e2_graph_fic/fic_0.2_seed3 --jsonl \
         results/e2_graph_fic.jsonl
+    python -m sim_bridge.experiments.e2_bond_pulls --plot results/e2_bond_pulls_seed3.png --results A.json B.json
 """
 from __future__ import annotations
 
@@ -212,6 +213,37 @@ def table(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def plot(results: list[dict], titles: list[str], path: Path) -> None:
+    """One panel per in-process result: the bond's force and its threshold, the law's |FIC| with sqrt(2) F_max (two
+    axes saturated), the inertial feedforward, the F/T |F_R| (4 Hz) and the lock-and-pull windows shaded."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(len(results), 1, figsize=(12, 2.6 * len(results)), sharex=True, squeeze=False)
+    for axis, result, title in zip(axes[:, 0], results, titles):
+        series = result["series"]
+        axis.plot(series["ft_time"], series["ft_n"], lw=0.5, color="0.7", label="|F_R| (F/T, 4 Hz)")
+        axis.plot(series["time"], series["law_n"], lw=0.6, color="tab:green", label="|FIC| (the law)")
+        axis.plot(series["time"], series["feedforward_n"], lw=0.5, color="tab:orange", label="|Lambda a_d|")
+        axis.plot(series["time"], series["bond_n"], lw=0.8, color="tab:blue", label="bond force")
+        threshold = np.asarray(series["threshold_n"], dtype=float)
+        axis.plot(series["time"], np.where(threshold > 0, threshold, np.nan), color="tab:red", ls="--", lw=0.8,
+                  label="bond's break threshold")
+        axis.axhline(math.sqrt(2) * 10.0, color="tab:green", ls=":", lw=0.8, label="sqrt(2) F_max")
+        for entry in result["pulls"]:
+            axis.axvspan(entry["start_s"], entry["end_s"], color="tab:red" if entry["broke"] else "0.5", alpha=0.12)
+        axis.set_ylim(0, 25)
+        axis.set_ylabel("[N]")
+        axis.set_title(f"{title}: {len(result['pieces_inside'])} / 3 inside", fontsize=8)
+    axes[0, 0].legend(fontsize=6, ncol=6, loc="upper left")
+    axes[-1, 0].set_xlabel("time [s]")
+    figure.tight_layout()
+    figure.savefig(path, dpi=90)
+    print(f"[e2-bond] {path}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seed", type=int, default=3)
@@ -223,7 +255,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--graph", type=Path, default=None, help="instead of running: a graph trial's run folder")
     parser.add_argument("--jsonl", type=Path, default=None, help="with --graph: the e2_graph jsonl holding its row")
     parser.add_argument("--json", type=Path, default=None, help="write the result here")
+    parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                        help="instead of running: plot the in-process results given by --results")
+    parser.add_argument("--results", type=Path, nargs="+", default=None, metavar="JSON",
+                        help="with --plot: results of in-process runs (--json), one panel each")
     args = parser.parse_args(argv)
+    if args.plot is not None:
+        if not args.results:
+            parser.error("--plot needs --results")
+        results = [json.loads(path.read_text()) for path in args.results]
+        plot(results, [f"{r['law']} at {r['delay_s']:g} s, seed {r['seed']}"
+                       + ("" if r["jitter"] else ", the graph's twin") for r in results], args.plot)
+        return 0
     if args.graph is not None:
         if args.jsonl is None:
             parser.error("--graph needs --jsonl (the trial's row: its phases and trace)")
