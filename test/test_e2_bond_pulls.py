@@ -81,3 +81,18 @@ def test_the_plot_draws_one_panel_a_result(tmp_path) -> None:
     assert (tmp_path / "bond.png").stat().st_size > 10_000
     with pytest.raises(SystemExit):
         e2_bond_pulls.main(["--plot", str(tmp_path / "none.png")])
+
+
+def test_a_result_s_row_names_the_pull_that_broke_the_bond_and_the_forces_there(tmp_path, capsys) -> None:
+    pulls = [{"piece": "cuboid", "bond_peak_n": 14.4, "broke": False, "law_at_bond_peak_n": 11.1,
+              "feedforward_at_bond_peak_n": 1.5},
+             {"piece": "cuboid", "bond_peak_n": 18.2, "broke": True, "law_at_bond_peak_n": 12.9,
+              "feedforward_at_bond_peak_n": 9.0},
+             {"piece": "star_prism", "bond_peak_n": 13.3, "broke": True, "law_at_bond_peak_n": 13.1,
+              "feedforward_at_bond_peak_n": 0.0}]
+    result = {"law": "fic", "jitter": False, "pulls": pulls}
+    assert e2_bond_pulls.pulls_row(result) == "| fic, the graph's twin | 2 | 14.4, 18.2 | at pull 2 | 11.1-12.9 | 1.5-9.0 |"
+    path = tmp_path / "fic.json"
+    path.write_text(json.dumps(dict(result, jitter=True, pulls=pulls[:1])))
+    assert e2_bond_pulls.main(["--table", "--results", str(path)]) == 0
+    assert capsys.readouterr().out == "| fic, the sweep's draws | 1 | 14.4 | no | 11.1-11.1 | 1.5-1.5 |\n"

@@ -213,6 +213,23 @@ def table(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def pulls_row(result: dict, piece: str = "cuboid") -> str:
+    """One markdown row of an in-process result: a piece's pulls, the bond's peak in each, the pull that broke it,
+    the law's force and the feedforward at the bond's peaks (ranges over the pulls)."""
+    pulls = [entry for entry in result["pulls"] if entry["piece"] == piece]
+    broke = next((index + 1 for index, entry in enumerate(pulls) if entry["broke"]), None)
+
+    def span(key: str) -> str:
+        values = [entry[key] for entry in pulls if entry.get(key) is not None]
+        return f"{min(values):.1f}-{max(values):.1f}" if values else "-"
+
+    who = f"{result['law']}, " + ("the sweep's draws" if result["jitter"] else "the graph's twin")
+    peaks = ", ".join(f"{entry['bond_peak_n']:.1f}" for entry in pulls)
+    outcome = f"at pull {broke}" if broke else "no"
+    return (f"| {who} | {len(pulls)} | {peaks} | {outcome} | {span('law_at_bond_peak_n')} | "
+            f"{span('feedforward_at_bond_peak_n')} |")
+
+
 def plot(results: list[dict], titles: list[str], path: Path) -> None:
     """One panel per in-process result: the bond's force and its threshold, the law's |FIC| with sqrt(2) F_max (two
     axes saturated), the inertial feedforward, the F/T |F_R| (4 Hz) and the lock-and-pull windows shaded."""
@@ -258,8 +275,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
                         help="instead of running: plot the in-process results given by --results")
     parser.add_argument("--results", type=Path, nargs="+", default=None, metavar="JSON",
-                        help="with --plot: results of in-process runs (--json), one panel each")
+                        help="with --plot or --table: results of in-process runs (--json), one panel or row each")
+    parser.add_argument("--table", action="store_true",
+                        help="instead of running: one markdown row a result of --results (the cuboid's pulls)")
     args = parser.parse_args(argv)
+    if args.table:
+        if not args.results:
+            parser.error("--table needs --results")
+        for path in args.results:
+            print(pulls_row(json.loads(path.read_text())))
+        return 0
     if args.plot is not None:
         if not args.results:
             parser.error("--plot needs --results")
