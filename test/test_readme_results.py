@@ -57,6 +57,15 @@ def e2_sweep_at_200ms() -> dict:
     return expected
 
 
+def graph_trials(file: str, said: str) -> dict:
+    """README's k of n for a law on the graph: its first n trials in the jsonl (n as README says it), so that a trial
+    still running when README was written, appended later, does not change the figure; with its Wilson interval."""
+    found = re.search(said, readme_results())
+    trials = jsonl(file)[:int(found.group("trials"))] if found else []
+    k = sum(complete(t) for t in trials)
+    return dict(complete=str(k), trials=str(len(trials)), **(interval(k, len(trials)) if trials else {}))
+
+
 @cache
 def readme_results() -> str:
     text = (REPO / "README.md").read_text()
@@ -337,10 +346,7 @@ FIGURES = [
                *cell("evidence_closed_loop_5seeds.json", "delay_1", "linear")["stable_interval_95"]))))),
     Figure("E2 graph, the replica's default law at 200 ms: trials complete and their interval",
            r"the FIC completes (?P<complete>\d+) of (?P<trials>\d+) graph trials \(Wilson (?P<low>[\d.]+)-(?P<high>[\d.]+)\)",
-           lambda: dict(complete=str(sum(complete(t) for t in jsonl("e2_graph_fic.jsonl"))),
-                        trials=str(len(jsonl("e2_graph_fic.jsonl"))),
-                        **interval(sum(complete(t) for t in jsonl("e2_graph_fic.jsonl")),
-                                   len(jsonl("e2_graph_fic.jsonl"))))),
+           lambda: graph_trials("e2_graph_fic.jsonl", r"the FIC completes \d+ of (?P<trials>\d+) graph trials")),
     Figure("E2 graph, the replica's default law: pieces, their interval, peak forces",
            r"default law (?P<inside>\d+) of (?P<pieces>\d+) pieces \((?P<low>[\d.]+)-(?P<high>[\d.]+)\), .{0,30}?, peak "
            r"(?P<peak_low>[\d.]+)-(?P<peak_high>[\d.]+) N",
@@ -350,6 +356,12 @@ FIGURES = [
                                    3 * len(jsonl("e2_graph_fic.jsonl"))),
                         peak_low=f"{min(t['peak_force_n'] for t in jsonl('e2_graph_fic.jsonl')):.1f}",
                         peak_high=f"{max(t['peak_force_n'] for t in jsonl('e2_graph_fic.jsonl')):.1f}")),
+    Figure("E2 graph, Eq. 7 as written at 200 ms: trials complete and their interval",
+           r"Eq\. 7 as written (?P<complete>\d+) of (?P<trials>\d+) graph trials \((?P<low>[\d.]+)-(?P<high>[\d.]+)\)",
+           lambda: graph_trials("e2_graph_stamped.jsonl", r"Eq\. 7 as written \d+ of (?P<trials>\d+) graph trials")),
+    Figure("E2 graph, the unbounded linear law at 200 ms: trials complete and their interval",
+           r"linear (?P<complete>\d+) of (?P<trials>\d+) graph trials \((?P<low>[\d.]+)-(?P<high>[\d.]+)\)",
+           lambda: graph_trials("e2_graph_linear.jsonl", r"linear \d+ of (?P<trials>\d+) graph trials")),
     Figure("E2 in process at 200 ms, every law (the sweep grows: checked on the seeds the README counts)",
            r"at 200 ms: the default FIC (?P<fic>\d+ of \d+) \((?P<low>[\d.]+)-(?P<high>[\d.]+)\), as written "
            r"(?P<fic_paper_law>\d+ of \d+) \([\d.]+-[\d.]+\), linear (?P<linear>\d+ of \d+), linear_bounded "
