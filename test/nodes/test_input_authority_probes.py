@@ -156,22 +156,41 @@ def test_a_second_teleop_writer_is_refused_and_the_arm_stays(start_node, ros_env
     assert last[-1] == "2 publishers on it", last[-1]  # why, on /diagnostics too
 
 
-@pytest.mark.parametrize("arguments, words", [
+#: The probes of the only writer, each refused for its own reason (the words its refusal line says).
+MALFORMED_PROBES = [
     (("--stamp-offset", "1e6", "--offset", "0.3", "0.3", "0.3"), "in the receiver's future"),
     (("--epoch-zero", "--offset", "0.3", "0.3", "0.3"), "in the past"),
     (("--mode", "7", "--offset", "0.3", "0.3", "0.3"), "mode 7"),
     (("--haptic-gain", "50", "--velocity-gain", "1e6", "--offset", "0.3", "0.3", "0.3"), "K_H 50"),
-])
-def test_mistimed_or_malformed_commands_of_the_only_writer_are_refused(start_node, ros_env, rclpy_context,
-                                                                        arguments, words) -> None:
+]
+#: The replica says a refused topic at most once per this period (fic_teleop_runtime.notices.THROTTLE_S).
+REFUSAL_LINE_PERIOD_S = 2.0
+
+
+def test_mistimed_or_malformed_commands_of_the_only_writer_are_refused(start_node, ros_env, rclpy_context) -> None:
+    """The four probes one after another on one graph: a refusal keeps the last good x_d' and latches nothing, so
+    each probe meets the replica as the first did. Each is judged on its own part of the replica's log, started
+    once its predecessor's writer has left the graph and the refusal line's throttle period has passed (else its
+    line could be throttled away)."""
     robot, replica, watcher = _arm(start_node, ros_env, rclpy_context, channel=False)
-    start = _probed(ros_env, watcher, 0.5, "teleop", "--seconds", "1.0", *arguments)
-    moved = watcher.displacement_since(start)
-    print(f"[probe] the TCP moved {moved * 1000:.1f} mm")
-    log = replica.output()
-    assert moved < 0.01, f"the TCP moved {moved:.3f} m\n{log}"  # before: 0.37 m for the stamps
-    assert words in log, log
-    assert log.count("refusing /replica/teleop_command") == 1, log
+    ended = None
+    for arguments, words in MALFORMED_PROBES:
+        if ended is not None:
+            assert watcher.wait(lambda: watcher.node.count_publishers("/replica/teleop_command") == 0, 30.0), \
+                f"the probe before {words!r} still writes /replica/teleop_command"
+            time.sleep(max(0.0, ended + REFUSAL_LINE_PERIOD_S + 0.1 - time.monotonic()))
+        offset = len(replica.output())
+        start = time.monotonic()
+        _probe(ros_env, "teleop", "--seconds", "1.0", *arguments)
+        ended = time.monotonic()
+        _watch_poses(watcher, 0.5)
+        moved = watcher.displacement_since(start)
+        print(f"[probe] {words}: the TCP moved {moved * 1000:.1f} mm")
+        log = replica.output()[offset:]
+        assert moved < 0.01, f"{words}: the TCP moved {moved:.3f} m\n{log}"  # before: 0.37 m for the stamps
+        assert words in log, log
+        assert log.count("refusing /replica/teleop_command") == 1, log
+    watcher.stop()
 
 
 def test_a_huge_offset_is_clamped_to_the_workspace_and_approached_at_the_bounded_speed(start_node, ros_env,
