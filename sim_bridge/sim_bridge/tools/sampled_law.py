@@ -11,6 +11,8 @@ in the last second against the first (above 1: the oscillation grows).
     python -m sim_bridge.tools.sampled_law --periods 0.002 0.02 0.035 0.045 0.048 [--kick 0 0 0 0 0.5 0.5 0.5]
     python -m sim_bridge.tools.sampled_law --periods 0.02 --longest 0.048 --seeds 1 2 3 4   # intervals drawn
 
+    python -m sim_bridge.tools.sampled_law --e1-seeds 1 2 3 4   # the E1 circle, ticks 20-48 ms apart from 2 to 8 s
+
 The robot's stale-command watchdog (config/robot.yaml's command_timeout, 50 ms) holds the arm as the robot node does,
 so a period of 50 ms or more meets the loop's hold and the robot's hold, not the law.
 """
@@ -95,6 +97,19 @@ def sampled_run(period: float, kick: tuple[float, ...] = DEFAULT_KICK, duration:
             "holds": replica.health.holds}
 
 
+def e1_with_late_ticks(seed: int, shortest: float = 0.02, longest: float = 0.048) -> dict[str, Any]:
+    """The in-process E1 run (the circle, the operator, the channel; 9 s) with the replica's ticks drawn in
+    [shortest, longest] apart from 2 to 8 s, on fresh states (sim_bridge.experiments.in_process.ReplicaStall)."""
+    from sim_bridge.experiments.in_process import ReplicaStall, RunConfig, run
+
+    result = run(RunConfig(duration=9.0, seed=seed, control_rate=500.0,
+                           replica_stalls=(ReplicaStall(2.0, 8.0, shortest, longest),)))
+    return {"e1_seed": seed, "intervals_ms": [shortest * 1e3, longest * 1e3],
+            "fastest_joint_rad_s": round(result.joint_speed_max, 3),
+            "error_max_mm": round(float(result.tracking_error.max()) * 1e3, 1), "holds": result.replica_holds,
+            "robot_watchdog_engagements": result.robot_watchdog_engagements}
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--periods", type=float, nargs="+", default=[0.002, 0.02, 0.035, 0.05])
@@ -103,10 +118,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--longest", type=float, default=None,
                         help="intervals drawn in [period, longest] [s] per tick (a starved replica's)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1])
+    parser.add_argument("--e1-seeds", type=int, nargs="+", default=[],
+                        help="instead: the in-process E1 run with late ticks for these seeds")
     parser.add_argument("--set", nargs=2, action="append", default=[], metavar=("NAME", "VALUE"),
                         help="a replica parameter changed (yaml value), e.g. --set controller linear")
     args = parser.parse_args(argv)
     changes = {name: yaml.safe_load(value) for name, value in args.set}
+    if args.e1_seeds:
+        for seed in args.e1_seeds:
+            print(json.dumps(e1_with_late_ticks(seed)), flush=True)
+        return
     for period in args.periods:
         for seed in args.seeds:
             print(json.dumps({"seed": seed, **sampled_run(period, tuple(args.kick), args.duration, args.longest,
