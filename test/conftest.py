@@ -81,6 +81,19 @@ def run_launcher(out: Path, *arguments: str, timeout: float = 600.0) -> subproce
                                *arguments], env=env, capture_output=True, text=True, timeout=timeout)
 
 
+#: The launcher's default graph, lockstep, 3 s, no video: the run the in-process runner is compared with
+#: (test_in_process_agreement) and the solo reference of runs started together (test_launcher_isolation).
+DEFAULT_LOCKSTEP_RUN = ("--duration", "3", "--time-mode", "lockstep", "--no-video", "--wall-limit", "400")
+
+
+@pytest.fixture(scope="session")
+def default_lockstep_run(tmp_path_factory) -> tuple[Path, subprocess.CompletedProcess]:
+    """One run of DEFAULT_LOCKSTEP_RUN for every test that reads it (its folder and the launcher's process); each
+    test judges the exit code it needs."""
+    out = tmp_path_factory.mktemp("default_lockstep") / "run"
+    return out, run_launcher(out, *DEFAULT_LOCKSTEP_RUN, timeout=900.0)
+
+
 @pytest.fixture
 def ros_env(tmp_path: Path):
     """An environment for processes of one test: a reserved domain, localhost only, private log folder."""

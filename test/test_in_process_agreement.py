@@ -25,32 +25,23 @@ with this test's agreement calls; the test itself then passed at loads 9.4, 6.7 
 """
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
-from conftest import REPO, isolated_env, reserved_domain
+from conftest import DEFAULT_LOCKSTEP_RUN
 
 pytestmark = pytest.mark.nodes
-DURATION_S = 3.0
+DURATION_S = float(DEFAULT_LOCKSTEP_RUN[DEFAULT_LOCKSTEP_RUN.index("--duration") + 1])  # 3 s
 PRE_MOVE_END_S = 1.9             # [s] the operator's first move reaches the replica (200 ms after it is sent)
 PRE_MOVE_TOLERANCE_M = 0.0025    # max | |e|_in-process - |e|_graph | before it (measured 0.48-1.64 mm)
 PRE_MOVE_TOLERANCE_RMS_M = 0.0012  # (measured 0.20-0.71 mm)
 DESIRED_TOLERANCE_M = 0.060      # max |x_d,in-process - x_d,graph| over the run (measured up to 39 mm)
 
 
-def test_in_process_run_agrees_with_a_lockstep_graph_run(tmp_path) -> None:
+def test_in_process_run_agrees_with_a_lockstep_graph_run(default_lockstep_run) -> None:
     from sim_bridge.experiments.in_process import RunConfig, agreement, run
 
-    out = tmp_path / "run"
-    with reserved_domain() as domain:
-        env = isolated_env(tmp_path / "ros_log", domain)
-        process = subprocess.run([sys.executable, "-m", "fic_teleop_bringup.teleop_launcher", "--out", str(out),
-                                  "--duration", str(DURATION_S), "--time-mode", "lockstep", "--no-video",
-                                  "--no-report", "--wall-limit", "400"], env=env, capture_output=True, text=True,
-                                 timeout=600)
+    out, process = default_lockstep_run   # the launcher's default graph, DURATION_S lockstep (conftest)
     assert process.returncode == 0, process.stdout + process.stderr
     result = run(RunConfig(duration=DURATION_S))
     again = run(RunConfig(duration=DURATION_S))

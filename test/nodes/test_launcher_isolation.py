@@ -17,11 +17,11 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, SAFETY_KEPT_EXITS, isolated_env, recorded_so_far, reserved_domain
+from conftest import DEFAULT_LOCKSTEP_RUN, REPO, SAFETY_KEPT_EXITS, isolated_env, recorded_so_far, reserved_domain
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 pytestmark = pytest.mark.nodes
-RUN = ("--duration", "3", "--time-mode", "lockstep", "--no-video", "--wall-limit", "400")
+RUN = DEFAULT_LOCKSTEP_RUN
 
 
 def _environment(tmp_path: Path) -> dict[str, str]:
@@ -50,9 +50,13 @@ def _joint_state_rate(metrics: dict) -> float:
 
 
 @pytest.fixture(scope="module")
-def solo_run(tmp_path_factory) -> dict:
-    out = tmp_path_factory.mktemp("solo") / "run"
-    return _finish(_launch(_environment(out.parent), out, *RUN), out)
+def solo_run(default_lockstep_run) -> dict:
+    """RUN alone: the session's default lockstep run (conftest), which the in-process comparison reads too."""
+    out, process = default_lockstep_run
+    assert process.returncode in SAFETY_KEPT_EXITS, process.stdout + process.stderr
+    metrics = json.loads((out / "report" / "metrics.json").read_text())
+    metrics["domain"] = json.loads((out / "run.json").read_text())["domain_id"]
+    return metrics
 
 
 @pytest.mark.timeout(1800)  # three lockstep runs, two at once: 2-3 min on a quiet machine, 10 with 8 sessions on it
