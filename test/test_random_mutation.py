@@ -46,3 +46,18 @@ def test_kills_by_the_timeout_are_counted_apart(monkeypatch, tmp_path: Path) -> 
     result = random_mutation.run(2, 4, 900.0, out=tmp_path / "out.json", echo=lambda text: None)
     assert (result["killed"], result["killed_by_timeout"], result["non_equivalent"]) == (3, 2, 4)
     assert result["kill_rate"] == 0.75
+
+
+def test_a_rerun_carries_the_seed_of_the_run_whose_survivors_it_reruns(monkeypatch, tmp_path: Path) -> None:
+    earlier = tmp_path / "seed5.json"
+    earlier.write_text('{"seed": 5, "mutants": []}')
+    seen = {}
+
+    def fake_run(seed, size, timeout, module, out, **kwargs) -> dict:
+        seen["seed"], seen["rerun"] = seed, kwargs["rerun"]
+        return {"commit": "0" * 40, "seed": seed, "sample": 0, "sites": 0, "equivalent": 0, "non_equivalent": 0,
+                "killed": 0, "killed_by_timeout": 0, "kill_rate": None, "seconds": 0, "mutants": []}
+
+    monkeypatch.setattr(random_mutation, "run", fake_run)
+    random_mutation.main(["--rerun", str(earlier), "--require", "0"])
+    assert seen == {"seed": 5, "rerun": {"seed": 5, "mutants": []}}

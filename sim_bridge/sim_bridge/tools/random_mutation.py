@@ -437,10 +437,12 @@ def main(argv: list[str] | None = None) -> int:
         for site in sample(arguments.seed, arguments.sample, arguments.module):
             print(f"{site.module}:{site.line} {site.kind}: {site.change}    {site.source_line[:90]}")
         return 0
+    rerun = json.loads(arguments.rerun.read_text()) if arguments.rerun else None
+    # A rerun's mutants are the earlier run's survivors: its result carries that run's seed, not --seed's default.
+    seed = rerun.get("seed", arguments.seed) if rerun is not None else arguments.seed
     try:
-        result = run(arguments.seed, arguments.sample, arguments.timeout, arguments.module, arguments.out,
-                     echo=lambda text: print(text, flush=True), commit=arguments.commit,
-                     rerun=json.loads(arguments.rerun.read_text()) if arguments.rerun else None,
+        result = run(seed, arguments.sample, arguments.timeout, arguments.module, arguments.out,
+                     echo=lambda text: print(text, flush=True), commit=arguments.commit, rerun=rerun,
                      baseline_timeout=arguments.baseline_timeout)
     except RuntimeError as error:   # the unmutated tree failed or did not finish: no mutant can be judged
         print(f"[random_mutation] {error}", file=sys.stderr)
