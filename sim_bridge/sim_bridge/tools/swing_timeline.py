@@ -46,6 +46,8 @@ class Run:
     command: np.ndarray            # (m, 7)
     pose_time: np.ndarray          # (k,) /replica/desired_pose stamps
     pose_error: np.ndarray         # (k,) |x_d - x_R| [m]
+    desired_speed: np.ndarray      # (k,) |dx_d/dt| [m/s] between the pose messages (over at least 20 ms)
+    tcp_speed: np.ndarray          # (k,) |dx_R/dt| [m/s], likewise
     events: list[tuple[float, str, str]]   # (wall, node, text)
 
 
@@ -71,6 +73,9 @@ def load(run_dir: Path) -> Run:
     states.sort(key=lambda row: row[0])
     commands.sort(key=lambda row: row[0])
     both = sorted(set(desired) & set(tcp))
+    pose_time = np.array(both)
+    desired_speed, tcp_speed = (_speed(pose_time, np.array([series[s] for s in both]).reshape(-1, 3))
+                                for series in (desired, tcp))
     events = []
     for name in ("replica.log", "robot.log"):
         path = run_dir / "logs" / name
@@ -85,8 +90,19 @@ def load(run_dir: Path) -> Run:
                effort=np.array([s[4] for s in states]),
                command_wall=np.array([c[0] for c in commands]), command_state=np.array([c[1] for c in commands]),
                command=np.array([c[2] for c in commands]).reshape(-1, 7),
-               pose_time=np.array(both), pose_error=np.array([np.linalg.norm(desired[s] - tcp[s]) for s in both]),
+               pose_time=pose_time, pose_error=np.array([np.linalg.norm(desired[s] - tcp[s]) for s in both]),
+               desired_speed=desired_speed, tcp_speed=tcp_speed,
                events=events)
+
+
+def _speed(times: np.ndarray, positions: np.ndarray, span: float = 0.02) -> np.ndarray:
+    """|dp/dt| at each sample, from the sample at least ``span`` earlier (nan for the first ones)."""
+    speed = np.full(len(times), np.nan)
+    for k in range(len(times)):
+        j = np.searchsorted(times, times[k] - span, side="right") - 1
+        if j >= 0 and times[k] - times[j] < 0.2:
+            speed[k] = np.linalg.norm(positions[k] - positions[j]) / (times[k] - times[j])
+    return speed
 
 
 def arm_time(run: Run, wall: float) -> float:
@@ -114,7 +130,9 @@ def applied_command(run: Run) -> np.ndarray:
     if not len(run.command):
         return index
     for i, effort in enumerate(run.effort):
-        match = np.flatnonzero(np.all(np.abs(run.command - effort) < 1e-9, axis=1))
+        # Only a command computed on this state or an earlier one can be what the arm applies at it.
+        match = np.flatnonzero(np.all(np.abs(run.command - effort) < 1e-9, axis=1)
+                               & ~(run.command_state > run.state_time[i] + 1e-9))
         if len(match):
             index[i] = match[-1] if len(match) == 1 else match[np.argmin(np.abs(run.command_wall[match]
                                                                                   - run.state_wall[i]))]
@@ -148,7 +166,7 @@ def timeline(run: Run, start: float, end: float, step: float) -> list[str]:
     rows = np.array(rows, dtype=int)
     gravity = gravity_torques(run, rows)
     lines = ["t[s]   |qd|/limit j1..j7                 applied (phase, computed on t, held for)"
-             "     tau-G j2  tau-G j4  |xd-xR|[mm]"]
+             "     tau-G j2  tau-G j4  |xd-xR|[mm] |xd'| |xR'| [m/s]"]
     events = [(arm_time(run, wall) - run.t0, node, text) for wall, node, text in run.events]
     events = [e for e in events if start <= e[0] <= end]
     for k, i in enumerate(rows):
@@ -162,8 +180,8 @@ def timeline(run: Run, start: float, end: float, step: float) -> list[str]:
             computed_on = run.command_state[c] - run.t0
             source = f"cmd#{c:<5d}{phase[c]:4s} on {computed_on:6.3f} held {1e3 * (t[i] - computed_on):5.1f} ms"
         near = np.searchsorted(run.pose_time, run.state_time[i], side="right") - 1
-        error = f"{1e3 * run.pose_error[near]:7.1f}" if near >= 0 and \
-            run.state_time[i] - run.pose_time[near] < 0.05 else "      -"
+        error = f"{1e3 * run.pose_error[near]:7.1f}  {run.desired_speed[near]:5.2f} {run.tcp_speed[near]:5.2f}" \
+            if near >= 0 and run.state_time[i] - run.pose_time[near] < 0.05 else "      -"
         speeds = " ".join(f"{r:4.2f}" for r in ratio[i])
         extra = run.effort[i] - gravity[k]
         lines.append(f"{t[i]:6.3f} {speeds}  {source:44s} {extra[1]:8.2f} {extra[3]:9.2f}  {error}")
