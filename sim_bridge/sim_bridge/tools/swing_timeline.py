@@ -10,7 +10,8 @@ folder's bag and logs:
   run on it (age = state time - the command's state time), or "robot" when no command matches (the robot's own
   stale-command hold: gravity and damping);
 - tau - G(q) on joints 2 and 4 (the part of the applied torque that is not gravity);
-- |x_d - x_R| from /replica/desired_pose and /replica/tcp_pose (the replica's own view, published while the law runs);
+- |x_d - x_R| and the speeds of x_d and x_R from /replica/desired_pose and /replica/tcp_pose (the replica's own
+  view, published while the law runs);
 - the events of replica.log and robot.log, mapped from the wall clock to the arm's clock through the recorder's
   receive times of the joint states.
 
