@@ -16,7 +16,9 @@ at the control rate. Around them:
   set-points moved meanwhile (225 mm after a 6 s hold under a 40 % CPU quota). The law does not come back onto that
   error: ``anchor`` puts x_d at the arm's TCP at the resume and the difference is given back at ``resume_speed``,
   as the jumps above, so the FIC never starts far from its attractor (its saturated force with no damping took the
-  wrist to 0.73 of its datasheet speed within 0.3 s of such a resume, docs/RESULTS.md "Stress").
+  wrist to 0.73 of its datasheet speed within 0.3 s of such a resume, docs/RESULTS.md "Stress"). The give-backs
+  still running at the anchor end there: that one give-back replaces them, so x_d moves from the set-point's own
+  motion at resume_speed at most (two left running beside it moved it at twice that, away from an arm at rest).
 - Feedforward acceleration (beyond paper Eq. 7, fic_core.replica): the planner's own (while fresh), plus the
   estimate of x_d''s acceleration from the command stamps (while not stale). A jump being given back moves at
   constant speed: it adds none.
@@ -192,6 +194,14 @@ class DesiredPose:
         if not self.started:
             raise FicInputError("the desired pose has no start pose yet")
         notices: list[str] = []
+        if self._anchor is not None:
+            # The give-backs still running end here: x_d starts at the TCP and ONE give-back takes it to the raw
+            # set-point (the planner's hold plus the commanded x_d'). Left running beside it, two aligned
+            # give-backs moved x_d at twice resume_speed from the set-point's own motion, away from an arm at rest.
+            self._offset_jump.stop()
+            self._planner_jump.stop()
+            if self._planner_position is not None:
+                self._planner_in_use = self._planner_position   # the planner's first jump is not started either
         notice = self._update_offset(now, dt)
         if notice:
             notices.append(notice)

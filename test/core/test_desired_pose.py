@@ -1,0 +1,46 @@
+"""fic_core.desired_pose at the anchor after the loop's hold: x_d starts at the TCP and ONE give-back takes it to the
+raw set-point. The give-backs still running at the anchor (here the planner's first jump) end there; left running
+beside the new one, two aligned give-backs moved x_d away from the set-point's own motion at twice resume_speed
+(a starvation stress run: the arm, starting from rest, fell 95-99 mm behind)."""
+from __future__ import annotations
+
+import numpy as np
+
+from fic_core.desired_pose import DesiredPose, DesiredPoseParameters
+
+START = np.array([0.3, 0.0, 0.5])
+RESUME_SPEED = 0.1          # [m/s]
+PLANNER_SPEED = 0.13        # [m/s] about the paper's circle (0.126 m/s)
+DT = 0.001                  # [s] the control tick
+ANCHOR_TICK = 1000          # the planner's first jump (0.3 m) is 0.2 m from done then
+
+
+def test_at_the_anchor_x_d_moves_from_the_set_points_own_motion_at_resume_speed_at_most() -> None:
+    pose = DesiredPose(DesiredPoseParameters(resume_speed=RESUME_SPEED, set_point_extrapolation=0.0))
+    pose.start(START, np.eye(3))
+    # the set-point x_d'' + x_d' as the holds give it, without give-backs: a pose started on the planner's first pose
+    reference = DesiredPose(DesiredPoseParameters(resume_speed=RESUME_SPEED, set_point_extrapolation=0.0))
+    reference.start(START + [-0.3, 0.0, 0.0], np.eye(3))
+    previous_position = previous_set_point = None
+    worst_after_anchor = 0.0
+    for tick in range(6000):
+        now = tick * DT
+        # the planner starts 0.3 m behind the start pose (-x) and moves along +x: its first jump is given back along
+        # +x, the same way as the anchor's difference below (the two aligned, as in the stress run)
+        planner = START + [-0.3 + PLANNER_SPEED * now, 0.0, 0.0]
+        for desired in (pose, reference):
+            desired.add_planner_pose(int(round(now * 1e9)), planner, np.eye(3), now)
+        if tick == ANCHOR_TICK:
+            tcp = previous_position + [0.05, 0.0, 0.0]   # the arm, held, is 50 mm ahead of x_d (+x)
+            pose.anchor(tcp)
+        position = pose.update(now, DT).position
+        set_point = reference.update(now, DT).position
+        if tick == ANCHOR_TICK:
+            np.testing.assert_allclose(position, tcp)     # this tick: the TCP itself
+        elif tick > ANCHOR_TICK:
+            relative_speed = np.linalg.norm((position - previous_position) - (set_point - previous_set_point)) / DT
+            worst_after_anchor = max(worst_after_anchor, relative_speed)
+        previous_position, previous_set_point = position, set_point
+    assert worst_after_anchor <= RESUME_SPEED + 1e-6, f"x_d moved from the set-point at {worst_after_anchor:.4f} m/s"
+    np.testing.assert_allclose(previous_position, previous_set_point, atol=1e-9)   # and it reached the set-point
+    assert not pose.anchored
