@@ -57,6 +57,17 @@ def e2_sweep_at_200ms() -> dict:
     return expected
 
 
+def e2_sweep_other_delays() -> dict:
+    """README's trials complete at 0, 0.5 and 1 s for every law, from results/e2_sweep.jsonl's seeds 1..10."""
+    trials = jsonl("e2_sweep.jsonl")
+    expected = {}
+    for law in ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa"):
+        counts = [sum(complete(t) for t in trials if t["law"] == law and t["delay_s"] == delay and t["seed"] <= 10)
+                  for delay in (0.0, 0.5, 1.0)]
+        expected[law] = f"{counts[0]}, {counts[1]} and {counts[2]}"
+    return expected
+
+
 def graph_trials(file: str, said: str) -> dict:
     """README's k of n for a law on the graph: its first n trials in the jsonl (n as README says it), so that a trial
     still running when README was written, appended later, does not change the figure; with its Wilson interval."""
@@ -367,6 +378,11 @@ FIGURES = [
            r"(?P<fic_paper_law>\d+ of \d+) \([\d.]+-[\d.]+\), linear (?P<linear>\d+ of \d+), linear_bounded "
            r"(?P<linear_bounded>\d+ of \d+), linear_tdpa (?P<linear_tdpa>\d+ of \d+)",
            lambda: e2_sweep_at_200ms()),
+    Figure("E2 in process at 0, 0.5 and 1 s, every law, 10 seeds each",
+           r"At 0, 0\.5 and 1 s \(10 seeds each\): the default FIC (?P<fic>\d+, \d+ and \d+) of 10, as written "
+           r"(?P<fic_paper_law>\d+, \d+ and \d+), linear (?P<linear>\d+, \d+ and \d+), linear_bounded "
+           r"(?P<linear_bounded>\d+, \d+ and \d+), linear_tdpa (?P<linear_tdpa>\d+, \d+ and \d+)",
+           lambda: e2_sweep_other_delays()),
     Figure("E2 lockstep graph, scripted operator: trials complete",
            r"\((?P<complete>\d+) of (?P<trials>\d+) trials complete, 2026-12-02\)",
            lambda: dict(complete=str(result("e2.json")["successful_trials"]),
