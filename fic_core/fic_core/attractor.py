@@ -152,6 +152,10 @@ class AttractorSnapshot(tuple):
         """(errors, forces, storages) per axis: what a passivity observer reads (passivity_observer.py)."""
         return self[5], self[6], self.storage_values()
 
+    def phase_stiffness(self, axis: int) -> float:
+        """The axis's stiffness in its phase: K_C in C, the profile's K_0 (its largest slope) in D."""
+        return self[3][axis] if self[1][axis] else self[0].stiffness
+
 
 class FractalAttractor:
     """Per-axis FIC attractor, paper Eq. 2, for ``axes`` independent axes sharing one force profile."""

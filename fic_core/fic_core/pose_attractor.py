@@ -114,16 +114,12 @@ class PoseAttractor:
         return wrench
 
     def _add_hold_damping(self, wrench: list[float], twist_error: list[float]) -> None:
-        """B = K (T - T_0)/2 per axis on the error rate, K the axis's stiffness in its phase: K_0 in D (the
-        profile's largest slope), K_C in C; the rotation's one angle sets the isotropic rotational damper."""
-        translation = self._translation._state
-        stiffness = self._translation.profile.stiffness
+        """B = K (T - T_0)/2 per axis on the error rate, K the axis's stiffness in its phase (K_0 in D, K_C in C);
+        the rotation's one angle sets the isotropic rotational damper."""
+        translation = self._translation.snapshot()
         for axis in range(3):
-            k = translation[3][axis] if translation[1][axis] else stiffness
-            wrench[axis] += hold_damping(k, self._late) * twist_error[axis]
-        angle = self._rotation._state.scalar
-        k = angle[3][0] if angle[1][0] else self._rotation.profile.stiffness
-        damping = hold_damping(k, self._late)
+            wrench[axis] += hold_damping(translation.phase_stiffness(axis), self._late) * twist_error[axis]
+        damping = hold_damping(self._rotation.snapshot().scalar.phase_stiffness(0), self._late)
         for axis in range(3, 6):
             wrench[axis] += damping * twist_error[axis]
 

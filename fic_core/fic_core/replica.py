@@ -405,6 +405,14 @@ class ReplicaController:
         self._slew.reset(torque, time if time is not None else self._slew.last_time)
         self._previous_values = torque.tolist()
 
+    def late_tick(self, late: float) -> None:
+        """The next command is for a torque held ``late`` = T - T_0 seconds beyond the nominal period
+        (fic_core.sampled_spring_damping): passed to a task controller that damps its sampled springs (the FIC's
+        PoseAttractor); a baseline with its own damping has nothing to give back."""
+        late_tick = getattr(self.controller, "late_tick", None)
+        if late_tick is not None:
+            late_tick(late)
+
     def continue_from(self, other: ReplicaController) -> None:
         """Take over from the controller this one replaces (a change of parameters at run time): the torque it
         sent last (so the torque-rate bound holds across the swap), its target, and its cumulative counters.

@@ -305,11 +305,9 @@ class ReplicaLoop:
         sample = self.desired.update(now, dt)
         notices.extend(("warning", text) for text in sample.notices)
         desired_twist = self.velocity_filter.update(sample.position, dt)
-        late_tick = getattr(self.controller.controller, "late_tick", None)
-        if late_tick is not None:
-            # The last torque was held dt (the states' interval): on a late tick the FIC gives back what its
-            # springs lose to that sample-and-hold (fic_core.sampled_spring_damping), up to the loop's own bound.
-            late_tick(late_hold(dt, self.schedule.control_period, self.health.bounds.max_tick_gap))
+        # The last torque was held dt (the states' interval): on a late tick the FIC gives back what its springs
+        # lose to that sample-and-hold (fic_core.sampled_spring_damping), up to the loop's own bound.
+        self.controller.late_tick(late_hold(dt, self.schedule.control_period, self.health.bounds.max_tick_gap))
         try:
             command = self.controller.command(q, qd, sample.position, sample.rotation, desired_twist,
                                               desired_acceleration=sample.acceleration, time=time)
