@@ -106,6 +106,11 @@ def windows(phases: list[tuple[str, float]], end: float) -> list[tuple[str, floa
     return found
 
 
+def felt_pulls(row: dict) -> list[float]:
+    """The force the operator felt at the end of each pull (its ``pulled`` phase), every piece of a trial row."""
+    return [value for piece in row["pieces"].values() for phase, _, value in piece["phases"] if phase == "pulled"]
+
+
 def in_process_pulls(seed: int, law: str, delay: float, jitter: bool, duration: float) -> dict:
     """One trial recorded (module docstring): its row (without the trace) and one entry per lock-and-pull."""
     from sim_bridge.experiments.e2_in_process import trial
@@ -133,7 +138,7 @@ def in_process_pulls(seed: int, law: str, delay: float, jitter: bool, duration: 
             "feedforward_at_bond_peak_n": round(float(part[peak, 4]), 1) if part.size else None,
             "axes_beyond_x_b_at_bond_peak": int(part[peak, 5]) if part.size else None,
             "ft_peak_n_4hz": round(float(force[trace_window].max()), 1) if trace_window.any() else None})
-    felt = [value for piece in row["pieces"].values() for phase, _, value in piece["phases"] if phase == "pulled"]
+    felt = felt_pulls(row)
     # The series at 100 Hz for the plot: each 10 ms's largest bond and law force (a one-step peak is kept).
     usable = len(series) // 10 * 10
     blocks = series[:usable].reshape(-1, 10, series.shape[1])
@@ -155,6 +160,7 @@ def graph_pulls(run_dir: Path, row: dict) -> dict:
     """One graph trial (its folder and its e2_graph row): one entry per lock-and-pull (module docstring)."""
     from mcap_ros2.decoder import DecoderFactory
 
+    from fic_teleop_runtime.stamps import seconds
     from fic_teleop_tools.recording.bag_reader import ReadResult, read_messages
 
     bag = run_dir / "bag"
@@ -167,7 +173,7 @@ def graph_pulls(run_dir: Path, row: dict) -> dict:
         if decoder is None:
             decoder = decoders[channel.id] = factory.decoder_for(channel.message_encoding, schema)
         msg = decoder(message.data)
-        stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        stamp = seconds(msg.header.stamp)
         if channel.topic == "/replica/fic_state":
             law_rows.append((stamp, math.sqrt(sum(f * f for f in msg.force[:3])),
                              sum(abs(e) > SATURATION_ERROR_M for e in msg.error[:3])))
@@ -200,7 +206,7 @@ def graph_pulls(run_dir: Path, row: dict) -> dict:
             "law_peak_n_100hz": round(float(part[:, 1].max()), 1) if part.size else None,
             "axes_beyond_x_b_at_law_peak": int(part[peak, 2]) if part.size else None,
             "ft_peak_n_10hz": round(float(force[in_trace].max()), 1) if in_trace.any() else None})
-    felt = [value for piece in row["pieces"].values() for phase, _, value in piece["phases"] if phase == "pulled"]
+    felt = felt_pulls(row)
     return {"law": row["law"], "delay_s": row["delay_s"], "seed": row["seed"], "pieces_inside": row["pieces_inside"],
             "bond_events": events, "felt_pulls_n": felt, "pulls": entries}
 

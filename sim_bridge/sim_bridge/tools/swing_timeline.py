@@ -29,9 +29,11 @@ import numpy as np
 
 from fic_core.command_stamp import stamp_ns
 from fic_core.limits import PANDA_JOINT_VELOCITY_LIMIT
+from fic_core.loop_health import LoopHealthBounds
+from fic_teleop_runtime.stamps import seconds
 
 LOG_LINE = re.compile(r"^\[(\w+)\] \[(\d+\.\d+)\] \[([^\]]+)\]: (.*)$")
-RESUME_RAMP = 0.2   # [s] the replica's loop_resume_ramp default (fic_core.loop_health.LoopHealthBounds)
+RESUME_RAMP = LoopHealthBounds().resume_ramp   # [s] the replica's loop_resume_ramp default
 
 
 @dataclass
@@ -61,14 +63,14 @@ def load(run_dir: Path) -> Run:
         for message in read_ros2_messages(str(file), topics=topics):
             msg, topic, wall = message.ros_msg, message.channel.topic, message.log_time_ns * 1e-9
             if topic == "/joint_states":
-                stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+                stamp = seconds(msg.header.stamp)
                 states.append((stamp, wall, list(msg.position[:7]), list(msg.velocity[:7]), list(msg.effort[:7])))
             elif topic == "/effort_controller/commands":
                 dims = msg.layout.dim
                 computed_on = stamp_ns(dims[0].label) if dims else None
                 commands.append((wall, np.nan if computed_on is None else computed_on * 1e-9, list(msg.data[:7])))
             else:
-                stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+                stamp = seconds(msg.header.stamp)
                 p = msg.pose.position
                 (desired if topic == "/replica/desired_pose" else tcp)[stamp] = np.array([p.x, p.y, p.z])
     states.sort(key=lambda row: row[0])
