@@ -63,22 +63,18 @@ def sampled_run(period: float, kick: tuple[float, ...] = DEFAULT_KICK, duration:
     every_settle = int(round(0.002 / TIMESTEP))
     shortest = max(int(round(period / TIMESTEP)), 1)
     longest_steps = shortest if longest is None else max(int(round(longest / TIMESTEP)), shortest)
-    every = shortest
     kicked_at = int(round(SETTLE_S / TIMESTEP))
     watchdog = CommandWatchdog(robot_command_timeout())
     torque = None
     speeds = []
-    since = 0
+    next_tick = 0   # the physics step of the law's next tick: every 2 ms while settling, then drawn intervals
     for k in range(steps):
         now = k * TIMESTEP
         if k == kicked_at:
             sim.data.qvel[:7] += np.asarray(kick, dtype=float)
-            since = 0
-        due = since % every == 0 if k >= kicked_at else k % every_settle == 0
-        since += 1
-        if due and k >= kicked_at:
-            since, every = 1, int(draws.integers(shortest, longest_steps + 1))
-        if due:
+            next_tick = k
+        if k == next_tick:
+            next_tick += every_settle if k < kicked_at else int(draws.integers(shortest, longest_steps + 1))
             step = replica.joint_state(now, now, sim.joint_positions.copy(), sim.joint_velocities.copy())
             if step.torque is not None:
                 torque = step.torque
