@@ -38,6 +38,12 @@ def interval(k: int, n: int) -> dict:
     return dict(low=f"{low:.2f}", high=f"{high:.2f}")
 
 
+def complete_of(trials: list[dict], law: str, delay: float, seeds: int) -> tuple[int, int]:
+    """(trials complete, trials) of one sweep cell over its seeds 1..``seeds`` (a seed counted once)."""
+    kept = {t["seed"]: t for t in trials if t["law"] == law and t["delay_s"] == delay and t["seed"] <= seeds}
+    return sum(complete(t) for t in kept.values()), len(kept)
+
+
 def e2_sweep_at_200ms() -> dict:
     """The in-process sweep keeps running and appending trials (seed-major), so the README states k of n for its
     first n seeds a law: each k is recomputed from results/e2_sweep.jsonl's trials of seeds 1..n, and the FIC's
@@ -50,10 +56,10 @@ def e2_sweep_at_200ms() -> dict:
     trials = jsonl("e2_sweep.jsonl")
     expected = {}
     for law, n in said.groupdict().items():
-        kept = {t["seed"]: t for t in trials if t["law"] == law and t["delay_s"] == 0.2 and t["seed"] <= int(n)}
-        expected[law] = f"{sum(complete(t) for t in kept.values())} of {len(kept)}"
+        k, count = complete_of(trials, law, 0.2, int(n))
+        expected[law] = f"{k} of {count}"
         if law == "fic":
-            expected.update(interval(sum(complete(t) for t in kept.values()), len(kept)))
+            expected.update(interval(k, count))
     return expected
 
 
@@ -62,8 +68,7 @@ def e2_sweep_other_delays() -> dict:
     trials = jsonl("e2_sweep.jsonl")
     expected = {}
     for law in ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa"):
-        counts = [sum(complete(t) for t in trials if t["law"] == law and t["delay_s"] == delay and t["seed"] <= 10)
-                  for delay in (0.0, 0.5, 1.0)]
+        counts = [complete_of(trials, law, delay, 10)[0] for delay in (0.0, 0.5, 1.0)]
         expected[law] = f"{counts[0]}, {counts[1]} and {counts[2]}"
     return expected
 
