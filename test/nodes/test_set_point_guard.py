@@ -22,7 +22,6 @@ pytestmark = pytest.mark.nodes
 POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
 
 
-
 class Planners:
     """The legitimate planner (x_d'' where the replica's TCP started) and, once ``intrude`` is called, an outside
     client publishing x_d'' ``offset`` away; also watches /sim/tcp_pose and the replica's /diagnostics."""
