@@ -3,8 +3,9 @@
 x_d'  the teleoperated offset, from the master through the channel (100 Hz, delayed);
 x_d'' the autonomous trajectory, from the planner (100 Hz), with its acceleration for the feedforward.
 
-Between samples both are first-order holds on their senders' stamps (``SampledSetPoint``), so x_d moves smoothly
-at the control rate. Around them:
+Between samples x_d' is rebuilt by ``LinkHold`` over the link's learned sample interval (interpolating by default,
+so the feedforward acts at any link rate from 1 kHz to 5 Hz; fic_core.link_hold) and x_d'' is a first-order hold on
+the planner's stamps (``SampledSetPoint``), so x_d moves smoothly at the control rate. Around them:
 
 - No planner pose yet: x_d'' is the TCP pose at the first joint state. The jump to the planner's first pose is
   given back at ``resume_speed`` (``ShrinkingOffset``) while the planner's output moves on underneath; a silent
@@ -36,11 +37,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import FicInputError, finite_array, finite_scalar
+from .link_hold import LinkHold
 from .set_point import SampledSetPoint, ShrinkingOffset
 
 #: An older planner acceleration is not fed forward (the planner publishes at 100 Hz) [s].
 FEEDFORWARD_TIMEOUT_S = 0.05
-#: A sample gap longer than this restarts a set-point's velocity and acceleration estimates from rest [s].
+#: A planner sample gap longer than this restarts x_d'''s velocity and acceleration estimates from rest [s] (the
+#: planner publishes at 100 Hz on this machine; the link's x_d' learns its own interval, fic_core.link_hold).
 SET_POINT_MAX_GAP_S = 0.1
 
 
@@ -51,10 +54,11 @@ class DesiredPoseParameters:
     master_timeout: float = 0.5                 # [s] teleoperation commands older than this: x_d' is held
     resume_speed: float = 0.1                   # [m/s] jumps of x_d' and x_d'' are given back at this speed
     set_point_acceleration_filter: float = 0.05  # [s] low-pass of the acceleration estimate of x_d'
-    set_point_extrapolation: float = 0.015      # [s] first-order hold of x_d' and x_d'' at most this long
+    set_point_extrapolation: float = 0.015      # [s] first-order hold of x_d'' at most this long
     planner_feedforward: bool = True            # feed the planner's acceleration forward
     offset_feedforward: bool = True             # feed x_d''s estimated acceleration forward
     use_planner_orientation: bool = False       # track the planner's orientation (else: the start orientation)
+    interpolate_link_samples: bool = True       # x_d' between link samples: interpolated (else extrapolated)
 
     def __post_init__(self) -> None:
         finite_scalar("master_timeout", self.master_timeout, minimum=0.0, minimum_inclusive=False)
@@ -79,7 +83,7 @@ class DesiredPose:
     def __init__(self, parameters: DesiredPoseParameters | None = None) -> None:
         self._parameters = DesiredPoseParameters() if parameters is None else parameters
         self._planner_hold = self._hold()
-        self._offset_hold = self._hold()
+        self._offset_hold = self._link_hold()
         self._planner_jump = ShrinkingOffset()   # start pose - first planner pose, given back
         self._offset_jump = ShrinkingOffset()    # x_d' held - x_d' commanded at a resume, given back
         self._hold_jump = ShrinkingOffset()      # the TCP - x_d at the end of the loop's hold, given back
@@ -104,17 +108,32 @@ class DesiredPose:
         p = self._parameters
         return SampledSetPoint(3, p.set_point_acceleration_filter, p.set_point_extrapolation, SET_POINT_MAX_GAP_S)
 
+    def _link_hold(self) -> LinkHold:
+        p = self._parameters
+        return LinkHold("interpolate" if p.interpolate_link_samples else "extrapolate", 3,
+                        p.set_point_acceleration_filter)
+
     @property
     def parameters(self) -> DesiredPoseParameters:
         return self._parameters
 
     @parameters.setter
     def parameters(self, value: DesiredPoseParameters) -> None:
-        """New settings, taking effect at once; the holds keep their samples."""
+        """New settings, taking effect at once; the holds keep their samples (a new link hold design starts afresh
+        at the next sample)."""
         self._parameters = value
-        for hold in (self._planner_hold, self._offset_hold):
-            hold.acceleration_time_constant = value.set_point_acceleration_filter
-            hold.max_extrapolation = value.set_point_extrapolation
+        self._planner_hold.acceleration_time_constant = value.set_point_acceleration_filter
+        self._planner_hold.max_extrapolation = value.set_point_extrapolation
+        self._offset_hold.acceleration_time_constant = value.set_point_acceleration_filter
+        design = "interpolate" if value.interpolate_link_samples else "extrapolate"
+        if design != self._offset_hold.design:
+            self._offset_hold = self._link_hold()
+            if self.master_received is not None:
+                # The new hold starts from the newest command (so the next one is a segment from it, not a step),
+                # and x_d' goes on from where it is: the difference is given back as after a resume.
+                self._offset_hold.add(self.master_stamp_ns * 1e-9, self._commanded_offset, self.master_received)
+                if not self.master_stale:
+                    self._offset_jump.start(self._offset, self._commanded_offset, value.resume_speed)
 
     @property
     def has_planner(self) -> bool:

@@ -71,7 +71,7 @@ def _loop_health_bounds(p: Mapping[str, Any]) -> LoopHealthBounds:
 def _desired_pose_parameters(p: Mapping[str, Any]) -> DesiredPoseParameters:
     return DesiredPoseParameters(p["master_timeout"], p["resume_speed"], p["set_point_acceleration_filter"],
                                  p["set_point_extrapolation"], p["planner_feedforward"], p["offset_feedforward"],
-                                 p["use_planner_orientation"])
+                                 p["use_planner_orientation"], p["interpolate_link_samples"])
 
 
 class ReplicaLoop:

@@ -52,9 +52,10 @@ REPLICA_NUMBERS: dict[str, ParameterRow] = rows_by_name(
     number("resume_speed", 0.001, 2.0, "speed at which x_d' moves to the commanded value after a stale period [m/s]"),
     number("set_point_acceleration_filter", 0.0, 1.0, "time constant of the acceleration estimate of x_d' (fed "
                                                       "forward when offset_feedforward is true) [s]"),
-    number("set_point_extrapolation", 0.0, 0.5, "x_d' and x_d'' move on along their last velocity for at most this "
-                                                "long after a sample (first-order hold between samples) [s]; 0: held "
-                                                "as steps"),
+    number("set_point_extrapolation", 0.0, 0.5, "x_d'' moves on along its last velocity for at most this long after "
+                                                "a planner sample (first-order hold between samples) [s]; 0: held "
+                                                "as steps (x_d' has its own hold over the link's learned interval: "
+                                                "interpolate_link_samples)"),
     number("desired_velocity_filter", 0.0, 1.0, "time constant of the x_d velocity estimate fed to the FIC's error "
                                                 "rate [s]; 0 disables it (zero desired twist)"),
     number("pose_rate", 1.0, 1000.0, "rate of /replica/desired_pose, /replica/tcp_pose, /replica/feedback_wrench [Hz]"),
@@ -89,8 +90,14 @@ REPLICA_SWITCHES: dict[str, ParameterRow] = rows_by_name(
                                   "task-space inertia, J^T Lambda a_d (beyond paper Eq. 7: the FIC compensates no "
                                   "inertia)"),
     switch("offset_feedforward", "feed the estimated acceleration of the teleoperated x_d' forward the same way "
-                                 "(beyond paper Eq. 7; fic_core.set_point: from the stamps of successive commands, "
-                                 "low-pass filtered)"),
+                                 "(beyond paper Eq. 7; fic_core.link_hold: from the hold's velocity changes at "
+                                 "successive commands, low-pass filtered)"),
+    switch("interpolate_link_samples", "x_d' between the link's samples, rebuilt over the sample interval learned "
+                                       "from their stamps (fic_core.link_hold): true, a straight line to each new "
+                                       "sample (one interval of latency, never beyond a sample); false, the newest "
+                                       "sample moved on along the last two samples' slope for one interval (no "
+                                       "latency, overshoots a turn). Either way the feedforward of x_d''s "
+                                       "acceleration acts over the whole interval, at any link rate"),
     switch("joint_damping_compensation", "add D qd, the arm's viscous joint friction, to tau_d as Eq. 7 adds C qd "
                                          "(beyond the paper; fic_core.replica)"),
     switch("use_planner_orientation", "track the orientation of /planner/desired_pose; false holds the TCP "
