@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.claims import (ClaimRun, claim_cells, claim_runs, load_series, save_series,
-                                           thinned)
+from sim_bridge.experiments.claims import (ClaimRun, claim_cells, claim_runs, execute, load_series, save_series,
+                                           tail_for, thinned)
 from sim_bridge.experiments import claims_sweep
 from sim_bridge.experiments.in_process import run
 
@@ -47,6 +47,35 @@ def test_the_sweep_runs_the_claim_first_and_covers_the_grid_and_the_delay_sweep(
     assert {(r.cell, r.controller, r.hand) for r in first} == {
         (c, law, hand) for c in ("delay_1__rate_10", "delay_1__rate_full")
         for law in ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa") for hand in ("passive", "reactive")}
+
+
+def test_every_claim_run_ends_with_its_quiet_tail() -> None:
+    """At least 4 round trips or 8 s of free response after one round trip and 1 s of flush, the task unchanged."""
+    assert [tail_for(d) for d in (0.0, 0.2, 1.0, 2.0)] == pytest.approx([9.0, 9.4, 11.0, 21.0])
+    runs = claim_runs()
+    assert all(r.tail == tail_for(r.delay) and r.key.endswith(f"__tail_{r.tail:g}s") for r in runs)
+    config = ClaimRun(1.0, 10.0, "fic", "reactive", 3, 30.0, tail=11.0).config()
+    assert (config.duration, config.quiet_from) == (41.0, 30.0)
+    assert ClaimRun(1.0, 10.0, "fic", "reactive", 3, 30.0).config().quiet_from is None
+    assert not any(r.tail for r in claim_runs(tail=False))
+
+
+def test_in_the_quiet_tail_the_planner_and_the_operator_stop_and_the_link_runs_on(tmp_path: Path) -> None:
+    """The tail's start is kept with the series; the operator's target holds still from it, the planner's x_d'' comes
+    to rest within 1 s (w_n = 8 rad/s), the hand keeps holding the handle; the task's figures end where it starts."""
+    claim = ClaimRun(0.2, 10.0, "fic", "reactive", 1, 2.5, tail=1.5)
+    row = execute(claim, tmp_path)
+    kept = load_series(tmp_path / row["series"])
+    assert kept.quiet_from == 2.5
+    tail = kept.time >= 2.5
+    assert np.ptp(kept.operator_target[tail], axis=0).max() == 0.0
+    assert np.ptp(kept.operator_target[kept.time >= 0.5], axis=0).max() > 1e-4   # it moved before
+    step = float(np.median(np.diff(kept.time)))
+    speed = np.linalg.norm(np.diff(kept.planner, axis=0), axis=1) / step
+    assert speed[kept.time[1:] >= 3.5].max() < 2e-3 < speed[kept.time[1:] < 2.5].max()
+    assert np.any(np.linalg.norm(np.diff(kept.master[tail], axis=0), axis=1) > 0.0)   # the handle still answers
+    before = execute(dataclasses.replace(claim, tail=0.0), tmp_path)
+    assert row["figures"]["error_rms_m"] == pytest.approx(before["figures"]["error_rms_m"], rel=0.02)
 
 
 def test_the_kept_series_is_the_run_at_50_hz(tmp_path: Path) -> None:

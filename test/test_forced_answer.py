@@ -2,7 +2,9 @@
 does with it: a stable resonant loop's answer is not an oscillation, a free one is, and only exogenous input excuses.
 
 The labels come from closed forms: the second-order replica's peak gain 1/(2 zeta sqrt(1 - zeta^2)) and its
-stability for any positive coefficients; the hand loop's instability above the delayed loop's K_crit."""
+stability for any positive coefficients; the hand loop's instability above the delayed loop's K_crit. The runs here
+have no quiet tail: the oscillation scan with the fit is what judges them (a run with a tail is judged by its free
+response, test_run_verdict)."""
 from __future__ import annotations
 
 import math
@@ -88,7 +90,7 @@ def test_too_few_samples_is_no_fit(driven):
 
 @pytest.fixture(scope="module")
 def forced_run():
-    return resonant_plant(1.0, 1, 10.0)
+    return resonant_plant(1.0, 1, 10.0, tail=0.0)   # no quiet tail: the oscillation scan decides (run_verdict)
 
 
 def test_a_forced_resonance_is_stable_and_its_gain_is_reported(forced_run):
@@ -123,7 +125,7 @@ def test_only_exogenous_input_excuses_an_oscillation_the_command_carries():
     """The hand loop's limit cycle is in x_M, so in x_d and in what the replica receives: the fit's inputs (the
     planner, the operator's target) do not hold it, so it stays; given the handle itself as the 'target' (a signal
     inside the loop) the same oscillation would be taken for an answer."""
-    data = resonant_plant(0.2, 3, 10.0, duration=33.0, hand_loop_gain=1.5)
+    data = resonant_plant(0.2, 3, 10.0, duration=33.0, hand_loop_gain=1.5, tail=0.0)
     verdict = judge(data)
     assert verdict.stable is False
     assert any(r.startswith("sustained oscillation of x_d - command beyond") for r in verdict.stable_reasons)

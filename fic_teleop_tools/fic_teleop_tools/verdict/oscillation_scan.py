@@ -8,8 +8,9 @@ span is short, never under ``min_cycles`` periods) slide over the span by half a
 outside contact are fitted by a line plus a sinusoid of period P; the sinusoid's amplitude and its share of what the
 line leaves ("explained share") say whether the window oscillates at P: amplitude above ``amplitude`` AND share
 above ``explained_share``. One window is not a sustained oscillation: P is SUSTAINED when at least
-``sustained_share`` of the judged windows oscillate at P, the last one among them, and the last window's amplitude
-is at least ``decay_ratio`` times the first's (an oscillation dying out, a stable loop ringing after a push, is not
+``sustained_share`` of the judged windows oscillate at P, the last one among them, with at least ``min_windows``
+(3) windows judged (one or two windows are one look, not a sustained oscillation), and the last window's amplitude is
+at least ``decay_ratio`` times the first's (an oscillation dying out, a stable loop ringing after a push, is not
 sustained; one that grows is, and the energy test says it grows).
 
 Why a fitted sinusoid and not an autocorrelation over laps: the task does not repeat, so nothing periodic is left in
@@ -47,7 +48,8 @@ class ScanSettings:
     amplitude: float = 0.003         # [m] fitted sinusoid amplitude a window must exceed (6 % of x_b)
     explained_share: float = 0.5     # share of the window's detrended variance the sinusoid must explain ...
     explained_share_few_cycles: float = 0.85  # ... when the span holds fewer than 2 cycles_per_window periods
-    sustained_share: float = 0.8     # windows at one period that must oscillate
+    sustained_share: float = 0.8     # windows at one period that must oscillate ...
+    min_windows: int = 3             # ... of at least this many judged windows (one or two are not "sustained")
     decay_ratio: float = 0.7         # last / first window amplitude under this: dying out (energy halved)
     forced_share: float = 0.5        # residual under this share of the command's amplitude at P: forced answer
     free_share: float = 0.8          # a window is judged when this share of it is outside contact
@@ -177,7 +179,7 @@ def scan(time: NDArray, free: NDArray, start: float, settings: ScanSettings,
             window_share = float(oscillating.mean())
             ratio = float(amplitudes[-1] / amplitudes[0]) if amplitudes[0] > 0.0 else 0.0
             sustained = bool(window_share >= settings.sustained_share and oscillating[-1]
-                             and ratio >= settings.decay_ratio)
+                             and ratio >= settings.decay_ratio and index.shape[0] >= settings.min_windows)
             chosen = oscillating if oscillating.any() else np.ones_like(oscillating)
             found = Oscillation(sustained, float(period), float(amplitudes[chosen].mean()),
                                 float(shares[chosen].mean()), window_share, int(index.shape[0]), ratio, longest)

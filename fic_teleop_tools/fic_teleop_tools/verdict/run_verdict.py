@@ -73,6 +73,12 @@ class VerdictCriterion:
     """The thresholds of the two verdicts (module docstring); SI units."""
 
     settle: float = 2.0                  # [s] start-up left out of the stability tests
+    tail_min: float = 8.0                # [s] a quiet tail's judged free response: at least this long ...
+    tail_round_trips: float = 4.0        # ... and this many round trips, after
+    tail_flush: float = 1.0              # [s] + one round trip, while the last input leaves the loop
+    tail_motion_floor: float = 0.001     # [m] free motion under this amplitude is rest (2 % of x_b)
+    tail_motion_decay: float = 0.7       # last tail window's amplitude over the first's under this: decaying
+    tail_energy_decay: float = 0.5       # last tail window's kinetic-energy peak over the first's under this
     min_window: float = 2.0              # [s] energy windows: max(min_window, 4 round trips)
     min_longest_period: float = 4.0      # [s] the oscillation scan must reach at least this period (zero delay)
     round_trips_judged: float = 4.0      # ... and at least this many round trips
@@ -95,6 +101,19 @@ class VerdictCriterion:
 
     def longest_period_needed(self, one_way_delay: float) -> float:
         return max(self.round_trips_judged * 2.0 * one_way_delay, self.min_longest_period)
+
+    def tail_flush_s(self, one_way_delay: float) -> float:
+        """[s] the start of a quiet tail that is not judged: the last input leaves the loop (module docstring)."""
+        return self.tail_flush + 2.0 * one_way_delay
+
+    def tail_needed(self, one_way_delay: float) -> float:
+        """[s] the least quiet tail the free-response test judges: its flush, then max(4 round trips, 8 s)."""
+        return self.tail_flush_s(one_way_delay) + max(self.tail_round_trips * 2.0 * one_way_delay, self.tail_min)
+
+    def tail_window(self, one_way_delay: float) -> float:
+        """[s] the free-response test's window: half the slowest delay-induced period (2 round trips), at least
+        ``min_window``, so that every window holds a kinetic-energy peak of it."""
+        return max(self.min_window, 0.5 * self.round_trips_judged * 2.0 * one_way_delay)
 
 
 @dataclass
@@ -128,6 +147,9 @@ class VerdictInput:
     stale_holds: int | None = None                  # the robot held on stale torque commands
     x_b: float = X_B                                # [m]
     source: str = ""                                # what the series came from (for the reasons)
+    # [s] the start of the run's quiet tail (no planner motion, the operator's target still; in_process.RunConfig):
+    # STABLE is judged on the free response there. None: no tail (a bag, a run kept before tails).
+    quiet_from: float | None = None
 
     @classmethod
     def from_run_result(cls, result, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
@@ -165,7 +187,8 @@ class VerdictInput:
                    channel_observers=None if ports is None or len(ports) == 0 else ports[:, :2],
                    joint_speed_peak=float(result.joint_speed_max) if getattr(result, "joint_speed_max", 0.0) else None,
                    limit_violations=int(result.limit_violations), safe_holds=count("replica_holds"),
-                   stale_holds=count("robot_watchdog_engagements"), x_b=x_b, source="in-process run")
+                   stale_holds=count("robot_watchdog_engagements"), x_b=x_b, source="in-process run",
+                   quiet_from=getattr(result, "quiet_from", None))
 
     @classmethod
     def from_bag(cls, path: str | Path, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
@@ -288,6 +311,66 @@ def _energy_windows(time: NDArray, energy: NDArray, free: NDArray, start: float,
     return peaks
 
 
+def _free_response(time: NDArray, start: float, window: float, residuals: dict[str, NDArray],
+                   energy: NDArray | None, criterion: VerdictCriterion) -> tuple[list[str], dict]:
+    """The quiet tail's test (module docstring, 2'): (reasons it is not stable, figures). Windows of ``window`` from
+    ``start`` (the tail's start after its flush) to the end, half a window apart; per window, each motion's amplitude
+    (sqrt 2 times its RMS about the window's mean, on its largest axis) and the kinetic energy's peak. A series is a
+    free oscillation when it is above its floor in each of the last ``scan.min_windows`` windows and does not decay:
+    from the first window to the last it keeps at least its decay ratio, or from the middle window to the last at
+    least the decay ratio to the power of the share of the span between them (the same rate over the later half: an
+    exponential decay meets both or neither; a stop's transient dying out on top of a steady oscillation meets the
+    first only)."""
+    end = float(time[-1])
+    # Half a window apart, the first at ``start``, the last ending at the end (the span is a whole number of half
+    # windows up to the last sample's rounding).
+    count = max(1, int(round((end - start - window) / (0.5 * window))) + 1)
+    lows = np.linspace(start, max(end - window, start), count)
+    inside = [(time >= low - 1e-9) & (time <= low + window + 1e-9) for low in lows]
+    middle = (count - 1) // 2
+    share = (lows[-1] - lows[middle]) / (lows[-1] - lows[0]) if count > 1 else 1.0
+
+    def kept(values: list[float]) -> tuple[float, float]:
+        """(last over first, last over middle) of per-window values."""
+        return tuple(values[-1] / values[k] if values[k] > 0.0 else float("inf") for k in (0, middle))
+
+    def persists(values: list[float], floor: float, decay: float) -> bool:
+        if count < criterion.scan.min_windows or min(values[-criterion.scan.min_windows:]) <= floor:
+            return False
+        whole, later = kept(values)
+        return whole >= decay or later >= decay ** share
+
+    reasons: list[str] = []
+    amplitudes: dict[str, list[float]] = {}
+    for name, residual in residuals.items():
+        values = []
+        for rows in inside:
+            part = residual[rows]
+            values.append(float(np.max(np.sqrt(2.0 * np.mean((part - part.mean(axis=0)) ** 2, axis=0)))))
+        amplitudes[name] = values
+        if persists(values, criterion.tail_motion_floor, criterion.tail_motion_decay):
+            whole, later = kept(values)
+            reasons.append(f"free oscillation in the quiet tail: {name} swings {values[-1] * 1e3:.1f} mm in its last "
+                           f"window, {whole:.2f} of its first and {later:.2f} of its middle one ({count} windows of "
+                           f"{window:g} s; decaying is under {criterion.tail_motion_decay:g} and "
+                           f"{criterion.tail_motion_decay ** share:.2f}, rest under "
+                           f"{criterion.tail_motion_floor * 1e3:g} mm)")
+    ratios = [max(kept(v)[0], kept(v)[1] ** (1.0 / share)) for v in amplitudes.values()]
+    figures: dict = dict(tail_window_s=window, tail_windows=count, tail_amplitude_m=amplitudes,
+                         tail_motion_max_m=max((v[-1] for v in amplitudes.values()), default=None),
+                         tail_motion_ratio=max((r for r in ratios if np.isfinite(r)), default=None))
+    if energy is not None:
+        peaks = [float(energy[rows].max()) for rows in inside]
+        whole, later = kept(peaks)
+        figures.update(tail_energy_peaks_j=peaks, tail_energy_ratio=whole if np.isfinite(whole) else None)
+        if persists(peaks, criterion.energy_floor, criterion.tail_energy_decay):
+            reasons.append(f"energy does not decay in the quiet tail: kinetic energy peaks at {peaks[-1] * 1e3:.3g} mJ "
+                           f"in its last window, {whole:.2f} of its first and {later:.2f} of its middle one "
+                           f"(decaying is under {criterion.tail_energy_decay:g} and "
+                           f"{criterion.tail_energy_decay ** share:.2f}, rest under {criterion.energy_floor * 1e3:g} mJ)")
+    return reasons, figures
+
+
 def _exogenous_channels(name: str, on_grid: dict, delay: float) -> list[Channel]:
     """The exogenous inputs a motion answers (fic_teleop_tools.verdict.forced_answer), at the shifts at which they
     enter the delayed loop. The replica's side (x_d, x_R, their difference) sees the planner at once and the
@@ -336,6 +419,10 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
         raise VerdictInputError(f"one_way_delay must be a finite number >= 0, got {data.one_way_delay}")
     if not np.isfinite(data.x_b) or data.x_b <= 0.0:
         raise VerdictInputError(f"x_b must be a finite number > 0, got {data.x_b}")
+    if data.quiet_from is not None and not (np.isfinite(data.quiet_from)
+                                            and raw_time[0] < data.quiet_from < raw_time[-1]):
+        raise VerdictInputError(f"quiet_from must be a time within the run ({raw_time[0]:g} to {raw_time[-1]:g} s), "
+                                f"got {data.quiet_from}")
     n = raw_time.size
     x_R, x_d = _series("x_R", data.x_R, n, 3), _series("x_d", data.x_d, n, 3)
     x_M, command = _series("x_M", data.x_M, n, 3), _series("command", data.command, n, 3)
@@ -447,7 +534,18 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
     needed = criterion.longest_period_needed(data.one_way_delay)
     reach = (float(time[-1]) - judged_from) / criterion.scan.min_cycles
     figures.update(longest_period_needed_s=needed, longest_period_judged_s=reach)
-    assessed = reach >= needed
+    # The task: the run before its quiet tail (all of it without one). The oscillation scan looks at the task only.
+    quiet_from = data.quiet_from
+    task = np.ones(time.size, dtype=bool) if quiet_from is None else time < quiet_from
+    if quiet_from is None:
+        assessed = reach >= needed
+        notes.append("no quiet tail: STABLE is judged by the oscillation scan during the task (a driven swing can "
+                     "read as an oscillation there)")
+    else:
+        tail_span, tail_needed = float(time[-1]) - quiet_from, criterion.tail_needed(data.one_way_delay)
+        figures.update(quiet_from_s=quiet_from, tail_s=tail_span, tail_needed_s=tail_needed)
+        assessed = tail_span >= tail_needed - step
+    scan_free = free & task
     if finite and assessed:
         # 1. Growing energy.
         if energy is not None:
@@ -487,12 +585,18 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
         # exogenous input; where what a first fit leaves oscillates, the fit again with a free sinusoid at that period
         # (forced_answer.fit's free_period), so that the kernels cannot take a free oscillation for an answer to the
         # input; then the scan of what the fit leaves.
-        before: dict[str, Oscillation] = scan(time, free, judged_from, criterion.scan, signals)
+        # The swing (a reported figure): x_R about its command as it is, no command excused.
+        swing_of = next((name for name in ("x_R - command", "x_d - x_R") if name in signals), None)
+        swing = {"swing": (signals[swing_of][0], None)} if swing_of is not None else {}
+        before: dict[str, Oscillation] = scan(time, scan_free, judged_from, criterion.scan, {**signals, **swing})
+        if swing_of is not None:
+            found = before.pop("swing")
+            figures.update(swing_m=found.amplitude, swing_period_s=found.period, swing_of=swing_of)
         # The fit's samples: the judged span outside contact and contact_margin around it (the linear answer does not
         # hold while the obstacle holds the arm). The round trip the other tests add is kept in: what contact sets
         # going in the loop is not the input's answer, but it is only a disturbance to a least-squares fit, and the
         # fit needs the samples.
-        use = judged & ~_dilated(contact, int(round(criterion.contact_margin / step)))
+        use = judged & task & ~_dilated(contact, int(round(criterion.contact_margin / step)))
         first: dict[str, tuple[NDArray, list[Channel], ForcedAnswer, dict]] = {}
         designs: dict[tuple, dict] = {}   # the regressors of one set of channels, shared by the fits that use it
         for name, (residual, _) in signals.items():
@@ -501,7 +605,7 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
             answer = fit(time, residual, channels, use, criterion.forced, design=design) if channels else None
             if answer is not None:
                 first[name] = (residual, channels, answer, design)
-        hints = scan(time, free, judged_from, criterion.scan,
+        hints = scan(time, scan_free, judged_from, criterion.scan,
                      {name: (residual - answer.predicted, None) for name, (residual, _, answer, _) in first.items()}) \
             if first else {}
         scanned: dict[str, tuple[NDArray, NDArray | None]] = {}
@@ -532,7 +636,7 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
         elif len(answers) < len(signals):
             notes.append(f"no forced answer fitted for {', '.join(n for n in signals if n not in answers)}: scanned "
                          "with it (conservative)")
-        oscillations: dict[str, Oscillation] = scan(time, free, judged_from, criterion.scan, scanned)
+        oscillations: dict[str, Oscillation] = scan(time, scan_free, judged_from, criterion.scan, scanned)
         figures["oscillation"] = {name: found.as_dict() for name, found in oscillations.items()}
         figures["oscillation_with_forced_answer"] = {name: before[name].as_dict() for name in answers}
         figures["forced_answer"] = {name: answer.as_dict() for name, answer in answers.items()}
@@ -542,7 +646,7 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
             resonance = answers[resonant].gain
             figures.update(resonance_gain=resonance["peak_gain"], resonance_period_s=resonance["period_s"],
                            resonance_of=resonant.split(" - ")[0])
-        for name, found in oscillations.items():
+        for name, found in oscillations.items() if quiet_from is None else ():
             if found.sustained:
                 stable_reasons.append(
                     f"sustained oscillation of {name}{' beyond its forced answer' if name in answers else ''}: "
@@ -556,6 +660,14 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
                 notes.append(f"{name}: {forced.amplitude * 1e3:.1f} mm at {forced.period:.2f} s is the loop's forced "
                              f"answer to its exogenous input (the fit explains {share:.0%} of its variance, mean over "
                              f"the axes; what it leaves does not oscillate), not counted")
+        # 2'. With a quiet tail: the free response decays (module docstring), the oscillation scan only reported.
+        if quiet_from is not None:
+            window = criterion.tail_window(data.one_way_delay)
+            tail_energy = on_grid["energy"].reshape(time.size, -1)[:, 0] if on_grid["energy"] is not None else None
+            reasons, found = _free_response(time, quiet_from + criterion.tail_flush_s(data.one_way_delay), window,
+                                            {n: r for n, (r, _) in signals.items()}, tail_energy, criterion)
+            stable_reasons += reasons
+            figures.update(found)
         # 3. Steady generation at the channel's ports.
         if on_grid["generated"] is not None:
             values = on_grid["generated"].reshape(time.size, -1)[:, 0]
@@ -589,6 +701,10 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
                         f"{free_span:.1f} s judged outside contact (limit {criterion.port_rate_limit * 1e3:.0f} mW)")
         else:
             notes.append("no channel port energy: the generation-rate test is skipped")
+    elif finite and quiet_from is not None:
+        stable_reasons.append(f"not assessed: a quiet tail of {float(time[-1]) - quiet_from:.1f} s, the free response "
+                              f"needs {criterion.tail_needed(data.one_way_delay):.1f} s (max("
+                              f"{criterion.tail_round_trips:g} round trips, {criterion.tail_min:g} s))")
     elif finite:
         run_needed = criterion.settle + criterion.scan.min_cycles * needed
         stable_reasons.append(f"not assessed: periods up to {needed:.1f} s (max(4 round trips, "

@@ -8,6 +8,10 @@ its publish rate and the in-process runner steps.
     HapticDevice.step(command, hand force, dt) --> the handle's pose and twist x_M
     the operator's button presses --> a queue, pressed one at a time by the caller's button timer (``press``)
 
+From ``quiet_from`` on (a run's quiet tail, docs/EXPERIMENTS.md "The run verdict") the operator stops: the hand's
+target holds where it was and no button is pressed, while the hand keeps holding the handle (a reactive hand keeps
+answering the force it feels) and the device keeps rendering the master's force.
+
 The caller gives the clock (``now``) and the step (``dt``); the video frames go to the watching operator directly
 (``watcher.see``), the logging of its moves to the caller (``DeviceStep.moves``).
 """
@@ -43,7 +47,7 @@ class DeviceStation:
     def __init__(self, device: HapticDevice, hand: Hand, *, script: ScriptedOperator | None = None,
                  watcher: ClosedLoopOperator | ShapeSortingOperator | None = None,
                  joy_target: JoyTarget | None = None, command_timeout: float | None = None,
-                 joy_timeout: float = 0.5, script_origin: float = 0.0) -> None:
+                 joy_timeout: float = 0.5, script_origin: float = 0.0, quiet_from: float | None = None) -> None:
         self.device = device
         self.hand = hand
         self.script = script
@@ -53,6 +57,7 @@ class DeviceStation:
         self.command_timeout = command_timeout
         self.joy_timeout = joy_timeout
         self.script_origin = script_origin
+        self.quiet_from = quiet_from
         self.command_force = np.zeros(3)
         self.command_time: float | None = None
         self.stale = False
@@ -89,7 +94,11 @@ class DeviceStation:
         device, hand, watcher = self.device, self.hand, self.watcher
         script_time = max(now - self.script_origin, 0.0)
         moves_before = len(watcher.moves_started) if watcher is not None else 0
-        if watcher is not None:
+        quiet = self.quiet_from is not None and now >= self.quiet_from
+        if quiet:   # the quiet tail: the target held, no operator asked (module docstring)
+            target = self.target if self.watcher is not None or self.script is not None \
+                or self.joy_target is not None else None
+        elif watcher is not None:
             target = watcher.target(now)
         elif self.script is not None:
             target = self.script.target(script_time)
@@ -111,9 +120,9 @@ class DeviceStation:
             else:
                 hand.update(target, device.position, dt)
             hand_force = hand.force
-        if self.sorter is not None:
+        if self.sorter is not None and not quiet:
             self.buttons.extend(event.button for event in self.sorter.poll_events(now))
-        elif self.script is not None:
+        elif self.script is not None and not quiet:
             self.buttons.extend(event.button for event in self.script.poll_events(script_time))
         state = device.step(command, hand_force, dt)
         moves = list(watcher.moves_started[moves_before:]) if watcher is not None else []

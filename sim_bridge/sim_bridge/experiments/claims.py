@@ -12,7 +12,11 @@ and the force feedback are each sample-and-held between the link's deliveries. S
   on: the master's K_H), with a passive hand (the optimistic operator) or the force-reactive hand;
 - a task that does not repeat: per seed the planner's laps and the operator's moves and wander are drawn
   (in_process.TASK_*, MOVE_*, WANDER_* ranges), in the paper's superimposition scene with both obstacles;
-- every law of the evidence sweeps (evidence_run.CONTROLLERS), the same seeds for every law and hand (paired).
+- every law of the evidence sweeps (evidence_run.CONTROLLERS), the same seeds for every law and hand (paired);
+- a quiet tail after the task (``tail_for``): the planner's trajectory stops, the operator's target holds still, the
+  hand keeps holding the handle and the link keeps running, so that the run ends with the loop's free response, which
+  the run verdict judges stability by (docs/EXPERIMENTS.md, "The run verdict"). Its start is in the kept series
+  (RunResult.quiet_from).
 
 Control cells (``force_feedback=False``, the cell's name ends in ``__feedback_off``): the same runs with the master's
 haptic gain K_H = 0 (paper Eq. 3), so no force loop closes through the channel: the hand feels the handle's own
@@ -60,9 +64,21 @@ SETTLE_S = 2.0
 
 
 def duration_for(delay: float) -> float:
-    """Run length [s]: 30 s, longer beyond 1 s of delay so that the span after start-up holds 1.5 periods of 4 round
-    trips at 1.5 s (37.5 s) and most of one at 2 s (45 s)."""
+    """The task's length [s]: 30 s, longer beyond 1 s of delay so that the span after start-up holds 1.5 periods of 4
+    round trips at 1.5 s (37.5 s) and most of one at 2 s (45 s). The quiet tail comes after it (``tail_for``)."""
     return 30.0 + 15.0 * max(0.0, delay - 1.0)
+
+
+def tail_for(delay: float) -> float:
+    """The quiet tail's length [s]: the least the run verdict judges (VerdictCriterion.tail_needed): one round trip
+    and 1 s while the last input leaves the loop (the operator's last target reaches the replica one delay later, its
+    answer comes back another delay later; the planner stops within 0.8 s), then 4 round trips, at least 8 s. A
+    delay-induced oscillation has a period of at most about 4 round trips (its phase lag of pi/2 to pi accrues over
+    one round trip), so the judged part holds one period of the slowest of them and its energy peaks twice; 8 s holds
+    several periods of the arm's and the hand's own modes (0.5-3 s) when the delay is short."""
+    from fic_teleop_tools.verdict.run_verdict import VerdictCriterion
+
+    return VerdictCriterion().tail_needed(delay)
 
 
 @dataclass(frozen=True)
@@ -72,8 +88,9 @@ class ClaimRun:
     controller: str       # evidence_run.CONTROLLERS
     hand: str             # in_process.HANDS
     seed: int
-    duration: float       # [s]
+    duration: float       # [s] the task
     force_feedback: bool = True   # False: the master's K_H = 0, an open-loop control run (module docstring)
+    tail: float = 0.0     # [s] the quiet tail after the task (``tail_for``; 0: none, the runs kept before it)
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
@@ -81,8 +98,8 @@ class ClaimRun:
         if self.hand not in HANDS:
             raise ValueError(f"hand must be one of {HANDS}, got {self.hand!r}")
         if not (math.isfinite(self.delay) and self.delay >= 0.0 and math.isfinite(self.rate_hz)
-                and self.rate_hz >= 0.0 and self.duration > 0.0):
-            raise ValueError(f"delay and rate must be finite and >= 0, duration > 0: {self}")
+                and self.rate_hz >= 0.0 and self.duration > 0.0 and math.isfinite(self.tail) and self.tail >= 0.0):
+            raise ValueError(f"delay, rate and tail must be finite and >= 0, duration > 0: {self}")
 
     @property
     def cell(self) -> str:
@@ -92,11 +109,13 @@ class ClaimRun:
     @property
     def key(self) -> str:
         """The run's name (its series file's stem, the JSON line's key)."""
-        return f"{self.cell}__{self.controller}__{self.hand}__{self.seed}__{self.duration:g}s"
+        return (f"{self.cell}__{self.controller}__{self.hand}__{self.seed}__{self.duration:g}s"
+                + (f"__tail_{self.tail:g}s" if self.tail > 0.0 else ""))
 
     def config(self) -> RunConfig:
         paper_law = self.controller == "fic_paper_law"
-        return RunConfig(scene="superimposition", duration=self.duration, delay=self.delay, rate_cap=self.rate_hz,
+        return RunConfig(scene="superimposition", duration=self.duration + self.tail,
+                         quiet_from=self.duration if self.tail > 0.0 else None, delay=self.delay, rate_cap=self.rate_hz,
                          controller="fic" if paper_law else self.controller,
                          replica_overrides={"paper_law": True} if paper_law else {},
                          master_overrides={} if self.force_feedback else {"haptic_gain": 0.0},
@@ -120,10 +139,12 @@ def claim_cells(quick: bool = False) -> list[tuple[int, float, float]]:
 
 
 def claim_runs(seeds: int = SEEDS, controllers: Iterable[str] = CONTROLLERS, hands: Iterable[str] = HANDS,
-               quick: bool = False, duration: float | None = None, controls: bool = True) -> list[ClaimRun]:
+               quick: bool = False, duration: float | None = None, controls: bool = True,
+               tail: bool = True) -> list[ClaimRun]:
     """Every run, most important first: by tier; within a tier seed by seed over its cells, every law and hand at a
     seed together (an interrupted sweep leaves paired, comparable runs); then the open-loop controls (not with
-    ``quick``), the same seeds and laws."""
+    ``quick``), the same seeds and laws. ``duration``: the task's length (default ``duration_for``); each run ends
+    with its quiet tail (``tail_for``) unless ``tail`` is False."""
     controllers, hands = tuple(controllers), tuple(hands)
     cells = claim_cells(quick)
     out = []
@@ -136,13 +157,15 @@ def claim_runs(seeds: int = SEEDS, controllers: Iterable[str] = CONTROLLERS, han
             for _, delay, rate in (c for c in cells if c[0] == tier):
                 for controller in controllers:
                     for hand in hands:
-                        out.append(ClaimRun(delay, rate, controller, hand, seed, length(delay)))
+                        out.append(ClaimRun(delay, rate, controller, hand, seed, length(delay),
+                                            tail=tail_for(delay) if tail else 0.0))
     if controls and not quick:
         for seed in range(1, seeds + 1):
             for delay, rate in CONTROL_CELLS:
                 for controller in controllers:
                     for hand in (h for h in hands if h in CONTROL_HANDS):
-                        out.append(ClaimRun(delay, rate, controller, hand, seed, length(delay), force_feedback=False))
+                        out.append(ClaimRun(delay, rate, controller, hand, seed, length(delay), force_feedback=False,
+                                            tail=tail_for(delay) if tail else 0.0))
     return out
 
 
@@ -199,8 +222,15 @@ def load_series(path: Path) -> RunResult:
 
 # -- one run -----------------------------------------------------------------------------------------------------------
 def figures(claim: ClaimRun, result: RunResult) -> dict[str, Any]:
-    """The row's figures, from the full-rate result, after the start-up (after half the run if that is shorter)."""
-    after = result.time >= min(SETTLE_S, 0.5 * float(result.time[-1]))
+    """The row's figures, from the full-rate result, over the task: after the start-up (after half the task if that is
+    shorter) and before the quiet tail (the tail is the verdict's; a tracking error averaged over it would flatter a
+    law by the tail's length)."""
+    if result.quiet_from is None:
+        task = np.ones(result.time.size, dtype=bool)
+        end = float(result.time[-1])
+    else:
+        task, end = result.time < result.quiet_from, float(result.quiet_from)
+    after = (result.time >= min(SETTLE_S, 0.5 * end)) & task
     error = result.tracking_error[after]
     force = np.linalg.norm(result.force, axis=1)
     free = force < 1.0

@@ -25,7 +25,7 @@ import numpy as np
 from sim_bridge.experiments.claims import ClaimRun, execute
 
 REPO = Path(__file__).resolve().parents[3]
-CLAIM_FIELDS = ("delay", "rate_hz", "controller", "hand", "seed", "duration", "force_feedback")
+CLAIM_FIELDS = ("delay", "rate_hz", "controller", "hand", "seed", "duration", "force_feedback", "tail")
 
 
 def run_lines(jsonl: Path) -> dict[str, dict[str, Any]]:

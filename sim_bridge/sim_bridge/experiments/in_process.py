@@ -31,7 +31,8 @@ import yaml
 from fic_core.channel_ports import ChannelPorts
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
-from fic_core.planner_station import PlannerStation
+from fic_core.planner_station import PlannerStation, make_source
+from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.replica_station import ReplicaStation
 from fic_core.trajectories import LapVaryingCircle
 from sim_bridge.channel.channel import Channel, ChannelConfig
@@ -149,6 +150,11 @@ class RunConfig:
     # A task that does not repeat (closed-loop operator only): the planner's laps and the operator's moves drawn from
     # the seed (TASK_*, MOVE_*, WANDER_* above).
     task_variation: bool = False
+    # The quiet tail (docs/EXPERIMENTS.md, "The run verdict"): from this time [s] to ``duration`` the planner's
+    # trajectory stops (StoppedTrajectory: x_d'' comes to rest on its last point) and the operator's target holds
+    # still (DeviceStation's quiet_from); the hand keeps holding the handle, passive or reactive, and the link, its
+    # delay and rate, the master and the replica keep running. The free response the run verdict judges. None: none.
+    quiet_from: float | None = None
 
 
 @dataclass
@@ -190,6 +196,8 @@ class RunResult:
     # the x_d' it sent last (n, 3) [m]; the run verdict's command in velocity mode (VerdictInput.from_run_result).
     command_mode: np.ndarray | None = None
     sent_offset: np.ndarray | None = None
+    # [s] the quiet tail's start (RunConfig.quiet_from), None without one: the run verdict judges stability there.
+    quiet_from: float | None = None
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -233,6 +241,9 @@ def run(config: RunConfig) -> RunResult:
         raise ValueError(f"operator must be one of {OPERATORS}, got {config.operator!r}")
     if config.hand not in HANDS:
         raise ValueError(f"hand must be one of {HANDS}, got {config.hand!r}")
+    if config.quiet_from is not None and not (math.isfinite(config.quiet_from)
+                                              and 0.0 <= config.quiet_from < config.duration):
+        raise ValueError(f"quiet_from must be within the run (0 to {config.duration:g} s), got {config.quiet_from}")
     if config.task_variation and config.operator != "closed_loop":
         raise ValueError("task_variation needs the closed-loop operator: a script is timed for the paper's fixed circle")
     drawn: dict[str, Any] = {}
@@ -285,9 +296,12 @@ def run(config: RunConfig) -> RunResult:
                                              pl["circle_normal"], TASK_PHASE_RANGES_RAD)
         drawn["task"] = dict(periods=source.periods.tolist(), diameters=source.diameters.tolist(), phase=source.phase)
     # The planner node's station, its trajectory's clock on the launcher's origin (shared with the E1 script).
-    planner = PlannerStation({**pl, "trajectory": "circle" if trajectory == "circle" else "fixed", "start_position": [],
-                              "start_time": SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0},
-                             0.0, source)
+    planner_values = {**pl, "trajectory": "circle" if trajectory == "circle" else "fixed", "start_position": [],
+                      "start_time": SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0}
+    if config.quiet_from is not None:   # the quiet tail: the trajectory's clock stops (RunConfig.quiet_from)
+        source = StoppedTrajectory(source if source is not None else make_source(planner_values),
+                                   max(config.quiet_from - planner_values["start_time"], 0.0))
+    planner = PlannerStation(planner_values, 0.0, source)
     sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
     tick_dynamics, no_damping = np.zeros(7), np.zeros(7)
     log_ports = []
@@ -300,7 +314,8 @@ def run(config: RunConfig) -> RunResult:
     log_contact = []
     # The device node's station: the device, the operator's hand and what drives it, the buttons' queue.
     device_station = DeviceStation(device, hand, script=operator, watcher=watcher,
-                                   command_timeout=h["command_timeout"], script_origin=time_shift)
+                                   command_timeout=h["command_timeout"], script_origin=time_shift,
+                                   quiet_from=config.quiet_from)
     ft_wrench = None
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
     log_m, log_arm, log_handle, log_target = [], [], [], []
@@ -469,7 +484,8 @@ def run(config: RunConfig) -> RunResult:
                      operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,
                      joint_speed_max=joint_speed_max, robot_watchdog_engagements=watchdog.engagements,
                      stale_torques_refused=state_age.refused, replica_holds=replica.health.holds,
-                     command_mode=np.array(log_mode, dtype=int), sent_offset=np.array(log_sent).reshape(-1, 3))
+                     command_mode=np.array(log_mode, dtype=int), sent_offset=np.array(log_sent).reshape(-1, 3),
+                     quiet_from=config.quiet_from)
 
 
 def _touches(sim: PandaSimulation, geom: int) -> bool:

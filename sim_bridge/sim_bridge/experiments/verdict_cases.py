@@ -51,7 +51,7 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq
 from scipy.signal import butter, lfilter
 
-from fic_teleop_tools.verdict.run_verdict import VerdictInput
+from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput
 
 STEP = 0.001          # [s] integration step
 SAMPLE = 0.01         # [s] the series' period (the runner's 100 Hz poses)
@@ -65,7 +65,21 @@ CYCLE_DELAYS = (0.2, 1.0, 2.0)
 CYCLE_AMPLITUDES = (0.005, 0.010, 0.020, 0.030)
 CYCLE_PERIODS = (0.5, 1.0, 2.5, 5.0, 10.0, 16.0)
 COLLISION_BURST_J = 2.7   # [J] a collision's burst at the ports: the median of the claim runs' bursts (1.4-13.9 J)
-DURATION = 40.0       # [s] holds 1.5 periods of 16 s (4 round trips at 2 s) after the 2 s of settling
+DURATION = 40.0       # [s] the task: holds 1.5 periods of 16 s (4 round trips at 2 s) after the 2 s of settling
+
+
+def tail_for(one_way_delay: float) -> float:
+    """[s] the quiet tail a case ends with: the least the run verdict judges (VerdictCriterion.tail_needed), as the
+    claim runs' (sim_bridge.experiments.claims.tail_for)."""
+    return VerdictCriterion().tail_needed(one_way_delay)
+
+
+def _held_from(series: NDArray, index: int) -> NDArray:
+    """``series`` (n, ...) with every sample from ``index`` on held at the one before: an input stopped there."""
+    out = np.array(series, dtype=float, copy=True)
+    if 0 < index < out.shape[0]:
+        out[index:] = out[index - 1]
+    return out
 
 
 @dataclass
@@ -86,7 +100,9 @@ def critical_gain(mass: float, damping: float, tau: float) -> tuple[float, float
 
 def delayed_feedback(gain: float, mass: float, damping: float, tau: float, duration: float, push: float = 0.05
                      ) -> VerdictInput:
-    """(a): the mass starts at rest with ``push`` m/s; set point 0, so x_d - x_R = -x."""
+    """(a): the mass starts at rest with ``push`` m/s; set point 0, so x_d - x_R = -x. Nothing moves it after the
+    push, so the whole run is its free response; the quiet tail the verdict judges is the run's last ``tail_for``
+    seconds, as a claim run's is."""
     steps, lag, every = int(round(duration / STEP)), int(round(tau / STEP)), int(round(SAMPLE / STEP))
     history = [0.0] * steps
     position, velocity = 0.0, push
@@ -104,7 +120,58 @@ def delayed_feedback(gain: float, mass: float, damping: float, tau: float, durat
     tcp[:, 0] = x
     return VerdictInput(time=time, one_way_delay=0.5 * tau, x_R=tcp, x_d=zero, command=zero,
                         arm_kinetic_energy=0.5 * mass * v ** 2, limit_violations=0, reflex_trips=0, safe_holds=0,
-                        stale_holds=0, source="delayed feedback")
+                        stale_holds=0, source="delayed feedback", quiet_from=duration - tail_for(0.5 * tau))
+
+
+def critical_delay(mass: float, damping: float, stiffness: float) -> tuple[float, float]:
+    """(T_crit [s], w [rad/s]) of the delayed spring-damper m x'' + b x' + k x(t - T) = 0 (m, b, k > 0).
+
+    Its characteristic equation is m s^2 + b s + k e^(-s T) = 0. At T = 0 both roots are in the left half plane
+    (Routh-Hurwitz). Roots cross the imaginary axis only at s = j w with k e^(-j w T) = m w^2 - j b w; the moduli give
+        k^2 = m^2 w^4 + b^2 w^2,   so   w^2 = (sqrt(b^4 + 4 m^2 k^2) - b^2) / (2 m^2)   (one crossing frequency),
+    and the phases cos(w T) = m w^2 / k, sin(w T) = b w / k, so the first crossing is at
+        T_crit = atan2(b w, m w^2) / w   (below pi/2 / w: the oscillation born there has a period over 4 T).
+    At that single frequency every crossing is from left to right (for m s^2 + b s + k e^(-s T), sign Re(ds/dT) =
+    sign of the derivative of |m w^2 - j b w|^2 - k^2 in w^2 = 2 m^2 w^2 + b^2 > 0: Cooke and van den Driessche 1986,
+    "On zeroes of some transcendental equations", Funkcial. Ekvac. 29; Stepan 1989, ch. 2): stable for every
+    T < T_crit, unstable for every T > T_crit."""
+    frequency = math.sqrt((math.sqrt(damping ** 4 + 4.0 * mass ** 2 * stiffness ** 2) - damping ** 2)
+                          / (2.0 * mass ** 2))
+    return math.atan2(damping * frequency, mass * frequency ** 2) / frequency, frequency
+
+
+def delayed_spring_damper(factor: float, seed: int, mass: float = 4.0, damping: float = 40.0, stiffness: float = 100.0,
+                          task: float = 30.0) -> VerdictInput:
+    """A replica whose position loop is closed through a delay T = ``factor`` x T_crit (``critical_delay``):
+    m x'' + b x' + k (x(t - T) - x_d(t - T)) = 0, its set point x_d moved like a planner's (aperiodic moves of up to
+    40 mm) for ``task`` seconds and then held still for the quiet tail (``tail_for`` of T / 2 each way: the loop's
+    delay is a round trip). Stable for factor < 1, unstable above (``critical_delay``)."""
+    tau, _ = critical_delay(mass, damping, stiffness)
+    tau *= factor
+    tail = tail_for(0.5 * tau)
+    steps, lag, every = int(round((task + tail) / STEP)), int(round(tau / STEP)), int(round(SAMPLE / STEP))
+    fine = np.arange(steps) * STEP
+    set_point = _held_from(_moves(np.random.default_rng([seed, 4111]), fine, (0.8, 3.0), 0.04, (0.4, 1.2)),
+                           int(round(task / STEP)))
+    history = np.zeros(steps)
+    position = velocity = 0.0
+    rows = []
+    for k in range(steps):
+        history[k] = position - set_point[k]
+        seen = history[k - lag] if k >= lag else 0.0
+        velocity += (-damping * velocity - stiffness * seen) / mass * STEP
+        position += velocity * STEP
+        if k % every == 0:
+            rows.append((k * STEP, position, set_point[k], 0.5 * mass * velocity ** 2))
+    a = np.array(rows)
+    time = a[:, 0]
+    spatial = np.zeros((time.size, 3)), np.zeros((time.size, 3))
+    spatial[0][:, 0], spatial[1][:, 0] = a[:, 1], a[:, 2]
+    return VerdictInput(time=time, one_way_delay=0.5 * tau, x_R=spatial[0], x_d=spatial[1], command=spatial[1],
+                        planner=spatial[1], arm_kinetic_energy=a[:, 3], force=np.zeros((time.size, 3)),
+                        contact=np.zeros(time.size, dtype=bool), limit_violations=0, reflex_trips=0, safe_holds=0,
+                        stale_holds=0, source=f"delayed spring-damper at {factor:g} T_crit, seed {seed}",
+                        quiet_from=task)
 
 
 def _moves(rng: np.random.Generator, time: NDArray, gap: tuple[float, float], reach: float,
@@ -152,12 +219,15 @@ def _circling(rng: np.random.Generator, time: NDArray) -> tuple[NDArray, NDArray
 
 
 def bilateral(delay: float, seed: int, duration: float = DURATION,
-              wall: tuple[float, float, float] | None = None, circling: bool = False) -> VerdictInput:
+              wall: tuple[float, float, float] | None = None, circling: bool = False,
+              tail: float | None = None) -> VerdictInput:
     """(b)'s reference loop (module docstring). ``wall`` (from, to, position): between those times the operator
     pushes the replica towards a wall at that x, which the replica cannot pass (the F/T force is the wall's).
-    ``circling``: the task of ``_circling`` instead of the aperiodic one."""
+    ``circling``: the task of ``_circling`` instead of the aperiodic one. ``duration``: the task; the quiet tail of
+    ``tail`` seconds (None: ``tail_for``) follows it, the operator's target and the planner held still."""
+    tail = tail_for(delay) if tail is None else tail
     rng = np.random.default_rng([seed, int(delay * 1000)])
-    steps, lag, every = int(round(duration / STEP)), int(round(delay / STEP)), int(round(SAMPLE / STEP))
+    steps, lag, every = int(round((duration + tail) / STEP)), int(round(delay / STEP)), int(round(SAMPLE / STEP))
     fine = np.arange(steps) * STEP
     if circling:
         planner, target = _circling(rng, fine)
@@ -169,6 +239,8 @@ def bilateral(delay: float, seed: int, duration: float = DURATION,
         planner[fine >= start - 1.0] = planner[int((start - 1.0) / STEP)]   # the planner holds during the push
         push = np.clip((fine - start) / 1.0, 0.0, 1.0) * np.clip((end - fine) / 1.0, 0.0, 1.0)
         target = target * (1.0 - push) + push * (place + 0.25 - planner)
+    quiet = int(round(duration / STEP))
+    target, planner = _held_from(target, quiet), _held_from(planner, quiet)
     planner_velocity = np.gradient(planner, STEP)
     y_master, y_replica, v_master, v_replica = np.zeros(steps), np.zeros(steps), np.zeros(steps), np.zeros(steps)
     x_m = v_m = x_r = v_r = 0.0
@@ -213,7 +285,8 @@ def bilateral(delay: float, seed: int, duration: float = DURATION,
                         planner=spatial(planner_sampled),
                         arm_kinetic_energy=a[:, 6], handle_kinetic_energy=a[:, 7], channel_generated=a[:, 8],
                         force=spatial(a[:, 9]), contact=np.zeros(time.size, dtype=bool), limit_violations=0,
-                        reflex_trips=0, safe_holds=0, stale_holds=0, source=f"bilateral {delay:g} s seed {seed}")
+                        reflex_trips=0, safe_holds=0, stale_holds=0, source=f"bilateral {delay:g} s seed {seed}",
+                        quiet_from=duration if tail > 0.0 else None)
 
 
 def pumping(data: VerdictInput, rate: float = 0.1) -> VerdictInput:
@@ -252,7 +325,9 @@ def crash_every_lap(data: VerdictInput, lap: float = 5.0, length: float = 0.4, f
     """(c): every ``lap`` seconds the TCP strikes the obstacle the task steers around (contact flag, an F/T impact of
     ``force`` newtons for ``length`` seconds, the TCP stopped 20 mm short of where it would have gone)."""
     phase = (data.time - 3.0) % lap
-    touching = (data.time >= 3.0) & (phase < length)
+    # During the task only: in the quiet tail nothing moves the arm toward the obstacle.
+    task = data.time < (data.quiet_from if data.quiet_from is not None else np.inf)
+    touching = (data.time >= 3.0) & (phase < length) & task
     pulse = np.zeros_like(data.x_R)
     pulse[touching, 0] = force * np.sin(np.pi * phase[touching] / length)
     stopped = np.zeros_like(data.x_R)
@@ -291,6 +366,10 @@ def one_collision(data: VerdictInput, at: float = 15.0, length: float = 0.5, for
 RESONANT_MASS, RESONANT_NATURAL_HZ, RESONANT_DAMPING_RATIO = 4.0, 0.75, 0.29
 RESONANT_DELAYS, RESONANT_RATES_HZ = (0.2, 1.0), (0.0, 10.0)
 HAND_LOOP_MASS, HAND_LOOP_DAMPING, HAND_LOOP_REACTION, HAND_LOOP_SATURATION = 0.5, 5.0, 0.2, 0.01
+#: The reactive hand of the stable driven case: its loop gain as a factor of its K_crit.
+HAND_LOOP_STABLE = 0.5
+#: The delayed spring-damper's stiffnesses [N/m] (m 4 kg, b 40 N s/m): T_crit 0.55 s and 0.25 s.
+CRITICAL_DELAY_STIFFNESSES = (100.0, 200.0)
 
 
 def resonance(mass: float = RESONANT_MASS, natural_hz: float = RESONANT_NATURAL_HZ,
@@ -332,7 +411,7 @@ def _claim_like_task(rng: np.random.Generator, time: NDArray) -> tuple[NDArray, 
 
 
 def resonant_plant(delay: float, seed: int, rate_hz: float = 0.0, duration: float = 30.0,
-                   hand_loop_gain: float | None = None) -> VerdictInput:
+                   hand_loop_gain: float | None = None, tail: float | None = None) -> VerdictInput:
     """A stable, under-damped replica (``resonance``) following x_d = planner + the handle one delay later, held at
     ``rate_hz`` (0: every step), the handle following the operator's target on a 300 N/m, 15 N s/m hand (0.5 kg): a
     cascade of stable parts, stable for any delay and hold, its answer to the command resonant (gain about 1.8 at
@@ -343,13 +422,20 @@ def resonant_plant(delay: float, seed: int, rate_hz: float = 0.0, duration: floa
     saturating force: m y'' + D y' + K sat(y(t - tau)) = -(m target'' + D target'), y = x_M - target,
     tau = reaction + 2 delay. Its linear part is the delayed loop of (a): above K_crit it is unstable and the
     saturation makes it a limit cycle, which the command (the handle one delay later) carries to the replica. The
-    handle starts ``HAND_LOOP_SATURATION`` off its target on every axis."""
+    handle starts ``HAND_LOOP_SATURATION`` off its target on every axis. Below K_crit (a hand loop gain under 1) the
+    hand is a reactive one that the loop keeps stable.
+
+    ``duration``: the task; the quiet tail of ``tail`` seconds (None: ``tail_for``) follows it, the planner and the
+    operator's target held still, the link and the hand running on."""
+    tail = tail_for(delay) if tail is None else tail
     rng = np.random.default_rng([seed, int(delay * 1000), int(rate_hz), 7])
     stiffness, damping, _, _ = resonance()
-    steps, lag, every = int(round(duration / STEP)), int(round(delay / STEP)), int(round(SAMPLE / STEP))
+    steps, lag, every = int(round((duration + tail) / STEP)), int(round(delay / STEP)), int(round(SAMPLE / STEP))
     hold = int(round(1.0 / (rate_hz * STEP))) if rate_hz > 0.0 else 1
     fine = np.arange(steps) * STEP
     planner, target = _claim_like_task(rng, fine)
+    quiet = int(round(duration / STEP))
+    planner, target = _held_from(planner, quiet), _held_from(target, quiet)
     target_velocity = np.gradient(target, STEP, axis=0)
     loop_gain, loop_lag = 0.0, 0
     if hand_loop_gain is not None:
@@ -389,7 +475,8 @@ def resonant_plant(delay: float, seed: int, rate_hz: float = 0.0, duration: floa
                         operator_target=target_sampled, planner=planner_sampled, command=command,
                         arm_kinetic_energy=a[:, 16], handle_kinetic_energy=a[:, 17], force=np.zeros((time.size, 3)),
                         contact=np.zeros(time.size, dtype=bool), limit_violations=0, reflex_trips=0, safe_holds=0,
-                        stale_holds=0, source=f"resonant replica {delay:g} s, {rate_hz:g} Hz, seed {seed}")
+                        stale_holds=0, source=f"resonant replica {delay:g} s, {rate_hz:g} Hz, seed {seed}",
+                        quiet_from=duration if tail > 0.0 else None)
 
 
 def replica_limit_cycle(data: VerdictInput, amplitude: float, period: float, phase: float = 0.7) -> VerdictInput:
@@ -457,6 +544,28 @@ def cases() -> list[LabelledCase]:
                                     "the handle held by a hand correcting what it saw one reaction time and one "
                                     "round trip ago, above the delayed loop's K_crit: a limit cycle the command "
                                     "carries to the replica"))
+    for delay in RESONANT_DELAYS:
+        for rate in RESONANT_RATES_HZ:
+            driven = resonant_plant(delay, 5, rate, hand_loop_gain=HAND_LOOP_STABLE)
+            out.append(LabelledCase(f"reactive hand at {HAND_LOOP_STABLE:g} Kcrit delay={delay:g}s rate={rate:g}Hz",
+                                    "a' resonant replica, reactive hand", True, True, driven,
+                                    "the resonant replica driven by a hand that corrects what it saw one reaction "
+                                    "time and one round trip ago, below the delayed loop's K_crit: stable, its "
+                                    "swing forced"))
+            out.append(LabelledCase(f"reactive hand, limit cycle in the tail delay={delay:g}s rate={rate:g}Hz",
+                                    "b' resonant replica, reactive hand, limit cycle", False, True,
+                                    replica_limit_cycle(driven, 0.005, peak_period),
+                                    "the same loop with a 5 mm limit cycle on the replica that goes on through the "
+                                    "quiet tail"))
+    for stiffness in CRITICAL_DELAY_STIFFNESSES:
+        critical, frequency = critical_delay(4.0, 40.0, stiffness)
+        for factor, stable in ((0.9, True), (1.1, False)):
+            for seed in (1, 2):
+                out.append(LabelledCase(
+                    f"spring-damper k={stiffness:g} T={factor:g}Tcrit seed={seed}", "a delayed spring-damper, "
+                    "critical delay", stable, True, delayed_spring_damper(factor, seed, stiffness=stiffness),
+                    f"T_crit = {critical:.3f} s (m 4 kg, b 40 N s/m, k {stiffness:g} N/m), crossing period "
+                    f"{2 * math.pi / frequency:.2f} s"))
     for delay in (0.2, 1.0):
         base = references[(delay, 2)]
         out.append(LabelledCase(f"parked 150mm delay={delay:g}s", "c parked", False, True, parked(base),
