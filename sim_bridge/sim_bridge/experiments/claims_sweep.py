@@ -17,7 +17,7 @@ verdict depends on) and the run's row is the same; the rest are judged (a sweep 
 runs, gives what one judgement of the finished sweep gives).
 
     scripts/experiments.sh claims --quick              # 2 cells x 5 laws x 2 hands, 1 seed, 10 s
-    scripts/experiments.sh claims                      # the full sweep (2800 runs), all local cores
+    scripts/experiments.sh claims                      # the full sweep (3600 runs), all local cores
     scripts/experiments.sh claims --limit 40           # the next 40 runs only
     scripts/experiments.sh claims --judge              # verdicts on what is kept -> results/claims.json
     scripts/experiments.sh claims --cluster tcp://host:8786   # on a Dask cluster (docs/CLUSTER.md)
