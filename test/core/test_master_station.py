@@ -25,8 +25,8 @@ def test_edges_are_presses_not_held_buttons() -> None:
 
 def test_buttons_toggle_the_mode_and_step_the_gain() -> None:
     station = MasterStation(DEFAULTS)
-    notices, mode_changed, gain_changed = station.press([1, 1, 0])
-    assert mode_changed and gain_changed and station.integrator.mode == TeleoperationMode.VELOCITY
+    notices, changed = station.press([1, 1, 0])
+    assert changed == ("mode", "haptic_gain") and station.integrator.mode == TeleoperationMode.VELOCITY
     assert station.law.haptic_gain == pytest.approx(0.6) and station.parameters["mode"] == 1
     station.press([0, 0, 0])
     for _ in range(10):
