@@ -256,14 +256,12 @@ class MasterStation:
         NaN/Inf."""
         ceiling = haptic_gain_ceiling(self.law.force_scale, self.integrator.workspace_scale)
         requested = finite_scalar("haptic_gain", value)
-        clamped = self.law.set_haptic_gain(min(requested, ceiling))
+        self.law.set_haptic_gain(min(requested, ceiling))
         self.parameters["haptic_gain"] = self.law.haptic_gain
-        if requested > ceiling and ceiling < 1.0:
-            return [("warning", f"haptic_gain {value} from {source} clamped to {self.law.haptic_gain:.4g}: "
-                                "force_scale x workspace_scale x haptic_gain may not exceed 1")]
-        if clamped:
-            return [("warning", f"haptic_gain {value} from {source} clamped to {self.law.haptic_gain}")]
-        return []
+        if self.law.haptic_gain == requested:
+            return []
+        why = ": force_scale x workspace_scale x haptic_gain may not exceed 1" if requested > ceiling < 1.0 else ""
+        return [("warning", f"haptic_gain {value} from {source} clamped to {self.law.haptic_gain}{why}")]
 
     # --- the clutch and homing ----------------------------------------------------------------------------------
     @property

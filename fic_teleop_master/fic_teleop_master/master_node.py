@@ -44,7 +44,7 @@ from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
-from fic_teleop_runtime.parameters import Schema, declare, integer, text
+from fic_teleop_runtime.parameters import Schema, declare, integer, refuse_unknown_names, text
 from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
 
 # Device and teleoperation streams RELIABLE (the channel alone loses on purpose), read 20 deep and written with
@@ -84,6 +84,7 @@ class MasterNode(Node):
                                  STREAM_QOS)
         self.create_subscription(Joy, "/operator/joy", self._on_joy, JOY_QOS)
         self.create_subscription(Float64, "/master/haptic_gain", self._on_haptic_gain, STREAM_QOS)
+        self._refuse_unknown_names = refuse_unknown_names(self, SCHEMA)
         self.add_pre_set_parameters_callback(self._clamp_haptic_gain)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         if values["haptic_gain"] != self._station.law.haptic_gain:  # clamped at start: make `param get` show it
@@ -102,9 +103,10 @@ class MasterNode(Node):
 
     # -- parameters -----------------------------------------------------------------------------------------
     def _clamp_haptic_gain(self, parameters: list[Parameter]) -> list[Parameter]:
-        """Pre-set: K_H outside [0, 1] becomes the nearest bound (logged); NaN passes on to be refused."""
+        """Pre-set: a name the node does not declare refused in one line; K_H outside [0, 1] becomes the nearest
+        bound (logged); NaN passes on to be refused."""
         result = []
-        for parameter in parameters:
+        for parameter in self._refuse_unknown_names(parameters):
             if parameter.name == "haptic_gain" and parameter.type_ == Parameter.Type.DOUBLE:
                 clamped = clamped_haptic_gain(parameter.value)
                 if clamped != parameter.value and clamped == clamped:
