@@ -169,13 +169,16 @@ def test_live_view_serves_every_topic_to_the_official_client(running_graph) -> N
                   "/live/transforms", "/robot_description"):
         assert topic in topics, sorted(topics)
     # Every advertised schema was parsed into a decoder (an error otherwise), and every message that came was decoded.
-    # The master sends only once the device's handle moves: its topics are advertised here but carry nothing.
+    # The master sends its streams only once the device's handle moves: advertised here but carrying nothing; its
+    # operator tools' state goes out whatever the handle does.
     for topic, entry in topics.items():
         assert entry["errors"] == [], (topic, entry)
         assert entry["decoded"] == entry["received"], (topic, entry)
     carrying = {topic for topic, entry in topics.items() if entry["received"] >= 1}
     assert {"/joint_states", "/ft_sensor/wrench", "/clock", "/sim/tcp_pose", "/sim/object_poses", "/diagnostics",
-            "/live/transforms", "/robot_description"} <= carrying, sorted(carrying)
+            "/live/transforms", "/robot_description", "/master/operator_tools"} <= carrying, sorted(carrying)
+    tools = topics["/master/operator_tools"]["sample"]   # config/master.yaml: engaged, K_H 0.5 at unit scales
+    assert (tools["engagement"], tools["loop_gain"], tools["fixture"]) == (0, 0.5, 0), tools
     for topic, entry in topics.items():
         if topic.startswith("/live/"):
             assert entry["encoding"] == "protobuf"
