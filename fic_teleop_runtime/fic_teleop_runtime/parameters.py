@@ -168,10 +168,13 @@ def unknown_key_error(name: str, known: Sequence[str], node_name: str) -> FicInp
     return FicInputError(f"unknown parameter {name!r} for node {node_name}{nearest_name_hint(name, known)}")
 
 
-def nearest_name_hint(name: str, known: Sequence[str]) -> str:
-    """``; did you mean 'x'?`` for the declared name nearest ``name``, else the declared names."""
+def nearest_name_hint(name: str, known: Sequence[str], otherwise: str | None = None) -> str:
+    """``; did you mean 'x'?`` for the declared name nearest ``name``, else ``otherwise`` (default: the declared
+    names)."""
     close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else f"; declared: {', '.join(sorted(known))}"
+    if close:
+        return f"; did you mean {close[0]!r}?"
+    return f"; declared: {', '.join(sorted(known))}" if otherwise is None else otherwise
 
 
 def check_keys(given: Iterable[str], schema: Schema, node_name: str, also_known: Iterable[str] = ()) -> None:
