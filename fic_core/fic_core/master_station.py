@@ -26,12 +26,11 @@ its cause lasts: to be throttled).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from enum import IntEnum
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
-from enum import IntEnum
 
 from .attractor import FractalAttractor
 from .errors import FicInputError, finite_array, finite_scalar
@@ -112,7 +111,6 @@ MASTER_TOOLS: dict[str, ParameterRow] = rows_by_name(
 )
 
 
-
 class Engagement(IntEnum):
     """Whether the handle drives x_d' (values as fic_teleop_msgs/OperatorTools' ENGAGEMENT_* constants)."""
 
@@ -122,7 +120,8 @@ class Engagement(IntEnum):
 
 
 _ROWS = {**MASTER_NUMBERS, **MASTER_TOOLS}
-_NO_FORCE = np.zeros(3)   # read only: F_R while the clutch is held, the guidance force while there is none
+_NO_FORCE = np.zeros(3)   # F_R while the clutch is held, the guidance force while there is none
+_NO_FORCE.setflags(write=False)
 
 
 def _checked(values: Mapping[str, Any]) -> dict[str, Any]:
