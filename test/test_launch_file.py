@@ -46,14 +46,15 @@ def test_every_field_the_live_view_layout_plots_is_a_recorded_topics_field() -> 
     import json
     import re
 
-    from fic_teleop_msgs.msg import FicState, LimitStatus
+    from fic_teleop_msgs.msg import FicState, LimitStatus, OperatorTools
     from geometry_msgs.msg import PoseStamped, WrenchStamped
 
     from fic_teleop_tools.recording.recorder_node import default_topics
 
     types = {"/ft_sensor/wrench": WrenchStamped, "/haptic/wrench_command": WrenchStamped,
              "/replica/fic_state": FicState, "/replica/limit_status": LimitStatus,
-             "/replica/desired_pose": PoseStamped, "/replica/tcp_pose": PoseStamped}
+             "/replica/desired_pose": PoseStamped, "/replica/tcp_pose": PoseStamped,
+             "/master/operator_tools": OperatorTools}
 
     def strings(value):
         if isinstance(value, dict):

@@ -117,7 +117,8 @@ class MasterChannelPort(_ChannelPort):
         Eq. 3 renders it."""
         fresh = self._feedback_received is not None and now - self._feedback_received <= station.feedback_timeout
         integrator = station.integrator
-        velocity = np.zeros(3) if station.handle_position is None else port_velocity(
+        # While the clutch is held or the handle is homed, x_d' stands still: its rate is zero.
+        velocity = np.zeros(3) if station.handle_position is None or integrator.held else port_velocity(
             integrator.mode, integrator.workspace_scale, integrator.velocity_gain, station.handle_position,
             station.handle_velocity)
         rendered = self.controller.step(self._feedback if fresh else np.zeros(3), velocity, dt)

@@ -5,7 +5,18 @@ the in-process runner steps.
     F_R (through the channel) --> feedback freshness (older than feedback_timeout: rendered as zero, said once)
     --> MasterLaw f = FIC(-x_M) + K_H F_R  (zero while the pose is older than pose_timeout)
     x_M --> TeleoperationCommandIntegrator --> x_d' (offset or velocity mode, at the network rate)
-    operator buttons (rising edges, fic_core.operator_buttons) --> mode toggle, K_H steps
+    operator buttons (edges, fic_core.operator_buttons) --> mode toggle, K_H steps, the clutch
+
+The operator's tools (beyond the paper; docs/TOOLS.md, "The operator's tools"), each a parameter settable live:
+- the clutch (indexing): while held, x_d' holds still and the handle feels its own FIC only (F_R and the guidance
+  answer a motion the handle no longer makes); released, the handle is engaged again, re-anchored so that x_d'
+  continues from where it stood and the handle's new position is the offset origin;
+- homing (fic_core.handle_homing): the handle is driven to the centre at a bounded speed, x_d' held, and engaged
+  only once homed; the ``homing`` parameter reads true while it runs;
+- the force scale k_F beside the motion scale s_M (``workspace_scale``), with the loop-gain bound
+  k_F s_M K_H <= 1 (fic_core.master): a change past it is refused, a K_H from a button or a topic is clamped to it;
+- a guidance fixture (fic_core.guidance_fixture), a plane or a line in x_d' coordinates: its force is added to
+  Eq. 3's while the handle is engaged.
 
 ``configure`` is the parameter dispatch: a change of the handle's profile rebuilds its attractor (phase reset),
 the others are applied in place; every value is checked before any is applied. Notices (what the caller should
@@ -15,6 +26,7 @@ its cause lasts: to be throttled).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from enum import IntEnum
 from typing import Any
 
 import numpy as np
@@ -22,8 +34,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from .attractor import FractalAttractor
 from .errors import FicInputError, finite_array, finite_scalar
-from .master import MasterLaw
-from .parameter_row import ParameterRow, number, rows_by_name
+from .guidance_fixture import FixtureKind, GuidanceFixture, fixture_kind
+from .handle_homing import HandleHoming
+from .master import MasterLaw, checked_loop_gain, haptic_gain_ceiling, loop_gain
+from .norm_bound import norm_bounded
+from .parameter_row import ParameterRow, number, numbers, rows_by_name, switch, text
 from .operator_buttons import HAPTIC_GAIN_STEP, ButtonEdges, OperatorButton
 from .profile import ForceProfile
 from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
@@ -31,8 +46,11 @@ from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
 #: Parameters of the handle's FIC profile (Eq. 1); changing one rebuilds the attractor (phase reset).
 PROFILE_PARAMETERS = ("stiffness", "saturation_error", "saturation_start", "max_force", "rate_deadband")
 INTEGRATOR_PARAMETERS = ("workspace_scale", "velocity_gain", "velocity_deadband")
+HOMING_PARAMETERS = ("homing_stiffness", "homing_damping", "homing_speed", "homing_tolerance")
+FIXTURE_PARAMETERS = ("guidance_fixture", "guidance_point", "guidance_direction", "guidance_stiffness",
+                      "guidance_damping", "guidance_max_force")
 #: Rates and frames are fixed at start (timers and message frames are created from them).
-READ_ONLY = ("control_rate", "network_rate", "diagnostics_rate", "frame_id", "channel_max_damping")
+READ_ONLY = ("control_rate", "network_rate", "diagnostics_rate", "tools_rate", "frame_id", "channel_max_damping")
 Notice = tuple[str, str]
 
 #: The master's numeric parameters (fic_core.parameter_row rows); their values are config/master.yaml's
@@ -62,13 +80,53 @@ MASTER_NUMBERS: dict[str, ParameterRow] = rows_by_name(
     number("channel_max_damping", 0.0, 1000000.0, "bound on the TDPA damper alpha at the channel's master port [N "
                                                   "s/m]: the handle's mass times control_rate stops the handle in one "
                                                   "tick", read_only=True),
+    # The operator's tools (module docstring).
+    number("force_scale", 0.0, 100.0, "k_F: scale of F_R on the handle, f = FIC(-x_M) + k_F K_H F_R (1: Eq. 3 as "
+                                      "written); force_scale x workspace_scale x haptic_gain <= 1, a change past it "
+                                      "refused (docs/CONTROL_LAWS.md, \"Master\")"),
+    number("homing_stiffness", 0.1, 1000.0, "homing: K of the approach near the centre [N/m]"),
+    number("homing_damping", 0.1, 100.0, "homing: B, the damper that sets the handle's speed [N s/m] (B T / m < 2 "
+                                         "at the control period T and the handle's mass m)"),
+    number("homing_speed", 0.001, 1.0, "homing: the bound on the handle's speed toward the centre [m/s]"),
+    number("homing_tolerance", 0.0001, 0.05, "homing: the handle is homed, and engaged, this close to the centre "
+                                             "[m]"),
+    number("guidance_stiffness", 0.0, 5000.0, "guidance fixture: K of the spring from x_d' to its projection on "
+                                              "the fixture [N/m]"),
+    number("guidance_damping", 0.0, 100.0, "guidance fixture: B on the handle's velocity across the fixture [N "
+                                           "s/m]"),
+    number("guidance_max_force", 0.0, 100.0, "guidance fixture: the bound on its force's norm [N]"),
+    number("tools_rate", 0.1, 1000.0, "/master/operator_tools rate [Hz] (also sent at once when the engagement "
+                                      "changes)", read_only=True),
+)
+#: The operator's tools that are not numbers.
+MASTER_TOOLS: dict[str, ParameterRow] = rows_by_name(
+    switch("clutch", "true: the clutch is held (indexing): the handle moves, x_d' holds still; false: engaged, "
+                     "re-anchored without a jump of x_d' (button 3 on /operator/joy holds it too)"),
+    switch("homing", "true: drive the handle to the centre at homing_speed, x_d' held, and engage it once homed "
+                     "(at start, or now when set); it reads false again once homed"),
+    text("guidance_fixture", "none, plane or line: guides x_d' onto the fixture with a bounded spring at the handle"),
+    numbers("guidance_point", "a point of the fixture, in x_d' coordinates [m] (3 numbers)"),
+    numbers("guidance_direction", "the plane's normal or the line's direction, in x_d' coordinates (3 numbers, not "
+                                  "zero)"),
 )
 
 
+class Engagement(IntEnum):
+    """Whether the handle drives x_d' (values as fic_teleop_msgs/OperatorTools' ENGAGEMENT_* constants)."""
+
+    ENGAGED = 0
+    CLUTCHED = 1
+    HOMING = 2
+
+
+_ROWS = {**MASTER_NUMBERS, **MASTER_TOOLS}
+_NO_FORCE = np.zeros(3)   # F_R while the clutch is held, the guidance force while there is none
+_NO_FORCE.setflags(write=False)
+
 
 def _checked(values: Mapping[str, Any]) -> dict[str, Any]:
-    """The numbers of ``values`` that are rows of MASTER_NUMBERS, each checked against its row (its range)."""
-    return {name: MASTER_NUMBERS[name].checked(value) for name, value in values.items() if name in MASTER_NUMBERS}
+    """The values of ``values`` that are rows of MASTER_NUMBERS or MASTER_TOOLS, each checked against its row."""
+    return {name: _ROWS[name].checked(value) for name, value in values.items() if name in _ROWS}
 
 
 def _attractor(values: Mapping[str, Any]) -> FractalAttractor:
@@ -79,6 +137,18 @@ def _attractor(values: Mapping[str, Any]) -> FractalAttractor:
 
 def _device_limit(value: float) -> float | None:
     return None if value == 0.0 else value
+
+
+def _homing(values: Mapping[str, Any]) -> HandleHoming:
+    return HandleHoming(*(values[name] for name in HOMING_PARAMETERS))
+
+
+def _fixture(values: Mapping[str, Any]) -> GuidanceFixture | None:
+    """The fixture of ``values``, or None for ``none`` (its point and direction are checked either way)."""
+    kind = fixture_kind(values["guidance_fixture"])
+    fixture = GuidanceFixture(FixtureKind.PLANE if kind == FixtureKind.NONE else kind,
+                              *(values[name] for name in FIXTURE_PARAMETERS[1:]))
+    return None if kind == FixtureKind.NONE else fixture
 
 
 def clamped_haptic_gain(value: float) -> float:
@@ -93,10 +163,17 @@ class MasterStation:
     def __init__(self, values: Mapping[str, Any]) -> None:
         values = {**values, **_checked(values)}
         self.parameters = dict(values)
-        self.law = MasterLaw(_attractor(values), 0.0, _device_limit(values["max_device_force"]))
+        self.law = MasterLaw(_attractor(values), 0.0, _device_limit(values["max_device_force"]), values["force_scale"])
         self.law.set_haptic_gain(values["haptic_gain"])
         self.integrator = TeleoperationCommandIntegrator(values["workspace_scale"], values["velocity_gain"],
                                                          values["mode"], values["velocity_deadband"])
+        checked_loop_gain(self.law.force_scale, self.integrator.workspace_scale, self.law.haptic_gain)
+        self.homing = _homing(values)
+        self.fixture = _fixture(values)
+        self.clutch_held = bool(values["clutch"])
+        self.homing_active = bool(values["homing"])
+        self.guidance_force = _NO_FORCE   # the fixture's force at the last control tick (read only)
+        self.integrator.hold(self.engagement != Engagement.ENGAGED)
         self.feedback_timeout = finite_scalar("feedback_timeout", values["feedback_timeout"], minimum=0.0)
         self.pose_timeout = finite_scalar("pose_timeout", values["pose_timeout"], minimum=0.0)
         self.handle_extrapolation = finite_scalar("handle_extrapolation", values["handle_extrapolation"], minimum=0.0)
@@ -130,16 +207,34 @@ class MasterStation:
         for name in INTEGRATOR_PARAMETERS:  # checked before anything is applied
             if name in changes:
                 TeleoperationCommandIntegrator(**{name: changes[name]})
-        for name in ("feedback_timeout", "pose_timeout", "max_device_force", "haptic_gain", "handle_extrapolation"):
+        for name in ("feedback_timeout", "pose_timeout", "max_device_force", "haptic_gain", "handle_extrapolation",
+                     "force_scale"):
             if name in changes:
                 finite_scalar(name, changes[name], minimum=0.0)
+        haptic_gain = min(changes["haptic_gain"], 1.0) if "haptic_gain" in changes else self.law.haptic_gain
+        checked_loop_gain(values["force_scale"], values["workspace_scale"], haptic_gain)
+        homing = _homing(values) if any(name in HOMING_PARAMETERS for name in changes) else None
+        fixture_changed = any(name in FIXTURE_PARAMETERS for name in changes)
+        fixture = _fixture(values) if fixture_changed else None
         notices: list[Notice] = []
         if attractor is not None:
-            self.law = MasterLaw(attractor, self.law.haptic_gain, self.law.max_device_force)
+            self.law = MasterLaw(attractor, self.law.haptic_gain, self.law.max_device_force, self.law.force_scale)
             notices.append(("info", "handle FIC profile changed: attractor rebuilt (phase reset)"))
+        if homing is not None:
+            self.homing = homing
+        if fixture_changed:
+            self.fixture = fixture
+            self.guidance_force = _NO_FORCE
+            notices.append(("info", f"guidance fixture: {values['guidance_fixture']}"))
         for name, new in changes.items():
             if name == "haptic_gain":
                 notices += self.set_haptic_gain(new, "parameter")
+            elif name == "force_scale":
+                self.law.force_scale = new
+            elif name == "clutch":
+                notices += self.set_clutch(new, "parameter")
+            elif name == "homing":
+                notices += self.start_homing() if new else self.stop_homing()
             elif name == "handle_extrapolation":
                 self.handle_extrapolation = float(new)
             elif name == "max_device_force":
@@ -151,14 +246,65 @@ class MasterStation:
                 setattr(self.integrator, name, new)
             elif name in ("feedback_timeout", "pose_timeout"):
                 setattr(self, name, float(new))
-        self.parameters = values
+        self.parameters = {**values, "haptic_gain": self.law.haptic_gain, "clutch": self.clutch_held,
+                           "homing": self.homing_active}
         return notices
 
     def set_haptic_gain(self, value: float, source: str) -> list[Notice]:
-        """K_H, clamped to [0, 1] (a notice says so); FicInputError for NaN/Inf."""
-        if self.law.set_haptic_gain(value):
-            return [("warning", f"haptic_gain {value} from {source} clamped to {self.law.haptic_gain}")]
-        return []
+        """K_H, clamped to [0, 1] and to the loop-gain bound's ceiling (a notice says so); FicInputError for
+        NaN/Inf."""
+        ceiling = haptic_gain_ceiling(self.law.force_scale, self.integrator.workspace_scale)
+        requested = finite_scalar("haptic_gain", value)
+        self.law.set_haptic_gain(min(requested, ceiling))
+        self.parameters["haptic_gain"] = self.law.haptic_gain
+        if self.law.haptic_gain == requested:
+            return []
+        why = ": force_scale x workspace_scale x haptic_gain may not exceed 1" if requested > ceiling < 1.0 else ""
+        return [("warning", f"haptic_gain {value} from {source} clamped to {self.law.haptic_gain}{why}")]
+
+    # --- the clutch and homing ----------------------------------------------------------------------------------
+    @property
+    def engagement(self) -> Engagement:
+        """HOMING while the handle is driven home, else CLUTCHED while the clutch is held, else ENGAGED."""
+        if self.homing_active:
+            return Engagement.HOMING
+        return Engagement.CLUTCHED if self.clutch_held else Engagement.ENGAGED
+
+    def _engage_if_free(self) -> None:
+        self.integrator.hold(self.engagement != Engagement.ENGAGED)
+        self.parameters["clutch"], self.parameters["homing"] = self.clutch_held, self.homing_active
+
+    def set_clutch(self, held: bool, source: str) -> list[Notice]:
+        """Hold the clutch (x_d' holds still) or release it (engaged again, re-anchored)."""
+        if bool(held) == self.clutch_held:
+            return []
+        self.clutch_held = bool(held)
+        self._engage_if_free()
+        if held:
+            return [("info", f"clutch held ({source}): x_d' holds still while the handle moves")]
+        after = "engaged, x_d' continues from where it stood" if self.engagement == Engagement.ENGAGED else \
+            "homing goes on"
+        return [("info", f"clutch released ({source}): {after}")]
+
+    def start_homing(self) -> list[Notice]:
+        if self.homing_active:
+            return []
+        self.homing_active = True
+        self._engage_if_free()
+        return [("info", f"homing: driving the handle to the centre at {self.homing.speed:g} m/s at most; x_d' "
+                         f"holds still until it is within {self.homing.tolerance * 1000:g} mm")]
+
+    def stop_homing(self) -> list[Notice]:
+        """End homing before the handle is home (the parameter set false): engaged where the handle is."""
+        if not self.homing_active:
+            return []
+        self._finish_homing()
+        return [("warning", "homing stopped before the handle was home: engaged where it is")]
+
+    def _finish_homing(self) -> None:
+        self.homing_active = False
+        self.law.reset()   # the handle's FIC was not evaluated while homing: it starts afresh at the centre
+        self._engage_if_free()
 
     # --- inputs ----------------------------------------------------------------------------------------------
     def add_pose(self, position: ArrayLike, quaternion_xyzw: Sequence[float], now: float) -> None:
@@ -191,22 +337,28 @@ class MasterStation:
             return [("info", "/master/feedback_wrench is fresh again")]
         return []
 
-    def press(self, buttons: Sequence[int]) -> tuple[list[Notice], bool, bool]:
-        """Button states of an operator message: (notices, mode changed, K_H changed)."""
-        pressed = self._buttons.pressed(buttons)
+    def press(self, buttons: Sequence[int]) -> tuple[list[Notice], tuple[str, ...]]:
+        """Button states of an operator message: (notices, the parameters they changed, as ``parameters`` now
+        holds them)."""
+        pressed, released = self._buttons.changes(buttons)
         notices: list[Notice] = []
-        mode_changed = OperatorButton.TOGGLE_MODE in pressed
-        if mode_changed:
+        changed: list[str] = []
+        if OperatorButton.TOGGLE_MODE in pressed:
             mode = self.integrator.toggle_mode()
+            self.parameters["mode"] = int(mode)
             notices.append(("info", f"teleoperation mode: {mode.name} (button)"))
+            changed.append("mode")
         step = HAPTIC_GAIN_STEP * ((OperatorButton.HAPTIC_GAIN_UP in pressed) -
                                    (OperatorButton.HAPTIC_GAIN_DOWN in pressed))
         if step:
             notices += self.set_haptic_gain(round(self.law.haptic_gain + step, 6), "button")
             notices.append(("info", f"haptic gain K_H = {self.law.haptic_gain:.2f} (button)"))
-        if mode_changed:
-            self.parameters["mode"] = int(self.integrator.mode)
-        return notices, mode_changed, bool(step)
+            changed.append("haptic_gain")
+        if (OperatorButton.CLUTCH in pressed or OperatorButton.CLUTCH in released) and \
+                (OperatorButton.CLUTCH in pressed) != self.clutch_held:
+            notices += self.set_clutch(OperatorButton.CLUTCH in pressed, "button")
+            changed.append("clutch")
+        return notices, tuple(changed)
 
     # --- outputs ---------------------------------------------------------------------------------------------
     def pose_stale(self, now: float) -> bool:
@@ -225,16 +377,36 @@ class MasterStation:
         return np.zeros(3), notices
 
     def force(self, now: float) -> tuple[NDArray[np.float64] | None, list[Notice]]:
-        """The device force f of Eq. 3 at ``now`` (None before the first pose; zero while the pose is stale)."""
-        if self.handle_position is None:
+        """The device force f at ``now`` (None before the first pose; zero while the pose is stale): Eq. 3 with the
+        guidance fixture's force while engaged, the handle's own FIC alone while the clutch is held, the homing
+        attractor's force while homing (which engages the handle once it is home)."""
+        position = self.handle_position
+        if position is None:
             return None, []
         notices: list[Notice] = []
         if self.pose_stale(now):
             force = np.zeros(3)
             notices.append(("repeated_warning", "/haptic/pose is stale: commanding zero force"))
+        elif self.homing_active:
+            force = self.homing.force(position, self.handle_velocity)
+            if self.law.max_device_force is not None:
+                bounded = norm_bounded(force, self.law.max_device_force)
+                self.saturated_count += int(bounded is not force)
+                force = bounded
+            if self.homing.homed(position):
+                self._finish_homing()
+                after = "engaged" if self.engagement == Engagement.ENGAGED else "the clutch is still held"
+                notices.append(("info", f"handle homed ({np.linalg.norm(position) * 1000:.1f} mm from the centre): "
+                                        f"{after}"))
         else:
             feedback, notices = self.feedback_force(now)
-            force = self.law.force(self.handle_position, self.handle_velocity, feedback)
+            guidance = None
+            if self.clutch_held:
+                feedback = _NO_FORCE   # the handle no longer drives x_d': F_R does not answer its motion
+            elif self.fixture is not None:
+                guidance = self.fixture.force(self.integrator.goal_at(position), self.handle_velocity)
+            self.guidance_force = _NO_FORCE if guidance is None else guidance
+            force = self.law.force(position, self.handle_velocity, feedback, guidance)
             self.saturated_count += int(self.law.device_force_saturated)
             self.law_evaluations += 1
         self.wrench_count += 1
@@ -266,6 +438,14 @@ class MasterStation:
         self.network_handle_position = handle
         return self.integrator.update(handle, dt)
 
+    def loop_gain(self) -> float:
+        """G = k_F s_M K_H (at most 1)."""
+        return loop_gain(self.law.force_scale, self.integrator.workspace_scale, self.law.haptic_gain)
+
+    def fixture_goal(self) -> NDArray[np.float64] | None:
+        """x_d' projected on the guidance fixture (None without one)."""
+        return None if self.fixture is None else self.fixture.projection(self.integrator.desired_offset)
+
     def diagnostics(self, now: float) -> tuple[list[str], dict[str, str]]:
         """(problems, values) for a diagnostics message."""
         problems = []
@@ -278,10 +458,12 @@ class MasterStation:
         feedback_age = np.inf if self.feedback_received is None else now - self.feedback_received
         return problems, {
             "mode": self.integrator.mode.name, "haptic_gain": f"{self.law.haptic_gain:.3f}",
+            "engagement": self.engagement.name, "force_scale": f"{self.law.force_scale:.3f}",
+            "loop_gain": f"{self.loop_gain():.3f}", "guidance_fixture": str(self.parameters["guidance_fixture"]),
             "feedback_age_s": f"{feedback_age:.3f}",
             "phase": " ".join(str(int(p)) for p in self.law.attractor.phase),
             "wrench_commands": str(self.wrench_count), "device_force_saturated_ticks": str(self.saturated_count),
             "desired_offset": " ".join(f"{v:.4f}" for v in self.integrator.desired_offset)}
 
 
-__all__ = ["MasterStation", "PROFILE_PARAMETERS", "READ_ONLY", "TeleoperationMode"]
+__all__ = ["Engagement", "MasterStation", "PROFILE_PARAMETERS", "READ_ONLY", "TeleoperationMode"]

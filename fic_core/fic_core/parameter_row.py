@@ -9,6 +9,7 @@ fic_core, by the params-file loader and (through the descriptor) by rclpy.
 """
 from __future__ import annotations
 
+import array
 import math
 from dataclasses import dataclass
 from enum import Enum
@@ -78,7 +79,8 @@ class ParameterRow:
             if not isinstance(value, str):
                 raise fail("a string")
         else:
-            if not isinstance(value, (list, tuple)):
+            # rclpy hands a double or integer array set at run time as an array.array.
+            if not isinstance(value, (list, tuple, array.array)):
                 raise fail(f"a list of {kind.value}")
             if kind == Kind.TEXTS and not all(isinstance(item, str) for item in value):
                 raise fail("a list of strings")

@@ -12,6 +12,11 @@ needs no anchor: the integral starts from the current x_d', and its first increm
 A consequence worth knowing: after a velocity->offset switch made with the handle away from its origin,
 releasing the handle (the master FIC returns it to x_M = 0) moves x_d' by -s_M*x_M_anchor.
 
+Holding (the clutch, homing; docs/TOOLS.md, "The operator's tools"): while held, x_d' stands still whatever the
+handle does. The first update after the hold ends re-anchors at the handle's position of that update, so x_d'
+continues from its held value and the handle's new position is the offset mode's origin (indexing); the velocity
+mode simply resumes integrating from the held x_d'.
+
 Velocity dead-band: a resting hand never holds the handle exactly at its origin, and in velocity mode any
 residual displacement integrates into a drift of the replica. Inside a ball of radius ``velocity_deadband``
 around the origin the velocity command is zero; outside it the command is k_v*(|x_M| - deadband) along x_M,
@@ -56,6 +61,7 @@ class TeleoperationCommandIntegrator:
         self._velocity_gain = finite_scalar("velocity_gain", velocity_gain, minimum=0.0)
         self._velocity_deadband = finite_scalar("velocity_deadband", velocity_deadband, minimum=0.0)
         self._mode = _as_mode(mode)
+        self._held = False
         self.reset()
 
     def reset(self) -> None:
@@ -64,6 +70,18 @@ class TeleoperationCommandIntegrator:
         self._handle_position = np.zeros(3)
         self._anchor_handle = np.zeros(3)
         self._anchor_offset = np.zeros(3)
+        self._reanchor = False
+
+    @property
+    def held(self) -> bool:
+        """True while x_d' holds still whatever the handle does (the clutch held, the handle being homed)."""
+        return self._held
+
+    def hold(self, held: bool) -> None:
+        """Hold x_d' still, or engage again: the first update after a hold re-anchors (module docstring)."""
+        if self._held and not held:
+            self._reanchor = True
+        self._held = bool(held)
 
     @property
     def mode(self) -> TeleoperationMode:
@@ -115,12 +133,25 @@ class TeleoperationCommandIntegrator:
         """Advance by dt [s] with the handle at x_M [m]; returns x_d' [m]."""
         handle_position = finite_array("handle_position", handle_position, (3,))
         dt = finite_scalar("dt", dt, minimum=0.0)
+        self._handle_position = handle_position
+        if self._held:
+            return self._desired_offset.copy()
+        if self._reanchor:   # engaged again: x_d' continues from its held value, this handle is the new origin
+            self._reanchor = False
+            self._anchor()
         if self._mode == TeleoperationMode.OFFSET:
             self._desired_offset = self._anchor_offset + self._workspace_scale * (handle_position - self._anchor_handle)
         else:
             self._desired_offset = self._desired_offset + self._velocity_gain * self._deadbanded(handle_position) * dt
-        self._handle_position = handle_position
         return self._desired_offset.copy()
+
+    def goal_at(self, handle_position: NDArray[np.float64]) -> NDArray[np.float64]:
+        """x_d' as the next update would make it with the handle at ``handle_position``, the state left as it is
+        (the master's control tick runs between network ticks): the offset mode's map, else the last x_d' (held,
+        or the velocity mode's integral, which advances at the network ticks only). Not a copy: read it only."""
+        if self._held or self._reanchor or self._mode != TeleoperationMode.OFFSET:
+            return self._desired_offset
+        return self._anchor_offset + self._workspace_scale * (handle_position - self._anchor_handle)
 
     def _deadbanded(self, handle_position: NDArray[np.float64]) -> NDArray[np.float64]:
         distance = float(np.linalg.norm(handle_position))

@@ -3,8 +3,9 @@
     /fd/ee_pose (PoseStamped, fd_base) ----------------> /haptic/pose  (x_M, haptic_base)
     /fd/joint_states (fd_x, fd_y, fd_z velocities) ----> /haptic/twist (xd_M, haptic_base)
     /haptic/wrench_command (f, haptic_base) -----------> /fd/fd_controller/commands (Float64MultiArray, fd_base)
-    /fd/button_state (Bool, rising edge) --------------> /operator/joy button 0 (the master's mode toggle)
-    /fd/fd_clutch (Bool) ------------------------------> /master/haptic_gain: engaged K_H, released 0
+    /fd/button_state (Bool) ---------------------------> /operator/joy button 0 on a rising edge (the master's
+                                                          mode toggle), or button 3 held (the master's clutch)
+    /fd/fd_clutch (Bool, true: workspace engaged) ------> /operator/joy button 3 held while false (the clutch)
     grasp DoF (joint ``grasp_joint`` of /fd/joint_states, an Omega.7's gripper angle) -> /master/haptic_gain
 
 The arithmetic (frames, the grasp gain, the command layout) is fic_core.haptic_device_mapping; the topics, types
@@ -30,6 +31,7 @@ from std_msgs.msg import Bool, Float64, Float64MultiArray
 
 from fic_core.errors import FicInputError
 from fic_core.haptic_device_mapping import DeviceFrameMapping, GraspGain, device_command
+from fic_core.operator_buttons import BUTTON_COUNT, OperatorButton
 from fic_core.stale_input_ramp import StaleInputRamp
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
@@ -41,7 +43,7 @@ NODE_NAME = "fd_adapter"
 #: master's streams and buttons as the master reads them (written with the streams' deep writer history).
 DRIVER_QOS, NEWEST_QOS, STREAM_QOS, JOY_QOS = qos.SYSTEM_DEFAULTS, qos.NEWEST, qos.STREAM, qos.EVENTS
 STREAM_WRITER_QOS = qos.STREAM_WRITER
-JOY_BUTTON_COUNT = 3
+BUTTON_ACTIONS = ("toggle_mode", "clutch")
 LOG_THROTTLE_S = 2.0
 
 
@@ -62,8 +64,10 @@ SCHEMA = Schema(
     number("grasp_open_angle", -10.0, 10.0, "gripper angle giving K_H = 0 [rad]", True),
     number("grasp_closed_angle", -10.0, 10.0, "angle giving grasp_max_gain [rad]", True),
     number("grasp_max_gain", 0.0, 1.0, "K_H with the gripper closed", True),
-    number("clutch_haptic_gain", 0.0, 1.0, "K_H while /fd/fd_clutch is true (workspace engaged); released: 0", True),
-    switch("use_clutch", "map /fd/fd_clutch to K_H (an Omega.6/7's clutch)", read_only=True),
+    switch("use_clutch", "map /fd/fd_clutch to the master's clutch (an Omega.6/7's): engaged (true) drives x_d', "
+                         "released holds it still while the handle moves", read_only=True),
+    text("button_action", "what the device's button does: toggle_mode (a press toggles the master's offset/velocity "
+                          "mode) or clutch (held: the master's clutch)", read_only=True),
     integer("command_size", 3, 7, "entries of the driver's effort controller (its joints: 3 fd_x..z, 6 with the "
                                   "wrist, 7 with the gripper); force first, zeros after", True),
     number("max_force", 0.0, 100.0, "device force norm bound [N]; 0: none", True),
@@ -89,7 +93,10 @@ class FdAdapterNode(Node):
             raise FicInputError(f"translation_joints must name 3 joints, got {list(self._translation_joints)}")
         self._grasp_joint = value("grasp_joint")
         self._grasp = GraspGain(value("grasp_open_angle"), value("grasp_closed_angle"), value("grasp_max_gain"))
-        self._clutch_gain = value("clutch_haptic_gain")
+        self._button_action = value("button_action")
+        if self._button_action not in BUTTON_ACTIONS:
+            raise FicInputError(f"button_action must be one of {', '.join(BUTTON_ACTIONS)}, got "
+                                f"{self._button_action!r}")
         self._command_size = value("command_size")
         self._max_force = value("max_force")
         self._pose_ramp = StaleInputRamp(value("pose_timeout"), value("force_ramp_time"))
@@ -100,10 +107,12 @@ class FdAdapterNode(Node):
         self._stamp = None
         self._force = np.zeros(3)                    # last force sent, device frame
         self._button = False
+        self._clutch_held = False                    # the level of /operator/joy's clutch button
         self._haptic_gain: float | None = None       # last K_H sent
         self._joint_index: dict[tuple[str, ...], tuple[list[int], int | None]] = {}
         self.counts = {"poses": 0, "refused_poses": 0, "joint_states": 0, "refused_joint_states": 0,
-                       "commands": 0, "refused_commands": 0, "mode_toggles": 0, "gain_changes": 0, "ramps": 0}
+                       "commands": 0, "refused_commands": 0, "mode_toggles": 0, "clutch_changes": 0, "gain_changes": 0,
+                       "ramps": 0}
 
         self._pose_pub = self.create_publisher(PoseStamped, "/haptic/pose", STREAM_WRITER_QOS)
         self._twist_pub = self.create_publisher(TwistStamped, "/haptic/twist", STREAM_WRITER_QOS)
@@ -176,15 +185,25 @@ class FdAdapterNode(Node):
 
     def _on_button(self, message: Bool) -> None:
         pressed = bool(message.data)
-        if pressed and not self._button:  # the master toggles on a rising edge of its button 0
+        if self._button_action == "clutch":
+            self._set_clutch(pressed, "button")
+        elif pressed and not self._button:  # the master toggles on a rising edge of its button 0
             self.counts["mode_toggles"] += 1
-            self._publish_joy([1] + [0] * (JOY_BUTTON_COUNT - 1))
+            self._publish_joy(toggle=True)
         elif not pressed and self._button:
-            self._publish_joy([0] * JOY_BUTTON_COUNT)
+            self._publish_joy()
         self._button = pressed
 
     def _on_clutch(self, message: Bool) -> None:
-        self._set_haptic_gain(self._clutch_gain if message.data else 0.0, "clutch")
+        self._set_clutch(not message.data, "fd_clutch")   # fd_clutch true: the workspace is engaged
+
+    def _set_clutch(self, held: bool, source: str) -> None:
+        if held == self._clutch_held:
+            return
+        self._clutch_held = held
+        self.counts["clutch_changes"] += 1
+        self._publish_joy()
+        self.get_logger().info(f"clutch {'held' if held else 'released'} ({source})")
 
     def _set_haptic_gain(self, gain: float, source: str) -> None:
         if self._haptic_gain is not None and abs(gain - self._haptic_gain) < 0.01:
@@ -194,7 +213,12 @@ class FdAdapterNode(Node):
         self._gain_pub.publish(Float64(data=float(gain)))
         self.get_logger().info(f"K_H = {gain:.2f} ({source})", throttle_duration_sec=0.5)
 
-    def _publish_joy(self, buttons: list[int]) -> None:
+    def _publish_joy(self, toggle: bool = False) -> None:
+        """The master's buttons: the mode toggle pressed or not, the clutch at its level in every message (the
+        master acts on each button's edges)."""
+        buttons = [0] * BUTTON_COUNT
+        buttons[OperatorButton.TOGGLE_MODE] = int(toggle)
+        buttons[OperatorButton.CLUTCH] = int(self._clutch_held)
         joy = Joy()
         joy.header.stamp = self.get_clock().now().to_msg()
         joy.axes = [0.0, 0.0, 0.0]

@@ -6,9 +6,16 @@ Data path: /haptic/pose (x_M, haptic_base) + /haptic/twist + /master/feedback_wr
 x_M -> x_d' -> /master/pose and /master/teleop_command at ``network_rate``. The haptic_base axes are taken as
 aligned with panda_link0's (the simulated device is set up that way), so F_R is added without rotation.
 
-Operator inputs: /operator/joy buttons (rising edges; fic_core.operator_buttons) 0: toggle OFFSET/VELOCITY,
-1: K_H + 0.1, 2: K_H - 0.1; /master/haptic_gain (std_msgs/Float64); or ``scripts/fic param set /master haptic_gain 0.3``.
-K_H outside [0, 1] is clamped to it with a warning; NaN is refused. This node is wiring: every rule is in fic_core.
+Operator inputs: /operator/joy buttons (edges; fic_core.operator_buttons) 0: toggle OFFSET/VELOCITY,
+1: K_H + 0.1, 2: K_H - 0.1, 3 held: the clutch; /master/haptic_gain (std_msgs/Float64); or
+``scripts/fic param set /master haptic_gain 0.3``. K_H outside [0, 1] is clamped to it with a warning; NaN is
+refused. This node is wiring: every rule is in fic_core.
+
+The operator's tools (fic_core.master_station; docs/TOOLS.md, "The operator's tools"), each a parameter settable
+live: ``clutch``, ``homing``, ``force_scale`` beside ``workspace_scale`` (the loop-gain bound refuses a change
+past k_F s_M K_H = 1 in one line), ``guidance_fixture`` and its ``guidance_*``. A button press and the end of homing
+set their parameter too, so ``param get`` tells the truth; their state goes out on /master/operator_tools at
+``tools_rate`` and at once when the engagement changes.
 
 The channel's master port (fic_core.channel_ports.MasterChannelPort): booked at every control tick before Eq. 3,
 its E_in sent on /master/port_energy (through channel_forward), the replica port's E_in read from
@@ -31,13 +38,13 @@ from std_msgs.msg import Float64
 from fic_core.channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES, MasterChannelPort
 from fic_core.errors import FicInputError
 from fic_core.exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES, MasterExchangedEnergy
-from fic_core.master_station import MASTER_NUMBERS, MasterStation, clamped_haptic_gain
-from fic_teleop_msgs.msg import TeleoperationCommand
+from fic_core.master_station import MASTER_NUMBERS, MASTER_TOOLS, MasterStation, clamped_haptic_gain
+from fic_teleop_msgs.msg import OperatorTools, TeleoperationCommand
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
-from fic_teleop_runtime.parameters import Schema, declare, integer, text
+from fic_teleop_runtime.parameters import Schema, declare, integer, refuse_unknown_names, text
 from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
 
 # Device and teleoperation streams RELIABLE (the channel alone loses on purpose), read 20 deep and written with
@@ -49,14 +56,15 @@ SCHEMA = Schema("master.yaml", MASTER_NUMBERS.values(),
                 integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
                                       "(x_d' += k_v*x_M*dt)"),
                 text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True),
-                CHANNEL_PORT_SWITCHES.values(), CHANNEL_PORT_NUMBERS.values(), EXCHANGED_ENERGY_SWITCHES.values())
+                MASTER_TOOLS.values(), CHANNEL_PORT_SWITCHES.values(), CHANNEL_PORT_NUMBERS.values(), EXCHANGED_ENERGY_SWITCHES.values())
 
 
 class MasterNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("master", **node_options)
         values = declare(self, SCHEMA)  # every row with its config/master.yaml value; unknown keys refused
-        self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, "mode", "frame_id")})
+        self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, *MASTER_TOOLS, "mode",
+                                                                       "frame_id")})
         self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
         self._frame_id = values["frame_id"]
         self._channel_port = MasterChannelPort(values["channel_passivity_control"], values["channel_max_damping"],
@@ -68,6 +76,7 @@ class MasterNode(Node):
         self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command", STREAM_WRITER_QOS)
         self._port_energy_publisher = self.create_publisher(Vector3Stamped, "/master/port_energy", STREAM_WRITER_QOS)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
+        self._tools_publisher = self.create_publisher(OperatorTools, "/master/operator_tools", STREAM_WRITER_QOS)
         self.create_subscription(PoseStamped, "/haptic/pose", self._on_pose, STREAM_QOS)
         self.create_subscription(TwistStamped, "/haptic/twist", self._on_twist, STREAM_QOS)
         self.create_subscription(WrenchStamped, "/master/feedback_wrench", self._on_feedback, STREAM_QOS)
@@ -75,6 +84,7 @@ class MasterNode(Node):
                                  STREAM_QOS)
         self.create_subscription(Joy, "/operator/joy", self._on_joy, JOY_QOS)
         self.create_subscription(Float64, "/master/haptic_gain", self._on_haptic_gain, STREAM_QOS)
+        self._refuse_unknown_names = refuse_unknown_names(self, SCHEMA)
         self.add_pre_set_parameters_callback(self._clamp_haptic_gain)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         if values["haptic_gain"] != self._station.law.haptic_gain:  # clamped at start: make `param get` show it
@@ -82,18 +92,21 @@ class MasterNode(Node):
         self.create_timer(1.0 / values["control_rate"], self._control_tick)
         self.create_timer(1.0 / values["network_rate"], self._network_tick)
         self.create_timer(1.0 / values["diagnostics_rate"], self._publish_diagnostics)
+        self.create_timer(1.0 / values["tools_rate"], self._publish_tools)
         self.get_logger().info(
             f"master up: K_H = {self._station.law.haptic_gain:.2f}, mode {self._station.integrator.mode.name}, "
-            f"control {values['control_rate']:.0f} Hz, network {values['network_rate']:.0f} Hz")
+            f"{self._station.engagement.name.lower()}, control {values['control_rate']:.0f} Hz, network "
+            f"{values['network_rate']:.0f} Hz")
 
     def _log(self, notices) -> None:
         log_notices(self.get_logger(), notices, throttle_s=1.0)  # repeated warnings at most once a second
 
     # -- parameters -----------------------------------------------------------------------------------------
     def _clamp_haptic_gain(self, parameters: list[Parameter]) -> list[Parameter]:
-        """Pre-set: K_H outside [0, 1] becomes the nearest bound (logged); NaN passes on to be refused."""
+        """Pre-set: a name the node does not declare refused in one line; K_H outside [0, 1] becomes the nearest
+        bound (logged); NaN passes on to be refused."""
         result = []
-        for parameter in parameters:
+        for parameter in self._refuse_unknown_names(parameters):
             if parameter.name == "haptic_gain" and parameter.type_ == Parameter.Type.DOUBLE:
                 clamped = clamped_haptic_gain(parameter.value)
                 if clamped != parameter.value and clamped == clamped:
@@ -103,14 +116,23 @@ class MasterNode(Node):
         return result
 
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        engagement = self._station.engagement
         try:
             self._log(self._station.configure({p.name: p.value for p in parameters}))
         except FicInputError as error:
+            self.get_logger().error(f"refused: {error}")
             return SetParametersResult(successful=False, reason=str(error))
+        if self._station.engagement != engagement:
+            self._publish_tools()
         return SetParametersResult(successful=True)
 
     def _sync_haptic_gain_parameter(self) -> None:
         self.set_parameters([Parameter("haptic_gain", Parameter.Type.DOUBLE, self._station.law.haptic_gain)])
+
+    def _sync_parameters(self, names) -> None:
+        """Make ``param get`` show what a button or the station itself changed (the on-set callback then finds
+        the station already there)."""
+        self.set_parameters([Parameter(name, value=self._station.parameters[name]) for name in names])
 
     # -- inputs ---------------------------------------------------------------------------------------------
     def _now(self) -> float:
@@ -145,12 +167,12 @@ class MasterNode(Node):
             self.get_logger().error(f"refused /master/replica_port_energy: {error}", throttle_duration_sec=1.0)
 
     def _on_joy(self, message: Joy) -> None:
-        notices, mode_changed, gain_changed = self._station.press(message.buttons)
+        engagement = self._station.engagement
+        notices, changed = self._station.press(message.buttons)
         self._log(notices)
-        if mode_changed:  # keep `param get` true
-            self.set_parameters([Parameter("mode", Parameter.Type.INTEGER, int(self._station.integrator.mode))])
-        if gain_changed:
-            self._sync_haptic_gain_parameter()
+        self._sync_parameters(changed)
+        if self._station.engagement != engagement:
+            self._publish_tools()
 
     def _on_haptic_gain(self, message: Float64) -> None:
         try:
@@ -166,7 +188,11 @@ class MasterNode(Node):
         dt = self._control_period if self._last_control_tick is None else max(now - self._last_control_tick, 0.0)
         self._last_control_tick = now
         self._channel_port.tick(self._station, now, dt)  # booked (and with TDPA damped) before Eq. 3
+        engagement = self._station.engagement
         force, notices = self._station.force(now)
+        if self._station.engagement != engagement:  # homed: engaged (or still clutched)
+            self._sync_parameters(("homing",))
+            self._publish_tools()
         if self._exchanged is not None:
             self._exchanged.observe(self._station)
         self._log(notices)
@@ -200,6 +226,24 @@ class MasterNode(Node):
         energy.vector.x, energy.vector.y, energy.vector.z = observer.input_energy, observer.output_energy, \
             observer.energy
         self._port_energy_publisher.publish(energy)
+
+    def _publish_tools(self) -> None:
+        station = self._station
+        message = OperatorTools(engagement=int(station.engagement),
+                                workspace_scale=float(station.integrator.workspace_scale),
+                                force_scale=float(station.law.force_scale),
+                                haptic_gain=float(station.law.haptic_gain), loop_gain=float(station.loop_gain()))
+        message.header.stamp = self.get_clock().now().to_msg()
+        message.header.frame_id = self._frame_id
+        goal = station.fixture_goal()
+        if goal is None:
+            goal = station.integrator.desired_offset
+        else:
+            message.fixture = int(station.fixture.kind)
+        message.fixture_goal = Point(x=float(goal[0]), y=float(goal[1]), z=float(goal[2]))
+        force = station.guidance_force
+        message.guidance_force.x, message.guidance_force.y, message.guidance_force.z = (float(f) for f in force)
+        self._tools_publisher.publish(message)
 
     def _publish_diagnostics(self) -> None:
         problems, values = self._station.diagnostics(self._now())

@@ -32,7 +32,7 @@ from typing import Any
 
 import yaml
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.exceptions import ParameterUninitializedException
+from rclpy.exceptions import ParameterNotDeclaredException, ParameterUninitializedException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -165,9 +165,16 @@ def typed(row: ParameterRow, value: Any, where: str) -> Any:
 
 def unknown_key_error(name: str, known: Sequence[str], node_name: str) -> FicInputError:
     """The refusal of a key no row declares, naming the nearest declared one."""
+    return FicInputError(f"unknown parameter {name!r} for node {node_name}{nearest_name_hint(name, known)}")
+
+
+def nearest_name_hint(name: str, known: Sequence[str], otherwise: str | None = None) -> str:
+    """``; did you mean 'x'?`` for the declared name nearest ``name``, else ``otherwise`` (default: the declared
+    names)."""
     close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
-    hint = f"; did you mean {close[0]!r}?" if close else f"; declared: {', '.join(sorted(known))}"
-    return FicInputError(f"unknown parameter {name!r} for node {node_name}{hint}")
+    if close:
+        return f"; did you mean {close[0]!r}?"
+    return f"; declared: {', '.join(sorted(known))}" if otherwise is None else otherwise
 
 
 def check_keys(given: Iterable[str], schema: Schema, node_name: str, also_known: Iterable[str] = ()) -> None:
@@ -253,3 +260,17 @@ def values(node: Node, schema: Schema, names: Iterable[str] | None = None) -> di
         except ParameterUninitializedException:
             result[name] = [] if schema.row(name).kind in LISTS else None
     return result
+
+
+def refuse_unknown_names(node: Node, schema: Schema):
+    """A pre-set check that refuses a name the node does not declare in one line naming the nearest declared one.
+    rclpy refuses it anyway, but Jazzy's reason lists no name ("Invalid access to undeclared parameter(s): []": it
+    reads the names from a spent generator). Call it first in the node's one pre-set callback: rclpy concatenates
+    the lists that several such callbacks return, so each parameter would be set twice."""
+    def check(parameters: list[Parameter]) -> list[Parameter]:
+        for parameter in parameters:
+            if not node.has_parameter(parameter.name):
+                raise ParameterNotDeclaredException(
+                    f"{parameter.name!r}{nearest_name_hint(parameter.name, schema.names)}")
+        return parameters
+    return check

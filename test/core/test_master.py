@@ -1,4 +1,5 @@
-"""Master law (paper Eq. 3): f = FIC(-x_M) + K_H*F_R, haptic gain clamped to [0, 1], device force saturation."""
+"""Master law (paper Eq. 3): f = FIC(-x_M) + k_F*K_H*F_R, haptic gain clamped to [0, 1], device force saturation,
+the loop-gain bound k_F*s_M*K_H <= 1."""
 from __future__ import annotations
 
 import math
@@ -8,7 +9,7 @@ import pytest
 
 from fic_core.attractor import FractalAttractor
 from fic_core.errors import FicInputError
-from fic_core.master import MasterLaw
+from fic_core.master import MAX_LOOP_GAIN, MasterLaw, checked_loop_gain, haptic_gain_ceiling
 from fic_core.profile import ForceProfile
 
 PROFILE = ForceProfile(stiffness=200.0, saturation_error=0.03, saturation_start=0.5, max_force=8.0)
@@ -30,6 +31,29 @@ def test_replica_force_is_scaled_by_the_haptic_gain() -> None:
     for gain in (0.0, 0.3, 1.0):
         master = make_master(haptic_gain=gain)
         np.testing.assert_allclose(master.force(np.zeros(3), np.zeros(3), replica_force), gain * replica_force)
+
+
+def test_replica_force_is_scaled_by_the_force_scale_too() -> None:
+    replica_force = np.array([1.0, -4.0, 2.0])
+    master = MasterLaw(FractalAttractor(PROFILE, 3, rate_deadband=0.005), 0.5, None, force_scale=3.0)
+    np.testing.assert_allclose(master.force(np.zeros(3), np.zeros(3), replica_force), 1.5 * replica_force)
+    master.force_scale = 0.0
+    np.testing.assert_allclose(master.force(np.zeros(3), np.zeros(3), replica_force), 0.0)
+    with pytest.raises(FicInputError, match="force_scale"):
+        master.force_scale = -1.0
+
+
+def test_the_loop_gain_bound() -> None:
+    """k_F s_M K_H <= 1: a finer motion scale buys a larger force scale; past the bound, one line naming the three
+    figures and the product."""
+    assert MAX_LOOP_GAIN == 1.0
+    assert checked_loop_gain(4.0, 0.25, 1.0) == 1.0 and checked_loop_gain(1.0, 1.0, 0.5) == 0.5
+    with pytest.raises(FicInputError) as refusal:
+        checked_loop_gain(2.0, 1.0, 0.6)
+    message = str(refusal.value)
+    assert "force_scale x workspace_scale x haptic_gain = 2 x 1 x 0.6 = 1.2" in message and "\n" not in message
+    assert haptic_gain_ceiling(2.0, 1.0) == 0.5 and haptic_gain_ceiling(0.5, 1.0) == 1.0
+    assert haptic_gain_ceiling(0.0, 1.0) == 1.0
 
 
 def test_haptic_gain_is_clamped_and_the_clamp_reported() -> None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fic_core.errors import FicInputError
-from fic_core.master_station import MasterStation
+from fic_core.master_station import Engagement, MasterStation
 from fic_core.operator_buttons import ButtonEdges, OperatorButton
 from fic_core.teleoperation import TeleoperationMode
 
@@ -25,8 +25,8 @@ def test_edges_are_presses_not_held_buttons() -> None:
 
 def test_buttons_toggle_the_mode_and_step_the_gain() -> None:
     station = MasterStation(DEFAULTS)
-    notices, mode_changed, gain_changed = station.press([1, 1, 0])
-    assert mode_changed and gain_changed and station.integrator.mode == TeleoperationMode.VELOCITY
+    notices, changed = station.press([1, 1, 0])
+    assert changed == ("mode", "haptic_gain") and station.integrator.mode == TeleoperationMode.VELOCITY
     assert station.law.haptic_gain == pytest.approx(0.6) and station.parameters["mode"] == 1
     station.press([0, 0, 0])
     for _ in range(10):
@@ -100,3 +100,124 @@ def test_a_bad_parameter_changes_nothing() -> None:
     assert station.law is law and station.parameters["stiffness"] == DEFAULTS["stiffness"]
     notices = station.configure({"stiffness": 50.0, "workspace_scale": 2.0})
     assert station.law is not law and station.integrator.workspace_scale == 2.0 and "rebuilt" in notices[0][1]
+
+
+# --- the operator's tools ----------------------------------------------------------------------------------------
+def engaged_station(**overrides) -> MasterStation:
+    """Offset mode, s_M = 2, a fresh F_R of 3 N along z, the handle still at x_M."""
+    station = MasterStation({**DEFAULTS, "workspace_scale": 2.0, "haptic_gain": 0.5, **overrides})
+    station.add_feedback([0.0, 0.0, 3.0], 0.0)
+    return station
+
+
+def move(station: MasterStation, position, now: float):
+    """The handle at ``position`` at ``now`` (held still there), one control tick and one network tick."""
+    station.add_pose(position, (0, 0, 0, 1), now)
+    station.add_twist([0.0, 0.0, 0.0], now)
+    force, notices = station.force(now)
+    return force, station.desired_offset(now), notices
+
+
+def test_the_clutch_holds_x_d_and_re_anchors_on_release() -> None:
+    station = engaged_station()
+    _, offset, _ = move(station, [0.01, 0.0, 0.0], 0.01)
+    np.testing.assert_allclose(offset, [0.02, 0.0, 0.0])
+    notices = station.configure({"clutch": True})
+    assert station.engagement == Engagement.CLUTCHED and "holds still" in notices[0][1]
+    for k, x in enumerate((0.0, -0.02, -0.03)):   # indexing: the handle brought back past the centre
+        force, held, _ = move(station, [x, 0.005, 0.0], 0.02 + 0.01 * k)
+        np.testing.assert_allclose(held, [0.02, 0.0, 0.0])
+        # The handle feels its own FIC alone: F_R does not answer a motion the handle no longer makes.
+        np.testing.assert_allclose(force, -station.law.attractor.profile.force(np.array([x, 0.005, 0.0])))
+    station.configure({"clutch": False})
+    assert station.engagement == Engagement.ENGAGED
+    _, engaged, _ = move(station, [-0.03, 0.005, 0.0], 0.06)
+    np.testing.assert_allclose(engaged, [0.02, 0.0, 0.0])               # no jump
+    force, later, _ = move(station, [-0.01, 0.005, 0.0], 0.07)
+    np.testing.assert_allclose(later, [0.02 + 2.0 * 0.02, 0.0, 0.0])    # s_M times the motion since the release
+    assert force[2] == pytest.approx(1.5)                               # K_H F_R rendered again
+
+
+def test_the_clutch_button_is_held_and_its_release_engages() -> None:
+    station = engaged_station()
+    move(station, [0.01, 0.0, 0.0], 0.01)
+    notices, changed = station.press([0, 0, 0, 1])
+    assert changed == ("clutch",) and station.parameters["clutch"] and station.integrator.held
+    assert station.press([0, 0, 0, 1])[1] == ()          # still held: no edge
+    assert station.press([1, 0, 0, 1])[1] == ("mode",)   # another button while it is held
+    notices, changed = station.press([0, 0, 0, 0])
+    assert changed == ("clutch",) and not station.parameters["clutch"] and not station.integrator.held
+
+
+def test_homing_drives_the_handle_home_at_a_bounded_speed_then_engages() -> None:
+    station = engaged_station()
+    _, offset, _ = move(station, [0.01, 0.0, 0.0], 0.01)
+    station.configure({"homing": True})
+    assert station.engagement == Engagement.HOMING and station.parameters["homing"]
+    # A free handle (0.5 kg, 2 N s/m) 6 cm out, the station's force held over each 4 ms tick, integrated at 1 ms.
+    position, velocity, now, speeds, offsets = np.array([0.06, -0.02, 0.0]), np.zeros(3), 0.02, [], []
+    while station.engagement == Engagement.HOMING and now < 5.0:
+        station.add_pose(position, (0, 0, 0, 1), now)
+        station.add_twist(velocity, now)
+        force, _ = station.force(now)
+        offsets.append(station.desired_offset(now))   # the last one: engaged at the handle's position then
+        engaged_at = position
+        for _ in range(4):
+            velocity = velocity + 0.001 * (force - 2.0 * velocity) / 0.5
+            position = position + 0.001 * velocity
+            speeds.append(np.linalg.norm(velocity))
+        now += 0.004
+    assert station.engagement == Engagement.ENGAGED and not station.parameters["homing"]
+    assert max(speeds) <= DEFAULTS["homing_speed"] and np.linalg.norm(position) < 2 * DEFAULTS["homing_tolerance"]
+    for held in offsets:
+        np.testing.assert_allclose(held, offset)        # x_d' still until homed, and engaged without a jump
+    _, engaged, _ = move(station, position, now)
+    np.testing.assert_allclose(engaged, offset + 2.0 * (position - engaged_at))   # then the handle drives it
+
+
+def test_the_force_scale_is_set_live_within_the_loop_gain_bound() -> None:
+    station = engaged_station(workspace_scale=1.0)
+    station.configure({"force_scale": 2.0})             # 2 x 1 x 0.5 = 1: allowed
+    force, _, _ = move(station, [0.0, 0.0, 0.0], 0.01)
+    assert force[2] == pytest.approx(3.0) and station.loop_gain() == pytest.approx(1.0)
+    for change in ({"force_scale": 2.5}, {"workspace_scale": 1.5}, {"haptic_gain": 0.6}):
+        with pytest.raises(FicInputError, match="above the loop-gain bound 1"):
+            station.configure(change)
+    assert station.law.force_scale == 2.0 and station.integrator.workspace_scale == 1.0   # nothing applied
+    # Both at once, finer motion with a larger force scale: allowed.
+    station.configure({"workspace_scale": 0.25, "force_scale": 4.0, "haptic_gain": 1.0})
+    assert station.loop_gain() == pytest.approx(1.0)
+    # A K_H from a button is clamped to what the bound allows, said in one notice.
+    station.configure({"haptic_gain": 0.5})
+    station.configure({"workspace_scale": 0.5})         # 4 x 0.5 x 0.5 = 1
+    notices, _ = station.press([0, 1, 0, 0])
+    assert station.law.haptic_gain == pytest.approx(0.5) and "may not exceed 1" in notices[0][1]
+    with pytest.raises(FicInputError):
+        MasterStation({**DEFAULTS, "force_scale": 3.0})   # at start too: 3 x 1 x 0.5
+
+
+def test_a_plane_fixture_guides_x_d_onto_it_while_engaged() -> None:
+    station = engaged_station(haptic_gain=0.0)
+    move(station, [0.0, 0.0, 0.0], 0.0)
+    station.configure({"guidance_fixture": "plane", "guidance_point": [0.0, 0.0, 0.004],
+                       "guidance_direction": [0.0, 0.0, 1.0]})
+    handle = np.array([0.01, 0.0, 0.005])   # x_d' = s_M x_M = (0.02, 0, 0.01): 6 mm above the plane
+    force, offset, _ = move(station, handle, 0.01)
+    own = -station.law.attractor.profile.force(handle)
+    guidance = DEFAULTS["guidance_stiffness"] * np.array([0.0, 0.0, -0.006])
+    np.testing.assert_allclose(force, own + guidance)
+    np.testing.assert_allclose(station.guidance_force, guidance)
+    np.testing.assert_allclose(station.fixture_goal(), [0.02, 0.0, 0.004])
+    # Not rendered while the clutch is held; gone with the fixture.
+    station.configure({"clutch": True})
+    np.testing.assert_allclose(move(station, handle, 0.02)[0], own)
+    station.configure({"clutch": False, "guidance_fixture": "none"})
+    np.testing.assert_allclose(move(station, handle, 0.03)[0], own)
+    assert station.fixture_goal() is None
+    # A fixture that cannot be is refused, and the one in place stays.
+    station.configure({"guidance_fixture": "line", "guidance_direction": [1.0, 0.0, 0.0]})
+    with pytest.raises(FicInputError, match="guidance_direction must not be zero"):
+        station.configure({"guidance_direction": [0.0, 0.0, 0.0]})
+    with pytest.raises(FicInputError, match="guidance_fixture must be one of"):
+        station.configure({"guidance_fixture": "sphere"})
+    assert station.fixture.kind.name == "LINE" and station.parameters["guidance_fixture"] == "line"

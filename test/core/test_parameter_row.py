@@ -2,6 +2,7 @@
 and (through the descriptor) rclpy's declaration."""
 from __future__ import annotations
 
+import array
 import math
 
 import pytest
@@ -31,6 +32,8 @@ def test_a_params_file_needs_a_double_written_as_one() -> None:
 def test_lists_switches_and_texts() -> None:
     assert numbers("via", "points").checked([1, 2.5]) == [1.0, 2.5]
     assert ParameterRow("gains", Kind.NUMBERS, "", 0.0, 1.0).checked((0.5,)) == [0.5]
+    # A double array set on a running node comes from rclpy as an array.array.
+    assert numbers("guidance_point", "").checked(array.array("d", [0.0, 0.1, 0.2])) == [0.0, 0.1, 0.2]
     with pytest.raises(FicInputError, match=r"gains must be in \[0, 1\]"):
         ParameterRow("gains", Kind.NUMBERS, "", 0.0, 1.0).checked([0.5, 2.0])
     with pytest.raises(FicInputError, match="a list of strings"):

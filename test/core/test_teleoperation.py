@@ -106,3 +106,28 @@ def test_invalid_inputs_are_rejected() -> None:
         integrator.workspace_scale = math.inf
     with pytest.raises(FicInputError, match="velocity_gain"):
         integrator.velocity_gain = -1.0
+
+
+@pytest.mark.parametrize("mode", [TeleoperationMode.OFFSET, TeleoperationMode.VELOCITY])
+def test_a_hold_stills_x_d_and_engaging_again_re_anchors_without_a_jump(mode: TeleoperationMode) -> None:
+    """Indexing: while held, x_d' stands still whatever the handle does; engaged again, x_d' continues from its
+    held value and (offset mode) follows the handle's displacement from where it was at the release."""
+    integrator = TeleoperationCommandIntegrator(workspace_scale=2.0, velocity_gain=1.0, mode=mode,
+                                                velocity_deadband=0.0)
+    for x in np.linspace(0.0, 0.03, 4):
+        before = integrator.update([x, 0.0, 0.0], 0.01)
+    integrator.hold(True)
+    assert integrator.held
+    for x in np.linspace(0.03, -0.04, 8):   # the handle brought back past the centre, x_d' still
+        np.testing.assert_array_equal(integrator.update([x, 0.01, 0.0], 0.01), before)
+        np.testing.assert_array_equal(integrator.goal_at(np.array([x, 0.0, 0.0])), before)
+    integrator.hold(False)
+    engaged = integrator.update([-0.04, 0.01, 0.0], 0.01)
+    if mode == TeleoperationMode.OFFSET:
+        np.testing.assert_allclose(engaged, before)     # no jump
+        later = integrator.update([-0.03, 0.02, 0.0], 0.01)
+        np.testing.assert_allclose(later, before + 2.0 * np.array([0.01, 0.01, 0.0]))  # s_M times since release
+        np.testing.assert_allclose(integrator.goal_at(np.array([-0.02, 0.02, 0.0])),
+                                   before + 2.0 * np.array([0.02, 0.01, 0.0]))
+    else:
+        np.testing.assert_allclose(engaged, before + 1.0 * np.array([-0.04, 0.01, 0.0]) * 0.01)  # integrating again

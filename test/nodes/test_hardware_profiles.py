@@ -180,12 +180,14 @@ def test_fd_adapter(start_node, ros_env, rclpy_context) -> None:
     from std_msgs.msg import Bool, Float64MultiArray
 
     adapter = start_node("fic_teleop_master", "fd_adapter_node", name="fd_adapter",
-                         params_file=CONFIG / "profiles" / "forcedimension" / "fd_adapter.yaml")
+                         params_file=CONFIG / "profiles" / "forcedimension" / "fd_adapter.yaml",
+                         params={"use_clutch": True})
     assert adapter.wait_for_output("fd adapter ready", timeout=60.0), adapter.output()
     peer = Peer(rclpy_context, "test_fd")
     pose_pub = peer.node.create_publisher(PoseStamped, "/fd/ee_pose", _qos(True, 10))
     joints_pub = peer.node.create_publisher(JointState, "/fd/joint_states", _qos(True, 10))
     button_pub = peer.node.create_publisher(Bool, "/fd/button_state", _qos(True, 10))
+    clutch_pub = peer.node.create_publisher(Bool, "/fd/fd_clutch", _qos(True, 10))
     wrench_pub = peer.node.create_publisher(WrenchStamped, "/haptic/wrench_command", _qos(True, 20))
     poses, twists, device, joys = [], [], [], []
     peer.node.create_subscription(PoseStamped, "/haptic/pose", poses.append, _qos(True, 1000))
@@ -224,6 +226,16 @@ def test_fd_adapter(start_node, ros_env, rclpy_context) -> None:
     drive(0.2, button=True)
     drive(0.2, button=False)
     assert peer.spin_until(lambda: any(j.buttons and j.buttons[0] == 1 for j in joys), 5.0), adapter.output()
+    # /fd/fd_clutch false (the workspace not engaged) holds the master's clutch, button 3, until it is true again.
+    assert peer.spin_until(lambda: clutch_pub.get_subscription_count() > 0, 10.0)
+    joys.clear()
+    clutch_pub.publish(Bool(data=False))
+    assert peer.spin_until(lambda: joys and joys[-1].buttons[3] == 1, 5.0), adapter.output()
+    drive(0.2, button=True)   # a mode toggle while the clutch is held keeps it held
+    assert peer.spin_until(lambda: joys[-1].buttons[0] == 1 and joys[-1].buttons[3] == 1, 5.0)
+    drive(0.2, button=False)
+    clutch_pub.publish(Bool(data=True))
+    assert peer.spin_until(lambda: joys[-1].buttons[3] == 0 and joys[-1].buttons[0] == 0, 5.0), adapter.output()
 
     count = len(poses)
     drive(0.3, frame="world")

@@ -137,6 +137,15 @@ def test_param_commands_use_the_nodes_own_services_and_keep_types(running_graph)
 
     unknown = fic(env, "param", "get", "/master", "no_such_parameter")
     assert unknown.returncode == 1 and len(unknown.stderr.strip().splitlines()) == 1
+    # The operator's tools: a misspelt name, and a force scale past the loop-gain bound (k_F x s_M x K_H = 2 x 1 x
+    # 1 at K_H = 1): one line each, nothing set.
+    misspelt = fic(env, "param", "set", "/master", "force_scal", "2.0")
+    assert misspelt.returncode == 1 and misspelt.stderr.strip().splitlines() == [
+        "fic param set: node /master has no parameter 'force_scal'; did you mean 'force_scale'?"]
+    past = fic(env, "param", "set", "/master", "force_scale", "2.0")
+    assert past.returncode == 1 and len(past.stderr.strip().splitlines()) == 1
+    assert "above the loop-gain bound 1" in past.stderr
+    assert fic(env, "param", "get", "/master", "force_scale").stdout.strip() == "Double value is: 1.0"
     absent = fic(env, "param", "get", "/no_such_node", "x", "--timeout", "2")
     assert absent.returncode == 1 and "offers no parameter services" in absent.stderr
 
@@ -169,13 +178,17 @@ def test_live_view_serves_every_topic_to_the_official_client(running_graph) -> N
                   "/live/transforms", "/robot_description"):
         assert topic in topics, sorted(topics)
     # Every advertised schema was parsed into a decoder (an error otherwise), and every message that came was decoded.
-    # The master sends only once the device's handle moves: its topics are advertised here but carry nothing.
+    # The master sends its streams only once the device's handle moves: advertised here but carrying nothing; its
+    # operator tools' state goes out whatever the handle does.
     for topic, entry in topics.items():
         assert entry["errors"] == [], (topic, entry)
         assert entry["decoded"] == entry["received"], (topic, entry)
     carrying = {topic for topic, entry in topics.items() if entry["received"] >= 1}
     assert {"/joint_states", "/ft_sensor/wrench", "/clock", "/sim/tcp_pose", "/sim/object_poses", "/diagnostics",
-            "/live/transforms", "/robot_description"} <= carrying, sorted(carrying)
+            "/live/transforms", "/robot_description", "/master/operator_tools"} <= carrying, sorted(carrying)
+    tools = topics["/master/operator_tools"]["sample"]   # config/master.yaml: engaged, no fixture
+    assert (tools["engagement"], tools["fixture"]) == (0, 0), tools
+    assert tools["loop_gain"] == pytest.approx(tools["force_scale"] * tools["workspace_scale"] * tools["haptic_gain"])
     for topic, entry in topics.items():
         if topic.startswith("/live/"):
             assert entry["encoding"] == "protobuf"

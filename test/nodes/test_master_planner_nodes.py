@@ -16,10 +16,9 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 fic_teleop_msgs = pytest.importorskip("fic_teleop_msgs.msg")
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped  # noqa: E402
-from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
-from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
 from rcl_interfaces.srv import GetParameters, SetParameters  # noqa: E402
 from rclpy.experimental import EventsExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import Joy  # noqa: E402
 
@@ -66,11 +65,12 @@ class Peer:
             self.executor.spin_once(timeout_sec=0.005)
         return condition()
 
-    def set_parameter(self, node: str, name: str, value: float) -> tuple[bool, str]:
+    def set_parameter(self, node: str, name: str, value) -> tuple[bool, str]:
+        """Set one parameter of ``node`` (its type from the Python value: a float is a double, a bool a bool, a
+        list of floats a double array); (successful, reason)."""
         client = self.node.create_client(SetParameters, f"/{node}/set_parameters")
         assert client.wait_for_service(timeout_sec=20.0)
-        request = SetParameters.Request(parameters=[ParameterMsg(
-            name=name, value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value)))])
+        request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
         future = client.call_async(request)
         assert self.spin_until(future.done, 20.0)
         self.node.destroy_client(client)
@@ -202,12 +202,7 @@ def test_planner_node_fixed_point_and_circle(start_node, rclpy_context) -> None:
         assert client_ok == (True, "")
         successful, reason = peer.set_parameter("planner", "natural_frequency", -1.0)
         assert not successful and reason
-        from rcl_interfaces.msg import Parameter as P  # string parameter
-        client = peer.node.create_client(SetParameters, "/planner/set_parameters")
-        assert client.wait_for_service(timeout_sec=20.0)
-        future = client.call_async(SetParameters.Request(parameters=[P(
-            name="trajectory", value=ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="circle"))]))
-        assert peer.spin_until(future.done, 20.0) and future.result().results[0].successful
+        assert peer.set_parameter("planner", "trajectory", "circle") == (True, "")
         poses.clear()
         peer.spin_for(8.0)
         centre = np.array([0.45, 0.0, 0.35])

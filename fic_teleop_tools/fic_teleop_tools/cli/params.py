@@ -9,6 +9,7 @@ from rclpy.parameter_client import AsyncParameterClient
 
 from fic_teleop_tools.cli.errors import CommandError
 from fic_teleop_tools.cli.graph import fully_qualified, graph_node
+from fic_teleop_runtime.parameters import nearest_name_hint
 from fic_teleop_runtime.params_file import params_file_text
 
 TYPE_NAMES = {ParameterType.PARAMETER_BOOL: "Boolean", ParameterType.PARAMETER_INTEGER: "Integer",
@@ -37,8 +38,9 @@ def _call(node, future, what: str, timeout: float):
 def _declared_type(node, client, node_name: str, name: str, timeout: float) -> int:
     types = _call(node, client.get_parameter_types([name]), f"types of {node_name}", timeout).types
     if not types or types[0] == ParameterType.PARAMETER_NOT_SET:
-        raise CommandError(f"node {fully_qualified(node_name)} has no parameter {name!r} "
-                           f"(`scripts/fic param list {node_name}`)")
+        names = _call(node, client.list_parameters(), f"list of {node_name}", timeout).result.names
+        raise CommandError(f"node {fully_qualified(node_name)} has no parameter {name!r}"
+                           f"{nearest_name_hint(name, list(names), f' (`scripts/fic param list {node_name}`)')}")
     return types[0]
 
 

@@ -4,7 +4,8 @@ Built with the SDK's own layout types (foxglove.layouts), so the file is what Fo
 test/test_launch_file.py regenerates it and compares, and checks that every field it plots is a field of a recorded
 topic's message. Panels: the arm in 3D (its URDF through the server's assets, posed by /live/transforms) with x_d
 (/replica/desired_pose) and x_R (/replica/tcp_pose); the interaction forces; the FIC phases and energy (paper Eq. 2:
-divergence D = 0, convergence C = 1 per axis); the limit flags of the postural optimisation.
+divergence D = 0, convergence C = 1 per axis); the limit flags of the postural optimisation; the operator's tools
+(/master/operator_tools: engaged, clutched or homing, the loop gain k_F s_M K_H, the guidance fixture's force).
 
 usage: python -m fic_teleop_tools.recording.live_view_layout [--check]
        (--check: exit 1 if config/live_view.json differs)
@@ -81,11 +82,28 @@ def limits_panel() -> fl.SplitContainer:
         fl.SplitItem(proportion=3, content=flags)])
 
 
+def operator_tools_panel() -> fl.SplitContainer:
+    """The master's operator tools (docs/TOOLS.md): whether the handle drives x_d', and what the scales and the
+    guidance fixture put on the handle."""
+    tools = "/master/operator_tools"
+    engagement = fl.IndicatorPanel(title="handle", config=fl.IndicatorConfig(path=f"{tools}.engagement",
+                                                                             style="background", rules=[
+        fl.IndicatorRule(raw_value="1", operator="=", color="#d08a20", label="clutched: x_d' held"),
+        fl.IndicatorRule(raw_value="2", operator="=", color="#3070c0", label="homing: x_d' held")],
+        fallback_color="#2f8f2f", fallback_label="engaged"))
+    plot = _plot("guidance force at the handle [N], loop gain k_F s_M K_H",
+                 [_series(f"{tools}.guidance_force.{a}", f"guidance {a}") for a in AXES]
+                 + [_series(f"{tools}.loop_gain", "loop gain")])
+    return fl.SplitContainer(direction="row", items=[fl.SplitItem(proportion=1, content=engagement),
+                                                     fl.SplitItem(proportion=3, content=plot)])
+
+
 def layout() -> fl.Layout:
     right = fl.SplitContainer(direction="column", items=[
         fl.SplitItem(proportion=1, content=forces_panel()),
         fl.SplitItem(proportion=1, content=fic_panel()),
-        fl.SplitItem(proportion=1, content=limits_panel())])
+        fl.SplitItem(proportion=1, content=limits_panel()),
+        fl.SplitItem(proportion=1, content=operator_tools_panel())])
     return fl.Layout(content=fl.SplitContainer(direction="row", items=[
         fl.SplitItem(proportion=3, content=arm_panel()), fl.SplitItem(proportion=2, content=right)]))
 
