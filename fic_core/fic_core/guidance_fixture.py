@@ -12,8 +12,10 @@ fixture, bounded in norm:
 
     f_g = sat( K (P(x_d') - x_d') - B across(v_M), F_max )
 
-The guidance is a force, not a constraint: x_d' is still the handle's, so the operator can leave the fixture by
-pushing through F_max, and switching a fixture on or off never moves the goal. The handle's axes are the base
+The replica's goal is the projection: the master station sends P(x_d') (and takes the goal to a new fixture's
+projection at a bounded speed when one is switched, fic_core.master_station), so the arm moves on the plane or
+the line whatever the hand does across it, while the handle's x_d' stays the operator's and the spring tells the
+hand how far it is off. The handle's axes are the base
 frame's (the master's convention), so the force pulls the handle the way that brings x_d' onto the fixture in
 both teleoperation modes. In the offset mode the handle feels the spring as K s_M.
 """

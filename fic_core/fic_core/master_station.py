@@ -15,8 +15,9 @@ The operator's tools (beyond the paper; docs/TOOLS.md, "The operator's tools"), 
   only once homed; the ``homing`` parameter reads true while it runs;
 - the force scale k_F beside the motion scale s_M (``workspace_scale``), with the loop-gain bound
   k_F s_M K_H <= 1 (fic_core.master): a change past it is refused, a K_H from a button or a topic is clamped to it;
-- a guidance fixture (fic_core.guidance_fixture), a plane or a line in x_d' coordinates: its force is added to
-  Eq. 3's while the handle is engaged.
+- a guidance fixture (fic_core.guidance_fixture), a plane or a line in x_d' coordinates: the x_d' sent to the
+  replica is projected onto it, and its guidance force is added to Eq. 3's while the handle is engaged. Switching
+  a fixture on, off or elsewhere moves the sent goal to its new place at ``GOAL_TRANSITION_SPEED``, never in a jump.
 
 ``configure`` is the parameter dispatch: a change of the handle's profile rebuilds its attractor (phase reset),
 the others are applied in place; every value is checked before any is applied. Notices (what the caller should
@@ -41,6 +42,7 @@ from .norm_bound import norm_bounded
 from .parameter_row import ParameterRow, number, numbers, rows_by_name, switch, text
 from .operator_buttons import HAPTIC_GAIN_STEP, ButtonEdges, OperatorButton
 from .profile import ForceProfile
+from .set_point import ShrinkingOffset
 from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
 
 #: Parameters of the handle's FIC profile (Eq. 1); changing one rebuilds the attractor (phase reset).
@@ -120,6 +122,9 @@ class Engagement(IntEnum):
 
 
 _ROWS = {**MASTER_NUMBERS, **MASTER_TOOLS}
+#: A guidance fixture switched on, off or moved takes the sent x_d' to its new place at this speed [m/s] (the
+#: replica's own resume speed): the replica's goal never jumps.
+GOAL_TRANSITION_SPEED = 0.1
 _NO_FORCE = np.zeros(3)   # F_R while the clutch is held, the guidance force while there is none
 _NO_FORCE.setflags(write=False)
 
@@ -173,6 +178,9 @@ class MasterStation:
         self.clutch_held = bool(values["clutch"])
         self.homing_active = bool(values["homing"])
         self.guidance_force = _NO_FORCE   # the fixture's force at the last control tick (read only)
+        # The sent x_d' (projected onto the fixture, if any) and what is left of a fixture change's jump.
+        self.sent_offset: NDArray[np.float64] | None = None
+        self._goal_transition = ShrinkingOffset()
         self.integrator.hold(self.engagement != Engagement.ENGAGED)
         self.feedback_timeout = finite_scalar("feedback_timeout", values["feedback_timeout"], minimum=0.0)
         self.pose_timeout = finite_scalar("pose_timeout", values["pose_timeout"], minimum=0.0)
@@ -225,6 +233,9 @@ class MasterStation:
         if fixture_changed:
             self.fixture = fixture
             self.guidance_force = _NO_FORCE
+            if self.sent_offset is not None:   # the sent goal moves to its new place at a bounded speed
+                self._goal_transition.start(self.sent_offset, self._goal(self.integrator.desired_offset),
+                                            GOAL_TRANSITION_SPEED)
             notices.append(("info", f"guidance fixture: {values['guidance_fixture']}"))
         for name, new in changes.items():
             if name == "haptic_gain":
@@ -436,7 +447,12 @@ class MasterStation:
         dt = 0.0 if self._last_network_time is None else max(now - self._last_network_time, 0.0)
         self._last_network_time = now
         self.network_handle_position = handle
-        return self.integrator.update(handle, dt)
+        self.sent_offset = self._goal_transition.apply(self._goal(self.integrator.update(handle, dt)), dt)
+        return self.sent_offset
+
+    def _goal(self, offset: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The goal sent for the handle's x_d': its projection onto the guidance fixture, if there is one."""
+        return offset if self.fixture is None else self.fixture.projection(offset)
 
     def loop_gain(self) -> float:
         """G = k_F s_M K_H (at most 1)."""

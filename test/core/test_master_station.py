@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fic_core.errors import FicInputError
-from fic_core.master_station import Engagement, MasterStation
+from fic_core.master_station import GOAL_TRANSITION_SPEED, Engagement, MasterStation
 from fic_core.operator_buttons import ButtonEdges, OperatorButton
 from fic_core.teleoperation import TeleoperationMode
 
@@ -208,11 +208,15 @@ def test_a_plane_fixture_guides_x_d_onto_it_while_engaged() -> None:
     np.testing.assert_allclose(force, own + guidance)
     np.testing.assert_allclose(station.guidance_force, guidance)
     np.testing.assert_allclose(station.fixture_goal(), [0.02, 0.0, 0.004])
+    for k in range(2, 8):   # switched on at x_d' = 0 (4 mm off the plane): its jump given back at 0.1 m/s
+        _, offset, _ = move(station, handle, 0.01 * k)
+    np.testing.assert_allclose(offset, [0.02, 0.0, 0.004])   # the replica's goal is the projection
+    np.testing.assert_allclose(station.integrator.desired_offset, [0.02, 0.0, 0.01])   # the handle's x_d' is not
     # Not rendered while the clutch is held; gone with the fixture.
     station.configure({"clutch": True})
-    np.testing.assert_allclose(move(station, handle, 0.02)[0], own)
+    np.testing.assert_allclose(move(station, handle, 0.08)[0], own)
     station.configure({"clutch": False, "guidance_fixture": "none"})
-    np.testing.assert_allclose(move(station, handle, 0.03)[0], own)
+    np.testing.assert_allclose(move(station, handle, 0.09)[0], own)
     assert station.fixture_goal() is None
     # A fixture that cannot be is refused, and the one in place stays.
     station.configure({"guidance_fixture": "line", "guidance_direction": [1.0, 0.0, 0.0]})
@@ -221,3 +225,22 @@ def test_a_plane_fixture_guides_x_d_onto_it_while_engaged() -> None:
     with pytest.raises(FicInputError, match="guidance_fixture must be one of"):
         station.configure({"guidance_fixture": "sphere"})
     assert station.fixture.kind.name == "LINE" and station.parameters["guidance_fixture"] == "line"
+
+
+def test_switching_a_fixture_moves_the_sent_goal_at_a_bounded_speed_never_in_a_jump() -> None:
+    station = engaged_station(haptic_gain=0.0)
+    handle = np.array([0.01, 0.0, 0.015])   # x_d' = (0.02, 0, 0.03)
+    _, offset, _ = move(station, handle, 0.0)
+    np.testing.assert_allclose(offset, [0.02, 0.0, 0.03])
+    station.configure({"guidance_fixture": "plane", "guidance_point": [0.0, 0.0, 0.0],
+                       "guidance_direction": [0.0, 0.0, 1.0]})
+    sent = [offset]
+    for k in range(1, 60):   # 10 ms network ticks: 30 mm at 0.1 m/s take 0.3 s
+        sent.append(move(station, handle, 0.01 * k)[1])
+    steps = np.linalg.norm(np.diff(sent, axis=0), axis=1)
+    assert steps.max() <= GOAL_TRANSITION_SPEED * 0.01 + 1e-12
+    np.testing.assert_allclose(sent[-1], [0.02, 0.0, 0.0], atol=1e-12)   # on the plane once the jump is given back
+    station.configure({"guidance_fixture": "none"})
+    back = [move(station, handle, 0.59 + 0.01 * k)[1] for k in range(1, 40)]
+    assert np.linalg.norm(np.diff([sent[-1], *back], axis=0), axis=1).max() <= GOAL_TRANSITION_SPEED * 0.01 + 1e-12
+    np.testing.assert_allclose(back[-1], [0.02, 0.0, 0.03], atol=1e-12)
