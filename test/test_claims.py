@@ -14,6 +14,7 @@ import pytest
 from sim_bridge.experiments.claims import (ClaimRun, claim_cells, claim_runs, execute, load_series, save_series,
                                            dense_cell, tail_for, thinned)
 from sim_bridge.experiments import claims_sweep
+from sim_bridge.experiments.claims import judge_series as claims_sweep_judge
 from sim_bridge.experiments.in_process import run
 
 
@@ -181,3 +182,12 @@ def test_a_task_drawn_per_seed_needs_the_closed_loop_operator_and_a_known_hand()
         run(dataclasses.replace(ClaimRun(0.2, 0.0, "fic", "passive", 1, 1.0).config(), operator="scripted"))
     with pytest.raises(ValueError, match="hand"):
         run(dataclasses.replace(ClaimRun(0.2, 0.0, "fic", "passive", 1, 1.0).config(), hand="tense"))
+
+
+def test_a_kept_claim_run_with_its_quiet_tail_is_assessed(tmp_path) -> None:
+    """The kept series (thinned to 50 Hz) ends one sample before the run does, so its tail is a sample shorter than
+    tail_for made it: the verdict still judges it (it said 'not assessed' for every run of the sweep)."""
+    claim = ClaimRun(0.0, 10.0, "fic", "passive", 1, 3.0, tail=tail_for(0.0))
+    row = execute(claim, tmp_path)
+    verdict = claims_sweep_judge(tmp_path / row["series"], claim.delay)
+    assert verdict["stable"] is not None, verdict["stable_reasons"]
