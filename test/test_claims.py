@@ -187,7 +187,7 @@ def test_a_task_drawn_per_seed_needs_the_closed_loop_operator_and_a_known_hand()
 def test_a_kept_claim_run_with_its_quiet_tail_is_assessed(tmp_path) -> None:
     """The kept series (thinned to 50 Hz) ends one sample before the run does, so its tail is a sample shorter than
     tail_for made it: the verdict still judges it (it said 'not assessed' for every run of the sweep)."""
-    claim = ClaimRun(0.0, 10.0, "fic", "passive", 1, 3.0, tail=tail_for(0.0))
+    claim = ClaimRun(0.2, 10.0, "fic", "passive", 1, 30.0, tail=tail_for(0.2))   # a run of the sweep
     row = execute(claim, tmp_path)
     verdict = claims_sweep_judge(tmp_path / row["series"], claim.delay)
     assert verdict["stable"] is not None, verdict["stable_reasons"]
