@@ -25,12 +25,14 @@ Why each is what it is:
 - ``SET_POINT``: x_d' through the channel and x_d'' from the planner at the replica: no loss but the channel's,
   depth 1. A deeper queue behind a busy replica handed it commands up to depth x period old (measured: a pipeline
   latency p99 of about 200 ms with depth 20 at 100 Hz).
+- ``latched``: episode markers (episode_markers.py): RELIABLE and TRANSIENT_LOCAL, so that a reader that joins
+  late (a recorder discovering the topic after the first mark) still gets the marks already made.
 - ``DIAGNOSTICS``: /diagnostics, also rclcpp::SystemDefaultsQoS() as the RMW resolves it (``SYSTEM_DEFAULTS``,
   what the real drivers use: reliable, volatile, keep last 10).
 """
 from __future__ import annotations
 
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 
 def reliable(depth: int) -> QoSProfile:
@@ -41,6 +43,12 @@ def reliable(depth: int) -> QoSProfile:
 def best_effort(depth: int) -> QoSProfile:
     """BEST_EFFORT, volatile, KEEP_LAST ``depth``."""
     return QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=HistoryPolicy.KEEP_LAST, depth=depth)
+
+
+def latched(depth: int) -> QoSProfile:
+    """RELIABLE, TRANSIENT_LOCAL, KEEP_LAST ``depth``: a late reader gets the last ``depth`` samples."""
+    return QoSProfile(reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                      history=HistoryPolicy.KEEP_LAST, depth=depth)
 
 
 WRITER_HISTORY = 1000  # samples a stream's writer keeps for a stalled reader: a second at 1 kHz

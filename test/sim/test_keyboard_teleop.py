@@ -34,3 +34,13 @@ def test_q_and_ctrl_c_quit():
         state = KeyboardState()
         state.press(key, 0.0)
         assert state.quit
+
+
+def test_episode_keys_are_markers_taken_once_in_order_and_move_nothing():
+    state = KeyboardState()
+    for key in "kyXn":
+        state.press(key.lower() if key.isalpha() else key, 0.0)
+    axes, buttons = state.sample(0.0)
+    assert axes == [0.0, 0.0, 0.0] and 1 not in buttons
+    assert state.take_marks() == ["keep", "success", "discard", "failure"]
+    assert state.take_marks() == []

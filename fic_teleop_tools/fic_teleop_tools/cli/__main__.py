@@ -18,6 +18,9 @@ GROUPS = """the ros2 command each one stands in for:
   bag info BAG                          ros2 bag info BAG
   bag recover BAG NEW_BAG               (ros2 bag reindex rebuilds a torn bag's index; this rewrites it)
   bag play BAG [--rate R] [--topics T]  ros2 bag play BAG [--rate R] [--topics T]
+and two of our own (docs/TOOLS.md, "Datasets"):
+  dataset export RUN_DIR... --out DIR   runs as a LeRobot v3.0 dataset, one episode a run
+  episode mark keep|discard|success|failure   mark the running episode (recorded on /episode/marker)
 """
 
 
@@ -68,6 +71,24 @@ def parser() -> argparse.ArgumentParser:
     play.add_argument("--topics", nargs="+", default=None)
     play.add_argument("--wait-for-subscribers", type=float, default=0.0, metavar="SECONDS",
                       help="first wait up to this long until every topic has a subscriber (e.g. a recorder)")
+
+    dataset = groups.add_parser("dataset").add_subparsers(dest="verb", required=True)
+    export = dataset.add_parser("export", help="runs as a LeRobot v3.0 dataset (one episode a run)")
+    export.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run folders (runs/<date-time>), or bag folders "
+                        "with --scene")
+    export.add_argument("--out", required=True, help="the dataset's folder (new or empty)")
+    export.add_argument("--fps", type=int, default=None,
+                        help="frames a second (default: the rate the camera's source was recorded at, one for all "
+                             "runs; not above it)")
+    export.add_argument("--task", default=None, help="every episode's task (default: each run's --task, else the "
+                                                       "scene's)")
+    export.add_argument("--scene", default=None, help="the simulated scene the camera renders (default: run.json's)")
+    export.add_argument("--size", default="640x480", help="the camera's WIDTHxHEIGHT (default 640x480)")
+
+    episode = groups.add_parser("episode").add_subparsers(dest="verb", required=True)
+    mark = episode.add_parser("mark", help="mark the running episode: keep, discard, success or failure")
+    mark.add_argument("event")
+    mark.add_argument("--timeout", type=float, default=5.0, help="how long to wait for the recorder [s]")
     return top
 
 
@@ -95,6 +116,11 @@ def run(args: argparse.Namespace) -> int:
             names = settle(graph, lambda: node_names(graph), args.timeout)
         print("\n".join(names))
         return 0
+    if args.group in ("dataset", "episode"):
+        from fic_teleop_tools.cli import datasets
+        if args.group == "dataset":
+            return datasets.dataset_export(args.runs, args.out, args.fps, args.task, args.scene, args.size)
+        return datasets.episode_mark(args.event, args.timeout)
     from fic_teleop_tools.cli import bags
     if args.verb == "info":
         return bags.bag_info(args.bag)

@@ -1,7 +1,8 @@
 """Terminal keyboard teleop (like teleop_twist_keyboard): keys to sensor_msgs/Joy on /operator/joy at 50 Hz.
 
 axes[0..2] steer the virtual operator's hand target (haptic_device_node with operator_source:=joy); buttons
-toggle the teleoperation mode and raise/lower K_H (read by the master). The key logic is keyboard_teleop.py;
+toggle the teleoperation mode and raise/lower K_H (read by the master); the episode keys publish markers on
+/episode/marker (fic_teleop_runtime.episode_markers), which the recorder records and the dataset export honours. The key logic is keyboard_teleop.py;
 this file owns the terminal (raw mode, restored on every exit path) and the ROS wiring.
 """
 from __future__ import annotations
@@ -15,8 +16,10 @@ import tty
 import rclpy
 from rclpy.node import Node
 from sensor_msgs.msg import Joy
+from std_msgs.msg import String
 
 from fic_teleop_runtime import qos
+from fic_teleop_runtime.episode_markers import MARKER_QOS, MARKER_TOPIC
 from fic_teleop_runtime.node_main import run_node
 from fic_teleop_runtime.parameters import Schema, declare, number
 from sim_bridge.device.keyboard_teleop import HELP, KeyboardState, split_keys
@@ -37,7 +40,9 @@ class KeyboardOperator(Node):
         self.state = KeyboardState(hold_time=values["hold_time"])
         self.mode = 0                  # what the master should be in if it started in OFFSET (display only)
         self.gain_presses = 0
+        self.last_mark = "none"
         self.publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
+        self.marker_publisher = self.create_publisher(String, MARKER_TOPIC, MARKER_QOS)
         self.create_timer(1.0 / values["rate_hz"], self._tick)
 
     def _now(self) -> float:
@@ -64,8 +69,12 @@ class KeyboardOperator(Node):
         message.axes = [float(a) for a in axes]
         message.buttons = buttons
         self.publisher.publish(message)
+        for mark in self.state.take_marks():
+            self.marker_publisher.publish(String(data=mark))
+            self.last_mark = mark
         sys.stdout.write(f"\r axes x {axes[0]:+.0f} y {axes[1]:+.0f} z {axes[2]:+.0f} | mode (if the master "
-                         f"started in OFFSET) {MODE_NAMES[self.mode]:8s} | K_H presses {self.gain_presses:+d}   ")
+                         f"started in OFFSET) {MODE_NAMES[self.mode]:8s} | K_H presses {self.gain_presses:+d} | "
+                         f"episode {self.last_mark:7s}   ")
         sys.stdout.flush()
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from fic_teleop_runtime.episode_markers import DISCARD, FAILURE, KEEP, SUCCESS
 from sim_bridge.device.virtual_operator import BUTTON_COUNT, BUTTON_HAPTIC_GAIN_DOWN, BUTTON_HAPTIC_GAIN_UP, BUTTON_TOGGLE_MODE
 
 # Arrow keys arrive as ANSI escape sequences; they are decoded to these names first.
@@ -21,6 +22,8 @@ MOTION_KEYS = {
 }
 BUTTON_KEYS = {"m": BUTTON_TOGGLE_MODE, "+": BUTTON_HAPTIC_GAIN_UP, "=": BUTTON_HAPTIC_GAIN_UP,
                "-": BUTTON_HAPTIC_GAIN_DOWN, "_": BUTTON_HAPTIC_GAIN_DOWN}
+# The episode's markers (fic_teleop_runtime.episode_markers): keep or discard it, and whether it succeeded.
+MARKER_KEYS = {"k": KEEP, "x": DISCARD, "y": SUCCESS, "n": FAILURE}
 STOP_KEY = " "
 QUIT_KEYS = ("q", "\x03")          # q, Ctrl-C (raw mode delivers it as a character, not a signal)
 
@@ -30,6 +33,8 @@ fic_teleop keyboard operator  (publishes sensor_msgs/Joy on /operator/joy)
   r/f                +z/-z                     hold a key to keep moving, release to stop
   m                  toggle OFFSET/VELOCITY mode (the master keeps the mode)
   + / -              raise / lower the haptic gain K_H
+  k / x              keep / discard this episode (the dataset export leaves a discarded one out)
+  y / n              mark the episode a success / a failure
   space              stop all motion           q or Ctrl-C   quit
 """
 
@@ -56,6 +61,7 @@ class KeyboardState:
     _last_press: list[float] = field(default_factory=lambda: [float("-inf")] * 3)
     _pending_buttons: list[int] = field(default_factory=list)
     _button_down: bool = False
+    _pending_marks: list[str] = field(default_factory=list)
     quit: bool = False
 
     def press(self, key: str, now: float) -> None:
@@ -65,6 +71,8 @@ class KeyboardState:
             self._last_press[axis] = now
         elif key in BUTTON_KEYS:
             self._pending_buttons.append(BUTTON_KEYS[key])
+        elif key in MARKER_KEYS:
+            self._pending_marks.append(MARKER_KEYS[key])
         elif key == STOP_KEY:
             self.axes = [0.0, 0.0, 0.0]
             self._last_press = [float("-inf")] * 3
@@ -84,3 +92,8 @@ class KeyboardState:
         else:
             self._button_down = False
         return list(self.axes), buttons
+
+    def take_marks(self) -> list[str]:
+        """The episode markers pressed since the last call, in order (each published once)."""
+        marks, self._pending_marks = self._pending_marks, []
+        return marks
