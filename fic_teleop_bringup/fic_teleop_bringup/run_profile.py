@@ -52,9 +52,12 @@ KEYS: dict[str, type | tuple[type, ...]] = {
     "parameters_in_lockstep": dict,
     "timing_bounds": dict,
     "stations": dict,
+    "dataset": dict,
 }
 #: Keys that only their mode's layer gives (realtime.yaml, the base, gives every other one).
-MODE_KEYS = {"stations": "two_stations"}
+MODE_KEYS = {"stations": "two_stations", "dataset": "demonstrations"}
+#: A demonstration session (demonstrations.py): how many episodes, their task, the dataset's fps and camera size.
+DATASET: dict[str, type | tuple[type, ...]] = {"episodes": int, "task": str, "fps": (int, type(None)), "size": str}
 #: The bounds of the "machine was starved" verdict (launch_timing.py): each a share, in (0, 1]. real_time_factor is
 #: optional: without it, the report's own target (launch_timing.TimingBounds.from_profile).
 TIMING_BOUNDS = ("real_time_factor", "loop_rate_fraction", "recorded_fraction")
@@ -75,7 +78,7 @@ OPTIONS: dict[str, type | tuple[type, ...]] = {"time_mode": str, "paper_law": bo
 NODES = ("robot", "recorder", "replica", "planner", "channel_forward", "channel_backward", "master", "haptic_device",
          "keyboard_operator", "fd_adapter", "command_relay", "recorder_master")
 _MERGED_BY_KEY = ("options", "niceness", "fifo_priorities", "parameters", "parameters_in_lockstep", "timing_bounds",
-                  "stations")
+                  "stations", "dataset")
 
 
 class ProfileError(ArgumentRefusal):
@@ -130,7 +133,22 @@ def read_layer(path: Path) -> dict[str, Any]:
         _check_timing_bounds(layer["timing_bounds"], f"{where} timing_bounds")
     if "stations" in layer:
         _check_stations(layer["stations"], f"{where} stations")
+    if "dataset" in layer:
+        _check_dataset(layer["dataset"], f"{where} dataset")
     return layer
+
+
+def _check_dataset(dataset: dict, where: str) -> None:
+    _check_keys(dataset, DATASET, where)
+    episodes = dataset.get("episodes")
+    if episodes is not None and not 1 <= episodes <= 1000:
+        raise ProfileError(f"{where} episodes: 1-1000 needed, got {episodes!r}")
+    fps = dataset.get("fps")
+    if fps is not None and fps <= 0:
+        raise ProfileError(f"{where} fps: > 0 or null (the camera's recorded rate) needed, got {fps!r}")
+    size = dataset.get("size")
+    if size is not None and not re.fullmatch(r"[1-9][0-9]*x[1-9][0-9]*", size):
+        raise ProfileError(f"{where} size: WIDTHxHEIGHT such as 640x480 needed, got {size!r}")
 
 
 def _check_timing_bounds(bounds: dict, where: str) -> None:

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-from fic_teleop_bringup import hardware_twin, node_groups, run_profile, two_stations
+from fic_teleop_bringup import demonstrations, hardware_twin, node_groups, run_profile, two_stations
 from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, domain_from_environment, \
     prepare_run_folder, whole_states_per_tick
 from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
@@ -465,6 +465,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
     two_stations.add_arguments(parser)
     hardware_twin.add_arguments(parser)
+    demonstrations.add_arguments(parser)
     parser.add_argument("--group", action="append", metavar="NODE,NODE[,...]",
                         help="run these nodes in one process, each still its own node (repeatable; e.g. "
                              "channel_forward,channel_backward); replaces the default groups (the channel pair; the "
@@ -505,6 +506,7 @@ def resolve_defaults(args: argparse.Namespace) -> None:
         args.operator = "shape-sorting" if args.scene == "shape_sorting" else "scripted"
     if args.trajectory is None:  # E1 superimposes the paper's circle; the other scenes are the operator's alone
         args.trajectory = "circle" if args.scene == "superimposition" else "fixed"
+    args.task = demonstrations.episode_task(args)   # kept in run.json: a dataset episode's task string
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -537,6 +539,8 @@ def main(argv: list[str] | None = None) -> int:
     except (ArgumentRefusal, two_stations.StationError) as refusal:
         print(f"[run] refused: {refusal}", file=sys.stderr)
         return EXIT_REFUSED
+    if demonstrations.is_session(args):   # the profile's episodes, each a run of this launcher, then the export
+        return demonstrations.run(list(sys.argv[1:] if argv is None else argv), args, run_dir)
     if args.two_stations and not two_stations.inside_station():   # namespaces up, this launcher run inside one
         if args.print_station_commands:
             print(two_stations.station_commands(args, run_dir, graph(args, run_dir / "bag"), NodeSpec, node_command))
