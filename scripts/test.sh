@@ -5,6 +5,8 @@
 set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$REPO/scripts/setup.sh"
+# Test-only: LeRobot's own dataset loader in .venv-lerobot (torch; never in the product's .venv), for the export test.
+"$REPO/scripts/setup_lerobot_env.sh"
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
 # A private log folder, and a graph that stays on this machine; each node-level test picks its own
