@@ -5,7 +5,9 @@ each episode is the launcher itself, run in a child process with the same option
 ``<run folder>/episode_<n>`` with seed ``--seed + n - 1``; then the episodes are exported
 (fic_teleop_tools.dataset.export, under a lower priority than any run) into ``<run folder>/dataset``. A run's
 episode markers (an operator's keep, discard, success, failure) are in its bag, and the export honours them.
-The session's exit code is the first failed episode's, else the export's (1 when it could not be done).
+Every episode with a bag is exported, also one whose run exited with an error code (a starved machine, a safety
+figure out of bounds): its run folder says why, and an operator's discard marker, or exporting the other run folders
+again, leaves it out. The session's exit code is the export's when it failed (1), else the first failed episode's.
 """
 from __future__ import annotations
 
@@ -76,7 +78,7 @@ def run(argv: list[str], args: argparse.Namespace, run_dir: Path) -> int:
     if interrupted:
         print("[demonstrations] interrupted: no export", file=sys.stderr)
         return first_failure or 130
-    return first_failure or export(episodes, run_dir / "dataset", dataset)
+    return export(episodes, run_dir / "dataset", dataset) or first_failure
 
 
 def export(episodes: list[Path], out: Path, dataset: dict) -> int:
