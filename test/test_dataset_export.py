@@ -106,7 +106,8 @@ def test_an_export_writes_the_v3_layout_with_held_values_markers_and_a_frame_a_t
     assert times == pytest.approx([k / 30 for k in range(data.num_rows)], abs=1e-6)
     stats = json.loads((out / "meta" / "stats.json").read_text())
     assert np.shape(stats["observation.images.scene"]["mean"]) == (3, 1, 1)
-    assert 0.0 < np.min(stats["observation.images.scene"]["mean"]) < np.max(stats["observation.images.scene"]["max"]) <= 1.0
+    camera = stats["observation.images.scene"]
+    assert 0.0 < np.min(camera["mean"]) < np.max(camera["max"]) <= 1.0
     assert stats["frame_index"]["count"] == [data.num_rows] and len(stats["observation.state"]["q50"]) == 21
     tasks = pq.read_table(out / "meta" / "tasks.parquet")
     assert tasks.column("__index_level_0__").to_pylist() == ["push the box"]
@@ -141,3 +142,9 @@ def test_bad_input_is_refused_in_one_line_and_writes_nothing(tmp_path, capsys, c
     line, = stderr.strip().splitlines()
     assert line.startswith("fic dataset export: ") and words in line
     assert not out.exists() or case == "out not empty"
+
+
+def test_a_marker_word_that_is_not_one_is_refused_before_anything_is_published(capsys) -> None:
+    assert fic(["episode", "mark", "sucess"]) == 1
+    line, = capsys.readouterr().err.strip().splitlines()
+    assert line == "fic episode mark: unknown episode marker 'sucess': one of keep, discard, success, failure"

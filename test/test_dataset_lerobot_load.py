@@ -27,8 +27,8 @@ PROBE = REPO / "test" / "lerobot_load_probe.py"
 FPS = 50   # the run's /sim/object_poses rate (the robot's default object_pose_rate_hz)
 
 pytestmark = pytest.mark.skipif(not LEROBOT_PYTHON.exists(),
-                                reason="LeRobot's loader is not installed: scripts/setup_lerobot_env.sh (scripts/test.sh "
-                                       "runs it)")
+                                reason="LeRobot's loader is not installed: scripts/setup_lerobot_env.sh "
+                                       "(scripts/test.sh runs it)")
 
 
 def _bag_streams(bag: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:

@@ -11,15 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterable
 
-from fic_teleop_runtime import qos
-
 MARKER_TOPIC = "/episode/marker"
 MARKER_TYPE = "std_msgs/msg/String"
 KEEP, DISCARD, SUCCESS, FAILURE = "keep", "discard", "success", "failure"
 EVENTS = (KEEP, DISCARD, SUCCESS, FAILURE)
-# Reliable and transient-local: a mark must not be lost, and a recorder that discovers the topic after the first
-# mark (it looks for new topics every 0.5 s) still gets the marks already published, up to 50 of them.
-MARKER_QOS = qos.latched(50)
+# Its QoS is fic_teleop_runtime.qos.MARKERS (this module imports no ROS: the keyboard's key logic and the export's
+# reading of a bag use it without a graph).
 
 
 class MarkerError(ValueError):

@@ -25,8 +25,8 @@ Why each is what it is:
 - ``SET_POINT``: x_d' through the channel and x_d'' from the planner at the replica: no loss but the channel's,
   depth 1. A deeper queue behind a busy replica handed it commands up to depth x period old (measured: a pipeline
   latency p99 of about 200 ms with depth 20 at 100 Hz).
-- ``latched``: episode markers (episode_markers.py): RELIABLE and TRANSIENT_LOCAL, so that a reader that joins
-  late (a recorder discovering the topic after the first mark) still gets the marks already made.
+- ``MARKERS``: episode markers (episode_markers.py): RELIABLE and TRANSIENT_LOCAL, KEEP_LAST 50, so that a mark is
+  not lost and a reader that joins late (a recorder looks for new topics every 0.5 s) still gets the marks made.
 - ``DIAGNOSTICS``: /diagnostics, also rclcpp::SystemDefaultsQoS() as the RMW resolves it (``SYSTEM_DEFAULTS``,
   what the real drivers use: reliable, volatile, keep last 10).
 """
@@ -58,5 +58,6 @@ EVENTS = reliable(50)
 ROBOT_STREAM = reliable(WRITER_HISTORY)
 NEWEST = best_effort(1)
 SET_POINT = reliable(1)
+MARKERS = latched(50)
 DIAGNOSTICS = reliable(10)
 SYSTEM_DEFAULTS = reliable(10)

@@ -38,7 +38,8 @@ def episode_mark(event: str, timeout: float) -> int:
     from std_msgs.msg import String
     from rclpy.duration import Duration
 
-    from fic_teleop_runtime.episode_markers import MARKER_QOS, MARKER_TOPIC, MarkerError, checked_event
+    from fic_teleop_runtime.episode_markers import MARKER_TOPIC, MarkerError, checked_event
+    from fic_teleop_runtime.qos import MARKERS
     from fic_teleop_tools.cli.graph import graph_node
 
     try:
@@ -46,7 +47,7 @@ def episode_mark(event: str, timeout: float) -> int:
     except MarkerError as error:
         raise CommandError(str(error)) from None
     with graph_node("fic_episode_mark") as node:
-        publisher = node.create_publisher(String, MARKER_TOPIC, MARKER_QOS)
+        publisher = node.create_publisher(String, MARKER_TOPIC, MARKERS)
         deadline = time.monotonic() + timeout
         while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
             time.sleep(0.05)

@@ -2,8 +2,9 @@
 
 axes[0..2] steer the virtual operator's hand target (haptic_device_node with operator_source:=joy); buttons
 toggle the teleoperation mode and raise/lower K_H (read by the master); the episode keys publish markers on
-/episode/marker (fic_teleop_runtime.episode_markers), which the recorder records and the dataset export honours. The key logic is keyboard_teleop.py;
-this file owns the terminal (raw mode, restored on every exit path) and the ROS wiring.
+/episode/marker (fic_teleop_runtime.episode_markers), which the recorder records and the dataset export honours.
+The key logic is keyboard_teleop.py; this file owns the terminal (raw mode, restored on every exit path) and the
+ROS wiring.
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from sensor_msgs.msg import Joy
 from std_msgs.msg import String
 
 from fic_teleop_runtime import qos
-from fic_teleop_runtime.episode_markers import MARKER_QOS, MARKER_TOPIC
+from fic_teleop_runtime.episode_markers import MARKER_TOPIC
 from fic_teleop_runtime.node_main import run_node
 from fic_teleop_runtime.parameters import Schema, declare, number
 from sim_bridge.device.keyboard_teleop import HELP, KeyboardState, split_keys
@@ -42,7 +43,7 @@ class KeyboardOperator(Node):
         self.gain_presses = 0
         self.last_mark = "none"
         self.publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
-        self.marker_publisher = self.create_publisher(String, MARKER_TOPIC, MARKER_QOS)
+        self.marker_publisher = self.create_publisher(String, MARKER_TOPIC, qos.MARKERS)
         self.create_timer(1.0 / values["rate_hz"], self._tick)
 
     def _now(self) -> float:
