@@ -7,8 +7,12 @@ from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
 
+import datasets
+import pyarrow.parquet as pq
 from ledataset.datasets.lerobot_dataset import CODEBASE_VERSION, LeRobotDataset
+from ledataset.datasets.utils import get_hf_features_from_features
 
 
 def main(root: str, indices: list[int]) -> None:
@@ -27,7 +31,13 @@ def main(root: str, indices: list[int]) -> None:
             "image_min": float(image.min()), "image_max": float(image.max()),
         })
     episodes = dataset.meta.episodes
+    # The data files' schema against the one LeRobot's writer gives the same features (types and metadata).
+    schema = pq.read_schema(Path(root) / dataset.meta.get_data_file_path(0))
+    expected = get_hf_features_from_features(dataset.meta.features)
     print(json.dumps({
+        "schema_as_lerobot_writes_it": datasets.Features.from_arrow_schema(schema) == expected
+        and schema.types == expected.arrow_schema.types
+        and json.loads(schema.metadata[b"huggingface"]) == json.loads(expected.arrow_schema.metadata[b"huggingface"]),
         "codebase_version": CODEBASE_VERSION, "fps": dataset.fps, "num_frames": dataset.num_frames,
         "num_episodes": dataset.num_episodes, "features": sorted(dataset.features),
         "camera_keys": dataset.meta.camera_keys, "length": len(dataset),

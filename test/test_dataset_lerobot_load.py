@@ -88,6 +88,7 @@ def test_lerobot_loads_a_real_runs_export_frame_for_frame_as_the_bag_has_it(tmp_
     loaded = json.loads(probe.stdout)
 
     assert loaded["codebase_version"] == "v3.0" and loaded["fps"] == FPS
+    assert loaded["schema_as_lerobot_writes_it"]
     assert loaded["num_episodes"] == 2 and loaded["length"] == loaded["num_frames"] == info["total_frames"]
     assert set(loaded["features"]) >= {"observation.state", "observation.wrench", "observation.handle.pose",
                                        "observation.handle.wrench", "action", "observation.images.scene"}
