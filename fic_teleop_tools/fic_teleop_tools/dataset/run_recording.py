@@ -120,6 +120,9 @@ def read_run(run: str | Path, task: str | None = None, scene: str | None = None)
                 joint_names = names
             elif names != joint_names:
                 raise RecordingError(f"{run}: {JOINT_STATES} changes its joint names within the run")
+            if len(msg.velocity) != len(names) or len(msg.position) != len(names):
+                raise RecordingError(f"{run}: {JOINT_STATES} does not give a position and a velocity for every "
+                                     "joint, which observation.state needs")
             rows[topic].append(list(msg.position) + list(msg.velocity))
         elif topic in POSE_TOPICS:
             rows[topic].append(_pose_row(msg.pose))
