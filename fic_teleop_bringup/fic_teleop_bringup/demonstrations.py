@@ -5,9 +5,11 @@ each episode is the launcher itself, run in a child process with the same option
 ``<run folder>/episode_<n>`` with seed ``--seed + n - 1``; then the episodes are exported
 (fic_teleop_tools.dataset.export, under a lower priority than any run) into ``<run folder>/dataset``. A run's
 episode markers (an operator's keep, discard, success, failure) are in its bag, and the export honours them.
-Every episode with a bag is exported, also one whose run exited with an error code (a starved machine, a safety
-figure out of bounds): its run folder says why, and an operator's discard marker, or exporting the other run folders
-again, leaves it out. The session's exit code is the export's when it failed (1), else the first failed episode's.
+An episode whose run kept every safety figure is exported, also when the machine was starved (exit 6: real time
+was not kept, the safety figures were); one whose run broke a safety figure (a limit, the velocity reflex, lost
+joint states, a crashed node, refused input) is left out and said so: it is no demonstration, and its run folder
+says why. An operator's discard marker leaves out any other. The session's exit code is the export's when it
+failed (1), else the first failed episode's.
 """
 from __future__ import annotations
 
@@ -18,6 +20,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_OK, EXIT_STARVED
 
 #: The child launcher's flag: run one episode, not a session (hidden from --help).
 EPISODE_FLAG = "--episode-of-session"
@@ -68,10 +72,15 @@ def run(argv: list[str], args: argparse.Namespace, run_dir: Path) -> int:
             code = child.wait()
             child = None
             if code:
-                print(f"[demonstrations] episode {number} exited {code} (its run folder says why)", file=sys.stderr)
                 first_failure = first_failure or code
-            if (folder / "bag").is_dir():
+            if code in (EXIT_OK, EXIT_STARVED) and (folder / "bag").is_dir():
                 episodes.append(folder)
+                if code:
+                    print(f"[demonstrations] episode {number} exited {code} ({EXIT_CODES[code]}); exported",
+                          file=sys.stderr)
+            elif not interrupted:
+                print(f"[demonstrations] episode {number} exited {code} ({EXIT_CODES.get(code, 'no bag')}): left out "
+                      "of the dataset; its run folder says why", file=sys.stderr)
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
