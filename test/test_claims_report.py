@@ -82,7 +82,7 @@ def test_command_line_writes_the_statistics_tables_and_figures(tmp_path):
     document = json.loads((tmp_path / "claims_statistics.json").read_text())
     assert document["seeds_planned"] == 20 and document["runs_judged"] == 45 and document["source"] == "claims.json"
     tables = (tmp_path / "claims_tables.md").read_text()
-    assert "| delay_1__rate_10 passive | linear | 20 | 12/20 | 0.39-0.78 | 19/20 |" in tables
+    assert "| delay_1__rate_10 passive | linear | 20 | 12/20 | 0.39-0.78 | - | " in tables
     assert "| delay_1__rate_10 passive | linear | stable | 20/20 | 12/20 | +0.40 | +0.16 to +0.61 |" in tables
     for name in ("claims_proportions.png", "claims_differences.png"):
         assert (tmp_path / name).stat().st_size > 10_000
@@ -133,7 +133,7 @@ def test_tables_say_how_many_runs_were_too_short_to_judge():
     from sim_bridge.experiments.tables import claims_markdown
     rows = [_row("c", "fic", 1, None), _row("c", "fic", 2, True)]
     table = claims_markdown(claims_statistics(rows))
-    assert "| c passive | fic | 2 | 1/1 (1 not assessed) | 0.21-1.00 | 2/2 |" in table
+    assert "| c passive | fic | 2 | 1/1 (1 not assessed) | 0.21-1.00 | - | " in table
 
 
 def test_update_readme_replaces_only_the_block(tmp_path):
@@ -155,13 +155,17 @@ def test_each_stable_test_is_counted_where_it_failed():
     """The table that tells which test decided a law's share: one count per test, a run failing two counts twice."""
     rows = _runs()
     reasons = {1: ["sustained oscillation of x_d - x_R: 9.0 mm at 1.60 s"],
+               4: ["free oscillation in the quiet tail: x_R - command swings 4.0 mm in its last window"],
+               5: ["free oscillation in the quiet tail: x_M - operator target swings 2.0 mm in its last window",
+                   "energy does not decay in the quiet tail: kinetic energy peaks at 3 mJ in its last window"],
                2: ["steady energy generation at the channel's ports: 80 mW", "runaway: joint 2 at 3.00 rad/s"],
                3: ["parked: |x_d - x_R| above 100 mm for 4.0 s on end outside contact"]}
     for row in rows:
         if row["controller"] == "linear" and row["seed"] in reasons:
             row["verdict"].update(stable=False, stable_reasons=reasons[row["seed"]])
     (cell,) = claims_statistics(rows, seeds_planned=20)["cells"]
-    assert cell["laws"]["linear"]["unstable_by_test"] == {"oscillation": 1, "growing energy": 0,
+    assert cell["laws"]["linear"]["unstable_by_test"] == {"tail motion": 2, "tail energy": 1,
+                                                          "oscillation (no tail)": 1, "growing energy": 0,
                                                           "port generation": 1, "runaway": 1, "parked": 1}
     assert set(cell["laws"]["fic"]["unstable_by_test"].values()) == {0}
 
@@ -203,3 +207,21 @@ def test_the_resonant_amplification_the_verdict_found_is_summarised_per_law():
     block = readme_claims(statistics)
     assert "Resonant amplification the verdict found on `delay_1__rate_10__feedback_off` (reactive hand" in block
     assert block.rstrip().endswith("fic 1.80 at 1.60 s.")
+
+
+def test_each_laws_swing_and_tracking_error_stand_beside_its_stable_share():
+    """A law that is stable but swings 20 mm is worse for fine work: the tables and README's block show its swing (the
+    verdict's figure) and its RMS tracking error beside its stable share."""
+    from sim_bridge.experiments.tables import claims_markdown, readme_claims
+
+    rows = [_row("delay_1__rate_10", law, seed, True) for law in ("fic", "linear") for seed in range(1, 21)]
+    for row in rows:
+        row["verdict"]["figures"] = {"swing_m": 0.020 if row["controller"] == "linear" else 0.004}
+        row["figures"]["error_rms_m"] = 0.012 if row["controller"] == "linear" else 0.006
+    statistics = claims_statistics(rows, seeds_planned=20)
+    (cell,) = statistics["cells"]
+    assert cell["laws"]["linear"]["swing_median"] == pytest.approx(0.020)
+    table = claims_markdown(statistics)
+    assert "| delay_1__rate_10 passive | linear | 20 | 20/20 | 0.84-1.00 | 20.0 / 20.0 | 12.0 / 12.0 | 20/20 |" in table
+    block = readme_claims(statistics)
+    assert "20/20 (0.84-1.00); swing 4 mm, error 6 mm" in block and "linear 20/20; swing 20 mm, error 12 mm" in block

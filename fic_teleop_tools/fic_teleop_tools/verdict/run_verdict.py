@@ -1,7 +1,12 @@
 """Two verdicts per run, STABLE and SAFE, each with its reasons (docs/EXPERIMENTS.md, "The run verdict").
 
-STABLE (None when the run is too short to judge the periods below) holds when none of these is seen over the judged
-span, which starts ``settle`` seconds into the run:
+STABLE is judged by the loop's FREE RESPONSE when the run ends with a quiet tail (``VerdictInput.quiet_from``: the
+planner's trajectory stopped, the operator's target still, the hand still holding the handle, the link running; every
+claim run has one). A loop that is unstable keeps moving with no input; a stable loop's driven swing stops when the
+input stops. So the verdict does not have to tell a stable loop's answer to its input from an oscillation of its own
+while the input moves, which no test on the task alone does reliably (a resonant loop's forced swing and a limit
+cycle look alike there). STABLE (None when the run or its tail is too short to judge) holds when none of these is
+seen over the judged span, which starts ``settle`` seconds into the run:
 
 1. GROWING ENERGY. The loop's mechanical energy (the replica arm's and the handle's kinetic energy; from a bag, the
    controller's stored plus kinetic energy) peaks higher in every window of W = max(``min_window``, 2 round trips)
@@ -11,7 +16,30 @@ span, which starts ``settle`` seconds into the run:
    peaks every P/2, so a window of 2 round trips holds a full energy period of the slowest delay-induced
    oscillation. Rising in EVERY window, not just last against first: an operator's aperiodic moves make the peaks go
    up and down, a growing oscillation makes them rise.
-2. SUSTAINED OSCILLATION at any period from 0.2 s to the longest the span holds 1.5 times (which must reach
+2'. FREE OSCILLATION IN THE QUIET TAIL (runs with a tail). The tail's first ``tail_flush`` seconds (1 s) and one round
+   trip are left out: the operator's last target reaches the replica one delay after it stops and the replica's
+   answer reaches the hand another delay later, and the planner comes to rest within 0.8 s (fic_core.
+   stopped_trajectory). What follows must last max(4 round trips, 8 s) (``tail_needed``; shorter: not assessed): a
+   delay-induced oscillation has a period of at most about 4 round trips, so it holds one period of the slowest and
+   two of its kinetic-energy peaks, and 8 s holds several periods of the arm's and the hand's own modes. It is cut into
+   windows of max(2 s, 2 round trips) (half the slowest period: each holds a kinetic-energy peak), half a window apart
+   (at least 3). Per window, each motion the scan looks at (x_M minus the hand's target, x_d and x_R minus the command,
+   x_d - x_R) has an amplitude (sqrt 2 times its RMS about the window's mean, largest axis) and the arm's and handle's
+   kinetic energy a peak. A motion is a FREE OSCILLATION when it is above ``tail_motion_floor`` (1 mm, 2 % of x_b: the
+   claim runs' driven swings fall from 10-15 mm to 0.1-0.9 mm once the input stops) in each of the last 3 windows
+   and does not decay: its last window keeps at least ``tail_motion_decay`` (0.7) of its first window's amplitude, or
+   at least 0.7^(share of the span) of its middle window's (the same rate over the later half: an exponential decay
+   meets both or neither, a stop's transient dying out on top of a steady oscillation meets only the first). The
+   energy likewise, with ``tail_energy_decay`` (0.5 = 0.7^2, the same decay in energy) above ``energy_floor``. Why 0.7:
+   a free response that loses less than half its energy from the first window to the last (at long delays half the
+   slowest delay-induced period apart: a damping ratio under 0.11 there, e^(-pi zeta) = 0.7; at short delays 6 s
+   apart: an amplitude time constant over 17 s) is at the edge of stability, and to the operator it is an
+   oscillation. A decaying
+   response is a stable loop whatever its size; a motion below the floor is rest.
+2. SUSTAINED OSCILLATION (runs WITHOUT a tail: a bag, a run kept before tails; with a tail the same scan runs over the
+   task only and is REPORTED, not judged: ``swing_m``, x_R's largest swing about its command (the scan's amplitude of
+   x_R - command with nothing excused, at the period where most of its windows oscillate), and the forced-answer fit's
+   figures below) at any period from 0.2 s to the longest the span holds 1.5 times (which must reach
    max(4 round trips, ``min_longest_period``), else the run is not assessed): fic_teleop_tools.verdict.oscillation_scan
    on each motion minus its known command (x_M minus the hand's target; x_d and x_R minus the commanded motion; the
    tracking error x_d - x_R), outside contact, LESS THE LOOP'S FORCED ANSWER to its exogenous input
@@ -367,7 +395,8 @@ def _free_response(time: NDArray, start: float, window: float, residuals: dict[s
             reasons.append(f"energy does not decay in the quiet tail: kinetic energy peaks at {peaks[-1] * 1e3:.3g} mJ "
                            f"in its last window, {whole:.2f} of its first and {later:.2f} of its middle one "
                            f"(decaying is under {criterion.tail_energy_decay:g} and "
-                           f"{criterion.tail_energy_decay ** share:.2f}, rest under {criterion.energy_floor * 1e3:g} mJ)")
+                           f"{criterion.tail_energy_decay ** share:.2f}, rest under "
+                           f"{criterion.energy_floor * 1e3:g} mJ)")
     return reasons, figures
 
 
@@ -544,9 +573,8 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
     else:
         tail_span, tail_needed = float(time[-1]) - quiet_from, criterion.tail_needed(data.one_way_delay)
         figures.update(quiet_from_s=quiet_from, tail_s=tail_span, tail_needed_s=tail_needed)
-        # A run whose tail was made exactly tail_needed long ends one sample before it (the last sample is at
-        # duration - step) and the difference of two float times can round below that: 1.5 steps of slack.
-        assessed = tail_span >= tail_needed - 1.5 * step
+        # Two samples short is whole: the kept series' last sample is a step before the run's end.
+        assessed = tail_span >= tail_needed - 2.0 * step
     scan_free = free & task
     if finite and assessed:
         # 1. Growing energy.
@@ -705,8 +733,9 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
             notes.append("no channel port energy: the generation-rate test is skipped")
     elif finite and quiet_from is not None:
         stable_reasons.append(f"not assessed: a quiet tail of {float(time[-1]) - quiet_from:.1f} s, the free response "
-                              f"needs {criterion.tail_needed(data.one_way_delay):.1f} s (max("
-                              f"{criterion.tail_round_trips:g} round trips, {criterion.tail_min:g} s))")
+                              f"needs {criterion.tail_needed(data.one_way_delay):.1f} s ({criterion.tail_flush:g} s "
+                              f"and a round trip of flush, then max({criterion.tail_round_trips:g} round trips, "
+                              f"{criterion.tail_min:g} s))")
     elif finite:
         run_needed = criterion.settle + criterion.scan.min_cycles * needed
         stable_reasons.append(f"not assessed: periods up to {needed:.1f} s (max(4 round trips, "

@@ -279,7 +279,8 @@ def execute(claim: ClaimRun, directory: str | Path, provenance: dict[str, Any] |
 #: run_verdict figures kept with each judged run in results/claims.json.
 VERDICT_FIGURES = ("channel_generation_rate_w", "channel_generation_rate_all_w", "channel_generation_free_s",
                    "contact_share", "excluded_share", "energy_growth", "free_error_max_m", "resonance_gain",
-                   "resonance_period_s")
+                   "resonance_period_s", "swing_m", "swing_period_s", "quiet_from_s", "tail_motion_max_m",
+                   "tail_motion_ratio", "tail_energy_ratio")
 
 
 def judge_series(path: Path, delay: float) -> dict[str, Any]:

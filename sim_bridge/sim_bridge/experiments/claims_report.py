@@ -11,9 +11,10 @@ short to judge; a row without a verdict is a run not judged (yet): counted, neve
 (a resumed sweep) counts once, its last row.
 
 Output (``claims_statistics``): {"cells": [...], "comparisons": [...], counts}; each cell per law: stable and safe
-k/n with Wilson 95 % intervals, the seeds judged, median and p95 of the RMS error, the maximum error and the peak
-force; each comparison: the FIC against one baseline on one cell, for both verdicts, p_FIC - p_baseline with
-Newcombe's 95 % interval, Boschloo's exact p and Fisher's.
+k/n with Wilson 95 % intervals, the seeds judged, median and p95 of the swing (the verdict's figure: x_R's swing
+about its command during the task), the RMS error, the maximum error and the peak force; each comparison: the FIC
+against one baseline on one cell, for both verdicts, p_FIC - p_baseline with Newcombe's 95 % interval, Boschloo's
+exact p and Fisher's.
 
     python -m sim_bridge.experiments.claims_report results/claims.json      # -> results/claims_statistics.json,
                                                                              #    claims_tables.md, claims_*.png
@@ -85,7 +86,9 @@ def figure_of(row: dict, name: str):
 
 
 #: The stable verdict's tests (fic_teleop_tools.verdict.run_verdict), each named by how its reasons begin.
-UNSTABLE_TESTS = {"oscillation": "sustained oscillation", "growing energy": "growing energy",
+UNSTABLE_TESTS = {"tail motion": "free oscillation in the quiet tail",
+                  "tail energy": "energy does not decay in the quiet tail",
+                  "oscillation (no tail)": "sustained oscillation", "growing energy": "growing energy",
                   "port generation": "steady energy generation", "runaway": "runaway", "parked": "parked"}
 
 
@@ -116,6 +119,9 @@ def law_statistics(rows: Sequence[dict]) -> dict:
     out["resonance_gain_median"], out["resonance_gain_p95"] = median_and_p95(
         [f.get("resonance_gain") for f in verdict_figures])
     out["resonance_period_median_s"] = median_and_p95([f.get("resonance_period_s") for f in verdict_figures])[0]
+    # The swing (run_verdict: the oscillation scan's amplitude of x_R about its command during the task), beside the
+    # stable share: a law that is stable but swings 20 mm about its command is worse for fine work than its share says.
+    out["swing_median"], out["swing_p95"] = median_and_p95([f.get("swing_m") for f in verdict_figures])
     return out
 
 

@@ -31,7 +31,7 @@ from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANC
 from sim_bridge.experiments.in_process import RunConfig, run
 from sim_bridge.experiments.cell_statistics import wilson_interval
 from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box
-from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
+from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput, judge
 
 REPO = Path(__file__).resolve().parents[3]
 
@@ -91,9 +91,14 @@ def phase_forces(row: dict) -> list[tuple[str, float, float, float, float | None
 def trial(seed: int, duration: float, jitter: bool, operator: str, controller: str, delay: float,
           paper_law: bool | None = None) -> dict:
     """One seed's trial. ``paper_law``: the replica's Eq. 7 as the paper writes it (no inertial feedforward, no
-    friction compensation); None: as this script always ran the FIC (written), the baselines as configured."""
+    friction compensation); None: as this script always ran the FIC (written), the baselines as configured.
+    ``duration`` is the task's; a quiet tail (VerdictCriterion.tail_needed, as a claim run's: the operator stops, the
+    hand holds the handle, the link runs on) follows it, for the run verdict's free-response test. The force figures
+    are the task's; the pieces are counted where they are at the end."""
     written = controller == "fic" if paper_law is None else paper_law
-    config = RunConfig(scene="shape_sorting", trajectory="fixed", duration=duration, delay=delay, seed=seed,
+    tail = VerdictCriterion().tail_needed(delay)
+    config = RunConfig(scene="shape_sorting", trajectory="fixed", duration=duration + tail, quiet_from=duration,
+                       delay=delay, seed=seed,
                        controller=controller, operator=operator,
                        hand="reactive" if operator == "shape_sorting" else "passive",
                        replica_overrides={"paper_law": True} if written else {},
@@ -102,7 +107,7 @@ def trial(seed: int, duration: float, jitter: bool, operator: str, controller: s
                        hand_impedance_jitter=HAND_IMPEDANCE_JITTER if jitter else 0.0)
     result = run(config)
     inside = [name for name in PIECE_NAMES if inside_box(result.objects[name][0])]
-    force = np.linalg.norm(result.force, axis=1)
+    force = np.linalg.norm(result.force, axis=1) * (result.time < duration)   # the task's (the tail is the verdict's)
     dt = float(np.median(np.diff(result.time))) if len(result.time) > 1 else 0.0
     row = {"seed": seed, "pieces_inside": inside, "peak_force_n": round(float(force.max()), 1),
            "time_above_f_max_s": round(float((force > FORCE_OF_NOTE_N).sum() * dt), 2),

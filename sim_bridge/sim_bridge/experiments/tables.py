@@ -128,15 +128,16 @@ def _cell_label(row: dict) -> str:
 
 def claims_markdown(document: dict) -> str:
     """The claim sweep's tables (results/claims_tables.md; docs/EXPERIMENTS.md "Claims" pastes them): per cell and
-    law both verdicts' k/n with Wilson intervals and the error and force figures; the FIC against each baseline."""
+    law both verdicts' k/n with Wilson intervals, the swing and the tracking error beside the stable share, and the
+    error and force figures; the FIC against each baseline."""
     planned = document.get("seeds_planned")
     source = document.get("source", "the sweep")
     lines = [f"Runs: {document['runs_judged']} judged of {document['runs_total']} in {source}"
              + (f"; {planned} seeds a cell and law planned" if planned else "") + ".", "",
-             "| cell | law | runs judged | stable k/n | Wilson 95 % | safe k/n | Wilson 95 % "
-             "| error RMS median / p95 [mm] "
+             "| cell | law | runs judged | stable k/n | Wilson 95 % | swing median / p95 [mm] "
+             "| error RMS median / p95 [mm] | safe k/n | Wilson 95 % "
              "| error max median / p95 [mm] | peak force median / p95 [N] |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for cell in document["cells"]:
         for law, s in cell["laws"].items():
             stable, stable_interval = _share(s["stable"])
@@ -144,8 +145,9 @@ def claims_markdown(document: dict) -> str:
                 stable += f" ({s['judged'] - s['stable']['n']} not assessed)"
             safe, safe_interval = _share(s["safe"])
             seeds = f"{s['judged']}" + ("" if s["judged"] == s["runs"] else f" ({s['runs']} run)")
-            lines.append(f"| {_cell_label(cell)} | {law} | {seeds} | {stable} | {stable_interval} | {safe} | "
-                         f"{safe_interval} | {_pair(s['error_rms_median'], s['error_rms_p95'], 1e3, 1)} | "
+            lines.append(f"| {_cell_label(cell)} | {law} | {seeds} | {stable} | {stable_interval} | "
+                         f"{_pair(s.get('swing_median'), s.get('swing_p95'), 1e3, 1)} | "
+                         f"{_pair(s['error_rms_median'], s['error_rms_p95'], 1e3, 1)} | {safe} | {safe_interval} | "
                          f"{_pair(s['error_max_median'], s['error_max_p95'], 1e3, 1)} | "
                          f"{_pair(s['peak_force_median'], s['peak_force_p95'], 1.0, 1)} |")
     from sim_bridge.experiments.claims_report import UNSTABLE_TESTS
@@ -245,6 +247,15 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
         low, high = share["interval_95"]
         return f"{share['k']}/{share['n']} ({low:.2f}-{high:.2f})"
 
+    def motion_text(law_statistics: dict) -> str:
+        """The law's median swing and RMS tracking error beside its stable share, when the verdict reported a
+        swing (statistics judged before it have none, and their block reads as it did)."""
+        if law_statistics.get("swing_median") is None:
+            return ""
+        error = law_statistics.get("error_rms_median")
+        return (f"; swing {law_statistics['swing_median'] * 1e3:.0f} mm"
+                + ("" if error is None else f", error {error * 1e3:.0f} mm"))
+
     readings: list[str] = []
     controls = [(cell_id, meaning, True) for cell_id, meaning in README_CONTROL_CELLS
                 if any(key[0] == cell_id for key in cells)]
@@ -255,8 +266,8 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
                 continue
             laws = cell["laws"] if cell else {}
             ours = laws.get(reference, {})
-            baselines = ", ".join(f"{law} {s['stable']['k']}/{s['stable']['n']}" for law, s in laws.items()
-                                  if law != reference and s["stable"]["n"]) or "-"
+            baselines = ", ".join(f"{law} {s['stable']['k']}/{s['stable']['n']}{motion_text(s)}"
+                                  for law, s in laws.items() if law != reference and s["stable"]["n"]) or "-"
             differences = []
             for law in laws:
                 comparison = comparisons.get((cell_id, hand, law), {}).get("stable")
@@ -268,7 +279,8 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
             reading = CONTROL_READING if control else claim_reading(ours.get("stable"))
             if not control:
                 readings.append(reading)
-            lines.append(f"| {meaning} (`{cell_id}`) | {hand or '-'} | {share_text(ours.get('stable'))} | "
+            lines.append(f"| {meaning} (`{cell_id}`) | {hand or '-'} | {share_text(ours.get('stable'))}"
+                         f"{motion_text(ours)} | "
                          f"{share_text(ours.get('safe'))} | {baselines} | {'; '.join(differences) or '-'} | "
                          f"{reading} |")
     tally = {name: sum(1 for r in readings if r.startswith(name)) for name in ("reproduced", "not reproduced",
