@@ -50,6 +50,7 @@ from __future__ import annotations
 import argparse
 import ast
 import collections
+import concurrent.futures
 import hashlib
 import json
 import os
@@ -444,22 +445,25 @@ def per_module(rows: list[dict], modules: tuple[str, ...] | None = None) -> dict
 
 
 def _judge(chosen: list[Site], root: Path, timeout: float, equivalent: dict, echo, partial: dict,
-           out: Path | None) -> list[dict]:
-    """Every verdict of ``chosen`` in the snapshot at ``root``, written to ``out`` as it goes (``partial`` is the
-    JSON's head)."""
+           out: Path | None, jobs: int = 1) -> list[dict]:
+    """Every verdict of ``chosen`` in the snapshot at ``root``, ``jobs`` mutants at a time, in the sample's order,
+    written to ``out`` as it goes (``partial`` is the JSON's head)."""
     rows = []
-    for number, site in enumerate(chosen, 1):
-        reason = equivalent.get(key(site))
-        if reason is not None:
-            verdict, detail, seconds = "EQUIVALENT", reason, 0.0
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, jobs))   # each mutant is a pytest process
+    verdicts = [None if key(site) in equivalent else pool.submit(run_mutant, site, timeout, root)
+                for site in chosen]
+    for number, (site, pending) in enumerate(zip(chosen, verdicts), 1):
+        if pending is None:
+            verdict, detail, seconds = "EQUIVALENT", equivalent[key(site)], 0.0
         else:
-            verdict, detail, seconds = run_mutant(site, timeout, root)
+            verdict, detail, seconds = pending.result()
         rows.append({**asdict(site), "verdict": verdict, "detail": detail, "seconds": round(seconds, 1)})
         if out is not None:   # as it goes: an interrupted run keeps its verdicts
             out.parent.mkdir(parents=True, exist_ok=True)
             out.write_text(json.dumps({**partial, "partial": True, "mutants": rows}, indent=2) + "\n")
         echo(f"{number:3d} {verdict:10s} {site.module}:{site.line} {site.kind}: {site.change}\n"
              f"               {site.source_line[:100]}\n               {detail} ({seconds:.0f} s)")
+    pool.shutdown()
     return rows
 
 
@@ -478,7 +482,7 @@ def _result(head: dict, rows: list[dict], sites: int, seconds: float, modules: t
 
 def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | None], *, module: str | None = None,
               modules: tuple[str, ...] | None = None, echo=print, commit: str = "HEAD",
-              baseline_timeout: float = BASELINE_TIMEOUT, rerun: dict | None = None) -> list[dict]:
+              baseline_timeout: float = BASELINE_TIMEOUT, rerun: dict | None = None, jobs: int = 1) -> list[dict]:
     """Each seed's draw of ``commit``'s fic_core (``module`` only, or ``modules``) against its test/core, from one
     snapshot and one unmutated run; returns (and writes to its ``outs`` path) each draw's verdicts, its kill rate
     overall and per module, and its role (``role_of``). With ``rerun`` (an earlier run's JSON, one seed): its
@@ -504,7 +508,7 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
             head = {"commit": revision, "seed": seed, "role": role_of(seed), "drawn_from": drawn_from}
             if rerun is not None:
                 head["rerun_of"] = rerun.get("commit")
-            rows = _judge(chosen, root, timeout, equivalent, echo, head, out)
+            rows = _judge(chosen, root, timeout, equivalent, echo, head, out, jobs)
             result = _result(head, rows, in_scope, time.monotonic() - started,
                              modules if module is None else (module,))
             if out is not None:
@@ -567,6 +571,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--module", default=None, help="draw from this fic_core file only (e.g. limits.py)")
     parser.add_argument("--law", action="store_true", help="draw from the control-law modules only (LAW_MODULES)")
     parser.add_argument("--timeout", type=float, default=240.0, help="seconds for the tests of one mutant")
+    parser.add_argument("--jobs", type=int, default=1, help="mutants judged at a time (each a pytest process)")
     parser.add_argument("--baseline-timeout", type=float, default=BASELINE_TIMEOUT,
                         help="seconds for test/core on the unmutated tree")
     parser.add_argument("--out", type=Path, default=None, help="write every verdict as JSON")
@@ -632,7 +637,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         results = run_draws(seeds, arguments.sample, arguments.timeout, outs, module=arguments.module,
                             modules=modules, echo=lambda text: print(text, flush=True), commit=arguments.commit,
-                            baseline_timeout=arguments.baseline_timeout, rerun=rerun)
+                            baseline_timeout=arguments.baseline_timeout, rerun=rerun, jobs=arguments.jobs)
     except RuntimeError as error:   # the unmutated tree failed or did not finish: no mutant can be judged
         print(f"[random_mutation] {error}", file=sys.stderr)
         return 2
