@@ -152,3 +152,14 @@ def test_a_mutant_the_importers_leave_alive_runs_the_rest_of_test_core(monkeypat
 def test_the_law_modules_are_fic_core_files() -> None:
     assert len(random_mutation.LAW_MODULES) == 19
     assert all((random_mutation.PACKAGE / name).is_file() for name in random_mutation.LAW_MODULES)
+
+
+def test_every_equivalence_claim_names_a_site_of_fic_core_and_gives_its_reason() -> None:
+    """A claim whose line or change no longer exists would excuse nothing and mislead: each must key a site of the
+    tree as it is, with a reason of some length."""
+    sites = {random_mutation.key(site) for site in random_mutation.all_sites()}
+    claims = random_mutation.equivalent_mutants()
+    assert claims
+    for claim, reason in claims.items():
+        assert claim in sites, claim
+        assert len(reason.split()) >= 8, claim

@@ -5,6 +5,8 @@ list, and the same float64 matrix again, which the replica does not check twice)
 rotations by QR of Gaussian matrices with the signs fixed, reflections as a rotation times a reflection."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -57,20 +59,52 @@ def _ways_in(matrix: np.ndarray) -> dict[str, object]:
             "float32 array": matrix.astype(np.float32) if np.abs(matrix).max() < 1e30 else matrix.tolist()}
 
 
+def quaternion_of(rotation: np.ndarray) -> np.ndarray:
+    """[x, y, z, w] of a rotation matrix (Shepperd's method: from the largest of w^2, x^2, y^2, z^2)."""
+    trace = np.trace(rotation)
+    squares = np.array([1.0 + trace, 1.0 + 2.0 * rotation[0, 0] - trace, 1.0 + 2.0 * rotation[1, 1] - trace,
+                        1.0 + 2.0 * rotation[2, 2] - trace]) / 4.0   # w^2, x^2, y^2, z^2
+    largest = int(np.argmax(squares))
+    value = math.sqrt(squares[largest])
+    r = rotation
+    if largest == 0:
+        w, x, y, z = value, (r[2, 1] - r[1, 2]) / (4 * value), (r[0, 2] - r[2, 0]) / (4 * value), \
+            (r[1, 0] - r[0, 1]) / (4 * value)
+    elif largest == 1:
+        x, w, y, z = value, (r[2, 1] - r[1, 2]) / (4 * value), (r[0, 1] + r[1, 0]) / (4 * value), \
+            (r[0, 2] + r[2, 0]) / (4 * value)
+    elif largest == 2:
+        y, w, x, z = value, (r[0, 2] - r[2, 0]) / (4 * value), (r[0, 1] + r[1, 0]) / (4 * value), \
+            (r[1, 2] + r[2, 1]) / (4 * value)
+    else:
+        z, w, x, y = value, (r[1, 0] - r[0, 1]) / (4 * value), (r[0, 2] + r[2, 0]) / (4 * value), \
+            (r[1, 2] + r[2, 1]) / (4 * value)
+    return np.array([x, y, z, w])
+
+
 def test_every_rotation_of_a_random_set_is_accepted(replica_and_state) -> None:
+    """Each as a float64 matrix, a nested list, a quaternion (x, y, z, w) array, and each twice in a row (the
+    second time the replica may skip the check, not the rotation); axis-aligned ones also as integer matrices.
+    The desired rotation the tick reports is that rotation, as floats."""
     replica, position, _ = replica_and_state
     rng = np.random.default_rng(4403)
     rotations = [random_rotation(rng) for _ in range(150)]
     # And the axis-aligned ones, whose many zero entries make zero cofactors.
-    rotations += [np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, -1.0, 1.0]), np.eye(3)[[1, 2, 0]],
-                  np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])]
-    for number, rotation in enumerate(rotations):
+    axis_aligned = [np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, -1.0, 1.0]), np.eye(3)[[1, 2, 0]],
+                    np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])]
+    for number, rotation in enumerate(rotations + axis_aligned):
         assert abs(np.linalg.det(rotation) - 1.0) < 1e-12
-        for way, value in _ways_in(rotation).items():
-            if way == "float32 array":
-                continue   # a float32 rotation's R^T R - I is ~1e-7: inside the tolerance, checked below
-            command = replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, value)
-            np.testing.assert_allclose(command.desired_rotation, rotation, atol=1e-15, err_msg=f"{number} {way}")
+        ways = _ways_in(rotation)
+        del ways["float32 array"]   # a float32 rotation's R^T R - I is ~1e-7: inside the tolerance, checked below
+        ways["quaternion array"] = quaternion_of(rotation)
+        if number >= len(rotations):
+            ways["integer array"] = rotation.astype(np.int64)
+        for way, value in ways.items():
+            for _ in range(2):
+                command = replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, value)
+                assert command.desired_rotation.dtype == np.float64 and command.desired_rotation.shape == (3, 3)
+                np.testing.assert_allclose(command.desired_rotation, rotation, atol=1e-12,
+                                           err_msg=f"{number} {way}")
 
 
 def test_every_reflected_or_non_orthonormal_matrix_of_a_random_set_is_refused(replica_and_state) -> None:
@@ -106,3 +140,43 @@ def test_the_orthonormality_tolerance_is_where_it_is_documented(replica_and_stat
         with pytest.raises(FicInputError, match="desired_rotation"):
             replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position,
                             _ways_in(rotation @ np.diag([1.0, 1.0, -1.0]))[way])
+
+
+@pytest.mark.parametrize("way", ["float64 array", "nested list"])
+def test_a_deviation_exactly_at_the_tolerance_is_accepted_and_one_just_past_it_refused(replica_and_state,
+                                                                                       way: str) -> None:
+    """[[1, t, 0], [0, 1, 0], [0, 0, 1]] has (R^T R - I)_01 = t exactly (1 x t, in floats too), its other
+    entries below it, and det 1: accepted at t = the tolerance, refused at the next float above it."""
+    replica, position, _ = replica_and_state
+    for tolerance, accepted in ((ORTHONORMALITY_TOLERANCE, True), (np.nextafter(ORTHONORMALITY_TOLERANCE, 1.0), False)):
+        matrix = np.eye(3)
+        matrix[0, 1] = tolerance
+        assert np.abs(matrix.T @ matrix - np.eye(3)).max() == tolerance
+        value = _ways_in(matrix)[way]
+        if accepted:
+            replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, value)
+        else:
+            with pytest.raises(FicInputError, match="desired_rotation"):
+                replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, value)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_a_non_finite_entry_anywhere_is_refused_as_not_finite(replica_and_state, bad: float) -> None:
+    replica, position, rotation = replica_and_state
+    for row in range(3):
+        for column in range(3):
+            matrix = rotation.copy()
+            matrix[row, column] = bad
+            for value in (matrix, matrix.tolist()):
+                with pytest.raises(FicInputError, match="desired_rotation must be finite"):
+                    replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, value)
+
+
+@pytest.mark.parametrize("shape", [(4, 3), (3, 4), (2, 3), (9,), (3,), (4, 4)])
+def test_a_float64_array_of_another_shape_is_refused_in_one_line(replica_and_state, shape) -> None:
+    replica, position, _ = replica_and_state
+    value = np.zeros(shape)
+    value.flat[::4] = 1.0
+    for _ in range(2):
+        with pytest.raises(FicInputError, match="desired_rotation"):
+            replica.command(NOMINAL_CONFIGURATION, np.zeros(7), position, value)
