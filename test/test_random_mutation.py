@@ -163,3 +163,20 @@ def test_every_equivalence_claim_names_a_site_of_fic_core_and_gives_its_reason()
     for claim, reason in claims.items():
         assert claim in sites, claim
         assert len(reason.split()) >= 5, claim
+
+
+def test_a_draw_can_leave_law_modules_out_and_says_so(monkeypatch, tmp_path: Path, capsys) -> None:
+    seen = {}
+
+    def fake_run(seeds, size, timeout, outs, **kwargs) -> list[dict]:
+        seen["modules"] = kwargs["modules"]
+        return []
+
+    monkeypatch.setattr(random_mutation, "run_draws", fake_run)
+    random_mutation.main(["--seed", "3", "--law", "--exclude", "set_point.py", "desired_pose.py", "--require", "0"])
+    assert len(seen["modules"]) == 17 and "set_point.py" not in seen["modules"] and "limits.py" in seen["modules"]
+    assert random_mutation._scope_name(seen["modules"]) == "law without set_point.py, desired_pose.py"
+    assert random_mutation._scope_name(random_mutation.LAW_MODULES) == "law"
+    assert random_mutation.main(["--seed", "3", "--exclude", "limits.py"]) == 2
+    assert random_mutation.main(["--seed", "3", "--law", "--exclude", "robot_model.py"]) == 2
+    assert "--exclude takes law modules" in capsys.readouterr().err

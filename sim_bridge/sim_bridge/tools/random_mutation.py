@@ -491,8 +491,7 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
     revision = subprocess.run(["git", "rev-parse", commit], cwd=REPO, capture_output=True, text=True,
                               check=True).stdout.strip()
     results = []
-    drawn_from = module if module is not None else ("law" if modules == LAW_MODULES else
-                                                    ("all" if modules is None else list(modules)))
+    drawn_from = module if module is not None else _scope_name(modules)
     with tempfile.TemporaryDirectory(prefix="fic_random_mutation_tree_") as tree:
         root = snapshot(revision, Path(tree))
         unmutated = baseline(root, baseline_timeout)
@@ -518,6 +517,16 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
     return results
 
 
+def _scope_name(modules: tuple[str, ...] | None) -> str:
+    """"all", "law", or "law without a.py, b.py" (LAW_MODULES less some), or the modules' names."""
+    if modules is None:
+        return "all"
+    left_out = [name for name in LAW_MODULES if name not in modules]
+    if set(modules) <= set(LAW_MODULES):
+        return "law" + (f" without {', '.join(left_out)}" if left_out else "")
+    return ", ".join(modules)
+
+
 def run(seed: int, size: int, timeout: float, module: str | None = None, out: Path | None = None,
         echo=print, commit: str = "HEAD", rerun: dict | None = None,
         baseline_timeout: float = BASELINE_TIMEOUT, modules: tuple[str, ...] | None = None) -> dict:
@@ -531,7 +540,7 @@ def pooled_table(results: list[dict]) -> str:
     draw and the pooled total; the law modules first, in LAW_MODULES' order, then any other module drawn."""
     rows = [row for result in results for row in result["mutants"]]
     drawn = {row["module"] for row in rows}
-    law = all(result.get("drawn_from") == "law" for result in results)
+    law = all(str(result.get("drawn_from", "")).startswith("law") for result in results)
     names = tuple(LAW_MODULES) + tuple(sorted(drawn - set(LAW_MODULES))) if law else tuple(sorted(drawn))
     table = per_module(rows, names)
     lines = ["| module | drawn | equivalent | killed / non-equivalent | kill rate |", "|---|---|---|---|---|"]
@@ -570,6 +579,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sample", type=int, default=60, help="mutants drawn a seed")
     parser.add_argument("--module", default=None, help="draw from this fic_core file only (e.g. limits.py)")
     parser.add_argument("--law", action="store_true", help="draw from the control-law modules only (LAW_MODULES)")
+    parser.add_argument("--exclude", nargs="+", default=[], metavar="MODULE",
+                        help="with --law: leave these modules out of the draw (e.g. ones being rewritten)")
     parser.add_argument("--timeout", type=float, default=240.0, help="seconds for the tests of one mutant")
     parser.add_argument("--jobs", type=int, default=1, help="mutants judged at a time (each a pytest process)")
     parser.add_argument("--baseline-timeout", type=float, default=BASELINE_TIMEOUT,
@@ -587,7 +598,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--table", type=Path, nargs="+", default=None,
                         help="print the kill rate per module pooled over these result JSONs and exit")
     arguments = parser.parse_args(argv)
-    modules = LAW_MODULES if arguments.law else None
+    unknown = [name for name in arguments.exclude if name not in LAW_MODULES]
+    if unknown or (arguments.exclude and not arguments.law):
+        print(f"[random_mutation] --exclude takes law modules, with --law (not {unknown or arguments.exclude})",
+              file=sys.stderr)
+        return 2
+    modules = tuple(name for name in LAW_MODULES if name not in arguments.exclude) if arguments.law else None
     if arguments.count:
         sites = [site for site in all_sites() if modules is None or site.module in modules]
         for kind, count in sorted(collections.Counter(site.kind for site in sites).items()):
