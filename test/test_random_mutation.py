@@ -180,3 +180,21 @@ def test_a_draw_can_leave_law_modules_out_and_says_so(monkeypatch, tmp_path: Pat
     assert random_mutation.main(["--seed", "3", "--exclude", "limits.py"]) == 2
     assert random_mutation.main(["--seed", "3", "--law", "--exclude", "robot_model.py"]) == 2
     assert "--exclude takes law modules" in capsys.readouterr().err
+
+
+def test_several_seeds_write_one_json_each_named_by_role(monkeypatch, tmp_path: Path, capsys) -> None:
+    monkeypatch.setattr(random_mutation, "SEEDS_FILE", _seeds_file(tmp_path, [3], [9, 11]))
+    seen = {}
+
+    def fake_run(seeds, size, timeout, outs, **kwargs) -> list[dict]:
+        seen["seeds"], seen["outs"] = seeds, outs
+        return []
+
+    monkeypatch.setattr(random_mutation, "run_draws", fake_run)
+    random_mutation.main(["--seed", "9", "3", "--out-dir", str(tmp_path), "--require", "0"])
+    assert seen == {"seeds": [9, 3], "outs": [tmp_path / "random_mutation_held_out_seed9.json",
+                                              tmp_path / "random_mutation_fitting_seed3.json"]}
+    random_mutation.main(["--held-out", "--out-dir", str(tmp_path), "--require", "0"])
+    assert seen["seeds"] == [9, 11]
+    assert random_mutation.main(["--seed", "9", "11"]) == 2   # two draws, one --out
+    assert "give --out-dir" in capsys.readouterr().err

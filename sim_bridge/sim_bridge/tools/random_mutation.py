@@ -572,8 +572,9 @@ def _summary(result: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seed", default="1", help="an integer, or 'fresh': a seed in neither set of "
-                                                     "mutation_seeds.yaml")
+    parser.add_argument("--seed", nargs="+", default=["1"],
+                        help="one or more integers (each a draw, from one snapshot and one unmutated run), or "
+                             "'fresh': a seed in neither set of mutation_seeds.yaml")
     parser.add_argument("--held-out", action="store_true",
                         help="run every held-out seed of mutation_seeds.yaml (one JSON each in --out-dir)")
     parser.add_argument("--sample", type=int, default=60, help="mutants drawn a seed")
@@ -587,7 +588,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="seconds for test/core on the unmutated tree")
     parser.add_argument("--out", type=Path, default=None, help="write every verdict as JSON")
     parser.add_argument("--out-dir", type=Path, default=None,
-                        help="with --held-out: write random_mutation_held_out_seed<N>.json here")
+                        help="write random_mutation_<role>_seed<N>.json here, one a seed (--held-out: results/)")
     parser.add_argument("--require", type=float, default=0.9, help="least kill rate of the non-equivalent mutants")
     parser.add_argument("--commit", default="HEAD", help="the commit whose fic_core and test/core are run")
     parser.add_argument("--rerun", type=Path, default=None,
@@ -620,13 +621,13 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if arguments.held_out:
         seeds = held_out
-    elif arguments.seed == "fresh":
+    elif arguments.seed == ["fresh"]:
         seeds = [fresh_seed()]
     else:
         try:
-            seeds = [int(arguments.seed)]
+            seeds = [int(seed) for seed in arguments.seed]
         except ValueError:
-            print(f"[random_mutation] --seed must be an integer or 'fresh', got {arguments.seed!r}", file=sys.stderr)
+            print(f"[random_mutation] --seed takes integers or 'fresh', got {arguments.seed}", file=sys.stderr)
             return 2
     rerun = json.loads(arguments.rerun.read_text()) if arguments.rerun else None
     if rerun is not None:
@@ -642,12 +643,15 @@ def main(argv: list[str] | None = None) -> int:
         for site in sample(seeds[0], arguments.sample, arguments.module, modules=modules):
             print(f"{site.module}:{site.line} {site.kind}: {site.change}    {site.source_line[:90]}")
         return 0
-    if arguments.held_out:
-        if not seeds:
-            print("[random_mutation] mutation_seeds.yaml lists no held-out seed", file=sys.stderr)
-            return 2
+    if arguments.held_out and not seeds:
+        print("[random_mutation] mutation_seeds.yaml lists no held-out seed", file=sys.stderr)
+        return 2
+    if arguments.held_out or arguments.out_dir is not None:
         folder = arguments.out_dir or REPO / "results"
-        outs = [folder / f"random_mutation_held_out_seed{seed}.json" for seed in seeds]
+        outs = [folder / f"random_mutation_{role_of(seed)}_seed{seed}.json" for seed in seeds]
+    elif len(seeds) > 1:
+        print("[random_mutation] several seeds write one JSON each: give --out-dir", file=sys.stderr)
+        return 2
     else:
         outs = [arguments.out]
     try:
