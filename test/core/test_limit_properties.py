@@ -113,6 +113,33 @@ def test_each_limit_is_inside_on_it_and_within_the_slack_and_broken_past_it(limi
                 (expected if broken else LimitFlag.NONE), (flag, past)
 
 
+def test_exactly_the_slack_past_a_limit_is_inside() -> None:
+    """Limits of 1e-9 (and a rate step of 1e-9), where the arithmetic is exact: 2e-9 is exactly one slack past each,
+    and inside; the next float above it is past the slack."""
+    lower, upper = (0.0,) * 7, (1.0,) * 7
+    tiny = PandaLimits(lower, upper, torque=(SLACK,) * 7, torque_rate=1.0, joint_velocity=(SLACK,) * 7,
+                       tcp_speed=SLACK)
+    dt = SLACK   # rate x dt = 1e-9
+    rest, middle = [0.0] * 7, [0.5] * 7
+    on_slack, past = 2.0 * SLACK, np.nextafter(2.0 * SLACK, 1.0)
+    assert on_slack - SLACK == SLACK and 0.0 - SLACK == -SLACK
+    for value, expected in ((on_slack, LimitFlag.NONE), (past, None)):
+        one = [value] + rest[1:]
+        flags = {LimitFlag.TORQUE: limit_violations(None, one, middle, rest, 0.0, dt, tiny),
+                 LimitFlag.TORQUE_RATE: limit_violations(rest, one, middle, rest, 0.0, dt, tiny)
+                 & LimitFlag.TORQUE_RATE,
+                 LimitFlag.JOINT_VELOCITY: limit_violations(None, rest, middle, one, 0.0, dt, tiny),
+                 LimitFlag.TCP_SPEED: limit_violations(None, rest, middle, rest, value, dt, tiny)}
+        for flag, found in flags.items():
+            assert found == (expected if expected is not None else flag), (flag, value)
+    # Positions: exactly one slack below the lower limit of 0 and above the upper of 1 (1 + 1e-9 rounds to within
+    # 1e-16 of it: the upper side is checked a hair inside and past instead).
+    below = [-SLACK] + middle[1:]
+    assert limit_violations(None, rest, below, rest, 0.0, dt, tiny) == LimitFlag.NONE
+    below[0] = np.nextafter(-SLACK, -1.0)
+    assert limit_violations(None, rest, below, rest, 0.0, dt, tiny) == LimitFlag.JOINT_POSITION
+
+
 def _replica(robot: RobotModel) -> ReplicaController:
     return ReplicaController(robot, PoseAttractor(ForceProfile(2000.0, 0.05, 0.5, 200.0),
                                                   ForceProfile(100.0, 0.5, 0.5, 30.0)))
