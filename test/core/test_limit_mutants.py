@@ -118,7 +118,23 @@ def test_the_rotation_angle_rate_reads_each_axis_of_the_rate(axis: int) -> None:
 
 
 def test_a_new_postural_optimisation_has_solved_no_qp(robot: RobotModel) -> None:
-    """The count of QP solves the replica's diagnostics report ("qp_solves") starts at 0 and counts only solves."""
+    """The counts the replica's diagnostics report (QP solves, relaxed solves, last-guard clips) start at 0 and
+    count one each for a relaxed QP solve (a joint past its limit, moving further out, pushed further out) and its
+    last-guard clip if it had one."""
     from fic_core.postural_optimisation import PosturalOptimisation
 
-    assert PosturalOptimisation(PandaLimits.from_robot(robot), DT).qp_count == 0
+    limits = PandaLimits.from_robot(robot)
+    optimisation = PosturalOptimisation(limits, DT)
+    assert (optimisation.qp_count, optimisation.relaxed_count, optimisation.guard_clips) == (0, 0, 0)
+    q = np.array(NOMINAL_CONFIGURATION)
+    q[0] = limits.joint_position_upper[0] + 0.05
+    qd = np.zeros(7)
+    qd[0] = 2.5
+    state = robot.update(q, qd)
+    bias = state.nonlinear_effects + robot.joint_damping * qd
+    previous = state.nonlinear_effects.copy()
+    result = optimisation.shape(previous + 50.0, previous, q, qd, bias, state.mass_matrix_inverse.copy(),
+                                state.tcp_jacobian[:3].copy())
+    assert result.relaxed and result.solved_qp
+    assert (optimisation.qp_count, optimisation.relaxed_count, optimisation.guard_clips) == \
+        (1, 1, int(result.guard_clipped))

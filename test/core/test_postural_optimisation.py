@@ -37,6 +37,23 @@ def assert_inside_box(result, previous, limits: PandaLimits, dt: float = DT) -> 
         assert np.all(np.abs(result.torque - previous) <= limits.torque_rate * dt + TOLERANCE)
 
 
+#: The Franka Emika Panda datasheet's joint acceleration limits [rad/s^2].
+DATASHEET_JOINT_ACCELERATION = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+
+
+def test_the_braking_deceleration_is_half_the_datasheet_acceleration_limits(limits) -> None:
+    """By default each joint is braked at half its datasheet acceleration limit: v_b L + v_b^2 / (2 a) = room with
+    a = a_max / 2 and L = T + the torque ramp, at any room."""
+    optimisation = PosturalOptimisation(limits, DT)
+    deceleration = np.array(DATASHEET_JOINT_ACCELERATION) / 2.0
+    np.testing.assert_array_equal(optimisation.braking_deceleration, deceleration)
+    lag = optimisation.horizon + BRAKING_TORQUE_RAMP
+    for room in (0.001, 0.05, 0.4):
+        q = limits.upper_array - room
+        speed = deceleration * (np.sqrt(lag ** 2 + 2.0 * room / deceleration) - lag)
+        np.testing.assert_allclose(optimisation.braking_velocity(q)[1], speed, rtol=1e-12)
+
+
 def test_unconstrained_torque_passes_unchanged(robot, limits) -> None:
     optimisation = PosturalOptimisation(limits, DT)
     robot.update(NOMINAL_CONFIGURATION, np.zeros(7))

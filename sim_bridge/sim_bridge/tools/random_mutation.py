@@ -1,4 +1,4 @@
-"""Seeded random mutation testing over all of fic_core, against test/core alone.
+"""Seeded random mutation testing over fic_core, against test/core alone; scored only on held-out draws.
 
 mutation_check.py breaks the laws in hand-picked ways; this breaks them at random. Every place in
 fic_core where an operator or a number can be flipped is a *site*:
@@ -19,14 +19,25 @@ default), not from the work tree, which other work may be changing; test/core mu
 before any mutant counts. Each mutant is the module parsed, the one node changed, and written back with
 ``ast.unparse`` into a copy of fic_core (the work tree is never touched); the tests are the files of test/core that
 import the mutated module, directly or through another fic_core module, the direct importers first, with ``-x``
-and a timeout (a hang counts as killed). Equivalent mutants (no behaviour can tell them from the original) are
-listed with a reason in ``equivalent_mutants.yaml`` beside this file, keyed by module, enclosing function, source
-line and mutation so that the key survives code moving up or down; they are not run and do not count in the kill
-rate.
+and a timeout (a hang counts as killed); a mutant they do not kill runs the rest of test/core too before it counts as a
+survivor, so a survivor has passed the whole of test/core. Equivalent mutants (no behaviour can tell them from
+the original) are listed with a reason in ``equivalent_mutants.yaml`` beside this file, keyed by module,
+enclosing function, source line and mutation so that the key survives code moving up or down; they are not run
+and do not count in the kill rate.
+
+Scores come only from held-out draws. ``mutation_seeds.yaml`` beside this file records two sets of seeds that never
+meet: the fitting seeds, whose survivors were read to write tests (their kill rate is reported as a fit, not a
+score: it measures how well the tests fit that draw), and the held-out seeds, kept for scoring (their survivors are
+reported, never used to write tests; survivors to write tests from come from fitting seeds). ``--held-out`` runs
+every held-out seed, one JSON each, and prints the kill rate per law module over all of them; ``--seed fresh``
+draws a seed in neither set. ``--law`` draws from the control-law modules only (``LAW_MODULES``), where the score
+is wanted; the result gives the kill rate per module either way.
 
     source scripts/env.sh && python -m sim_bridge.tools.random_mutation --seed 1 --sample 60 [--out OUT.json]
+    python -m sim_bridge.tools.random_mutation --law --held-out --out-dir results   # the score, one JSON a seed
+    python -m sim_bridge.tools.random_mutation --table results/random_mutation_held_out_*.json  # per module
     python -m sim_bridge.tools.random_mutation --count          # how many sites fic_core has, per kind
-    python -m sim_bridge.tools.random_mutation --seed 1 --sample 60 --list   # the sample, without running it
+    python -m sim_bridge.tools.random_mutation --seed 3 --sample 60 --list   # a fitting sample, without running it
 
 Exits 1 when the kill rate of the non-equivalent mutants is below --require (default 0.9). A mutant pytest could
 not judge (mutation_verdict.py: ERROR) counts in neither the kills nor the survivors; exits 2 when test/core fails,
@@ -39,10 +50,12 @@ from __future__ import annotations
 import argparse
 import ast
 import collections
+import concurrent.futures
+import hashlib
 import json
 import os
-import hashlib
 import re
+import secrets
 import shutil
 import subprocess
 import sys
@@ -59,6 +72,16 @@ REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "fic_core" / "fic_core"
 TESTS = REPO / "test" / "core"
 EQUIVALENT_FILE = Path(__file__).resolve().parent / "equivalent_mutants.yaml"
+SEEDS_FILE = Path(__file__).resolve().parent / "mutation_seeds.yaml"
+
+#: The control laws and the loops around them (docs/CONTROL_LAWS.md): the modules a score is wanted for.
+LAW_MODULES = tuple(f"{name}.py" for name in (
+    "profile", "attractor", "rotational_attractor", "pose_attractor", "master", "master_station", "planner",
+    "replica", "replica_loop", "postural_optimisation", "baseline", "set_point", "desired_pose", "teleoperation",
+    "posture", "limits", "trajectories", "loop_health", "input_authority"))
+
+FITTING = "fitting"
+HELD_OUT = "held_out"
 
 _COMPARISON_NEGATED = {ast.Lt: ast.GtE, ast.LtE: ast.Gt, ast.Gt: ast.LtE, ast.GtE: ast.Lt, ast.Eq: ast.NotEq,
                        ast.NotEq: ast.Eq, ast.Is: ast.IsNot, ast.IsNot: ast.Is, ast.In: ast.NotIn,
@@ -270,11 +293,43 @@ def key(site: Site) -> tuple[str, str, str, str]:
     return site.module, site.scope, site.source_line, site.change
 
 
-def sample(seed: int, size: int, module: str | None = None, root: Path = REPO) -> list[Site]:
-    """``size`` mutants drawn with ``seed`` from every site (of ``module`` only, when given): the sites whose
-    seeded hash of their key is smallest, so that a change elsewhere in fic_core leaves the rest of a sample as
-    it was (a draw by position in the list of sites would change with every line added)."""
-    sites = [site for site in all_sites(root) if module is None or site.module == module]
+def seed_sets(path: Path | None = None) -> tuple[set[int], list[int]]:
+    """(the fitting seeds, the held-out seeds) of ``mutation_seeds.yaml``; a seed in both is refused."""
+    path = path or SEEDS_FILE
+    entries = yaml.safe_load(path.read_text()) if path.exists() else None
+    entries = entries or {}
+    fitting = {int(entry["seed"] if isinstance(entry, dict) else entry) for entry in entries.get(FITTING) or []}
+    held_out = [int(seed) for seed in entries.get(HELD_OUT) or []]
+    both = fitting.intersection(held_out)
+    if both:
+        raise ValueError(f"{path.name}: seeds {sorted(both)} are both fitting and held out")
+    return fitting, held_out
+
+
+def role_of(seed: int, path: Path | None = None) -> str:
+    """FITTING for a seed whose survivors were used to write tests; HELD_OUT for any other (a recorded held-out
+    seed, or one in neither set: a fresh draw)."""
+    fitting, _ = seed_sets(path)
+    return FITTING if seed in fitting else HELD_OUT
+
+
+def fresh_seed(path: Path | None = None) -> int:
+    """A random seed in neither set of ``mutation_seeds.yaml`` (a draw nobody has looked at)."""
+    fitting, held_out = seed_sets(path)
+    while True:
+        seed = secrets.randbelow(10**6)
+        if seed not in fitting and seed not in held_out:
+            return seed
+
+
+def sample(seed: int, size: int, module: str | None = None, root: Path = REPO,
+           modules: tuple[str, ...] | None = None) -> list[Site]:
+    """``size`` mutants drawn with ``seed`` from every site (of ``module`` only, when given; else of ``modules``,
+    when given): the sites whose seeded hash of their key is smallest, so that a change elsewhere in fic_core
+    leaves the rest of a sample as it was (a draw by position in the list of sites would change with every line
+    added)."""
+    sites = [site for site in all_sites(root)
+             if (module is None or site.module == module) and (modules is None or site.module in modules)]
     return sorted(sites, key=lambda site: hashlib.sha256(f"{seed}|{'|'.join(key(site))}".encode()).digest())[:size]
 
 
@@ -328,10 +383,14 @@ def baseline(root: Path, timeout: float = BASELINE_TIMEOUT) -> subprocess.Comple
 
 def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str, float]:
     """(verdict, detail, seconds): KILLED with the first failing test (or a timeout), SURVIVED, ERROR, or NO
-    TESTS."""
+    TESTS. The files that import the module run first, the direct importers before the others; a mutant they
+    leave alive runs the rest of test/core as well, so that a survivor has passed all of it (a test/core file may
+    reach a module through the fixtures of test/conftest.py or a tools module, which the import scan misses)."""
     direct, indirect = test_files(site.module, root)
     if not direct and not indirect:
         return "NO TESTS", f"no file of test/core imports {site.module}", 0.0
+    importers = set(direct) | set(indirect)
+    rest = [path for path in sorted((root / TESTS.relative_to(REPO)).glob("test_*.py")) if path not in importers]
     with tempfile.TemporaryDirectory(prefix="fic_random_mutation_") as folder:
         copy = Path(folder) / "fic_core"
         shutil.copytree(root / "fic_core" / "fic_core", copy, ignore=shutil.ignore_patterns("__pycache__"))
@@ -342,7 +401,7 @@ def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str,
         write_settings_plugin(Path(folder), derandomize=True)
         started = time.monotonic()
         result = None
-        for files in (direct, indirect):   # the direct importers first: most mutants are killed there
+        for files in (direct, indirect, rest):   # the direct importers first: most mutants are killed there
             if not files:
                 continue
             try:
@@ -366,92 +425,249 @@ def matching(sites: list[Site], previous: dict, verdicts: tuple[str, ...] = ("SU
             if key(site) in wanted or (site.module, site.source_line, site.change) in unscoped]
 
 
-def run(seed: int, size: int, timeout: float, module: str | None = None, out: Path | None = None,
-        echo=print, commit: str = "HEAD", rerun: dict | None = None,
-        baseline_timeout: float = BASELINE_TIMEOUT) -> dict:
-    """Run a seeded sample of ``commit``'s fic_core against its test/core; returns (and writes to ``out``) every
-    verdict and the kill rate. With ``rerun`` (an earlier run's JSON): its survivors again instead of a sample.
-    Raises RuntimeError when test/core fails on the unmutated tree."""
-    equivalent = equivalent_mutants()
+#: The verdicts that count in a kill rate (ERROR says nothing about the mutant, EQUIVALENT is not a mutant).
+COUNTED = ("KILLED", "SURVIVED", "NO TESTS")
+
+
+def per_module(rows: list[dict], modules: tuple[str, ...] | None = None) -> dict[str, dict]:
+    """Per module (those of ``modules`` in its order, drawn or not, else every module drawn): how many mutants
+    were drawn, equivalent, counted and killed, and the kill rate (None with none counted)."""
+    names = list(modules) if modules is not None else sorted({row["module"] for row in rows})
+    table = {}
+    for name in names:
+        mine = [row for row in rows if row["module"] == name]
+        counted = [row for row in mine if row["verdict"] in COUNTED]
+        killed = sum(row["verdict"] == KILLED for row in counted)
+        table[name] = {"drawn": len(mine), "equivalent": sum(row["verdict"] == "EQUIVALENT" for row in mine),
+                       "non_equivalent": len(counted), "killed": killed,
+                       "kill_rate": round(killed / len(counted), 3) if counted else None}
+    return table
+
+
+def _judge(chosen: list[Site], root: Path, timeout: float, equivalent: dict, echo, partial: dict,
+           out: Path | None, jobs: int = 1) -> list[dict]:
+    """Every verdict of ``chosen`` in the snapshot at ``root``, ``jobs`` mutants at a time, in the sample's order,
+    written to ``out`` as it goes (``partial`` is the JSON's head)."""
     rows = []
-    started = time.monotonic()
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, jobs))   # each mutant is a pytest process
+    verdicts = [None if key(site) in equivalent else pool.submit(run_mutant, site, timeout, root)
+                for site in chosen]
+    for number, (site, pending) in enumerate(zip(chosen, verdicts), 1):
+        if pending is None:
+            verdict, detail, seconds = "EQUIVALENT", equivalent[key(site)], 0.0
+        else:
+            verdict, detail, seconds = pending.result()
+        rows.append({**asdict(site), "verdict": verdict, "detail": detail, "seconds": round(seconds, 1)})
+        if out is not None:   # as it goes: an interrupted run keeps its verdicts
+            out.parent.mkdir(parents=True, exist_ok=True)
+            out.write_text(json.dumps({**partial, "partial": True, "mutants": rows}, indent=2) + "\n")
+        echo(f"{number:3d} {verdict:10s} {site.module}:{site.line} {site.kind}: {site.change}\n"
+             f"               {site.source_line[:100]}\n               {detail} ({seconds:.0f} s)")
+    pool.shutdown()
+    return rows
+
+
+def _result(head: dict, rows: list[dict], sites: int, seconds: float, modules: tuple[str, ...] | None) -> dict:
+    counted = [row for row in rows if row["verdict"] in COUNTED]
+    killed = sum(row["verdict"] == "KILLED" for row in counted)
+    timed_out = sum(row["verdict"] == "KILLED" and row["detail"].startswith(TIMEOUT_DETAIL) for row in counted)
+    kill_rate = round(killed / len(counted), 3) if counted else None
+    return {**head, "sample": len(rows), "sites": sites,
+            "equivalent": sum(row["verdict"] == "EQUIVALENT" for row in rows), "non_equivalent": len(counted),
+            "killed": killed, "killed_by_timeout": timed_out, "kill_rate": kill_rate,
+            # Only a held-out draw scores the suite; a fitting draw's rate is how well the tests fit it.
+            "score": kill_rate if head["role"] == HELD_OUT and head.get("rerun_of") is None else None,
+            "per_module": per_module(rows, modules), "seconds": round(seconds), "mutants": rows}
+
+
+def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | None], *, module: str | None = None,
+              modules: tuple[str, ...] | None = None, echo=print, commit: str = "HEAD",
+              baseline_timeout: float = BASELINE_TIMEOUT, rerun: dict | None = None, jobs: int = 1) -> list[dict]:
+    """Each seed's draw of ``commit``'s fic_core (``module`` only, or ``modules``) against its test/core, from one
+    snapshot and one unmutated run; returns (and writes to its ``outs`` path) each draw's verdicts, its kill rate
+    overall and per module, and its role (``role_of``). With ``rerun`` (an earlier run's JSON, one seed): its
+    survivors again instead of a sample. Raises RuntimeError when test/core fails on the unmutated tree."""
+    equivalent = equivalent_mutants()
     revision = subprocess.run(["git", "rev-parse", commit], cwd=REPO, capture_output=True, text=True,
                               check=True).stdout.strip()
+    results = []
+    drawn_from = module if module is not None else _scope_name(modules)
     with tempfile.TemporaryDirectory(prefix="fic_random_mutation_tree_") as tree:
         root = snapshot(revision, Path(tree))
         unmutated = baseline(root, baseline_timeout)
         if unmutated.returncode != 0:
             raise RuntimeError("test/core fails on the unmutated tree: " + unmutated.stdout.strip()[-400:])
-        sites = len(all_sites(root))
-        chosen = matching(all_sites(root), rerun) if rerun is not None else sample(seed, size, module, root)
-        for number, site in enumerate(chosen, 1):
-            reason = equivalent.get(key(site))
-            if reason is not None:
-                verdict, detail, seconds = "EQUIVALENT", reason, 0.0
-            else:
-                verdict, detail, seconds = run_mutant(site, timeout, root)
-            rows.append({**asdict(site), "verdict": verdict, "detail": detail, "seconds": round(seconds, 1)})
-            if out is not None:   # as it goes: an interrupted run keeps its verdicts
+        every_site = all_sites(root)
+        in_scope = len([site for site in every_site if (module is None or site.module == module)
+                        and (modules is None or site.module in modules)])
+        for seed, out in zip(seeds, outs):
+            started = time.monotonic()
+            chosen = matching(every_site, rerun) if rerun is not None else sample(seed, size, module, root,
+                                                                                   modules=modules)
+            head = {"commit": revision, "seed": seed, "role": role_of(seed), "drawn_from": drawn_from}
+            if rerun is not None:
+                head["rerun_of"] = rerun.get("commit")
+            rows = _judge(chosen, root, timeout, equivalent, echo, head, out, jobs)
+            result = _result(head, rows, in_scope, time.monotonic() - started,
+                             modules if module is None else (module,))
+            if out is not None:
                 out.parent.mkdir(parents=True, exist_ok=True)
-                out.write_text(json.dumps({"commit": revision, "seed": seed, "partial": True, "mutants": rows},
-                                          indent=2) + "\n")
-            echo(f"{number:3d} {verdict:10s} {site.module}:{site.line} {site.kind}: {site.change}\n"
-                 f"               {site.source_line[:100]}\n               {detail} ({seconds:.0f} s)")
-    counted = [row for row in rows if row["verdict"] in ("KILLED", "SURVIVED", "NO TESTS")]
-    killed = sum(row["verdict"] == "KILLED" for row in counted)
-    timed_out = sum(row["verdict"] == "KILLED" and row["detail"].startswith(TIMEOUT_DETAIL) for row in counted)
-    result = {"commit": revision, "seed": seed, "sample": len(rows), "sites": sites, "module": module,
-              "equivalent": sum(row["verdict"] == "EQUIVALENT" for row in rows), "non_equivalent": len(counted),
-              "killed": killed, "killed_by_timeout": timed_out,
-              "kill_rate": round(killed / len(counted), 3) if counted else None,
-              "seconds": round(time.monotonic() - started), "mutants": rows}
-    if out is not None:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(result, indent=2) + "\n")
-    return result
+                out.write_text(json.dumps(result, indent=2) + "\n")
+            results.append(result)
+    return results
+
+
+def _scope_name(modules: tuple[str, ...] | None) -> str:
+    """"all", "law", or "law without a.py, b.py" (LAW_MODULES less some), or the modules' names."""
+    if modules is None:
+        return "all"
+    left_out = [name for name in LAW_MODULES if name not in modules]
+    if set(modules) <= set(LAW_MODULES):
+        return "law" + (f" without {', '.join(left_out)}" if left_out else "")
+    return ", ".join(modules)
+
+
+def run(seed: int, size: int, timeout: float, module: str | None = None, out: Path | None = None,
+        echo=print, commit: str = "HEAD", rerun: dict | None = None,
+        baseline_timeout: float = BASELINE_TIMEOUT, modules: tuple[str, ...] | None = None) -> dict:
+    """One seed's draw (``run_draws``): every verdict, the kill rate overall and per module, and the role."""
+    return run_draws([seed], size, timeout, [out], module=module, modules=modules, echo=echo, commit=commit,
+                     baseline_timeout=baseline_timeout, rerun=rerun)[0]
+
+
+def pooled_table(results: list[dict]) -> str:
+    """A Markdown table of the kill rate per module pooled over ``results`` (each draw's JSON), then one line per
+    draw and the pooled total; the law modules first, in LAW_MODULES' order, then any other module drawn."""
+    rows = [row for result in results for row in result["mutants"]]
+    drawn = {row["module"] for row in rows}
+    law = all(str(result.get("drawn_from", "")).startswith("law") for result in results)
+    names = tuple(LAW_MODULES) + tuple(sorted(drawn - set(LAW_MODULES))) if law else tuple(sorted(drawn))
+    table = per_module(rows, names)
+    lines = ["| module | drawn | equivalent | killed / non-equivalent | kill rate |", "|---|---|---|---|---|"]
+    for name, entry in table.items():
+        rate = "-" if entry["kill_rate"] is None else f"{entry['kill_rate']:.3f}"
+        lines.append(f"| {name.removesuffix('.py')} | {entry['drawn']} | {entry['equivalent']} | "
+                     f"{entry['killed']} / {entry['non_equivalent']} | {rate} |")
+    for result in results:
+        lines.append(f"| seed {result['seed']} ({result['role']}, {result['commit'][:10]}) | {result['sample']} | "
+                     f"{result['equivalent']} | {result['killed']} / {result['non_equivalent']} | "
+                     f"{result['kill_rate']} |")
+    counted = sum(result["non_equivalent"] for result in results)
+    killed = sum(result["killed"] for result in results)
+    rate = f"{killed / counted:.3f}" if counted else "-"
+    lines.append(f"| all | {len(rows)} | {sum(result['equivalent'] for result in results)} | {killed} / {counted} "
+                 f"| {rate} |")
+    return "\n".join(lines)
+
+
+def _summary(result: dict) -> str:
+    what = (f"score {result['score']}" if result["score"] is not None else
+            f"fit {result['kill_rate']} (a {'rerun of survivors' if result.get('rerun_of') else 'fitting seed'}: "
+            f"not a score)")
+    return (f"commit {result['commit'][:10]}, seed {result['seed']} ({result['role']}, from {result['drawn_from']}): "
+            f"{result['sample']} mutants of {result['sites']} sites, {result['equivalent']} equivalent; killed "
+            f"{result['killed']} of {result['non_equivalent']} ({what}; {result['killed_by_timeout']} of the kills "
+            f"by the timeout) in {result['seconds']} s")
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--sample", type=int, default=60, help="mutants drawn from all of fic_core's sites")
+    parser.add_argument("--seed", nargs="+", default=["1"],
+                        help="one or more integers (each a draw, from one snapshot and one unmutated run), or "
+                             "'fresh': a seed in neither set of mutation_seeds.yaml")
+    parser.add_argument("--held-out", action="store_true",
+                        help="run every held-out seed of mutation_seeds.yaml (one JSON each in --out-dir)")
+    parser.add_argument("--sample", type=int, default=60, help="mutants drawn a seed")
     parser.add_argument("--module", default=None, help="draw from this fic_core file only (e.g. limits.py)")
+    parser.add_argument("--law", action="store_true", help="draw from the control-law modules only (LAW_MODULES)")
+    parser.add_argument("--exclude", nargs="+", default=[], metavar="MODULE",
+                        help="with --law: leave these modules out of the draw (e.g. ones being rewritten)")
     parser.add_argument("--timeout", type=float, default=240.0, help="seconds for the tests of one mutant")
+    parser.add_argument("--jobs", type=int, default=1, help="mutants judged at a time (each a pytest process)")
     parser.add_argument("--baseline-timeout", type=float, default=BASELINE_TIMEOUT,
                         help="seconds for test/core on the unmutated tree")
     parser.add_argument("--out", type=Path, default=None, help="write every verdict as JSON")
+    parser.add_argument("--out-dir", type=Path, default=None,
+                        help="write random_mutation_<role>_seed<N>.json here, one a seed (--held-out: results/)")
     parser.add_argument("--require", type=float, default=0.9, help="least kill rate of the non-equivalent mutants")
     parser.add_argument("--commit", default="HEAD", help="the commit whose fic_core and test/core are run")
     parser.add_argument("--rerun", type=Path, default=None,
-                        help="run the survivors of an earlier --out JSON again (found by module, line text, change)")
-    parser.add_argument("--list", action="store_true", help="print the sample and exit")
+                        help="run the survivors of an earlier --out JSON again (found by module, line text, change); "
+                             "refused for a held-out draw, whose survivors are not for fitting")
+    parser.add_argument("--list", action="store_true", help="print a fitting seed's sample and exit")
     parser.add_argument("--count", action="store_true", help="print the number of sites per kind and exit")
+    parser.add_argument("--table", type=Path, nargs="+", default=None,
+                        help="print the kill rate per module pooled over these result JSONs and exit")
     arguments = parser.parse_args(argv)
+    unknown = [name for name in arguments.exclude if name not in LAW_MODULES]
+    if unknown or (arguments.exclude and not arguments.law):
+        print(f"[random_mutation] --exclude takes law modules, with --law (not {unknown or arguments.exclude})",
+              file=sys.stderr)
+        return 2
+    modules = tuple(name for name in LAW_MODULES if name not in arguments.exclude) if arguments.law else None
     if arguments.count:
-        sites = all_sites()
+        sites = [site for site in all_sites() if modules is None or site.module in modules]
         for kind, count in sorted(collections.Counter(site.kind for site in sites).items()):
             print(f"{kind:12s} {count}")
         print(f"{'all':12s} {len(sites)}")
         return 0
+    if arguments.table:
+        print(pooled_table([json.loads(path.read_text()) for path in arguments.table]))
+        return 0
+    try:
+        fitting, held_out = seed_sets()
+    except ValueError as error:
+        print(f"[random_mutation] {error}", file=sys.stderr)
+        return 2
+    if arguments.held_out:
+        seeds = held_out
+    elif arguments.seed == ["fresh"]:
+        seeds = [fresh_seed()]
+    else:
+        try:
+            seeds = [int(seed) for seed in arguments.seed]
+        except ValueError:
+            print(f"[random_mutation] --seed takes integers or 'fresh', got {arguments.seed}", file=sys.stderr)
+            return 2
+    rerun = json.loads(arguments.rerun.read_text()) if arguments.rerun else None
+    if rerun is not None:
+        # A rerun's mutants are the earlier run's survivors: its result carries that run's seed, not --seed's.
+        seeds = [rerun.get("seed", seeds[0])]
+    refused = [seed for seed in seeds if seed not in fitting]
+    if (arguments.list or rerun is not None) and refused:
+        print(f"[random_mutation] seed {refused[0]} is not a fitting seed: its sample and survivors are kept for "
+              f"scoring; list it in mutation_seeds.yaml under fitting first (it then no longer scores)",
+              file=sys.stderr)
+        return 2
     if arguments.list:
-        for site in sample(arguments.seed, arguments.sample, arguments.module):
+        for site in sample(seeds[0], arguments.sample, arguments.module, modules=modules):
             print(f"{site.module}:{site.line} {site.kind}: {site.change}    {site.source_line[:90]}")
         return 0
-    rerun = json.loads(arguments.rerun.read_text()) if arguments.rerun else None
-    # A rerun's mutants are the earlier run's survivors: its result carries that run's seed, not --seed's default.
-    seed = rerun.get("seed", arguments.seed) if rerun is not None else arguments.seed
+    if arguments.held_out and not seeds:
+        print("[random_mutation] mutation_seeds.yaml lists no held-out seed", file=sys.stderr)
+        return 2
+    if arguments.held_out or arguments.out_dir is not None:
+        folder = arguments.out_dir or REPO / "results"
+        outs = [folder / f"random_mutation_{role_of(seed)}_seed{seed}.json" for seed in seeds]
+    elif len(seeds) > 1:
+        print("[random_mutation] several seeds write one JSON each: give --out-dir", file=sys.stderr)
+        return 2
+    else:
+        outs = [arguments.out]
     try:
-        result = run(seed, arguments.sample, arguments.timeout, arguments.module, arguments.out,
-                     echo=lambda text: print(text, flush=True), commit=arguments.commit, rerun=rerun,
-                     baseline_timeout=arguments.baseline_timeout)
+        results = run_draws(seeds, arguments.sample, arguments.timeout, outs, module=arguments.module,
+                            modules=modules, echo=lambda text: print(text, flush=True), commit=arguments.commit,
+                            baseline_timeout=arguments.baseline_timeout, rerun=rerun, jobs=arguments.jobs)
     except RuntimeError as error:   # the unmutated tree failed or did not finish: no mutant can be judged
         print(f"[random_mutation] {error}", file=sys.stderr)
         return 2
-    print(f"commit {result['commit'][:10]}, seed {result['seed']}: {result['sample']} mutants of {result['sites']} "
-          f"sites, {result['equivalent']} equivalent; killed {result['killed']} of {result['non_equivalent']} "
-          f"(kill rate {result['kill_rate']}; {result['killed_by_timeout']} of the kills by the timeout) in "
-          f"{result['seconds']} s")
-    return 0 if result["kill_rate"] is not None and result["kill_rate"] >= arguments.require else 1
+    for result in results:
+        print(_summary(result))
+    if len(results) > 1 or arguments.law:
+        print(pooled_table(results))
+    counted = sum(result["non_equivalent"] for result in results)
+    killed = sum(result["killed"] for result in results)
+    return 0 if counted and killed / counted >= arguments.require else 1
 
 
 if __name__ == "__main__":
