@@ -15,7 +15,7 @@ import ctypes
 import os
 import signal
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 _LIBC = ctypes.CDLL(None, use_errno=True)
@@ -91,15 +91,26 @@ def diagnostics_records(bag: Path, wanted: dict[str, str]) -> dict[str, dict[str
 
 
 def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], early_exits: list[str],
-                   report_failed: bool, bag: Path | None = None) -> tuple[int, list[str]]:
+                   report_failed: bool, bag: Path | None = None, killed_at_stop: Sequence[str] = (),
+                   starved: bool = False) -> tuple[int, list[str]]:
     """The launcher's exit code and one reason per broken figure, worst first: a failed node, limit violations,
     lost joint states, refused robot-side input. ``metrics``: the report's metrics.json (None: no report);
-    ``bag``: the run's bag, for the replica's input-authority record and the robot's velocity reflex."""
+    ``bag``: the run's bag, for the replica's input-authority record and the robot's velocity reflex.
+
+    ``killed_at_stop``: the nodes the launcher killed because they had not stopped on SIGINT in time. On a machine
+    the timing verdict found ``starved`` that is the starvation's doing (measured: the device and master under a 40 %
+    CPU quota still running 15 s after SIGINT), not a crash: no safety reason, the timing verdict names the kill.
+    On a machine that kept real time (or a lockstep run, which is not judged) a node that hangs at its stop is a
+    failed node."""
     reasons: list[tuple[int, str]] = []
-    failed = failed_nodes(node_codes)
+    killed = [name for name in killed_at_stop if name in node_codes]
+    failed = failed_nodes({name: code for name, code in node_codes.items() if name not in killed})
     if failed:
         reasons.append((EXIT_NODE_FAILED, "nodes exited with errors: "
                         + ", ".join(f"{name} ({code})" for name, code in failed.items())))
+    if killed and not starved:
+        reasons.append((EXIT_NODE_FAILED, f"nodes killed at the stop, still running long after SIGINT on a machine "
+                                          f"that kept real time: {', '.join(killed)}"))
     if early_exits:
         reasons.append((EXIT_NODE_FAILED, f"nodes exited before the end of the run: {', '.join(early_exits)}"))
     if report_failed:

@@ -118,6 +118,9 @@ class Timing:
                      f"{_show(f.get('max_tick_gap_ms'), '.1f')} ms (bound: no hold)"
                      if f.get("loop_holds") is not None else
                      "replica loop: no loop-health record in the bag (state age not known)")
+        if f.get("killed_at_stop"):
+            lines.append(f"killed at the stop, still running long after SIGINT: {', '.join(f['killed_at_stop'])}"
+                         + (" (starved, not crashed)" if self.starved else ""))
         lines.append("STARVED: the machine did not keep real time, so the run's tracking figures are the computer's "
                      "as much as the controller's: " + "; ".join(self.reasons) if self.starved
                      else "the computer kept real time")
@@ -201,9 +204,11 @@ def _integer(text: str | None) -> int | None:
 
 
 def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBounds, realtime: bool,
-              window: SimulatedWindow | None = None) -> Timing:
+              window: SimulatedWindow | None = None, killed_at_stop: list[str] | None = None) -> Timing:
     """The verdict of a finished run (its bag and report) against the profile's ``bounds``, also written to
-    ``run_dir``/timing.json. ``window``: the run's duration as the launcher counted it (None: not known)."""
+    ``run_dir``/timing.json. ``window``: the run's duration as the launcher counted it (None: not known);
+    ``killed_at_stop``: the nodes the launcher had to kill at the stop, named with the verdict (not a reason: a kill
+    alone does not show that the machine was starved)."""
     from fic_teleop_bringup.launch_supervision import diagnostics_records
 
     rates: dict[str, dict] = {}
@@ -223,5 +228,7 @@ def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBoun
             print(f"[run] timing: the bag's share of the run not measured ({error})")
     timing = timing_verdict(metrics, rates, health, bounds, realtime, recorded_s,
                             window.length_s if window is not None else None)
+    if killed_at_stop and timing.judged:
+        timing.figures["killed_at_stop"] = list(killed_at_stop)
     (run_dir / "timing.json").write_text(json.dumps(asdict(timing), indent=2) + "\n")
     return timing

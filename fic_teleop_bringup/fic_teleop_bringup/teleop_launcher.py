@@ -36,6 +36,10 @@ from fic_teleop_runtime.params_file import write_node_params
 from fic_teleop_runtime.parameters import file_sections
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
 
+# How long a node may take to stop after SIGINT before it is killed; the recorder finalises its bag, so it gets more.
+# A starved node can need longer (measured: a device and master under a 40 % CPU quota), which the verdict then says
+# (launch_supervision.safety_verdict).
+STOP_TIMEOUT_S, RECORDER_STOP_TIMEOUT_S = 15.0, 60.0
 SCRIPT_CIRCLE_START_S = 2.0     # circle_start_time of config/operator_scripts/superimposition.yaml
 PLANNER_LAG_S = 0.2             # the harmonic planner's lag behind the circle at 0.126 m/s (measured)
 # Every difference between the run modes (rates, clocks, groups, priorities, per-node values) is a run profile,
@@ -231,6 +235,7 @@ class Graph:
         self.log_dir = log_dir
         self.processes: list[tuple[NodeSpec, subprocess.Popen, object]] = []
         self.early_exits: list[str] = []  # nodes that ended before the run did
+        self.killed_at_stop: list[str] = []   # nodes that did not stop on SIGINT within the stop's timeout
         self.scheduler = RealtimeScheduler()
         self.wrap = None   # two stations: runs each node in its station's namespace (two_stations.py)
 
@@ -277,15 +282,16 @@ class Graph:
     def foreground_done(self) -> bool:
         return any(spec.foreground and process.poll() is not None for spec, process, _ in self.processes)
 
-    def stop(self, timeout: float = 15.0) -> dict[str, int]:
+    def stop(self, timeout: float = STOP_TIMEOUT_S, recorder_timeout: float = RECORDER_STOP_TIMEOUT_S) -> dict[str, int]:
+        """SIGINT to each node in reverse start order, the recorder last; a node still running ``timeout`` seconds
+        later (the recorder: ``recorder_timeout``) is killed and named in ``killed_at_stop``."""
         codes: dict[str, int] = {}
-        for spec, process, log in reversed(self.processes):
-            if spec.name == "recorder":
-                continue  # the recorder stops last, so it records the others' last messages
-            codes[spec.name] = _interrupt(process, timeout)
-        for spec, process, log in self.processes:
-            if spec.name == "recorder":
-                codes[spec.name] = _interrupt(process, 60.0)
+        order = [entry for entry in reversed(self.processes) if entry[0].name != "recorder"] + \
+                [entry for entry in self.processes if entry[0].name == "recorder"]
+        for spec, process, log in order:  # the recorder stops last, so it records the others' last messages
+            codes[spec.name], killed = _interrupt(process, recorder_timeout if spec.name == "recorder" else timeout)
+            if killed:
+                self.killed_at_stop.append(spec.name)
         for spec, _, log in self.processes:
             if log:
                 log.close()
@@ -294,7 +300,8 @@ class Graph:
         return codes
 
 
-def _interrupt(process: subprocess.Popen, timeout: float) -> int:
+def _interrupt(process: subprocess.Popen, timeout: float) -> tuple[int, bool]:
+    """SIGINT, then SIGKILL after ``timeout`` s: (the exit code, whether it had to be killed)."""
     if process.poll() is None:
         process.send_signal(signal.SIGINT)
         try:
@@ -302,7 +309,8 @@ def _interrupt(process: subprocess.Popen, timeout: float) -> int:
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
-    return process.returncode
+            return process.returncode, True
+    return process.returncode, False
 
 
 def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event,
@@ -627,7 +635,9 @@ def main(argv: list[str] | None = None) -> int:
     wall = time.monotonic() - wall_start
     failed = failed_nodes(codes)
     print(f"[run] graph stopped after {wall:.1f} s wall, {window.length_s:.1f} s simulated"
-          + (f"; nodes with errors: {failed}" if failed else ""))
+          + (f"; nodes with errors: {failed}" if failed else "")
+          + (f"; killed after no stop on SIGINT: {', '.join(running.killed_at_stop)}" if running.killed_at_stop
+             else ""))
     print(f"[run] bag: {bag_path}")
     metrics, report_failed = None, False
     if not args.no_report:
@@ -640,12 +650,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[run] report: {report_dir}")
         metrics_path = report_dir / "metrics.json"
         metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else None
-    code, reasons = safety_verdict(metrics, codes, running.early_exits, report_failed, bag_path)
-    for reason in reasons:
-        print(f"[run] safety: {reason}", file=sys.stderr)
     # Whether the computer kept real time, after every run; a broken safety figure still decides the code.
     timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile),
-                       args.time_mode == "realtime", window)
+                       args.time_mode == "realtime", window, killed_at_stop=running.killed_at_stop)
+    code, reasons = safety_verdict(metrics, codes, running.early_exits, report_failed, bag_path,
+                                   killed_at_stop=running.killed_at_stop, starved=timing.starved)
+    for reason in reasons:
+        print(f"[run] safety: {reason}", file=sys.stderr)
     for line in timing.lines():
         print(f"[run] timing: {line}", file=sys.stderr if timing.starved else sys.stdout)
     code = exit_code(code, timing, EXIT_STARVED)
