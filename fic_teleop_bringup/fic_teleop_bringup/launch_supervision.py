@@ -90,6 +90,45 @@ def diagnostics_records(bag: Path, wanted: dict[str, str]) -> dict[str, dict[str
     return last
 
 
+REPLICA_STOPPED_LINE = "replica stopped: "   # fic_teleop_replica.replica_node.STOPPED_LINE (not imported here)
+
+
+def replica_stop_counters(log_dir: Path) -> dict[str, str] | None:
+    """The replica's statistics as its last log line gave them at its stop (its cumulative tick counters, the same
+    values as its /diagnostics record); None without that line (the replica killed, another replica)."""
+    import ast
+
+    log = log_dir / "replica.log"
+    try:
+        lines = log.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return None
+    for line in reversed(lines):
+        if REPLICA_STOPPED_LINE in line:
+            try:
+                values = ast.literal_eval(line.split(REPLICA_STOPPED_LINE, 1)[1].strip())
+            except (ValueError, SyntaxError):
+                return None
+            return {str(key): str(value) for key, value in values.items()} if isinstance(values, dict) else None
+    return None
+
+
+def fill_limit_counters(metrics: dict, log_dir: Path) -> bool:
+    """A report without limit counts (a recorder starved before it took any of the replica's): the replica's own
+    counters from its stop line, into ``metrics`` with ``limit_counters_source`` saying so. True if filled."""
+    if metrics.get("limit_violations") is not None:
+        return False
+    counters = replica_stop_counters(log_dir)
+    try:
+        violations, shaped, ticks = (int(counters[key]) for key in ("violation_ticks", "shaped_ticks", "ticks"))
+    except (TypeError, KeyError, ValueError):
+        return False
+    metrics.update(limit_violations=violations, limit_shaped_ticks=shaped,
+                   limit_counters_source=f"the replica's log at its stop ({ticks} control ticks)")
+    (metrics.get("not_measured") or {}).pop("limit_violations", None)
+    return True
+
+
 def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], early_exits: list[str],
                    report_failed: bool, bag: Path | None = None, killed_at_stop: Sequence[str] = (),
                    starved: bool = False) -> tuple[int, list[str]]:

@@ -28,7 +28,7 @@ from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, dom
     prepare_run_folder, whole_states_per_tick
 from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
 from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_REFUSED, EXIT_STARVED, die_with_launcher, \
-    failed_nodes, safety_verdict
+    failed_nodes, fill_limit_counters, safety_verdict
 from fic_teleop_bringup.launch_timing import SimulatedWindow, TimingBounds, exit_code, judge_run
 from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler
 from fic_teleop_bringup.workspace import CONFIG, REPO
@@ -650,6 +650,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[run] report: {report_dir}")
         metrics_path = report_dir / "metrics.json"
         metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else None
+        if metrics is not None and fill_limit_counters(metrics, log_dir):   # the bag had none: a starved recorder
+            metrics_path.write_text(json.dumps(metrics, indent=2) + "\n")
+            print(f"[run] limit counts from {metrics['limit_counters_source']}: {metrics['limit_violations']} "
+                  "violation ticks")
     # Whether the computer kept real time, after every run; a broken safety figure still decides the code.
     timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile),
                        args.time_mode == "realtime", window, killed_at_stop=running.killed_at_stop)
