@@ -633,7 +633,7 @@ def main(argv: list[str] | None = None) -> int:
         codes = running.stop()
         signal.signal(signal.SIGINT, signal.default_int_handler)
     wall = time.monotonic() - wall_start
-    failed = failed_nodes(codes)
+    failed = failed_nodes({name: code for name, code in codes.items() if name not in running.killed_at_stop})
     print(f"[run] graph stopped after {wall:.1f} s wall, {window.length_s:.1f} s simulated"
           + (f"; nodes with errors: {failed}" if failed else "")
           + (f"; killed after no stop on SIGINT: {', '.join(running.killed_at_stop)}" if running.killed_at_stop
