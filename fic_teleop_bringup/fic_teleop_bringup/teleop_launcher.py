@@ -136,7 +136,9 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         recorded_joint_states = {"joint_states_period": 1.0 / args.joint_state_rate}
     # The closed-loop operator's video: the robot's poses at a webcam's 30 Hz, over the backward link.
     video = {"object_pose_rate_hz": VIDEO_RATE_HZ} if closed_loop else {}
-    backward_routes = {"routes": [*_configured_routes("channel_backward"), *VIDEO_ROUTES]} if closed_loop else {}
+    backward_routes = {"routes": [*_configured_routes("channel_backward"), *VIDEO_ROUTES],
+                       "logged_deliveries": [*_configured_section("channel_backward").get("logged_deliveries", []),
+                                             *(route.split(":")[1] for route in VIDEO_ROUTES)]} if closed_loop else {}
     watcher = {"assumed_one_way_delay": args.delay} if closed_loop else {}
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
@@ -197,9 +199,14 @@ def tdpa(args: argparse.Namespace) -> bool:
     return bool(args.tdpa or args.controller == "linear_tdpa")
 
 
+def _configured_section(node: str) -> dict:
+    """A channel node's own section of config/channel.yaml."""
+    return file_sections(CONFIG / "channel.yaml")[node]
+
+
 def _configured_routes(node: str) -> list[str]:
     """A channel node's routes as config/channel.yaml gives them."""
-    return list(file_sections(CONFIG / "channel.yaml")[node]["routes"])
+    return list(_configured_section(node)["routes"])
 
 
 def _script_for_delay(delay: float, run_dir: Path) -> dict[str, str]:
