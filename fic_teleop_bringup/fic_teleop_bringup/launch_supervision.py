@@ -129,9 +129,14 @@ def fill_limit_counters(metrics: dict, log_dir: Path) -> bool:
     return True
 
 
+#: The /diagnostics records the safety verdict reads (status name -> a key its record must hold): the replica's
+#: input-authority figures (input_guard.py), the robot's velocity reflex (velocity_reflex.py).
+SAFETY_RECORDS = {"replica": "input_safe_hold", "robot_sim": "reflex"}
+
+
 def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], early_exits: list[str],
                    report_failed: bool, bag: Path | None = None, killed_at_stop: Sequence[str] = (),
-                   starved: bool = False) -> tuple[int, list[str]]:
+                   starved: bool = False, records: dict[str, dict[str, str]] | None = None) -> tuple[int, list[str]]:
     """The launcher's exit code and one reason per broken figure, worst first: a failed node, limit violations,
     lost joint states, refused robot-side input. ``metrics``: the report's metrics.json (None: no report);
     ``bag``: the run's bag, for the replica's input-authority record and the robot's velocity reflex.
@@ -140,7 +145,8 @@ def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], earl
     the timing verdict found ``starved`` that is the starvation's doing (measured: the device and master under a 40 %
     CPU quota still running 15 s after SIGINT), not a crash: no safety reason, the timing verdict names the kill.
     On a machine that kept real time (or a lockstep run, which is not judged) a node that hangs at its stop is a
-    failed node."""
+    failed node. ``records``: the bag's SAFETY_RECORDS when the caller has read them already (run_bag.py); None:
+    read from ``bag`` here."""
     reasons: list[tuple[int, str]] = []
     killed = [name for name in killed_at_stop if name in node_codes]
     failed = failed_nodes({name: code for name, code in node_codes.items() if name not in killed})
@@ -161,8 +167,8 @@ def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], earl
         dropped = metrics.get("dropped_joint_states")
         if dropped:
             reasons.append((EXIT_JOINT_STATES_LOST, f"{dropped} joint states lost in the bag"))
-    records = diagnostics_records(bag, {"replica": "input_safe_hold", "robot_sim": "reflex"}) \
-        if bag is not None and bag.exists() else {}
+    if records is None:
+        records = diagnostics_records(bag, SAFETY_RECORDS) if bag is not None and bag.exists() else {}
     reflex = records.get("robot_sim", {}).get("reflex")
     if reflex:
         reasons.append((EXIT_LIMIT_VIOLATIONS, f"the robot stopped the arm: {reflex}"))

@@ -23,13 +23,15 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-from fic_teleop_bringup import hardware_twin, node_groups, run_profile, two_stations
+from fic_teleop_bringup import hardware_twin, node_groups, run_bag, run_profile, two_stations
 from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, domain_from_environment, \
     prepare_run_folder, whole_states_per_tick
 from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
 from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_REFUSED, EXIT_STARVED, die_with_launcher, \
     failed_nodes, fill_limit_counters, safety_verdict
-from fic_teleop_bringup.launch_timing import SimulatedWindow, TimingBounds, exit_code, judge_run
+from fic_teleop_bringup.launch_timing import JUDGED_RECORDS, SimulatedWindow, TimingBounds, exit_code, judge_run, \
+    judged_topics
+from fic_teleop_bringup.run_bag import RunBag
 from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler
 from fic_teleop_bringup.workspace import CONFIG, REPO
 from fic_teleop_runtime.params_file import write_node_params
@@ -405,6 +407,18 @@ def _report_scheduling(running: Graph, run_dir: Path) -> None:
     _add_to_run_record(run_dir, "realtime_scheduling", summary)
 
 
+def _scanned(bag: Path, topics: set[str]) -> RunBag | None:
+    """The run's bag read once for the launcher's verdicts; None without a bag, or when it cannot be read (each
+    verdict then reads what it can itself)."""
+    if not bag.exists():
+        return None
+    try:
+        return run_bag.scan(bag, topics, JUDGED_RECORDS)
+    except Exception as error:  # noqa: BLE001 - a torn or foreign bag: the verdicts go on with their own reads
+        print(f"[run] the bag could not be read for the verdicts ({error})")
+        return None
+
+
 def _add_to_run_record(run_dir: Path, key: str, value) -> None:
     """Add what the run learned while starting to its run.json."""
     run_record = json.loads((run_dir / "run.json").read_text())
@@ -661,11 +675,15 @@ def main(argv: list[str] | None = None) -> int:
             metrics_path.write_text(json.dumps(metrics, indent=2) + "\n")
             print(f"[run] limit counts from {metrics['limit_counters_source']}: {metrics['limit_violations']} "
                   "violation ticks")
-    # Whether the computer kept real time, after every run; a broken safety figure still decides the code.
-    timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile),
-                       args.time_mode == "realtime", window, killed_at_stop=running.killed_at_stop)
+    # Whether the computer kept real time, after every run; a broken safety figure still decides the code. The bag
+    # read once for both verdicts (run_bag.py).
+    realtime = args.time_mode == "realtime"
+    scanned = _scanned(bag_path, judged_topics(run_dir) if realtime else set())
+    timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile), realtime, window,
+                       killed_at_stop=running.killed_at_stop, scanned=scanned)
     code, reasons = safety_verdict(metrics, codes, running.early_exits, report_failed, bag_path,
-                                   killed_at_stop=running.killed_at_stop, starved=timing.starved)
+                                   killed_at_stop=running.killed_at_stop, starved=timing.starved,
+                                   records=scanned.diagnostics if scanned is not None else None)
     for reason in reasons:
         print(f"[run] safety: {reason}", file=sys.stderr)
     for line in timing.lines():
