@@ -332,7 +332,9 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     ``progress(elapsed, joint_state_readers)`` is called at each turn once the run has started, with the number of
     /joint_states readers; ``watch`` = (topic, seen): ``seen(wall_time)`` for each TeleoperationCommand on it."""
     import rclpy
+    from rclpy.experimental import EventsExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.task import Future
     from rosgraph_msgs.msg import Clock
 
     from rclpy.signals import SignalHandlerOptions
@@ -358,9 +360,15 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
                                  QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
     wall_start = time.monotonic()
     last_print = last_scheduling = 0.0
+    # The checks below a tenth of a second apart, not once per /clock message: the EventsExecutor takes every message
+    # of the slice (as the nodes' spin loop does, fic_teleop_runtime/spin.py). One rclpy.spin_once and one round of
+    # checks per message (100 Hz in realtime) cost the launcher about a CPU-second a run.
+    executor = EventsExecutor()
+    executor.add_node(node)
+    never = Future()
     try:
         while rclpy.ok() and not stop.is_set():
-            rclpy.spin_once(node, timeout_sec=0.1)
+            executor.spin_until_future_complete(never, timeout_sec=0.1)
             # Threads appear while the nodes start (executor, DDS participant, the robot's physics thread): look for
             # new ones often at first, then rarely.
             since_start = time.monotonic() - wall_start
@@ -385,6 +393,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
                 last_print = time.monotonic()
                 print(f"[run] sim time {elapsed:5.1f} / {duration:.0f} s", flush=True)
     finally:
+        executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
         rclpy.try_shutdown()
     return SimulatedWindow(0.0, 0.0) if latest["start"] is None else SimulatedWindow(latest["start"], latest["t"])
