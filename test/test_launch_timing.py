@@ -161,3 +161,43 @@ def test_judge_run_reads_the_bags_clock_for_its_share(tmp_path: Path) -> None:
     timing = judge_run(tmp_path, tmp_path / "bag", QUIET, BOUNDS, realtime=True, window=SimulatedWindow(3.8, 9.8))
     assert abs(timing.figures["recorded_s"] - 1.19) < 1e-6 and timing.figures["simulated_s"] == 6.0
     assert timing.starved and "the recorder fell behind" in timing.reasons[0]
+
+
+def test_one_pass_gives_what_each_verdict_read_on_its_own(tmp_path: Path) -> None:
+    """run_bag.scan (the launcher's one pass over the bag) gives the loops' receive times, the /clock stamps and the
+    safety and loop-health records exactly as the verdicts' own readers do."""
+    from builtin_interfaces.msg import Time
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
+    from std_msgs.msg import Float64MultiArray
+
+    from fic_teleop_bringup.launch_supervision import SAFETY_RECORDS, diagnostics_records
+    from fic_teleop_bringup.launch_timing import JUDGED_RECORDS
+    from fic_teleop_bringup.run_bag import scan
+    from fic_teleop_tools.recording.bag_writer import BagWriter
+    from fic_teleop_tools.report.loop_rates import loop_rates, loop_topics
+
+    writer = BagWriter(tmp_path / "bag")
+    for topic, kind in (("/clock", "rosgraph_msgs/msg/Clock"), ("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray"),
+                        ("/effort_controller/commands", "std_msgs/msg/Float64MultiArray")):
+        writer.add_topic(topic, kind)
+    for k in range(1000):                                   # 10 s: /clock at 100 Hz, commands at 90 Hz
+        log = 1_000_000_000 + k * 10_000_000
+        writer.write("/clock", serialize_message(Clock(clock=Time(sec=k // 100, nanosec=(k % 100) * 10_000_000))), log)
+        if k % 10:
+            writer.write("/effort_controller/commands", serialize_message(Float64MultiArray(data=[0.0] * 7)), log)
+        if k % 100 == 0:
+            statuses = [DiagnosticStatus(name="replica", values=[KeyValue(key="input_safe_hold", value="no"),
+                                                                 KeyValue(key="ticks", value=str(k))]),
+                        DiagnosticStatus(name=LOOP_HEALTH_STATUS, values=[KeyValue(key="holds", value=str(k // 500))])]
+            writer.write("/diagnostics", serialize_message(DiagnosticArray(status=statuses)), log)
+    writer.finish()
+    bag = tmp_path / "bag"
+    scanned = scan(bag, loop_topics(None), JUDGED_RECORDS)
+    assert {name: scanned.diagnostics[name] for name in SAFETY_RECORDS if name in scanned.diagnostics} == \
+        diagnostics_records(bag, SAFETY_RECORDS) == {"replica": {"input_safe_hold": "no", "ticks": "900"}}
+    assert scanned.diagnostics[LOOP_HEALTH_STATUS] == {"holds": "1"}
+    assert len(scanned.clock_stamps) == 1000 and scanned.clock_stamps[-1] == 9.99
+    assert loop_rates(bag, receive_times=(scanned.receive_times, scanned.span)) == loop_rates(bag)
+    assert abs(loop_rates(bag)["replica control"]["achieved_hz"] - 90.0) < 1.0

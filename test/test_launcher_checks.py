@@ -94,6 +94,50 @@ def test_the_verdict_names_each_broken_figure_worst_first() -> None:
     assert EXIT_INPUT_REFUSED not in (EXIT_OK, EXIT_REFUSED, EXIT_NODE_FAILED, EXIT_LIMIT_VIOLATIONS)
 
 
+def test_a_node_killed_at_the_stop_of_a_starved_run_is_starvation_not_a_crash() -> None:
+    """A node the launcher had to kill because it had not stopped on SIGINT in time: on a starved machine the run is
+    starved (exit 6, the kill named with the timing verdict), not "a node crashed"; on a machine that kept real time
+    it is a failed node, named as killed."""
+    from fic_teleop_bringup.launch_supervision import EXIT_STARVED
+    from fic_teleop_bringup.launch_timing import Timing, TimingBounds, exit_code
+
+    clean = {"limit_violations": 0, "dropped_joint_states": 0}
+    codes = {"robot": 0, "replica": -2, "haptic_device+master": -9}
+    starved = Timing(judged=True, bounds=TimingBounds(0.95, 0.9, 0.9), starved=True,
+                     reasons=["real-time factor 0.545 < 0.95"],
+                     figures={"killed_at_stop": ["haptic_device+master"]})
+    code, reasons = safety_verdict(clean, codes, [], False, killed_at_stop=["haptic_device+master"], starved=True)
+    assert (code, reasons) == (EXIT_OK, [])
+    assert exit_code(code, starved, EXIT_STARVED) == EXIT_STARVED
+    assert any("killed at the stop" in line and "haptic_device+master" in line for line in starved.lines())
+    code, reasons = safety_verdict(clean, codes, [], False, killed_at_stop=["haptic_device+master"], starved=False)
+    assert code == EXIT_NODE_FAILED and reasons == [
+        "nodes killed at the stop, still running long after SIGINT on a machine that kept real time: "
+        "haptic_device+master"]
+    # a node that crashed on its own is still a crash, starved or not
+    code, reasons = safety_verdict(clean, {**codes, "planner": 1}, [], False,
+                                   killed_at_stop=["haptic_device+master"], starved=True)
+    assert code == EXIT_NODE_FAILED and reasons == ["nodes exited with errors: planner (1)"]
+
+
+def test_the_graph_kills_a_node_that_ignores_its_stop_and_names_it(tmp_path: Path) -> None:
+    """Graph.stop: SIGINT, then SIGKILL after the timeout; the killed node is in killed_at_stop, a node that stops
+    on SIGINT is not."""
+    from fic_teleop_bringup.teleop_launcher import Graph, NodeSpec
+
+    graph = Graph(tmp_path)
+    stubborn = "import signal, sys, time; signal.signal(signal.SIGINT, signal.SIG_IGN); print(1, flush=True); " \
+               "time.sleep(60)"
+    willing = "import sys, time; print(1, flush=True); time.sleep(60)"
+    for name, code in (("robot", willing), ("haptic_device+master", stubborn)):
+        process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE)
+        assert process.stdout.readline().strip() == b"1"   # its handler is in
+        graph.processes.append((NodeSpec("pkg", "exe", name), process, None))
+    codes = graph.stop(timeout=0.5)
+    assert graph.killed_at_stop == ["haptic_device+master"]
+    assert codes["haptic_device+master"] == -9 and codes["robot"] == -2
+
+
 def test_a_refusal_recorded_in_the_bag_is_named_with_its_reason(tmp_path: Path) -> None:
     """The replica's /diagnostics in the bag carry its refusal count and the last reason; the verdict quotes it."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue

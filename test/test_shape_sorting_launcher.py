@@ -24,6 +24,9 @@ def test_the_shape_sorting_scene_runs_the_shape_sorting_operator_by_default() ->
     assert nodes["haptic_device"]["assumed_one_way_delay"] == 0.5   # the latency it has learnt is the run's
     # The video crosses the backward link as the force feedback does; the robot publishes it at a camera's rate.
     assert set(VIDEO_ROUTES) <= set(nodes["channel_backward"]["routes"])
+    # its deliveries are logged (the video's delay is read from them), and F_R's still are
+    assert nodes["channel_backward"]["logged_deliveries"] == [
+        "/master/feedback_wrench", "/master/video/tcp_pose", "/master/video/object_poses"]
     assert nodes["robot"]["object_pose_rate_hz"] > 0.0
     assert "routes" not in nodes["channel_forward"]
 

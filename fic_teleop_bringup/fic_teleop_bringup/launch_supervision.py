@@ -15,7 +15,7 @@ import ctypes
 import os
 import signal
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 _LIBC = ctypes.CDLL(None, use_errno=True)
@@ -90,16 +90,72 @@ def diagnostics_records(bag: Path, wanted: dict[str, str]) -> dict[str, dict[str
     return last
 
 
+REPLICA_STOPPED_LINE = "replica stopped: "   # fic_teleop_replica.replica_node.STOPPED_LINE (not imported here)
+
+
+def replica_stop_counters(log_dir: Path) -> dict[str, str] | None:
+    """The replica's statistics as its last log line gave them at its stop (its cumulative tick counters, the same
+    values as its /diagnostics record); None without that line (the replica killed, another replica)."""
+    import ast
+
+    log = log_dir / "replica.log"
+    try:
+        lines = log.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return None
+    for line in reversed(lines):
+        if REPLICA_STOPPED_LINE in line:
+            try:
+                values = ast.literal_eval(line.split(REPLICA_STOPPED_LINE, 1)[1].strip())
+            except (ValueError, SyntaxError):
+                return None
+            return {str(key): str(value) for key, value in values.items()} if isinstance(values, dict) else None
+    return None
+
+
+def fill_limit_counters(metrics: dict, log_dir: Path) -> bool:
+    """A report without limit counts (a recorder starved before it took any of the replica's): the replica's own
+    counters from its stop line, into ``metrics`` with ``limit_counters_source`` saying so. True if filled."""
+    if metrics.get("limit_violations") is not None:
+        return False
+    counters = replica_stop_counters(log_dir)
+    try:
+        violations, shaped, ticks = (int(counters[key]) for key in ("violation_ticks", "shaped_ticks", "ticks"))
+    except (TypeError, KeyError, ValueError):
+        return False
+    metrics.update(limit_violations=violations, limit_shaped_ticks=shaped,
+                   limit_counters_source=f"the replica's log at its stop ({ticks} control ticks)")
+    (metrics.get("not_measured") or {}).pop("limit_violations", None)
+    return True
+
+
+#: The /diagnostics records the safety verdict reads (status name -> a key its record must hold): the replica's
+#: input-authority figures (input_guard.py), the robot's velocity reflex (velocity_reflex.py).
+SAFETY_RECORDS = {"replica": "input_safe_hold", "robot_sim": "reflex"}
+
+
 def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], early_exits: list[str],
-                   report_failed: bool, bag: Path | None = None) -> tuple[int, list[str]]:
+                   report_failed: bool, bag: Path | None = None, killed_at_stop: Sequence[str] = (),
+                   starved: bool = False, records: dict[str, dict[str, str]] | None = None) -> tuple[int, list[str]]:
     """The launcher's exit code and one reason per broken figure, worst first: a failed node, limit violations,
     lost joint states, refused robot-side input. ``metrics``: the report's metrics.json (None: no report);
-    ``bag``: the run's bag, for the replica's input-authority record and the robot's velocity reflex."""
+    ``bag``: the run's bag, for the replica's input-authority record and the robot's velocity reflex.
+
+    ``killed_at_stop``: the nodes the launcher killed because they had not stopped on SIGINT in time. On a machine
+    the timing verdict found ``starved`` that is the starvation's doing (measured: the device and master under a 40 %
+    CPU quota still running 15 s after SIGINT), not a crash: no safety reason, the timing verdict names the kill.
+    On a machine that kept real time (or a lockstep run, which is not judged) a node that hangs at its stop is a
+    failed node. ``records``: the bag's SAFETY_RECORDS when the caller has read them already (run_bag.py); None:
+    read from ``bag`` here."""
     reasons: list[tuple[int, str]] = []
-    failed = failed_nodes(node_codes)
+    killed = [name for name in killed_at_stop if name in node_codes]
+    failed = failed_nodes({name: code for name, code in node_codes.items() if name not in killed})
     if failed:
         reasons.append((EXIT_NODE_FAILED, "nodes exited with errors: "
                         + ", ".join(f"{name} ({code})" for name, code in failed.items())))
+    if killed and not starved:
+        reasons.append((EXIT_NODE_FAILED, f"nodes killed at the stop, still running long after SIGINT on a machine "
+                                          f"that kept real time: {', '.join(killed)}"))
     if early_exits:
         reasons.append((EXIT_NODE_FAILED, f"nodes exited before the end of the run: {', '.join(early_exits)}"))
     if report_failed:
@@ -111,8 +167,8 @@ def safety_verdict(metrics: dict | None, node_codes: dict[str, int | None], earl
         dropped = metrics.get("dropped_joint_states")
         if dropped:
             reasons.append((EXIT_JOINT_STATES_LOST, f"{dropped} joint states lost in the bag"))
-    records = diagnostics_records(bag, {"replica": "input_safe_hold", "robot_sim": "reflex"}) \
-        if bag is not None and bag.exists() else {}
+    if records is None:
+        records = diagnostics_records(bag, SAFETY_RECORDS) if bag is not None and bag.exists() else {}
     reflex = records.get("robot_sim", {}).get("reflex")
     if reflex:
         reasons.append((EXIT_LIMIT_VIOLATIONS, f"the robot stopped the arm: {reflex}"))

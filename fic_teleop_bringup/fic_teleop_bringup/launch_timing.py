@@ -34,10 +34,21 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+from fic_teleop_bringup.launch_supervision import SAFETY_RECORDS
+from fic_teleop_bringup.run_bag import RunBag, scan
 from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS
 
 LOOP_HEALTH_STATUS = "replica loop health"   # fic_core/loop_health.py diagnostic_values, as the replica names it
 LOOP_HEALTH_KEY = "holds"
+#: The /diagnostics records the launcher's two verdicts read (run_bag.scan reads them in its one pass).
+JUDGED_RECORDS = {**SAFETY_RECORDS, LOOP_HEALTH_STATUS: LOOP_HEALTH_KEY}
+
+
+def judged_topics(run_dir: Path) -> set[str]:
+    """The streams whose receive times the timing verdict needs: those of the run's loops."""
+    from fic_teleop_tools.report.loop_rates import loop_topics
+
+    return loop_topics(run_dir)
 
 
 @dataclass(frozen=True)
@@ -76,21 +87,6 @@ def recorded_in_window(clock_stamps: np.ndarray, window: SimulatedWindow) -> flo
     return float(inside.max() - inside.min()) if len(inside) else 0.0
 
 
-def bag_clock_stamps(bag: Path) -> np.ndarray:
-    """The simulation times [s] of the bag's /clock messages (empty without any)."""
-    from mcap_ros2.decoder import DecoderFactory
-    from fic_teleop_tools.recording.bag_reader import read_messages
-
-    factory, decode, stamps = DecoderFactory(), None, []
-    for schema, channel, message in read_messages(bag):
-        if channel.topic != "/clock" or schema is None:
-            continue
-        decode = decode or factory.decoder_for(channel.message_encoding, schema)
-        clock = decode(message.data).clock
-        stamps.append(clock.sec + 1e-9 * clock.nanosec)
-    return np.array(stamps)
-
-
 @dataclass
 class Timing:
     """The verdict: ``starved`` with one reason per figure out of bounds; ``figures`` as measured (None: unknown)."""
@@ -118,6 +114,9 @@ class Timing:
                      f"{_show(f.get('max_tick_gap_ms'), '.1f')} ms (bound: no hold)"
                      if f.get("loop_holds") is not None else
                      "replica loop: no loop-health record in the bag (state age not known)")
+        if f.get("killed_at_stop"):
+            lines.append(f"killed at the stop, still running long after SIGINT: {', '.join(f['killed_at_stop'])}"
+                         + (" (starved, not crashed)" if self.starved else ""))
         lines.append("STARVED: the machine did not keep real time, so the run's tracking figures are the computer's "
                      "as much as the controller's: " + "; ".join(self.reasons) if self.starved
                      else "the computer kept real time")
@@ -201,27 +200,30 @@ def _integer(text: str | None) -> int | None:
 
 
 def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBounds, realtime: bool,
-              window: SimulatedWindow | None = None) -> Timing:
+              window: SimulatedWindow | None = None, killed_at_stop: list[str] | None = None,
+              scanned: "RunBag | None" = None) -> Timing:
     """The verdict of a finished run (its bag and report) against the profile's ``bounds``, also written to
-    ``run_dir``/timing.json. ``window``: the run's duration as the launcher counted it (None: not known)."""
-    from fic_teleop_bringup.launch_supervision import diagnostics_records
-
+    ``run_dir``/timing.json. ``window``: the run's duration as the launcher counted it (None: not known);
+    ``killed_at_stop``: the nodes the launcher had to kill at the stop, named with the verdict (not a reason: a kill
+    alone does not show that the machine was starved); ``scanned``: the bag as run_bag.scan read it for
+    ``judged_topics`` and ``JUDGED_RECORDS`` (None: read here)."""
     rates: dict[str, dict] = {}
     health = None
+    recorded_s = None
     if realtime and bag.exists():
         from fic_teleop_tools.report.loop_rates import loop_rates
         try:
-            rates = loop_rates(bag, run_dir)
+            scanned = scanned if scanned is not None else scan(bag, judged_topics(run_dir), JUDGED_RECORDS)
+            rates = loop_rates(bag, run_dir, receive_times=(scanned.receive_times, scanned.span))
         except Exception as error:  # noqa: BLE001 - a torn bag: the verdict goes on without the rates
             print(f"[run] timing: loop rates not measured ({error})")
-        health = diagnostics_records(bag, {LOOP_HEALTH_STATUS: LOOP_HEALTH_KEY}).get(LOOP_HEALTH_STATUS)
-    recorded_s = None
-    if realtime and bag.exists() and window is not None and window.length_s > 0:
-        try:
-            recorded_s = recorded_in_window(bag_clock_stamps(bag), window)
-        except Exception as error:  # noqa: BLE001 - a torn bag: the verdict goes on without the share
-            print(f"[run] timing: the bag's share of the run not measured ({error})")
+        if scanned is not None:
+            health = scanned.diagnostics.get(LOOP_HEALTH_STATUS)
+            if window is not None and window.length_s > 0:
+                recorded_s = recorded_in_window(scanned.clock_stamps, window)
     timing = timing_verdict(metrics, rates, health, bounds, realtime, recorded_s,
                             window.length_s if window is not None else None)
+    if killed_at_stop and timing.judged:
+        timing.figures["killed_at_stop"] = list(killed_at_stop)
     (run_dir / "timing.json").write_text(json.dumps(asdict(timing), indent=2) + "\n")
     return timing

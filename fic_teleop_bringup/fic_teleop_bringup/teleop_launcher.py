@@ -23,19 +23,25 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-from fic_teleop_bringup import demonstrations, hardware_twin, node_groups, run_profile, two_stations
+from fic_teleop_bringup import demonstrations, hardware_twin, node_groups, run_bag, run_profile, two_stations
 from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, domain_from_environment, \
     prepare_run_folder, whole_states_per_tick
 from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
 from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_REFUSED, EXIT_STARVED, die_with_launcher, \
-    failed_nodes, safety_verdict
-from fic_teleop_bringup.launch_timing import SimulatedWindow, TimingBounds, exit_code, judge_run
+    failed_nodes, fill_limit_counters, safety_verdict
+from fic_teleop_bringup.launch_timing import JUDGED_RECORDS, SimulatedWindow, TimingBounds, exit_code, judge_run, \
+    judged_topics
+from fic_teleop_bringup.run_bag import RunBag
 from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler
 from fic_teleop_bringup.workspace import CONFIG, REPO
 from fic_teleop_runtime.params_file import write_node_params
 from fic_teleop_runtime.parameters import file_sections
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
 
+# How long a node may take to stop after SIGINT before it is killed; the recorder finalises its bag, so it gets more.
+# A starved node can need longer (measured: a device and master under a 40 % CPU quota), which the verdict then says
+# (launch_supervision.safety_verdict).
+STOP_TIMEOUT_S, RECORDER_STOP_TIMEOUT_S = 15.0, 60.0
 SCRIPT_CIRCLE_START_S = 2.0     # circle_start_time of config/operator_scripts/superimposition.yaml
 PLANNER_LAG_S = 0.2             # the harmonic planner's lag behind the circle at 0.126 m/s (measured)
 # Every difference between the run modes (rates, clocks, groups, priorities, per-node values) is a run profile,
@@ -132,7 +138,9 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         recorded_joint_states = {"joint_states_period": 1.0 / args.joint_state_rate}
     # The closed-loop operator's video: the robot's poses at a webcam's 30 Hz, over the backward link.
     video = {"object_pose_rate_hz": VIDEO_RATE_HZ} if closed_loop else {}
-    backward_routes = {"routes": [*_configured_routes("channel_backward"), *VIDEO_ROUTES]} if closed_loop else {}
+    backward_routes = {"routes": [*_configured_routes("channel_backward"), *VIDEO_ROUTES],
+                       "logged_deliveries": [*_configured_section("channel_backward").get("logged_deliveries", []),
+                                             *(route.split(":")[1] for route in VIDEO_ROUTES)]} if closed_loop else {}
     watcher = {"assumed_one_way_delay": args.delay} if closed_loop else {}
     nodes = [
         NodeSpec("sim_bridge", "robot_node", "robot", "robot.yaml",
@@ -193,9 +201,14 @@ def tdpa(args: argparse.Namespace) -> bool:
     return bool(args.tdpa or args.controller == "linear_tdpa")
 
 
+def _configured_section(node: str) -> dict:
+    """A channel node's own section of config/channel.yaml."""
+    return file_sections(CONFIG / "channel.yaml")[node]
+
+
 def _configured_routes(node: str) -> list[str]:
     """A channel node's routes as config/channel.yaml gives them."""
-    return list(file_sections(CONFIG / "channel.yaml")[node]["routes"])
+    return list(_configured_section(node)["routes"])
 
 
 def _script_for_delay(delay: float, run_dir: Path) -> dict[str, str]:
@@ -231,6 +244,7 @@ class Graph:
         self.log_dir = log_dir
         self.processes: list[tuple[NodeSpec, subprocess.Popen, object]] = []
         self.early_exits: list[str] = []  # nodes that ended before the run did
+        self.killed_at_stop: list[str] = []   # nodes that did not stop on SIGINT within the stop's timeout
         self.scheduler = RealtimeScheduler()
         self.wrap = None   # two stations: runs each node in its station's namespace (two_stations.py)
 
@@ -277,15 +291,16 @@ class Graph:
     def foreground_done(self) -> bool:
         return any(spec.foreground and process.poll() is not None for spec, process, _ in self.processes)
 
-    def stop(self, timeout: float = 15.0) -> dict[str, int]:
+    def stop(self, timeout: float = STOP_TIMEOUT_S, recorder_timeout: float = RECORDER_STOP_TIMEOUT_S) -> dict[str, int]:
+        """SIGINT to each node in reverse start order, the recorder last; a node still running ``timeout`` seconds
+        later (the recorder: ``recorder_timeout``) is killed and named in ``killed_at_stop``."""
         codes: dict[str, int] = {}
-        for spec, process, log in reversed(self.processes):
-            if spec.name == "recorder":
-                continue  # the recorder stops last, so it records the others' last messages
-            codes[spec.name] = _interrupt(process, timeout)
-        for spec, process, log in self.processes:
-            if spec.name == "recorder":
-                codes[spec.name] = _interrupt(process, 60.0)
+        order = [entry for entry in reversed(self.processes) if entry[0].name != "recorder"] + \
+                [entry for entry in self.processes if entry[0].name == "recorder"]
+        for spec, process, log in order:  # the recorder stops last, so it records the others' last messages
+            codes[spec.name], killed = _interrupt(process, recorder_timeout if spec.name == "recorder" else timeout)
+            if killed:
+                self.killed_at_stop.append(spec.name)
         for spec, _, log in self.processes:
             if log:
                 log.close()
@@ -294,7 +309,8 @@ class Graph:
         return codes
 
 
-def _interrupt(process: subprocess.Popen, timeout: float) -> int:
+def _interrupt(process: subprocess.Popen, timeout: float) -> tuple[int, bool]:
+    """SIGINT, then SIGKILL after ``timeout`` s: (the exit code, whether it had to be killed)."""
     if process.poll() is None:
         process.send_signal(signal.SIGINT)
         try:
@@ -302,7 +318,8 @@ def _interrupt(process: subprocess.Popen, timeout: float) -> int:
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
-    return process.returncode
+            return process.returncode, True
+    return process.returncode, False
 
 
 def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: threading.Event,
@@ -315,7 +332,9 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     ``progress(elapsed, joint_state_readers)`` is called at each turn once the run has started, with the number of
     /joint_states readers; ``watch`` = (topic, seen): ``seen(wall_time)`` for each TeleoperationCommand on it."""
     import rclpy
+    from rclpy.experimental import EventsExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.task import Future
     from rosgraph_msgs.msg import Clock
 
     from rclpy.signals import SignalHandlerOptions
@@ -341,9 +360,15 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
                                  QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
     wall_start = time.monotonic()
     last_print = last_scheduling = 0.0
+    # The checks below a tenth of a second apart, not once per /clock message: the EventsExecutor takes every message
+    # of the slice (as the nodes' spin loop does, fic_teleop_runtime/spin.py). One rclpy.spin_once and one round of
+    # checks per message (100 Hz in realtime) cost the launcher about a CPU-second a run.
+    executor = EventsExecutor()
+    executor.add_node(node)
+    never = Future()
     try:
         while rclpy.ok() and not stop.is_set():
-            rclpy.spin_once(node, timeout_sec=0.1)
+            executor.spin_until_future_complete(never, timeout_sec=0.1)
             # Threads appear while the nodes start (executor, DDS participant, the robot's physics thread): look for
             # new ones often at first, then rarely.
             since_start = time.monotonic() - wall_start
@@ -368,6 +393,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
                 last_print = time.monotonic()
                 print(f"[run] sim time {elapsed:5.1f} / {duration:.0f} s", flush=True)
     finally:
+        executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
         rclpy.try_shutdown()
     return SimulatedWindow(0.0, 0.0) if latest["start"] is None else SimulatedWindow(latest["start"], latest["t"])
@@ -388,6 +414,18 @@ def _report_scheduling(running: Graph, run_dir: Path) -> None:
               "or CAP_SYS_NICE): they run at their niceness, and the pipeline latency is longer (docs/RESULTS.md)",
               file=sys.stderr)
     _add_to_run_record(run_dir, "realtime_scheduling", summary)
+
+
+def _scanned(bag: Path, topics: set[str]) -> RunBag | None:
+    """The run's bag read once for the launcher's verdicts; None without a bag, or when it cannot be read (each
+    verdict then reads what it can itself)."""
+    if not bag.exists():
+        return None
+    try:
+        return run_bag.scan(bag, topics, JUDGED_RECORDS)
+    except Exception as error:  # noqa: BLE001 - a torn or foreign bag: the verdicts go on with their own reads
+        print(f"[run] the bag could not be read for the verdicts ({error})")
+        return None
 
 
 def _add_to_run_record(run_dir: Path, key: str, value) -> None:
@@ -629,9 +667,11 @@ def main(argv: list[str] | None = None) -> int:
         codes = running.stop()
         signal.signal(signal.SIGINT, signal.default_int_handler)
     wall = time.monotonic() - wall_start
-    failed = failed_nodes(codes)
+    failed = failed_nodes({name: code for name, code in codes.items() if name not in running.killed_at_stop})
     print(f"[run] graph stopped after {wall:.1f} s wall, {window.length_s:.1f} s simulated"
-          + (f"; nodes with errors: {failed}" if failed else ""))
+          + (f"; nodes with errors: {failed}" if failed else "")
+          + (f"; killed after no stop on SIGINT: {', '.join(running.killed_at_stop)}" if running.killed_at_stop
+             else ""))
     print(f"[run] bag: {bag_path}")
     metrics, report_failed = None, False
     if not args.no_report:
@@ -644,12 +684,21 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[run] report: {report_dir}")
         metrics_path = report_dir / "metrics.json"
         metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else None
-    code, reasons = safety_verdict(metrics, codes, running.early_exits, report_failed, bag_path)
+        if metrics is not None and fill_limit_counters(metrics, log_dir):   # the bag had none: a starved recorder
+            metrics_path.write_text(json.dumps(metrics, indent=2) + "\n")
+            print(f"[run] limit counts from {metrics['limit_counters_source']}: {metrics['limit_violations']} "
+                  "violation ticks")
+    # Whether the computer kept real time, after every run; a broken safety figure still decides the code. The bag
+    # read once for both verdicts (run_bag.py).
+    realtime = args.time_mode == "realtime"
+    scanned = _scanned(bag_path, judged_topics(run_dir) if realtime else set())
+    timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile), realtime, window,
+                       killed_at_stop=running.killed_at_stop, scanned=scanned)
+    code, reasons = safety_verdict(metrics, codes, running.early_exits, report_failed, bag_path,
+                                   killed_at_stop=running.killed_at_stop, starved=timing.starved,
+                                   records=scanned.diagnostics if scanned is not None else None)
     for reason in reasons:
         print(f"[run] safety: {reason}", file=sys.stderr)
-    # Whether the computer kept real time, after every run; a broken safety figure still decides the code.
-    timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile),
-                       args.time_mode == "realtime", window)
     for line in timing.lines():
         print(f"[run] timing: {line}", file=sys.stderr if timing.starved else sys.stdout)
     code = exit_code(code, timing, EXIT_STARVED)

@@ -239,8 +239,19 @@ def main(args: list[str] | None = None) -> None:
     run_entry(ENTRY, args)
 
 
-ENTRY = NodeEntry(ReplicaNode, NODE_NAME, stopped=lambda node: rclpy.logging.get_logger(NODE_NAME).info(
-    f"replica stopped: {node.statistics()}"))
+def _stopped(node: ReplicaNode) -> None:
+    """The final counters once more on /diagnostics (a recorder behind a starved graph still takes them: it stops
+    last) and in the log, which the launcher reads when the bag holds none (launch_supervision.py)."""
+    try:
+        node._publish_diagnostics()
+    except Exception:  # noqa: BLE001 - the context already gone (an external shutdown): the log line remains
+        pass
+    rclpy.logging.get_logger(NODE_NAME).info(f"{STOPPED_LINE}{node.statistics()}")
+
+
+#: The replica's last log line begins so, followed by its statistics as a dict (launch_supervision reads it).
+STOPPED_LINE = "replica stopped: "
+ENTRY = NodeEntry(ReplicaNode, NODE_NAME, stopped=_stopped)
 
 
 if __name__ == "__main__":

@@ -213,6 +213,20 @@ def test_delay_is_never_early_and_about_200ms_stamps_are_kept_and_a_negative_del
     assert "channel stopped" in log and "Traceback" not in log
 
 
+def test_a_logged_delivery_that_is_not_a_route_is_refused_at_start(tmp_path, ros_env):
+    """logged_deliveries names the out topics whose deliveries go on /channel/deliveries; a topic no route writes
+    (a typo) is refused in one line, exit 2, before anything is forwarded."""
+    env = dict(ros_env)
+    env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
+    result = subprocess.run([sys.executable, "-m", "sim_bridge.channel.channel_node", "--ros-args", "-r",
+                             f"__node:={NODE}", "-p", f"routes:=['{IN_TOPIC}:{OUT_TOPIC}:geometry_msgs/msg/PoseStamped']",
+                             "-p", "logged_deliveries:=['/test/oot']"], env=env, cwd=tmp_path, capture_output=True,
+                            text=True, timeout=60)
+    assert result.returncode == 2
+    assert ("cannot start: logged_deliveries names /test/oot, not an out topic of this node's routes (/test/out)"
+            in result.stdout + result.stderr)
+
+
 def test_drop_rate_matches_the_probability(graph):
     context, start_channel, _ = graph
     probability = 0.3

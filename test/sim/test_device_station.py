@@ -3,6 +3,7 @@ device node and the in-process runner step it: the force command's freshness, th
 edge-triggered presses, the force-reactive hand feeling the rendered force, a driver that holds the last force."""
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import numpy as np
 from sim_bridge.device.device_station import DeviceStation
 from sim_bridge.device.haptic_device import HapticDevice
 from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
-from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
+from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptEvent, ScriptedOperator, load_script
 
 SCRIPT = Path(__file__).resolve().parents[2] / "config" / "operator_scripts" / "free_space.yaml"
 DT = 0.004
@@ -51,6 +52,29 @@ def test_the_script_drives_the_hand_on_its_own_clock_and_its_presses_come_one_at
     assert pressed == [event.button for event in script.events]
     # Edge-triggered: a press is followed by a tick with all released.
     assert all(not (a is not None and b is not None) for a, b in zip(presses, presses[1:]))
+
+
+def test_a_joy_message_is_due_only_at_a_press_and_its_release() -> None:
+    """The node publishes what button_states returns: each scripted press as one message with that button down,
+    the next tick's release, and nothing on the ticks in between (the master reads rising edges)."""
+    script = dataclasses.replace(load_script(SCRIPT), events=(   # two presses of one button in a row, and another
+        ScriptEvent(0.5, 0), ScriptEvent(0.5, 0), ScriptEvent(1.2, 1)))
+    station = DeviceStation(HapticDevice(), Hand(HandParameters()), script=ScriptedOperator(script),
+                            command_timeout=0.02, script_origin=0.0)
+    messages, now, ticks = [], 0.0, 0
+    while now < script.duration + 0.1:
+        station.step(now, DT if now else 0.0)
+        if round(now / DT) % 5 == 0:   # the 50 Hz button timer
+            ticks += 1
+            buttons = station.button_states()
+            if buttons is not None:
+                messages.append(buttons)
+        now += DT
+    presses = [message.index(1) for message in messages if any(message)]
+    assert presses == [event.button for event in script.events] and presses
+    assert messages == [state for button in presses for state in
+                        ([1 if index == button else 0 for index in range(len(messages[0]))], [0] * len(messages[0]))]
+    assert len(messages) == 2 * len(presses) < ticks / 10
 
 
 def test_the_reactive_hand_feels_the_force_the_motors_render() -> None:

@@ -1,15 +1,22 @@
 """Recorder node: every topic of the teleoperation graph to a rosbag2-layout MCAP bag (README.md, "What the demo shows").
 
 Wiring only; the file format is fic_teleop_tools.recording.bag_writer. The subscriptions are raw (CDR bytes, never
-deserialised) and their callbacks only append (topic index, bytes, receive time) to a deque; a writer thread
-drains it into the bag, closes a chunk every `flush_period` (so a SIGKILL loses at most that much), counts
-messages per topic and checks /joint_states for gaps. That keeps the executor thread free to take ~8 topics at
-1 kHz on a 2-core machine shared with the simulation.
+deserialised) and belong to a second node of this process that no executor spins (``<name>_reader``): a taker
+thread takes whatever each holds every `drain_period` (10 ms) and appends it, in order of arrival, to a deque; a
+writer thread drains the deque into the bag, closes a chunk every `flush_period` (so a SIGKILL loses at most that
+much), counts messages per topic and checks /joint_states for gaps. A message taken by the executor cost the
+recorder a wake-up and a callback each: 103 us a message against 29-43 us taken in rounds (measured with one 500 Hz
+stream), and the recorder takes about 2,500 messages a second. The taker does nothing else, so that the writer's
+slow moments (a topic's definition, a chunk's compression) never leave a subscription's 1000-deep queue to
+overflow. The executor thread only discovers topics and publishes the status. With `count_lost_messages` the
+subscriptions are the recorder node's own instead, as before (their message-lost events need the executor), and
+their callbacks append to the deque.
 
-Times: each message's MCAP log_time (and publish_time) is the wall-clock time (ns since the Unix epoch) at which
-the subscription handed it over, even under use_sim_time, so that the report can compare sim time (stamps)
-with wall time (real-time factor). rclpy's EventsExecutor does not pass MessageInfo to raw callbacks, so the DDS
-source timestamp is not available for publish_time.
+Times: each message's MCAP log_time is the wall-clock time (ns since the Unix epoch) at which DDS received it
+(MessageInfo's received_timestamp, taken in rounds) and its publish_time the publisher's (source_timestamp), even
+under use_sim_time, so that the report can compare sim time (stamps) with wall time (real-time factor). In the
+executor's path (`count_lost_messages`) both are the time the callback ran: rclpy's EventsExecutor does not pass
+MessageInfo to raw callbacks.
 
 Dropped joint states: the simulator stamps /joint_states with its own clock, advancing by exactly one physics
 step (`joint_states_period`, 1 ms) per message; a jump of n steps between consecutive stamps counts n - 1
@@ -74,6 +81,7 @@ SCHEMA = Schema(
     integer("chunk_size", 1024, 64 * 1024 * 1024, "MCAP chunk size in bytes (uncompressed): a chunk is closed when "
                                                   "it reaches this size"),
     number("flush_period", 0.01, 60.0, "seconds between forced chunk closes: the most a SIGKILL can lose"),
+    number("drain_period", 0.001, 1.0, "seconds between the writer thread's rounds over the subscriptions"),
     text("compression", "chunk compression: zstd, lz4 or none"),
     number("status_period", 0.1, 60.0, "seconds between recorder status messages on /diagnostics"),
     text("joint_states_topic", "topic whose header stamps are checked for gaps"),
@@ -151,8 +159,15 @@ class RecorderNode(Node):
                              compression=str(self.get_parameter("compression").value),
                              flush_period=float(self.get_parameter("flush_period").value))
         self.joint_states = JointStateGapCounter(round(self.get_parameter("joint_states_period").value * 1e9))
-        # (topic index, cdr bytes, receive time ns), or (None, (topic, type, qos profiles), 0) to add a topic.
+        # (topic index, cdr bytes, receive time ns, publish time ns or None), or (None, (topic, type, qos profiles),
+        # 0, None) to add a topic.
         self._queue: collections.deque = collections.deque()
+        self._drain_period = float(self.get_parameter("drain_period").value)
+        # The node whose subscriptions the taker thread takes from (module docstring); None: the executor's path.
+        self._reader = None if self._count_lost else Node(
+            f"{self.get_name()}_reader", namespace=self.get_namespace(), context=self.context,
+            use_global_arguments=False, enable_rosout=False, start_parameter_services=False)
+        self._taken: list[tuple[int, object]] = []   # (topic index, subscription) the taker thread takes from
         self._topic_names: list[str] = []
         self._channel_ids: list[int] = []  # MCAP channel id per topic index (writer thread)
         self._recorded: dict[str, object] = {}
@@ -164,8 +179,12 @@ class RecorderNode(Node):
         self._finish_lock = threading.Lock()
         self._finished = False
         self._writer_error: BaseException | None = None
+        self._taker = threading.Thread(target=self._take_loop, name="bag_taker", daemon=True) \
+            if self._reader is not None else None
         self._writer = threading.Thread(target=self._write_loop, name="bag_writer", daemon=True)
         self._writer.start()
+        if self._taker is not None:
+            self._taker.start()
 
         self._status_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         # Discovery on the wall clock: under simulated time the lockstep simulation stands at t = 0 until the
@@ -221,11 +240,15 @@ class RecorderNode(Node):
         self._topic_names.append(topic)
         self._counts.append(0)
         # The bag learns the topic before its first message: the queue is FIFO.
-        self._queue.append((None, (topic, type_name, offered), 0))
-        self._recorded[topic] = self.create_subscription(
-            subscription_type, topic, self._enqueuer(index), qos, raw=True,
-            event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_counter(topic))
-            if self._count_lost else None)
+        self._queue.append((None, (topic, type_name, offered), 0, None))
+        if self._reader is not None:
+            subscription = self._reader.create_subscription(subscription_type, topic, _never_called, qos, raw=True)
+            self._taken.append((index, subscription))
+        else:
+            subscription = self.create_subscription(
+                subscription_type, topic, self._enqueuer(index), qos, raw=True,
+                event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_counter(topic)))
+        self._recorded[topic] = subscription
         self.get_logger().info(f"recording {topic} [{type_name}] "
                                f"({qos.reliability.name.lower()}, {qos.durability.name.lower()}, depth {qos.depth})")
 
@@ -235,7 +258,7 @@ class RecorderNode(Node):
         append, now = self._queue.append, time.time_ns
 
         def enqueue(data: bytes) -> None:
-            append((index, data, now()))
+            append((index, data, now(), None))
         return enqueue
 
     def _lost_counter(self, topic: str):
@@ -253,19 +276,43 @@ class RecorderNode(Node):
         return {topic: count for topic, count in sorted(self._lost.items()) if count}
 
     # -- writing (writer thread) ------------------------------------------------------------------------------
+    def _take_loop(self) -> None:
+        """The taker thread: every ``drain_period``, what each subscription holds, in order of arrival, onto the
+        queue; a last round once asked to stop (finish), then the writer is told it may stop."""
+        append = self._queue.append
+        try:
+            while True:
+                stopping = self._stop.is_set()
+                taken = []
+                for index, subscription in list(self._taken):
+                    take = subscription.handle.take_message
+                    while (item := take(subscription.msg_type, True)) is not None:
+                        data, info = item
+                        taken.append((index, data, info["received_timestamp"], info["source_timestamp"]))
+                taken.sort(key=lambda row: row[2])
+                for row in taken:
+                    append(row)
+                if stopping:
+                    return
+                time.sleep(self._drain_period)
+        except BaseException as error:  # the executor thread reports it; recording cannot go on
+            self._writer_error = error
+            raise
+
     def _write_loop(self) -> None:
         queue, bag, counts, live = self._queue, self.bag, self._counts, self.live
         try:
             while True:
-                stopping = self._stop.is_set()
+                # The taker's last round is in the queue once it has ended (finish joins it before the writer).
+                stopping = self._stop.is_set() and (self._taker is None or not self._taker.is_alive())
                 backlog = len(queue)
                 self._max_backlog = max(self._max_backlog, backlog)
                 while queue:
-                    index, data, stamp = queue.popleft()
+                    index, data, stamp, published = queue.popleft()
                     if index is None:
                         self._add_topic(*data)
                         continue
-                    bag.write(self._channel_ids[index], data, stamp)
+                    bag.write(self._channel_ids[index], data, stamp, published)
                     counts[index] += 1
                     if live is not None:
                         live.offer(self._topic_names[index], data, stamp)
@@ -273,8 +320,8 @@ class RecorderNode(Node):
                         self.joint_states.add(data)
                 if stopping:
                     return
-                if not bag.maybe_flush():
-                    time.sleep(0.002)
+                if not bag.maybe_flush():   # the taker's pace (a round a drain_period); the executor's 2 ms
+                    time.sleep(self._drain_period if self._taker is not None else 0.002)
         except BaseException as error:  # the executor thread reports it; recording cannot go on
             self._writer_error = error
             raise
@@ -333,10 +380,15 @@ class RecorderNode(Node):
             if self._finished:
                 return
             self._finished = True
-            for subscription in list(self._recorded.values()):
-                self.destroy_subscription(subscription)
+            if self._reader is None:
+                for subscription in list(self._recorded.values()):
+                    self.destroy_subscription(subscription)
             self._stop.set()
+            if self._taker is not None:
+                self._taker.join()    # its last round takes what the subscriptions still hold
             self._writer.join()
+            if self._reader is not None:
+                self._reader.destroy_node()
             lost = self.lost()
             summary = self.bag.finish(custom_data=None if lost is None else {"lost_messages": json.dumps(lost)})
             if self.live is not None:
@@ -351,6 +403,10 @@ class RecorderNode(Node):
                 f"max backlog {self._max_backlog}; DDS lost "
                 + ("(not counted)" if lost is None else
                    ", ".join(f"{topic} {count}" for topic, count in lost.items()) if lost else "none"))
+
+
+def _never_called(_data: bytes) -> None:
+    """The callback of a subscription no executor spins (the writer thread takes its messages)."""
 
 
 def main(args: list[str] | None = None) -> None:

@@ -99,11 +99,20 @@ def _receive_times(bag: Path, topics: set[str]) -> tuple[dict[str, list[int]], t
     return times, (first, last) if first is not None else None
 
 
-def loop_rates(bag: Path, run_dir: Path | None = None, skip_s: float = 3.0, tail_s: float = 1.0) -> dict[str, dict]:
-    """{loop: {topic, nominal_hz, achieved_hz, fraction}} of one run (module docstring)."""
+def loop_topics(run_dir: Path | None = None) -> set[str]:
+    """The streams that show this run's loops (loop_topic of each)."""
+    return {loop_topic(loop, run_dir) for loop in LOOPS}
+
+
+def loop_rates(bag: Path, run_dir: Path | None = None, skip_s: float = 3.0, tail_s: float = 1.0,
+               receive_times: tuple[dict[str, list[int]], tuple[int, int] | None] | None = None) -> dict[str, dict]:
+    """{loop: {topic, nominal_hz, achieved_hz, fraction}} of one run (module docstring). ``receive_times``: the
+    bag's receive times of loop_topics and its span, when the caller has read them already (the launcher reads the
+    bag once for all its figures, fic_teleop_bringup/run_bag.py); None: read here."""
     topics = {loop: loop_topic(loop, run_dir) for loop in LOOPS}
-    bags = [bag] + ([run_dir / "bag_master"] if run_dir is not None and (run_dir / "bag_master").exists() else [])
-    recorded = [_receive_times(path, set(topics.values())) for path in bags]
+    master_bag = [run_dir / "bag_master"] if run_dir is not None and (run_dir / "bag_master").exists() else []
+    recorded = [receive_times if receive_times is not None else _receive_times(bag, set(topics.values()))] + \
+        [_receive_times(path, set(topics.values())) for path in master_bag]
     if recorded[0][1] is None:
         return {}
     rates: dict[str, dict] = {}

@@ -12,9 +12,12 @@ limit counts and dropped joint states cover the whole recording.
   Without an F/T topic every sample counts as free motion.
 - free_motion_error_max_m / _rms_m: max / RMS of e over free-motion samples; contact_error_max_m: max of e over
   contact samples; peak_interaction_force_n: max |F| of the F/T samples.
-- limit_violations / limit_shaped_ticks: the replica's cumulative LimitStatus.violation_ticks / shaped_ticks of
-  the last message (every control tick counts, whatever the status rate); for bags whose LimitStatus has no
+- limit_violations / limit_shaped_ticks: the replica's cumulative violation / shaped tick counters (every control
+  tick counts, whatever the status rate): those of the last LimitStatus or of the replica's last /diagnostics
+  record, whichever counted more ticks (`limit_counters_source` says which); for bags whose LimitStatus has no
   counters (ticks = 0), the number of messages with violations != 0 / shaping != 0.
+- not_measured: for each safety figure left null (the error, the limit counts, the real-time factor), why: a starved
+  recorder keeps only part of a run, and "n/a" alone read as if the run had none.
 - pipeline latency: for each master sample (FicState.master_stamp != 0, first occurrence in stamp order):
   FicState.master_age (its age at the control tick that first used it) - held, where held is
   ChannelDelivery.held of the /channel/deliveries message with topic /replica/teleop_command and header.stamp ==
@@ -187,20 +190,8 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
     m["free_motion_error_rms_m"] = _number(np.sqrt(np.mean(free_errors ** 2))) if len(free_errors) else None
     m["contact_error_max_m"] = _number(contact_errors.max()) if len(contact_errors) else None
 
-    # Limits: LimitStatus carries cumulative tick counters, so the counts hold at any status rate; a bag without
-    # them (ticks all zero) falls back to counting messages with flags set (one message per tick, as recorded
-    # before the replica had a status_rate).
-    if data.has(LIMIT_STATUS_TOPIC):
-        limits = series[LIMIT_STATUS_TOPIC]
-        order = np.argsort(limits.log, kind="stable")
-        if np.any(limits.values["ticks"] > 0):
-            m["limit_violations"] = int(limits.values["violation_ticks"][order][-1])
-            m["limit_shaped_ticks"] = int(limits.values["shaped_ticks"][order][-1])
-        else:
-            m["limit_violations"] = int(np.count_nonzero(limits.values["violations"]))
-            m["limit_shaped_ticks"] = int(np.count_nonzero(limits.values["shaping"]))
-    else:
-        m["limit_violations"] = m["limit_shaped_ticks"] = None
+    # Limits: the replica's cumulative tick counters (module docstring), from its LimitStatus or its /diagnostics.
+    m["limit_violations"], m["limit_shaped_ticks"], m["limit_counters_source"] = limit_counts(data)
 
     # Pipeline latency: the master sample's age at the control tick that first used it (FicState.master_age)
     # minus the channel's hold of that sample.
@@ -313,8 +304,67 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
                        "max_force_n": settings.max_force_n}
     m["targets"] = {name: {"target": f"{op} {value}", "met": _meets(m.get(name), op, value)}
                     for name, (op, value) in settings.targets().items()}
+    m["not_measured"] = not_measured(data, m, source, error_t, counted, cut)
     return Analysis(metrics=m, t0=t0, error_t=error_t - t0, error=error, error_free=error_free,
                     contact_intervals=contact_intervals, latencies_ms=latencies_ms)
+
+
+#: The replica's /diagnostics status whose values hold its cumulative tick counters (the replica node's statistics).
+REPLICA_STATUS = "replica"
+
+
+def limit_counts(data: BagData) -> tuple[int | None, int | None, str | None]:
+    """(violation ticks, shaped ticks, where from) of the whole run: the replica's cumulative counters, from the
+    last LimitStatus or the last "replica" /diagnostics record, whichever counted more ticks (a starved recorder may
+    hold only the start of the LimitStatus stream; the replica publishes its /diagnostics once more as it stops). A
+    bag whose LimitStatus has no counters (ticks all zero: recorded before the replica had a status_rate) counts
+    the messages with flags set, one message a tick. (None, None, None) when the bag holds neither."""
+    found: list[tuple[int, int, int, str]] = []   # (ticks, violations, shaped, source)
+    if data.has(LIMIT_STATUS_TOPIC):
+        limits = data.series[LIMIT_STATUS_TOPIC]
+        order = np.argsort(limits.log, kind="stable")
+        if np.any(limits.values["ticks"] > 0):
+            found.append((int(limits.values["ticks"][order][-1]), int(limits.values["violation_ticks"][order][-1]),
+                          int(limits.values["shaped_ticks"][order][-1]), LIMIT_STATUS_TOPIC))
+        else:
+            found.append((len(limits), int(np.count_nonzero(limits.values["violations"])),
+                          int(np.count_nonzero(limits.values["shaping"])), LIMIT_STATUS_TOPIC))
+    record = data.diagnostics.get(REPLICA_STATUS, {})
+    try:
+        found.append((int(record["ticks"]), int(record["violation_ticks"]), int(record["shaped_ticks"]),
+                      f"/diagnostics ({REPLICA_STATUS})"))
+    except (KeyError, ValueError):
+        pass
+    if not found:
+        return None, None, None
+    _, violations, shaped, source = max(found, key=lambda row: row[0])
+    return violations, shaped, source
+
+
+def not_measured(data: BagData, m: dict, source: str, error_t: np.ndarray, counted: np.ndarray,
+                 cut: float) -> dict[str, str]:
+    """Why each safety figure the report could not give is missing (a starved recorder keeps only part of a run):
+    metric -> one line; empty when every one was measured."""
+    span = m.get("duration_s")
+    held = f"the bag holds {span:.1f} s of simulated time" if span is not None else "the bag holds no /clock"
+    reasons = {}
+    if m.get("free_motion_error_max_m") is None:
+        if source == "none":
+            reasons["free_motion_error_max_m"] = (
+                "no tracking-error source in the bag (neither /replica/desired_pose with /replica/tcp_pose nor "
+                f"{FIC_STATE_TOPIC}); {held}")
+        elif not counted.any():
+            reasons["free_motion_error_max_m"] = (
+                f"all {len(error_t)} tracking-error samples lie in the {m['warmup_s']:g} s warm-up; {held}")
+        else:
+            reasons["free_motion_error_max_m"] = "every tracking-error sample after the warm-up was in contact"
+        reasons["free_motion_error_rms_m"] = reasons["free_motion_error_max_m"]
+    if m.get("limit_violations") is None:
+        reasons["limit_violations"] = (f"no limit counters in the bag (neither {LIMIT_STATUS_TOPIC} nor the replica's "
+                                       f"/diagnostics); {held}")
+    if m.get("real_time_factor") is None:
+        reasons["real_time_factor"] = f"fewer than two /clock (or /joint_states) stamps after the warm-up; {held}"
+    return reasons
 
 
 def port_energy(position_t: np.ndarray, positions: np.ndarray, force_t: np.ndarray,

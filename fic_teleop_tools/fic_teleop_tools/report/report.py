@@ -79,4 +79,5 @@ def summary_table(metrics: dict) -> str:
     value_width = max(len(r[1]) for r in rows)
     lines = [f"{'metric':<{width}}  {'value':>{value_width}}  target", "-" * (width + value_width + 24)]
     lines += [f"{k:<{width}}  {v:>{value_width}}  {c}" for k, v, c in rows]
+    lines += [f"n/a {key}: {reason}" for key, reason in (metrics.get("not_measured") or {}).items()]
     return "\n".join(lines)

@@ -71,6 +71,8 @@ SCHEMA = Schema(
     number("statistics_rate_hz", 0.01, 100.0, "/diagnostics rate [Hz]"),
     switch("publish_deliveries", "publish fic_teleop_msgs/ChannelDelivery on /channel/deliveries for each "
                                  "delivery"),
+    texts("logged_deliveries", "with publish_deliveries: the out topics whose deliveries go on /channel/deliveries; "
+                               "unset: every route's", read_only=True, optional=True),
 )
 
 
@@ -83,6 +85,7 @@ class Route:
     channel: Channel
     publisher: Any
     subscription: Any = None
+    logged: bool = True       # its deliveries go on /channel/deliveries
 
 
 def starts_with_header(cls: type) -> bool:
@@ -126,6 +129,17 @@ class ChannelNode(Node):
             self._routes.append(route)
             self.get_logger().info(f"route {in_topic} -> {out_topic} [{type_name}]"
                                    + ("" if route.has_header else " (no header: stamps not read)"))
+        # The delivery log only where a figure reads it (the report's latency and delay: the teleoperation command;
+        # the two-station analysis: F_R; the closed-loop operator's video): one ChannelDelivery per forwarded port
+        # energy too was 175 messages a second that nothing read, published here and taken by the recorder.
+        logged = self._parameter("logged_deliveries").value
+        if logged is not None:
+            unknown = sorted(set(logged) - {route.out_topic for route in self._routes})
+            if unknown:
+                raise FicInputError(f"logged_deliveries names {', '.join(unknown)}, not an out topic of this node's "
+                                    f"routes ({', '.join(route.out_topic for route in self._routes)})")
+            for route in self._routes:
+                route.logged = route.out_topic in logged
         self._deliveries = None
         if self.get_parameter("publish_deliveries").value:
             if ChannelDelivery is None:
@@ -213,7 +227,7 @@ class ChannelNode(Node):
         for route in self._routes:
             for delivery in route.channel.pop_due(now):
                 route.publisher.publish(delivery.payload)
-                if self._deliveries is not None:
+                if self._deliveries is not None and route.logged:
                     record = ChannelDelivery()
                     stamp = header_stamp(delivery.payload) if route.has_header else None
                     if stamp is not None:

@@ -28,7 +28,7 @@ from sim_bridge.device.closed_loop_operator import ClosedLoopOperator
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceState
 from sim_bridge.device.reactive_hand import ReactiveHand
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator
-from sim_bridge.device.virtual_operator import Hand, JoyTarget, ScriptedOperator
+from sim_bridge.device.virtual_operator import BUTTON_COUNT, Hand, JoyTarget, ScriptedOperator
 
 
 @dataclass
@@ -137,6 +137,20 @@ class DeviceStation:
             return self.buttons.popleft()
         self._button_down = False
         return None
+
+    def button_states(self, skip_first: bool = False) -> list[int] | None:
+        """At a button tick: the buttons a Joy message carries now (one pressed, or all released after a press), or
+        None when nothing changed since the last (no press waiting, none to release). The master reads rising edges,
+        so a message is needed only at a change: a Joy every 20 ms with nothing pressed was 50 messages a second to
+        the master and the recorder."""
+        was_down = self._button_down
+        button = self.press(skip_first)
+        if button is None and not was_down:
+            return None
+        states = [0] * BUTTON_COUNT
+        if button is not None:
+            states[button] = 1
+        return states
 
 
 __all__ = ["DeviceStation", "DeviceStep"]

@@ -37,7 +37,7 @@ from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION,
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.reactive_hand import ReactiveHand
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
-from sim_bridge.device.virtual_operator import (BUTTON_COUNT, Hand, HandParameters, JoyTarget, ScriptedOperator,
+from sim_bridge.device.virtual_operator import (Hand, HandParameters, JoyTarget, ScriptedOperator,
                                          load_script)
 
 # Device streams at 250 Hz (docs/CONVENTIONS.md): RELIABLE, written with the streams' deep writer history (a
@@ -333,15 +333,16 @@ class HapticDeviceNode(Node):
 
     def _publish_buttons(self) -> None:
         """Edge-triggered presses: one Joy message with the button at 1, then one with all at 0, so two presses
-        of the same button in a row stay two presses."""
+        of the same button in a row stay two presses; nothing while nothing changes (DeviceStation.button_states)."""
+        buttons = self.station.button_states(skip_first=self.fd)
+        if buttons is None:
+            return
         message = Joy()
         message.header.stamp = self.get_clock().now().to_msg()
         message.axes = [0.0, 0.0, 0.0]
-        message.buttons = [0] * BUTTON_COUNT
-        button = self.station.press(skip_first=self.fd)
-        if button is not None:
-            message.buttons[button] = 1
-            self.get_logger().info(f"operator presses button {button}")
+        message.buttons = buttons
+        if any(buttons):
+            self.get_logger().info(f"operator presses button {buttons.index(1)}")
         self.joy_publisher.publish(message)
 
 

@@ -32,6 +32,7 @@ import argparse
 import json
 import os
 import re
+import resource
 import shlex
 import shutil
 import subprocess
@@ -50,6 +51,10 @@ os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS  # noqa: E402
 from fic_teleop_tools.verdict.bag_series import read_run  # noqa: E402
 from sim_bridge.experiments.runner import write_json  # noqa: E402
+
+
+LAUNCHER_PROCESS = "launcher"      # the sampler's root: scripts/run_teleop.sh execs the launcher
+LAUNCHER_NODE = "fic_teleop_launcher"   # its node on the graph (it reads /clock)
 
 
 class NodeSampler(threading.Thread):
@@ -85,8 +90,8 @@ class NodeSampler(threading.Thread):
             except psutil.NoSuchProcess:
                 break
             now = time.monotonic()
-            for child in children:
-                name = self._process_name(child)
+            for child in [root, *children]:
+                name = LAUNCHER_PROCESS if child is root else self._process_name(child)
                 if name is None:
                     continue
                 try:
@@ -124,16 +129,74 @@ def machine_shares(before, after) -> dict:
             for name in fields} if total > 0 else {}
 
 
-def run_sampled(command: list[str], log_path: Path) -> tuple[int, float, dict]:
+def run_sampled(command: list[str], log_path: Path, while_running=None) -> tuple[int, float, dict]:
+    """Run ``command`` with its processes sampled (NodeSampler); ``while_running(pid)`` runs on a thread beside it.
+    The table gains "main job", the whole process tree's CPU (every descendant's user + system time as the kernel
+    counts it when they are reaped: the setup check, the launcher, the nodes, the report)."""
     start = time.monotonic()
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     with open(log_path, "w", encoding="utf-8") as log:
         process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=REPO,
                                    env=dict(os.environ, PYTHONUNBUFFERED="1"))
         sampler = NodeSampler(process.pid)
         sampler.start()
+        helper = threading.Thread(target=while_running, args=(process.pid,), daemon=True) if while_running else None
+        if helper is not None:
+            helper.start()
         code = process.wait()
+        if helper is not None:
+            helper.join(timeout=30.0)
     wall = time.monotonic() - start
-    return code, wall, sampler.stop()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    table = sampler.stop()
+    table[MAIN_JOB] = {"cpu_s": round(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime, 2),
+                       "user_s": round(after.ru_utime - before.ru_utime, 2),
+                       "system_s": round(after.ru_stime - before.ru_stime, 2), "wall_s": round(wall, 1)}
+    return code, wall, table
+
+
+MAIN_JOB = "main job"   # the whole process tree's row in a node table
+
+
+def census_when_up(run_dir: Path, out: Path, settle_s: float = 12.0):
+    """A ``while_running`` for run_sampled: once the launcher has written its domain (run.json) and the nodes have
+    run ``settle_s`` seconds, the graph census (graph_census.py) of that domain into ``out``."""
+    def take(pid: int) -> None:
+        deadline = time.monotonic() + 120.0
+        domain = None
+        while domain is None and time.monotonic() < deadline and psutil.pid_exists(pid):
+            try:
+                domain = json.loads((run_dir / "run.json").read_text()).get("domain_id")
+            except (OSError, ValueError):
+                pass
+            time.sleep(0.5)
+        if domain is None:
+            return
+        time.sleep(settle_s)
+        if psutil.pid_exists(pid):
+            subprocess.run([sys.executable, "-m", "sim_bridge.tools.graph_census", "--domain", str(domain),
+                            "--out", str(out)], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                           timeout=60)
+    return take
+
+
+def cpu_budget(nodes: dict[str, dict], metrics: dict, census: dict | None) -> dict:
+    """Per process: CPU-s in all and per simulated second of the bag (metrics' duration_s), and the messages a
+    second it publishes and receives (graph_census.message_budget over the bag's counts and wall span)."""
+    from sim_bridge.tools.graph_census import message_budget
+
+    simulated = metrics.get("duration_s") or 0.0
+    processes = {name: ([LAUNCHER_NODE] if name == LAUNCHER_PROCESS else name.split("+"))
+                 for name in nodes if name not in (MAIN_JOB, "report")}
+    messages, unrecorded = message_budget(census or {}, metrics.get("message_counts") or {},
+                                          metrics.get("wall_duration_s") or 0.0, processes)
+    rows = {}
+    for name, row in nodes.items():
+        rows[name] = {"cpu_s": row["cpu_s"],
+                      "cpu_s_per_simulated_s": round(row["cpu_s"] / simulated, 3) if simulated else None,
+                      **(messages.get(name, {}) if census else {})}
+    return {"simulated_s": simulated, "processes": rows, "census": census is not None,
+            "topics_not_in_the_bag": unrecorded if census else None}
 
 
 def bench_core(ticks: int, out: Path) -> dict:
@@ -197,10 +260,12 @@ def default_run(run_dir: Path, log_path: Path, launcher_args: list[str] = ()) ->
     # No --domain-id: the launcher reserves one no other run or test holds (fic_teleop_bringup.launch_isolation).
     command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), *launcher_args]
     cpu_before, load_before = psutil.cpu_times(), list(os.getloadavg())
-    code, wall, nodes = run_sampled(command, log_path)
+    census_path = log_path.with_suffix(".census.json")
+    code, wall, nodes = run_sampled(command, log_path, census_when_up(run_dir, census_path))
     machine = machine_shares(cpu_before, psutil.cpu_times())
     metrics_path = run_dir / "report" / "metrics.json"
     metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else {}
+    census = json.loads(census_path.read_text()) if census_path.exists() else None
     bag = run_dir / "bag"
     rates = loop_rates(bag, run_dir) if bag.exists() else {}
     fractions = [row["fraction"] for row in rates.values() if row["fraction"] is not None]
@@ -211,7 +276,8 @@ def default_run(run_dir: Path, log_path: Path, launcher_args: list[str] = ()) ->
             "dropped_joint_states": metrics.get("dropped_joint_states"),
             "loop_rates": rates, "slowest_loop_fraction": min(fractions) if fractions else None,
             "realtime_step_lateness": lateness(bag) if bag.exists() else None,
-            "nodes": nodes, "load_average_before": load_before, "load_average_after": list(os.getloadavg()),
+            "nodes": nodes, "cpu_budget": cpu_budget(nodes, metrics, census),
+            "load_average_before": load_before, "load_average_after": list(os.getloadavg()),
             "machine_cpu_during_run": machine, "metrics": metrics}
 
 
@@ -474,7 +540,17 @@ def markdown(result: dict) -> str:
             lines += ["", f"Per node, {label} (CPU: CPU seconds per wall second, 100 % = one core; RSS peak):", "",
                       "| node | CPU % | peak RSS MB |", "|---|---|---|"]
             lines += [f"| {name} | {row['cpu_percent_of_one_core']} | {row['peak_rss_mb']} |"
-                      for name, row in block["nodes"].items()]
+                      for name, row in block["nodes"].items() if name != MAIN_JOB]
+    budget = default.get("cpu_budget")
+    if budget:
+        main_job = default["nodes"].get(MAIN_JOB, {})
+        lines += ["", f"CPU budget of the default run: the main job {main_job.get('cpu_s')} CPU-s in all (user "
+                      f"{main_job.get('user_s')}, system {main_job.get('system_s')}) for {budget['simulated_s']} s "
+                      "simulated:", "", "| process | CPU-s | CPU-s per simulated s | published / s | received / s |",
+                  "|---|---|---|---|---|"]
+        lines += [f"| {name} | {row['cpu_s']} | {row['cpu_s_per_simulated_s']} | {row.get('published_per_s', '')} | "
+                  f"{row.get('received_per_s', '')} |" for name, row in sorted(
+                      budget["processes"].items(), key=lambda item: -item[1]["cpu_s"]) if name != MAIN_JOB]
     return "\n".join(lines)
 
 
@@ -511,7 +587,28 @@ def print_table(result: dict) -> None:
         if block and block.get("nodes"):
             print(f"\nper node ({label})            CPU % of one core   peak RSS MB")
             for name, row in block["nodes"].items():
-                print(f"  {name:<26} {row['cpu_percent_of_one_core']!s:>10}   {row['peak_rss_mb']:>10}")
+                if name != MAIN_JOB:
+                    print(f"  {name:<26} {row['cpu_percent_of_one_core']!s:>10}   {row['peak_rss_mb']:>10}")
+    for index, run in enumerate(runs or ([default] if default else [])):
+        print_budget(run, f"run {index + 1}")
+
+
+def print_budget(run: dict, label: str) -> None:
+    """The CPU budget of one default run (cpu_budget): per process CPU-s, per simulated second, messages a second."""
+    budget = run.get("cpu_budget")
+    if not budget:
+        return
+    main_job = run["nodes"].get(MAIN_JOB, {})
+    print(f"\nCPU budget, {label}: main job {main_job.get('cpu_s')} CPU-s (user {main_job.get('user_s')}, system "
+          f"{main_job.get('system_s')}) for {budget['simulated_s']} s simulated")
+    print(f"  {'process':<34} {'CPU-s':>7} {'CPU-s/sim s':>11} {'published/s':>11} {'received/s':>10}")
+    for name, row in sorted(budget["processes"].items(), key=lambda item: -item[1]["cpu_s"]):
+        if name == MAIN_JOB:
+            continue
+        print(f"  {name:<34} {row['cpu_s']:>7} {row['cpu_s_per_simulated_s']!s:>11} "
+              f"{row.get('published_per_s', ''):>11} {row.get('received_per_s', ''):>10}")
+    if budget.get("topics_not_in_the_bag"):
+        print(f"  (messages of topics the bag does not hold are not counted: {', '.join(budget['topics_not_in_the_bag'])})")
 
 
 if __name__ == "__main__":
