@@ -39,6 +39,17 @@
     the K_crit of (a)'s closed form for that loop: a limit cycle that the command carries to the replica (the command
     holds the loop's own oscillation, so only an exogenous input may excuse anything): unstable.
 
+(a'', b'') A stable under-damped loop driven by a reactive hand: the resonant replica of (a') held by (c')'s hand at
+    0.5 K_crit (a hand whose delayed correction rings but decays): stable; the same with a 5 mm limit cycle at the
+    resonant period that goes on through the quiet tail: unstable.
+(d) A DELAYED SPRING-DAMPER at its critical delay (``critical_delay``, derived there): its set point moved for 30 s,
+    then held still; at 0.9 T_crit stable, at 1.1 T_crit unstable.
+
+THE QUIET TAIL. Every case ends with one (``tail_for``: what the run verdict judges its free response on, as a claim
+run's). (a) is a free response throughout, its series unchanged; (b), (a'), (b'), (c'), (c) continue after their task
+with the planner and the operator's target held at their last values while the loop runs on; the added limit cycles
+go on through the tail; the strikes of "crash every lap" happen during the task only.
+
 Every case is deterministic (seeded); ``cases()`` builds them all in under a minute.
 """
 from __future__ import annotations
@@ -548,12 +559,12 @@ def cases() -> list[LabelledCase]:
         for rate in RESONANT_RATES_HZ:
             driven = resonant_plant(delay, 5, rate, hand_loop_gain=HAND_LOOP_STABLE)
             out.append(LabelledCase(f"reactive hand at {HAND_LOOP_STABLE:g} Kcrit delay={delay:g}s rate={rate:g}Hz",
-                                    "a' resonant replica, reactive hand", True, True, driven,
+                                    "a'' resonant replica, reactive hand", True, True, driven,
                                     "the resonant replica driven by a hand that corrects what it saw one reaction "
                                     "time and one round trip ago, below the delayed loop's K_crit: stable, its "
                                     "swing forced"))
             out.append(LabelledCase(f"reactive hand, limit cycle in the tail delay={delay:g}s rate={rate:g}Hz",
-                                    "b' resonant replica, reactive hand, limit cycle", False, True,
+                                    "b'' resonant replica, reactive hand, limit cycle", False, True,
                                     replica_limit_cycle(driven, 0.005, peak_period),
                                     "the same loop with a 5 mm limit cycle on the replica that goes on through the "
                                     "quiet tail"))
@@ -562,7 +573,7 @@ def cases() -> list[LabelledCase]:
         for factor, stable in ((0.9, True), (1.1, False)):
             for seed in (1, 2):
                 out.append(LabelledCase(
-                    f"spring-damper k={stiffness:g} T={factor:g}Tcrit seed={seed}", "a delayed spring-damper, "
+                    f"spring-damper k={stiffness:g} T={factor:g}Tcrit seed={seed}", "d delayed spring-damper, "
                     "critical delay", stable, True, delayed_spring_damper(factor, seed, stiffness=stiffness),
                     f"T_crit = {critical:.3f} s (m 4 kg, b 40 N s/m, k {stiffness:g} N/m), crossing period "
                     f"{2 * math.pi / frequency:.2f} s"))
