@@ -114,6 +114,11 @@ def test_a_sweep_through_an_executor_keeps_every_run_and_resumes(tmp_path: Path)
     jsonl.write_text(jsonl.read_text() + '{"key": "cut sh')                 # a line cut short by a kill
     (directory / rows[1]["series"]).unlink()                              # a series lost: that run is not done
     assert list(claims_sweep.finished(jsonl, directory)) == [runs[0].key]
+    # ... unless its verdict was kept (same row, same verdict code): judged already, it is not simulated again.
+    judged = {rows[1]["key"]: {**rows[1], "verdict": {"stable": True}}}
+    assert list(claims_sweep.finished(jsonl, directory, judged)) == [runs[0].key, runs[1].key]
+    changed = {rows[1]["key"]: {**rows[1], "seed": 2, "verdict": {"stable": True}}}
+    assert list(claims_sweep.finished(jsonl, directory, changed)) == [runs[0].key]
 
 
 @pytest.mark.skipif(importlib.util.find_spec("fic_teleop_tools.verdict.run_verdict") is None,

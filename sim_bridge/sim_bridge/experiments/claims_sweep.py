@@ -45,9 +45,12 @@ from sim_bridge.experiments.in_process import HANDS
 REPO = Path(__file__).resolve().parents[3]
 
 
-def finished(jsonl: Path, directory: Path) -> dict[str, dict]:
-    """The rows of runs already done: a line in ``jsonl`` whose series file is in ``directory`` (the last line of a
-    key wins; a line cut short by a kill is ignored)."""
+def finished(jsonl: Path, directory: Path, judged_rows: dict[str, dict] | None = None) -> dict[str, dict]:
+    """The rows of runs already done: a line in ``jsonl`` whose series file is in ``directory``, or whose verdict
+    ``judged_rows`` holds for the same row (judged by this verdict code: its series is no longer needed, and a series
+    lost with a machine is not simulated again). The last line of a key wins; a line cut short by a kill is
+    ignored."""
+    judged_rows = judged_rows or {}
     rows: dict[str, dict] = {}
     if jsonl.exists():
         for line in jsonl.read_text().splitlines():
@@ -55,16 +58,18 @@ def finished(jsonl: Path, directory: Path) -> dict[str, dict]:
                 row = json.loads(line)
             except json.JSONDecodeError:
                 continue
-            if (directory / row["series"]).exists():
+            earlier = judged_rows.get(row.get("key"))
+            kept_verdict = earlier is not None and {k: v for k, v in earlier.items() if k != "verdict"} == row
+            if kept_verdict or (directory / row["series"]).exists():
                 rows[row["key"]] = row
     return rows
 
 
 def sweep(runs: list[ClaimRun], executor: Executor, directory: Path, jsonl: Path, source: dict,
-          progress: bool = True) -> tuple[list[dict], list[dict]]:
-    """Run what is not done yet through ``executor``, appending each row to ``jsonl`` as it finishes. Returns (the
-    rows of ``runs``, the rows simulated now)."""
-    done = finished(jsonl, directory)
+          progress: bool = True, judged_rows: dict[str, dict] | None = None) -> tuple[list[dict], list[dict]]:
+    """Run what is not done yet (``finished``) through ``executor``, appending each row to ``jsonl`` as it finishes.
+    Returns (the rows of ``runs``, the rows simulated now)."""
+    done = finished(jsonl, directory, judged_rows)
     pending = [claim for claim in runs if claim.key not in done]
     jsonl.parent.mkdir(parents=True, exist_ok=True)
     directory.mkdir(parents=True, exist_ok=True)
@@ -163,8 +168,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--summary", type=Path, default=None, help="judged runs (default results/claims.json)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar (a log file)")
     parser.add_argument("--reuse-verdicts", type=Path, default=None, metavar="SUMMARY",
-                        help="with --judge: keep the verdicts of an earlier summary judged by the same verdict code "
-                             "for runs whose row is unchanged, judge the rest")
+                        help="keep the verdicts of an earlier summary judged by the same verdict code for runs whose "
+                             "row is unchanged (with --judge: judge the rest; without: those runs count as done even "
+                             "if their series is gone)")
     parser.add_argument("--checkpoint", action="store_true",
                         help="with --judge: write --summary every 2 min with the runs judged so far (the rest without "
                              "a verdict); --reuse-verdicts on the same file resumes a stopped judgement")
@@ -184,13 +190,12 @@ def main(argv: list[str] | None = None) -> int:
         runs = [claim for claim in runs if claim.cell in args.cells]
     progress = not args.no_progress
     with engine_from_arguments(args) as engine:
+        code = verdict_code()
+        earlier = reusable(args.reuse_verdicts, code)
+        if args.reuse_verdicts is not None and not earlier:
+            print(f"{args.reuse_verdicts}: no verdicts of this verdict code ({code}) to reuse", flush=True)
         if args.judge:
-            rows = list(finished(jsonl, directory).values())
-            code = verdict_code()
-            earlier = reusable(args.reuse_verdicts, code)
-            if args.reuse_verdicts is not None and not earlier:
-                print(f"{args.reuse_verdicts}: no verdicts of this verdict code ({code}) to reuse: judging every run",
-                      flush=True)
+            rows = list(finished(jsonl, directory, earlier).values())
             start = time.perf_counter()
 
             def document_of(judged_rows: list[dict]) -> dict:
@@ -219,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{len(counts)} runs judged -> {summary}: {sum(s is True for s, _ in counts)} stable, "
                   f"{sum(s is None for s, _ in counts)} not assessed, {sum(safe for _, safe in counts)} safe")
             return 0
-        done = finished(jsonl, directory)
+        done = finished(jsonl, directory, earlier)
         pending = [claim.key for claim in runs if claim.key not in done]
         if args.limit is not None:   # the first ``limit`` runs not done yet, beside those done
             keep = set(pending[:args.limit])
@@ -229,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{len(runs)} runs, {len(pending)} to simulate on {engine.workers} {engine.name} workers, commit "
               f"{source['commit']}" + (" (tracked files modified)" if source["tree_modified"] else ""), flush=True)
         start = time.perf_counter()
-        rows, new = sweep(runs, engine.executor, directory, jsonl, source, progress)
+        rows, new = sweep(runs, engine.executor, directory, jsonl, source, progress, earlier)
         wall = time.perf_counter() - start
     if new:
         print(f"{len(new)} runs in {wall:.0f} s of wall time: {3600.0 * len(new) / wall:.0f} runs per hour, "
