@@ -50,8 +50,8 @@ def e2_sweep_at_200ms() -> dict:
     first n seeds a law: each k is recomputed from results/e2_sweep.jsonl's trials of seeds 1..n, and the FIC's
     interval from them."""
     said = re.search(r"at 200 ms: the default FIC \d+ of (?P<fic>\d+) .*?as written \d+ of (?P<fic_paper_law>\d+) .*?"
-                     r"linear \d+ of (?P<linear>\d+), linear_bounded \d+ of (?P<linear_bounded>\d+), linear_tdpa \d+ of "
-                     r"(?P<linear_tdpa>\d+)", results_page())
+                     r"linear \d+ of (?P<linear>\d+), linear_bounded \d+ of (?P<linear_bounded>\d+), "
+                     r"linear_tdpa \d+ of (?P<linear_tdpa>\d+)", results_page())
     if said is None:
         return {}
     trials = jsonl("e2_sweep.jsonl")
@@ -367,11 +367,12 @@ FIGURES = [
            lambda: dict(fic=one_count("evidence.json", "feedback_rate_5", ("fic",), "torque_loop_5"))),
     # -- RESULTS.md: shape sorting -----------------------------------------------------------------------------------
     Figure("E2 graph, the replica's default law at 200 ms: trials complete and their interval", "RESULTS",
-           r"the FIC completes (?P<complete>\d+) of (?P<trials>\d+) graph trials \(Wilson (?P<low>[\d.]+)-(?P<high>[\d.]+)\)",
+           r"the FIC completes (?P<complete>\d+) of (?P<trials>\d+) graph trials "
+           r"\(Wilson (?P<low>[\d.]+)-(?P<high>[\d.]+)\)",
            lambda: graph_trials("e2_graph_fic.jsonl", r"the FIC completes \d+ of (?P<trials>\d+) graph trials")),
     Figure("E2 graph, the replica's default law: pieces, their interval, peak forces", "RESULTS",
-           r"default law (?P<inside>\d+) of (?P<pieces>\d+) pieces \((?P<low>[\d.]+)-(?P<high>[\d.]+)\), .{0,30}?, peak "
-           r"(?P<peak_low>[\d.]+)-(?P<peak_high>[\d.]+) N",
+           r"default law (?P<inside>\d+) of (?P<pieces>\d+) pieces \((?P<low>[\d.]+)-(?P<high>[\d.]+)\), "
+           r".{0,30}?, peak (?P<peak_low>[\d.]+)-(?P<peak_high>[\d.]+) N",
            lambda: dict(inside=str(sum(len(t["pieces_inside"]) for t in jsonl("e2_graph_fic.jsonl"))),
                         pieces=str(3 * len(jsonl("e2_graph_fic.jsonl"))),
                         **interval(sum(len(t["pieces_inside"]) for t in jsonl("e2_graph_fic.jsonl")),
