@@ -15,6 +15,7 @@ For each run: the verdict (fic_teleop_tools.verdict.run_verdict), the obstacle c
 in the tail, and the tail's last-window swing of x_M about the operator's target, the figure the verdict names.
 
     python -m sim_bridge.experiments.tail_contact --seeds 5 7 8 --controllers fic linear --workers 1
+    python -m sim_bridge.experiments.tail_contact --plot results/tail_contact.png --seeds 8 --controllers fic
 """
 from __future__ import annotations
 
@@ -66,6 +67,39 @@ def tail_figures(claim: ClaimRun, variant: str) -> dict[str, Any]:
                 tail_force_max_n=float(force[tail].max()) if tail.any() else 0.0)
 
 
+def plot_tails(claim: ClaimRun, path: Path) -> None:
+    """The tail of ``claim`` as swept beside the same run stopped 2 s earlier: |x_M - operator target| and |F_R|
+    from one round trip before the stop to the end, contact with the fixed obstacle shaded."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(2, 2, figsize=(11, 5.5), sharex="col", sharey="row")
+    for column, variant in enumerate(("as swept", "stop 2 s earlier")):
+        changed = variant_run(claim, variant)
+        result = run(changed.config())
+        shown = result.time >= changed.duration - 2.0 * changed.delay
+        time = result.time[shown] - changed.duration
+        handle = np.linalg.norm(result.master[shown] - result.operator_target[shown], axis=1) * 1e3
+        force = np.linalg.norm(result.force[shown], axis=1)
+        contact = result.obstacle_contact[shown]
+        for axis in axes[:, column]:
+            axis.fill_between(time, 0, 1, where=contact, transform=axis.get_xaxis_transform(), color="tab:red",
+                              alpha=0.15, linewidth=0, label="touching the fixed obstacle")
+            axis.axvline(0.0, color="0.4", linestyle="--", linewidth=0.8)
+        axes[0, column].plot(time, handle, color="tab:blue")
+        axes[1, column].plot(time, force, color="tab:orange")
+        axes[0, column].set_title(f"seed {claim.seed}, {claim.controller}, {claim.delay:g} s, "
+                                  f"{claim.rate_hz:g} Hz: {variant}")
+        axes[1, column].set_xlabel("time after the task stops [s]")
+    axes[0, 0].set_ylabel("|x_M - operator target| [mm]")
+    axes[1, 0].set_ylabel("|F_R| [N]")
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    figure.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=110)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[5, 7, 8])
@@ -76,7 +110,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("results/tail_contact.json"))
+    parser.add_argument("--plot", type=Path, default=None,
+                        help="instead: plot the first seed's and controller's tail as swept and stopped 2 s earlier")
     args = parser.parse_args(argv)
+    if args.plot is not None:
+        plot_tails(ClaimRun(args.delay, args.rate, args.controllers[0], args.hand, args.seeds[0],
+                            duration_for(args.delay), tail=tail_for(args.delay)), args.plot)
+        print(f"plot: {args.plot}")
+        return 0
     jobs = [(ClaimRun(args.delay, args.rate, controller, args.hand, seed, duration_for(args.delay),
                       tail=tail_for(args.delay)), variant)
             for seed in args.seeds for controller in args.controllers for variant in args.variants]
