@@ -1,8 +1,8 @@
-"""The bench's summary (sim_bridge/tools/bench.py) over consecutive default runs: each target counted per run,
+"""The bench's summary (fic_teleop_experiments/tools/bench.py) over consecutive default runs: each target counted per run,
 judged against its required share (8 of 10 for latency and loop rates, all for losses, violations and tracking)."""
 from __future__ import annotations
 
-from sim_bridge.tools import bench
+from fic_teleop_experiments.tools import bench
 
 
 def _run(p99: float, slowest: float, dropped: int = 0, error_max: float = 0.03) -> dict:

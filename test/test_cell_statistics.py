@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from sim_bridge.experiments.cell_statistics import (Proportion, boschloo_p, cell_statistics, compare_laws, fisher_p,
+from fic_teleop_experiments.cell_statistics import (Proportion, boschloo_p, cell_statistics, compare_laws, fisher_p,
                                                     median_and_p95, newcombe_difference_interval, proportion,
                                                     wilson_interval)
 

@@ -1,4 +1,4 @@
-"""The claim cells (sim_bridge/experiments/claims.py, claims_sweep.py): what a claim run configures, the kept series
+"""The claim cells (fic_teleop_experiments/claims.py, claims_sweep.py): what a claim run configures, the kept series
 round trip, and a tiny sweep through an executor that resumes where it stopped."""
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.claims import (ClaimRun, claim_cells, claim_runs, execute, load_series, save_series,
+from fic_teleop_experiments.claims import (ClaimRun, claim_cells, claim_runs, execute, load_series, save_series,
                                            dense_cell, tail_for, thinned)
-from sim_bridge.experiments import claims_sweep
-from sim_bridge.experiments.claims import judge_series as claims_sweep_judge
-from sim_bridge.experiments.in_process import run
+from fic_teleop_experiments import claims_sweep
+from fic_teleop_experiments.claims import judge_series as claims_sweep_judge
+from fic_teleop_experiments.in_process import run
 
 
 
@@ -124,7 +124,7 @@ def test_a_sweep_through_an_executor_keeps_every_run_and_resumes(tmp_path: Path)
 @pytest.mark.skipif(importlib.util.find_spec("fic_teleop_tools.verdict.run_verdict") is None,
                     reason="the run verdict is not in this tree")
 def test_the_verdict_applies_to_a_kept_series(tmp_path: Path) -> None:
-    from sim_bridge.experiments.claims import judge_series
+    from fic_teleop_experiments.claims import judge_series
 
     claim = ClaimRun(0.2, 0.0, "fic", "passive", 1, 3.0)
     path = tmp_path / "run.npz"

@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from sim_bridge.experiments.cell_statistics import boschloo_p, fisher_p, newcombe_difference_interval, wilson_interval
-from sim_bridge.experiments.claims_report import claims_statistics, main, read_runs
+from fic_teleop_experiments.cell_statistics import boschloo_p, fisher_p, newcombe_difference_interval, wilson_interval
+from fic_teleop_experiments.claims_report import claims_statistics, main, read_runs
 
 
 def _row(cell: str, law: str, seed: int, stable, safe=True, hand="passive", **extra) -> dict:
@@ -91,7 +91,7 @@ def test_command_line_writes_the_statistics_tables_and_figures(tmp_path):
 
 
 def test_claim_reading_thresholds():
-    from sim_bridge.experiments.tables import claim_reading
+    from fic_teleop_experiments.tables import claim_reading
     assert claim_reading({"k": 20, "n": 20, "interval_95": wilson_interval(20, 20)}) == "reproduced"
     assert claim_reading({"k": 19, "n": 20, "interval_95": wilson_interval(19, 20)}) == "reproduced"
     assert claim_reading({"k": 18, "n": 20, "interval_95": wilson_interval(18, 20)}) == "undecided at n = 20"
@@ -117,7 +117,7 @@ def test_readme_block_reads_the_statistics_and_says_when_a_cell_has_no_runs(tmp_
 
 def test_readme_block_of_a_finished_sweep_says_all_runs_judged(tmp_path, capsys):
     """Every claim cell, law and hand at its planned seeds: the block says so, not "so far"."""
-    from sim_bridge.experiments.tables import README_CLAIM_CELLS
+    from fic_teleop_experiments.tables import README_CLAIM_CELLS
     rows = [_row(cell, law, seed, True, hand=hand) for cell, _ in README_CLAIM_CELLS for law in ("fic", "linear")
             for hand in ("passive", "reactive") for seed in (1, 2)]
     path = tmp_path / "claims_statistics.json"
@@ -130,14 +130,14 @@ def test_readme_block_of_a_finished_sweep_says_all_runs_judged(tmp_path, capsys)
 
 
 def test_tables_say_how_many_runs_were_too_short_to_judge():
-    from sim_bridge.experiments.tables import claims_markdown
+    from fic_teleop_experiments.tables import claims_markdown
     rows = [_row("c", "fic", 1, None), _row("c", "fic", 2, True)]
     table = claims_markdown(claims_statistics(rows))
     assert "| c passive | fic | 2 | 1/1 (1 not assessed) | 0.21-1.00 | - | " in table
 
 
 def test_update_readme_replaces_only_the_block(tmp_path):
-    from sim_bridge.experiments.tables import readme_claims
+    from fic_teleop_experiments.tables import readme_claims
     path = tmp_path / "claims.json"
     path.write_text(json.dumps({"runs": _runs()}))
     readme = tmp_path / "README.md"
@@ -171,7 +171,7 @@ def test_each_stable_test_is_counted_where_it_failed():
 
 
 def test_an_open_loop_control_is_shown_beside_its_claim_cell_and_left_out_of_the_tally():
-    from sim_bridge.experiments.tables import readme_claims
+    from fic_teleop_experiments.tables import readme_claims
 
     rows = [_row("delay_1__rate_10", "fic", seed, seed <= 9, hand="reactive") for seed in range(1, 21)]
     rows += [_row("delay_1__rate_10__feedback_off", "fic", seed, seed <= 11, hand="reactive") for seed in range(1, 21)]
@@ -193,7 +193,7 @@ def test_an_open_loop_control_is_shown_beside_its_claim_cell_and_left_out_of_the
 def test_the_resonant_amplification_the_verdict_found_is_summarised_per_law():
     """The verdict's resonance_gain of each run (kept in claims.json) as a median per law and cell, and on an open-loop
     control in README's block, so that a forced resonance the verdict does not call an oscillation stays visible."""
-    from sim_bridge.experiments.tables import readme_claims
+    from fic_teleop_experiments.tables import readme_claims
 
     rows = [_row("delay_1__rate_10__feedback_off", "fic", seed, True, hand="reactive") for seed in range(1, 6)]
     for row, gain, period in zip(rows, (1.6, 1.8, 1.7, 2.0, 1.9), (1.5, 1.6, 1.6, 1.7, 1.5)):
@@ -212,7 +212,7 @@ def test_the_resonant_amplification_the_verdict_found_is_summarised_per_law():
 def test_each_laws_swing_and_tracking_error_stand_beside_its_stable_share():
     """A law that is stable but swings 20 mm is worse for fine work: the tables and README's block show its swing (the
     verdict's figure) and its RMS tracking error beside its stable share."""
-    from sim_bridge.experiments.tables import claims_markdown, readme_claims
+    from fic_teleop_experiments.tables import claims_markdown, readme_claims
 
     rows = [_row("delay_1__rate_10", law, seed, True) for law in ("fic", "linear") for seed in range(1, 21)]
     for row in rows:

@@ -1,4 +1,4 @@
-"""Re-simulating a kept claim run (sim_bridge.experiments.claims_reproduce): identical when nothing changed, and a
+"""Re-simulating a kept claim run (fic_teleop_experiments.claims_reproduce): identical when nothing changed, and a
 changed figure or series is named."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_bridge.experiments.claims import ClaimRun, execute
-from sim_bridge.experiments.claims_reproduce import main
+from fic_teleop_experiments.claims import ClaimRun, execute
+from fic_teleop_experiments.claims_reproduce import main
 
 CLAIM = ClaimRun(0.2, 10.0, "fic", "passive", 1, 1.0)
 

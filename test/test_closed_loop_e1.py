@@ -1,4 +1,4 @@
-"""The closed-loop operator in the in-process E1 run (sim_bridge.experiments.in_process, operator="closed_loop").
+"""The closed-loop operator in the in-process E1 run (fic_teleop_experiments.in_process, operator="closed_loop").
 
 At 1 s one-way delay the operator times its avoid move from the delayed video and the replica passes the fixed
 obstacle on the second lap without touching it, where the E1 script timed for 0.2 s touches it on that lap (its
@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim_bridge.experiments.evidence_run import contact_per_lap
-from sim_bridge.experiments.in_process import RunConfig, run
+from fic_teleop_experiments.evidence_run import contact_per_lap
+from fic_teleop_experiments.in_process import RunConfig, run
 
 SECOND_LAP = (5.75, 10.75)  # [s] the sweep's second lap, around the fixed obstacle's passing (x_d there at 8.25 s)
 DURATION = 10.8

@@ -1,4 +1,4 @@
-"""The E2 bond-pull reader (sim_bridge.experiments.e2_bond_pulls): the lock-and-pull windows from the operator's
+"""The E2 bond-pull reader (fic_teleop_experiments.e2_bond_pulls): the lock-and-pull windows from the operator's
 phases, what the recorder takes from the simulation and the replica at a step, and that recording leaves the
 runner's classes as they were and records every physics step of a run."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from sim_bridge.experiments import e2_bond_pulls, in_process
+from fic_teleop_experiments import e2_bond_pulls, in_process
 
 
 def test_a_window_runs_from_the_lock_to_the_first_phase_after_the_pull() -> None:

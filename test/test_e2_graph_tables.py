@@ -1,4 +1,4 @@
-"""The E2 graph's tables (sim_bridge.experiments.e2_graph --table, --agreement): the graph's laws in e2_sweep's table
+"""The E2 graph's tables (fic_teleop_experiments.e2_graph --table, --agreement): the graph's laws in e2_sweep's table
 and each graph trial beside the runner's trial of the same law, delay and seed."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from sim_bridge.experiments import e2_graph
+from fic_teleop_experiments import e2_graph
 
 
 def _row(law: str, seed: int, inside: int, peak: float, task: float | None, stable: bool = True) -> dict:

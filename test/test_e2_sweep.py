@@ -1,4 +1,4 @@
-"""The E2 sweep's driver (sim_bridge.experiments.e2_sweep): seed-major order, the laws as the runner's controller and
+"""The E2 sweep's driver (fic_teleop_experiments.e2_sweep): seed-major order, the laws as the runner's controller and
 the paper's Eq. 7, resumption from the jsonl (a line cut short by a stopped run is run again), the table's k/n and
 Wilson intervals, and the failed pieces' contact phases (e2_in_process.phase_forces)."""
 from __future__ import annotations
@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from sim_bridge.experiments import e2_sweep
-from sim_bridge.experiments.e2_in_process import phase_forces
+from fic_teleop_experiments import e2_sweep
+from fic_teleop_experiments.e2_in_process import phase_forces
 
 
 def _row(seed: int, inside: list[str], peak: float = 12.0) -> dict:

@@ -6,7 +6,7 @@ import numpy as np
 
 from fic_core.teleoperation import TeleoperationMode
 from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
-from sim_bridge.experiments.in_process import RunResult
+from fic_teleop_experiments.in_process import RunResult
 
 DELAY = 0.2
 RATE = 100.0

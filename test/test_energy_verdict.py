@@ -1,4 +1,4 @@
-"""The energy-and-motion verdict (sim_bridge.experiments.energy_verdict) on loops whose answer is known.
+"""The energy-and-motion verdict (fic_teleop_experiments.energy_verdict) on loops whose answer is known.
 
 The reference loop is a position-position bilateral teleoperator: a handle (m_M = 0.5 kg) and a replica
 (m_R = 4 kg) coupled by springs K on each other's DELAYED position, each with local damping B:
@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.energy_verdict import (EnergyMotionCriterion, VerdictInputError, assess_energy_motion)
+from fic_teleop_experiments.energy_verdict import (EnergyMotionCriterion, VerdictInputError, assess_energy_motion)
 
 DT = 0.001
 HANDLE_MASS, REPLICA_MASS, COUPLING = 0.5, 4.0, 200.0

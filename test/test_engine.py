@@ -9,7 +9,7 @@ from concurrent.futures import as_completed
 
 import pytest
 
-from sim_bridge.experiments.engine import (EngineError, add_engine_arguments, engine_from_arguments, make_executor,
+from fic_teleop_experiments.engine import (EngineError, add_engine_arguments, engine_from_arguments, make_executor,
                                            open_engine)
 
 
@@ -20,7 +20,7 @@ def _worker_pid_and_square(value: int) -> tuple[int, int]:
 
 def _short_run(seed: int) -> dict:
     """One very short in-process run (1 simulated second of the E1 scene, the FIC), as a sweep's job would be."""
-    from sim_bridge.experiments.in_process import RunConfig, run
+    from fic_teleop_experiments.in_process import RunConfig, run
     result = run(RunConfig(duration=1.0, seed=seed, delay=0.2))
     return dict(seed=seed, simulated_s=result.simulated_s, samples=len(result.time),
                 limit_violations=result.limit_violations, error_max_m=float(result.tracking_error.max()))
@@ -68,7 +68,7 @@ def _free_port() -> int:
 
 
 def test_an_unreachable_scheduler_is_one_clear_error(monkeypatch):
-    import sim_bridge.experiments.engine as engine_module
+    import fic_teleop_experiments.engine as engine_module
     monkeypatch.setattr(engine_module, "CONNECT_TIMEOUT_S", 1.0)
     address = f"tcp://127.0.0.1:{_free_port()}"
     with pytest.raises(EngineError, match=f"cannot reach the Dask scheduler at {address}"):
@@ -106,7 +106,7 @@ def test_the_command_line_flags():
 
 def test_the_engine_bench_runs_the_same_jobs_on_both_engines():
     """A tiny bench (2 judged runs of 3 s, one worker): both engines run every job and report their throughput."""
-    from sim_bridge.experiments.engine_bench import alternating_rounds, jobs
+    from fic_teleop_experiments.engine_bench import alternating_rounds, jobs
     job_set = jobs(2, 3.0)
     assert [job[1:3] for job in job_set] == [("fic", 1), ("fic_paper_law", 1)]
     reported = []

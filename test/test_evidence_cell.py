@@ -1,13 +1,13 @@
 """One evidence cell (E1 at 0.2 s one-way delay, the FIC) with two seeds on the in-process runner: the small version
-of sim_bridge.experiments.evidence_sweep that the suite runs. 16.5 s a run is about the shortest the verdict
+of fic_teleop_experiments.evidence_sweep that the suite runs. 16.5 s a run is about the shortest the verdict
 assesses at this delay: its motion test removes E1's 5 s lap with the lap's median over 2 laps after 1 s of
 settling, one lap and one 0.4 s round trip (energy_verdict.EnergyMotionCriterion.lap_start)."""
 from __future__ import annotations
 
 import numpy as np
 
-from sim_bridge.experiments.cell_statistics import cell_statistics
-from sim_bridge.experiments.evidence_run import judge
+from fic_teleop_experiments.cell_statistics import cell_statistics
+from fic_teleop_experiments.evidence_run import judge
 
 CELL = dict(id="delay_0.2", options=dict(delay=0.2))
 

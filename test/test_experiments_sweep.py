@@ -27,7 +27,7 @@ DURATION = 4.0
 def test_two_cell_lockstep_sweep_writes_the_summary(tmp_path: Path):
     environment = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1")
     completed = subprocess.run(
-        [sys.executable, "-m", "sim_bridge.experiments.paper_experiments", "--quick", "--sweep-duration", str(DURATION),
+        [sys.executable, "-m", "fic_teleop_experiments.paper_experiments", "--quick", "--sweep-duration", str(DURATION),
          "--runs", str(tmp_path / "runs"), "--results", str(tmp_path / "results")],
         env=environment, capture_output=True, text=True, timeout=400, cwd=REPO)
     assert completed.returncode == 0, completed.stdout[-3000:] + completed.stderr[-3000:]

@@ -16,7 +16,7 @@ from scipy.signal import cont2discrete, lfilter
 
 from fic_teleop_tools.verdict.forced_answer import Channel, ForcedSettings, fit, free_oscillation_period
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, judge
-from sim_bridge.experiments.verdict_cases import (HAND_DAMPING, HAND_STIFFNESS, HANDLE_MASS, RESONANT_MASS, resonance,
+from fic_teleop_experiments.verdict_cases import (HAND_DAMPING, HAND_STIFFNESS, HANDLE_MASS, RESONANT_MASS, resonance,
                                                   resonant_plant, replica_limit_cycle)
 
 

@@ -1,6 +1,6 @@
 """The in-process runner against the real graph: one short E1 run (superimposition scene, 200 ms delay both ways)
 in lockstep over DDS and the same seconds in one process, and the runner deterministic per seed. The longer
-figures (10 s, the speed) come from sim_bridge.experiments.run_in_process.
+figures (10 s, the speed) come from fic_teleop_experiments.run_in_process.
 
 What can be compared, and how closely (docs/EXPERIMENTS.md, "In-process runner"; measured 2026-12-02 15:18-16:02
 against four lockstep runs of this test's launcher command at load averages 4.2, 8.7, 8.7 and 10.0 on 2 cores,
@@ -39,7 +39,7 @@ DESIRED_TOLERANCE_M = 0.060      # max |x_d,in-process - x_d,graph| over the run
 
 
 def test_in_process_run_agrees_with_a_lockstep_graph_run(default_lockstep_run) -> None:
-    from sim_bridge.experiments.in_process import RunConfig, agreement, run
+    from fic_teleop_experiments.in_process import RunConfig, agreement, run
 
     out, process = default_lockstep_run   # the launcher's default graph, DURATION_S lockstep (conftest)
     assert process.returncode == 0, process.stdout + process.stderr

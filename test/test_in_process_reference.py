@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.claims import ClaimRun
-from sim_bridge.experiments.evidence_run import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
-from sim_bridge.experiments.in_process import RunConfig, RunResult, run
+from fic_teleop_experiments.claims import ClaimRun
+from fic_teleop_experiments.evidence_run import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
+from fic_teleop_experiments.in_process import RunConfig, RunResult, run
 
 REFERENCE = Path(__file__).resolve().parent / "data" / "in_process_reference.json"
 DURATION_S = 2.5

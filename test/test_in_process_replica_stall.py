@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from sim_bridge.experiments.in_process import ReplicaStall, RunConfig, run
+from fic_teleop_experiments.in_process import ReplicaStall, RunConfig, run
 
 STALL = ReplicaStall(2.0, 3.5, 0.02, 0.1, 0.01, 0.08)
 # The stall's mechanics alone: the replica's own loop check and the robot's bound on a torque's state out of reach

@@ -1,11 +1,11 @@
-"""sim_bridge.experiments.lap_median: what repeats at the task's lap is removed, what the loop adds is kept, and one
+"""fic_teleop_experiments.lap_median: what repeats at the task's lap is removed, what the loop adds is kept, and one
 odd lap stays in its own lap."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.lap_median import without_lap_median
+from fic_teleop_experiments.lap_median import without_lap_median
 
 T = np.arange(0.0, 30.0, 0.01)
 

@@ -1,4 +1,4 @@
-"""The linear_tdpa baseline and the FIC feedback-rate cells on the in-process runner (sim_bridge.experiments).
+"""The linear_tdpa baseline and the FIC feedback-rate cells on the in-process runner (fic_teleop_experiments).
 
 linear_tdpa is linear_bounded behind the channel's time-domain passivity controllers (fic_core/channel_ports.py): at 1 s
 each way the channel must generate far less energy with them than without, the observers' deficits must be
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim_bridge.experiments.in_process import RunConfig, run
+from fic_teleop_experiments.in_process import RunConfig, run
 
 
 def test_the_passivity_controllers_cut_the_energy_the_delay_generates():

@@ -7,7 +7,7 @@ peak gain was 1.74 at 0.7 Hz; with the interpolating hold and its feedforward ov
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.link_hold_designs import GAIN_BAND_HZ, one_run
+from fic_teleop_experiments.link_hold_designs import GAIN_BAND_HZ, one_run
 
 pytestmark = pytest.mark.slow
 

@@ -1,9 +1,9 @@
-"""One reading of a pytest run over a mutant for both mutation tools (sim_bridge/tools/mutation_verdict.py)."""
+"""One reading of a pytest run over a mutant for both mutation tools (fic_teleop_experiments/tools/mutation_verdict.py)."""
 from __future__ import annotations
 
 import subprocess
 
-from sim_bridge.tools.mutation_verdict import ERROR, KILLED, SURVIVED, pytest_verdict, settings_plugin_text
+from fic_teleop_experiments.tools.mutation_verdict import ERROR, KILLED, SURVIVED, pytest_verdict, settings_plugin_text
 
 
 def _run(code: int, stdout: str = "", stderr: str = "") -> subprocess.CompletedProcess:

@@ -1,4 +1,4 @@
-"""The seeded random mutation run (sim_bridge/tools/random_mutation.py): on a loaded machine, test/core that does not
+"""The seeded random mutation run (fic_teleop_experiments/tools/random_mutation.py): on a loaded machine, test/core that does not
 finish on the unmutated tree is one clear line and exit 2 (not a traceback), and kills by the timeout are counted
 apart, as a slow run and a hang look alike when the machine is starved; a score comes only from a held-out draw
 (a fitting seed's rate is a fit, a held-out draw's survivors cannot be rerun or its sample listed); a survivor has
@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from sim_bridge.tools import random_mutation
-from sim_bridge.tools.random_mutation import KILLED, Site
+from fic_teleop_experiments.tools import random_mutation
+from fic_teleop_experiments.tools.random_mutation import KILLED, Site
 
 
 def _site(line: int) -> Site:

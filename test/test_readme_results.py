@@ -12,8 +12,8 @@ from typing import Callable
 
 import pytest
 
-from sim_bridge.experiments.cell_statistics import wilson_interval
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES
+from fic_teleop_experiments.cell_statistics import wilson_interval
+from fic_teleop_experiments.shape_sorting import PIECE_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -162,7 +162,7 @@ LINEAR_LAWS = ("linear", "linear_bounded", "linear_tdpa")
 
 def refit(cell_id: str) -> dict:
     """The FIC's reactive-hand runs of a cell judged with and without the forced-answer fit
-    (results/verdict_forced_answer_claims.json, sim_bridge.experiments.verdict_cases --claims-cells)."""
+    (results/verdict_forced_answer_claims.json, fic_teleop_experiments.verdict_cases --claims-cells)."""
     return result("verdict_forced_answer_claims.json")["by_cell_and_law"][f"{cell_id} fic"]
 
 
@@ -425,18 +425,18 @@ CLAIMS_BEGIN, CLAIMS_END = "<!-- claims: begin", "<!-- claims: end -->"
 def test_readme_claims_block_is_generated_from_the_statistics():
     """README's block on the FIC papers' claims is claims_report's from results/claims_statistics.json, to the
     character (a figure changed by hand, or statistics regenerated without README, fails here)."""
-    from sim_bridge.experiments.tables import readme_claims
+    from fic_teleop_experiments.tables import readme_claims
 
     text = (REPO / "README.md").read_text()
     assert text.count(CLAIMS_BEGIN) == 1 and text.count(CLAIMS_END) == 1, "README's Results hold one claims block"
     start = text.index("\n", text.index(CLAIMS_BEGIN)) + 1
     assert text[start:text.index(CLAIMS_END, start)] == readme_claims(result("claims_statistics.json")), (
-        "regenerate: python -m sim_bridge.experiments.claims_report --readme results/claims_statistics.json")
+        "regenerate: python -m fic_teleop_experiments.claims_report --readme results/claims_statistics.json")
 
 
 def test_claims_statistics_are_those_of_the_judged_sweep():
     """results/claims_statistics.json recomputed from results/claims.json (every run with both verdicts)."""
-    from sim_bridge.experiments.claims_report import claims_statistics, read_runs
+    from fic_teleop_experiments.claims_report import claims_statistics, read_runs
 
     written = result("claims_statistics.json")
     again = json.loads(json.dumps(claims_statistics(read_runs(REPO / "results" / "claims.json"),

@@ -1,11 +1,11 @@
-"""The replica's frequency response from open-loop runs (sim_bridge.experiments.replica_response) on signals whose
+"""The replica's frequency response from open-loop runs (fic_teleop_experiments.replica_response) on signals whose
 answer is known: perfect tracking, a resonance's gain, a pure delay's phase."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.replica_response import response
+from fic_teleop_experiments.replica_response import response
 
 RATE = 50.0
 TIME = np.arange(0.0, 28.0, 1.0 / RATE)

@@ -1,5 +1,5 @@
 """The run verdict (fic_teleop_tools.verdict.run_verdict) on its labelled validation set
-(sim_bridge.experiments.verdict_cases) and on the ways a run reaches it (an in-process RunResult, a bag).
+(fic_teleop_experiments.verdict_cases) and on the ways a run reaches it (an in-process RunResult, a bag).
 
 The labels come from mathematics, not from the verdict: the delayed-feedback loop's boundary is checked here against
 its closed form, the reference loop's stability for any delay by the small-gain theorem."""
@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.in_process import RunResult
+from fic_teleop_experiments.in_process import RunResult
 from fic_teleop_tools.verdict.forced_answer import ForcedSettings
 from fic_teleop_tools.verdict.oscillation_scan import ScanSettings, scan
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput, VerdictInputError, judge
-from sim_bridge.experiments.verdict_cases import (bilateral, cases, critical_delay, critical_gain, delayed_feedback,
+from fic_teleop_experiments.verdict_cases import (bilateral, cases, critical_delay, critical_gain, delayed_feedback,
                                                   delayed_spring_damper, loop_gain_peak, resonant_plant,
                                                   with_limit_cycle)
 

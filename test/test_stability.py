@@ -1,4 +1,4 @@
-"""The sweep stability criterion (sim_bridge.experiments.stability) on systems whose stability is known.
+"""The sweep stability criterion (fic_teleop_experiments.stability) on systems whose stability is known.
 
 The unstable cases are built from mathematics, not from the code under test: a mass-spring with negative damping
 (its energy grows as exp(-c t / m)), and a mass under a spring acting on a DELAYED position,
@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from sim_bridge.experiments.stability import (StabilityCriterion, StabilityInputError, assess_stability,
+from fic_teleop_experiments.stability import (StabilityCriterion, StabilityInputError, assess_stability,
                                               oscillation_components)
 
 DT = 0.001

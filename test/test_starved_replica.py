@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from sim_bridge.experiments.in_process import ReplicaStall, RunConfig, run
+from fic_teleop_experiments.in_process import ReplicaStall, RunConfig, run
 
 # Ticks on time (every 2-4 ms) for 1.5 s, each on a state 0-150 ms old: the two-station runaway's state ages.
 OLD_STATES = ReplicaStall(2.0, 3.5, 0.002, 0.004, 0.0, 0.0, 0.0, 0.15)

@@ -1,4 +1,4 @@
-"""The starvation harness's reading of a run (sim_bridge/tools/stress.py), without a run: the runaway figures from a
+"""The starvation harness's reading of a run (fic_teleop_experiments/tools/stress.py), without a run: the runaway figures from a
 bag's joint states, the per-level summary, the levels and the refusals. The throttled run itself:
 test/nodes/test_starved_run.py."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_bridge.tools.stress import CpuQuota, StressError, level_summary, parse_levels, runaway_figures
+from fic_teleop_experiments.tools.stress import CpuQuota, StressError, level_summary, parse_levels, runaway_figures
 
 NOMINAL = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
 
@@ -83,7 +83,7 @@ def test_levels_and_refusals() -> None:
 
 
 def test_a_velocity_reflex_trip_in_the_robots_log_is_a_runaway_without_a_bag(tmp_path: Path) -> None:
-    from sim_bridge.tools.stress import run_figures
+    from fic_teleop_experiments.tools.stress import run_figures
 
     logs = tmp_path / "logs"
     logs.mkdir()

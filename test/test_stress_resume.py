@@ -1,6 +1,6 @@
 """The stress bench's bookkeeping without a graph: a rerun with the same arguments resumes (keeps every finished run,
 makes only the missing ones), a bench of other settings is never overwritten, and the quota group gets its high
-CPU weight beside its quota (sim_bridge/tools/stress.py, sim_bridge/tools/bench.py --stress)."""
+CPU weight beside its quota (fic_teleop_experiments/tools/stress.py, fic_teleop_experiments/tools/bench.py --stress)."""
 from __future__ import annotations
 
 import json
@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from sim_bridge.tools import stress
-from sim_bridge.tools.bench import main as bench_main
+from fic_teleop_experiments.tools import stress
+from fic_teleop_experiments.tools.bench import main as bench_main
 
 
 def _fake_runs(monkeypatch: pytest.MonkeyPatch, made: list[str], fail_after: int | None = None) -> None:

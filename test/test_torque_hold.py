@@ -1,4 +1,4 @@
-"""sim_bridge.tools.torque_hold on a bag made here: how long each torque stayed applied on the arm's clock, and the
+"""fic_teleop_experiments.tools.torque_hold on a bag made here: how long each torque stayed applied on the arm's clock, and the
 gaps between the states the commands were computed on."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from sim_bridge.tools.torque_hold import summary, torque_holds
+from fic_teleop_experiments.tools.torque_hold import summary, torque_holds
 
 
 def _run(path: Path) -> Path:

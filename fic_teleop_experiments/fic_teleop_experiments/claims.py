@@ -43,9 +43,9 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, HAND_IMPEDANCE_JITTER,
+from fic_teleop_experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, HAND_IMPEDANCE_JITTER,
                                                  OPERATOR_TIMING_JITTER_S)
-from sim_bridge.experiments.in_process import HANDS, RunConfig, RunResult, run
+from fic_teleop_experiments.in_process import HANDS, RunConfig, RunResult, run
 
 #: One-way delays [s] and channel rates [Hz] (0: full rate, the 100 Hz network stream undelayed by any cap).
 CLAIM_DELAYS_S = (0.0, 0.2, 1.0, 2.0)

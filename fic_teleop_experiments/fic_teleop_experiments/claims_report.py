@@ -1,6 +1,6 @@
 """The claim sweep's statistics: per cell and law both verdicts' k/n with Wilson intervals, the FIC against each
 baseline, error and force median and p95, as JSON, Markdown tables and figures (docs/EXPERIMENTS.md, "Claims"; the
-statistics are sim_bridge.experiments.cell_statistics's).
+statistics are fic_teleop_experiments.cell_statistics's).
 
 Input: the judged sweep, results/claims.json (``scripts/experiments.sh claims --judge``: every run's row with its
 seed, figures and both verdicts), or any run file of one JSON row a line. A row carries ``cell``, ``controller``,
@@ -16,10 +16,10 @@ about its command during the task), the RMS error, the maximum error and the pea
 against one baseline on one cell, for both verdicts, p_FIC - p_baseline with Newcombe's 95 % interval, Boschloo's
 exact p and Fisher's.
 
-    python -m sim_bridge.experiments.claims_report results/claims.json      # -> results/claims_statistics.json,
+    python -m fic_teleop_experiments.claims_report results/claims.json      # -> results/claims_statistics.json,
                                                                              #    claims_tables.md, claims_*.png
-    python -m sim_bridge.experiments.claims_report --readme results/claims_statistics.json   # README's block
-    python -m sim_bridge.experiments.claims_report results/claims.json --update-readme README.md   # all, README too
+    python -m fic_teleop_experiments.claims_report --readme results/claims_statistics.json   # README's block
+    python -m fic_teleop_experiments.claims_report results/claims.json --update-readme README.md   # all, README too
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from sim_bridge.experiments.cell_statistics import Proportion, compare_laws, median_and_p95, proportion
+from fic_teleop_experiments.cell_statistics import Proportion, compare_laws, median_and_p95, proportion
 
 REFERENCE_LAW = "fic"
 VERDICTS = ("stable", "safe")
@@ -183,8 +183,8 @@ def write_claims_statistics(source: Path, out: Path, seeds_planned: int | None =
     """<out>.json (the statistics), <out stem>_tables.md and the figures <out stem>_proportions.png and
     _differences.png from a judged sweep or run file; returns the paths written (a figure with nothing to show is
     not written). The stem of results/claims_statistics.json is results/claims."""
-    from sim_bridge.experiments.plots import plot_claim_differences, plot_claim_proportions
-    from sim_bridge.experiments.tables import claims_markdown
+    from fic_teleop_experiments.plots import plot_claim_differences, plot_claim_proportions
+    from fic_teleop_experiments.tables import claims_markdown
 
     document = claims_statistics(read_runs(source), seeds_planned)
     document["source"] = Path(source).name
@@ -207,7 +207,7 @@ README_BEGIN, README_END = "<!-- claims: begin", "<!-- claims: end -->"
 def update_readme(readme: Path, statistics: dict) -> None:
     """Replace README's claims block (between its begin and end markers) with the one generated from
     ``statistics``; ValueError when README has not exactly one block."""
-    from sim_bridge.experiments.tables import readme_claims
+    from fic_teleop_experiments.tables import readme_claims
 
     text = readme.read_text()
     if text.count(README_BEGIN) != 1 or text.count(README_END) != 1:
@@ -217,7 +217,7 @@ def update_readme(readme: Path, statistics: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from sim_bridge.experiments.claims import SEEDS
+    from fic_teleop_experiments.claims import SEEDS
 
     parser = argparse.ArgumentParser(description="The claim sweep's statistics, tables and figures")
     parser.add_argument("source", type=Path, nargs="?", default=None,
@@ -231,7 +231,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="also rewrite README's claims block from the new statistics (after a new --judge)")
     args = parser.parse_args(argv)
     if args.readme is not None:
-        from sim_bridge.experiments.tables import readme_claims
+        from fic_teleop_experiments.tables import readme_claims
 
         print(readme_claims(json.loads(args.readme.read_text())), end="")
         return 0

@@ -7,8 +7,8 @@ the kept series with ``numpy.array_equal`` (NaN equal to NaN; the run's wall tim
 moves, and every figure of the row with ``==``; fields the kept series lacks (recorded only by a later commit) are
 named, not counted as differences. Exit status 0 when every key is identical, 1 otherwise.
 
-    python -m sim_bridge.experiments.claims_reproduce delay_0__rate_5__linear__reactive__4__30s ...
-    python -m sim_bridge.experiments.claims_reproduce --commit 6018e3d65d09 --cells 3   # 3 keys of different cells
+    python -m fic_teleop_experiments.claims_reproduce delay_0__rate_5__linear__reactive__4__30s ...
+    python -m fic_teleop_experiments.claims_reproduce --commit 6018e3d65d09 --cells 3   # 3 keys of different cells
 """
 from __future__ import annotations
 
@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from sim_bridge.experiments.claims import ClaimRun, execute
+from fic_teleop_experiments.claims import ClaimRun, execute
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 CLAIM_FIELDS = ("delay", "rate_hz", "controller", "hand", "seed", "duration", "force_feedback", "tail")
 
 

@@ -1,11 +1,11 @@
 """Running the claim runs through an executor, keeping each as it finishes, and resuming (docs/EXPERIMENTS.md "Claims").
 
 ``sweep`` submits every run not done yet to a concurrent.futures.Executor (a process pool over this machine's cores,
-or a Dask cluster's: sim_bridge.experiments.engine), appends each finished run's row to a JSON-lines file and keeps
+or a Dask cluster's: fic_teleop_experiments.engine), appends each finished run's row to a JSON-lines file and keeps
 its series beside it (claims.execute); ``finished`` reads back what is done, so a sweep stopped anywhere resumes where
 it stopped; ``judged`` applies the run verdict to the kept series.
 
-The command line runs the claim cells (sim_bridge.experiments.claims): channels at full rate, 10 and 5 Hz both
+The command line runs the claim cells (fic_teleop_experiments.claims): channels at full rate, 10 and 5 Hz both
 ways, one-way delay 0, 0.2, 1 and 2 s (and 0.5, 1.5 s at full rate), the closed-loop operator with a passive or a
 force-reactive hand, a task drawn per seed, every law; most important cells first. Each finished run's series goes
 to <out-dir>/<key>.npz and its row (config, seed, wall time, figures, commit) to one line of <jsonl>, as it
@@ -22,7 +22,7 @@ runs, gives what one judgement of the finished sweep gives).
     scripts/experiments.sh claims --judge              # verdicts on what is kept -> results/claims.json
     scripts/experiments.sh claims --cluster tcp://host:8786   # on a Dask cluster (docs/CLUSTER.md)
 
-(``scripts/experiments.sh claims ...`` is ``python -m sim_bridge.experiments.claims_sweep ...`` in the workspace.)
+(``scripts/experiments.sh claims ...`` is ``python -m fic_teleop_experiments.claims_sweep ...`` in the workspace.)
 """
 from __future__ import annotations
 
@@ -37,12 +37,12 @@ from typing import Callable
 
 from tqdm import tqdm
 
-from sim_bridge.experiments.claims import SEEDS, ClaimRun, claim_runs, execute, judge_series, provenance
-from sim_bridge.experiments.engine import add_engine_arguments, engine_from_arguments
-from sim_bridge.experiments.evidence_run import CONTROLLERS
-from sim_bridge.experiments.in_process import HANDS
+from fic_teleop_experiments.claims import SEEDS, ClaimRun, claim_runs, execute, judge_series, provenance
+from fic_teleop_experiments.engine import add_engine_arguments, engine_from_arguments
+from fic_teleop_experiments.evidence_run import CONTROLLERS
+from fic_teleop_experiments.in_process import HANDS
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def finished(jsonl: Path, directory: Path, judged_rows: dict[str, dict] | None = None) -> dict[str, dict]:
@@ -101,10 +101,10 @@ def verdict_code() -> str:
     against and the code that loads a kept series (claims.py, with judge_series)."""
     import fic_core.arm_profile
     import fic_teleop_tools.verdict
-    import sim_bridge.experiments.claims
+    import fic_teleop_experiments.claims
 
     files = sorted(Path(fic_teleop_tools.verdict.__file__).resolve().parent.glob("*.py"))
-    files += [Path(fic_core.arm_profile.__file__).resolve(), Path(sim_bridge.experiments.claims.__file__).resolve()]
+    files += [Path(fic_core.arm_profile.__file__).resolve(), Path(fic_teleop_experiments.claims.__file__).resolve()]
     digest = hashlib.sha256()
     for path in files:
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")

@@ -14,11 +14,11 @@ most sqrt(2) F_max = 14.1 N with two axes past x_b, as in a lock (x) held while 
   bond events (formed with its threshold, broke at a force).
 
     source scripts/env.sh
-    python -m sim_bridge.experiments.e2_bond_pulls --seed 3 --law fic --json results/e2_bond_pulls_fic_3.json
-    python -m sim_bridge.experiments.e2_bond_pulls --seed 3 --law fic --no-jitter ...     # the graph's twin
-    python -m sim_bridge.experiments.e2_bond_pulls --graph runs/e2_graph_fic/fic_0.2_seed3 --jsonl \
+    python -m fic_teleop_experiments.e2_bond_pulls --seed 3 --law fic --json results/e2_bond_pulls_fic_3.json
+    python -m fic_teleop_experiments.e2_bond_pulls --seed 3 --law fic --no-jitter ...     # the graph's twin
+    python -m fic_teleop_experiments.e2_bond_pulls --graph runs/e2_graph_fic/fic_0.2_seed3 --jsonl \
         results/e2_graph_fic.jsonl
-    python -m sim_bridge.experiments.e2_bond_pulls --plot results/e2_bond_pulls_seed3.png --results A.json B.json
+    python -m fic_teleop_experiments.e2_bond_pulls --plot results/e2_bond_pulls_seed3.png --results A.json B.json
 """
 from __future__ import annotations
 
@@ -33,8 +33,8 @@ from typing import Iterator
 
 import numpy as np
 
-from sim_bridge.experiments import in_process
-from sim_bridge.experiments.e2_sweep import LAWS
+from fic_teleop_experiments import in_process
+from fic_teleop_experiments.e2_sweep import LAWS
 
 STEP_S = 0.001
 #: x_b of config/replica.yaml (paper Sec. III): beyond it an axis of Eq. 1 is saturated toward F_max.
@@ -113,7 +113,7 @@ def felt_pulls(row: dict) -> list[float]:
 
 def in_process_pulls(seed: int, law: str, delay: float, jitter: bool, duration: float) -> dict:
     """One trial recorded (module docstring): its row (without the trace) and one entry per lock-and-pull."""
-    from sim_bridge.experiments.e2_in_process import trial
+    from fic_teleop_experiments.e2_in_process import trial
 
     controller, paper_law = LAWS[law]
     with recording() as recorder:

@@ -2,19 +2,19 @@
 default, --operator shape-sorting), one run a seed, judged as e2_in_process.py judges the runner's trials.
 
 Resumable: each finished trial is one line of the jsonl (--out); a rerun skips the seeds already there. Per trial:
-the pieces inside the box (the robot's ground truth, sim_bridge.experiments.shape_sorting), the operator's phases,
+the pieces inside the box (the robot's ground truth, fic_teleop_experiments.shape_sorting), the operator's phases,
 retries and time per piece (from the device node's log), the peak force and the time above F_max (the replica's
 F/T force in the bag), limit violations, and the run's stable and safe verdicts (the report's verdict.json).
 The seed sets the channel's jitter draws and the bonds' break thresholds; the operator and its hand are the same in
 every graph trial (the in-process runner also varies those by seed).
 
     source scripts/env.sh
-    nice -n 5 python -m sim_bridge.experiments.e2_graph --out results/e2_graph.jsonl --seeds 1 2 3 4
-    python -m sim_bridge.experiments.e2_graph --out results/e2_graph.jsonl --summary -
+    nice -n 5 python -m fic_teleop_experiments.e2_graph --out results/e2_graph.jsonl --seeds 1 2 3 4
+    python -m fic_teleop_experiments.e2_graph --out results/e2_graph.jsonl --summary -
     # the docs' tables: every graph law in one (e2_sweep's columns), and graph against the runner seed by seed
-    python -m sim_bridge.experiments.e2_graph --table results/e2_graph_fic.jsonl results/e2_graph_stamped.jsonl \
+    python -m fic_teleop_experiments.e2_graph --table results/e2_graph_fic.jsonl results/e2_graph_stamped.jsonl \
         results/e2_graph_linear.jsonl
-    python -m sim_bridge.experiments.e2_graph --agreement results/e2_sweep.jsonl --table results/e2_graph_fic.jsonl \
+    python -m fic_teleop_experiments.e2_graph --agreement results/e2_sweep.jsonl --table results/e2_graph_fic.jsonl \
         results/e2_graph_linear.jsonl
 
 --controller picks the replica's law (config/replica.yaml's ``controller``: fic, or a baseline with the same
@@ -33,10 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_bridge.experiments.cell_statistics import wilson_interval
-from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, operator_outcome
+from fic_teleop_experiments.cell_statistics import wilson_interval
+from fic_teleop_experiments.e2_in_process import FORCE_OF_NOTE_N, operator_outcome
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES, piece_outcomes
+from fic_teleop_experiments.shape_sorting import PIECE_NAMES, piece_outcomes
 
 PHASE = re.compile(r"shape-sorting operator: (\w+:\w+) at ([\d.]+) s \(([-\d.e+naif]+)\)")
 
@@ -258,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.agreement is not None and args.table is None:
         parser.error("--agreement needs --table (the graph's jsonl files)")
     if args.table is not None:
-        from sim_bridge.experiments.e2_sweep import summary as sweep_table
+        from fic_teleop_experiments.e2_sweep import summary as sweep_table
 
         rows = [row for path in args.table for row in done_rows(path)]
         print(agreement(rows, done_rows(args.agreement)) if args.agreement else sweep_table(rows), end="")

@@ -4,14 +4,14 @@ With ``--operator shape_sorting`` (the default) each trial is driven by the clos
 (sim_bridge.device.shape_sorting_operator: it sees the delayed video, aligns piece over hole by move-and-wait and
 feels the insertion) holding the handle with the force-reactive hand (device.reactive_hand); ``--operator scripted``
 replays the lockstep graph's E2 script (config/operator_scripts/shape_sorting.yaml). Each seed varies the operator
-as the evidence sweep does (sim_bridge.experiments.evidence_run): the perception delay (or the script's clock) by up
+as the evidence sweep does (fic_teleop_experiments.evidence_run): the perception delay (or the script's clock) by up
 to +-0.1 s, the hand's impedance by up to +-20 %, the reactive hand's latencies and gains from their ranges, with
-5 ms of channel jitter. A piece counts when it ends inside the box (sim_bridge.experiments.shape_sorting.inside_box);
+5 ms of channel jitter. A piece counts when it ends inside the box (fic_teleop_experiments.shape_sorting.inside_box);
 the outcome of each trial also gives the operator's phases, its retries and the time it took per piece.
 
-    source scripts/env.sh && python -m sim_bridge.experiments.e2_in_process --trials 4 --json results/e2_operator_fic.json
-    python -m sim_bridge.experiments.e2_in_process --controller linear --first-seed 3 --trials 1 --json linear_3.json
-    python -m sim_bridge.experiments.e2_in_process --merge linear_1.json linear_3.json --json OUT.json --plot OUT.png
+    source scripts/env.sh && python -m fic_teleop_experiments.e2_in_process --trials 4 --json results/e2_operator_fic.json
+    python -m fic_teleop_experiments.e2_in_process --controller linear --first-seed 3 --trials 1 --json linear_3.json
+    python -m fic_teleop_experiments.e2_in_process --merge linear_1.json linear_3.json --json OUT.json --plot OUT.png
 """
 from __future__ import annotations
 
@@ -26,14 +26,14 @@ from tqdm import tqdm
 
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from sim_bridge.device.virtual_operator import load_script
-from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER,
+from fic_teleop_experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER,
                                                  OPERATOR_TIMING_JITTER_S)
-from sim_bridge.experiments.in_process import RunConfig, run
-from sim_bridge.experiments.cell_statistics import wilson_interval
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box
+from fic_teleop_experiments.in_process import RunConfig, run
+from fic_teleop_experiments.cell_statistics import wilson_interval
+from fic_teleop_experiments.shape_sorting import PIECE_NAMES, inside_box
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput, judge
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 
 FORCE_OF_NOTE_N = 10.0   # the replica's F_max: time spent above it is reported, as in the graph's E2 table
 

@@ -8,12 +8,12 @@ compensation), fic_paper_law (Eq. 7 as the paper writes it), linear, linear_boun
 behind the channel's time-domain passivity controllers).
 
     source scripts/env.sh
-    nice -n 5 python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10   # run (or resume)
-    nice -n 5 python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --cells fic@0.2 linear@0.2
+    nice -n 5 python -m fic_teleop_experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10   # run (or resume)
+    nice -n 5 python -m fic_teleop_experiments.e2_sweep --out results/e2_sweep.jsonl --cells fic@0.2 linear@0.2
     # the paper's cell first, every law to 10 seeds, then the default cells (the 200 ms ones are skipped as done)
-    python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10 --cells fic@0.2 \
+    python -m fic_teleop_experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10 --cells fic@0.2 \
         fic_paper_law@0.2 linear@0.2 linear_bounded@0.2 linear_tdpa@0.2
-    python -m sim_bridge.experiments.e2_sweep --out results/e2_sweep.jsonl --summary results/e2_sweep.md  # k/n, Wilson
+    python -m fic_teleop_experiments.e2_sweep --out results/e2_sweep.jsonl --summary results/e2_sweep.md  # k/n, Wilson
 """
 from __future__ import annotations
 
@@ -25,9 +25,9 @@ from collections import defaultdict
 from pathlib import Path
 
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
-from sim_bridge.experiments.cell_statistics import wilson_interval
-from sim_bridge.experiments.e2_in_process import FORCE_OF_NOTE_N, phase_forces, plot, trial
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES
+from fic_teleop_experiments.cell_statistics import wilson_interval
+from fic_teleop_experiments.e2_in_process import FORCE_OF_NOTE_N, phase_forces, plot, trial
+from fic_teleop_experiments.shape_sorting import PIECE_NAMES
 
 #: law -> (the runner's controller, the paper's Eq. 7 as written)
 LAWS = {"fic": ("fic", False), "fic_paper_law": ("fic", True), "linear": ("linear", False),

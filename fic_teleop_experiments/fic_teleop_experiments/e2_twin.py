@@ -1,9 +1,9 @@
 """Tune the E2 operator script on the in-process graph (NOT an experiment result).
 
-    python -m sim_bridge.experiments.e2_twin [--script config/operator_scripts/shape_sorting.yaml] [--seed 1] [--tune N]
+    python -m fic_teleop_experiments.e2_twin [--script config/operator_scripts/shape_sorting.yaml] [--seed 1] [--tune N]
 
 The graph in lockstep runs at 0.1-0.3x real time on this shared 2-core machine; tuning the shape-sorting script
-against it costs ~10 minutes a try. This runs the script on sim_bridge.experiments.in_process, which steps the same
+against it costs ~10 minutes a try. This runs the script on fic_teleop_experiments.in_process, which steps the same
 core objects the nodes wrap (fic_core.MasterStation, Channel, fic_core.ReplicaLoop, the MuJoCo Panda with the
 adhesive bond) in one process, and tells where the script's moves land; every reported E2 figure comes from the
 real graph (scripts/experiments.sh).
@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sim_bridge.experiments.in_process import RunConfig, run as run_graph
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES, inside_box
+from fic_teleop_experiments.in_process import RunConfig, run as run_graph
+from fic_teleop_experiments.shape_sorting import PIECE_NAMES, inside_box
 from sim_bridge.device.virtual_operator import load_script
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def run(script_path: Path, seed: int, delay: float, duration: float | None, verbose: bool) -> dict:

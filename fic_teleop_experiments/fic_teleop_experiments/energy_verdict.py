@@ -1,6 +1,6 @@
 """A stability verdict from energy and motion, in windows sized by the round-trip delay (docs/EXPERIMENTS.md).
 
-The older criterion (sim_bridge.experiments.stability) judges only e = x_d - x_R after a 0.5 s centred detrend,
+The older criterion (fic_teleop_experiments.stability) judges only e = x_d - x_R after a 0.5 s centred detrend,
 which removes most of a 2-4 s oscillation -- the period a loop closed through 0.5-1 s of delay oscillates at --
 while counting the operator's fast moves as oscillation. This one judges what an unstable teleoperator shows:
 
@@ -16,7 +16,7 @@ while counting the operator's fast moves as oscillation. This one judges what an
    driven by a periodic task answers it with a motion that is not its command (the hand gives way to the force it
    feels, the replica lags the delayed command) and, when the loop is stable, repeats at the task's period: with
    ``task_period`` set (E1's 5 s lap) the motion judged is what differs from lap to lap, the motion minus its median
-   at the same phase of the lap (sim_bridge.experiments.lap_median), over the span after settling, one lap and one round
+   at the same phase of the lap (fic_teleop_experiments.lap_median), over the span after settling, one lap and one round
    trip (EnergyMotionCriterion.lap_start) and only when that span holds ``min_laps`` laps. Then in EVERY judged
    window, after removing the window's linear trend, an axis whose amplitude (half the peak-to-peak) exceeds
    ``oscillation_amplitude`` AND whose normalised autocorrelation has a peak above ``periodicity`` at a lag in
@@ -55,7 +55,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sim_bridge.experiments.lap_median import without_lap_median
+from fic_teleop_experiments.lap_median import without_lap_median
 
 
 class VerdictInputError(ValueError):
@@ -66,7 +66,7 @@ class VerdictInputError(ValueError):
 class EnergyMotionCriterion:
     round_trip_delay: float                 # [s] forward + backward delay of the channel
     # [s] the task's own period (E1's 5 s lap), None for an aperiodic task: the motion test judges the motion minus
-    # its median at the same phase of the lap (sim_bridge.experiments.lap_median), the task's forced response removed.
+    # its median at the same phase of the lap (fic_teleop_experiments.lap_median), the task's forced response removed.
     task_period: float | None = None
     min_window: float = 2.0                 # [s] the shortest window (fast loops)
     judged_windows: int = 2                 # windows at the end of the run that are judged

@@ -1,12 +1,12 @@
-"""Runs per hour of the sweep engines (sim_bridge.experiments.engine) on one machine: the same job set through the
+"""Runs per hour of the sweep engines (fic_teleop_experiments.engine) on one machine: the same job set through the
 process pool and through a Dask LocalCluster, in alternating rounds so that both see the same machine load.
 Writes a JSON with the command, the machine's load and every round (docs/CLUSTER.md; docs/EXPERIMENTS.md "The
 engines' runs per hour").
 
-    nice -n 5 python -m sim_bridge.experiments.engine_bench --runs 24 --duration 10 --rounds 2
+    nice -n 5 python -m fic_teleop_experiments.engine_bench --runs 24 --duration 10 --rounds 2
 
 The jobs are in-process runs of the E1 scene at 1 s one-way delay, each law in turn, each judged as the evidence
-sweep judges it (sim_bridge.experiments.evidence_run.judge): a sweep's unit of work, returning a small row.
+sweep judges it (fic_teleop_experiments.evidence_run.judge): a sweep's unit of work, returning a small row.
 """
 from __future__ import annotations
 
@@ -19,10 +19,10 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-from sim_bridge.experiments.engine import ENGINES, local_cores, open_engine
-from sim_bridge.experiments.evidence_run import CONTROLLERS, judge
+from fic_teleop_experiments.engine import ENGINES, local_cores, open_engine
+from fic_teleop_experiments.evidence_run import CONTROLLERS, judge
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def jobs(runs: int, duration: float) -> list[tuple]:
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     rounds, summary = alternating_rounds(args.engines, args.workers or local_cores(), jobs(args.runs, args.duration),
                                          args.rounds, report)
     arguments = sys.argv[1:] if argv is None else argv
-    document = dict(command="nice -n 5 python -m sim_bridge.experiments.engine_bench " + " ".join(arguments),
+    document = dict(command="nice -n 5 python -m fic_teleop_experiments.engine_bench " + " ".join(arguments),
                     date_utc=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"), machine=platform.node(),
                     cores=local_cores(), niceness=os.nice(0), duration_s=args.duration, runs_per_round=args.runs,
                     summary=summary, rounds=rounds)

@@ -1,7 +1,7 @@
 """One run of an evidence cell on the in-process runner, judged by energy and motion (docs/EXPERIMENTS.md).
 
 The seed draws the channel's jitter, the operator's timing and the hand's impedance (RunConfig); the verdict is
-sim_bridge.experiments.energy_verdict's on the arm's and the handle's kinetic energy, the channel's generated
+fic_teleop_experiments.energy_verdict's on the arm's and the handle's kinetic energy, the channel's generated
 energy, and on x_M, x_d and x_R with the commanded motion and the lap's typical (median) motion removed; errors are taken after
 the first 2 s (start-up). A run's time series can be kept (``save_series``) and judged again without simulating it.
 """
@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_bridge.experiments.energy_verdict import EnergyMotionCriterion, assess_energy_motion
-from sim_bridge.experiments.in_process import RunConfig, RunResult, run
+from fic_teleop_experiments.energy_verdict import EnergyMotionCriterion, assess_energy_motion
+from fic_teleop_experiments.in_process import RunConfig, RunResult, run
 
 CHANNEL_JITTER_S = 0.005         # per-message delay jitter (seeded); the paper's link is a LAN with video
 OPERATOR_TIMING_JITTER_S = 0.1   # script clock shift, about half a human reaction time

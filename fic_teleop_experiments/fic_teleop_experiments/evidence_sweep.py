@@ -7,12 +7,12 @@ rate (the Cartesian law J^T FIC + posture at control_rate while the arm's gravit
 1 kHz physics rate, as on a Franka) and (c) the whole torque loop's rate (gravity included in the held torque); each run with the FIC, the FIC as the
 paper writes it (paper_law), the linear baseline, the linear baseline bounded at the FIC's F_max and that one made
 passive at the channel's ports (linear_tdpa), over seeds (channel jitter, operator timing, hand impedance). Per run the verdict of
-sim_bridge.experiments.energy_verdict; per cell k/n stable with a 95 % Wilson interval, median/p95 of the error
-and the peak force (sim_bridge.experiments.cell_statistics). Writes <out>.json and <out>_map.png.
+fic_teleop_experiments.energy_verdict; per cell k/n stable with a 95 % Wilson interval, median/p95 of the error
+and the peak force (fic_teleop_experiments.cell_statistics). Writes <out>.json and <out>_map.png.
 
-    python -m sim_bridge.experiments.evidence_sweep --quick            # 5 cells x 5 controllers x 2 seeds, 20 s
-    python -m sim_bridge.experiments.evidence_sweep --seeds 5 --duration 30 --workers 2
-    python -m sim_bridge.experiments.evidence_sweep --operator closed_loop   # the operator watching the delayed video
+    python -m fic_teleop_experiments.evidence_sweep --quick            # 5 cells x 5 controllers x 2 seeds, 20 s
+    python -m fic_teleop_experiments.evidence_sweep --seeds 5 --duration 30 --workers 2
+    python -m fic_teleop_experiments.evidence_sweep --operator closed_loop   # the operator watching the delayed video
 """
 from __future__ import annotations
 
@@ -25,12 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_bridge.experiments.cell_statistics import cell_statistics
-from sim_bridge.experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, HAND_IMPEDANCE_JITTER,
+from fic_teleop_experiments.cell_statistics import cell_statistics
+from fic_teleop_experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, HAND_IMPEDANCE_JITTER,
                                                  OPERATOR_TIMING_JITTER_S, judge)
-from sim_bridge.experiments.in_process import OPERATORS
+from fic_teleop_experiments.in_process import OPERATORS
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 def cells(quick: bool) -> list[dict]:
     """(id, label, what it lowers, runner options)."""
     delays = (0.2, 1.0) if quick else (0.0, 0.2, 0.5, 1.0, 2.0)

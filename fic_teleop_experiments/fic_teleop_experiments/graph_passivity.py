@@ -6,8 +6,8 @@ without TDPA, which says how much energy the scene makes the delay generate in t
 
 The command line runs one lockstep graph run and the same configuration in process and prints both side by side:
 
-    python -m sim_bridge.experiments.graph_passivity --controller linear_tdpa --delay 1.0 --duration 8 --out /tmp/gp
-    python -m sim_bridge.experiments.graph_passivity --controller fic --tdpa --delay 1.0 --duration 8 --out /tmp/gp_fic
+    python -m fic_teleop_experiments.graph_passivity --controller linear_tdpa --delay 1.0 --duration 8 --out /tmp/gp
+    python -m fic_teleop_experiments.graph_passivity --controller fic --tdpa --delay 1.0 --duration 8 --out /tmp/gp_fic
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from sim_bridge.experiments.in_process import RunConfig, agreement, run
+from fic_teleop_experiments.in_process import RunConfig, agreement, run
 
 
 @dataclass

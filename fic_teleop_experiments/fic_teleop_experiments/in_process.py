@@ -46,7 +46,7 @@ from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOpe
 from sim_bridge.robot.mujoco_panda import PandaSimulation
 from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 STEP = 0.001                     # the robot's physics step and joint-state period [s]
 SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
 PLANNER_LAG_S = 0.2
@@ -169,7 +169,7 @@ class RunResult:
     simulated_s: float
     limit_violations: int
     shaped_ticks: int
-    # For the energy-and-motion verdict (sim_bridge.experiments.energy_verdict), at the same stamps:
+    # For the energy-and-motion verdict (fic_teleop_experiments.energy_verdict), at the same stamps:
     master: np.ndarray | None = None               # x_M, the handle position (n, 3) [m]
     planner: np.ndarray | None = None              # the planner's x_d (the commanded motion) (n, 3) [m]
     arm_kinetic_energy: np.ndarray | None = None   # 1/2 qd^T M(q) qd of the arm's joints (n,) [J]

@@ -6,7 +6,7 @@ reaches the replica is an exogenous input and the replica's gain from it to the 
 (replica_response.response, Welch H1). Per run: the peak gain on 0.3-1 Hz with its frequency and coherence,
 the tracking error and the run verdict's answer.
 
-    python -m sim_bridge.experiments.link_hold_designs --seeds 5 6 7 --rates 10 0 --workers 2
+    python -m fic_teleop_experiments.link_hold_designs --seeds 5 6 7 --rates 10 0 --workers 2
     # -> results/link_hold_designs.json (docs/CONTROL_LAWS.md "Low-rate links")
 """
 from __future__ import annotations
@@ -21,12 +21,12 @@ from tempfile import TemporaryDirectory
 
 import numpy as np
 
-from sim_bridge.experiments.claims import SETTLE_S, ClaimRun, figures, judge_series, save_series, thinned
-from sim_bridge.experiments.engine import make_executor
-from sim_bridge.experiments.in_process import run
-from sim_bridge.experiments.replica_response import response
+from fic_teleop_experiments.claims import SETTLE_S, ClaimRun, figures, judge_series, save_series, thinned
+from fic_teleop_experiments.engine import make_executor
+from fic_teleop_experiments.in_process import run
+from fic_teleop_experiments.replica_response import response
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 DESIGNS = {"interpolate": True, "extrapolate": False}
 #: The band the gain is reported on [Hz]: the arm's resonance on the FIC's spring lies in it (0.6-0.9 Hz).
 GAIN_BAND_HZ = (0.3, 1.0)

@@ -5,8 +5,8 @@ and measures the signed distance of every hand and finger geom to the obstacle w
 penetration, i.e. a contact). One line per 5 s lap of the circle: the smallest distance, when, and where the hand
 was. This is how the E1 operator script's margin over the obstacle was measured (docs/EXPERIMENTS.md).
 
-    python -m sim_bridge.experiments.obstacle_clearance runs/<run>            # a run folder (or its bag folder)
-    python -m sim_bridge.experiments.obstacle_clearance runs/<run> --every 5  # every 5th joint state (default 10)
+    python -m fic_teleop_experiments.obstacle_clearance runs/<run>            # a run folder (or its bag folder)
+    python -m fic_teleop_experiments.obstacle_clearance runs/<run> --every 5  # every 5th joint state (default 10)
 """
 from __future__ import annotations
 

@@ -8,7 +8,7 @@
 Every cell is one call of the launcher (fic_teleop_bringup.teleop_launcher, what scripts/run_teleop.sh runs): the whole graph as real
 processes over DDS, recorded to an MCAP bag under --runs. Each cell is then analysed from its bag: the report's
 metrics (fic_teleop_tools.report, computed in-process), the sweep stability criterion
-(sim_bridge/experiments/stability.py: judged on the last half of the run), and per experiment:
+(fic_teleop_experiments/stability.py: judged on the last half of the run), and per experiment:
 
 - E1 superimposition at 200 ms: the default run (superimposition scene, scripted operator, 200 ms each way) with the
   report's plots.
@@ -40,16 +40,16 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S  # noqa: E402
-from sim_bridge.experiments.cell_analysis import analyse_cell  # noqa: E402
-from sim_bridge.experiments.plots import plot_e2_forces, plot_e3, plot_stability_map, plot_sweep  # noqa: E402
-from sim_bridge.experiments.runner import CONTROLLERS, Cell, LaunchOutcome, launch, write_json  # noqa: E402
-from sim_bridge.experiments.shape_sorting import PIECE_NAMES  # noqa: E402
-from sim_bridge.experiments.stability import StabilityCriterion  # noqa: E402
-from sim_bridge.experiments.tables import headline_of, markdown_tables  # noqa: E402
+from fic_teleop_experiments.cell_analysis import analyse_cell  # noqa: E402
+from fic_teleop_experiments.plots import plot_e2_forces, plot_e3, plot_stability_map, plot_sweep  # noqa: E402
+from fic_teleop_experiments.runner import CONTROLLERS, Cell, LaunchOutcome, launch, write_json  # noqa: E402
+from fic_teleop_experiments.shape_sorting import PIECE_NAMES  # noqa: E402
+from fic_teleop_experiments.stability import StabilityCriterion  # noqa: E402
+from fic_teleop_experiments.tables import headline_of, markdown_tables  # noqa: E402
 
 DELAYS = (0.0, 0.1, 0.2, 0.5, 1.0, 2.0)
 RATES = (1000.0, 250.0, 100.0, 50.0, 10.0)
@@ -62,7 +62,7 @@ def e1_cells(args) -> list[Cell]:
 
 
 def e2_cells(args) -> list[Cell]:
-    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (sim_bridge.experiments.e2_twin);
+    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (fic_teleop_experiments.e2_twin);
     # --e2-law default runs the same script with the replica's default model terms (docs/EXPERIMENTS.md).
     return [Cell(f"e2_seed{seed}", "E2", {"scene": "shape_sorting", "trajectory": "fixed",
                                           "duration": args.e2_duration, "delay": 0.2, "seed": seed,

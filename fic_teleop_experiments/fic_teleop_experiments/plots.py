@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from fic_teleop_tools.verdict.bag_series import read_run
-from sim_bridge.experiments.runner import CONTROLLERS
+from fic_teleop_experiments.runner import CONTROLLERS
 
 
 def _plt():

@@ -13,7 +13,7 @@ perfect tracking; |H| > 1 near a frequency is a resonance: the arm moves more th
 averaged over the three axes weighted by their input power, then summarised per law as the median over seeds with
 its quartiles, on the band where the operator's hand puts power (0.2-2 Hz).
 
-    python -m sim_bridge.experiments.replica_response results/claims.json    # -> results/replica_response.json, .png
+    python -m fic_teleop_experiments.replica_response results/claims.json    # -> results/replica_response.json, .png
 """
 from __future__ import annotations
 
@@ -27,9 +27,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import csd, welch
 
-from sim_bridge.experiments.claims import SETTLE_S, load_series
+from fic_teleop_experiments.claims import SETTLE_S, load_series
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 #: The band reported [Hz]: the operator's moves, wander and the reactive hand's own oscillation lie in it.
 BAND_HZ = (0.2, 2.0)
 #: Welch segment length [s]: 0.1 Hz resolution over the ~28 s a 30 s run keeps after its start-up.
@@ -129,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="cells whose command is exogenous (default: the open-loop controls)")
     parser.add_argument("--out", type=Path, default=REPO / "results" / "replica_response.json")
     args = parser.parse_args(argv)
-    from sim_bridge.experiments.claims_report import read_runs
+    from fic_teleop_experiments.claims_report import read_runs
 
     rows = [row for row in read_runs(args.claims) if row.get("cell") in args.cells]
     if not rows:

@@ -1,8 +1,8 @@
-"""Run the teleoperation graph in one process (sim_bridge.experiments.in_process): the same core objects the nodes
+"""Run the teleoperation graph in one process (fic_teleop_experiments.in_process): the same core objects the nodes
 wrap, no DDS. Prints the tracking error, the limit counters and the speed (simulated seconds per wall second and
 per CPU second of this process).
 
-    python -m sim_bridge.experiments.run_in_process [--scene superimposition] [--duration 10] [--delay 0.2] [--runs 3]
+    python -m fic_teleop_experiments.run_in_process [--scene superimposition] [--duration 10] [--delay 0.2] [--runs 3]
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from sim_bridge.experiments.in_process import RunConfig, run
+from fic_teleop_experiments.in_process import RunConfig, run
 
 
 def main(argv: list[str] | None = None) -> int:

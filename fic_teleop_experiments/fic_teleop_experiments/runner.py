@@ -3,7 +3,7 @@
 A cell is one call of scripts/teleop_launcher.py (what scripts/run_teleop.sh runs) with ``--no-video`` and, unless
 the cell asks for the paper-style plots, ``--no-report``; the metrics are then computed here in-process with the
 report's own definitions (fic_teleop_tools.report: load_bag + analyse, no plots), the stability verdict with
-sim_bridge.experiments.stability, and scene-specific outcomes (E2 pieces) from the same bag.
+fic_teleop_experiments.stability, and scene-specific outcomes (E2 pieces) from the same bag.
 
 No rclpy here: the launcher is a child process. Each cell gets a ROS_DOMAIN_ID that no running process on this
 machine uses (read from /proc), so a cell never hears someone else's graph.
@@ -24,9 +24,9 @@ from typing import Callable
 import numpy as np
 
 from fic_teleop_tools.verdict.bag_series import RunSeries, read_run
-from sim_bridge.experiments.stability import StabilityCriterion, StabilityInputError, assess_stability
+from fic_teleop_experiments.stability import StabilityCriterion, StabilityInputError, assess_stability
 
-REPO = Path(os.environ.get("FIC_TELEOP_ROOT") or Path(__file__).resolve().parents[3])
+REPO = Path(os.environ.get("FIC_TELEOP_ROOT") or Path(__file__).resolve().parents[2])
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 #: The two controllers every E4 cell is run with: the FIC and the linear baseline of the same stiffness K0.
 CONTROLLERS = ("fic", "linear")

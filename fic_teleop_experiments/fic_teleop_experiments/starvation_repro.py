@@ -1,9 +1,9 @@
 """The starved-replica reproduction (docs/RESULTS.md "Starvation"): in-process E1 runs whose replica is starved in a
-window (sim_bridge.experiments.in_process.ReplicaStall: ticks far apart, on old states, torques late), with and
+window (fic_teleop_experiments.in_process.ReplicaStall: ticks far apart, on old states, torques late), with and
 without the replica's own loop check (fic_core.loop_health) and the robot's rule on the age of a torque's state.
 
-    python -m sim_bridge.experiments.starvation_repro --seeds 1 2 --arms old new
-    python -m sim_bridge.experiments.starvation_repro --stalls ticks2-4_age0-150 --seeds 1 2 \
+    python -m fic_teleop_experiments.starvation_repro --seeds 1 2 --arms old new
+    python -m fic_teleop_experiments.starvation_repro --stalls ticks2-4_age0-150 --seeds 1 2 \
         --arms old old_paper_law old_linear_bounded old_fresh_velocity old_dynamics_at_physics_rate robot_rule_only new
 
 Each line: the arm ("old": no loop check, no robot rule, as before them; "new": config/*.yaml as they are; the
@@ -20,7 +20,7 @@ import dataclasses
 import json
 import math
 
-from sim_bridge.experiments.in_process import ReplicaStall, RunConfig, run
+from fic_teleop_experiments.in_process import ReplicaStall, RunConfig, run
 
 #: (name, stall) of the runaway's figures: ticks 15-170 ms apart on states 22-178 ms old, and harsher variants.
 STALLS = {

@@ -150,7 +150,7 @@ def claims_markdown(document: dict) -> str:
                          f"{_pair(s['error_rms_median'], s['error_rms_p95'], 1e3, 1)} | {safe} | {safe_interval} | "
                          f"{_pair(s['error_max_median'], s['error_max_p95'], 1e3, 1)} | "
                          f"{_pair(s['peak_force_median'], s['peak_force_p95'], 1.0, 1)} |")
-    from sim_bridge.experiments.claims_report import UNSTABLE_TESTS
+    from fic_teleop_experiments.claims_report import UNSTABLE_TESTS
 
     lines += ["", "Which stable test each law's unstable runs failed (a run may fail several; "
               "fic_teleop_tools/verdict/run_verdict.py):", "",
@@ -189,7 +189,7 @@ README_CLAIM_CELLS = (
     ("delay_1__rate_10", "1 s one-way delay and the link at 10 Hz both ways, together"),
     ("delay_0.2__rate_10", "the link at 10 Hz both ways, the paper's 0.2 s delay"),
 )
-#: The open-loop controls README reads beside the claims (sim_bridge.experiments.claims CONTROL_CELLS): the same runs
+#: The open-loop controls README reads beside the claims (fic_teleop_experiments.claims CONTROL_CELLS): the same runs
 #: with the force feedback off, where no force loop closes through the channel. Not a claim: what they show is how
 #: much of a claim cell's instability the closed loop adds.
 README_CONTROL_CELLS = (
@@ -317,7 +317,7 @@ def _control_sentences(cells: dict, controls: list, hands: list, reference: str)
     """For each open-loop control with runs: every law's stable k/n with the force loop (its claim cell) and
     without it, and for the reference law the difference (with minus without) with Newcombe's interval and
     Boschloo's p: how much of a claim cell's instability the closed force loop adds."""
-    from sim_bridge.experiments.cell_statistics import boschloo_p, newcombe_difference_interval
+    from fic_teleop_experiments.cell_statistics import boschloo_p, newcombe_difference_interval
 
     out = []
     for cell_id, _, _ in controls:

@@ -81,7 +81,7 @@ DURATION = 40.0       # [s] the task: holds 1.5 periods of 16 s (4 round trips a
 
 def tail_for(one_way_delay: float) -> float:
     """[s] the quiet tail a case ends with: the least the run verdict judges (VerdictCriterion.tail_needed), as the
-    claim runs' (sim_bridge.experiments.claims.tail_for)."""
+    claim runs' (fic_teleop_experiments.claims.tail_for)."""
     return VerdictCriterion().tail_needed(one_way_delay)
 
 
@@ -603,9 +603,9 @@ def cases() -> list[LabelledCase]:
 
 
 def _old_verdict(data: VerdictInput) -> tuple[bool | None, list[str]]:
-    """The verdict the sweeps used before (sim_bridge.experiments.energy_verdict with the 5 s lap median), fed as
-    sim_bridge.experiments.evidence_run fed it; only its stability (it had no safety verdict)."""
-    from sim_bridge.experiments.energy_verdict import EnergyMotionCriterion, assess_energy_motion
+    """The verdict the sweeps used before (fic_teleop_experiments.energy_verdict with the 5 s lap median), fed as
+    fic_teleop_experiments.evidence_run fed it; only its stability (it had no safety verdict)."""
+    from fic_teleop_experiments.energy_verdict import EnergyMotionCriterion, assess_energy_motion
 
     motion = {}
     if data.x_M is not None:
@@ -699,7 +699,7 @@ def validate(with_held_out: bool = True) -> dict:
         group["without_fit_right"] += row["without_fit_right"]
         group["old_right"] += row["old_right"]
     return dict(
-        command="python -m sim_bridge.experiments.verdict_cases --out results/verdict_validation.json",
+        command="python -m fic_teleop_experiments.verdict_cases --out results/verdict_validation.json",
         criterion=asdict(VerdictCriterion()), cases=len(rows), right=sum(r["right"] for r in rows),
         judge_seconds_per_case=round(seconds / len(rows), 3),
         confusion=dict(stable=_confusion(rows, "label_stable", "stable"), safe=_confusion(rows, "label_safe", "safe")),
@@ -720,11 +720,11 @@ def claims_comparison(cells: list[str], laws: list[str], hand: str = "reactive")
     import json
     from pathlib import Path
 
-    from sim_bridge.experiments.claims import load_series
+    from fic_teleop_experiments.claims import load_series
     from fic_teleop_tools.verdict.forced_answer import ForcedSettings
     from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, judge
 
-    repo = Path(__file__).resolve().parents[3]
+    repo = Path(__file__).resolve().parents[2]
     rows: dict[str, dict] = {}
     for line in (repo / "results" / "claims_runs.jsonl").read_text().splitlines():
         try:
@@ -766,7 +766,7 @@ def main(argv: list[str] | None = None) -> int:
     import json
     from pathlib import Path
 
-    parser = argparse.ArgumentParser(prog="python -m sim_bridge.experiments.verdict_cases",
+    parser = argparse.ArgumentParser(prog="python -m fic_teleop_experiments.verdict_cases",
                                      description="Judge the labelled validation set; write the confusion matrices.")
     parser.add_argument("--out", type=Path, default=None, help="JSON file (default: print a summary only)")
     parser.add_argument("--no-held-out", action="store_true", help="skip the held-out seeds (about half the time)")

@@ -1,4 +1,4 @@
-"""The safety checks' edges, where the seeded random mutation run (sim_bridge.tools.random_mutation) found operator
+"""The safety checks' edges, where the seeded random mutation run (fic_teleop_experiments.tools.random_mutation) found operator
 flips that no other test caught: the replica's limit-violation check on a joint beyond its limit, the desired rotation
 given as nested lists, and the master's network tick in velocity mode."""
 from __future__ import annotations

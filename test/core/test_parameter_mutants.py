@@ -1,5 +1,5 @@
 """Edges of fic_core's inputs and of its small numerical promises, where the seeded random mutation run
-(sim_bridge.tools.random_mutation) found operator flips that no other test caught: parameter ranges at their ends, the
+(fic_teleop_experiments.tools.random_mutation) found operator flips that no other test caught: parameter ranges at their ends, the
 flat via-point list, the attractor's snapshot, the force profile's inverse storage and its secant stiffness
 just past a tiny linear region."""
 from __future__ import annotations

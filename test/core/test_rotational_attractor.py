@@ -14,8 +14,8 @@ from fic_core.errors import FicInputError
 from fic_core.passivity_observer import PassivityObserver
 from fic_core.profile import ForceProfile
 from fic_core.rotational_attractor import RotationalAttractor
-from sim_bridge.tools.orientation_loops import drive_loop, loop_rotation_vectors
-from sim_bridge.tools.passivity_oracle import shipped_profiles
+from fic_teleop_experiments.tools.orientation_loops import drive_loop, loop_rotation_vectors
+from fic_teleop_experiments.tools.passivity_oracle import shipped_profiles
 
 #: The replica's shipped rotation profile (config/replica.yaml): 20 N m/rad, x_b = 0.5 rad, xi = 0.5, a flat clamp
 #: at F_max = F0 = 5 N m from 0.25 rad.

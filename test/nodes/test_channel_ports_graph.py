@@ -27,8 +27,8 @@ GENERATED_WITHOUT_TDPA_MIN_J = 0.02   # the cell must make the delayed channel g
 
 
 def test_linear_tdpa_runs_in_the_graph_with_both_ports_watched(tmp_path) -> None:
-    from sim_bridge.experiments.graph_passivity import compare
-    from sim_bridge.experiments.in_process import RunConfig
+    from fic_teleop_experiments.graph_passivity import compare
+    from fic_teleop_experiments.in_process import RunConfig
 
     out = tmp_path / "run"
     process = run_launcher(out, "--duration", str(DURATION_S), "--delay", str(DELAY_S), "--time-mode", "lockstep",

@@ -2,7 +2,7 @@
 
 The robot node (MuJoCo Panda, realtime) and the replica node run as processes; the test process plays the
 channel (a legitimate writer of /replica/teleop_command, x_d' = 0) and watches the simulator's ground-truth TCP
-(/sim/tcp_pose, which no input of the replica can fake) and /diagnostics. sim_bridge.tools.fault_probes is the outside
+(/sim/tcp_pose, which no input of the replica can fake) and /diagnostics. fic_teleop_experiments.tools.fault_probes is the outside
 process. Before fic_core.input_authority each of these moved the arm (0.37-0.6 m, docs/RESULTS.md).
 """
 from __future__ import annotations
@@ -22,7 +22,7 @@ from conftest import robot_and_replica
 rclpy = pytest.importorskip("rclpy")
 pytestmark = pytest.mark.nodes
 
-PROBES = ["-m", "sim_bridge.tools.fault_probes"]
+PROBES = ["-m", "fic_teleop_experiments.tools.fault_probes"]
 POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
 
 

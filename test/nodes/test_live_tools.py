@@ -214,7 +214,7 @@ def test_recorder_writes_every_joint_state_it_received_while_it_serves_the_live_
     """The view works on the recorder's writer thread, after the bag's write: with a client subscribed to every
     topic, every joint state the recorder received is in the finished bag, in order, and the view's channel got
     them only at its own rate. (Whether the recorder receives every state on a loaded 2-core machine is measured
-    with and without the view by python -m sim_bridge.tools.bench_live_view, not asserted here.)"""
+    with and without the view by python -m fic_teleop_experiments.tools.bench_live_view, not asserted here.)"""
     import struct
 
     from fic_teleop_tools.recording.bag_reader import read_messages

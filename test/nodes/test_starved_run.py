@@ -1,5 +1,5 @@
 """One throttled run in the suite: the whole graph but the recorder under a cgroup CPU quota of 40 % of one CPU
-(the starvation harness, sim_bridge/tools/stress.py; the recorder spared so that the bag holds the run: starved
+(the starvation harness, fic_teleop_experiments/tools/stress.py; the recorder spared so that the bag holds the run: starved
 with the rest, it wrote no bag at all in an 8 s run) must be flagged by the launcher as starved (its timing.json,
 and exit code 6 unless a safety figure broke first), and the arm must not run away. Needs root and the cgroup cpu
 controller."""
@@ -21,7 +21,7 @@ LEVEL_PERCENT = 40.0
 
 
 def _quota_available() -> bool:
-    from sim_bridge.tools.stress import StressError, _cpu_hierarchy
+    from fic_teleop_experiments.tools.stress import StressError, _cpu_hierarchy
     try:
         _cpu_hierarchy()
     except StressError:
@@ -31,7 +31,7 @@ def _quota_available() -> bool:
 
 @pytest.mark.skipif(os.geteuid() != 0 or not _quota_available(), reason="a CPU quota needs root and cgroup cpu")
 def test_a_graph_at_40_percent_of_one_cpu_is_flagged_as_starved(tmp_path: Path) -> None:
-    from sim_bridge.tools.stress import run_figures, stressed_run
+    from fic_teleop_experiments.tools.stress import run_figures, stressed_run
 
     out = tmp_path / "run"
     with reserved_domain() as domain:

@@ -18,7 +18,7 @@
 Every figure depends on the machine's load (a 2-core VM shared with other work): the load average is written next
 to them.
 
---stress LEVELS (e.g. 150,100,70,50: % of one CPU) instead runs the starvation harness (sim_bridge/tools/stress.py):
+--stress LEVELS (e.g. 150,100,70,50: % of one CPU) instead runs the starvation harness (fic_teleop_experiments/tools/stress.py):
 per level, --runs single-host runs and --two-stations-runs two-station runs of the default main job under a cgroup
 CPU quota at that level (the whole graph, or --stress-node alone; optional pinned --hogs), the levels taken in
 turn so that a change of the machine's load falls on all of them, and per level: runaways, runs with limit
@@ -50,7 +50,7 @@ os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
 from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS  # noqa: E402
 from fic_teleop_tools.verdict.bag_series import read_run  # noqa: E402
-from sim_bridge.experiments.runner import write_json  # noqa: E402
+from fic_teleop_experiments.runner import write_json  # noqa: E402
 
 
 LAUNCHER_PROCESS = "launcher"      # the sampler's root: scripts/run_teleop.sh execs the launcher
@@ -174,7 +174,7 @@ def census_when_up(run_dir: Path, out: Path, settle_s: float = 12.0):
             return
         time.sleep(settle_s)
         if psutil.pid_exists(pid):
-            subprocess.run([sys.executable, "-m", "sim_bridge.tools.graph_census", "--domain", str(domain),
+            subprocess.run([sys.executable, "-m", "fic_teleop_experiments.tools.graph_census", "--domain", str(domain),
                             "--out", str(out)], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                            timeout=60)
     return take
@@ -183,7 +183,7 @@ def census_when_up(run_dir: Path, out: Path, settle_s: float = 12.0):
 def cpu_budget(nodes: dict[str, dict], metrics: dict, census: dict | None) -> dict:
     """Per process: CPU-s in all and per simulated second of the bag (metrics' duration_s), and the messages a
     second it publishes and receives (graph_census.message_budget over the bag's counts and wall span)."""
-    from sim_bridge.tools.graph_census import message_budget
+    from fic_teleop_experiments.tools.graph_census import message_budget
 
     simulated = metrics.get("duration_s") or 0.0
     processes = {name: ([LAUNCHER_NODE] if name == LAUNCHER_PROCESS else name.split("+"))
@@ -201,7 +201,7 @@ def cpu_budget(nodes: dict[str, dict], metrics: dict, census: dict | None) -> di
 
 def bench_core(ticks: int, out: Path) -> dict:
     path = out / "bench_core.json"
-    subprocess.run([sys.executable, "-m", "sim_bridge.tools.bench_core", "--ticks", str(ticks), "--json", str(path)],
+    subprocess.run([sys.executable, "-m", "fic_teleop_experiments.tools.bench_core", "--ticks", str(ticks), "--json", str(path)],
                    check=True, cwd=REPO, stdout=subprocess.DEVNULL)
     return json.loads(path.read_text())
 
@@ -350,12 +350,12 @@ def main(argv: list[str] | None = None) -> int:
                     "machine": {"cpus": os.cpu_count(), "load_average_at_start": list(os.getloadavg())},
                     "commands": {}, "launcher_args": launcher_args}
 
-    print("[bench] replica tick compute (sim_bridge.tools.bench_core) ...", flush=True)
+    print("[bench] replica tick compute (fic_teleop_experiments.tools.bench_core) ...", flush=True)
     core = bench_core(args.ticks, runs_dir)
     result["replica_tick_us"] = {key: core["replica"].get(key) for key in ("median_us", "p99_us", "max_us", "count")}
     cpu_only = core.get("replica (CPU time)") or {}
     result["replica_tick_cpu_time_us"] = {key: cpu_only.get(key) for key in ("median_us", "p99_us")} if cpu_only else None
-    result["commands"]["replica_tick"] = f"python -m sim_bridge.tools.bench_core --ticks {args.ticks}"
+    result["commands"]["replica_tick"] = f"python -m fic_teleop_experiments.tools.bench_core --ticks {args.ticks}"
 
     if not args.skip_default:
         result["default_runs"] = []
@@ -374,7 +374,7 @@ def main(argv: list[str] | None = None) -> int:
                    *launcher_args]
         print(f"[bench] lockstep graph: {' '.join(command[1:])} ...", flush=True)
         code, wall, nodes = run_sampled(command, runs_dir / "lockstep.log")
-        from sim_bridge.experiments.runner import report_metrics
+        from fic_teleop_experiments.runner import report_metrics
 
         metrics = report_metrics(run_dir / "bag") if (run_dir / "bag").exists() else {}
         text = (runs_dir / "lockstep.log").read_text(errors="replace")
@@ -396,7 +396,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def stress_bench(args: argparse.Namespace, launcher_args: list[str], out: Path) -> int:
     """--stress: the harness's runs, level by level in turn (module docstring), summarised per level."""
-    from sim_bridge.tools.stress import DEFAULT_PERIOD_US, DEFAULT_SHARES, StressError, level_summary, parse_levels, \
+    from fic_teleop_experiments.tools.stress import DEFAULT_PERIOD_US, DEFAULT_SHARES, StressError, level_summary, parse_levels, \
         resumed, run_figures, stressed_run
 
     levels = parse_levels(args.stress)

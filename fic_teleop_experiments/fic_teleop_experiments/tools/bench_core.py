@@ -1,6 +1,6 @@
 """Per-tick compute time of the fic_core control steps (the replica's budget: median < 60 us, p99 < 200 us).
 
-    python -m sim_bridge.tools.bench_core [--ticks 20000] [--json PATH]
+    python -m fic_teleop_experiments.tools.bench_core [--ticks 20000] [--json PATH]
 
 - replica: ReplicaController.command (Pinocchio terms, paper Eq. 7 with the FIC, null-space posture, postural
   optimisation) on a realistic moving trajectory: the Panda (Pinocchio forward dynamics, 1 ms, the simulator's

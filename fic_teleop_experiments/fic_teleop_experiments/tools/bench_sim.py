@@ -1,7 +1,7 @@
 """Measure the simulated robot: lockstep steps per second (in process and through the node), realtime step
 lateness and rate through the node with a 1 kHz controller answering, and render time per frame.
 
-    source scripts/env.sh && python -m sim_bridge.tools.bench_sim [--node] [--seconds 10]
+    source scripts/env.sh && python -m fic_teleop_experiments.tools.bench_sim [--node] [--seconds 10]
 
 The node figures start robot_node as a real process (domain 90, localhost only) and answer every joint state
 from this process with gravity compensation + damping (Pinocchio), as the replica does.

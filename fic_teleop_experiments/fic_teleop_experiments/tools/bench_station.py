@@ -3,7 +3,7 @@ the loop, the loop's own readiness check, the driver's command) against the bare
 (ReplicaLoop.joint_state, ReplicaLoop.ready, the driver's command), on a Pinocchio Panda holding the circle's
 set-points, in interleaved blocks so that both sides see the same machine.
 
-    source scripts/env.sh && python -m sim_bridge.tools.bench_station [--states 20000] [--block 500]
+    source scripts/env.sh && python -m fic_teleop_experiments.tools.bench_station [--states 20000] [--block 500]
 """
 from __future__ import annotations
 

@@ -1,10 +1,10 @@
 """Hostile-but-fair probes of a running graph, from an outside process on its ROS domain (docs/SECURITY.md).
 
-    python -m sim_bridge.tools.fault_probes teleop --offset 10 10 10 --seconds 1.5   # x_d' far outside the workspace
-    python -m sim_bridge.tools.fault_probes teleop --stamp-offset 1e6                 # stamped 10^6 s in the future
-    python -m sim_bridge.tools.fault_probes teleop --epoch-zero                       # stamped at epoch 0
-    python -m sim_bridge.tools.fault_probes teleop --mode 7 --haptic-gain 50 --velocity-gain 1e6
-    python -m sim_bridge.tools.fault_probes joint-states --seconds 2 --rate 500 --shift 0.3   # a second writer
+    python -m fic_teleop_experiments.tools.fault_probes teleop --offset 10 10 10 --seconds 1.5   # x_d' far outside the workspace
+    python -m fic_teleop_experiments.tools.fault_probes teleop --stamp-offset 1e6                 # stamped 10^6 s in the future
+    python -m fic_teleop_experiments.tools.fault_probes teleop --epoch-zero                       # stamped at epoch 0
+    python -m fic_teleop_experiments.tools.fault_probes teleop --mode 7 --haptic-gain 50 --velocity-gain 1e6
+    python -m fic_teleop_experiments.tools.fault_probes joint-states --seconds 2 --rate 500 --shift 0.3   # a second writer
 
 Run it with the graph's ROS_DOMAIN_ID (the launcher prints it). Each probe publishes for ``--seconds`` at
 ``--rate`` and exits; what the replica did is in its log, on /diagnostics and in the bag. The node tests run these

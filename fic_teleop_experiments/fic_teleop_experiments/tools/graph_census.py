@@ -1,6 +1,6 @@
 """Who publishes and who reads each topic of a running graph: the bench's message budget per process.
 
-    python -m sim_bridge.tools.graph_census --domain 17 --out census.json [--listen 3]
+    python -m fic_teleop_experiments.tools.graph_census --domain 17 --out census.json [--listen 3]
 
 Joins the domain as a passive node (no publisher, no subscription of its own beyond rclpy's), waits ``--listen``
 seconds for discovery, then writes {topic: {"publishers": [node, ...], "subscribers": [node, ...]}} for every topic

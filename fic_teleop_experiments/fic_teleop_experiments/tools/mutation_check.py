@@ -6,11 +6,11 @@ applies the patch there (the work tree is never touched), and runs the core test
 PYTHONPATH, stopping at the first failure. A mutation that no test catches is reported as SURVIVED, and the tool
 exits 1 if any did: every deliberate break must be caught by at least one test.
 
-    source scripts/env.sh && python -m sim_bridge.tools.mutation_check   # all mutations
-    python -m sim_bridge.tools.mutation_check -k attractor               # those whose name contains "attractor"
-    python -m sim_bridge.tools.mutation_check --list                     # names only
-    python -m sim_bridge.tools.mutation_check --patches                  # only: does every patch still apply?
-    python -m sim_bridge.tools.mutation_check --table                    # and a Markdown table at the end
+    source scripts/env.sh && python -m fic_teleop_experiments.tools.mutation_check   # all mutations
+    python -m fic_teleop_experiments.tools.mutation_check -k attractor               # those whose name contains "attractor"
+    python -m fic_teleop_experiments.tools.mutation_check --list                     # names only
+    python -m fic_teleop_experiments.tools.mutation_check --patches                  # only: does every patch still apply?
+    python -m fic_teleop_experiments.tools.mutation_check --table                    # and a Markdown table at the end
 
 A patch whose text is no longer found in the source (the code changed) is reported as STALE and also fails the
 check, so that the list is kept in step with the code.
@@ -27,7 +27,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sim_bridge.tools.mutation_verdict import KILLED, SETTINGS_PLUGIN, pytest_verdict, write_settings_plugin
+from fic_teleop_experiments.tools.mutation_verdict import KILLED, SETTINGS_PLUGIN, pytest_verdict, write_settings_plugin
 
 REPO = Path(__file__).resolve().parents[3]
 PACKAGE = REPO / "fic_core" / "fic_core"

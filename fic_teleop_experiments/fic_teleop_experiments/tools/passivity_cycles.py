@@ -30,13 +30,13 @@ from pathlib import Path
 import numpy as np
 
 from fic_core.attractor import FractalAttractor
-from sim_bridge.tools.passivity_oracle import judge, random_cycles, random_profile, shipped_profiles, storage_for
+from fic_teleop_experiments.tools.passivity_oracle import judge, random_cycles, random_profile, shipped_profiles, storage_for
 
 
 def orientation_table(speed: float) -> list[dict[str, float]]:
     """Held-moment work per closed orientation loop, angle-axis FIC against the old per-axis rule (no switching)."""
     from fic_core.rotational_attractor import RotationalAttractor
-    from sim_bridge.tools.orientation_loops import drive_loop, loop_rotation_vectors
+    from fic_teleop_experiments.tools.orientation_loops import drive_loop, loop_rotation_vectors
 
     profile = next(value for name, value in shipped_profiles().items() if "replica.yaml:rotation_" in name)
     rows = []
@@ -58,8 +58,8 @@ def held_table() -> list[dict[str, float | str]]:
     from fic_core.attractor_storage import AttractorStorage
     from fic_core.exchanged_energy_observer import ExchangedEnergyObserver
     from fic_core.rotational_attractor import RotationalAttractor
-    from sim_bridge.tools.orientation_loops import drive_loop, loop_rotation_vectors
-    from sim_bridge.tools.passivity_oracle import push_release_cycle
+    from fic_teleop_experiments.tools.orientation_loops import drive_loop, loop_rotation_vectors
+    from fic_teleop_experiments.tools.passivity_oracle import push_release_cycle
 
     profiles = shipped_profiles()
     translation = next(value for name, value in profiles.items() if "replica.yaml:translation_" in name)

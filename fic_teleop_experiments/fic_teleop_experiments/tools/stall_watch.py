@@ -10,7 +10,7 @@ the CPU time of the kernel's memory-monitoring thread (kdamond). The watcher its
 (SCHED_FIFO) and records its own sampling gaps: a pause it sees too did not come from the processes it watches
 (a pause of the virtual machine, or the kernel holding both CPUs).
 
-    python -m sim_bridge.tools.stall_watch --out runs/x/stalls.jsonl [--names replica_node robot_node] [--stall-ms 100]
+    python -m fic_teleop_experiments.tools.stall_watch --out runs/x/stalls.jsonl [--names replica_node robot_node] [--stall-ms 100]
 
 Runs until SIGINT/SIGTERM; one JSON line per event (``self_gap``, ``stall_start``, ``stall_sample``, ``stall_end``).
 The tick-gap study in docs/RESULTS.md ("Starvation") was made with it.

@@ -15,8 +15,8 @@ folder's bag and logs:
 - the events of replica.log and robot.log, mapped from the wall clock to the arm's clock through the recorder's
   receive times of the joint states.
 
-    python -m sim_bridge.tools.swing_timeline --run runs/x --start 2.0 --end 3.6 [--step 0.01]
-    python -m sim_bridge.tools.swing_timeline --run runs/x --peak     # one line: peak |qd|/limit, when, phase
+    python -m fic_teleop_experiments.tools.swing_timeline --run runs/x --start 2.0 --end 3.6 [--step 0.01]
+    python -m fic_teleop_experiments.tools.swing_timeline --run runs/x --peak     # one line: peak |qd|/limit, when, phase
 """
 from __future__ import annotations
 

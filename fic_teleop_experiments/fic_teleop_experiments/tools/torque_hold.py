@@ -10,7 +10,7 @@ joint-state stamps):
 - state gaps: between the joint states two consecutive torque commands were computed on (each command names its
   state, fic_core.command_stamp).
 
-    python -m sim_bridge.tools.torque_hold runs/x [runs/y ...] [--bound-ms 50]
+    python -m fic_teleop_experiments.tools.torque_hold runs/x [runs/y ...] [--bound-ms 50]
 """
 from __future__ import annotations
 

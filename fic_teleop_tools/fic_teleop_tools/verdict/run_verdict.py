@@ -181,7 +181,7 @@ class VerdictInput:
 
     @classmethod
     def from_run_result(cls, result, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
-        """From an in-process run (sim_bridge.experiments.in_process.RunResult, or one loaded by
+        """From an in-process run (fic_teleop_experiments.in_process.RunResult, or one loaded by
         evidence_run.load_series): the commanded motion as the replica receives it, one delay later. In offset mode
         throughout (or when the run did not record the master's mode) it is the planner's plus the hand's target
         (x_d' = s_M x_M with s_M = 1, Eq. 3). Once the master was in velocity mode the hand's target is a velocity
