@@ -4,18 +4,29 @@ At 1 s one-way delay the operator times its avoid move from the delayed video an
 obstacle on the second lap without touching it, where the E1 script timed for 0.2 s touches it on that lap (its
 moves reach the replica 0.8 s late). The first lap is not judged: the robot starts its circle at 1.8 s and at 1 s
 delay the operator first sees it move at 2.8 s, after its move had to start. Measured (seed 1, 10.8 s, contact
-seconds on laps 1 and 2 of evidence_run.contact_per_lap): closed loop 1.76 and 0.00, script timed for 0.2 s 0.69
+seconds on laps 1 and 2, ``contact_per_lap``): closed loop 1.76 and 0.00, script timed for 0.2 s 0.69
 and 0.45, script timed for 1 s 0.00 and 0.00.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from fic_teleop_experiments.evidence_run import contact_per_lap
 from fic_teleop_experiments.in_process import RunConfig, run
 
-SECOND_LAP = (5.75, 10.75)  # [s] the sweep's second lap, around the fixed obstacle's passing (x_d there at 8.25 s)
+#: E1's lap: the planner's circle and the operator's script repeat every 5 s; the laps of the contact count are
+#: centred on the planner's passings of the fixed obstacle (3.25 s + 5 k).
+LAP_S, FIRST_LAP_START_S = 5.0, 0.75
+SECOND_LAP = (5.75, 10.75)  # [s] the second lap, around the fixed obstacle's passing (x_d there at 8.25 s)
 DURATION = 10.8
+
+
+def contact_per_lap(time: np.ndarray, contact: np.ndarray) -> list[float]:
+    """Seconds of fixed-obstacle contact in each whole lap of the run."""
+    step = float(np.median(np.diff(time)))
+    laps = int((time[-1] - FIRST_LAP_START_S) // LAP_S)
+    return [round(float(np.sum(contact[(time >= FIRST_LAP_START_S + k * LAP_S)
+                                       & (time < FIRST_LAP_START_S + (k + 1) * LAP_S)]) * step), 4)
+            for k in range(laps)]
 
 
 def test_at_one_second_delay_the_closed_loop_operator_clears_the_obstacle_where_the_short_delay_script_does_not():

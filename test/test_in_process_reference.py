@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from fic_teleop_experiments.claims import ClaimRun
-from fic_teleop_experiments.evidence_run import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
+from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
 from fic_teleop_experiments.in_process import RunConfig, RunResult, run
 
 REFERENCE = Path(__file__).resolve().parent / "data" / "in_process_reference.json"

@@ -61,18 +61,9 @@ def test_every_labelled_case_is_judged_right(labelled):
 
 
 @pytest.mark.timeout(LABELLED_TIMEOUT_S)
-def test_the_cases_the_older_verdict_got_wrong_are_in_the_set(labelled):
-    """results/verdict_validation.json records the older verdict (the 5 s lap median) on the same cases: among them
-    limit cycles at 1 and 2 s delay, the parked run, the channel pumping at a steady rate and the push into a wall.
-    Each is judged right here (and by test_every_labelled_case_is_judged_right), so this suite fails on the old
-    verdict."""
+def test_the_recorded_validation_is_of_this_set(labelled):
+    """results/verdict_validation.json (python -m fic_teleop_experiments.verdict_cases) is the set as it is here."""
     recorded = json.loads((REPO / "results" / "verdict_validation.json").read_text())
-    old_wrong = set(recorded["old_verdict"]["wrong"])
-    for must in ("limit cycle 20mm 5s delay=1s", "limit cycle 20mm 16s delay=1s", "parked 150mm delay=0.2s",
-                 "energy pumping delay=0.2s", "holding in contact delay=1s", "boundary tau=1s K=1.1Kcrit"):
-        assert must in old_wrong
-    now = {case.name: verdict for case, verdict in labelled}
-    assert all(now[name].stable is next(c.stable for c, _ in labelled if c.name == name) for name in old_wrong)
     assert recorded["cases"] == len(labelled) and recorded["right"] == recorded["cases"] - len(KNOWN_MISSES)
 
 

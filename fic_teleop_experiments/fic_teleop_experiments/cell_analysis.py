@@ -1,4 +1,4 @@
-"""The analysis of one experiment cell from its run folder: the report's metrics, the stability verdict, forces,
+"""The analysis of one experiment cell from its run folder: the report's metrics, the run verdict, forces,
 the shape-sorting pieces and, for E3, what happened after the link was lost."""
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import numpy as np
 from fic_teleop_tools.verdict.bag_series import read_run
 from fic_teleop_experiments.runner import Cell, report_metrics, stability_of, write_json
 from fic_teleop_experiments.shape_sorting import piece_outcomes
-from fic_teleop_experiments.stability import StabilityCriterion
 
 METRIC_KEYS = ("free_motion_error_max_m", "free_motion_error_rms_m", "contact_error_max_m", "peak_interaction_force_n",
                "limit_violations", "limit_shaped_ticks", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
@@ -17,8 +16,7 @@ METRIC_KEYS = ("free_motion_error_max_m", "free_motion_error_rms_m", "contact_er
                "delay_one_way_ms", "duration_s", "controller", "energy_max_j", "master_stale_ticks")
 
 
-def analyse_cell(cell: Cell, run_dir: Path, outcome, criterion: StabilityCriterion, blackout_at: float | None = None
-                 ) -> dict:
+def analyse_cell(cell: Cell, run_dir: Path, outcome, blackout_at: float | None = None) -> dict:
     requested = float(cell.options["duration"])
     result = {"id": cell.id, "experiment": cell.experiment, "options": cell.options, "labels": cell.labels,
               "run_dir": str(run_dir), "launcher_exit_code": outcome.returncode, "wall_s": round(outcome.wall_s, 1),
@@ -35,7 +33,8 @@ def analyse_cell(cell: Cell, run_dir: Path, outcome, criterion: StabilityCriteri
     except Exception as error:  # noqa: BLE001  (a report failure is recorded, not hidden)
         result["metrics_error"] = f"{type(error).__name__}: {error}"
     series = read_run(bag)
-    result["stability"] = stability_of(series, criterion)
+    delay = float(cell.options["delay"])
+    result["stability"] = stability_of(series, delay)
     result["controller"] = series.controller
     result["limits"] = {"violation_ticks": int(series.violation_ticks[-1]) if series.violation_ticks.size else None,
                         "shaped_ticks": int(series.shaped_ticks[-1]) if series.shaped_ticks.size else None}
@@ -54,11 +53,11 @@ def analyse_cell(cell: Cell, run_dir: Path, outcome, criterion: StabilityCriteri
         if force.size:
             result["force_above_10n_s"] = float(np.sum(force > 10.0) * np.median(np.diff(series.wrench_time)))
     if blackout_at is not None:
-        result["blackout"] = blackout_analysis(series, blackout_at, criterion)
+        result["blackout"] = blackout_analysis(series, blackout_at, delay)
     return result
 
 
-def blackout_analysis(series, blackout_at: float, criterion: StabilityCriterion) -> dict:
+def blackout_analysis(series, blackout_at: float, one_way_delay: float) -> dict:
     """E3: what happens after the link is lost (times in the bag's clock, sim time in lockstep)."""
     t0 = series.fic_time[0] if series.fic_time.size else 0.0
     stale = series.fic_time[series.master_stale] if series.master_stale.size else np.zeros(0)
@@ -77,5 +76,5 @@ def blackout_analysis(series, blackout_at: float, criterion: StabilityCriterion)
     if series.force.size:
         force_after = np.linalg.norm(series.force[series.wrench_time >= t0 + blackout_at], axis=1)
         out["peak_force_after_n"] = float(force_after.max()) if force_after.size else None
-    out["stability_after"] = stability_of(series, criterion, start=t0 + blackout_at)
+    out["stability_after"] = stability_of(series, one_way_delay, start=t0 + blackout_at)
     return out

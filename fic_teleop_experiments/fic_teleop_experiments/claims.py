@@ -12,7 +12,7 @@ and the force feedback are each sample-and-held between the link's deliveries. S
   on: the master's K_H), with a passive hand (the optimistic operator) or the force-reactive hand;
 - a task that does not repeat: per seed the planner's laps and the operator's moves and wander are drawn
   (in_process.TASK_*, MOVE_*, WANDER_* ranges), in the paper's superimposition scene with both obstacles;
-- every law of the evidence sweeps (evidence_run.CONTROLLERS), the same seeds for every law and hand (paired);
+- every law of ``CONTROLLERS``, the same seeds for every law and hand (paired);
 - a quiet tail after the task (``tail_for``): the planner's trajectory stops, the operator's target holds still, the
   hand keeps holding the handle and the link keeps running, so that the run ends with the loop's free response, which
   the run verdict judges stability by (docs/EXPERIMENTS.md, "The run verdict"). Its start is in the kept series
@@ -43,9 +43,13 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from fic_teleop_experiments.evidence_run import (CHANNEL_JITTER_S, CONTROLLERS, HAND_IMPEDANCE_JITTER,
-                                                 OPERATOR_TIMING_JITTER_S)
 from fic_teleop_experiments.in_process import HANDS, RunConfig, RunResult, run
+from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
+
+#: The laws compared: the replica's own, and the FIC as the paper writes it (Eq. 7 + posture + postural
+#: optimisation, without the feedforward and friction terms: the replica's paper_law), the linear baselines, and
+#: the bounded one made passive at the channel's ports by time-domain passivity (in_process: linear_tdpa).
+CONTROLLERS = ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa")
 
 #: One-way delays [s] and channel rates [Hz] (0: full rate, the 100 Hz network stream undelayed by any cap).
 CLAIM_DELAYS_S = (0.0, 0.2, 1.0, 2.0)
@@ -85,7 +89,7 @@ def tail_for(delay: float) -> float:
 class ClaimRun:
     delay: float          # [s] one way
     rate_hz: float        # [Hz] both directions (0: full rate)
-    controller: str       # evidence_run.CONTROLLERS
+    controller: str       # CONTROLLERS
     hand: str             # in_process.HANDS
     seed: int
     duration: float       # [s] the task

@@ -37,9 +37,8 @@ from typing import Callable
 
 from tqdm import tqdm
 
-from fic_teleop_experiments.claims import SEEDS, ClaimRun, claim_runs, execute, judge_series, provenance
+from fic_teleop_experiments.claims import CONTROLLERS, SEEDS, ClaimRun, claim_runs, execute, judge_series, provenance
 from fic_teleop_experiments.engine import add_engine_arguments, engine_from_arguments
-from fic_teleop_experiments.evidence_run import CONTROLLERS
 from fic_teleop_experiments.in_process import HANDS
 
 REPO = Path(__file__).resolve().parents[2]

@@ -4,7 +4,7 @@ With ``--operator shape_sorting`` (the default) each trial is driven by the clos
 (sim_bridge.device.shape_sorting_operator: it sees the delayed video, aligns piece over hole by move-and-wait and
 feels the insertion) holding the handle with the force-reactive hand (device.reactive_hand); ``--operator scripted``
 replays the lockstep graph's E2 script (config/operator_scripts/shape_sorting.yaml). Each seed varies the operator
-as the evidence sweep does (fic_teleop_experiments.evidence_run): the perception delay (or the script's clock) by up
+as the claim runs do (fic_teleop_experiments.seed_jitter): the perception delay (or the script's clock) by up
 to +-0.1 s, the hand's impedance by up to +-20 %, the reactive hand's latencies and gains from their ranges, with
 5 ms of channel jitter. A piece counts when it ends inside the box (fic_teleop_experiments.shape_sorting.inside_box);
 the outcome of each trial also gives the operator's phases, its retries and the time it took per piece.
@@ -26,8 +26,7 @@ from tqdm import tqdm
 
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from sim_bridge.device.virtual_operator import load_script
-from fic_teleop_experiments.evidence_run import (CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER,
-                                                 OPERATOR_TIMING_JITTER_S)
+from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
 from fic_teleop_experiments.in_process import RunConfig, run
 from fic_teleop_experiments.cell_statistics import wilson_interval
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES, inside_box

@@ -5,8 +5,8 @@ engines' runs per hour").
 
     nice -n 5 python -m fic_teleop_experiments.engine_bench --runs 24 --duration 10 --rounds 2
 
-The jobs are in-process runs of the E1 scene at 1 s one-way delay, each law in turn, each judged as the evidence
-sweep judges it (fic_teleop_experiments.evidence_run.judge): a sweep's unit of work, returning a small row.
+The jobs are claim runs (fic_teleop_experiments.claims.ClaimRun) at 1 s one-way delay and full rate, the reactive
+hand, each law in turn, each judged by the run verdict: a sweep's unit of work, returning a small row.
 """
 from __future__ import annotations
 
@@ -19,26 +19,35 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+from fic_teleop_experiments.claims import CONTROLLERS, ClaimRun
 from fic_teleop_experiments.engine import ENGINES, local_cores, open_engine
-from fic_teleop_experiments.evidence_run import CONTROLLERS, judge
+from fic_teleop_experiments.in_process import run
+from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
 
 REPO = Path(__file__).resolve().parents[2]
 
 
-def jobs(runs: int, duration: float) -> list[tuple]:
-    """``runs`` jobs: the laws in turn, seeds 1, 2, ... (the evidence sweep's job tuple)."""
-    cell = dict(id="delay_1", options=dict(delay=1.0))
-    return [(cell, CONTROLLERS[i % len(CONTROLLERS)], 1 + i // len(CONTROLLERS), duration) for i in range(runs)]
+def jobs(runs: int, duration: float) -> list[ClaimRun]:
+    """``runs`` jobs: the laws in turn, seeds 1, 2, ..."""
+    return [ClaimRun(delay=1.0, rate_hz=0.0, controller=CONTROLLERS[i % len(CONTROLLERS)], hand="reactive",
+                     seed=1 + i // len(CONTROLLERS), duration=duration) for i in range(runs)]
 
 
-def one_round(engine: str, workers: int, job_set: list[tuple]) -> dict:
+def simulated_and_judged(claim: ClaimRun) -> dict:
+    """One job: the run simulated, then judged (its series are not kept)."""
+    result = run(claim.config())
+    verdict = judge(VerdictInput.from_run_result(result, one_way_delay=claim.delay))
+    return dict(simulated_s=result.simulated_s, wall_s=result.wall_s, stable=verdict.stable)
+
+
+def one_round(engine: str, workers: int, job_set: list[ClaimRun]) -> dict:
     """One engine opened, the job set run through it, closed: wall time with the engine's start, runs per hour,
     and the runs' own simulation wall time summed (what the engine's overhead is not)."""
     load_before = os.getloadavg()[0]
     start = time.perf_counter()
     with open_engine(workers=workers, engine=engine) as opened:
         opened_s = time.perf_counter() - start
-        rows = list(opened.executor.map(judge, job_set))
+        rows = list(opened.executor.map(simulated_and_judged, job_set))
     wall = time.perf_counter() - start
     return dict(engine=engine, workers=workers, runs=len(rows), wall_s=wall, engine_start_s=opened_s,
                 runs_per_hour=3600.0 * len(rows) / wall, simulated_s=sum(r["simulated_s"] for r in rows),
@@ -46,7 +55,7 @@ def one_round(engine: str, workers: int, job_set: list[tuple]) -> dict:
                 load_1min_after=os.getloadavg()[0], stable=sum(1 for r in rows if r["stable"]))
 
 
-def alternating_rounds(engines: list[str], workers: int, job_set: list[tuple], rounds: int,
+def alternating_rounds(engines: list[str], workers: int, job_set: list[ClaimRun], rounds: int,
                        report=None) -> tuple[list[dict], dict]:
     """``rounds`` rounds of every engine in turn; (every round, per engine its runs per hour over all rounds)."""
     done = []

@@ -169,7 +169,7 @@ class RunResult:
     simulated_s: float
     limit_violations: int
     shaped_ticks: int
-    # For the energy-and-motion verdict (fic_teleop_experiments.energy_verdict), at the same stamps:
+    # For the run verdict (fic_teleop_tools.verdict.run_verdict), at the same stamps:
     master: np.ndarray | None = None               # x_M, the handle position (n, 3) [m]
     planner: np.ndarray | None = None              # the planner's x_d (the commanded motion) (n, 3) [m]
     arm_kinetic_energy: np.ndarray | None = None   # 1/2 qd^T M(q) qd of the arm's joints (n,) [J]

@@ -7,8 +7,9 @@
 
 Every cell is one call of the launcher (fic_teleop_bringup.teleop_launcher, what scripts/run_teleop.sh runs): the whole graph as real
 processes over DDS, recorded to an MCAP bag under --runs. Each cell is then analysed from its bag: the report's
-metrics (fic_teleop_tools.report, computed in-process), the sweep stability criterion
-(fic_teleop_experiments/stability.py: judged on the last half of the run), and per experiment:
+metrics (fic_teleop_tools.report, computed in-process), the run verdict (fic_teleop_tools.verdict.run_verdict, the
+one every run is judged by; a sweep cell runs at least as long as it needs to judge the cell's delay), and per
+experiment:
 
 - E1 superimposition at 200 ms: the default run (superimposition scene, scripted operator, 200 ms each way) with the
   report's plots.
@@ -27,6 +28,7 @@ comes from a run's bag; a cell that failed says so (and why) in its JSON.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -48,21 +50,27 @@ from fic_teleop_experiments.cell_analysis import analyse_cell  # noqa: E402
 from fic_teleop_experiments.plots import plot_e2_forces, plot_e3, plot_stability_map, plot_sweep  # noqa: E402
 from fic_teleop_experiments.runner import CONTROLLERS, Cell, LaunchOutcome, launch, write_json  # noqa: E402
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES  # noqa: E402
-from fic_teleop_experiments.stability import StabilityCriterion  # noqa: E402
 from fic_teleop_experiments.tables import headline_of, markdown_tables  # noqa: E402
+from fic_teleop_tools.verdict.run_verdict import VerdictCriterion  # noqa: E402
 
 DELAYS = (0.0, 0.1, 0.2, 0.5, 1.0, 2.0)
 RATES = (1000.0, 250.0, 100.0, 50.0, 10.0)
 
 
 # --- the cells ---------------------------------------------------------------------------------------------------
+def sweep_duration(args, delay: float) -> float:
+    """[s] an E4 cell's length: --sweep-duration, or longer where the run verdict needs more run to judge the periods
+    a delay can make (VerdictCriterion.run_needed: 8 s at 0.2 s, 26 s at 2 s)."""
+    return max(args.sweep_duration, VerdictCriterion().run_needed(delay))
+
+
 def e1_cells(args) -> list[Cell]:
     return [Cell("e1", "E1", {"scene": "superimposition", "duration": args.e1_duration, "delay": 0.2,
                               "controller": "fic", "seed": 1}, report=True)]
 
 
 def e2_cells(args) -> list[Cell]:
-    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (fic_teleop_experiments.e2_twin);
+    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (an in-process twin of the graph);
     # --e2-law default runs the same script with the replica's default model terms (docs/EXPERIMENTS.md).
     return [Cell(f"e2_seed{seed}", "E2", {"scene": "shape_sorting", "trajectory": "fixed",
                                           "duration": args.e2_duration, "delay": 0.2, "seed": seed,
@@ -86,7 +94,7 @@ def e4_cells(args) -> list[Cell]:
         for controller in CONTROLLERS:
             sweep = "delay+rate" if (delay == 0.0 and full_rate) else "delay"
             cells.append(Cell(f"e4_delay{delay:g}_{controller}", "E4",
-                              {"scene": "superimposition", "duration": args.sweep_duration, "delay": delay,
+                              {"scene": "superimposition", "duration": sweep_duration(args, delay), "delay": delay,
                                "controller": controller, "seed": 1},
                               labels={"sweep": sweep, "delay": delay, "rate": 1000.0, "controller": controller}))
     for rate in args.rates:
@@ -94,7 +102,7 @@ def e4_cells(args) -> list[Cell]:
             continue
         for controller in CONTROLLERS:
             cells.append(Cell(f"e4_rate{rate:g}_{controller}", "E4",
-                              {"scene": "superimposition", "duration": args.sweep_duration, "delay": 0.0,
+                              {"scene": "superimposition", "duration": sweep_duration(args, 0.0), "delay": 0.0,
                                "rate_cap": rate, "control_rate": rate, "controller": controller, "seed": 1},
                               labels={"sweep": "rate", "delay": 0.0, "rate": rate, "controller": controller}))
     return cells
@@ -102,7 +110,7 @@ def e4_cells(args) -> list[Cell]:
 
 def quick_cells(args) -> list[Cell]:
     return [Cell(f"e4_delay0.2_{controller}", "E4",
-                 {"scene": "superimposition", "duration": args.sweep_duration, "delay": 0.2, "controller": controller,
+                 {"scene": "superimposition", "duration": sweep_duration(args, 0.2), "delay": 0.2, "controller": controller,
                   "seed": 1}, labels={"sweep": "delay", "delay": 0.2, "rate": 1000.0, "controller": controller})
             for controller in CONTROLLERS]
 
@@ -211,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.tables:
         print(markdown_tables(args.results))
         return 0
-    criterion = StabilityCriterion()
+    criterion = VerdictCriterion()
     cells: list[Cell] = []
     if args.quick:
         cells = quick_cells(args)
@@ -254,7 +262,7 @@ def main(argv: list[str] | None = None) -> int:
             bar.n = round(done, 1)
             bar.refresh()
             blackout = cell.options.get("blackout_at")
-            result = analyse_cell(cell, run_dir, outcome, criterion, blackout_at=blackout)
+            result = analyse_cell(cell, run_dir, outcome, blackout_at=blackout)
             write_json(run_dir / "cell.json", result)
             results.setdefault(cell.experiment, []).append((result, run_dir))
             verdict = result.get("stability", {}).get("stable")
@@ -273,7 +281,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: StabilityCriterion, wall: float) -> dict:
+def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: VerdictCriterion, wall: float) -> dict:
     out = args.results
     stamp = {"generated": datetime.now().isoformat(timespec="seconds"), "git_commit": git_commit(),
              "time_mode": args.time_mode, "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]])}
@@ -305,7 +313,7 @@ def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: 
         plot_e3(result, run_dir, out)
     if "E4" in results:
         cells = [r for r, _ in results["E4"]]
-        e4 = {**stamp, "cells": cells, "criterion": criterion.as_dict(),
+        e4 = {**stamp, "cells": cells, "criterion": dataclasses.asdict(criterion),
               "table": [{"id": c["id"], **c["labels"], "stable": c.get("stability", {}).get("stable"),
                          "max_error_last_half_m": c.get("stability", {}).get("max_error_last_half"),
                          "max_error_m": c.get("stability", {}).get("max_error"),
@@ -334,7 +342,7 @@ def write_results(args, results: dict[str, list[tuple[dict, Path]]], criterion: 
     summary = {**stamp, "quick": args.quick, "wall_s_of_this_invocation": round(wall, 1), "runs": str(args.runs),
                "machine": {"cpus": os.cpu_count(), "load_average": list(os.getloadavg()),
                            "python": platform.python_version()},
-               "stability_criterion": criterion.as_dict(), "experiments": experiments,
+               "run_verdict_criterion": dataclasses.asdict(criterion), "experiments": experiments,
                "headline": {name: value["headline"] for name, value in experiments.items()}}
     write_json(out / "summary.json", summary)
     (out / "tables.md").write_text(markdown_tables(out) + "\n")

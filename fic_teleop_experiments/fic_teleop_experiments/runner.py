@@ -2,8 +2,8 @@
 
 A cell is one call of scripts/teleop_launcher.py (what scripts/run_teleop.sh runs) with ``--no-video`` and, unless
 the cell asks for the paper-style plots, ``--no-report``; the metrics are then computed here in-process with the
-report's own definitions (fic_teleop_tools.report: load_bag + analyse, no plots), the stability verdict with
-fic_teleop_experiments.stability, and scene-specific outcomes (E2 pieces) from the same bag.
+report's own definitions (fic_teleop_tools.report: load_bag + analyse, no plots), the run verdict
+(fic_teleop_tools.verdict.run_verdict, as for every run), and scene-specific outcomes (E2 pieces) from the same bag.
 
 No rclpy here: the launcher is a child process. Each cell gets a ROS_DOMAIN_ID that no running process on this
 machine uses (read from /proc), so a cell never hears someone else's graph.
@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 
 from fic_teleop_tools.verdict.bag_series import RunSeries, read_run
-from fic_teleop_experiments.stability import StabilityCriterion, StabilityInputError, assess_stability
+from fic_teleop_tools.verdict.run_verdict import VerdictInput, VerdictInputError, judge
 
 REPO = Path(os.environ.get("FIC_TELEOP_ROOT") or Path(__file__).resolve().parents[2])
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
@@ -116,39 +116,23 @@ def report_metrics(bag: Path) -> dict:
     return analysis.metrics
 
 
-def stability_of(series: RunSeries, criterion: StabilityCriterion, start: float | None = None,
+def stability_of(series: RunSeries, one_way_delay: float, start: float | None = None,
                  end: float | None = None) -> dict:
-    """The stability verdict of the run (or of its [start, end] part, in the bag's own time) as a dict."""
-    if series.fic_time.size < 4:
-        return {"stable": None, "reasons": ["no /replica/fic_state in the bag"]}
-    keep = np.ones(series.fic_time.size, dtype=bool)
-    if start is not None:
-        keep &= series.fic_time >= start
-    if end is not None:
-        keep &= series.fic_time <= end
-    limit_keep = np.ones(series.limit_time.size, dtype=bool)
-    if start is not None:
-        # keep the counter sample just before the start, so that the increase is counted from there
-        limit_keep &= series.limit_time >= (series.limit_time[series.limit_time <= start][-1]
-                                            if np.any(series.limit_time <= start) else start)
-    if end is not None:
-        limit_keep &= series.limit_time <= end
+    """The run verdict (fic_teleop_tools.verdict.run_verdict, the one every run is judged by) of the bag's series, or
+    of its [start, end] part in the bag's own time, as a dict; with the tracking error's largest value over the part
+    and over its last half, the figures the E4 plots draw."""
+    if series.fic_time.size < 8:
+        return {"stable": None, "safe": None, "reasons": ["no /replica/fic_state in the bag"]}
     try:
-        verdict = assess_stability(
-            series.fic_time[keep], series.error[keep],
-            violation_time=series.limit_time[limit_keep] if series.limit_time.size else None,
-            violation_count=series.violation_ticks[limit_keep] if series.limit_time.size else None,
-            total_energy=series.total_energy[keep],
-            force_time=series.wrench_time if series.wrench_time.size >= 4 else None,
-            force=series.force if series.wrench_time.size >= 4 else None, criterion=criterion)
-    except StabilityInputError as error:
-        return {"stable": None, "reasons": [f"not assessable: {error}"]}
-    result = verdict.as_dict()
-    reflex = series.diagnostics.get("robot_sim", {}).get("reflex")
-    if reflex:   # the robot stopped the arm (velocity_reflex.py): whatever the motion after it looks like
-        result["stable"] = False
-        result["reasons"] = [*result.get("reasons", []), f"the robot's velocity reflex stopped the arm: {reflex}"]
-    return result
+        data = VerdictInput.from_series(series, one_way_delay).window(start, end)
+        verdict = judge(data)
+    except VerdictInputError as error:
+        return {"stable": None, "safe": None, "reasons": [f"not assessable: {error}"]}
+    magnitude = np.linalg.norm(np.asarray(data.tracking_error), axis=1)
+    time = np.asarray(data.time)
+    last_half = time >= 0.5 * (time[0] + time[-1])
+    return {**verdict.as_dict(), "reasons": verdict.reasons, "max_error": float(magnitude.max()),
+            "max_error_last_half": float(magnitude[last_half].max())}
 
 
 def write_json(path: Path, payload) -> None:

@@ -602,25 +602,6 @@ def cases() -> list[LabelledCase]:
     return out
 
 
-def _old_verdict(data: VerdictInput) -> tuple[bool | None, list[str]]:
-    """The verdict the sweeps used before (fic_teleop_experiments.energy_verdict with the 5 s lap median), fed as
-    fic_teleop_experiments.evidence_run fed it; only its stability (it had no safety verdict)."""
-    from fic_teleop_experiments.energy_verdict import EnergyMotionCriterion, assess_energy_motion
-
-    motion = {}
-    if data.x_M is not None:
-        motion["x_M"] = data.x_M - (data.operator_target if data.operator_target is not None else 0.0)
-    for name in ("x_d", "x_R"):
-        if getattr(data, name) is not None and data.command is not None:
-            motion[name] = getattr(data, name) - data.command
-    energy = sum(e for e in (data.arm_kinetic_energy, data.handle_kinetic_energy) if e is not None)
-    verdict = assess_energy_motion(
-        data.time, energy=energy, motion=motion,
-        criterion=EnergyMotionCriterion(round_trip_delay=2.0 * data.one_way_delay, task_period=5.0),
-        error=data.x_d - data.x_R, channel_generated=data.channel_generated)
-    return verdict.stable, verdict.reasons
-
-
 def _confusion(rows: list[dict], label: str, verdict: str) -> dict[str, int]:
     counts: dict[str, int] = {}
     for row in rows:
@@ -667,7 +648,8 @@ def held_out(seeds: range = range(10, 18)) -> dict:
 
 
 def validate(with_held_out: bool = True) -> dict:
-    """Every labelled case judged by the run verdict and by the older one; the confusion matrices."""
+    """Every labelled case judged by the run verdict, and by it without the forced-answer fit; the confusion
+    matrices."""
     import time as wall_clock
     from dataclasses import asdict
 
@@ -681,7 +663,6 @@ def validate(with_held_out: bool = True) -> dict:
         start = wall_clock.perf_counter()
         verdict = judge(case.data)
         seconds += wall_clock.perf_counter() - start
-        old_stable, old_reasons = _old_verdict(case.data)
         unfitted = judge(case.data, without_fit)
         rows.append(dict(name=case.name, group=case.group, label_stable=case.stable, label_safe=case.safe,
                          stable=verdict.stable, safe=verdict.safe, right=verdict.stable is case.stable and
@@ -689,15 +670,13 @@ def validate(with_held_out: bool = True) -> dict:
                          resonance_gain=verdict.figures.get("resonance_gain"),
                          resonance_period_s=verdict.figures.get("resonance_period_s"),
                          without_fit_stable=unfitted.stable, without_fit_right=unfitted.stable is case.stable,
-                         without_fit_reasons=unfitted.stable_reasons,
-                         old_stable=old_stable, old_right=old_stable is case.stable, old_reasons=old_reasons))
+                         without_fit_reasons=unfitted.stable_reasons))
     groups: dict[str, dict[str, int]] = {}
     for row in rows:
-        group = groups.setdefault(row["group"], dict(cases=0, right=0, without_fit_right=0, old_right=0))
+        group = groups.setdefault(row["group"], dict(cases=0, right=0, without_fit_right=0))
         group["cases"] += 1
         group["right"] += row["right"]
         group["without_fit_right"] += row["without_fit_right"]
-        group["old_right"] += row["old_right"]
     return dict(
         command="python -m fic_teleop_experiments.verdict_cases --out results/verdict_validation.json",
         criterion=asdict(VerdictCriterion()), cases=len(rows), right=sum(r["right"] for r in rows),
@@ -706,10 +685,6 @@ def validate(with_held_out: bool = True) -> dict:
         without_fit=dict(about="the run verdict without the forced-answer fit (its oscillation rule before it), "
                               "stability only", confusion_stable=_confusion(rows, "label_stable", "without_fit_stable"),
                          wrong=[r["name"] for r in rows if not r["without_fit_right"]]),
-        old_verdict=dict(about="energy_verdict with the 5 s lap median (the sweeps' verdict until this one); it has no "
-                               "safety verdict, so it is scored on stability only",
-                         confusion_stable=_confusion(rows, "label_stable", "old_stable"),
-                         wrong=[r["name"] for r in rows if not r["old_right"]]),
         groups=groups, held_out=held_out() if with_held_out else None, rows=rows)
 
 

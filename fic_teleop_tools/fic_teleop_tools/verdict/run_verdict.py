@@ -77,7 +77,7 @@ delay later and the replica sees the hand's answer another delay later). A push 
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -129,6 +129,10 @@ class VerdictCriterion:
 
     def longest_period_needed(self, one_way_delay: float) -> float:
         return max(self.round_trips_judged * 2.0 * one_way_delay, self.min_longest_period)
+
+    def run_needed(self, one_way_delay: float) -> float:
+        """[s] the least run (without a quiet tail) whose oscillation scan reaches ``longest_period_needed``."""
+        return self.settle + self.scan.min_cycles * self.longest_period_needed(one_way_delay)
 
     def tail_flush_s(self, one_way_delay: float) -> float:
         """[s] the start of a quiet tail that is not judged: the last input leaves the loop (module docstring)."""
@@ -182,7 +186,7 @@ class VerdictInput:
     @classmethod
     def from_run_result(cls, result, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
         """From an in-process run (fic_teleop_experiments.in_process.RunResult, or one loaded by
-        evidence_run.load_series): the commanded motion as the replica receives it, one delay later. In offset mode
+        claims.load_series): the commanded motion as the replica receives it, one delay later. In offset mode
         throughout (or when the run did not record the master's mode) it is the planner's plus the hand's target
         (x_d' = s_M x_M with s_M = 1, Eq. 3). Once the master was in velocity mode the hand's target is a velocity
         command, not a place: x_d' is the integral of k_v x_M (Eq. 3), and after it an offset-mode stretch continues
@@ -220,16 +224,21 @@ class VerdictInput:
 
     @classmethod
     def from_bag(cls, path: str | Path, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
-        """From a recorded session (fic_teleop_tools.verdict.bag_series.read_run): the tracking error and the
-        controller's energy of /replica/fic_state, the F/T force, the joint speeds, the limit counter and the
-        nodes' last diagnostics (the robot's reflex and holds, the replica's safe hold). A bag holds no command and
-        no obstacle flag: its motion test is on x_d - x_R, its contact is the force's."""
+        """From a recorded session (fic_teleop_tools.verdict.bag_series.read_run, with its joint states): as
+        ``from_series``."""
         from fic_teleop_tools.verdict.bag_series import read_run
 
-        run = read_run(path, joint_states=True)
+        return cls.from_series(read_run(path, joint_states=True), one_way_delay, x_b, source=f"bag {Path(path).name}")
+
+    @classmethod
+    def from_series(cls, run, one_way_delay: float, x_b: float = X_B, source: str = "bag") -> "VerdictInput":
+        """From a bag's series (fic_teleop_tools.verdict.bag_series.RunSeries): the tracking error and the
+        controller's energy of /replica/fic_state, the F/T force, the joint speeds (when read), the limit counter and
+        the nodes' last diagnostics (the robot's reflex and holds, the replica's safe hold). A bag holds no command
+        and no obstacle flag: its motion test is on x_d - x_R, its contact is the force's."""
         time = run.fic_time
         if time.size < 8:
-            raise VerdictInputError(f"{path}: fewer than 8 /replica/fic_state messages ({time.size})")
+            raise VerdictInputError(f"{source}: fewer than 8 /replica/fic_state messages ({time.size})")
 
         def on_time(stamps: NDArray, values: NDArray) -> NDArray | None:
             if stamps.size < 2:
@@ -250,7 +259,21 @@ class VerdictInput:
                    controller_energy=run.total_energy, force=force, joint_speed=joint_speed,
                    limit_violations=violations, reflex_trips=reflex,
                    safe_holds=None if hold is None else int(hold != "no"), stale_holds=stale, x_b=x_b,
-                   source=f"bag {Path(path).name}")
+                   source=source)
+
+    def window(self, start: float | None = None, end: float | None = None) -> "VerdictInput":
+        """The samples within [start, end] (None: the run's own end); the whole-run counts stay as they are."""
+        time = np.asarray(self.time, dtype=float)
+        keep = np.ones(time.size, dtype=bool)
+        if start is not None:
+            keep &= time >= start
+        if end is not None:
+            keep &= time <= end
+        per_sample = {name: value[keep] for name, value in vars(self).items()
+                      if isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == time.size}
+        quiet_from = self.quiet_from if self.quiet_from is not None and keep.any() \
+            and time[keep][0] < self.quiet_from < time[keep][-1] else None
+        return replace(self, **per_sample, quiet_from=quiet_from)
 
 
 @dataclass
@@ -737,9 +760,9 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
                               f"and a round trip of flush, then max({criterion.tail_round_trips:g} round trips, "
                               f"{criterion.tail_min:g} s))")
     elif finite:
-        run_needed = criterion.settle + criterion.scan.min_cycles * needed
         stable_reasons.append(f"not assessed: periods up to {needed:.1f} s (max(4 round trips, "
-                              f"{criterion.min_longest_period:g} s)) need {run_needed:.1f} s of run, it has "
+                              f"{criterion.min_longest_period:g} s)) need "
+                              f"{criterion.run_needed(data.one_way_delay):.1f} s of run, it has "
                               f"{time[-1] - time[0]:.1f} s")
     stable: bool | None = not stable_reasons
     if finite and not assessed:

@@ -116,10 +116,10 @@ SHAPE_SORTING_DEFAULTS: dict[str, Any] = {
     "settle": 1.5,                      # [s] wait with the handle at rest before a mode switch (the operator's
                                         #     lean-in unwinds; 0.6 s left centimetres of drift in the closed loop)
     # {"<piece>:<leg>": [dx, dy, dz]} [m] added to where a travel leg ends. Measured in the closed loop: the misses of
-    # x_d' at each leg's end in one run of fic_teleop_experiments.e2_twin (the in-process graph; settle 1.5 s, a 12 mm
-    # search), half of each leg's own miss taken out (`--tune 1 --gain 0.5`). The misses come from the operator
+    # x_d' at each leg's end in one run of the in-process runner (settle 1.5 s, a 12 mm search), half of each leg's
+    # own miss taken out. The misses come from the operator
     # model's lean-in (Hand correction) winding up in contacts and from the handle's lag, which the velocity mode
-    # integrates. With these and the numbers above the twin put all three pieces in the box (seed 1); the graph's
+    # integrates. With these and the numbers above the runner put all three pieces in the box (seed 1); the graph's
     # own result is E2 in results/e2.json.
     "leg_corrections": {
         "cuboid:across": [0.00058, 0.00005, 0.00000],
