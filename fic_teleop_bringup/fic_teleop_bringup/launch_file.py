@@ -7,7 +7,7 @@ operator script's and the circle's start on the wall clock are computed when the
 launcher does. What the launcher adds beyond the graph (niceness, the stop order that lets the recorder finish
 its bag, the report) is not in it: stop with Ctrl-C, then `scripts/report.sh <bag>`. Each node is its own
 process here, as under the launcher's `--isolated` (the launcher's default node groups are its own).
-test/test_launch_file.py regenerates it and compares.
+test/bringup/test_launch_file.py regenerates it and compares.
 
 usage: python -m fic_teleop_bringup.launch_file [--check]
 """

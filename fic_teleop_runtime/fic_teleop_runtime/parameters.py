@@ -10,7 +10,7 @@ is refused by rclpy itself; a params file or ``-p`` given at start still overrid
 Why the nodes read config/ rather than the config files being generated from the tables: the files are what an
 operator edits and what the launcher passes, with their comments on why each value is what it is; a generator
 would either lose those or need them copied into code, a second home for the same words. The tables hold what the
-code must know (type, range, meaning); test/test_parameter_schemas.py loads every file under config/ against them
+code must know (type, range, meaning); test/runtime/test_parameter_schemas.py loads every file under config/ against them
 (every key declared, of its type and inside its range, every declared key given by the node's own file).
 
 A key that no row declares is refused at start, in one line naming it and the nearest declared key: rclpy would

@@ -21,7 +21,6 @@ from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler, loop_threa
 # one more, which keeps the process's name.
 CHILD = textwrap.dedent("""
     import sys, threading, time
-    sys.path.insert(0, sys.argv[1])
     from sim_bridge.os_thread import name_os_thread
 
     lock = threading.Lock()
@@ -46,7 +45,7 @@ CHILD = textwrap.dedent("""
 @pytest.fixture
 def child():
     """The child process and its thread ids by name."""
-    process = subprocess.Popen([sys.executable, "-c", CHILD, str(REPO / "sim_bridge")], stdin=subprocess.PIPE,
+    process = subprocess.Popen([sys.executable, "-c", CHILD], stdin=subprocess.PIPE,
                                stdout=subprocess.PIPE, text=True)
     tids = {}
     for _ in range(5):

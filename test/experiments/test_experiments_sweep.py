@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 DURATION = 8.0
 
 
@@ -85,7 +85,6 @@ def _header_stamps(bag: Path, topics) -> dict[str, list[float]]:
     """Header stamps of ``topics`` in the bag, in recording order, straight from the CDR bytes."""
     from mcap.reader import make_reader
 
-    sys.path.insert(0, str(REPO / "sim_bridge"))
     from fic_teleop_tools.recording.bag_reader import mcap_file
     from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 

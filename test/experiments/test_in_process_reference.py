@@ -9,7 +9,7 @@ to a SHA-256 of its float64 bytes and compared with test/data/in_process_referen
 
 The reference is this machine kind's with scripts/constraints.txt's MuJoCo, Pinocchio and numpy: other builds of
 them may round differently. A change that is meant to change results (a law, a parameter, the scene) rewrites it,
-said in its commit: ``python test/test_in_process_reference.py --write``.
+said in its commit: ``python test/experiments/test_in_process_reference.py --write``.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from fic_teleop_experiments.claims import ClaimRun
 from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
 from fic_teleop_experiments.in_process import RunConfig, RunResult, run
 
-REFERENCE = Path(__file__).resolve().parent / "data" / "in_process_reference.json"
+REFERENCE = Path(__file__).resolve().parents[1] / "data" / "in_process_reference.json"
 DURATION_S = 2.5
 
 
@@ -67,7 +67,7 @@ def test_a_short_run_is_bit_identical_to_the_reference(name: str) -> None:
 
 if __name__ == "__main__":
     if sys.argv[1:] != ["--write"]:
-        sys.exit("usage: python test/test_in_process_reference.py --write")
+        sys.exit("usage: python test/experiments/test_in_process_reference.py --write")
     REFERENCE.parent.mkdir(parents=True, exist_ok=True)
     REFERENCE.write_text(json.dumps({name: digests(run(config)) for name, config in configs().items()}, indent=1,
                                     sort_keys=True) + "\n")

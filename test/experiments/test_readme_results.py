@@ -15,7 +15,7 @@ import pytest
 from fic_teleop_experiments.cell_statistics import wilson_interval
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @cache

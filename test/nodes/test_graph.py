@@ -4,7 +4,6 @@ is interrupted with Ctrl-C and must still leave a finished bag and a report."""
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys

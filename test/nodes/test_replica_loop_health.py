@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from conftest import CONFIG
-from test_replica_node import Robot, replica_env
+from replica_side import Robot, replica_env
 
 rclpy = pytest.importorskip("rclpy")
 

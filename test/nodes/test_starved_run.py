@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, isolated_env, reserved_domain
+from conftest import isolated_env, reserved_domain
 
 
 from fic_teleop_bringup.launch_supervision import EXIT_NODE_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_STARVED

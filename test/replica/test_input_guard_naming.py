@@ -3,16 +3,11 @@ one more line once the graph has the name (fic_teleop_replica/input_guard.py), c
 station (the graph run is test/nodes/test_set_point_guard.py)."""
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "fic_teleop_replica"))
-
-from fic_teleop_replica.input_guard import NAMING_WINDOW_S, InputGuard  # noqa: E402
+from fic_teleop_replica.input_guard import NAMING_WINDOW_S, InputGuard
 
 TOPIC = "/planner/desired_pose"
 

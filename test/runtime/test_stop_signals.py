@@ -5,13 +5,9 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from conftest import REPO
-
-RUNTIME = REPO / "fic_teleop_runtime"
-
 
 def _child(body: str) -> subprocess.CompletedProcess:
-    code = f"import sys; sys.path.insert(0, {str(RUNTIME)!r})\nfrom fic_teleop_runtime import stop_signals\n" \
+    code = "from fic_teleop_runtime import stop_signals\n" \
            f"stop_signals.install()\n{body}\nprint('went on starting', flush=True)\n"
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
 

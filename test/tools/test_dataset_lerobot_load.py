@@ -23,7 +23,7 @@ from fic_teleop_tools.cli.__main__ import main as fic
 
 RUN = REPO / "test" / "data" / "e1_lockstep_4s"
 LEROBOT_PYTHON = Path(os.environ.get("FIC_LEROBOT_VENV", REPO / ".venv-lerobot")) / "bin" / "python"
-PROBE = REPO / "test" / "lerobot_load_probe.py"
+PROBE = REPO / "test" / "tools" / "lerobot_load_probe.py"
 FPS = 50   # the run's /sim/object_poses rate (the robot's default object_pose_rate_hz)
 
 pytestmark = pytest.mark.skipif(not LEROBOT_PYTHON.exists(),

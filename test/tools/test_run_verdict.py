@@ -24,7 +24,7 @@ from fic_teleop_experiments.verdict_cases import (bilateral, cases, critical_del
                                                   delayed_spring_damper, loop_gain_peak, resonant_plant,
                                                   with_limit_cycle)
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
