@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fic_teleop_tools.verdict.bag_series import read_run
 from fic_teleop_experiments.runner import Cell, report_metrics, stability_of, write_json
 from fic_teleop_experiments.shape_sorting import piece_outcomes
+from fic_teleop_tools.verdict.bag_series import read_run
 
 METRIC_KEYS = ("free_motion_error_max_m", "free_motion_error_rms_m", "contact_error_max_m", "peak_interaction_force_n",
                "limit_violations", "limit_shaped_ticks", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",

@@ -30,7 +30,8 @@ instead of conditioning: it is exact (never above its nominal size) and each one
 p, so it never misses what Fisher's test finds on that side. scipy's two-sided p is twice the smaller one-sided p
 (its documented definition). Fisher's two-sided p (by table probability) is kept beside it, since earlier results
 quote it. The two-sided tests are not ordered by a theorem, but at 20 seeds against 20 Boschloo's p is at most
-Fisher's on every one of the 231 possible tables (enumerated; test/experiments/test_cell_statistics.py does it at 10 against 10).
+Fisher's on every one of the 231 possible tables (enumerated; test/experiments/test_cell_statistics.py does it at 10
+against 10).
 """
 from __future__ import annotations
 

@@ -99,8 +99,8 @@ def verdict_code() -> str:
     """A hash of the sources a claim run's verdict depends on: the run verdict's package, the Panda's limits it judges
     against and the code that loads a kept series (claims.py, with judge_series)."""
     import fic_core.arm_profile
-    import fic_teleop_tools.verdict
     import fic_teleop_experiments.claims
+    import fic_teleop_tools.verdict
 
     files = sorted(Path(fic_teleop_tools.verdict.__file__).resolve().parent.glob("*.py"))
     files += [Path(fic_core.arm_profile.__file__).resolve(), Path(fic_teleop_experiments.claims.__file__).resolve()]

@@ -35,8 +35,8 @@ import numpy as np
 
 from fic_teleop_experiments.cell_statistics import wilson_interval
 from fic_teleop_experiments.e2_in_process import FORCE_OF_NOTE_N, operator_outcome
-from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES, piece_outcomes
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 
 PHASE = re.compile(r"shape-sorting operator: (\w+:\w+) at ([\d.]+) s \(([-\d.e+naif]+)\)")
 
@@ -223,7 +223,7 @@ def agreement(graph_rows: list[dict], runner_rows: list[dict]) -> str:
             continue
 
         def pair(value) -> str:
-            return f"{value(row)} / {value(twin)}"
+            return f"{value(row)} / {value(twin)}"  # noqa: B023
 
         lines.append(f"| {row['law']}@{row['delay_s']:g} | {row['seed']} | "
                      f"{pair(lambda r: len(r['pieces_inside']))} | {pair(lambda r: r.get('retries', 0))} | "

@@ -9,9 +9,10 @@ to +-0.1 s, the hand's impedance by up to +-20 %, the reactive hand's latencies 
 5 ms of channel jitter. A piece counts when it ends inside the box (fic_teleop_experiments.shape_sorting.inside_box);
 the outcome of each trial also gives the operator's phases, its retries and the time it took per piece.
 
-    source scripts/env.sh && python -m fic_teleop_experiments.e2_in_process --trials 4 --json results/e2_operator_fic.json
-    python -m fic_teleop_experiments.e2_in_process --controller linear --first-seed 3 --trials 1 --json linear_3.json
-    python -m fic_teleop_experiments.e2_in_process --merge linear_1.json linear_3.json --json OUT.json --plot OUT.png
+    source scripts/env.sh && python -m fic_teleop_experiments.e2_in_process --trials 4 --json
+    results/e2_operator_fic.json python -m fic_teleop_experiments.e2_in_process --controller linear --first-seed 3
+    --trials 1 --json linear_3.json python -m fic_teleop_experiments.e2_in_process --merge linear_1.json linear_3.json
+    --json OUT.json --plot OUT.png
 """
 from __future__ import annotations
 
@@ -24,13 +25,13 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
-from sim_bridge.device.virtual_operator import load_script
-from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
-from fic_teleop_experiments.in_process import RunConfig, run
 from fic_teleop_experiments.cell_statistics import wilson_interval
+from fic_teleop_experiments.in_process import RunConfig, run
+from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES, inside_box
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput, judge
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
+from sim_bridge.device.virtual_operator import load_script
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -1,7 +1,8 @@
 """E2 (shape sorting) sweep on the in-process runner: every law at the paper's 200 ms and at 0, 0.5 and 1 s, with
-the closed-loop shape-sorting operator and the force-reactive hand (e2_in_process.py runs one trial). Resumable: every finished trial is one line of the jsonl (--out); a rerun skips the trials already
-there, so the sweep can be stopped and restarted at any time. Trials run seed-major (seed 1 of every cell, then
-seed 2, ...), so whatever has finished covers every cell.
+the closed-loop shape-sorting operator and the force-reactive hand (e2_in_process.py runs one trial). Resumable: every
+finished trial is one line of the jsonl (--out); a rerun skips the trials already there, so the sweep can be stopped and
+restarted at any time. Trials run seed-major (seed 1 of every cell, then seed 2, ...), so whatever has finished covers
+every cell.
 
 Laws: fic (the replica's default, config/replica.yaml: Eq. 7 with the inertial feedforward and the friction
 compensation), fic_paper_law (Eq. 7 as the paper writes it), linear, linear_bounded, linear_tdpa (linear_bounded
@@ -24,10 +25,10 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from fic_teleop_experiments.cell_statistics import wilson_interval
 from fic_teleop_experiments.e2_in_process import FORCE_OF_NOTE_N, phase_forces, plot, trial
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 
 #: law -> (the runner's controller, the paper's Eq. 7 as written)
 LAWS = {"fic": ("fic", False), "fic_paper_law": ("fic", True), "linear": ("linear", False),
@@ -65,7 +66,8 @@ def done_trials(path: Path) -> list[dict]:
 
 
 def verdicts(trials: list[dict], name: str) -> str:
-    """k/n of the trials the run verdict judged ``name`` (fic_teleop_tools.verdict.run_verdict); not assessed left out."""
+    """k/n of the trials the run verdict judged ``name`` (fic_teleop_tools.verdict.run_verdict); not assessed left
+    out."""
     judged = [row["verdict"][name] for row in trials if row.get("verdict", {}).get(name) is not None]
     return f"{sum(judged)}/{len(judged)}"
 

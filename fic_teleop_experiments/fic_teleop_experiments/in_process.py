@@ -32,13 +32,13 @@ from fic_core.channel_ports import ChannelPorts
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_core.planner_station import PlannerStation, make_source
-from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.replica_station import ReplicaStation
+from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.trajectories import LapVaryingCircle
 from sim_bridge.channel.channel import Channel, ChannelConfig
+from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.device_station import DeviceStation
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
-from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.operator_scripts import superimposition_script
 from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
@@ -245,7 +245,8 @@ def run(config: RunConfig) -> RunResult:
                                               and 0.0 <= config.quiet_from < config.duration):
         raise ValueError(f"quiet_from must be within the run (0 to {config.duration:g} s), got {config.quiet_from}")
     if config.task_variation and config.operator != "closed_loop":
-        raise ValueError("task_variation needs the closed-loop operator: a script is timed for the paper's fixed circle")
+        raise ValueError("task_variation needs the closed-loop operator: a script is timed for the paper's fixed "
+                         "circle")
     drawn: dict[str, Any] = {}
     reactive = config.hand == "reactive"
     if reactive:
@@ -458,7 +459,8 @@ def run(config: RunConfig) -> RunResult:
             log_arm.append(0.5 * float(arm_velocity @ arm_momentum))
             drift = ports.replica.drift
             log_ports.append((ports.master.observer.energy, ports.replica.observer.energy, ports.generated_energy,
-                              float(replica.passivity.margin.min()), float(np.linalg.norm(drift)) if drift.size else 0.0))
+                              float(replica.passivity.margin.min()),
+                              float(np.linalg.norm(drift)) if drift.size else 0.0))
             log_contact.append(_touches(sim, fixed_obstacle))
         torque = result.torque
         if config.dynamics_at_physics_rate and torque is not None:
@@ -478,7 +480,8 @@ def run(config: RunConfig) -> RunResult:
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
                      sim.object_poses(), wall, steps * STEP,
                      replica.controller.violation_ticks, replica.controller.shaped_ticks,
-                     np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale, np.array(log_target),
+                     np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift,
+                     hand_scale, np.array(log_target),
                      replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports),
                      obstacle_contact=np.array(log_contact, dtype=bool),
                      operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,

@@ -67,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=REPO / "results" / "link_hold_designs.json")
     args = parser.parse_args(argv)
     feedbacks = {"off": [False], "on": [True], "both": [False, True]}[args.feedback]
-    jobs = [(d, r, s, f, args.duration) for f in feedbacks for r in args.rates for s in args.seeds for d in args.designs]
+    jobs = [(d, r, s, f,
+             args.duration) for f in feedbacks for r in args.rates for s in args.seeds for d in args.designs]
     rows = []
     with make_executor(None, args.workers) as executor:
         futures = [executor.submit(one_run, *job) for job in jobs]

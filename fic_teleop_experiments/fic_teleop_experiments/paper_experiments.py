@@ -5,10 +5,10 @@
     scripts/experiments.sh --quick              # 2 short E4 cells (the in-suite test), results to runs/.../results
     scripts/experiments.sh --time-mode realtime # wall-clock paced instead of lockstep
 
-Every cell is one call of the launcher (fic_teleop_bringup.teleop_launcher, what scripts/run_teleop.sh runs): the whole graph as real
-processes over DDS, recorded to an MCAP bag under --runs. Each cell is then analysed from its bag: the report's
-metrics (fic_teleop_tools.report, computed in-process), the run verdict (fic_teleop_tools.verdict.run_verdict, the
-one every run is judged by; a sweep cell runs at least as long as it needs to judge the cell's delay), and per
+Every cell is one call of the launcher (fic_teleop_bringup.teleop_launcher, what scripts/run_teleop.sh runs): the whole
+graph as real processes over DDS, recorded to an MCAP bag under --runs. Each cell is then analysed from its bag: the
+report's metrics (fic_teleop_tools.report, computed in-process), the run verdict (fic_teleop_tools.verdict.run_verdict,
+the one every run is judged by; a sweep cell runs at least as long as it needs to judge the cell's delay), and per
 experiment:
 
 - E1 superimposition at 200 ms: the default run (superimposition scene, scripted operator, 200 ms each way) with the
@@ -45,13 +45,13 @@ from tqdm import tqdm
 REPO = Path(__file__).resolve().parents[2]
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
-from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S  # noqa: E402
 from fic_teleop_experiments.cell_analysis import analyse_cell  # noqa: E402
 from fic_teleop_experiments.plots import plot_e2_forces, plot_e3, plot_stability_map, plot_sweep  # noqa: E402
 from fic_teleop_experiments.runner import CONTROLLERS, Cell, LaunchOutcome, launch, write_json  # noqa: E402
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES  # noqa: E402
 from fic_teleop_experiments.tables import headline_of, markdown_tables  # noqa: E402
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion  # noqa: E402
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S  # noqa: E402
 
 DELAYS = (0.0, 0.1, 0.2, 0.5, 1.0, 2.0)
 RATES = (1000.0, 250.0, 100.0, 50.0, 10.0)
@@ -70,7 +70,8 @@ def e1_cells(args) -> list[Cell]:
 
 
 def e2_cells(args) -> list[Cell]:
-    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (an in-process twin of the graph);
+    # The E2 operator script's travel legs were tuned in closed loop against the paper's Eq. 7 (an in-process twin of
+    # the graph);
     # --e2-law default runs the same script with the replica's default model terms (docs/EXPERIMENTS.md).
     return [Cell(f"e2_seed{seed}", "E2", {"scene": "shape_sorting", "trajectory": "fixed",
                                           "duration": args.e2_duration, "delay": 0.2, "seed": seed,
@@ -110,7 +111,8 @@ def e4_cells(args) -> list[Cell]:
 
 def quick_cells(args) -> list[Cell]:
     return [Cell(f"e4_delay0.2_{controller}", "E4",
-                 {"scene": "superimposition", "duration": sweep_duration(args, 0.2), "delay": 0.2, "controller": controller,
+                 {"scene": "superimposition", "duration": sweep_duration(args, 0.2), "delay": 0.2,
+                  "controller": controller,
                   "seed": 1}, labels={"sweep": "delay", "delay": 0.2, "rate": 1000.0, "controller": controller})
             for controller in CONTROLLERS]
 
@@ -152,7 +154,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--time-mode", default="lockstep", choices=["lockstep", "realtime"])
     parser.add_argument("--results", type=Path, default=None,
                         help="results folder (default: results/, or <runs>/results with --quick)")
-    parser.add_argument("--runs", type=Path, default=None, help="run folders with the bags (default runs/experiments-<time>)")
+    parser.add_argument("--runs", type=Path, default=None, help="run folders with the bags (default "
+                                                                "runs/experiments-<time>)")
     parser.add_argument("--e1-duration", type=float, default=30.0)
     parser.add_argument("--e2-duration", type=float, default=TRIAL_DURATION_S,
                         help="simulated s a trial (default: the shape-sorting operator's, the scene's default "
@@ -199,9 +202,11 @@ def shape_sorting_script_timing() -> dict:
     parameters = script.get("parameters", {})
     # The first pick: the travel down to hover over the first piece ends (leg_ends), then the handle descends for
     # 2 ramps to press the plate on the piece and holds bond_time: the middle of that hold is contact.
-    down = parameters.get("leg_ends", {}).get(f"{parameters['pieces'][0]['name']}:down") if parameters.get("pieces") else None
+    down = parameters.get("leg_ends",
+                          {}).get(f"{parameters['pieces'][0]['name']}:down") if parameters.get("pieces") else None
     if down is None:
-        raise SystemExit("the shape-sorting script has no leg_ends: regenerate it (python -m sim_bridge.device.operator_scripts)")
+        raise SystemExit("the shape-sorting script has no leg_ends: regenerate it (python -m "
+                         "sim_bridge.device.operator_scripts)")
     press = float(down[0]) + 2.0 * float(parameters["ramp"]) + 0.5 * float(parameters["bond_time"])
     return {"length_s": length, "first_press_s": press}
 
@@ -267,7 +272,8 @@ def main(argv: list[str] | None = None) -> int:
             results.setdefault(cell.experiment, []).append((result, run_dir))
             verdict = result.get("stability", {}).get("stable")
             tqdm.write(f"[experiments] {cell.id}: {'stable' if verdict else 'UNSTABLE' if verdict is False else 'n/a'}"
-                       f", max error (last half) {result.get('stability', {}).get('max_error_last_half', float('nan')):.4f} m"
+                       ", max error (last half) "
+                       f"{result.get('stability', {}).get('max_error_last_half', float('nan')):.4f} m"
                        f", violations {result.get('limits', {}).get('violation_ticks')}, wall {outcome.wall_s:.0f} s"
                        + ("" if result.get("complete") else f" (ran {outcome.simulated_s:.1f} s of "
                                                              f"{cell.options['duration']:g} s)"), file=sys.stdout)

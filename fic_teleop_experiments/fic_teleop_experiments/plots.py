@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fic_teleop_tools.verdict.bag_series import read_run
 from fic_teleop_experiments.runner import CONTROLLERS
+from fic_teleop_tools.verdict.bag_series import read_run
 
 
 def _plt():

@@ -18,7 +18,8 @@ from fic_teleop_experiments.in_process import RunConfig, run
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scene", default="superimposition", choices=["superimposition", "shape_sorting", "free_space"])
+    parser.add_argument("--scene", default="superimposition", choices=["superimposition", "shape_sorting",
+                                                                       "free_space"])
     parser.add_argument("--duration", type=float, default=10.0)
     parser.add_argument("--delay", type=float, default=0.2)
     parser.add_argument("--jitter", type=float, default=0.0)

@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from fic_teleop_tools.verdict.bag_series import RunSeries, read_run
+from fic_teleop_tools.verdict.bag_series import RunSeries
 from fic_teleop_tools.verdict.run_verdict import VerdictInput, VerdictInputError, judge
 
 REPO = Path(os.environ.get("FIC_TELEOP_ROOT") or Path(__file__).resolve().parents[2])
@@ -67,7 +67,8 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
     run_dir.mkdir(parents=True, exist_ok=True)
     command = [sys.executable, str(LAUNCHER), *cell.arguments(), "--time-mode", time_mode, "--out", str(run_dir),
                # no --domain-id: the launcher reserves a domain no other run or test holds and no graph is heard on
-               # (fic_teleop_bringup/launch_isolation.py; a scan of other processes' ROS_DOMAIN_ID gave two runs one domain)
+               # (fic_teleop_bringup/launch_isolation.py; a scan of other processes' ROS_DOMAIN_ID gave two runs one
+               # domain)
                "--no-video",
                # lockstep runs at 0.1-0.3x real time on a loaded 2-core machine: let a cell finish
                "--wall-limit", f"{120.0 + 30.0 * float(cell.options.get('duration', 30.0)):.0f}"]
@@ -107,7 +108,8 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
 
 
 def report_metrics(bag: Path) -> dict:
-    """The report's metrics (docs/EXPERIMENTS.md, "Metrics"; fic_teleop_tools.report), computed in-process without plots."""
+    """The report's metrics (docs/EXPERIMENTS.md, "Metrics"; fic_teleop_tools.report), computed in-process without
+    plots."""
     from fic_teleop_tools.report.bag_data import load_bag
     from fic_teleop_tools.report.metrics import ReportSettings, analyse
     from fic_teleop_tools.report.report import replica_config_defaults

@@ -11,8 +11,15 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from fic_teleop_tools.verdict.bag_series import RunSeries
-from sim_bridge.robot.scenes import (SHAPE_SORTING_PIECES, SORTER_CENTRE_XY, SORTER_HALF_SIZE_XY, SORTER_PLATE_THICKNESS,
-                               SORTER_TOP_HEIGHT, SORTER_WALL_THICKNESS, TABLE_TOP_HEIGHT)
+from sim_bridge.robot.scenes import (
+    SHAPE_SORTING_PIECES,
+    SORTER_CENTRE_XY,
+    SORTER_HALF_SIZE_XY,
+    SORTER_PLATE_THICKNESS,
+    SORTER_TOP_HEIGHT,
+    SORTER_WALL_THICKNESS,
+    TABLE_TOP_HEIGHT,
+)
 
 #: Order of /sim/object_poses in the shape_sorting scene (scenes.SceneLayout.movable_bodies).
 PIECE_NAMES = tuple(piece.name for piece in SHAPE_SORTING_PIECES)

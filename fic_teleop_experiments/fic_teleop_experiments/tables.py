@@ -40,14 +40,17 @@ def markdown_tables(results_dir: Path) -> str:
     if path.exists():
         e2 = json.loads(path.read_text())
         lines += ["### E2 shape sorting (" + e2.get("time_mode", "") + ")", "",
-                  "| trial (seed) | pieces inside the box | bonds formed / broken | peak force [N] | time above 10 N [s] "
+                  "| trial (seed) | pieces inside the box | bonds formed / broken | peak force [N] | time above 10 N "
+                  "[s] "
                   "| limit violations | stable |", "|---|---|---|---|---|---|---|"]
         for trial in e2["trials"]:
             bond = trial.get("bond", {})
             names = ", ".join(p["name"].replace("piece_", "") for p in trial.get("pieces", []) if p["inside"]) or "none"
             lines.append(f"| {trial['labels'].get('seed')} | {trial.get('pieces_inside')} / 3 ({names}) | "
-                         f"{bond.get('bonds_formed')} / {bond.get('bond_breaks')} | {_number(trial.get('peak_force_n'), 1)} | "
-                         f"{_number(trial.get('force_above_10n_s'), 2)} | {trial.get('limits', {}).get('violation_ticks')} | "
+                         f"{bond.get('bonds_formed')} / {bond.get('bond_breaks')} | "
+                         f"{_number(trial.get('peak_force_n'), 1)} | "
+                         f"{_number(trial.get('force_above_10n_s'), 2)} | "
+                         f"{trial.get('limits', {}).get('violation_ticks')} | "
                          f"{_number(trial.get('stability', {}).get('stable'))} |")
         lines += ["", f"Trials with all three pieces inside: {e2['successful_trials']} of {len(e2['trials'])}; pieces "
                   f"inside: {e2['pieces_inside_total']} of {3 * len(e2['trials'])}; replica F_max = "

@@ -710,7 +710,7 @@ def claims_comparison(cells: list[str], laws: list[str], hand: str = "reactive")
             rows[row["key"]] = row
     without_fit = replace(VerdictCriterion(), forced=ForcedSettings(enabled=False))
     out: dict[str, dict] = {}
-    for key, row in sorted(rows.items()):
+    for _key, row in sorted(rows.items()):
         path = repo / "results" / "claims_runs" / row["series"]
         if not path.exists():
             continue

@@ -46,9 +46,9 @@ def test_every_field_the_live_view_layout_plots_is_a_recorded_topics_field() -> 
     import json
     import re
 
-    from fic_teleop_msgs.msg import FicState, LimitStatus, OperatorTools
     from geometry_msgs.msg import PoseStamped, WrenchStamped
 
+    from fic_teleop_msgs.msg import FicState, LimitStatus, OperatorTools
     from fic_teleop_tools.recording.recorder_node import default_topics
 
     types = {"/ft_sensor/wrench": WrenchStamped, "/haptic/wrench_command": WrenchStamped,

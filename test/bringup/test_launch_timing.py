@@ -8,14 +8,23 @@ from pathlib import Path
 
 import numpy as np
 
-from conftest import REPO
-
-
-from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_INPUT_REFUSED, EXIT_LIMIT_VIOLATIONS, EXIT_OK, \
-    EXIT_STARVED
 from fic_teleop_bringup import run_profile
-from fic_teleop_bringup.launch_timing import LOOP_HEALTH_STATUS, SimulatedWindow, TimingBounds, exit_code, judge_run, \
-    recorded_in_window, timing_verdict
+from fic_teleop_bringup.launch_supervision import (
+    EXIT_CODES,
+    EXIT_INPUT_REFUSED,
+    EXIT_LIMIT_VIOLATIONS,
+    EXIT_OK,
+    EXIT_STARVED,
+)
+from fic_teleop_bringup.launch_timing import (
+    LOOP_HEALTH_STATUS,
+    SimulatedWindow,
+    TimingBounds,
+    exit_code,
+    judge_run,
+    recorded_in_window,
+    timing_verdict,
+)
 from fic_teleop_bringup.workspace import PROFILES
 
 BOUNDS = TimingBounds.from_profile(run_profile.read_layer(PROFILES / "realtime.yaml"))
@@ -146,9 +155,9 @@ def test_the_bags_share_is_of_the_runs_window_on_the_simulations_clock() -> None
 
 def test_judge_run_reads_the_bags_clock_for_its_share(tmp_path: Path) -> None:
     """judge_run reads the bag's /clock stamps and judges their part of the run's window."""
+    from builtin_interfaces.msg import Time
     from rclpy.serialization import serialize_message
     from rosgraph_msgs.msg import Clock
-    from builtin_interfaces.msg import Time
 
     from fic_teleop_tools.recording.bag_writer import BagWriter
 

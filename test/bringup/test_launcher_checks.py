@@ -6,13 +6,19 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from conftest import REPO
 
-LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
+from fic_teleop_bringup.launch_supervision import (
+    EXIT_INPUT_REFUSED,
+    EXIT_JOINT_STATES_LOST,
+    EXIT_LIMIT_VIOLATIONS,
+    EXIT_NODE_FAILED,
+    EXIT_OK,
+    EXIT_REFUSED,
+    safety_verdict,
+)
 
-from fic_teleop_bringup.launch_supervision import EXIT_INPUT_REFUSED, EXIT_JOINT_STATES_LOST, EXIT_LIMIT_VIOLATIONS, \
-    EXIT_NODE_FAILED, EXIT_OK, EXIT_REFUSED, safety_verdict
+LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 
 
 def _launch(tmp_path: Path, *arguments: str, out: Path | None = None) -> subprocess.CompletedProcess:

@@ -1,5 +1,5 @@
-"""The launcher's real-time scheduling (fic_teleop_bringup/realtime_scheduling.py) on a real child process with real threads,
-and the launcher's refusal to overwrite a run: which threads get SCHED_FIFO, that no other does (nor a thread
+"""The launcher's real-time scheduling (fic_teleop_bringup/realtime_scheduling.py) on a real child process with real
+threads, and the launcher's refusal to overwrite a run: which threads get SCHED_FIFO, that no other does (nor a thread
 started later), and what happens when the OS refuses."""
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ import textwrap
 from pathlib import Path
 
 import pytest
-
 from conftest import REPO, SAFETY_KEPT_EXITS
 
 from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler, loop_threads
@@ -131,7 +130,8 @@ def test_the_launcher_refuses_to_overwrite_a_bag(tmp_path: Path) -> None:
 
 
 def test_the_launcher_refuses_fifo_in_lockstep(tmp_path: Path) -> None:
-    result = subprocess.run([sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--out", str(tmp_path / "run"),
+    result = subprocess.run([sys.executable, str(REPO / "scripts" / "teleop_launcher.py"), "--out",
+                             str(tmp_path / "run"),
                              "--time-mode", "lockstep", "--scheduling", "fifo"], capture_output=True, text=True,
                             timeout=60)
     assert result.returncode == 2 and "for realtime runs" in result.stderr

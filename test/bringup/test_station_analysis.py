@@ -37,7 +37,8 @@ def test_a_moved_node_takes_its_stream_to_the_other_station(tmp_path: Path) -> N
     moved = _layout_with_the_planner_in("master")
     assert "/planner/desired_pose" in station_streams(moved)["master"]
     assert "/planner/desired_pose" not in station_streams(moved)["robot"]
-    # the gap statistics read it from the master station's bag: 100 Hz with a 0.31 s gap (5.49 to 5.8 s) inside the cut [5, 6] s
+    # the gap statistics read it from the master station's bag: 100 Hz with a 0.31 s gap (5.49 to 5.8 s) inside the cut
+    # [5, 6] s
     planner = np.concatenate([np.arange(0.0, 5.5, 0.01), np.arange(5.8, 10.0, 0.01)])
     robot = {"logs": {"/joint_states": np.arange(0.0, 10.0, 0.002)}, "messages": {}}
     master = {"logs": {"/planner/desired_pose": planner}, "messages": {}}

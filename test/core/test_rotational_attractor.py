@@ -57,8 +57,8 @@ def test_the_moment_is_minus_the_gradient_of_the_storage_on_so3(profile: ForcePr
             omega, omega_desired = rng.normal(size=3), rng.normal(size=3)
 
             def storage(step: float) -> float:
-                turned = pin.exp3(omega * step) @ robot
-                target = pin.exp3(omega_desired * step) @ desired
+                turned = pin.exp3(omega * step) @ robot  # noqa: B023
+                target = pin.exp3(omega_desired * step) @ desired  # noqa: B023
                 return float(profile.energy(np.linalg.norm(pin.log3(target @ turned.T))))
 
             # The power into the controller: F(theta) d theta/dt = M . (w_d - w) (moment along the axis).

@@ -1,5 +1,5 @@
-"""The bench's summary (fic_teleop_experiments/tools/bench.py) over consecutive default runs: each target counted per run,
-judged against its required share (8 of 10 for latency and loop rates, all for losses, violations and tracking)."""
+"""The bench's summary (fic_teleop_experiments/tools/bench.py) over consecutive default runs: each target counted per
+run, judged against its required share (8 of 10 for latency and loop rates, all for losses, violations and tracking)."""
 from __future__ import annotations
 
 from fic_teleop_experiments.tools import bench

@@ -5,9 +5,17 @@ import math
 
 import pytest
 
-from fic_teleop_experiments.cell_statistics import (Proportion, boschloo_p, cell_statistics, compare_laws, fisher_p,
-                                                    median_and_p95, newcombe_difference_interval, proportion,
-                                                    wilson_interval)
+from fic_teleop_experiments.cell_statistics import (
+    Proportion,
+    boschloo_p,
+    cell_statistics,
+    compare_laws,
+    fisher_p,
+    median_and_p95,
+    newcombe_difference_interval,
+    proportion,
+    wilson_interval,
+)
 
 
 @pytest.mark.parametrize("k, n, low, high", [

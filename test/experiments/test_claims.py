@@ -11,12 +11,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fic_teleop_experiments.claims import (ClaimRun, claim_cells, claim_runs, execute, load_series, save_series,
-                                           dense_cell, tail_for, thinned)
 from fic_teleop_experiments import claims_sweep
+from fic_teleop_experiments.claims import (
+    ClaimRun,
+    claim_cells,
+    claim_runs,
+    dense_cell,
+    execute,
+    load_series,
+    save_series,
+    tail_for,
+    thinned,
+)
 from fic_teleop_experiments.claims import judge_series as claims_sweep_judge
 from fic_teleop_experiments.in_process import run
-
 
 
 def test_a_claim_run_holds_both_directions_at_the_rate_with_the_law_at_full_rate() -> None:
@@ -54,7 +62,8 @@ def test_the_sweep_runs_the_claim_first_and_covers_the_grid_and_the_delay_sweep(
     first = runs[:20]   # seed 1 of both claim cells: every law with both hands
     assert {(r.cell, r.controller, r.hand) for r in first} == {
         (c, law, hand) for c in ("delay_1__rate_10", "delay_1__rate_full")
-        for law in ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa") for hand in ("passive", "reactive")}
+        for law in ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa") for hand in ("passive",
+                                                                                                    "reactive")}
 
 
 def test_every_claim_run_ends_with_its_quiet_tail() -> None:

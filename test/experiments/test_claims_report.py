@@ -182,9 +182,10 @@ def test_an_open_loop_control_is_shown_beside_its_claim_cell_and_left_out_of_the
             "(`delay_1__rate_10__feedback_off`) | reactive | 11/20 ") in block
     assert "| control, not a claim |" in block
     # The tally counts the 3 claim rows only (the control is not a claim).
-    assert "Of these 3 claim rows: 0 reproduced, 1 not reproduced, 0 undecided at the seeds judged so far, 2 without" in block
+    assert ("Of these 3 claim rows: 0 reproduced, 1 not reproduced, 0 undecided at the seeds judged so far, "
+            "2 without") in block
     difference, low, high = newcombe_difference_interval(9, 20, 11, 20)
-    assert (f"fic 9/20 with, 11/20 without; linear" not in block)   # linear has no claim-cell runs: not listed
+    assert ("fic 9/20 with, 11/20 without; linear" not in block)   # linear has no claim-cell runs: not listed
     assert block.rstrip().endswith(f"fic, with minus without: {difference:+.2f} ({low:+.2f} to {high:+.2f}; "
                                    f"p {boschloo_p(9, 20, 11, 20):.3f}).")
     assert "(`delay_1__rate_10`) (reactive hand), " not in block and "fic 9/20 with, 11/20 without." in block

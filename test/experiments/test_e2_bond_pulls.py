@@ -91,7 +91,8 @@ def test_a_result_s_row_names_the_pull_that_broke_the_bond_and_the_forces_there(
              {"piece": "star_prism", "bond_peak_n": 13.3, "broke": True, "law_at_bond_peak_n": 13.1,
               "feedforward_at_bond_peak_n": 0.0}]
     result = {"law": "fic", "jitter": False, "pulls": pulls}
-    assert e2_bond_pulls.pulls_row(result) == "| fic, the graph's twin | 2 | 14.4, 18.2 | at pull 2 | 11.1-12.9 | 1.5-9.0 |"
+    assert e2_bond_pulls.pulls_row(result) == \
+        "| fic, the graph's twin | 2 | 14.4, 18.2 | at pull 2 | 11.1-12.9 | 1.5-9.0 |"
     path = tmp_path / "fic.json"
     path.write_text(json.dumps(dict(result, jitter=True, pulls=pulls[:1])))
     assert e2_bond_pulls.main(["--table", "--results", str(path)]) == 0

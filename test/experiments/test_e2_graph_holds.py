@@ -9,7 +9,6 @@ from pathlib import Path
 from mcap.writer import Writer
 
 from fic_core import command_stamp
-
 from fic_teleop_experiments.e2_graph import pace, stale_holds
 
 EPOCH = 1_800_000_000.0   # [s] wall clock of the run's first step

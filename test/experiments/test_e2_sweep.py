@@ -3,7 +3,6 @@ the paper's Eq. 7, resumption from the jsonl (a line cut short by a stopped run 
 Wilson intervals, and the failed pieces' contact phases (e2_in_process.phase_forces)."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest

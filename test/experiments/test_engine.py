@@ -9,8 +9,13 @@ from concurrent.futures import as_completed
 
 import pytest
 
-from fic_teleop_experiments.engine import (EngineError, add_engine_arguments, engine_from_arguments, make_executor,
-                                           open_engine)
+from fic_teleop_experiments.engine import (
+    EngineError,
+    add_engine_arguments,
+    engine_from_arguments,
+    make_executor,
+    open_engine,
+)
 
 
 def _worker_pid_and_square(value: int) -> tuple[int, int]:

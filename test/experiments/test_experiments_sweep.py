@@ -85,8 +85,8 @@ def _header_stamps(bag: Path, topics) -> dict[str, list[float]]:
     """Header stamps of ``topics`` in the bag, in recording order, straight from the CDR bytes."""
     from mcap.reader import make_reader
 
-    from fic_teleop_tools.recording.bag_reader import mcap_file
     from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
+    from fic_teleop_tools.recording.bag_reader import mcap_file
 
     stamps: dict[str, list[float]] = {topic: [] for topic in topics}
     with open(mcap_file(bag), "rb") as stream:

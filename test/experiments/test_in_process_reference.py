@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 
 from fic_teleop_experiments.claims import ClaimRun
-from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
 from fic_teleop_experiments.in_process import RunConfig, RunResult, run
+from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
 
 REFERENCE = Path(__file__).resolve().parents[1] / "data" / "in_process_reference.json"
 DURATION_S = 2.5

@@ -1,4 +1,5 @@
-"""One reading of a pytest run over a mutant for both mutation tools (fic_teleop_experiments/tools/mutation_verdict.py)."""
+"""One reading of a pytest run over a mutant for both mutation tools
+(fic_teleop_experiments/tools/mutation_verdict.py)."""
 from __future__ import annotations
 
 import subprocess

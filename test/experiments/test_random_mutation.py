@@ -1,6 +1,6 @@
-"""The seeded random mutation run (fic_teleop_experiments/tools/random_mutation.py): on a loaded machine, test/core that does not
-finish on the unmutated tree is one clear line and exit 2 (not a traceback), and kills by the timeout are counted
-apart, as a slow run and a hang look alike when the machine is starved; a score comes only from a held-out draw
+"""The seeded random mutation run (fic_teleop_experiments/tools/random_mutation.py): on a loaded machine, test/core that
+does not finish on the unmutated tree is one clear line and exit 2 (not a traceback), and kills by the timeout are
+counted apart, as a slow run and a hang look alike when the machine is starved; a score comes only from a held-out draw
 (a fitting seed's rate is a fit, a held-out draw's survivors cannot be rerun or its sample listed); a survivor has
 passed all of test/core; the kill rate per law module. The pytest runs are replaced: what is checked is the tool's
 own accounting."""
@@ -100,7 +100,8 @@ def _fake_draws(monkeypatch, verdicts: dict[int, tuple[str, str, float]], module
 
 def test_only_a_held_out_draw_scores_and_each_law_module_gets_its_kill_rate(monkeypatch, tmp_path: Path) -> None:
     verdicts = {10: (KILLED, "test/core/test_limits.py::test_edge", 3.0), 20: ("SURVIVED", "every test passed", 4.0),
-                30: (KILLED, "test/core/test_replica.py::test_x", 2.0), 40: (KILLED, "test/core/test_replica.py::y", 2.0)}
+                30: (KILLED, "test/core/test_replica.py::test_x", 2.0), 40: (KILLED, "test/core/test_replica.py::y",
+                                                                             2.0)}
     _fake_draws(monkeypatch, verdicts, ["limits.py", "limits.py", "replica.py", "replica.py"])
     monkeypatch.setattr(random_mutation, "SEEDS_FILE", _seeds_file(tmp_path, [3], [9]))
     fit, score = random_mutation.run_draws([3, 9], 4, 60.0, [None, tmp_path / "9.json"],

@@ -49,7 +49,8 @@ def e2_sweep_at_200ms() -> dict:
     first n seeds a law: each k is recomputed from results/e2_sweep.jsonl's trials of seeds 1..n, and the FIC's
     interval from them."""
     said = re.search(r"at 200 ms: the default FIC \d+ of (?P<fic>\d+) .*?as written \d+ of (?P<fic_paper_law>\d+) .*?"
-                     r"linear \d+ of (?P<linear>\d+), linear_bounded \d+ of (?P<linear_bounded>\d+), linear_tdpa \d+ of "
+                     r"linear \d+ of (?P<linear>\d+), linear_bounded \d+ of (?P<linear_bounded>\d+), linear_tdpa \d+ "
+                     r"of "
                      r"(?P<linear_tdpa>\d+)", readme_results())
     if said is None:
         return {}
@@ -217,7 +218,8 @@ def above_paper_law() -> dict:
 
 FIGURES = [
     Figure("claims: the passive hand's reproduced rows",
-           r"The whole sweep \(2026-12-05, (?P<runs>[\d,]+) runs\): at 1 s with the link at full rate, and at the paper's 0\.2 s "
+           r"The whole sweep \(2026-12-05, (?P<runs>[\d,]+) runs\): at 1 s with the link at full rate, and at the "
+           r"paper's 0\.2 s "
            r"with the link at 10 Hz, the FIC is stable in (?P<full>\d+/\d+) and (?P<ten>\d+/\d+) runs with the passive",
            lambda: dict(runs=f"{result('claims_statistics.json')['runs_judged']:,}",
                         full=k_n(claim_share("delay_1__rate_full", "passive")),
@@ -239,7 +241,8 @@ FIGURES = [
            r"at 1 s with both 10 Hz and the passive hand, (?P<fic>\d+/\d+) \(undecided\)",
            lambda: dict(fic=k_n(claim_share("delay_1__rate_10", "passive")))),
     Figure("claims: the delay sweep at full rate, both hands",
-           r"the FIC is stable in (?P<passive>[\d, ]+ and \d+) of 20 with the passive hand at 0, 0\.2, 0\.5, 1, 1\.5 and 2 s, "
+           r"the FIC is stable in (?P<passive>[\d, ]+ and \d+) of 20 with the passive hand at 0, 0\.2, 0\.5, 1, 1\.5 "
+           r"and 2 s, "
            r"and (?P<reactive>[\d, ]+ and \d+) with the reactive one",
            lambda: dict(passive=delay_sweep("passive"), reactive=delay_sweep("reactive"))),
     Figure("claims: the delay sweep against the paper's own law",
@@ -257,7 +260,8 @@ FIGURES = [
                         p=one_count_of(p_text(comparison("delay_1.5__rate_full", "passive", b)["boschloo_p"])
                                        for b in ("linear_bounded", "linear_tdpa")))),
     Figure("claims: 2 s at 10 and 5 Hz, reactive hand, against linear_bounded",
-           r"\((?P<fic10>\d+/\d+) against (?P<lb10>\d+/\d+) at 10 Hz, (?P<fic5>\d+/\d+) against (?P<lb5>\d+/\d+) at 5 Hz, "
+           r"\((?P<fic10>\d+/\d+) against (?P<lb10>\d+/\d+) at 10 Hz, (?P<fic5>\d+/\d+) against (?P<lb5>\d+/\d+) at 5 "
+           r"Hz, "
            r"p (?P<p10>[\d.]+) and (?P<p5>[\d.]+)\)",
            lambda: dict(fic10=k_n(claim_share("delay_2__rate_10", "reactive")),
                         lb10=k_n(claim_share("delay_2__rate_10", "reactive", "linear_bounded")),
@@ -282,7 +286,8 @@ FIGURES = [
                         control_02=k_n(claim_share("delay_0.2__rate_10__feedback_off", "reactive")),
                         closed_02=k_n(claim_share("delay_0.2__rate_10", "reactive")))),
     Figure("claims: the replica's resonance under a 10 Hz held command",
-           r"move (?P<fic>[\d.]+) times what it is told at (?P<f>[\d.]+) Hz \(quartiles (?P<q25>[\d.]+)-(?P<q75>[\d.]+)\), "
+           r"move (?P<fic>[\d.]+) times what it is told at (?P<f>[\d.]+) Hz \(quartiles "
+           r"(?P<q25>[\d.]+)-(?P<q75>[\d.]+)\), "
            r"the linear laws' (?P<low>[\d.]+)-(?P<high>[\d.]+)",
            lambda: dict(fic=f"{peak_gain('fic')['peak_gain']:.2f}", f=f"{peak_gain('fic')['peak_frequency_hz']:.1f}",
                         q25=f"{quartiles_at_peak('fic')[0]:.2f}", q75=f"{quartiles_at_peak('fic')[1]:.2f}",
@@ -361,10 +366,12 @@ FIGURES = [
                *cell("evidence_closed_loop_5seeds.json", "delay_1", "fic")["stable_interval_95"],
                *cell("evidence_closed_loop_5seeds.json", "delay_1", "linear")["stable_interval_95"]))))),
     Figure("E2 graph, the replica's default law at 200 ms: trials complete and their interval",
-           r"the FIC completes (?P<complete>\d+) of (?P<trials>\d+) graph trials \(Wilson (?P<low>[\d.]+)-(?P<high>[\d.]+)\)",
+           r"the FIC completes (?P<complete>\d+) of (?P<trials>\d+) graph trials \(Wilson "
+           r"(?P<low>[\d.]+)-(?P<high>[\d.]+)\)",
            lambda: graph_trials("e2_graph_fic.jsonl", r"the FIC completes \d+ of (?P<trials>\d+) graph trials")),
     Figure("E2 graph, the replica's default law: pieces, their interval, peak forces",
-           r"default law (?P<inside>\d+) of (?P<pieces>\d+) pieces \((?P<low>[\d.]+)-(?P<high>[\d.]+)\), .{0,30}?, peak "
+           r"default law (?P<inside>\d+) of (?P<pieces>\d+) pieces \((?P<low>[\d.]+)-(?P<high>[\d.]+)\), .{0,30}?, "
+           r"peak "
            r"(?P<peak_low>[\d.]+)-(?P<peak_high>[\d.]+) N",
            lambda: dict(inside=str(sum(len(t["pieces_inside"]) for t in jsonl("e2_graph_fic.jsonl"))),
                         pieces=str(3 * len(jsonl("e2_graph_fic.jsonl"))),

@@ -1,5 +1,5 @@
-"""The starvation harness's reading of a run (fic_teleop_experiments/tools/stress.py), without a run: the runaway figures from a
-bag's joint states, the per-level summary, the levels and the refusals. The throttled run itself:
+"""The starvation harness's reading of a run (fic_teleop_experiments/tools/stress.py), without a run: the runaway
+figures from a bag's joint states, the per-level summary, the levels and the refusals. The throttled run itself:
 test/nodes/test_starved_run.py."""
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""fic_teleop_experiments.tools.torque_hold on a bag made here: how long each torque stayed applied on the arm's clock, and the
-gaps between the states the commands were computed on."""
+"""fic_teleop_experiments.tools.torque_hold on a bag made here: how long each torque stayed applied on the arm's clock,
+and the gaps between the states the commands were computed on."""
 from __future__ import annotations
 
 from pathlib import Path

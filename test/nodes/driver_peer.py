@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+
 class Peer:
     """A test-side node with an executor; spins until a condition holds or a deadline passes."""
 

@@ -5,7 +5,9 @@ from __future__ import annotations
 import time
 
 from conftest import REPO
+
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
+
 
 def replica_env(ros_env: dict[str, str]) -> dict[str, str]:
     """The fixture's environment plus colcon's develop-mode build folder, where the entry point's metadata lives
@@ -22,12 +24,13 @@ class Robot:
 
     def __init__(self, context) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
-        from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
         from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64MultiArray
+
+        from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 
         stream = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
         status = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)

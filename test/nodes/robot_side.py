@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import rclpy
+from conftest import CONFIG, REPO, NodeProcess, installed_executable
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from conftest import CONFIG, REPO, NodeProcess, installed_executable
 from fic_core.panda_description import load_pinocchio_model
 
 QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
@@ -59,7 +59,8 @@ class Controller:
         self.states.append(message)
         if self.answering:
             q, qd = np.array(message.position), np.array(message.velocity)
-            torque = pin.computeGeneralizedGravity(self.model, self.data, q) - 2.0 * qd + 0.5 * np.sin(len(self.sent) / 50.0)
+            torque = pin.computeGeneralizedGravity(self.model, self.data,
+                                                   q) - 2.0 * qd + 0.5 * np.sin(len(self.sent) / 50.0)
             torque = torque + self.push
             self.sent.append(torque)
             self.publisher.publish(self._message(data=torque.tolist()))

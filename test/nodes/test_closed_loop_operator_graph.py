@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import run_launcher
+
 from sim_bridge.robot.scenes import CIRCLE_CENTRE, PUSHABLE_OBSTACLE_POSITION
 
 pytestmark = pytest.mark.nodes

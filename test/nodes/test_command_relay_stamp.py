@@ -7,14 +7,12 @@ the robot: a relay that sent the data alone would make every torque, however sta
 from __future__ import annotations
 
 import pytest
-
 from conftest import CONFIG
 from driver_peer import Peer, qos
 
 rclpy = pytest.importorskip("rclpy")
 
 from fic_core import command_stamp  # noqa: E402
-
 
 
 def test_the_relay_forwards_the_commands_state_stamp(start_node, ros_env, rclpy_context) -> None:

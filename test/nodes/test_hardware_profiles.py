@@ -17,7 +17,6 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import CONFIG
 from driver_peer import Peer, qos
 from replica_side import replica_env
@@ -26,7 +25,6 @@ rclpy = pytest.importorskip("rclpy")
 
 from fic_core.arm_profile import FR3  # noqa: E402
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION  # noqa: E402
-
 
 FRANKA_WRENCH = "/franka_robot_state_broadcaster/external_wrench_in_base_frame"
 
@@ -37,10 +35,11 @@ def _replica_ros_args() -> list[str]:
 
 
 def test_replica_under_the_franka_profile(start_node, ros_env, rclpy_context) -> None:
-    from fic_teleop_msgs.msg import TeleoperationCommand
     from geometry_msgs.msg import WrenchStamped
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
+
+    from fic_teleop_msgs.msg import TeleoperationCommand
 
     # joint_state_timeout 0.5 s instead of the profile's 50 ms: a test process on a loaded 2-core machine is no
     # 1 kHz driver (its gaps alone engaged the ramp); the ramp itself is the same code.
@@ -212,7 +211,6 @@ def test_fd_adapter(start_node, ros_env, rclpy_context) -> None:
 
     # The pose stream stops while the master still sends its force: x_M stops, the force ramps to zero.
     drive(0.5)
-    stopped = time.monotonic()
     deadline = time.monotonic() + 1.0
     while time.monotonic() < deadline:  # the master's force keeps coming; the device's pose does not
         wrench = WrenchStamped()

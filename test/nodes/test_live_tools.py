@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 import yaml
-
 from conftest import CONFIG, REPO, NodeProcess, installed_executable, isolated_env, reserved_domain
+
 from fic_teleop_runtime.params_file import write_node_params
 
 pytestmark = pytest.mark.nodes

@@ -14,11 +14,11 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 fic_teleop_msgs = pytest.importorskip("fic_teleop_msgs.msg")
+from conftest import CONFIG  # noqa: E402
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped  # noqa: E402
+from master_peer import JOY_QOS, QOS, STARTUP_TIMEOUT, Peer  # noqa: E402
 from sensor_msgs.msg import Joy  # noqa: E402
 
-from conftest import CONFIG  # noqa: E402
-from master_peer import JOY_QOS, QOS, STARTUP_TIMEOUT, Peer  # noqa: E402
 from fic_core.profile import ForceProfile  # noqa: E402
 
 pytestmark = pytest.mark.nodes

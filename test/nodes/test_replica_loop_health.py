@@ -5,7 +5,6 @@ healthy ticks, said too; every torque names the joint state it was computed on (
 from __future__ import annotations
 
 import pytest
-
 from conftest import CONFIG
 from replica_side import Robot, replica_env
 

@@ -11,7 +11,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import CONFIG
 from replica_side import Robot, replica_env
 

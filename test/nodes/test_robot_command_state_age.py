@@ -3,12 +3,10 @@ names a joint state older than the bound is refused (never applied, the watchdog
 state is applied. The arm is pushed 20 N m on joint 1 by the refused commands and must not move."""
 from __future__ import annotations
 
-from robot_side import Controller, stamp_ns, start_robot
-
 import numpy as np
 import pinocchio as pin
 import pytest
-
+from robot_side import Controller, stamp_ns, start_robot
 
 rclpy = pytest.importorskip("rclpy")
 

@@ -2,7 +2,6 @@
 applies are the ones sent, bad commands are refused, and the watchdog holds the arm when commands stop."""
 from __future__ import annotations
 
-
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -10,6 +9,7 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 
 from robot_side import QOS, Controller, stamp_ns, start_robot  # noqa: E402
+
 from sim_bridge.robot.mujoco_panda import HOLD_DAMPING  # noqa: E402
 
 

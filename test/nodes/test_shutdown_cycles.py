@@ -15,7 +15,6 @@ import time
 from pathlib import Path
 
 import pytest
-
 from conftest import CONFIG, installed_executable
 
 from fic_teleop_bringup.launch_supervision import die_with_launcher

@@ -11,7 +11,6 @@ import time
 from pathlib import Path
 
 import pytest
-
 from conftest import INSTALL, REPO, installed_executable
 
 NODE_PACKAGES = ("fic_teleop_master", "fic_teleop_replica", "fic_teleop_planner", "sim_bridge", "fic_teleop_tools")

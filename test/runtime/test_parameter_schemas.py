@@ -7,7 +7,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
 from conftest import REPO
 
 CONFIG = REPO / "config"
@@ -18,9 +17,9 @@ def _schemas() -> dict[str, object]:
     from fic_teleop_planner import planner_node
     from fic_teleop_replica import command_relay_node
     from fic_teleop_replica import schema as replica
+    from fic_teleop_tools.recording import recorder_node
     from sim_bridge.channel import channel_node
     from sim_bridge.device import haptic_device_node, keyboard_operator
-    from fic_teleop_tools.recording import recorder_node
     from sim_bridge.robot import robot_node
 
     return {"replica": replica.SCHEMA, "master": master_node.SCHEMA, "fd_adapter": fd_adapter_node.SCHEMA,

@@ -9,8 +9,13 @@ import pytest
 from fic_core.errors import FicInputError
 from fic_core.teleoperation import TeleoperationCommandIntegrator
 from sim_bridge.channel.channel import Channel, ChannelConfig
-from sim_bridge.device.shape_sorting_operator import (ShapeSortingOperator, ShapeSortingParameters, SortingFrame,
-                                                      _RAMP_SHAPE, velocity_step)
+from sim_bridge.device.shape_sorting_operator import (
+    _RAMP_SHAPE,
+    ShapeSortingOperator,
+    ShapeSortingParameters,
+    SortingFrame,
+    velocity_step,
+)
 from sim_bridge.device.virtual_operator import BUTTON_TOGGLE_MODE
 from sim_bridge.robot.scenes import PIECE_HEIGHT, SHAPE_SORTING_PIECES
 

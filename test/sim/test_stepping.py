@@ -25,7 +25,7 @@ def _lockstep_run(scene: str, seed: int) -> np.ndarray:
     def controller() -> None:
         for k in range(STEPS):
             with ready:
-                ready.wait_for(lambda: len(published) > k)
+                ready.wait_for(lambda: len(published) > k)  # noqa: B023
                 q, qd, hold = published[k]
             target = NOMINAL_CONFIGURATION + 0.2 * np.sin(np.arange(7) + k * 0.01)
             gate.deliver(hold + 20.0 * (target - q) - 2.0 * qd)

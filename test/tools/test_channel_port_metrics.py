@@ -1,5 +1,5 @@
-"""metrics.json's live passivity figures from the bag's /diagnostics (fic_teleop_tools.report.metrics): the channel ports'
-balance and per-direction figures, and the FIC ports' exchanged energy, from each status's last key-values."""
+"""metrics.json's live passivity figures from the bag's /diagnostics (fic_teleop_tools.report.metrics): the channel
+ports' balance and per-direction figures, and the FIC ports' exchanged energy, from each status's last key-values."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -9,8 +9,8 @@ import av
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from dataset_runs import START_NS, stamp_seconds, write_run
+
 from fic_teleop_runtime.episode_markers import MarkerError, outcome
 from fic_teleop_tools.cli.__main__ import main as fic
 from fic_teleop_tools.dataset.frame_sampling import SamplingError, common_span, frame_times, held_indices

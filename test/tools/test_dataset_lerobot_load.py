@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import REPO
+
 from fic_teleop_tools.cli.__main__ import main as fic
 
 RUN = REPO / "test" / "data" / "e1_lockstep_4s"

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from fic_core.teleoperation import TeleoperationMode
-from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
 from fic_teleop_experiments.in_process import RunResult
+from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
 
 DELAY = 0.2
 RATE = 100.0

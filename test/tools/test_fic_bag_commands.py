@@ -6,9 +6,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from conftest import REPO
 from rclpy.serialization import serialize_message
 
-from conftest import REPO
 from fic_teleop_tools.recording.bag_reader import read_messages
 from fic_teleop_tools.recording.bag_writer import BagWriter
 

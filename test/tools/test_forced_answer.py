@@ -14,10 +14,17 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete, lfilter
 
+from fic_teleop_experiments.verdict_cases import (
+    HAND_DAMPING,
+    HAND_STIFFNESS,
+    HANDLE_MASS,
+    RESONANT_MASS,
+    replica_limit_cycle,
+    resonance,
+    resonant_plant,
+)
 from fic_teleop_tools.verdict.forced_answer import Channel, ForcedSettings, fit, free_oscillation_period
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, judge
-from fic_teleop_experiments.verdict_cases import (HAND_DAMPING, HAND_STIFFNESS, HANDLE_MASS, RESONANT_MASS, resonance,
-                                                  resonant_plant, replica_limit_cycle)
 
 
 def _second_order(u: np.ndarray, natural_hz: float, damping_ratio: float, step: float) -> np.ndarray:

@@ -52,6 +52,7 @@ def _pipeline_ms(k: int) -> float:
 def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
     from fic_teleop_tools.recording.bag_writer import find_interface_file
 
     store = get_typestore(Stores.ROS2_JAZZY)
@@ -60,7 +61,8 @@ def synthetic_bag(tmp_path_factory) -> tuple[Path, dict]:
         store.register(get_types_from_msg(find_interface_file(type_name).read_text(), type_name))
     T = store.types
     Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
-    Point, Quaternion, Pose = T["geometry_msgs/msg/Point"], T["geometry_msgs/msg/Quaternion"], T["geometry_msgs/msg/Pose"]
+    Point, Quaternion = T["geometry_msgs/msg/Point"], T["geometry_msgs/msg/Quaternion"]
+    Pose = T["geometry_msgs/msg/Pose"]
     Vector3, Wrench = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Wrench"]
 
     def time_of(ns: int):

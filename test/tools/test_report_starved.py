@@ -21,6 +21,7 @@ def _bag(path: Path, *, seconds: float, limit_status_ticks: int | None = None, r
     ``poses_until`` s."""
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
     from fic_teleop_tools.recording.bag_writer import find_interface_file
 
     store = get_typestore(Stores.ROS2_JAZZY)

@@ -25,6 +25,7 @@ BASE_NS = 10 * 1_000_000_000
 def write_bag(folder: Path, amplitude: float, reflex: str) -> Path:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
     from fic_teleop_tools.recording.bag_writer import find_interface_file
 
     store = get_typestore(Stores.ROS2_JAZZY)
@@ -97,7 +98,8 @@ def bags(tmp_path_factory):
 
 def test_the_report_prints_both_verdicts_with_reasons(bags, tmp_path):
     out = tmp_path / "report"
-    result = subprocess.run([sys.executable, "-m", "fic_teleop_tools.report", str(bags["oscillating"]), "--out", str(out),
+    result = subprocess.run([sys.executable, "-m", "fic_teleop_tools.report", str(bags["oscillating"]), "--out",
+                             str(out),
                              "--delay", str(DELAY)], capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     assert "[verdict] one-way delay 0.2 s: NOT STABLE; SAFE" in result.stdout

@@ -17,12 +17,19 @@ import numpy as np
 import pytest
 
 from fic_teleop_experiments.in_process import RunResult
+from fic_teleop_experiments.verdict_cases import (
+    bilateral,
+    cases,
+    critical_delay,
+    critical_gain,
+    delayed_feedback,
+    loop_gain_peak,
+    resonant_plant,
+    with_limit_cycle,
+)
 from fic_teleop_tools.verdict.forced_answer import ForcedSettings
 from fic_teleop_tools.verdict.oscillation_scan import ScanSettings, scan
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput, VerdictInputError, judge
-from fic_teleop_experiments.verdict_cases import (bilateral, cases, critical_delay, critical_gain, delayed_feedback,
-                                                  delayed_spring_damper, loop_gain_peak, resonant_plant,
-                                                  with_limit_cycle)
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -4,8 +4,8 @@
 
 1. Replica tick compute (median, p99): bench_core.py (the control law alone, in process).
 2. The default main job, timed end to end: `scripts/run_teleop.sh` with its defaults (superimposition, 200 ms, 30 s,
-   realtime, report included; only --out is added, the launcher reserves the domain). While it runs, every node process the
-   launcher started is sampled with psutil every 0.5 s: CPU share (CPU seconds / wall seconds, 100 % = one core)
+   realtime, report included; only --out is added, the launcher reserves the domain). While it runs, every node process
+   the launcher started is sampled with psutil every 0.5 s: CPU share (CPU seconds / wall seconds, 100 % = one core)
    and peak resident memory (RSS). From its metrics.json: pipeline latency (median, p99) and real-time factor; from
    its bag: the realtime step lateness of the robot sim (/sim/step_lateness, the worst step of each 0.1 s, and the
    robot_sim diagnostics' 10 s p50/p99); and the achieved rate of every loop as a fraction of its nominal rate
@@ -18,13 +18,13 @@
 Every figure depends on the machine's load (a 2-core VM shared with other work): the load average is written next
 to them.
 
---stress LEVELS (e.g. 150,100,70,50: % of one CPU) instead runs the starvation harness (fic_teleop_experiments/tools/stress.py):
-per level, --runs single-host runs and --two-stations-runs two-station runs of the default main job under a cgroup
-CPU quota at that level (the whole graph, or --stress-node alone; optional pinned --hogs), the levels taken in
-turn so that a change of the machine's load falls on all of them, and per level: runaways, runs with limit
-violations (and how many of those held), the replica's holds, RTF, the slowest loop, the free-motion error, the
-exit codes and how many runs the launcher flagged as starved (exit 6). Written to results/stress.json by default.
-Needs root.
+--stress LEVELS (e.g. 150,100,70,50: % of one CPU) instead runs the starvation harness
+(fic_teleop_experiments/tools/stress.py): per level, --runs single-host runs and --two-stations-runs two-station runs of
+the default main job under a cgroup CPU quota at that level (the whole graph, or --stress-node alone; optional pinned
+--hogs), the levels taken in turn so that a change of the machine's load falls on all of them, and per level: runaways,
+runs with limit violations (and how many of those held), the replica's holds, RTF, the slowest loop, the free-motion
+error, the exit codes and how many runs the launcher flagged as starved (exit 6). Written to results/stress.json by
+default. Needs root.
 """
 from __future__ import annotations
 
@@ -48,10 +48,9 @@ import psutil
 REPO = Path(__file__).resolve().parents[3]
 os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
 
+from fic_teleop_experiments.runner import write_json  # noqa: E402
 from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS  # noqa: E402
 from fic_teleop_tools.verdict.bag_series import read_run  # noqa: E402
-from fic_teleop_experiments.runner import write_json  # noqa: E402
-
 
 LAUNCHER_PROCESS = "launcher"      # the sampler's root: scripts/run_teleop.sh execs the launcher
 LAUNCHER_NODE = "fic_teleop_launcher"   # its node on the graph (it reads /clock)
@@ -201,7 +200,8 @@ def cpu_budget(nodes: dict[str, dict], metrics: dict, census: dict | None) -> di
 
 def bench_core(ticks: int, out: Path) -> dict:
     path = out / "bench_core.json"
-    subprocess.run([sys.executable, "-m", "fic_teleop_experiments.tools.bench_core", "--ticks", str(ticks), "--json", str(path)],
+    subprocess.run([sys.executable, "-m", "fic_teleop_experiments.tools.bench_core", "--ticks", str(ticks), "--json",
+                    str(path)],
                    check=True, cwd=REPO, stdout=subprocess.DEVNULL)
     return json.loads(path.read_text())
 
@@ -354,7 +354,8 @@ def main(argv: list[str] | None = None) -> int:
     core = bench_core(args.ticks, runs_dir)
     result["replica_tick_us"] = {key: core["replica"].get(key) for key in ("median_us", "p99_us", "max_us", "count")}
     cpu_only = core.get("replica (CPU time)") or {}
-    result["replica_tick_cpu_time_us"] = {key: cpu_only.get(key) for key in ("median_us", "p99_us")} if cpu_only else None
+    result["replica_tick_cpu_time_us"] = {key: cpu_only.get(key) for key in ("median_us",
+                                                                             "p99_us")} if cpu_only else None
     result["commands"]["replica_tick"] = f"python -m fic_teleop_experiments.tools.bench_core --ticks {args.ticks}"
 
     if not args.skip_default:
@@ -396,8 +397,16 @@ def main(argv: list[str] | None = None) -> int:
 
 def stress_bench(args: argparse.Namespace, launcher_args: list[str], out: Path) -> int:
     """--stress: the harness's runs, level by level in turn (module docstring), summarised per level."""
-    from fic_teleop_experiments.tools.stress import DEFAULT_PERIOD_US, DEFAULT_SHARES, StressError, level_summary, parse_levels, \
-        resumed, run_figures, stressed_run
+    from fic_teleop_experiments.tools.stress import (
+        DEFAULT_PERIOD_US,
+        DEFAULT_SHARES,
+        StressError,
+        level_summary,
+        parse_levels,
+        resumed,
+        run_figures,
+        stressed_run,
+    )
 
     levels = parse_levels(args.stress)
 
@@ -407,7 +416,8 @@ def stress_bench(args: argparse.Namespace, launcher_args: list[str], out: Path) 
     cpus = [int(c) for c in args.hog_cpus.split(",") if c.strip()] or None
     period = args.period_us or DEFAULT_PERIOD_US
     result: dict = {"generated": datetime.now().isoformat(timespec="seconds"), "levels_percent_of_one_cpu": levels,
-                    "node": args.stress_node, "spare": args.spare, "hogs": args.hogs, "hog_cpus": cpus, "period_us": period,
+                    "node": args.stress_node, "spare": args.spare, "hogs": args.hogs, "hog_cpus": cpus,
+                    "period_us": period,
                     "shares": DEFAULT_SHARES, "launcher_args": launcher_args, "runs_dir": str(runs_dir),
                     "machine": {"cpus": os.cpu_count(), "load_average_at_start": list(os.getloadavg())},
                     "command": "scripts/bench.sh " + " ".join(shlex.quote(a) for a in sys.argv[1:]), "runs": []}
@@ -475,7 +485,8 @@ def stress_markdown(result: dict) -> str:
     lines = [f"Stress bench {result['generated']}: `{result['command']}`; quota period {result['period_us']} us on "
              f"{throttled}{hogs}; load average {load} ({machine['cpus']} cores).", "",
              "| runs | level (% of one CPU) | n | runaways | lost tracking | with violations (held) | with holds "
-             "| flagged starved | exit codes | RTF min / med / max | slowest loop min / med / max | bag's share of the run min / med "
+             "| flagged starved | exit codes | RTF min / med / max | slowest loop min / med / max | bag's share of the "
+             "run min / med "
              "| error max mm min / med / max | error RMS mm med | max joint speed / datasheet |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
@@ -526,8 +537,10 @@ def markdown(result: dict) -> str:
                   f"{', '.join(f'{k[:-8]} {v}' for k, v in (default.get('machine_cpu_during_run') or {}).items())} | "
                   f"psutil.cpu_times() before and after |",
                   f"| realtime step lateness p50 / p99 / max (robot_sim, last 10 s) | "
-                  f"{late.get('lateness_p50_ms', float('nan')):.2f} / {late.get('lateness_p99_ms', float('nan')):.2f} / "
-                  f"{late.get('lateness_max_ms', float('nan')):.1f} ms; achieved {late.get('achieved_rate_hz', float('nan')):.0f} Hz"
+                  f"{late.get('lateness_p50_ms', float('nan')):.2f} / {late.get('lateness_p99_ms', float('nan')):.2f} "
+                  "/ "
+                  f"{late.get('lateness_max_ms', float('nan')):.1f} ms; achieved "
+                  f"{late.get('achieved_rate_hz', float('nan')):.0f} Hz"
                   f" | same run's bag (/diagnostics) |",
                   f"| /sim/step_lateness (worst step per 0.1 s), median / p99 | "
                   f"{late.get('step_lateness_topic_worst_per_100ms_median_ms', float('nan')):.2f} / "
@@ -608,7 +621,8 @@ def print_budget(run: dict, label: str) -> None:
         print(f"  {name:<34} {row['cpu_s']:>7} {row['cpu_s_per_simulated_s']!s:>11} "
               f"{row.get('published_per_s', ''):>11} {row.get('received_per_s', ''):>10}")
     if budget.get("topics_not_in_the_bag"):
-        print(f"  (messages of topics the bag does not hold are not counted: {', '.join(budget['topics_not_in_the_bag'])})")
+        print("  (messages of topics the bag does not hold are not counted: "
+              f"{', '.join(budget['topics_not_in_the_bag'])})")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,8 @@ subscribed to every topic for the whole run; each node's CPU time (psutil) and t
 lost (the report's dropped_joint_states). The machine's load is printed with it: on a shared 2-core machine
 compare the two runs of one call only.
 
-usage: python -m fic_teleop_experiments.tools.bench_live_view [--duration 30] [--port 8765] [--out runs/bench-live-<time>]
+usage: python -m fic_teleop_experiments.tools.bench_live_view [--duration 30] [--port 8765] [--out
+runs/bench-live-<time>]
 """
 from __future__ import annotations
 

@@ -17,8 +17,9 @@ import tempfile
 import time
 from pathlib import Path
 
-import sim_bridge  # noqa: F401  (selects EGL before mujoco is imported)
 import numpy as np
+
+import sim_bridge  # noqa: F401  (selects EGL before mujoco is imported)
 
 REPO = Path(__file__).resolve().parents[3]
 

@@ -1,10 +1,11 @@
 """Hostile-but-fair probes of a running graph, from an outside process on its ROS domain (docs/SECURITY.md).
 
-    python -m fic_teleop_experiments.tools.fault_probes teleop --offset 10 10 10 --seconds 1.5   # x_d' far outside the workspace
-    python -m fic_teleop_experiments.tools.fault_probes teleop --stamp-offset 1e6                 # stamped 10^6 s in the future
-    python -m fic_teleop_experiments.tools.fault_probes teleop --epoch-zero                       # stamped at epoch 0
-    python -m fic_teleop_experiments.tools.fault_probes teleop --mode 7 --haptic-gain 50 --velocity-gain 1e6
-    python -m fic_teleop_experiments.tools.fault_probes joint-states --seconds 2 --rate 500 --shift 0.3   # a second writer
+    python -m fic_teleop_experiments.tools.fault_probes teleop --offset 10 10 10 --seconds 1.5   # x_d' far outside the
+    workspace python -m fic_teleop_experiments.tools.fault_probes teleop --stamp-offset 1e6                 # stamped
+    10^6 s in the future python -m fic_teleop_experiments.tools.fault_probes teleop --epoch-zero                       #
+    stamped at epoch 0 python -m fic_teleop_experiments.tools.fault_probes teleop --mode 7 --haptic-gain 50
+    --velocity-gain 1e6 python -m fic_teleop_experiments.tools.fault_probes joint-states --seconds 2 --rate 500 --shift
+    0.3   # a second writer
 
 Run it with the graph's ROS_DOMAIN_ID (the launcher prints it). Each probe publishes for ``--seconds`` at
 ``--rate`` and exits; what the replica did is in its log, on /diagnostics and in the bag. The node tests run these
@@ -38,8 +39,9 @@ def _publish_for(node, publisher, make_message, seconds: float, rate: float) -> 
 
 
 def teleop(node, args) -> int:
-    from fic_teleop_msgs.msg import TeleoperationCommand
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    from fic_teleop_msgs.msg import TeleoperationCommand
 
     qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
     publisher = node.create_publisher(TeleoperationCommand, "/replica/teleop_command", qos)
@@ -62,9 +64,10 @@ def teleop(node, args) -> int:
 
 
 def joint_states(node, args) -> int:
-    from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
+
+    from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
 
     qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
     publisher = node.create_publisher(JointState, "/joint_states", qos)

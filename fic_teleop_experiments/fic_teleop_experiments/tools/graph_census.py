@@ -63,7 +63,8 @@ def message_budget(endpoints: dict[str, dict[str, list[str]]], counts: dict[str,
             table[name]["published_per_s"] += rate * sum(node in nodes for node in ends["publishers"])
             table[name]["received_per_s"] += rate * sum(node in nodes for node in ends["subscribers"])
     for row in table.values():
-        row["published_per_s"], row["received_per_s"] = round(row["published_per_s"], 1), round(row["received_per_s"], 1)
+        row["published_per_s"], row["received_per_s"] = round(row["published_per_s"], 1), round(row["received_per_s"],
+                                                                                                1)
     return table, unrecorded
 
 

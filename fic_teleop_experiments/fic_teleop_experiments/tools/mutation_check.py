@@ -7,10 +7,11 @@ PYTHONPATH, stopping at the first failure. A mutation that no test catches is re
 exits 1 if any did: every deliberate break must be caught by at least one test.
 
     source scripts/env.sh && python -m fic_teleop_experiments.tools.mutation_check   # all mutations
-    python -m fic_teleop_experiments.tools.mutation_check -k attractor               # those whose name contains "attractor"
-    python -m fic_teleop_experiments.tools.mutation_check --list                     # names only
-    python -m fic_teleop_experiments.tools.mutation_check --patches                  # only: does every patch still apply?
-    python -m fic_teleop_experiments.tools.mutation_check --table                    # and a Markdown table at the end
+    python -m fic_teleop_experiments.tools.mutation_check -k attractor               # those whose name contains
+    "attractor" python -m fic_teleop_experiments.tools.mutation_check --list                     # names only
+    python -m fic_teleop_experiments.tools.mutation_check --patches                  # only: does every patch still
+    apply? python -m fic_teleop_experiments.tools.mutation_check --table                    # and a Markdown table at
+    the end
 
 A patch whose text is no longer found in the source (the code changed) is reported as STALE and also fails the
 check, so that the list is kept in step with the code.
@@ -197,7 +198,8 @@ MUTATIONS = [
              [("        drive += posture_joint_torque\n", "        drive += 0.0 * posture_joint_torque\n")],
              ["test/core/test_oracles.py"]),
     Mutation("replica feedforward: Lambda a_d dropped", "replica.py",
-             [("            task_force += feedforward_wrench\n", "            task_force += 0.0 * feedforward_wrench\n")],
+             [("            task_force += feedforward_wrench\n",
+               "            task_force += 0.0 * feedforward_wrench\n")],
              ["test/core/test_oracles.py"]),
     Mutation("replica friction compensation: not bounded at the joint speed limits", "replica.py",
              [("robot.joint_damping * np.minimum(np.maximum(desired_joint_velocity, -velocity_limit),\n"
@@ -323,7 +325,8 @@ MUTATIONS = [
              ["test/core/test_command_watchdog.py"]),
     # --- the delayed channel's passivity observer and controllers (time-domain passivity) ----------------------
     Mutation("channel observer: W from this side's own E_in", "channel_passivity_observer.py",
-             [("return self.received_input_energy - self.output_energy", "return self.input_energy - self.output_energy")],
+             [("return self.received_input_energy - self.output_energy",
+               "return self.input_energy - self.output_energy")],
              ["test/core/test_channel_passivity.py"]),
     Mutation("channel observer: a late, older E_in lowers the received one", "channel_passivity_observer.py",
              [("        if value > self.received_input_energy:\n", "        if True:\n")],
@@ -332,7 +335,8 @@ MUTATIONS = [
              [("return self.energy - max(-power, 0.0) * dt", "return self.energy")],
              ["test/core/test_channel_passivity.py"]),
     Mutation("channel observer: input and output energies swapped", "channel_passivity_observer.py",
-             [("        if power > 0.0:\n            self.input_energy", "        if power < 0.0:\n            self.input_energy")],
+             [("        if power > 0.0:\n            self.input_energy", "        if power < 0.0:\n            "
+                                                                         "self.input_energy")],
              ["test/core/test_channel_passivity.py"]),
     Mutation("force-port controller: damper adds energy (F + alpha v)", "passivity_controller.py",
              [("damped = force - self.damping * velocity", "damped = force + self.damping * velocity")],

@@ -30,7 +30,13 @@ from pathlib import Path
 import numpy as np
 
 from fic_core.attractor import FractalAttractor
-from fic_teleop_experiments.tools.passivity_oracle import judge, random_cycles, random_profile, shipped_profiles, storage_for
+from fic_teleop_experiments.tools.passivity_oracle import (
+    judge,
+    random_cycles,
+    random_profile,
+    shipped_profiles,
+    storage_for,
+)
 
 
 def orientation_table(speed: float) -> list[dict[str, float]]:
@@ -95,9 +101,9 @@ def held_table() -> list[dict[str, float | str]]:
 
             def observed(error: np.ndarray, rate: np.ndarray) -> np.ndarray:
                 nonlocal position
-                moment = attractor.moment(error, rate)
-                position = position + rate * dt
-                observer.observe(moment, position, storage(attractor.snapshot().scalar))
+                moment = attractor.moment(error, rate)  # noqa: B023
+                position = position + rate * dt  # noqa: B023
+                observer.observe(moment, position, storage(attractor.snapshot().scalar))  # noqa: B023
                 return moment
 
             drive_loop(observed, loop_rotation_vectors(amplitude, 1.0, dt), dt)

@@ -36,9 +36,9 @@ def shipped_profiles() -> dict[str, ForceProfile]:
     found: dict[str, ForceProfile] = {}
     for path in sorted((REPO / "config").rglob("*.yaml")):
         document = yaml.safe_load(path.read_text()) or {}
-        for node, body in document.items():
+        for _node, body in document.items():
             parameters = (body or {}).get("ros__parameters", {}) if isinstance(body, dict) else {}
-            for key, value in parameters.items():
+            for key, _value in parameters.items():
                 if not key.endswith("saturation_error"):
                     continue
                 prefix = key[: -len("saturation_error")]
@@ -54,7 +54,8 @@ def random_profile(rng: np.random.Generator) -> ForceProfile:
     saturation_error = float(rng.uniform(0.002, 1.0))
     saturation_start = 0.0 if rng.random() < 0.2 else float(rng.uniform(0.0, 0.95))
     start_force = saturation_start * stiffness * saturation_error
-    max_force = start_force + (0.0 if rng.random() < 0.1 else float(rng.uniform(0.0, 3.0)) * stiffness * saturation_error)
+    max_force = start_force + (0.0 if rng.random() < 0.1 else float(rng.uniform(0.0,
+                                                                                3.0)) * stiffness * saturation_error)
     return ForceProfile(stiffness, saturation_error, saturation_start, max(max_force, 1e-9))
 
 

@@ -33,11 +33,12 @@ every held-out seed, one JSON each, and prints the kill rate per law module over
 draws a seed in neither set. ``--law`` draws from the control-law modules only (``LAW_MODULES``), where the score
 is wanted; the result gives the kill rate per module either way.
 
-    source scripts/env.sh && python -m fic_teleop_experiments.tools.random_mutation --seed 1 --sample 60 [--out OUT.json]
-    python -m fic_teleop_experiments.tools.random_mutation --law --held-out --out-dir results   # the score, one JSON a seed
-    python -m fic_teleop_experiments.tools.random_mutation --table results/random_mutation_held_out_*.json  # per module
-    python -m fic_teleop_experiments.tools.random_mutation --count          # how many sites fic_core has, per kind
-    python -m fic_teleop_experiments.tools.random_mutation --seed 3 --sample 60 --list   # a fitting sample, without running it
+    source scripts/env.sh && python -m fic_teleop_experiments.tools.random_mutation --seed 1 --sample 60 [--out
+    OUT.json] python -m fic_teleop_experiments.tools.random_mutation --law --held-out --out-dir results   # the score,
+    one JSON a seed python -m fic_teleop_experiments.tools.random_mutation --table
+    results/random_mutation_held_out_*.json  # per module python -m fic_teleop_experiments.tools.random_mutation --count
+    # how many sites fic_core has, per kind python -m fic_teleop_experiments.tools.random_mutation --seed 3 --sample 60
+    --list   # a fitting sample, without running it
 
 Exits 1 when the kill rate of the non-equivalent mutants is below --require (default 0.9). A mutant pytest could
 not judge (mutation_verdict.py: ERROR) counts in neither the kills nor the survivors; exits 2 when test/core fails,

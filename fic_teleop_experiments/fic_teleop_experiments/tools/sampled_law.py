@@ -8,10 +8,12 @@ wrist would), and from then on the law ticks every ``period`` on fresh states, i
 the period, per joint the peak |qd| over the run after the kick as a fraction of its datasheet speed, and the peak
 in the last second against the first (above 1: the oscillation grows).
 
-    python -m fic_teleop_experiments.tools.sampled_law --periods 0.002 0.02 0.035 0.045 0.048 [--kick 0 0 0 0 0.5 0.5 0.5]
-    python -m fic_teleop_experiments.tools.sampled_law --periods 0.02 --longest 0.048 --seeds 1 2 3 4   # intervals drawn
+    python -m fic_teleop_experiments.tools.sampled_law --periods 0.002 0.02 0.035 0.045 0.048 [--kick 0 0 0 0 0.5 0.5
+    0.5] python -m fic_teleop_experiments.tools.sampled_law --periods 0.02 --longest 0.048 --seeds 1 2 3 4   # intervals
+    drawn
 
-    python -m fic_teleop_experiments.tools.sampled_law --e1-seeds 1 2 3 4   # the E1 circle, ticks 20-48 ms apart from 2 to 8 s
+    python -m fic_teleop_experiments.tools.sampled_law --e1-seeds 1 2 3 4   # the E1 circle, ticks 20-48 ms apart from 2
+    to 8 s
 
 The robot's stale-command watchdog (config/robot.yaml's command_timeout, 50 ms) holds the arm as the robot node does,
 so a period of 50 ms or more meets the loop's hold and the robot's hold, not the law.

@@ -19,8 +19,8 @@ A run that starves on a loaded machine starves by accident, at an unknown level.
   competing with whatever else runs there.
 
 Then the run's record is read back (``run_figures``): whether the launcher flagged it as starved (its timing.json
-and exit code 6, fic_teleop_bringup/launch_timing.py), the replica's holds on its own loop's bounds, the real-time factor,
-the free-motion error, the limit violations, and whether the arm ran away. A runaway is any of: a joint faster
+and exit code 6, fic_teleop_bringup/launch_timing.py), the replica's holds on its own loop's bounds, the real-time
+factor, the free-motion error, the limit violations, and whether the arm ran away. A runaway is any of: a joint faster
 than its datasheet limit, a kinetic energy above that of the arm's mass moving at the datasheet's 1.7 m/s TCP speed,
 or a trip of the simulated robot's velocity reflex (from its log, which a starved recorder cannot lose); the
 figures behind each are kept. A free-motion error above 4 x_b is reported as lost tracking, beside it: a held arm
@@ -292,9 +292,10 @@ class _NodeWatcher(threading.Thread):
 def runaway_figures(bag: Path, metrics: dict) -> dict:
     """The arm's joint speeds against the datasheet and its kinetic energy against a TCP at 1.7 m/s, from the bag's
     /joint_states (every state), and the free-motion error against 4 x_b (the report's); ``runaway`` and why."""
+    from mcap_ros2.reader import read_ros2_messages
+
     from fic_core.limits import PANDA_TCP_SPEED_LIMIT, PandaLimits
     from fic_core.robot_model import RobotModel
-    from mcap_ros2.reader import read_ros2_messages
 
     robot = RobotModel()
     limits = PandaLimits.from_robot(robot)

@@ -16,7 +16,8 @@ folder's bag and logs:
   receive times of the joint states.
 
     python -m fic_teleop_experiments.tools.swing_timeline --run runs/x --start 2.0 --end 3.6 [--step 0.01]
-    python -m fic_teleop_experiments.tools.swing_timeline --run runs/x --peak     # one line: peak |qd|/limit, when, phase
+    python -m fic_teleop_experiments.tools.swing_timeline --run runs/x --peak     # one line: peak |qd|/limit, when,
+    phase
 """
 from __future__ import annotations
 

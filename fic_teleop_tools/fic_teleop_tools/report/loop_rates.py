@@ -25,9 +25,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from fic_teleop_runtime.parameters import file_sections
 
 from fic_teleop_runtime.driver_topics import ForceDimensionTopics, FrankaRos2Topics
+from fic_teleop_runtime.parameters import file_sections
 from fic_teleop_tools.recording.bag_reader import read_messages
 
 REPO = Path(__file__).resolve().parents[3]

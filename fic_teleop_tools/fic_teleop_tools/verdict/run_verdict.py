@@ -71,7 +71,8 @@ CONTACT is told apart from instability with the scene's contact data: a sample i
 at least ``contact_force`` or was within the last ``contact_hold`` seconds (the free-motion definition of
 docs/EXPERIMENTS.md), or the contact flag is set; the oscillation, port-generation, runaway-error and parked tests
 leave out the contact samples and ``contact_margin`` + one round trip around them (the hand feels the contact one
-delay later and the replica sees the hand's answer another delay later). A push into an obstacle is contact, not instability.
+delay later and the replica sees the hand's answer another delay later). A push into an obstacle is contact, not
+instability.
 
 ``judge`` is a pure function of the stored series (VerdictInput), so a sweep's runs are re-judged without simulating.
 """

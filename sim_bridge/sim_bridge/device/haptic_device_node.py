@@ -28,17 +28,16 @@ from std_msgs.msg import Bool, Float64MultiArray
 
 from fic_core.errors import FicInputError
 from fic_teleop_runtime import qos
+from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
 from fic_teleop_runtime.stamps import nanoseconds
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.device_station import DeviceStation
-from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.reactive_hand import ReactiveHand
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
-from sim_bridge.device.virtual_operator import (Hand, HandParameters, JoyTarget, ScriptedOperator,
-                                         load_script)
+from sim_bridge.device.virtual_operator import Hand, HandParameters, JoyTarget, ScriptedOperator, load_script
 
 # Device streams at 250 Hz (docs/CONVENTIONS.md): RELIABLE, written with the streams' deep writer history (a
 # stalled reader loses nothing), the force command read KEEP_LAST 20 like the other streams.
@@ -206,7 +205,8 @@ class HapticDeviceNode(Node):
         self.last_time = now
         # forcedimension_ros2's effort controller holds the last force with no timeout.
         self.station = DeviceStation(self.device, self.hand, script=self.scripted, watcher=self.watcher or self.sorter,
-                                     joy_target=self.joy_target, command_timeout=None if self.fd else self.command_timeout,
+                                     joy_target=self.joy_target,
+                                     command_timeout=None if self.fd else self.command_timeout,
                                      joy_timeout=self.joy_timeout, script_origin=self.script_origin)
         self.create_timer(1.0 / value("publish_rate_hz"), self._tick)
 
