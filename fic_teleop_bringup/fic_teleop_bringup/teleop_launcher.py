@@ -54,6 +54,7 @@ from fic_teleop_bringup.run_bag import RunBag
 from fic_teleop_bringup.workspace import CONFIG, REPO
 from fic_teleop_runtime.parameters import file_sections
 from fic_teleop_runtime.params_file import write_node_params
+from fic_teleop_runtime.workspace import executable
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
 
 # How long a node may take to stop after SIGINT before it is killed; the recorder finalises its bag, so it gets more.
@@ -85,11 +86,11 @@ def node_command(spec: NodeSpec, run_params: Path | None = None) -> list[str]:
     """The node's command line: its config file, then `run_params`, the launcher's own values for this run
     (a params file written by fic_teleop_runtime.params_file.write_node_params, so that each value keeps its Python
     type)."""
-    executable = REPO / "install" / spec.package / "lib" / spec.package / spec.executable
+    installed = executable(spec.package, spec.executable)
     if shutil.which("ros2") and os.environ.get("FIC_TELEOP_NO_ROS2_CLI") != "1":
         command = ["ros2", "run", spec.package, spec.executable]
     else:
-        command = [str(executable)]
+        command = [str(installed)]
     command += ["--ros-args", "-r", f"__node:={spec.name}"]
     if spec.params_file:
         command += ["--params-file", str(CONFIG / spec.params_file)]

@@ -40,10 +40,10 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fic_teleop_bringup.workspace import REPO
+from fic_teleop_bringup.workspace import CONFIG
 
 INSIDE_ENV = "FIC_TWO_STATIONS"          # set in the launcher that runs inside the robot station
-FASTDDS_PROFILE = REPO / "config" / "fastdds_two_stations.xml"
+FASTDDS_PROFILE = CONFIG / "fastdds_two_stations.xml"
 RUN_FASTDDS_PROFILE = "fastdds_two_stations.xml"   # its copy in the run folder, with the profile's addresses
 TAG_PATTERN = re.compile(r"^[a-z0-9]{1,8}$")
 

@@ -23,8 +23,9 @@ from typing import Any
 import numpy as np
 
 from fic_teleop_experiments.claims import ClaimRun, execute
+from fic_teleop_runtime.workspace import working_folder
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 CLAIM_FIELDS = ("delay", "rate_hz", "controller", "hand", "seed", "duration", "force_feedback", "tail")
 
 

@@ -40,8 +40,9 @@ from tqdm import tqdm
 from fic_teleop_experiments.claims import CONTROLLERS, SEEDS, ClaimRun, claim_runs, execute, judge_series, provenance
 from fic_teleop_experiments.engine import add_engine_arguments, engine_from_arguments
 from fic_teleop_experiments.in_process import HANDS
+from fic_teleop_runtime.workspace import working_folder
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 
 
 def finished(jsonl: Path, directory: Path, judged_rows: dict[str, dict] | None = None) -> dict[str, dict]:

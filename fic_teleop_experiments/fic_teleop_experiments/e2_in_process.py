@@ -29,11 +29,10 @@ from fic_teleop_experiments.cell_statistics import wilson_interval
 from fic_teleop_experiments.in_process import RunConfig, run
 from fic_teleop_experiments.seed_jitter import CHANNEL_JITTER_S, HAND_IMPEDANCE_JITTER, OPERATOR_TIMING_JITTER_S
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES, inside_box
+from fic_teleop_runtime.workspace import config_folder
 from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput, judge
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from sim_bridge.device.virtual_operator import load_script
-
-REPO = Path(__file__).resolve().parents[2]
 
 FORCE_OF_NOTE_N = 10.0   # the replica's F_max: time spent above it is reported, as in the graph's E2 table
 
@@ -160,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
         return plot(trials, args.plot, runs[0]["controller"]) if args.plot else 0
     if args.trials < 1:
         parser.error("--trials must be at least 1")
-    script = load_script(REPO / "config" / "operator_scripts" / "shape_sorting.yaml")
+    script = load_script(config_folder() / "operator_scripts" / "shape_sorting.yaml")
     # The operator's trial length, as on the graph (paper_experiments.py, e2_graph.py); the script's own length.
     duration = args.duration or (round(script.duration + 1.0, 1) if args.operator == "scripted" else TRIAL_DURATION_S)
     trials = []

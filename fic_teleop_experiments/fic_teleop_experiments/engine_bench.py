@@ -22,9 +22,10 @@ from pathlib import Path
 from fic_teleop_experiments.claims import CONTROLLERS, ClaimRun
 from fic_teleop_experiments.engine import ENGINES, local_cores, open_engine
 from fic_teleop_experiments.in_process import run
+from fic_teleop_runtime.workspace import working_folder
 from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 
 
 def jobs(runs: int, duration: float) -> list[ClaimRun]:

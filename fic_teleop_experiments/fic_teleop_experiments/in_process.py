@@ -35,6 +35,7 @@ from fic_core.planner_station import PlannerStation, make_source
 from fic_core.replica_station import ReplicaStation
 from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.trajectories import LapVaryingCircle
+from fic_teleop_runtime.workspace import config_folder
 from sim_bridge.channel.channel import Channel, ChannelConfig
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.device_station import DeviceStation
@@ -46,7 +47,6 @@ from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOpe
 from sim_bridge.robot.mujoco_panda import PandaSimulation
 from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog
 
-REPO = Path(__file__).resolve().parents[2]
 STEP = 0.001                     # the robot's physics step and joint-state period [s]
 SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
 PLANNER_LAG_S = 0.2
@@ -77,7 +77,7 @@ WANDER_MEAN_GAP_S = 3.0
 
 
 def _parameters(name: str) -> dict[str, Any]:
-    data = yaml.safe_load((REPO / "config" / name).read_text())
+    data = yaml.safe_load((config_folder() / name).read_text())
     return dict(next(iter(data.values()))["ros__parameters"])
 
 
@@ -263,7 +263,7 @@ def run(config: RunConfig) -> RunResult:
         script = superimposition_script({"one_way_delay": config.delay if config.script_delay is None
                                          else config.script_delay})
     else:
-        script = load_script(config.script_path or REPO / "config" / "operator_scripts" / f"{config.scene}.yaml")
+        script = load_script(config.script_path or config_folder() / "operator_scripts" / f"{config.scene}.yaml")
     script.check_workspace(device.parameters.half_extents)
     operator = ScriptedOperator(script)
     watcher = None

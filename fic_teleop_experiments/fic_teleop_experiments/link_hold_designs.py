@@ -25,8 +25,9 @@ from fic_teleop_experiments.claims import SETTLE_S, ClaimRun, figures, judge_ser
 from fic_teleop_experiments.engine import make_executor
 from fic_teleop_experiments.in_process import run
 from fic_teleop_experiments.replica_response import response
+from fic_teleop_runtime.workspace import working_folder
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 DESIGNS = {"interpolate": True, "extrapolate": False}
 #: The band the gain is reported on [Hz]: the arm's resonance on the FIC's spring lies in it (0.6-0.9 Hz).
 GAIN_BAND_HZ = (0.3, 1.0)

@@ -42,16 +42,16 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-REPO = Path(__file__).resolve().parents[2]
-os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
+from fic_teleop_experiments.cell_analysis import analyse_cell
+from fic_teleop_experiments.plots import plot_e2_forces, plot_e3, plot_stability_map, plot_sweep
+from fic_teleop_experiments.runner import CONTROLLERS, Cell, LaunchOutcome, launch, write_json
+from fic_teleop_experiments.shape_sorting import PIECE_NAMES
+from fic_teleop_experiments.tables import headline_of, markdown_tables
+from fic_teleop_runtime.workspace import config_folder, working_folder
+from fic_teleop_tools.verdict.run_verdict import VerdictCriterion
+from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 
-from fic_teleop_experiments.cell_analysis import analyse_cell  # noqa: E402
-from fic_teleop_experiments.plots import plot_e2_forces, plot_e3, plot_stability_map, plot_sweep  # noqa: E402
-from fic_teleop_experiments.runner import CONTROLLERS, Cell, LaunchOutcome, launch, write_json  # noqa: E402
-from fic_teleop_experiments.shape_sorting import PIECE_NAMES  # noqa: E402
-from fic_teleop_experiments.tables import headline_of, markdown_tables  # noqa: E402
-from fic_teleop_tools.verdict.run_verdict import VerdictCriterion  # noqa: E402
-from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S  # noqa: E402
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 
 DELAYS = (0.0, 0.1, 0.2, 0.5, 1.0, 2.0)
 RATES = (1000.0, 250.0, 100.0, 50.0, 10.0)
@@ -196,7 +196,7 @@ def shape_sorting_script_timing() -> dict:
     """Length of the E2 operator script and the middle of its first press on a piece (for the E3 blackout)."""
     import yaml
 
-    script = yaml.safe_load((REPO / "config" / "operator_scripts" / "shape_sorting.yaml").read_text())
+    script = yaml.safe_load((config_folder() / "operator_scripts" / "shape_sorting.yaml").read_text())
     waypoints = script["waypoints"]
     length = float(waypoints[-1]["t"])
     parameters = script.get("parameters", {})

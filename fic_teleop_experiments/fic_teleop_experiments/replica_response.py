@@ -28,8 +28,9 @@ from numpy.typing import NDArray
 from scipy.signal import csd, welch
 
 from fic_teleop_experiments.claims import SETTLE_S, load_series
+from fic_teleop_runtime.workspace import working_folder
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 #: The band reported [Hz]: the operator's moves, wander and the reactive hand's own oscillation lie in it.
 BAND_HZ = (0.2, 2.0)
 #: Welch segment length [s]: 0.1 Hz resolution over the ~28 s a 30 s run keeps after its start-up.

@@ -1,8 +1,8 @@
 """Run one experiment cell through the main job's launcher (real processes over DDS) and analyse its bag.
 
-A cell is one call of scripts/teleop_launcher.py (what scripts/run_teleop.sh runs) with ``--no-video`` and, unless
-the cell asks for the paper-style plots, ``--no-report``; the metrics are then computed here in-process with the
-report's own definitions (fic_teleop_tools.report: load_bag + analyse, no plots), the run verdict
+A cell is one call of the launcher (fic_teleop_bringup.teleop_launcher, what scripts/run_teleop.sh runs) with
+``--no-video`` and, unless the cell asks for the paper-style plots, ``--no-report``; the metrics are then computed here
+in-process with the report's own definitions (fic_teleop_tools.report: load_bag + analyse, no plots), the run verdict
 (fic_teleop_tools.verdict.run_verdict, as for every run), and scene-specific outcomes (E2 pieces) from the same bag.
 
 No rclpy here: the launcher is a child process. Each cell gets a ROS_DOMAIN_ID that no running process on this
@@ -23,11 +23,13 @@ from typing import Callable
 
 import numpy as np
 
+from fic_teleop_runtime.workspace import working_folder
 from fic_teleop_tools.verdict.bag_series import RunSeries
 from fic_teleop_tools.verdict.run_verdict import VerdictInput, VerdictInputError, judge
 
-REPO = Path(os.environ.get("FIC_TELEOP_ROOT") or Path(__file__).resolve().parents[2])
-LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
+#: The launcher (what scripts/run_teleop.sh runs), as an installed module.
+LAUNCHER = [sys.executable, "-m", "fic_teleop_bringup.teleop_launcher"]
 #: The two controllers every E4 cell is run with: the FIC and the linear baseline of the same stiffness K0.
 CONTROLLERS = ("fic", "linear")
 _SIM_TIME = re.compile(r"\[run\] sim time\s+([0-9.]+)")
@@ -65,7 +67,7 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
            timeout: float | None = None) -> LaunchOutcome:
     """Run the launcher for ``cell`` into ``run_dir`` (fresh), reporting simulated seconds as they pass."""
     run_dir.mkdir(parents=True, exist_ok=True)
-    command = [sys.executable, str(LAUNCHER), *cell.arguments(), "--time-mode", time_mode, "--out", str(run_dir),
+    command = [*LAUNCHER, *cell.arguments(), "--time-mode", time_mode, "--out", str(run_dir),
                # no --domain-id: the launcher reserves a domain no other run or test holds and no graph is heard on
                # (fic_teleop_bringup/launch_isolation.py; a scan of other processes' ROS_DOMAIN_ID gave two runs one
                # domain)

@@ -693,13 +693,13 @@ def claims_comparison(cells: list[str], laws: list[str], hand: str = "reactive")
     verdict with and without the forced-answer fit: what the fit changes, per cell and law, on the same runs, and
     the resonant gain the verdict found (a subset of ``claims_sweep --judge``, for a machine too busy for all)."""
     import json
-    from pathlib import Path
 
     from fic_teleop_experiments.claims import load_series
+    from fic_teleop_runtime.workspace import working_folder
     from fic_teleop_tools.verdict.forced_answer import ForcedSettings
     from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, judge
 
-    repo = Path(__file__).resolve().parents[2]
+    repo = working_folder()
     rows: dict[str, dict] = {}
     for line in (repo / "results" / "claims_runs.jsonl").read_text().splitlines():
         try:

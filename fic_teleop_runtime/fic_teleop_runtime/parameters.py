@@ -21,7 +21,6 @@ declared by its own type and read back as an empty list.
 from __future__ import annotations
 
 import difflib
-import os
 import re
 import sys
 from collections.abc import Iterable, Mapping, Sequence
@@ -40,6 +39,7 @@ from fic_core.errors import FicInputError
 
 # The row constructors, for the nodes' tables (one row type for fic_core's tables and the nodes').
 from fic_core.parameter_row import LISTS, Kind, ParameterRow, integer, number, numbers, switch, text, texts  # noqa: F401
+from fic_teleop_runtime.workspace import config_folder
 
 Type = Parameter.Type
 #: Parameters rclpy itself declares or reads on every node; a params file may give them.
@@ -103,17 +103,6 @@ _RclLoader.add_implicit_resolver(
     re.compile(r"^[-+]?(?:[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?|[0-9][0-9_]*[eE][-+]?[0-9]+|\.[0-9_]+"
                r"(?:[eE][-+]?[0-9]+)?)$"),
     list("-+0123456789."))
-
-
-def config_folder() -> Path:
-    """The repository's config/ (FIC_TELEOP_ROOT, set by scripts/env.sh), else the copy installed with this
-    package (share/fic_teleop_runtime/config, for an install sourced without env.sh)."""
-    root = os.environ.get("FIC_TELEOP_ROOT")
-    if root:
-        return Path(root) / "config"
-    from ament_index_python.packages import get_package_share_directory
-
-    return Path(get_package_share_directory("fic_teleop_runtime")) / "config"
 
 
 def _flat(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

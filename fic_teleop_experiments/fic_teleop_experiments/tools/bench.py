@@ -45,12 +45,12 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-REPO = Path(__file__).resolve().parents[3]
-os.environ.setdefault("FIC_TELEOP_ROOT", str(REPO))
+from fic_teleop_experiments.runner import write_json
+from fic_teleop_runtime.workspace import working_folder
+from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS
+from fic_teleop_tools.verdict.bag_series import read_run
 
-from fic_teleop_experiments.runner import write_json  # noqa: E402
-from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS  # noqa: E402
-from fic_teleop_tools.verdict.bag_series import read_run  # noqa: E402
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 
 LAUNCHER_PROCESS = "launcher"      # the sampler's root: scripts/run_teleop.sh execs the launcher
 LAUNCHER_NODE = "fic_teleop_launcher"   # its node on the graph (it reads /clock)

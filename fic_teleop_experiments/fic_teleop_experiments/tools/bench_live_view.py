@@ -19,7 +19,9 @@ from pathlib import Path
 
 import psutil
 
-REPO = Path(__file__).resolve().parents[3]
+from fic_teleop_runtime.workspace import working_folder
+
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 CLIENT = REPO / "test" / "live_view_client"
 
 

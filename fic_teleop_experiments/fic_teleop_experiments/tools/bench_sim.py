@@ -12,7 +12,6 @@ import argparse
 import os
 import statistics
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -20,8 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import sim_bridge  # noqa: F401  (selects EGL before mujoco is imported)
-
-REPO = Path(__file__).resolve().parents[3]
+from fic_teleop_runtime.workspace import config_folder, executable
 
 
 def in_process(scenes: list[str], steps: int) -> None:
@@ -68,9 +66,8 @@ def through_node(mode: str, seconds: float, scene: str) -> None:
     env = dict(os.environ, ROS_DOMAIN_ID="90", ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=tempfile.mkdtemp(prefix="bench_sim_"))
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")})
-    executable = REPO / "install" / "sim_bridge" / "lib" / "sim_bridge" / "robot_node"
-    command = [str(executable)] if executable.exists() else [sys.executable, "-m", "sim_bridge.robot.robot_node"]
-    command += ["--ros-args", "--params-file", str(REPO / "config" / "robot.yaml"), "-p", f"mode:={mode}",
+    command = [str(executable("sim_bridge", "robot_node"))]
+    command += ["--ros-args", "--params-file", str(config_folder() / "robot.yaml"), "-p", f"mode:={mode}",
                 "-p", f"scene:={scene}", "-p", "diagnostics_rate_hz:=1.0"]
     log = open(Path(env["ROS_LOG_DIR"]) / "robot_node.out", "w")
     robot = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT)

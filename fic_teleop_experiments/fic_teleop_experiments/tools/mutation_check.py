@@ -29,8 +29,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fic_teleop_experiments.tools.mutation_verdict import KILLED, SETTINGS_PLUGIN, pytest_verdict, write_settings_plugin
+from fic_teleop_runtime.workspace import working_folder
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 PACKAGE = REPO / "fic_core" / "fic_core"
 # The core's tests, and the replica closing the loop on the MuJoCo arm.
 TESTS = ["test/core", "test/sim/test_replica_on_mujoco.py"]

@@ -16,7 +16,6 @@ Used by test/core/test_passivity.py (a few hundred cycles) and passivity_cycles.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import yaml
@@ -24,8 +23,8 @@ from scipy.integrate import cumulative_simpson, quad
 
 from fic_core.attractor import FractalAttractor
 from fic_core.profile import ForceProfile
+from fic_teleop_runtime.workspace import config_folder
 
-REPO = Path(__file__).resolve().parents[3]
 DT = 1e-3  #: the replica's control period [s]
 
 
@@ -34,7 +33,8 @@ def shipped_profiles() -> dict[str, ForceProfile]:
     whose parameters carry the profile's four names with a common prefix)."""
     names = ("stiffness", "saturation_error", "saturation_start", "max_force")
     found: dict[str, ForceProfile] = {}
-    for path in sorted((REPO / "config").rglob("*.yaml")):
+    config = config_folder()
+    for path in sorted(config.rglob("*.yaml")):
         document = yaml.safe_load(path.read_text()) or {}
         for _node, body in document.items():
             parameters = (body or {}).get("ros__parameters", {}) if isinstance(body, dict) else {}
@@ -44,7 +44,7 @@ def shipped_profiles() -> dict[str, ForceProfile]:
                 prefix = key[: -len("saturation_error")]
                 values = [parameters.get(prefix + name) for name in names]
                 if all(isinstance(item, (int, float)) for item in values):
-                    found[f"{path.relative_to(REPO)}:{prefix or 'fic_'}"] = ForceProfile(*map(float, values))
+                    found[f"config/{path.relative_to(config)}:{prefix or 'fic_'}"] = ForceProfile(*map(float, values))
     return found
 
 

@@ -63,17 +63,20 @@ import sys
 import tempfile
 import time
 from dataclasses import asdict, dataclass
+from importlib import resources
 from pathlib import Path
 
 import yaml
 
 from fic_teleop_experiments.tools.mutation_verdict import KILLED, SETTINGS_PLUGIN, pytest_verdict, write_settings_plugin
+from fic_teleop_runtime.workspace import working_folder
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 PACKAGE = REPO / "fic_core" / "fic_core"
 TESTS = REPO / "test" / "core"
-EQUIVALENT_FILE = Path(__file__).resolve().parent / "equivalent_mutants.yaml"
-SEEDS_FILE = Path(__file__).resolve().parent / "mutation_seeds.yaml"
+# Data files of this package (setup.py package_data), read where the package is installed.
+EQUIVALENT_FILE = Path(str(resources.files("fic_teleop_experiments.tools") / "equivalent_mutants.yaml"))
+SEEDS_FILE = Path(str(resources.files("fic_teleop_experiments.tools") / "mutation_seeds.yaml"))
 
 #: The control laws and the loops around them (docs/CONTROL_LAWS.md): the modules a score is wanted for.
 LAW_MODULES = tuple(f"{name}.py" for name in (

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -31,17 +30,17 @@ import yaml
 from fic_core.limits import PANDA_JOINT_VELOCITY_LIMIT
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
+from fic_teleop_runtime.workspace import config_folder
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.watchdog import CommandWatchdog
 
-REPO = Path(__file__).resolve().parents[2].parent
 DEFAULT_KICK = (0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.5)   # [rad/s] the wrist pushed
 SETTLE_S = 0.5
 
 
 def replica_values(**changes: Any) -> dict[str, Any]:
     """config/replica.yaml's ReplicaLoop values, changed (the realtime graph's 500 Hz control rate by default)."""
-    data = yaml.safe_load((REPO / "config" / "replica.yaml").read_text())
+    data = yaml.safe_load((config_folder() / "replica.yaml").read_text())
     values = {name: value for name, value in next(iter(data.values()))["ros__parameters"].items()
               if name in REPLICA_LOOP_PARAMETERS}
     return {**values, "control_rate": 500.0, "command_period": 0.002, **changes}
@@ -49,7 +48,7 @@ def replica_values(**changes: Any) -> dict[str, Any]:
 
 def robot_command_timeout() -> float:
     """The simulated robot's stale-command watchdog (config/robot.yaml): an older torque gives way to its hold."""
-    data = yaml.safe_load((REPO / "config" / "robot.yaml").read_text())
+    data = yaml.safe_load((config_folder() / "robot.yaml").read_text())
     return float(next(iter(data.values()))["ros__parameters"]["command_timeout"])
 
 

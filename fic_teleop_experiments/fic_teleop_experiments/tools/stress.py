@@ -43,8 +43,10 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[3]
-LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
+from fic_teleop_runtime.workspace import working_folder
+
+REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
+LAUNCHER = [sys.executable, "-m", "fic_teleop_bringup.teleop_launcher"]   # what scripts/run_teleop.sh runs
 DEFAULT_PERIOD_US = 20_000
 DEFAULT_SHARES = 8192               # the quota group's CPU weight (v1 cpu.shares; 1024 is a niceness-0 session's)
 RUNAWAY_ERROR_BOUNDS = 4.0          # free-motion error above this many x_b
@@ -228,7 +230,7 @@ def _locked(path: Path):
 def _stressed_run(launcher_args: list[str], out: Path, level_percent: float | None, *, node: str | None,
                   spare: str | None, hogs: int, hog_cpus: list[int] | None, period_us: int, log: Path | None,
                   env: dict[str, str] | None, shares: int, lock_wait_s: float) -> dict:
-    command = [sys.executable, str(LAUNCHER), "--out", str(out), *launcher_args]
+    command = [*LAUNCHER, "--out", str(out), *launcher_args]
     quota = CpuQuota(level_percent, period_us, shares=shares) if level_percent is not None else None
     hog = CpuHogs(hogs, hog_cpus) if hogs else None
     started = time.monotonic()

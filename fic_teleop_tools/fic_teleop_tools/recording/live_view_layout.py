@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 import foxglove.layouts as fl
 
-LAYOUT_PATH = Path(__file__).resolve().parents[3] / "config" / "live_view.json"
+from fic_teleop_runtime.workspace import config_folder
+
+LAYOUT_PATH = config_folder() / "live_view.json"
 URDF_URL = "package://example-robot-data/robots/panda_description/urdf/panda.urdf"
 AXES = ("x", "y", "z")
 

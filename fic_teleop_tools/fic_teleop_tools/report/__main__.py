@@ -9,12 +9,12 @@ from pathlib import Path
 
 import yaml
 
+from fic_teleop_runtime.workspace import config_folder
+
 from .bag_data import BagReadError
 from .loop_rates import joint_states_period
 from .metrics import ReportSettings
 from .report import make_report, replica_config_defaults, summary_table
-
-REPO = Path(__file__).resolve().parents[3]
 
 
 def one_way_delay(run_dir: Path | None) -> float:
@@ -35,7 +35,7 @@ def one_way_delay(run_dir: Path | None) -> float:
                  if d is not None]
         if found:
             return sum(found) / len(found)
-    return delay(REPO / "config" / "channel.yaml") or 0.0
+    return delay(config_folder() / "channel.yaml") or 0.0
 
 
 def print_verdict(bag: Path, out: Path, delay: float) -> None:
