@@ -19,6 +19,8 @@ if [[ ! -f "$SNAPSHOT/COMMIT" ]]; then
 fi
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
+# The snapshot is the workspace the sweep reads: its config/ and its COMMIT (fic_teleop_runtime.workspace).
+export FIC_TELEOP_ROOT="$SNAPSHOT"
 export PYTHONPATH="$SNAPSHOT/sim_bridge:$SNAPSHOT/fic_core${PYTHONPATH:+:$PYTHONPATH}"
 # The pure-Python packages a newer commit split out of sim_bridge, from the snapshot too where it has them.
 for package in fic_teleop_tools fic_teleop_runtime fic_teleop_bringup fic_teleop_experiments; do
