@@ -113,7 +113,7 @@ def test_the_engine_bench_runs_the_same_jobs_on_both_engines():
     """A tiny bench (2 judged runs of 3 s, one worker): both engines run every job and report their throughput."""
     from fic_teleop_experiments.engine_bench import alternating_rounds, jobs
     job_set = jobs(2, 3.0)
-    assert [job[1:3] for job in job_set] == [("fic", 1), ("fic_paper_law", 1)]
+    assert [(job.controller, job.seed) for job in job_set] == [("fic", 1), ("fic_paper_law", 1)]
     reported = []
     rounds, summary = alternating_rounds(["pool", "dask"], 1, job_set, 1, reported.append)
     assert [r["engine"] for r in rounds] == ["pool", "dask"] and reported == rounds

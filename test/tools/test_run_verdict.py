@@ -136,6 +136,16 @@ def test_too_short_a_run_is_not_assessed_but_still_judged_safe():
     assert judge(bilateral(2.0, 1, duration=27.0, tail=0.0)).stable is True
 
 
+def test_a_contact_margin_longer_than_the_run_is_judged():
+    """3 s at 1 s each way: the margin left out around a contact (0.5 s + a round trip each side) is wider than the
+    run; the run is not assessed, and the contact flags keep the run's length."""
+    data = bilateral(1.0, 1, duration=3.0, tail=0.0)
+    contact = np.zeros(data.time.size, dtype=bool)
+    contact[100:110] = True
+    verdict = judge(replace(data, contact=contact))
+    assert verdict.stable is None and verdict.figures["excluded_share"] == 1.0
+
+
 def test_a_runaway_is_unstable_even_when_too_short_to_assess():
     data = bilateral(0.2, 1, duration=5.0)
     speed = np.zeros((data.time.size, 7))

@@ -339,7 +339,9 @@ def _dilated(flags: NDArray, samples: int) -> NDArray:
     if samples <= 0 or not flags.any():
         return flags.copy()
     kernel = np.ones(2 * samples + 1)
-    return np.convolve(flags.astype(float), kernel, mode="same") > 0.0
+    # The full convolution's centre, flags.size long (mode="same" returns the longer of the two, so a margin wider
+    # than a short run gave an array longer than the run).
+    return np.convolve(flags.astype(float), kernel, mode="full")[samples:samples + flags.size] > 0.0
 
 
 def _longest_true(flags: NDArray, step: float) -> float:
