@@ -27,6 +27,16 @@ CONFIG = REPO / "config"
 SAFETY_KEPT_EXITS = (0, 6)
 
 
+def pytest_configure(config) -> None:
+    """The suite runs in the normal scheduling class even when started under a real-time policy (some CI runners
+    are): the nodes it starts would inherit it, and its timing figures assume the normal class, as the launcher
+    does (fic_teleop_bringup/realtime_scheduling.py, leave_real_time_class)."""
+    from fic_teleop_bringup.realtime_scheduling import leave_real_time_class
+    inherited = leave_real_time_class()
+    if inherited:
+        print(f"[test] started under {inherited}: the suite and the nodes it starts run in the normal class")
+
+
 # The Panda's model and datasheet limits, one of each per test module (RobotModel keeps the last state it was
 # updated with, so modules do not share one).
 @pytest.fixture(scope="module")

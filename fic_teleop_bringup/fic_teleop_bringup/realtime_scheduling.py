@@ -79,6 +79,25 @@ def loop_threads(pid: int) -> list[int]:
     return threads
 
 
+NORMAL_POLICIES = (os.SCHED_OTHER, os.SCHED_BATCH, os.SCHED_IDLE)
+POLICY_NAMES = {os.SCHED_FIFO: "SCHED_FIFO", os.SCHED_RR: "SCHED_RR"}
+
+
+def leave_real_time_class() -> str | None:
+    """Put the calling thread back in the normal class if it was started under a real-time policy, and return
+    that policy's name (None: it was in the normal class already).
+
+    A launcher or a test runner started under SCHED_FIFO (``chrt``, some CI runners) would hand the policy to every
+    node it starts and every thread they start: the DDS watchdog and event threads, OpenBLAS's busy-waiting workers
+    and the recorder would all pre-empt the normal class, and the loops at one priority would no longer share a
+    core. Real-time scheduling is opt-in and per thread (``RealtimeScheduler``); everything starts normal."""
+    policy = os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK
+    if policy in NORMAL_POLICIES:
+        return None
+    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    return POLICY_NAMES.get(policy, f"policy {policy}")
+
+
 @dataclass
 class ProcessScheduling:
     """What was applied to one node's process."""

@@ -49,7 +49,7 @@ from fic_teleop_bringup.launch_timing import (
     judge_run,
     judged_topics,
 )
-from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler
+from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler, leave_real_time_class
 from fic_teleop_bringup.run_bag import RunBag
 from fic_teleop_bringup.workspace import CONFIG, REPO
 from fic_teleop_runtime.parameters import file_sections
@@ -571,6 +571,10 @@ def resolve_defaults(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_arguments(argv)
+    inherited = leave_real_time_class()
+    if inherited:
+        print(f"[run] started under {inherited}: the launcher and its nodes run in the normal class (the loops' own "
+              "real-time threads: --scheduling fifo)")
     try:
         resolve_defaults(args)
     except ArgumentRefusal as refusal:

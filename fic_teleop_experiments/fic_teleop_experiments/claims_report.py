@@ -18,8 +18,8 @@ exact p and Fisher's.
 
     python -m fic_teleop_experiments.claims_report results/claims.json      # -> results/claims_statistics.json,
                                                                              #    claims_tables.md, claims_*.png
-    python -m fic_teleop_experiments.claims_report --readme results/claims_statistics.json   # README's block
-    python -m fic_teleop_experiments.claims_report results/claims.json --update-readme README.md   # all, README too
+    python -m fic_teleop_experiments.claims_report --block results/claims_statistics.json   # RESULTS.md's block
+    python -m fic_teleop_experiments.claims_report results/claims.json --update-results docs/RESULTS.md   # all, and it
 """
 from __future__ import annotations
 
@@ -201,19 +201,19 @@ def write_claims_statistics(source: Path, out: Path, seeds_planned: int | None =
     return written
 
 
-README_BEGIN, README_END = "<!-- claims: begin", "<!-- claims: end -->"
+CLAIMS_BEGIN, CLAIMS_END = "<!-- claims: begin", "<!-- claims: end -->"
 
 
-def update_readme(readme: Path, statistics: dict) -> None:
-    """Replace README's claims block (between its begin and end markers) with the one generated from
-    ``statistics``; ValueError when README has not exactly one block."""
-    from fic_teleop_experiments.tables import readme_claims
+def update_claims_block(document: Path, statistics: dict) -> None:
+    """Replace the claims block of ``document`` (docs/RESULTS.md: between its begin and end markers) with the one
+    generated from ``statistics``; ValueError when the document has not exactly one block."""
+    from fic_teleop_experiments.tables import claims_block
 
-    text = readme.read_text()
-    if text.count(README_BEGIN) != 1 or text.count(README_END) != 1:
-        raise ValueError(f"{readme} must hold exactly one '{README_BEGIN} ...' ... '{README_END}' block")
-    start = text.index("\n", text.index(README_BEGIN)) + 1
-    readme.write_text(text[:start] + readme_claims(statistics) + text[text.index(README_END, start):])
+    text = document.read_text()
+    if text.count(CLAIMS_BEGIN) != 1 or text.count(CLAIMS_END) != 1:
+        raise ValueError(f"{document} must hold exactly one '{CLAIMS_BEGIN} ...' ... '{CLAIMS_END}' block")
+    start = text.index("\n", text.index(CLAIMS_BEGIN)) + 1
+    document.write_text(text[:start] + claims_block(statistics) + text[text.index(CLAIMS_END, start):])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -225,15 +225,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help="the statistics' JSON (default: <source's folder>/<source's stem>_statistics.json)")
     parser.add_argument("--seeds-planned", type=int, default=SEEDS, help=f"seeds a cell is planned to have ({SEEDS})")
-    parser.add_argument("--readme", type=Path, default=None, metavar="STATISTICS_JSON",
-                        help="print README's claims block from a statistics JSON written earlier, and nothing else")
-    parser.add_argument("--update-readme", type=Path, default=None, metavar="README",
-                        help="also rewrite README's claims block from the new statistics (after a new --judge)")
+    parser.add_argument("--block", type=Path, default=None, metavar="STATISTICS_JSON",
+                        help="print the claims block of docs/RESULTS.md from a statistics JSON written earlier, "
+                             "and nothing else")
+    parser.add_argument("--update-results", type=Path, default=None, metavar="RESULTS_MD",
+                        help="also rewrite the claims block of this document (docs/RESULTS.md) from the new "
+                             "statistics (after a new --judge)")
     args = parser.parse_args(argv)
-    if args.readme is not None:
-        from fic_teleop_experiments.tables import readme_claims
+    if args.block is not None:
+        from fic_teleop_experiments.tables import claims_block
 
-        print(readme_claims(json.loads(args.readme.read_text())), end="")
+        print(claims_block(json.loads(args.block.read_text())), end="")
         return 0
     source = args.source or Path(os.environ.get("FIC_TELEOP_ROOT") or Path.cwd()) / "results" / "claims.json"
     if not source.is_file():
@@ -243,12 +245,12 @@ def main(argv: list[str] | None = None) -> int:
                                       args.seeds_planned)
     for name, path in written.items():
         print(f"{name}: {path}")
-    if args.update_readme is not None:
+    if args.update_results is not None:
         try:
-            update_readme(args.update_readme, json.loads(written["json"].read_text()))
+            update_claims_block(args.update_results, json.loads(written["json"].read_text()))
         except (OSError, ValueError) as error:
             parser.error(str(error))
-        print(f"readme: {args.update_readme} (its claims block)")
+        print(f"results: {args.update_results} (its claims block)")
     return 0
 
 

@@ -1,7 +1,7 @@
 """Runs per hour of the sweep engines (fic_teleop_experiments.engine) on one machine: the same job set through the
 process pool and through a Dask LocalCluster, in alternating rounds so that both see the same machine load.
-Writes a JSON with the command, the machine's load and every round (docs/CLUSTER.md; docs/EXPERIMENTS.md "The
-engines' runs per hour").
+Writes a JSON with the command, the machine's load and every round (docs/CLUSTER.md; the figures: docs/RESULTS.md
+"The verdict and the engines").
 
     nice -n 5 python -m fic_teleop_experiments.engine_bench --runs 24 --duration 10 --rounds 2
 

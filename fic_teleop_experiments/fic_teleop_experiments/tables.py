@@ -184,18 +184,18 @@ def claims_markdown(document: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-#: The claim cells README's results read, each with the literature's meaning (docs/EXPERIMENTS.md "Claims"): the
-#: FIC papers' "extreme delays up to 1 s" and "communication bandwidths as low as 10 Hz", the law and the robot at
-#: 1 kHz in every cell.
-README_CLAIM_CELLS = (
+#: The claim cells of docs/RESULTS.md's claims block, each with the literature's meaning (docs/EXPERIMENTS.md
+#: "Claims"): the FIC papers' "extreme delays up to 1 s" and "communication bandwidths as low as 10 Hz", the law and
+#: the robot at 1 kHz in every cell.
+RESULTS_CLAIM_CELLS = (
     ("delay_1__rate_full", "1 s one-way delay, link at full rate"),
     ("delay_1__rate_10", "1 s one-way delay and the link at 10 Hz both ways, together"),
     ("delay_0.2__rate_10", "the link at 10 Hz both ways, the paper's 0.2 s delay"),
 )
-#: The open-loop controls README reads beside the claims (fic_teleop_experiments.claims CONTROL_CELLS): the same runs
-#: with the force feedback off, where no force loop closes through the channel. Not a claim: what they show is how
-#: much of a claim cell's instability the closed loop adds.
-README_CONTROL_CELLS = (
+#: The open-loop controls the claims block reads beside the claims (fic_teleop_experiments.claims CONTROL_CELLS): the
+#: same runs with the force feedback off, where no force loop closes through the channel. Not a claim: what they show
+#: is how much of a claim cell's instability the closed loop adds.
+RESULTS_CONTROL_CELLS = (
     ("delay_1__rate_10__feedback_off",
      "control: 1 s and 10 Hz, the force feedback off (no force loop through the channel)"),
     ("delay_0.2__rate_10__feedback_off", "control: 0.2 s and 10 Hz, the force feedback off"),
@@ -219,9 +219,10 @@ def claim_reading(share: dict, threshold: float = REPRODUCED_SHARE) -> str:
     return f"undecided at n = {share['n']}"
 
 
-def readme_claims(statistics: dict, reference: str = "fic") -> str:
-    """README's block on the FIC papers' claims, every figure from results/claims_statistics.json (the README test
-    regenerates it and compares). One row per claim cell and hand; a cell without runs says so."""
+def claims_block(statistics: dict, reference: str = "fic") -> str:
+    """docs/RESULTS.md's block on the FIC papers' claims, every figure from results/claims_statistics.json
+    (test/experiments/test_readme_results.py regenerates it and compares). One row per claim cell and hand; a cell
+    without runs says so."""
     planned = statistics.get("seeds_planned")
     cells = {(c["cell"], c.get("hand")): c for c in statistics.get("cells", [])}
     hands = sorted({c.get("hand") for c in statistics.get("cells", [])}, key=str) or [None]
@@ -229,7 +230,7 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
     judged_n = [s["stable"]["n"] for c in statistics.get("cells", []) for s in c["laws"].values()]
     # Every law, cell and hand at its planned seeds: the sweep is complete and nothing is "so far" any more.
     complete = (bool(judged_n) and planned is not None and min(judged_n) >= planned
-                and all((cell_id, hand) in cells for cell_id, _ in README_CLAIM_CELLS for hand in hands))
+                and all((cell_id, hand) in cells for cell_id, _ in RESULTS_CLAIM_CELLS for hand in hands))
     if complete:
         opening = (f"All {statistics.get('runs_judged', 0)} runs of the claim sweep judged ({planned} seeds a law, "
                    "cell and hand)")
@@ -260,9 +261,9 @@ def readme_claims(statistics: dict, reference: str = "fic") -> str:
                 + ("" if error is None else f", error {error * 1e3:.0f} mm"))
 
     readings: list[str] = []
-    controls = [(cell_id, meaning, True) for cell_id, meaning in README_CONTROL_CELLS
+    controls = [(cell_id, meaning, True) for cell_id, meaning in RESULTS_CONTROL_CELLS
                 if any(key[0] == cell_id for key in cells)]
-    for cell_id, meaning, control in [(c, m, False) for c, m in README_CLAIM_CELLS] + controls:
+    for cell_id, meaning, control in [(c, m, False) for c, m in RESULTS_CLAIM_CELLS] + controls:
         for hand in hands:
             cell = cells.get((cell_id, hand))
             if control and cell is None:

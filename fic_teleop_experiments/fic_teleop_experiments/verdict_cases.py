@@ -1,5 +1,5 @@
 """The run verdict's labelled validation set: runs whose answer is known before the verdict sees them
-(docs/EXPERIMENTS.md, "The run verdict's validation").
+(docs/EXPERIMENTS.md, "The verdict's validation").
 
 (a) BOUNDARY. A mass with damping under DELAYED position feedback, m x'' + D x' + K x(t - tau) = 0, the replica's
     position loop closed through the channel's round trip tau. At s = j w the characteristic equation

@@ -17,10 +17,14 @@ from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler, loop_threa
 # A child with the thread kinds a node has: its main thread, a thread that keeps the process's name (like rclpy's
 # timer thread), the robot's "physics" thread, a Fast DDS shared-memory receive thread, and Fast DDS threads that
 # must stay in the normal class (event thread, shared-memory watchdog). On "spawn" on stdin, the main thread starts
-# one more, which keeps the process's name.
+# one more, which keeps the process's name. All of them start in the normal class.
 CHILD = textwrap.dedent("""
-    import sys, threading, time
+    import os, sys, threading, time
     from sim_bridge.os_thread import name_os_thread
+
+    # Start in the normal class whatever the test runner runs under: a runner started under a real-time policy
+    # hands it to its children and to every thread they start, and the test is about what the scheduler changes.
+    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
     lock = threading.Lock()
 
@@ -51,6 +55,7 @@ def child():
         _, name, tid = process.stdout.readline().split()
         tids[name] = int(tid)
     tids["main"] = process.pid
+    assert all(_policy(tid) == os.SCHED_OTHER for tid in tids.values())  # before any scheduler touched them
     yield process, tids
     process.kill()
     process.wait()
@@ -161,3 +166,20 @@ def test_a_fifo_run_puts_every_loop_under_fifo_and_says_so(tmp_path: Path, ros_e
         applied["master"]["priority"]
     assert applied["robot"]["threads"] >= 3  # with its physics thread
     assert "SCHED_FIFO: robot 80" in result.stdout
+
+
+def test_a_launcher_started_under_fifo_leaves_it_before_starting_nodes() -> None:
+    """chrt -f 10 on the launcher: it says so in one line and its process is back in the normal class, so no node it
+    starts inherits the real-time policy (the refusal path returns before any node starts, after the check)."""
+    if not _may_use_fifo():
+        pytest.skip("this machine refuses SCHED_FIFO")
+    probe = ("import os, sys; from fic_teleop_bringup.realtime_scheduling import leave_real_time_class as leave; "
+             "print(leave(), leave(), os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK == os.SCHED_OTHER)")
+    result = subprocess.run(["chrt", "-f", "10", sys.executable, "-c", probe], capture_output=True, text=True,
+                            timeout=60)
+    assert result.stdout.split() == ["SCHED_FIFO", "None", "True"], result.stderr
+    result = subprocess.run(["chrt", "-f", "10", sys.executable, str(REPO / "scripts" / "teleop_launcher.py"),
+                             "--time-mode", "lockstep", "--scheduling", "fifo"], capture_output=True, text=True,
+                            timeout=60)
+    assert "started under SCHED_FIFO: the launcher and its nodes run in the normal class" in result.stdout
+    assert result.returncode == 2

@@ -100,12 +100,12 @@ def test_claim_reading_thresholds():
     assert claim_reading({"k": 0, "n": 0, "interval_95": None}) == "no run judged yet"
 
 
-def test_readme_block_reads_the_statistics_and_says_when_a_cell_has_no_runs(tmp_path, capsys):
+def test_claims_block_reads_the_statistics_and_says_when_a_cell_has_no_runs(tmp_path, capsys):
     rows = [_row("delay_1__rate_10", "fic", seed, True) for seed in range(1, 9)]
     rows += [_row("delay_1__rate_10", "linear", seed, seed != 2) for seed in range(1, 9)]
     path = tmp_path / "claims_statistics.json"
     path.write_text(json.dumps(claims_statistics(rows, seeds_planned=20)))
-    assert main(["--readme", str(path)]) == 0
+    assert main(["--block", str(path)]) == 0
     block = capsys.readouterr().out
     assert "Judged so far: 16 runs of the claim sweep (8-8 judged seeds a law, cell and hand, of 20 planned)" in block
     assert ("| 1 s one-way delay and the link at 10 Hz both ways, together (`delay_1__rate_10`) | passive | "
@@ -115,14 +115,14 @@ def test_readme_block_reads_the_statistics_and_says_when_a_cell_has_no_runs(tmp_
                           "far, 2 without a judged run yet.\n")
 
 
-def test_readme_block_of_a_finished_sweep_says_all_runs_judged(tmp_path, capsys):
+def test_claims_block_of_a_finished_sweep_says_all_runs_judged(tmp_path, capsys):
     """Every claim cell, law and hand at its planned seeds: the block says so, not "so far"."""
-    from fic_teleop_experiments.tables import README_CLAIM_CELLS
-    rows = [_row(cell, law, seed, True, hand=hand) for cell, _ in README_CLAIM_CELLS for law in ("fic", "linear")
+    from fic_teleop_experiments.tables import RESULTS_CLAIM_CELLS
+    rows = [_row(cell, law, seed, True, hand=hand) for cell, _ in RESULTS_CLAIM_CELLS for law in ("fic", "linear")
             for hand in ("passive", "reactive") for seed in (1, 2)]
     path = tmp_path / "claims_statistics.json"
     path.write_text(json.dumps(claims_statistics(rows, seeds_planned=2)))
-    assert main(["--readme", str(path)]) == 0
+    assert main(["--block", str(path)]) == 0
     block = capsys.readouterr().out
     assert block.startswith(f"All {len(rows)} runs of the claim sweep judged (2 seeds a law, cell and hand). ")
     assert "so far" not in block and "resumes" not in block
@@ -136,19 +136,19 @@ def test_tables_say_how_many_runs_were_too_short_to_judge():
     assert "| c passive | fic | 2 | 1/1 (1 not assessed) | 0.21-1.00 | - | " in table
 
 
-def test_update_readme_replaces_only_the_block(tmp_path):
-    from fic_teleop_experiments.tables import readme_claims
+def test_update_results_replaces_only_the_block(tmp_path):
+    from fic_teleop_experiments.tables import claims_block
     path = tmp_path / "claims.json"
     path.write_text(json.dumps({"runs": _runs()}))
-    readme = tmp_path / "README.md"
-    readme.write_text("# x\n\nbefore\n<!-- claims: begin (generated) -->\nold 1/2\n<!-- claims: end -->\nafter\n")
-    assert main([str(path), "--update-readme", str(readme)]) == 0
+    results = tmp_path / "RESULTS.md"
+    results.write_text("# x\n\nbefore\n<!-- claims: begin (generated) -->\nold 1/2\n<!-- claims: end -->\nafter\n")
+    assert main([str(path), "--update-results", str(results)]) == 0
     statistics = json.loads((tmp_path / "claims_statistics.json").read_text())
-    assert readme.read_text() == ("# x\n\nbefore\n<!-- claims: begin (generated) -->\n" + readme_claims(statistics)
+    assert results.read_text() == ("# x\n\nbefore\n<!-- claims: begin (generated) -->\n" + claims_block(statistics)
                                   + "<!-- claims: end -->\nafter\n")
-    readme.write_text("no block\n")
+    results.write_text("no block\n")
     with pytest.raises(SystemExit):
-        main([str(path), "--update-readme", str(readme)])
+        main([str(path), "--update-results", str(results)])
 
 
 def test_each_stable_test_is_counted_where_it_failed():
@@ -171,13 +171,13 @@ def test_each_stable_test_is_counted_where_it_failed():
 
 
 def test_an_open_loop_control_is_shown_beside_its_claim_cell_and_left_out_of_the_tally():
-    from fic_teleop_experiments.tables import readme_claims
+    from fic_teleop_experiments.tables import claims_block
 
     rows = [_row("delay_1__rate_10", "fic", seed, seed <= 9, hand="reactive") for seed in range(1, 21)]
     rows += [_row("delay_1__rate_10__feedback_off", "fic", seed, seed <= 11, hand="reactive") for seed in range(1, 21)]
     rows += [_row("delay_1__rate_10__feedback_off", "linear", seed, seed <= 15, hand="reactive")
              for seed in range(1, 21)]
-    block = readme_claims(claims_statistics(rows, seeds_planned=20))
+    block = claims_block(claims_statistics(rows, seeds_planned=20))
     assert ("| control: 1 s and 10 Hz, the force feedback off (no force loop through the channel) "
             "(`delay_1__rate_10__feedback_off`) | reactive | 11/20 ") in block
     assert "| control, not a claim |" in block
@@ -193,8 +193,8 @@ def test_an_open_loop_control_is_shown_beside_its_claim_cell_and_left_out_of_the
 
 def test_the_resonant_amplification_the_verdict_found_is_summarised_per_law():
     """The verdict's resonance_gain of each run (kept in claims.json) as a median per law and cell, and on an open-loop
-    control in README's block, so that a forced resonance the verdict does not call an oscillation stays visible."""
-    from fic_teleop_experiments.tables import readme_claims
+    control in the claims block, so that a forced resonance the verdict does not call an oscillation stays visible."""
+    from fic_teleop_experiments.tables import claims_block
 
     rows = [_row("delay_1__rate_10__feedback_off", "fic", seed, True, hand="reactive") for seed in range(1, 6)]
     for row, gain, period in zip(rows, (1.6, 1.8, 1.7, 2.0, 1.9), (1.5, 1.6, 1.6, 1.7, 1.5)):
@@ -205,15 +205,15 @@ def test_the_resonant_amplification_the_verdict_found_is_summarised_per_law():
     assert laws["fic"]["resonance_gain_median"] == pytest.approx(1.8)
     assert laws["fic"]["resonance_period_median_s"] == pytest.approx(1.6)
     assert laws["linear"]["resonance_gain_median"] is None
-    block = readme_claims(statistics)
+    block = claims_block(statistics)
     assert "Resonant amplification the verdict found on `delay_1__rate_10__feedback_off` (reactive hand" in block
     assert block.rstrip().endswith("fic 1.80 at 1.60 s.")
 
 
 def test_each_laws_swing_and_tracking_error_stand_beside_its_stable_share():
-    """A law that is stable but swings 20 mm is worse for fine work: the tables and README's block show its swing (the
+    """A law that is stable but swings 20 mm is worse for fine work: the tables and the claims block show its swing (the
     verdict's figure) and its RMS tracking error beside its stable share."""
-    from fic_teleop_experiments.tables import claims_markdown, readme_claims
+    from fic_teleop_experiments.tables import claims_block, claims_markdown
 
     rows = [_row("delay_1__rate_10", law, seed, True) for law in ("fic", "linear") for seed in range(1, 21)]
     for row in rows:
@@ -224,5 +224,5 @@ def test_each_laws_swing_and_tracking_error_stand_beside_its_stable_share():
     assert cell["laws"]["linear"]["swing_median"] == pytest.approx(0.020)
     table = claims_markdown(statistics)
     assert "| delay_1__rate_10 passive | linear | 20 | 20/20 | 0.84-1.00 | 20.0 / 20.0 | 12.0 / 12.0 | 20/20 |" in table
-    block = readme_claims(statistics)
+    block = claims_block(statistics)
     assert "20/20 (0.84-1.00); swing 4 mm, error 6 mm" in block and "linear 20/20; swing 20 mm, error 12 mm" in block
