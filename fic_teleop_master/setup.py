@@ -14,7 +14,8 @@ setup(
     zip_safe=True,
     maintainer="fic_teleop developers",
     maintainer_email="maintainers@fic-teleop.org",
-    description="Master side of FIC haptic teleoperation: the master FIC with online haptic gain and the teleoperation modes (paper Eq. 3).",
+    description="Master side of FIC haptic teleoperation: the master FIC with online haptic gain and the teleoperation "
+                "modes (paper Eq. 3).",
     license="BSD-3-Clause",
     entry_points={
         "console_scripts": [

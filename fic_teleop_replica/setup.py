@@ -14,7 +14,8 @@ setup(
     zip_safe=True,
     maintainer="fic_teleop developers",
     maintainer_email="maintainers@fic-teleop.org",
-    description="Replica side: the FIC torque controller with postural optimisation for a Panda-class arm (paper Eq. 7).",
+    description="Replica side: the FIC torque controller with postural optimisation for a Panda-class arm (paper Eq. "
+                "7).",
     license="BSD-3-Clause",
     entry_points={
         "console_scripts": [

@@ -8,4 +8,4 @@ REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$REPO/scripts/setup.sh"
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
-exec python -m sim_bridge.tools.bench "$@"
+exec python -m fic_teleop_experiments.tools.bench "$@"

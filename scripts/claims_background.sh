@@ -2,7 +2,8 @@
 # The claim sweep in the background, on a frozen copy of one commit (docs/EXPERIMENTS.md "Claims"):
 #   scripts/claims_background.sh [COMMIT] [claims_sweep options...]     (COMMIT: default HEAD)
 # exports COMMIT's tree (git archive) to runs/claims_snapshot_<commit>/ and runs its claim sweep there (the module
-# sim_bridge.experiments.claims_sweep; a commit from before it had a command line keeps it in scripts/claims_sweep.py),
+# fic_teleop_experiments.claims_sweep; an older commit has it as sim_bridge.experiments.claims_sweep, and one from
+# before that had a command line keeps it in scripts/claims_sweep.py),
 # under nice -n 15, detached from the terminal (setsid nohup), logging to results/claims_runs.log, with its series
 # and run lines in this checkout's results/claims_runs/ and results/claims_runs.jsonl. The code and the config are the
 # commit's even while the checkout changes; every run line names that commit. Run it again (same COMMIT) to resume.
@@ -18,14 +19,17 @@ if [[ ! -f "$SNAPSHOT/COMMIT" ]]; then
 fi
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
+# The snapshot is the workspace the sweep reads: its config/ and its COMMIT (fic_teleop_runtime.workspace).
+export FIC_TELEOP_ROOT="$SNAPSHOT"
 export PYTHONPATH="$SNAPSHOT/sim_bridge:$SNAPSHOT/fic_core${PYTHONPATH:+:$PYTHONPATH}"
 # The pure-Python packages a newer commit split out of sim_bridge, from the snapshot too where it has them.
-for package in fic_teleop_tools fic_teleop_runtime fic_teleop_bringup; do
+for package in fic_teleop_tools fic_teleop_runtime fic_teleop_bringup fic_teleop_experiments; do
   if [[ -d "$SNAPSHOT/$package/$package" ]]; then export PYTHONPATH="$SNAPSHOT/$package:$PYTHONPATH"; fi
 done
 mkdir -p "$REPO/results"
 if [[ -f "$SNAPSHOT/scripts/claims_sweep.py" ]]; then sweep=("$SNAPSHOT/scripts/claims_sweep.py")
-else sweep=(-m sim_bridge.experiments.claims_sweep); fi
+elif [[ -f "$SNAPSHOT/sim_bridge/sim_bridge/experiments/claims_sweep.py" ]]; then sweep=(-m sim_bridge.experiments.claims_sweep)
+else sweep=(-m fic_teleop_experiments.claims_sweep); fi
 # Under autogroup scheduling (Linux's default on desktops and many servers) a nice value only orders threads within
 # one session: a setsid'd job still takes a full share against every other session. A CPU cgroup with a low weight
 # is what makes it background; as root, this script joins one (cgroup v1 cpu.shares, or v2 cpu.weight) before it

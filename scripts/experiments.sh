@@ -6,7 +6,7 @@ REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$REPO/scripts/setup.sh"
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
-# `claims`: the claim cells on the in-process runner (sim_bridge.experiments.claims_sweep; docs/EXPERIMENTS.md
-# "Claims"). Otherwise E1-E4 on the graph (sim_bridge.experiments.paper_experiments).
-if [[ "${1:-}" == "claims" ]]; then shift; exec python -m sim_bridge.experiments.claims_sweep "$@"; fi
-exec python -m sim_bridge.experiments.paper_experiments "$@"
+# `claims`: the claim cells on the in-process runner (fic_teleop_experiments.claims_sweep; docs/EXPERIMENTS.md
+# "Claims"). Otherwise E1-E4 on the graph (fic_teleop_experiments.paper_experiments).
+if [[ "${1:-}" == "claims" ]]; then shift; exec python -m fic_teleop_experiments.claims_sweep "$@"; fi
+exec python -m fic_teleop_experiments.paper_experiments "$@"

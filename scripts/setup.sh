@@ -105,7 +105,7 @@ fi
 # 6. The ROS packages, built by colcon into install/ (symlinked Python, so edits to node files are live).
 step "colcon build (messages, runtime and the node packages)"
 ws_files=$(cd "$REPO" && find fic_teleop_msgs fic_teleop_runtime fic_teleop_master fic_teleop_replica fic_teleop_planner sim_bridge \
-  fic_teleop_bringup fic_teleop_tools \
+  fic_teleop_bringup fic_teleop_tools fic_teleop_experiments \
   \( -name package.xml -o -name CMakeLists.txt -o -name '*.msg' -o -name setup.py -o -name setup.cfg \) | sort)
 # The runtime's modules and config/ files by name only: a new one must be linked into install/ (symlinked, so edits
 # are live anyway).
@@ -119,7 +119,7 @@ else
     export AMENT_PREFIX_PATH="$VENV" CMAKE_PREFIX_PATH="$VENV" PATH="$VENV/bin:$PATH"
     "$VENV/bin/colcon" --log-base "$REPO/log" build --symlink-install \
       --base-paths fic_teleop_msgs fic_teleop_runtime fic_teleop_master fic_teleop_replica fic_teleop_planner sim_bridge \
-      fic_teleop_bringup fic_teleop_tools \
+      fic_teleop_bringup fic_teleop_tools fic_teleop_experiments \
       --cmake-args -DBUILD_TESTING=OFF "-DPython3_EXECUTABLE=$VPY" \
       --event-handlers console_direct- >/tmp/fic_setup_colcon.log 2>&1
   ) || { tail -30 /tmp/fic_setup_colcon.log >&2; fail "colcon build failed (log: /tmp/fic_setup_colcon.log)" \

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Test-only: the venv holding LeRobot's own dataset loader (scripts/requirements-lerobot.txt), which the export test
-# (test/test_dataset_lerobot_load.py) runs in a subprocess. Kept apart from .venv so that the product never carries
+# (test/tools/test_dataset_lerobot_load.py) runs in a subprocess. Kept apart from .venv so that the product never carries
 # torch. Idempotent (a stamp of the pinned inputs); scripts/test.sh runs it.
 # Environment: FIC_PYTHON (default python3.11), FIC_LEROBOT_VENV (default <repo>/.venv-lerobot)
 set -euo pipefail

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Run the whole test suite: sets the workspace up when needed (scripts/setup.sh is idempotent), then pytest over
-# test/ (the core's mathematics, the simulation, and node-level tests that start real nodes over DDS).
+# Run the whole test suite: sets the workspace up when needed (scripts/setup.sh is idempotent), then ruff over the
+# tree (pyproject.toml; any finding fails the run before a test starts), then pytest over test/ (a folder per
+# package, and node-level tests that start real nodes over DDS).
 # Extra arguments go to pytest, e.g. scripts/test.sh test/core -k profile
 set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -15,5 +16,7 @@ ROS_LOG_DIR="$(mktemp -d -t fic_teleop_test_logs.XXXXXX)"
 export ROS_LOG_DIR ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$REPO"
+echo "[test] ruff check"
+ruff check .
 echo "[test] pytest (ROS logs in $ROS_LOG_DIR)"
 exec python -m pytest -p no:cacheprovider "${@:-test}"

@@ -14,7 +14,8 @@ setup(
     zip_safe=True,
     maintainer="fic_teleop developers",
     maintainer_email="maintainers@fic-teleop.org",
-    description="The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a virtual operator, and the delay/dropout channel.",
+    description="The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a "
+                "virtual operator, and the delay/dropout channel.",
     license="BSD-3-Clause",
     entry_points={
         "console_scripts": [

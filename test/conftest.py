@@ -159,13 +159,13 @@ class NodeProcess:
     refusal sets ``expected_returncode``.
     """
 
-    def __init__(self, command: list[str], env: dict[str, str], log_path: Path) -> None:
+    def __init__(self, command: list[str], env: dict[str, str], log_path: Path, cwd: Path | None = None) -> None:
         self.command = command
         self.expected_returncode = 0
         self.log_path = log_path
         self._log = open(log_path, "wb")
         self.process = subprocess.Popen(command, env=env, stdout=self._log, stderr=subprocess.STDOUT,
-                                        start_new_session=True)
+                                        start_new_session=True, cwd=cwd)
 
     def output(self) -> str:
         if not self._log.closed:
@@ -206,7 +206,7 @@ def start_node(ros_env: dict[str, str], tmp_path: Path):
 
     def _start(package: str, executable: str, *, params: dict | None = None, params_file: Path | None = None,
                ros_args: list[str] | None = None, env: dict[str, str] | None = None,
-               name: str | None = None) -> NodeProcess:
+               name: str | None = None, cwd: Path | None = None) -> NodeProcess:
         path = installed_executable(package, executable)
         assert path.exists(), f"{path} is not installed; run scripts/setup.sh"
         command = [str(path), "--ros-args"]
@@ -218,7 +218,7 @@ def start_node(ros_env: dict[str, str], tmp_path: Path):
             command += ["-p", f"{key}:={_parameter_literal(value)}"]
         command += ros_args or []
         log = tmp_path / f"{name or executable}-{len(started)}.log"
-        node = NodeProcess(command, env or ros_env, log)
+        node = NodeProcess(command, env or ros_env, log, cwd)
         started.append(node)
         return node
 

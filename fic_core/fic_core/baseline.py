@@ -102,7 +102,8 @@ class LinearImpedance:
     def reset(self) -> None:
         self._state = LinearImpedanceSnapshot(self._stiffness_values, (0.0,) * 6, (0.0,) * 6)
 
-    def wrench(self, position_error: ArrayLike, rotation_error: ArrayLike, twist_error: ArrayLike) -> NDArray[np.float64]:
+    def wrench(self, position_error: ArrayLike, rotation_error: ArrayLike,
+               twist_error: ArrayLike) -> NDArray[np.float64]:
         """K*e + D*de/dt [N, N m]; arguments as ``PoseAttractor.wrench``."""
         position_error = finite_floats("position_error", position_error, 3)
         rotation_error = finite_floats("rotation_error", rotation_error, 3)

@@ -11,7 +11,6 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-
 _FLOAT64 = np.dtype(np.float64)
 _SHORT_VECTOR = 16  # up to this many elements, Python's sum of floats beats numpy's reduction
 

@@ -28,15 +28,16 @@ back at resume_speed (fic_core.desired_pose). Before this, an outside client's x
 arm's hand 0.34 m in 2.5 s without a word.
 
 ``RobotStreamGuard`` watches the robot-side streams (/joint_states in, the torque commands out): each must have
-exactly one publisher (the robot's driver; the replica); the set-point streams of the planner at most one, and joint-state stamps must not go back and not lie in
-the receiver's future. A second writer of /joint_states is caught twice: by the middleware's match of it to our
-reader, which comes with its first message or within a message or two of it, and by the graph lookup of each
-stream's publishers every half second (alone, that window let a second writer's states drive the arm 0.12 m on a
-loaded machine). The first breach latches a safe hold: the replica sends no more torques, and the robot's
-own command watchdog holds the arm (the simulator: gravity compensation and damping after 50 ms without a command;
-a Franka arm: libfranka's communication reflex stops it). A law held on joint states cannot be trusted: a writer
-whose stamps run ahead of the robot's makes the robot's own states look old, so "the states that move forward" are
-the intruder's. A hold is not lifted on its own: once a second writer was seen, no later joint state can be trusted.
+exactly one publisher (the robot's driver; the replica); the set-point streams of the planner at most one, and
+joint-state stamps must not go back and not lie in the receiver's future. A second writer of /joint_states is caught
+twice: by the middleware's match of it to our reader, which comes with its first message or within a message or two of
+it, and by the graph lookup of each stream's publishers every half second (alone, that window let a second writer's
+states drive the arm 0.12 m on a loaded machine). The first breach latches a safe hold: the replica sends no more
+torques, and the robot's own command watchdog holds the arm (the simulator: gravity compensation and damping after 50 ms
+without a command; a Franka arm: libfranka's communication reflex stops it). A law held on joint states cannot be
+trusted: a writer whose stamps run ahead of the robot's makes the robot's own states look old, so "the states that move
+forward" are the intruder's. A hold is not lifted on its own: once a second writer was seen, no later joint state can be
+trusted.
 """
 from __future__ import annotations
 

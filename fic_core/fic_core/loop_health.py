@@ -29,10 +29,10 @@ velocity, ``hold_torque``) on every tick whose state is fresh. On a stale state 
 once, as the hold begins (it replaces the law's last torque at the robot), and nothing after: a damper on a
 velocity the arm had a tenth of a second ago pushes it wherever it was going, and gravity alone held for seconds
 lets it float off (measured: 0.69 m in a 3 s starved window, docs/RESULTS.md "Starvation"); the robot's own
-watchdog then holds the arm with gravity and damping on its own state, at its own rate. It resumes only after ``resume_ticks`` healthy ticks in a row, then blends the law in
-from the hold over ``resume_ramp`` seconds (``law_fraction``), with the task controller started afresh (its
-convergent-phase latch and error memory belong to the states before the hold). Every hold is counted, and the
-caller says it on /diagnostics.
+watchdog then holds the arm with gravity and damping on its own state, at its own rate. It resumes only after
+``resume_ticks`` healthy ticks in a row, then blends the law in from the hold over ``resume_ramp`` seconds
+(``law_fraction``), with the task controller started afresh (its convergent-phase latch and error memory belong to the
+states before the hold). Every hold is counted, and the caller says it on /diagnostics.
 """
 from __future__ import annotations
 
@@ -62,7 +62,8 @@ class LoopHealthBounds:
     """Where the replica's loop stops being trusted (docs/SECURITY.md, "The replica's own loop")."""
 
     max_state_age: float = 0.04    # [s] a law on an older state is not applied (below the robot's 50 ms watchdog)
-    max_tick_gap: float = 0.05     # [s] ticks further apart: the last torque held as long as the robot's watchdog allows
+    # [s] ticks further apart: the last torque held as long as the robot's watchdog allows
+    max_tick_gap: float = 0.05
     resume_ticks: int = 25         # healthy control ticks in a row before the law comes back
     resume_ramp: float = 0.2       # [s] the law blended in from the hold over this long
 
@@ -181,7 +182,8 @@ class LoopHealth:
         self.state, self._entered_hold, self._healthy_run, self._resume_start = HOLDING, True, 0, None
         self._age_known = True
         self.holds += 1
-        self.reason = f"state {age * 1e3:.1f} ms old when its torque was ready (bound {self.bounds.max_state_age * 1e3:g} ms)"
+        self.reason = (f"state {age * 1e3:.1f} ms old when its torque was ready "
+                       f"(bound {self.bounds.max_state_age * 1e3:g} ms)")
         return (f"replica loop unhealthy: {self.reason}; holding (gravity and joint damping) until "
                 f"{self.bounds.resume_ticks} healthy ticks")
 

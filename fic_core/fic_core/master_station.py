@@ -39,8 +39,8 @@ from .guidance_fixture import FixtureKind, GuidanceFixture, fixture_kind
 from .handle_homing import HandleHoming
 from .master import MasterLaw, checked_loop_gain, haptic_gain_ceiling, loop_gain
 from .norm_bound import norm_bounded
-from .parameter_row import ParameterRow, number, numbers, rows_by_name, switch, text
 from .operator_buttons import HAPTIC_GAIN_STEP, ButtonEdges, OperatorButton
+from .parameter_row import ParameterRow, number, numbers, rows_by_name, switch, text
 from .profile import ForceProfile
 from .set_point import ShrinkingOffset
 from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode

@@ -32,7 +32,8 @@ def _robot_data_root() -> Path:
     try:  # a pip install elsewhere on sys.path (e.g. an existing ROS install using a user site)
         import cmeel  # type: ignore[import-not-found]
 
-        candidates.append(Path(cmeel.__file__).resolve().parent.parent / "cmeel.prefix" / "share" / "example-robot-data" / "robots")
+        prefix = Path(cmeel.__file__).resolve().parent.parent / "cmeel.prefix"
+        candidates.append(prefix / "share" / "example-robot-data" / "robots")
     except ImportError:
         pass
     import site

@@ -15,9 +15,10 @@ the channel gives out at that port:
   it drifts from the received one by what was dissipated; the drift is reported, not corrected).
 
 Both act only on a tick that lets energy out (P < 0) and never dissipate more than that tick lets out, so a
-positive W leaves the signal untouched (damping zero). With ``enabled`` False a controller only books its observer (the signal passes unchanged). A bound on the damping (the damper) or on the offset
-correction per tick (the motion side) keeps a near-zero v or F from asking for an unbounded gain; a tick that hits
-it leaves the rest of the deficit in W, for the next ticks to take out.
+positive W leaves the signal untouched (damping zero). With ``enabled`` False a controller only books its observer (the
+signal passes unchanged). A bound on the damping (the damper) or on the offset correction per tick (the motion side)
+keeps a near-zero v or F from asking for an unbounded gain; a tick that hits it leaves the rest of the deficit in W, for
+the next ticks to take out.
 """
 from __future__ import annotations
 

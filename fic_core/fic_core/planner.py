@@ -164,7 +164,8 @@ class HarmonicPlanner:
                       - viscous)  # Eq. 5, D
         # 2*A_max/x~_T0 written as 2*min(w_n^2, a_max/|x~_T0|): no division by a tiny x~_T0 can blow up.
         safe_latched = np.where(self._latched_displacement != 0.0, np.abs(self._latched_displacement), 1.0)
-        convergence_stiffness = 2.0 * np.minimum(self._natural_frequency ** 2, self._latched_acceleration / safe_latched)
+        convergence_stiffness = 2.0 * np.minimum(self._natural_frequency ** 2,
+                                                 self._latched_acceleration / safe_latched)
         convergence = convergence_stiffness * (error - 0.5 * self._latched_displacement) - viscous  # Eq. 5, C
         acceleration = np.where(self._in_convergence, convergence, divergence)
         acceleration = np.clip(acceleration, -self._max_acceleration, self._max_acceleration)

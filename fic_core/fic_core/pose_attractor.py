@@ -90,7 +90,8 @@ class PoseAttractor:
         (sampled_spring_damping.late_hold; 0.0: on time, Eq. 2 alone)."""
         self._late = float(late) if late > 0.0 else 0.0
 
-    def wrench(self, position_error: ArrayLike, rotation_error: ArrayLike, twist_error: ArrayLike) -> NDArray[np.float64]:
+    def wrench(self, position_error: ArrayLike, rotation_error: ArrayLike,
+               twist_error: ArrayLike) -> NDArray[np.float64]:
         """FIC wrench [N, N m]: Eq. 2 per translational axis, the angle-axis FIC on orientation.
 
         Args:

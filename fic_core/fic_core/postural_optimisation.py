@@ -472,8 +472,8 @@ class PosturalOptimisation:
         """Whether tau_d passes unshaped, on floats: ``_admits_unshaped`` or ``_satisfies_every_limit``.
 
         Returns VERDICT_REJECTED (0) if neither holds, else VERDICT_INSIDE if moreover every joint has
-        |qd| <= v_max and a margin >= 0 in ``position_margin`` (the distance of each joint to its nearest position limit: the
-        measured state is inside its limits; the first test implies it), else VERDICT_UNSHAPED.
+        |qd| <= v_max and a margin >= 0 in ``position_margin`` (the distance of each joint to its nearest position
+        limit: the measured state is inside its limits; the first test implies it), else VERDICT_UNSHAPED.
         ``acceleration`` is the predicted qdd = M^-1 (tau_d - bias). The two tests are tried in the order that
         is likely to decide with one of them: the first while the joints are far from their position limits,
         the second after a call that found a joint near one. (Both are exact; only the cost depends on it.)
@@ -573,7 +573,8 @@ class PosturalOptimisation:
 
     def _add_cut(self, direction, tcp_linear_jacobian, mass_matrix_inverse, tcp_velocity, free_acceleration,
                  horizon, cut_rows, cut_upper) -> None:
-        # u^T J_v (qd + T (M^-1 tau - M^-1 bias)) <= v_max   <=>   (u^T J_v M^-1) tau <= (v_max - u^T v)/T + u^T J_v M^-1 bias
+        # u^T J_v (qd + T (M^-1 tau - M^-1 bias)) <= v_max   <=>   (u^T J_v M^-1) tau <= (v_max - u^T v)/T + u^T J_v
+        # M^-1 bias
         projected = direction @ tcp_linear_jacobian
         cut_rows.append(projected @ mass_matrix_inverse)
         cut_upper.append(float((self.limits.tcp_speed * (1.0 - _TCP_CUT_SHRINK) - direction @ tcp_velocity) / horizon

@@ -245,7 +245,8 @@ _LOG_COSH_START = _scalar_log_cosh(-math.pi)
 
 def force_profile(error: ArrayLike, *, stiffness: float, saturation_error: float, saturation_start: float,
                   max_force: float) -> NDArray[np.float64]:
-    """F_c(error) of paper Eq. 1 with its errata (docs/CONTROL_LAWS.md), elementwise; odd, continuous, tends to max_force.
+    """F_c(error) of paper Eq. 1 with its errata (docs/CONTROL_LAWS.md), elementwise; odd, continuous, tends to
+    max_force.
 
     Args:
         error: e = x_d - x per axis [m or rad], any shape.

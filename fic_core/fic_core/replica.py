@@ -39,12 +39,12 @@ Bounded feedforward (``feedforward_limit``, optional): the force and the moment 
 norms (F_lin, M_lin), the node passes the FIC's own F_max of translation and rotation. Why: a_d of a teleoperated
 offset is an estimate (a difference quotient of delayed, jittery samples), and near a singularity an effective
 mass of hundreds of kg turns a few m/s^2 of estimation noise into hundreds of newtons (an E2 trial with the
-unbounded offset feedforward peaked at 562 N at the wrist; the same trial before the feedforward existed, 32 N). Bounded by F_max, the feedforward can never push harder than the FIC itself
-may, which keeps the paper's bounded-force property for the whole task-space command.
-The regularisation mu (``feedforward_regularisation``, default 1e-3 in 1/kg, 1/(kg m^2) on the rotation rows)
-caps the effective mass of any task direction at 1/mu = 1000 kg: near a singularity, where J M^-1 J^T loses rank,
-Lambda stays finite (a damped least-squares inverse), and away from one (the Panda's effective masses are a few
-kg, eigenvalues of J M^-1 J^T above 0.1) it changes Lambda by less than 1 %.
+unbounded offset feedforward peaked at 562 N at the wrist; the same trial before the feedforward existed, 32 N). Bounded
+by F_max, the feedforward can never push harder than the FIC itself may, which keeps the paper's bounded-force property
+for the whole task-space command. The regularisation mu (``feedforward_regularisation``, default 1e-3 in 1/kg, 1/(kg
+m^2) on the rotation rows) caps the effective mass of any task direction at 1/mu = 1000 kg: near a singularity, where J
+M^-1 J^T loses rank, Lambda stays finite (a damped least-squares inverse), and away from one (the Panda's effective
+masses are a few kg, eigenvalues of J M^-1 J^T above 0.1) it changes Lambda by less than 1 %.
 
 Cost (the 1 kHz budget, docs/RESULTS.md): the tick validates every public input once (one sum of Python floats
 per signal: NaN and Inf propagate into it; a desired rotation matrix equal to the last one checked is not
@@ -370,7 +370,8 @@ class ReplicaController:
         self._previous_values: list[float] | None = None
         self._tcp_speed_bound = self.limits.tcp_speed + VIOLATION_TOLERANCE
         # An unshaped tau_d passed the optimisation's torque and torque-rate tests: with the same limits (and a
-        # rate step no larger than the violation check's), it is inside the violation check's torque and rate limits too.
+        # rate step no larger than the violation check's), it is inside the violation check's torque and rate limits
+        # too.
         self._verdict_covers_violations = self.optimisation.limits == self.limits and \
             self.optimisation.rate_step <= self.limits.torque_rate * self.control_period + VIOLATION_TOLERANCE
         self._valid_rotation_rows: list[list[float]] | None = None  # the last desired rotation matrix checked
@@ -639,7 +640,8 @@ class ReplicaController:
 
     def _violation_free(self, torque: list[float], qd: list[float], position_margin: list[float],
                         tcp_speed: float, interval: float) -> bool:
-        """No limit violation (docs/CONTROL_LAWS.md; the common tick), on floats; ``_violations`` names them otherwise."""
+        """No limit violation (docs/CONTROL_LAWS.md; the common tick), on floats; ``_violations`` names them
+        otherwise."""
         limits = self.limits
         tolerance = VIOLATION_TOLERANCE
         if tcp_speed > limits.tcp_speed + tolerance:

@@ -39,7 +39,7 @@ from .desired_velocity import DesiredVelocityFilter
 from .errors import FicInputError, finite_array
 from .input_authority import CommandAuthority, CommandVerdict, SetPointAuthority
 from .limits import PandaLimits
-from .loop_health import HOLDING, LoopHealth, LoopHealthBounds
+from .loop_health import LoopHealth, LoopHealthBounds
 from .passivity_observer import PassivityObserver
 from .quaternion import rotation_from_quaternion
 from .replica import ReplicaCommand, ReplicaController

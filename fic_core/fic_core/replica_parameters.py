@@ -106,7 +106,8 @@ REPLICA_SWITCHES: dict[str, ParameterRow] = rows_by_name(
 
 CONTROLLERS = ("fic", "linear", "linear_bounded")
 CONTROLLER_DESCRIPTION = ("task-space law: 'fic' (the paper's Fractal Impedance Controller) or 'linear' (the "
-                          "baseline spring-damper with the same stiffness) or 'linear_bounded' (the same, its force bounded by the "
+                          "baseline spring-damper with the same stiffness) or 'linear_bounded' (the same, its force "
+                          "bounded by the "
                           "FIC's F_max: translation_max_force, rotation_max_force)")
 
 

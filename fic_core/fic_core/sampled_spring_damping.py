@@ -8,7 +8,7 @@ sampled-data systems: application to haptic interfaces", 1997: b > K T/2 + |B| f
 At the nominal 2 ms the FIC's largest joint-space stiffness on the Panda's wrist, 40 N m/rad (the rotational FIC's
 20 N m/rad doubled in its convergent phase), loses 0.04 N m s/rad against the arm's own 0.5; on ticks 48 ms apart,
 which a starved replica runs inside its loop bounds, it loses 0.96, and the wrist rings up instead of down
-(docs/CONTROL_LAWS.md, "The law on late ticks"; python -m sim_bridge.tools.sampled_law).
+(docs/CONTROL_LAWS.md, "The law on late ticks"; python -m fic_teleop_experiments.tools.sampled_law).
 
 On a late tick the attractor adds, per axis, a damper on the error rate of
 

@@ -126,7 +126,8 @@ class TeleoperationCommandIntegrator:
 
     def toggle_mode(self) -> TeleoperationMode:
         """Switch OFFSET <-> VELOCITY (the keyboard/joystick button); returns the new mode."""
-        self.set_mode(TeleoperationMode.VELOCITY if self._mode == TeleoperationMode.OFFSET else TeleoperationMode.OFFSET)
+        offset = self._mode == TeleoperationMode.OFFSET
+        self.set_mode(TeleoperationMode.VELOCITY if offset else TeleoperationMode.OFFSET)
         return self._mode
 
     def update(self, handle_position: ArrayLike, dt: float) -> NDArray[np.float64]:

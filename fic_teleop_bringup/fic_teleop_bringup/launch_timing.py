@@ -34,6 +34,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+
 from fic_teleop_bringup.launch_supervision import SAFETY_RECORDS
 from fic_teleop_bringup.run_bag import RunBag, scan
 from fic_teleop_tools.report.metrics import TARGETS as REPORT_TARGETS

@@ -2,10 +2,10 @@
 
 Why it exists: on 2 cores the graph uses most of both, and under the normal scheduler a message waits for a core
 at every hop; the pipeline latency p99 of the default main job is 16-31 ms with the loops at negative niceness
-(the default, ``--scheduling nice``) against the 5 ms target (docs/EXPERIMENTS.md). With the loops' threads under SCHED_FIFO, each
-receiver pre-empts its sender: measured 2026-12-02 in 11 runs of the default job with this thread choice, p50
-1.3-2.6 ms and p99 2.9-10.1 ms in 9 (the other two 15 and 26 ms), against 16-31 ms in the nice runs in between.
-With it the launcher sets the replica's ``tick_on_command``.
+(the default, ``--scheduling nice``) against the 5 ms target (docs/EXPERIMENTS.md). With the loops' threads under
+SCHED_FIFO, each receiver pre-empts its sender: measured 2026-12-02 in 11 runs of the default job with this thread
+choice, p50 1.3-2.6 ms and p99 2.9-10.1 ms in 9 (the other two 15 and 26 ms), against 16-31 ms in the nice runs in
+between. With it the launcher sets the replica's ``tick_on_command``.
 
 Why it is not the default: what the FIFO threads leave is too little for the normal class on 2 cores (the graph
 needs about 180 % of the machine). The recorder, which must stay behind the loops, then fell more than a second

@@ -1,8 +1,8 @@
 """What crosses the link between the two stations, topic by topic: a packet capture of RTPS on one interface.
 
 Run inside a station's network namespace (``ip netns exec <ns> python -m fic_teleop_bringup.rtps_traffic
---interface <if> --out <file>``) until SIGINT/SIGTERM. It opens an AF_PACKET socket on the interface (root), reassembles IPv4
-fragments, reads the RTPS header and submessages of each UDP datagram (DDSI-RTPS 2.x, section 9.4) and charges
+--interface <if> --out <file>``) until SIGINT/SIGTERM. It opens an AF_PACKET socket on the interface (root), reassembles
+IPv4 fragments, reads the RTPS header and submessages of each UDP datagram (DDSI-RTPS 2.x, section 9.4) and charges
 the datagram's bytes on the wire (IPv4 header and all) to the DDS entity each submessage belongs to: the writer of
 a DATA, DATA_FRAG, HEARTBEAT or GAP; for an ACKNACK or NACK_FRAG the remote writer it acknowledges. The header
 bytes of a datagram (IP, UDP, RTPS header, INFO_TS/INFO_DST) are shared equally among its entity submessages, so

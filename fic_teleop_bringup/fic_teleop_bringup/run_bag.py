@@ -41,6 +41,7 @@ def scan(bag: Path, topics: set[str], statuses: dict[str, str]) -> RunBag:
     """Read ``bag`` once: the receive times of ``topics``, the /clock stamps, and the last record of each status of
     ``statuses`` (status name -> a key its record must hold)."""
     from mcap_ros2.decoder import DecoderFactory
+
     from fic_teleop_tools.recording.bag_reader import ReadResult, read_messages
 
     result, run = ReadResult(), RunBag()

@@ -63,6 +63,7 @@ def read_bag(bag: Path, decode: set[str]) -> dict:
     """Per topic: receive (log) times [s]; for the topics in `decode`, the decoded messages too. Read with the
     project's one sequential bag reader (fic_teleop_tools.recording.bag_reader), so a torn bag reads up to its tail."""
     from mcap_ros2.decoder import DecoderFactory
+
     from fic_teleop_tools.recording.bag_reader import read_messages
 
     factory, decoders = DecoderFactory(), {}
@@ -251,9 +252,7 @@ def analyse_run(run_dir: Path, outer_record: dict, layout: "StationLayout") -> s
     path = run_dir / "stations.json"
     record = json.loads(path.read_text()) if path.exists() else {}
     record.update(outer_record)
-    run = json.loads((run_dir / "run.json").read_text()) if (run_dir / "run.json").exists() else {}
     origin = record.get("origin_wall")
-    duration = float(run.get("duration", 30.0))
     capture_path = run_dir / "link_capture.json"
     events = record.get("link_events") or {}
     lines = [f"[stations] run folder {run_dir}"]
@@ -290,7 +289,8 @@ def analyse_run(run_dir: Path, outer_record: dict, layout: "StationLayout") -> s
             ahead = (clocks.get("master_clock_ahead_estimate_ms") or 0.0) * 1e-3
             record["link_cut"] = link_cut_figures(robot, master, events, run_dir, layout, ahead)
             cut = record["link_cut"]
-            lines.append(f"[stations] link cut {cut['down_s']} s: first command used {cut.get('first_command_used_after_up_s')}"
+            lines.append(f"[stations] link cut {cut['down_s']} s: first command used "
+                         f"{cut.get('first_command_used_after_up_s')}"
                          f" s after link-up ({cut.get('that_command_was')}); master: "
                          f"{len(cut['log_lines'].get('master', []))} stale-feedback line(s); tracebacks: "
                          f"{cut['log_lines']['logs_with_a_traceback'] or 'none'}")
@@ -308,7 +308,8 @@ def analyse_run(run_dir: Path, outer_record: dict, layout: "StationLayout") -> s
         metrics = json.loads(metrics_path.read_text())
         record["metrics"] = {k: metrics.get(k) for k in (
             "free_motion_error_max_m", "free_motion_error_rms_m", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
-            "real_time_factor", "delay_one_way_ms", "limit_violations", "master_stale_ticks", "peak_interaction_force_n")}
+            "real_time_factor", "delay_one_way_ms", "limit_violations", "master_stale_ticks",
+            "peak_interaction_force_n")}
     path.write_text(json.dumps(record, indent=2))
     lines.append(f"[stations] {path}")
     return "\n".join(lines)

@@ -15,27 +15,46 @@ import math
 import os
 import shutil
 import signal
-import threading
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
 from fic_teleop_bringup import demonstrations, hardware_twin, node_groups, run_bag, run_profile, two_stations
-from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options, domain_from_environment, \
-    prepare_run_folder, whole_states_per_tick
+from fic_teleop_bringup.launch_checks import (
+    ArgumentRefusal,
+    check_options,
+    domain_from_environment,
+    prepare_run_folder,
+    whole_states_per_tick,
+)
 from fic_teleop_bringup.launch_isolation import DomainBusy, isolate
-from fic_teleop_bringup.launch_supervision import EXIT_CODES, EXIT_REFUSED, EXIT_STARVED, die_with_launcher, \
-    failed_nodes, fill_limit_counters, safety_verdict
-from fic_teleop_bringup.launch_timing import JUDGED_RECORDS, SimulatedWindow, TimingBounds, exit_code, judge_run, \
-    judged_topics
-from fic_teleop_bringup.run_bag import RunBag
+from fic_teleop_bringup.launch_supervision import (
+    EXIT_CODES,
+    EXIT_REFUSED,
+    EXIT_STARVED,
+    die_with_launcher,
+    failed_nodes,
+    fill_limit_counters,
+    safety_verdict,
+)
+from fic_teleop_bringup.launch_timing import (
+    JUDGED_RECORDS,
+    SimulatedWindow,
+    TimingBounds,
+    exit_code,
+    judge_run,
+    judged_topics,
+)
 from fic_teleop_bringup.realtime_scheduling import RealtimeScheduler, leave_real_time_class
+from fic_teleop_bringup.run_bag import RunBag
 from fic_teleop_bringup.workspace import CONFIG, REPO
-from fic_teleop_runtime.params_file import write_node_params
 from fic_teleop_runtime.parameters import file_sections
+from fic_teleop_runtime.params_file import write_node_params
+from fic_teleop_runtime.workspace import executable
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
 
 # How long a node may take to stop after SIGINT before it is killed; the recorder finalises its bag, so it gets more.
@@ -65,12 +84,13 @@ class NodeSpec:
 
 def node_command(spec: NodeSpec, run_params: Path | None = None) -> list[str]:
     """The node's command line: its config file, then `run_params`, the launcher's own values for this run
-    (a params file written by fic_teleop_runtime.params_file.write_node_params, so that each value keeps its Python type)."""
-    executable = REPO / "install" / spec.package / "lib" / spec.package / spec.executable
+    (a params file written by fic_teleop_runtime.params_file.write_node_params, so that each value keeps its Python
+    type)."""
+    installed = executable(spec.package, spec.executable)
     if shutil.which("ros2") and os.environ.get("FIC_TELEOP_NO_ROS2_CLI") != "1":
         command = ["ros2", "run", spec.package, spec.executable]
     else:
-        command = [str(executable)]
+        command = [str(installed)]
     command += ["--ros-args", "-r", f"__node:={spec.name}"]
     if spec.params_file:
         command += ["--params-file", str(CONFIG / spec.params_file)]
@@ -107,7 +127,8 @@ VIDEO_ROUTES = ["/sim/tcp_pose:/master/video/tcp_pose:geometry_msgs/msg/PoseStam
 
 
 def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
-    """The paper's architecture (README.md, "Architecture"): device -> master -> channel -> replica -> robot, and back."""
+    """The paper's architecture (README.md, "Architecture"): device -> master -> channel -> replica -> robot, and
+    back."""
     profile = getattr(args, "run_profile", None) or run_profile.resolve(args)
     lockstep = args.time_mode == "lockstep"
     sim_time = {"use_sim_time": profile["use_sim_time"]}
@@ -291,13 +312,14 @@ class Graph:
     def foreground_done(self) -> bool:
         return any(spec.foreground and process.poll() is not None for spec, process, _ in self.processes)
 
-    def stop(self, timeout: float = STOP_TIMEOUT_S, recorder_timeout: float = RECORDER_STOP_TIMEOUT_S) -> dict[str, int]:
+    def stop(self, timeout: float = STOP_TIMEOUT_S,
+             recorder_timeout: float = RECORDER_STOP_TIMEOUT_S) -> dict[str, int]:
         """SIGINT to each node in reverse start order, the recorder last; a node still running ``timeout`` seconds
         later (the recorder: ``recorder_timeout``) is killed and named in ``killed_at_stop``."""
         codes: dict[str, int] = {}
         order = [entry for entry in reversed(self.processes) if entry[0].name != "recorder"] + \
                 [entry for entry in self.processes if entry[0].name == "recorder"]
-        for spec, process, log in order:  # the recorder stops last, so it records the others' last messages
+        for spec, process, _log in order:  # the recorder stops last, so it records the others' last messages
             codes[spec.name], killed = _interrupt(process, recorder_timeout if spec.name == "recorder" else timeout)
             if killed:
                 self.killed_at_stop.append(spec.name)
@@ -334,10 +356,9 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     import rclpy
     from rclpy.experimental import EventsExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
     from rclpy.task import Future
     from rosgraph_msgs.msg import Clock
-
-    from rclpy.signals import SignalHandlerOptions
 
     # Our own Ctrl-C handling (a flag set by main's signal handler) stops the graph in order; rclpy's would only end
     # the wait. The handler must not raise: an exception raised while rclpy's C++ layer converts a message comes out
@@ -439,7 +460,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog="exit codes: " + "; ".join(f"{code} {text}" for code, text
                                                                        in EXIT_CODES.items()))
-    parser.add_argument("--scene", default="superimposition", choices=["superimposition", "shape_sorting", "free_space"])
+    parser.add_argument("--scene", default="superimposition", choices=["superimposition", "shape_sorting",
+                                                                       "free_space"])
     parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds to run (default 30)")
     parser.add_argument("--delay", type=float, default=0.2, help="one-way channel delay [s], both ways (default 0.2)")
     parser.add_argument("--jitter", type=float, default=0.0, help="delay jitter [s]")
@@ -595,7 +617,8 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("ROS_LOG_DIR", str(log_dir / "ros"))
     try:  # the rest the run needs, checked before anything starts (launch_checks.py, launch_isolation.py)
-        given = args.domain_id if args.domain_id is not None else domain_from_environment(os.environ.get("ROS_DOMAIN_ID"))
+        given = args.domain_id if args.domain_id is not None \
+            else domain_from_environment(os.environ.get("ROS_DOMAIN_ID"))
         prepare_run_folder(run_dir)
         domain = isolate(given)  # held until this process ends
     except (ArgumentRefusal, DomainBusy) as refusal:
@@ -605,7 +628,8 @@ def main(argv: list[str] | None = None) -> int:
     os.environ["ROS_DOMAIN_ID"] = str(domain.domain)
     if not domain.held:
         print(f"[run] domain {domain.domain}: reserved by another process (no graph heard on it)")
-    (run_dir / "run.json").write_text(json.dumps({k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()}, indent=2))
+    (run_dir / "run.json").write_text(json.dumps({k: (str(v) if isinstance(v, Path) else v) for k,
+                                                  v in vars(args).items()}, indent=2))
 
     running = Graph(log_dir)
     interrupted = threading.Event()
@@ -617,7 +641,8 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     wall_start = time.monotonic()
     window = SimulatedWindow(0.0, 0.0)   # the run's duration on the simulation's clock (launch_timing.py)
-    print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller {args.controller}"
+    print(f"[run] scene {args.scene}, {args.duration:.0f} s, delay {args.delay * 1000:.0f} ms, controller "
+          f"{args.controller}"
           f" at {args.control_rate:g} Hz, {args.time_mode}; ROS domain {domain.domain}; run folder {run_dir}")
     try:
         try:

@@ -40,10 +40,10 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fic_teleop_bringup.workspace import REPO
+from fic_teleop_bringup.workspace import CONFIG
 
 INSIDE_ENV = "FIC_TWO_STATIONS"          # set in the launcher that runs inside the robot station
-FASTDDS_PROFILE = REPO / "config" / "fastdds_two_stations.xml"
+FASTDDS_PROFILE = CONFIG / "fastdds_two_stations.xml"
 RUN_FASTDDS_PROFILE = "fastdds_two_stations.xml"   # its copy in the run folder, with the profile's addresses
 TAG_PATTERN = re.compile(r"^[a-z0-9]{1,8}$")
 
@@ -604,12 +604,12 @@ def run(argv: list[str], args, run_dir: Path) -> int:
         for note in remove(pair):
             print(f"[stations] {note}")
         left = namespaces() & {pair.master_namespace, pair.robot_namespace}
-        print(f"[stations] namespaces removed" if not left else f"[stations] warning: could not remove {left}",
+        print("[stations] namespaces removed" if not left else f"[stations] warning: could not remove {left}",
               flush=True)
         for signum, handler in previous.items():
             signal.signal(signum, handler)
     try:
-        from fic_teleop_bringup.station_analysis import analyse_run   # reads bags: only after the run
+        from fic_teleop_bringup.station_analysis import analyse_run  # reads bags: only after the run
         summary = analyse_run(run_dir, record, layout)
         print(summary)
     except Exception as error:   # the run itself is done; say why its analysis is missing

@@ -56,7 +56,8 @@ SCHEMA = Schema("master.yaml", MASTER_NUMBERS.values(),
                 integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
                                       "(x_d' += k_v*x_M*dt)"),
                 text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True),
-                MASTER_TOOLS.values(), CHANNEL_PORT_SWITCHES.values(), CHANNEL_PORT_NUMBERS.values(), EXCHANGED_ENERGY_SWITCHES.values())
+                MASTER_TOOLS.values(), CHANNEL_PORT_SWITCHES.values(), CHANNEL_PORT_NUMBERS.values(),
+                EXCHANGED_ENERGY_SWITCHES.values())
 
 
 class MasterNode(Node):
@@ -73,7 +74,8 @@ class MasterNode(Node):
         self._exchanged = MasterExchangedEnergy(self._control_period) if values["exchanged_energy_observer"] else None
         self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_WRITER_QOS)
         self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_WRITER_QOS)
-        self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command", STREAM_WRITER_QOS)
+        self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command",
+                                                        STREAM_WRITER_QOS)
         self._port_energy_publisher = self.create_publisher(Vector3Stamped, "/master/port_energy", STREAM_WRITER_QOS)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self._tools_publisher = self.create_publisher(OperatorTools, "/master/operator_tools", STREAM_WRITER_QOS)

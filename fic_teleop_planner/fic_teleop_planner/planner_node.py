@@ -1,13 +1,13 @@
 """Planner node: the autonomous part x_d'' of the replica's command (paper Eqs. 5-6, docs/CONTROL_LAWS.md).
 
 Wiring around fic_core.planner_station.PlannerStation (the runner steps the same object): its timer calls
-``step(now)`` and publishes what it returns. A trajectory source (fic_core.trajectories: the paper's circle, a fixed point or via-points, chosen by the
-``trajectory`` parameter) gives the next trajectory point x_t(t); fic_core.HarmonicPlanner turns it into x_d'',
-published as /planner/desired_pose (PoseStamped, panda_link0) at ``publish_rate``, with the planner's
-acceleration on /planner/desired_accel (AccelStamped, same stamp) so that the replica can feed the superimposed
-motion's inertia forward (an addition beyond the paper, see fic_core.replica). The replica superimposes it
-on the operator's offset: x_d = x_d' + x_d''. x_d'' is an absolute position in the robot base frame; the planner
-starts at ``start_position`` (empty: the trajectory's first point) and the trajectory's clock starts
+``step(now)`` and publishes what it returns. A trajectory source (fic_core.trajectories: the paper's circle, a fixed
+point or via-points, chosen by the ``trajectory`` parameter) gives the next trajectory point x_t(t);
+fic_core.HarmonicPlanner turns it into x_d'', published as /planner/desired_pose (PoseStamped, panda_link0) at
+``publish_rate``, with the planner's acceleration on /planner/desired_accel (AccelStamped, same stamp) so that the
+replica can feed the superimposed motion's inertia forward (an addition beyond the paper, see fic_core.replica). The
+replica superimposes it on the operator's offset: x_d = x_d' + x_d''. x_d'' is an absolute position in the robot base
+frame; the planner starts at ``start_position`` (empty: the trajectory's first point) and the trajectory's clock starts
 ``start_delay`` seconds after the node. The orientation is a fixed parameter (the planner plans positions).
 
 Runtime changes (validated, refused with a reason): a new trajectory or trajectory parameter restarts the
@@ -28,8 +28,14 @@ from rclpy.parameter import Parameter
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
 from fic_core.errors import FicInputError
-from fic_core.planner_station import (PLANNER_PARAMETERS, READ_ONLY, TRAJECTORIES, TRAJECTORY_PARAMETERS,
-                                      PlannerStation, make_source)
+from fic_core.planner_station import (
+    PLANNER_PARAMETERS,
+    READ_ONLY,
+    TRAJECTORIES,
+    TRAJECTORY_PARAMETERS,
+    PlannerStation,
+    make_source,
+)
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import set_pose, set_xyz
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
@@ -103,8 +109,8 @@ class PlannerNode(Node):
             notices = self._station.configure({p.name: p.value for p in parameters}, self._now())
         except FicInputError as error:
             return SetParametersResult(successful=False, reason=str(error))
-        for _, text in notices:
-            self.get_logger().info(text)
+        for _, line in notices:
+            self.get_logger().info(line)
         return SetParametersResult(successful=True)
 
     # -- loop -----------------------------------------------------------------------------------------------

@@ -3,20 +3,17 @@
     replica_node -- /replica/effort_command --> command_relay -- /effort_controller/commands --> franka_ros2
 
 Every replica command is forwarded unchanged at once, with its layout: the label naming the joint state it was
-computed on (fic_core.command_stamp) goes on to the robot, which refuses a torque computed on too old a state. When none has come for ``timeout`` (the replica died, hung
-or lost its host), the relay ramps the command to the rest command over ``ramp_time`` and holds it
-(fic_core.command_watchdog: zero when the arm compensates its own gravity, G(q) at the last joint state otherwise);
-the replica's next command is forwarded again. Each transition is one log line. The simulated robot has this
-watchdog built in (robot_node's stale-command hold), so the relay is started with the franka_ros2 profile only
-(docs/HARDWARE.md, "Watchdogs"): the replica's output is remapped to /replica/effort_command, and the relay is the
+computed on (fic_core.command_stamp) goes on to the robot, which refuses a torque computed on too old a state. When none
+has come for ``timeout`` (the replica died, hung or lost its host), the relay ramps the command to the rest command over
+``ramp_time`` and holds it (fic_core.command_watchdog: zero when the arm compensates its own gravity, G(q) at the last
+joint state otherwise); the replica's next command is forwarded again. Each transition is one log line. The simulated
+robot has this watchdog built in (robot_node's stale-command hold), so the relay is started with the franka_ros2 profile
+only (docs/HARDWARE.md, "Watchdogs"): the replica's output is remapped to /replica/effort_command, and the relay is the
 one writer of /effort_controller/commands, as the replica's input authority expects of that topic.
 """
 from __future__ import annotations
 
 import numpy as np
-from fic_teleop_runtime import qos
-from fic_teleop_runtime.node_main import NodeEntry, run_entry
-from fic_teleop_runtime.parameters import Schema, declare, number, switch
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -27,6 +24,9 @@ from fic_core.command_watchdog import CommandWatchdog
 from fic_core.errors import FicInputError
 from fic_core.robot_model import RobotModel
 from fic_core.torque_semantics import TorqueSemantics
+from fic_teleop_runtime import qos
+from fic_teleop_runtime.node_main import NodeEntry, run_entry
+from fic_teleop_runtime.parameters import Schema, declare, number, switch
 
 NODE_NAME = "command_relay"
 SCHEMA = Schema(

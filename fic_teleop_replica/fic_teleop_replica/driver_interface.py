@@ -2,8 +2,8 @@
 torque ramp-down on stale joint states; docs/HARDWARE.md). What they mean is fic_core.replica_driver's.
 
 config/replica.yaml's values are the simulated Panda's (robot_node): ``arm_type`` panda, gravity in the command,
-the wrist sensor's frame ``panda_link0``, no ramp-down (robot_node holds the arm itself when commands stop). The franka_ros2 profile
-(config/profiles/franka_ros2/replica.yaml) flips them.
+the wrist sensor's frame ``panda_link0``, no ramp-down (robot_node holds the arm itself when commands stop). The
+franka_ros2 profile (config/profiles/franka_ros2/replica.yaml) flips them.
 """
 from __future__ import annotations
 

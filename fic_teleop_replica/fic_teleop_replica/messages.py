@@ -11,12 +11,12 @@ import numpy as np
 import pinocchio as pin
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from fic_teleop_msgs.msg import FicState, LimitStatus
 from geometry_msgs.msg import PoseStamped
 
 from fic_core.loop_health import HOLDING, RESUMING, LoopHealth
 from fic_core.replica import ReplicaCommand
 from fic_core.replica_loop import ReplicaLoop
+from fic_teleop_msgs.msg import FicState, LimitStatus
 from fic_teleop_runtime.geometry import set_pose
 from fic_teleop_runtime.stamps import time_message
 

@@ -24,7 +24,6 @@ from __future__ import annotations
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 from geometry_msgs.msg import AccelStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -36,6 +35,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayou
 from fic_core import command_stamp
 from fic_core.errors import FicInputError
 from fic_core.replica_station import ReplicaStation
+from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 from fic_teleop_replica import messages
 from fic_teleop_replica.input_guard import InputGuard
 from fic_teleop_replica.schema import SCHEMA

@@ -6,8 +6,8 @@ params file; the fd adapter kept rclpy's own signal handlers):
 - ``rclpy.init`` with our stop-signal handlers (stop_signals.py) instead of rclpy's, so a SIGINT or SIGTERM at any
   moment only asks the spin loop to stop, and the node is destroyed before the context goes.
 - A bad start is refused in one FATAL line and exit code ``EXIT_REFUSED`` (2), the launcher's "refused before
-  anything started" (fic_teleop_bringup/launch_supervision.py): a malformed params file or ROS argument (RCLError from rcl's
-  parser), a parameter out of range, of the wrong type or unknown (ParameterException from rclpy, FicInputError
+  anything started" (fic_teleop_bringup/launch_supervision.py): a malformed params file or ROS argument (RCLError from
+  rcl's parser), a parameter out of range, of the wrong type or unknown (ParameterException from rclpy, FicInputError
   from our checks), and whatever else the node names in ``refusals`` (an existing bag folder, a taken port).
   No traceback: the line says what to fix. A robot left without commands holds the arm by its own watchdog.
 - A clean stop exits 0, which the launcher counts as clean (CLEAN_NODE_CODES there); anything else that escapes

@@ -10,8 +10,8 @@ is refused by rclpy itself; a params file or ``-p`` given at start still overrid
 Why the nodes read config/ rather than the config files being generated from the tables: the files are what an
 operator edits and what the launcher passes, with their comments on why each value is what it is; a generator
 would either lose those or need them copied into code, a second home for the same words. The tables hold what the
-code must know (type, range, meaning); test/test_parameter_schemas.py loads every file under config/ against them
-(every key declared, of its type and inside its range, every declared key given by the node's own file).
+code must know (type, range, meaning); test/runtime/test_parameter_schemas.py loads every file under config/ against
+them (every key declared, of its type and inside its range, every declared key given by the node's own file).
 
 A key that no row declares is refused at start, in one line naming it and the nearest declared key: rclpy would
 otherwise ignore it, and a misspelt ``translaton_stiffness`` would leave the arm at the default stiffness without
@@ -21,7 +21,6 @@ declared by its own type and read back as an empty list.
 from __future__ import annotations
 
 import difflib
-import os
 import re
 import sys
 from collections.abc import Iterable, Mapping, Sequence
@@ -37,9 +36,10 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from fic_core.errors import FicInputError
-from fic_core.parameter_row import LISTS, Kind, ParameterRow
+
 # The row constructors, for the nodes' tables (one row type for fic_core's tables and the nodes').
-from fic_core.parameter_row import integer, number, numbers, switch, text, texts  # noqa: F401
+from fic_core.parameter_row import LISTS, Kind, ParameterRow, integer, number, numbers, switch, text, texts  # noqa: F401
+from fic_teleop_runtime.workspace import config_folder
 
 Type = Parameter.Type
 #: Parameters rclpy itself declares or reads on every node; a params file may give them.
@@ -103,17 +103,6 @@ _RclLoader.add_implicit_resolver(
     re.compile(r"^[-+]?(?:[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?|[0-9][0-9_]*[eE][-+]?[0-9]+|\.[0-9_]+"
                r"(?:[eE][-+]?[0-9]+)?)$"),
     list("-+0123456789."))
-
-
-def config_folder() -> Path:
-    """The repository's config/ (FIC_TELEOP_ROOT, set by scripts/env.sh), else the copy installed with this
-    package (share/fic_teleop_runtime/config, for an install sourced without env.sh)."""
-    root = os.environ.get("FIC_TELEOP_ROOT")
-    if root:
-        return Path(root) / "config"
-    from ament_index_python.packages import get_package_share_directory
-
-    return Path(get_package_share_directory("fic_teleop_runtime")) / "config"
 
 
 def _flat(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -1,4 +1,5 @@
-"""Spin a node (EventsExecutor; SingleThreadedExecutor under simulated time) until Ctrl-C, SIGTERM or an external shutdown.
+"""Spin a node (EventsExecutor; SingleThreadedExecutor under simulated time) until Ctrl-C, SIGTERM or an external
+shutdown.
 
 Why not ``EventsExecutor().spin()``: with rclpy 7.1 from the wheels, ``spin()`` does not return after SIGINT
 or SIGTERM (rclpy's signal handler shuts the context down, but the executor keeps running at about half a core;
@@ -13,8 +14,8 @@ from collections.abc import Sequence
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
-from rclpy.task import Future
 from rclpy.node import Node
+from rclpy.task import Future
 
 from fic_teleop_runtime import stop_signals
 

@@ -11,8 +11,8 @@ Two causes, two answers:
   between slices; the node is then destroyed and only then the context shut down.
 - Before the node spins there is nothing to finish: a signal then ends the process with ``SystemExit(0)``, which
   runs the ``finally`` blocks on its way out. To cover the interpreter's own start, before any of our code runs,
-  the launcher starts each node with SIGINT and SIGTERM blocked (fic_teleop_bringup/launch_supervision.py); a blocked signal
-  waits, and ``install()`` (run when fic_teleop_runtime is imported, first thing in each node package) installs
+  the launcher starts each node with SIGINT and SIGTERM blocked (fic_teleop_bringup/launch_supervision.py); a blocked
+  signal waits, and ``install()`` (run when fic_teleop_runtime is imported, first thing in each node package) installs
   these handlers and unblocks them, so a signal sent at any moment is handled here. A node started by hand gets
   them when ``run_node`` calls ``install()``. Where that SystemExit cannot propagate (an uncaught exception a C
   extension makes of it, or an "Exception ignored" in a weakref callback or a destructor), the process exits 0

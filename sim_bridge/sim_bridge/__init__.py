@@ -1,4 +1,6 @@
-"""The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a virtual operator, and the delay/dropout channel (the recorder, report and CLI are fic_teleop_tools)."""
+"""The simulated world: MuJoCo Panda with the paper's scenes, a sigma.7-class haptic device with a virtual operator,
+and the delay/dropout channel (the recorder, report and CLI are fic_teleop_tools; the experiments and the developer
+tools are fic_teleop_experiments, above this package)."""
 
 import os as _os
 

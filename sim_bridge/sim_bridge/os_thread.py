@@ -1,7 +1,8 @@
 """Give the calling thread a name the operating system shows (top -H, /proc/<pid>/task/<tid>/comm).
 
-Python's thread names stay inside Python; a scheduler policy set from outside (fic_teleop_bringup/realtime_scheduling.py)
-can only pick a thread by its OS name. Linux only (prctl PR_SET_NAME); elsewhere this does nothing.
+Python's thread names stay inside Python; a scheduler policy set from outside
+(fic_teleop_bringup/realtime_scheduling.py) can only pick a thread by its OS name. Linux only (prctl PR_SET_NAME);
+elsewhere this does nothing.
 """
 from __future__ import annotations
 

@@ -44,7 +44,8 @@ def test_make_baseline_like_uses_k0_and_the_damping_ratio() -> None:
 
 
 def test_damped_mass_decays_with_the_chosen_damping_ratio() -> None:
-    """A 4 kg mass under the baseline is an under-damped oscillator with zeta = 0.7: overshoot exp(-pi*z/sqrt(1-z^2))."""
+    """A 4 kg mass under the baseline is an under-damped oscillator with zeta = 0.7: overshoot
+    exp(-pi*z/sqrt(1-z^2))."""
     baseline = make_baseline_like(PoseAttractor(TRANSLATION, ROTATION), damping_ratio=0.7, effective_mass=4.0)
     mass, x, v, dt = 4.0, -0.01, 0.0, 1e-5
     peak = 0.0

@@ -7,13 +7,12 @@ from collections import deque
 
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.channel_ports import ChannelPorts, MasterChannelPort, ReplicaChannelPort
 from fic_core.errors import FicInputError
 from fic_core.master_station import MasterStation
 from fic_core.windowed_rate import WindowedRate
-
-from config_values import config_values
 
 DEFAULTS = config_values("master.yaml")   # offset mode, s_M = 1, feedback_timeout 0.5 s
 DT = 0.004                                # the master's 250 Hz

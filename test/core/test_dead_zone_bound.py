@@ -9,7 +9,7 @@ import pytest
 
 from fic_core.attractor import FractalAttractor, convergence_storage
 from fic_core.profile import ForceProfile
-from sim_bridge.tools.passivity_oracle import judge, shipped_profiles, storage_for
+from fic_teleop_experiments.tools.passivity_oracle import judge, shipped_profiles, storage_for
 
 SHIPPED = shipped_profiles()
 

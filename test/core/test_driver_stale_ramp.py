@@ -7,11 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_driver import ReplicaDriver
-
-from config_values import config_values
 
 
 @pytest.mark.parametrize("gravity_compensated_by_robot", [False, True])

@@ -14,8 +14,8 @@ from fic_core.errors import FicInputError
 from fic_core.exchanged_energy_observer import ExchangedEnergyObserver
 from fic_core.profile import ForceProfile
 from fic_core.rotational_attractor import RotationalAttractor
-from sim_bridge.tools.orientation_loops import drive_loop, loop_rotation_vectors
-from sim_bridge.tools.passivity_oracle import DT, push_release_cycle, random_cycles, shipped_profiles
+from fic_teleop_experiments.tools.orientation_loops import drive_loop, loop_rotation_vectors
+from fic_teleop_experiments.tools.passivity_oracle import DT, push_release_cycle, random_cycles, shipped_profiles
 
 SHIPPED = shipped_profiles()
 TRANSLATION = next(profile for name, profile in SHIPPED.items() if "replica.yaml:translation_" in name)

@@ -10,13 +10,12 @@ import math
 
 import numpy as np
 import pytest
+from config_values import config_values, replica_loop_values
 
 from fic_core.exchanged_energy_ports import MasterExchangedEnergy, ReplicaExchangedEnergy
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
-
-from config_values import config_values, replica_loop_values
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
 WRIST = np.array([0.0, 0.0, 0.0, 0.15, 0.0, 0.25, 0.35])   # a loop in joints 4, 6, 7: the TCP moves and turns

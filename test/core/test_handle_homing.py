@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.errors import FicInputError
 from fic_core.handle_homing import HandleHoming
-
-from config_values import config_values
 
 MASTER = config_values("master.yaml")
 MASS, DEVICE_DAMPING = 0.5, 2.0   # the simulated handle (config/haptic_device.yaml)

@@ -11,7 +11,6 @@ from fic_core.haptic_device_mapping import DeviceFrameMapping, GraspGain, device
 from fic_core.joint_order import JointOrder
 from fic_core.limits import PandaLimits
 from fic_core.panda_description import NOMINAL_CONFIGURATION
-from fic_core.robot_model import RobotModel
 from fic_core.stale_input_ramp import StaleInputRamp
 from fic_core.torque_semantics import TorqueSemantics
 from fic_core.wrench_frame import WrenchFrame

@@ -11,6 +11,7 @@ import warnings
 
 import numpy as np
 import pytest
+from config_values import config_values, replica_loop_values
 
 from fic_core.attractor import PoseAttractor
 from fic_core.errors import FicInputError
@@ -20,8 +21,6 @@ from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel
 from fic_core.set_point import SampledSetPoint
-
-from config_values import config_values, replica_loop_values
 
 #: The replica's shipped parameters (the input authority's bounds among them).
 REPLICA_DEFAULTS = config_values("replica.yaml")
@@ -156,10 +155,11 @@ def test_mujoco_arm_under_a_hostile_offset_stays_inside_its_limits(robot: RobotM
 def test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits(robot: RobotModel,
                                                                                   hostile: float) -> None:
     """The replica node's whole logic (fic_core.input_authority.CommandAuthority in front of
-    fic_core.replica_loop.ReplicaLoop, what the node wires to its topics, with the node's defaults) closing the loop on the MuJoCo arm at 1 kHz for 2 s, fed 100 Hz teleoperation commands:
-    normal ones, then a hostile offset, its negative, stamps 1e9 s ahead, at epoch 0 and 1e308, and normal ones
-    again. Every joint state is answered with a finite torque (a refused command raises FicInputError only at its
-    input), MuJoCo's arm stays inside every limit, and the offset feedforward works again at the end."""
+    fic_core.replica_loop.ReplicaLoop, what the node wires to its topics, with the node's defaults) closing the loop on
+    the MuJoCo arm at 1 kHz for 2 s, fed 100 Hz teleoperation commands: normal ones, then a hostile offset, its
+    negative, stamps 1e9 s ahead, at epoch 0 and 1e308, and normal ones again. Every joint state is answered with a
+    finite torque (a refused command raises FicInputError only at its input), MuJoCo's arm stays inside every limit, and
+    the offset feedforward works again at the end."""
     from fic_core.replica_loop import ReplicaLoop
     from sim_bridge.robot.mujoco_panda import PandaSimulation
 

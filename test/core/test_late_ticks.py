@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim_bridge.tools.sampled_law import sampled_run
+from fic_teleop_experiments.tools.sampled_law import sampled_run
 
 WRIST_KICK = (0.5, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0)   # [rad/s] joints 5-7 at 0.38 of their datasheet speed
 

@@ -1,10 +1,11 @@
-"""The safety checks' edges, where the seeded random mutation run (sim_bridge.tools.random_mutation) found operator
-flips that no other test caught: the replica's limit-violation check on a joint beyond its limit, the desired rotation
-given as nested lists, and the master's network tick in velocity mode."""
+"""The safety checks' edges, where the seeded random mutation run (fic_teleop_experiments.tools.random_mutation) found
+operator flips that no other test caught: the replica's limit-violation check on a joint beyond its limit, the desired
+rotation given as nested lists, and the master's network tick in velocity mode."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.attractor import PoseAttractor
 from fic_core.errors import FicInputError
@@ -14,8 +15,6 @@ from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel
-
-from config_values import config_values
 
 DT = 0.001
 

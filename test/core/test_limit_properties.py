@@ -15,15 +15,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fic_core.attractor import PoseAttractor
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.panda_description import NOMINAL_CONFIGURATION
-from fic_core.postural_optimisation import (BRAKING_TORQUE_RAMP, DEFAULT_BRAKING_DECELERATION, VERDICT_INSIDE,
-                                            VERDICT_REJECTED, VERDICT_UNSHAPED, PosturalOptimisation)
+from fic_core.postural_optimisation import (
+    BRAKING_TORQUE_RAMP,
+    DEFAULT_BRAKING_DECELERATION,
+    VERDICT_INSIDE,
+    VERDICT_REJECTED,
+    VERDICT_UNSHAPED,
+    PosturalOptimisation,
+)
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel
@@ -45,7 +50,8 @@ def recomputed_violations(previous, torque, q, qd, tcp_speed: float, dt: float, 
             flags |= LimitFlag.TORQUE_RATE
         if abs(qd[joint]) - limits.joint_velocity[joint] > SLACK:
             flags |= LimitFlag.JOINT_VELOCITY
-        if limits.joint_position_lower[joint] - q[joint] > SLACK or q[joint] - limits.joint_position_upper[joint] > SLACK:
+        if limits.joint_position_lower[joint] - q[joint] > SLACK \
+                or q[joint] - limits.joint_position_upper[joint] > SLACK:
             flags |= LimitFlag.JOINT_POSITION
     if tcp_speed - limits.tcp_speed > SLACK:
         flags |= LimitFlag.TCP_SPEED
@@ -78,7 +84,8 @@ def test_the_violation_check_agrees_with_a_recomputation_at_and_around_the_limit
                   else data.draw(inside) * limits.joint_velocity[joint])
         lower, upper = limits.joint_position_lower[joint], limits.joint_position_upper[joint]
         if data.draw(at_limit):
-            q.append(lower - data.draw(offset) * SLACK if data.draw(st.booleans()) else upper + data.draw(offset) * SLACK)
+            below = data.draw(st.booleans())
+            q.append(lower - data.draw(offset) * SLACK if below else upper + data.draw(offset) * SLACK)
         else:
             q.append(lower + (upper - lower) * (0.5 + 0.45 * data.draw(inside)))
     tcp_speed = limits.tcp_speed + data.draw(offset) * SLACK if data.draw(at_limit) else \
@@ -327,7 +334,8 @@ def test_a_joint_just_inside_its_free_room_is_judged_by_its_braking_curve(robot:
         free_room = max(v_max * v_max / (2.0 * deceleration) + v_max * lag, v_max * dt)
         room = free_room - 0.5e-6
         q = np.array(NOMINAL_CONFIGURATION)
-        q[joint] = limits.joint_position_upper[joint] - room if toward > 0 else limits.joint_position_lower[joint] + room
+        q[joint] = limits.joint_position_upper[joint] - room if toward > 0 \
+            else limits.joint_position_lower[joint] + room
         qd = np.zeros(7)
         qd[joint] = toward * v_max
         state = robot.update(q, qd)

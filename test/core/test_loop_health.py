@@ -5,14 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import replica_loop_values
 
 from fic_core.errors import FicInputError
 from fic_core.loop_health import HEALTHY, HOLD_DAMPING, HOLDING, RESUMING, LoopHealth, LoopHealthBounds
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.robot_model import RobotModel
-
-from config_values import replica_loop_values
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
 PERIOD = 0.002
@@ -158,7 +157,7 @@ def test_stamps_behind_the_clock_age_against_the_offset_and_a_robot_stall_takes_
     the offset is taken afresh, not an old state; states queued behind a busy replica still age against it."""
     health = LoopHealth(BOUNDS)
     now = 100.0
-    for k in range(10):
+    for _k in range(10):
         now += PERIOD
         health.tick(now, now - 100.0 - 0.001)   # stamps on another time line, 1 ms latency
     assert health.state == HEALTHY and health.state_age == pytest.approx(0.0)

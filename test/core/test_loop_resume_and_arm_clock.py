@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import replica_loop_values
 
 from fic_core.loop_health import HEALTHY, HOLDING, RESUMING, LoopHealth, LoopHealthBounds
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.robot_model import RobotModel
-
-from config_values import replica_loop_values
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
 PERIOD = 0.002
@@ -25,7 +24,8 @@ BOUNDS = LoopHealthBounds(max_state_age=0.04, max_tick_gap=0.05, resume_ticks=5,
 
 
 def test_states_further_apart_on_the_arms_clock_than_the_bound_hold_though_the_ticks_were_not() -> None:
-    """Ticks 20 ms apart on the replica's clock whose states are 60 ms apart: the robot ran its backlog on one torque."""
+    """Ticks 20 ms apart on the replica's clock whose states are 60 ms apart: the robot ran its backlog on one
+    torque."""
     health = LoopHealth(BOUNDS)
     now = state = 0.0
     for _ in range(10):

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.errors import FicInputError
 from fic_core.master_station import GOAL_TRANSITION_SPEED, Engagement, MasterStation
 from fic_core.operator_buttons import ButtonEdges, OperatorButton
 from fic_core.teleoperation import TeleoperationMode
-
-from config_values import config_values
 
 DEFAULTS = config_values("master.yaml")  # the master node starts from these
 

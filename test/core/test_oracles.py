@@ -12,7 +12,6 @@ import math
 
 import numpy as np
 import pinocchio as pin
-import pytest
 import quadprog
 
 from fic_core.attractor import PoseAttractor
@@ -115,7 +114,8 @@ def test_eq_7_recomputed_through_a_convergence_swing(robot: RobotModel) -> None:
     """Four ticks of one state: an error that grows (D: F_c(e)), then decreases faster than the dead-band (enters C,
     latching e_max = the previous sample's error, K_C = min(2 F_c(e_max)/e_max, 8 V_D(e_max)/e_max^2) with V_D the
     integral of F_c: the C line K_C (e - e_max/2) of Eq. 2), keeps decreasing (stays on that line) and grows again
-    (back in D where D's storage at the previous sample does not exceed C's, else still on the C line). tau_d is recomputed from Pinocchio at each tick; the storage integral by quadrature."""
+    (back in D where D's storage at the previous sample does not exceed C's, else still on the C line). tau_d is
+    recomputed from Pinocchio at each tick; the storage integral by quadrature."""
     from scipy.integrate import quad
 
     rng = np.random.default_rng(8)

@@ -1,6 +1,6 @@
 """Edges of fic_core's inputs and of its small numerical promises, where the seeded random mutation run
-(sim_bridge.tools.random_mutation) found operator flips that no other test caught: parameter ranges at their ends, the
-flat via-point list, the attractor's snapshot, the force profile's inverse storage and its secant stiffness
+(fic_teleop_experiments.tools.random_mutation) found operator flips that no other test caught: parameter ranges at their
+ends, the flat via-point list, the attractor's snapshot, the force profile's inverse storage and its secant stiffness
 just past a tiny linear region."""
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.attractor import FractalAttractor, convergence_storage
 from fic_core.control_schedule import RateGate
@@ -16,8 +17,6 @@ from fic_core.input_authority import AuthorityBounds
 from fic_core.master_station import MASTER_NUMBERS, MasterStation
 from fic_core.profile import ForceProfile
 from fic_core.trajectories import ViaPoints
-
-from config_values import config_values
 
 
 def test_a_rate_gate_needs_a_positive_rate_and_period() -> None:
@@ -241,11 +240,11 @@ def test_a_solver_that_reports_success_with_non_finite_values_is_not_trusted(rob
 def test_the_exchanged_energy_watch_books_a_tick_only_with_the_law_that_made_it() -> None:
     """A linear law's tick given with a FIC (a law switched between the tick and its booking) is not booked, nor
     is the FIC's tick given with the linear law: the storage and the snapshot must be the same law's."""
+    from config_values import replica_loop_values
+
     from fic_core.exchanged_energy_ports import ReplicaExchangedEnergy
     from fic_core.panda_description import NOMINAL_CONFIGURATION
     from fic_core.replica_loop import ReplicaLoop
-
-    from config_values import replica_loop_values
 
     q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
     commands = {}

@@ -12,8 +12,15 @@ from hypothesis import strategies as st
 from fic_core.attractor import FractalAttractor, Phase, PoseAttractor
 from fic_core.passivity_observer import PassivityObserver
 from fic_core.profile import ForceProfile
-from sim_bridge.tools.passivity_oracle import (DT, judge, push_release_cycle, random_cycles, random_profile,
-                                               shipped_profiles, storage_for)
+from fic_teleop_experiments.tools.passivity_oracle import (
+    DT,
+    judge,
+    push_release_cycle,
+    random_cycles,
+    random_profile,
+    shipped_profiles,
+    storage_for,
+)
 
 SHIPPED = shipped_profiles()
 #: The replica's translation profile before the passive attractor (F_max = 15 N): the cycle below gave -87.5 mJ.

@@ -46,7 +46,8 @@ def test_fixed_target_no_overshoot_within_limits(natural_frequency, max_velocity
         assert np.all(np.abs(planner.acceleration) <= max_acceleration * (1 + 1e-9) + 1e-12)
         if np.linalg.norm(position - target) < 1e-4 * distance and np.linalg.norm(planner.velocity) < 1e-6:
             break
-    # The claim of docs/CONTROL_LAWS.md, 0.000 %: none beyond rounding (3e-15 of the distance at most over 300 random cases).
+    # The claim of docs/CONTROL_LAWS.md, 0.000 %: none beyond rounding (3e-15 of the distance at most over 300 random
+    # cases).
     assert overshoot <= 1e-9 * distance
     assert np.linalg.norm(planner.position - target) <= 1e-3 * distance
 

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.errors import FicInputError
 from fic_core.planner_station import PlannerStation, make_source
-
-from config_values import config_values
 
 
 def values(**changes):

@@ -41,7 +41,7 @@ def test_posture_torque_produces_no_tcp_acceleration(robot: RobotModel, posture:
 def test_projector_properties(robot: RobotModel, posture: NullSpacePosture) -> None:
     """N^T is idempotent, annihilates task forces (N^T J^T = 0) and matches the vector form."""
     rng = np.random.default_rng(5)
-    for q, qd in well_conditioned_states(robot, 50, seed=6):
+    for _q, _qd in well_conditioned_states(robot, 50, seed=6):
         jacobian, minv = robot.tcp_jacobian, robot.mass_matrix_inverse
         projector = posture.projector(jacobian, minv)
         np.testing.assert_allclose(projector @ projector, projector, atol=1e-5)

@@ -7,7 +7,9 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import Phase, given, settings, strategies as st
+from config_values import replica_loop_values
+from hypothesis import Phase, given, settings
+from hypothesis import strategies as st
 
 from fic_core.control_schedule import ControlSchedule
 from fic_core.desired_pose import DesiredPose, DesiredPoseParameters
@@ -19,8 +21,6 @@ from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
 from fic_core.replica_parameters import checked
 from fic_core.torque_slew import TorqueSlew
-
-from config_values import replica_loop_values
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
 QD0 = np.zeros(7)
@@ -66,7 +66,7 @@ def test_no_jump_of_x_d_at_a_resume(held, back, silence) -> None:
     np.testing.assert_allclose(pose.offset, held, atol=1e-9)
     notices = []
     ticks = int(silence / 0.001)
-    for tick in range(ticks):
+    for _ in range(ticks):
         now += 0.001
         notices += pose.update(now, 0.001).notices
     assert pose.master_stale and len(notices) == 1 and "master_timeout" in notices[0]

@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
 from fic_core.replica_station import CHANNEL_STREAMS, ROBOT_STREAMS, SET_POINT_STREAMS, ReplicaStation, stream_owner
-
-from config_values import config_values
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
 QD0 = np.zeros(7)

@@ -14,8 +14,8 @@ from fic_core.errors import FicInputError
 from fic_core.passivity_observer import PassivityObserver
 from fic_core.profile import ForceProfile
 from fic_core.rotational_attractor import RotationalAttractor
-from sim_bridge.tools.orientation_loops import drive_loop, loop_rotation_vectors
-from sim_bridge.tools.passivity_oracle import shipped_profiles
+from fic_teleop_experiments.tools.orientation_loops import drive_loop, loop_rotation_vectors
+from fic_teleop_experiments.tools.passivity_oracle import shipped_profiles
 
 #: The replica's shipped rotation profile (config/replica.yaml): 20 N m/rad, x_b = 0.5 rad, xi = 0.5, a flat clamp
 #: at F_max = F0 = 5 N m from 0.25 rad.
@@ -57,8 +57,8 @@ def test_the_moment_is_minus_the_gradient_of_the_storage_on_so3(profile: ForcePr
             omega, omega_desired = rng.normal(size=3), rng.normal(size=3)
 
             def storage(step: float) -> float:
-                turned = pin.exp3(omega * step) @ robot
-                target = pin.exp3(omega_desired * step) @ desired
+                turned = pin.exp3(omega * step) @ robot  # noqa: B023
+                target = pin.exp3(omega_desired * step) @ desired  # noqa: B023
                 return float(profile.energy(np.linalg.norm(pin.log3(target @ turned.T))))
 
             # The power into the controller: F(theta) d theta/dt = M . (w_d - w) (moment along the axis).

@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from config_values import replica_loop_values
 
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AuthorityBounds, CommandAuthority, SetPointAuthority
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
-
-from config_values import replica_loop_values
 
 START = np.array([0.3, 0.0, 0.5])
 BOUNDS = AuthorityBounds(offset_lower=(-0.2, -0.2, -0.2), offset_upper=(0.2, 0.2, 0.2), max_offset_speed=0.5,

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from fic_core.attractor import FractalAttractor, PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_core.rotational_attractor import RotationalAttractor
-from sim_bridge.tools.passivity_oracle import random_profile, shipped_profiles
+from fic_teleop_experiments.tools.passivity_oracle import random_profile, shipped_profiles
 
 DT = 1e-3
 SHIPPED = list(shipped_profiles().values())

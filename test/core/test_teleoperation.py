@@ -49,7 +49,8 @@ def test_offset_mode_follows_the_hand_after_a_switch() -> None:
     at_switch = integrator.desired_offset
     integrator.set_mode(TeleoperationMode.OFFSET)
     np.testing.assert_allclose(integrator.update([0.02, 0.0, 0.0], 0.01), at_switch)
-    np.testing.assert_allclose(integrator.update([0.03, 0.01, 0.0], 0.01), at_switch + 1.5 * np.array([0.01, 0.01, 0.0]))
+    np.testing.assert_allclose(integrator.update([0.03, 0.01, 0.0], 0.01), at_switch + 1.5 * np.array([0.01, 0.01,
+                                                                                                       0.0]))
 
 
 @settings(max_examples=60, deadline=None)

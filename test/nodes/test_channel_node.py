@@ -18,13 +18,12 @@ import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
+from conftest import unclean_exit  # noqa: E402
 from geometry_msgs.msg import PoseStamped  # noqa: E402
-from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
 from rcl_interfaces.srv import SetParameters  # noqa: E402
 from rclpy.experimental import EventsExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
-from conftest import unclean_exit  # noqa: E402
 
 pytestmark = pytest.mark.nodes
 
@@ -219,7 +218,8 @@ def test_a_logged_delivery_that_is_not_a_route_is_refused_at_start(tmp_path, ros
     env = dict(ros_env)
     env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
     result = subprocess.run([sys.executable, "-m", "sim_bridge.channel.channel_node", "--ros-args", "-r",
-                             f"__node:={NODE}", "-p", f"routes:=['{IN_TOPIC}:{OUT_TOPIC}:geometry_msgs/msg/PoseStamped']",
+                             f"__node:={NODE}", "-p",
+                             f"routes:=['{IN_TOPIC}:{OUT_TOPIC}:geometry_msgs/msg/PoseStamped']",
                              "-p", "logged_deliveries:=['/test/oot']"], env=env, cwd=tmp_path, capture_output=True,
                             text=True, timeout=60)
     assert result.returncode == 2

@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 
 import pytest
-
 from conftest import run_launcher
 
 pytestmark = pytest.mark.nodes
@@ -27,8 +26,8 @@ GENERATED_WITHOUT_TDPA_MIN_J = 0.02   # the cell must make the delayed channel g
 
 
 def test_linear_tdpa_runs_in_the_graph_with_both_ports_watched(tmp_path) -> None:
-    from sim_bridge.experiments.graph_passivity import compare
-    from sim_bridge.experiments.in_process import RunConfig
+    from fic_teleop_experiments.graph_passivity import compare
+    from fic_teleop_experiments.in_process import RunConfig
 
     out = tmp_path / "run"
     process = run_launcher(out, "--duration", str(DURATION_S), "--delay", str(DELAY_S), "--time-mode", "lockstep",
@@ -53,6 +52,7 @@ def test_linear_tdpa_runs_in_the_graph_with_both_ports_watched(tmp_path) -> None
           f"process {compared.in_process_balance_j * 1e3:.1f} mJ; replica holds "
           f"{metrics.get('loop_health', {}).get('holds', 'n/a')}")
     assert abs(compared.graph_error_rms_m - compared.in_process_error_rms_m) <= ERROR_RMS_TOLERANCE_M, compared
-    assert compared.in_process_without_tdpa_j > GENERATED_WITHOUT_TDPA_MIN_J, compared   # the delay does generate energy
+    # the delay does generate energy
+    assert compared.in_process_without_tdpa_j > GENERATED_WITHOUT_TDPA_MIN_J, compared
     assert abs(compared.graph_balance_j - compared.in_process_balance_j) <= (
         ENERGY_SHARE_LEFT * compared.in_process_without_tdpa_j), compared

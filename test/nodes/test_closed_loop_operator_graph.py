@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import run_launcher
+
 from sim_bridge.robot.scenes import CIRCLE_CENTRE, PUSHABLE_OBSTACLE_POSITION
 
 pytestmark = pytest.mark.nodes
@@ -69,7 +69,7 @@ def _passing_times(bag: Path, angle: float, topic: str = "/planner/desired_pose"
 
 
 def test_the_operator_times_its_moves_as_the_in_process_operator_does(closed_loop_run: Path) -> None:
-    from sim_bridge.experiments.in_process import RunConfig, run
+    from fic_teleop_experiments.in_process import RunConfig, run
 
     log = (closed_loop_run / "logs" / "haptic_device.log").read_text()
     graph_moves = [(name, float(start), float(passing)) for name, start, passing in MOVE.findall(log)]

@@ -7,14 +7,12 @@ the robot: a relay that sent the data alone would make every torque, however sta
 from __future__ import annotations
 
 import pytest
-
 from conftest import CONFIG
+from driver_peer import Peer, qos
 
 rclpy = pytest.importorskip("rclpy")
 
 from fic_core import command_stamp  # noqa: E402
-
-from test_hardware_profiles import Peer, _qos  # noqa: E402
 
 
 def test_the_relay_forwards_the_commands_state_stamp(start_node, ros_env, rclpy_context) -> None:
@@ -24,8 +22,8 @@ def test_the_relay_forwards_the_commands_state_stamp(start_node, ros_env, rclpy_
     assert relay.wait_for_output("command relay up", timeout=60.0), relay.output()
     peer = Peer(rclpy_context, "test_relay_stamp")
     received: list = []
-    peer.node.create_subscription(Float64MultiArray, "/effort_controller/commands", received.append, _qos(True, 100))
-    publisher = peer.node.create_publisher(Float64MultiArray, "/replica/effort_command", _qos(True, 10))
+    peer.node.create_subscription(Float64MultiArray, "/effort_controller/commands", received.append, qos(True, 100))
+    publisher = peer.node.create_publisher(Float64MultiArray, "/replica/effort_command", qos(True, 10))
     assert peer.spin_until(lambda: publisher.get_subscription_count() > 0 and
                            peer.node.count_publishers("/effort_controller/commands") > 0, 30.0)
     stamps = [1_000_000_000 + 1_000_000 * k for k in range(20)]

@@ -4,7 +4,6 @@ is interrupted with Ctrl-C and must still leave a finished bag and a report."""
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -13,9 +12,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from conftest import (REPO, NodeProcess, assert_stopped_clean, installed_executable, isolated_env, recorded_so_far,
-                      reserved_domain, unclean_exit)
+from conftest import (
+    REPO,
+    NodeProcess,
+    assert_stopped_clean,
+    installed_executable,
+    isolated_env,
+    recorded_so_far,
+    reserved_domain,
+    unclean_exit,
+)
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 pytestmark = pytest.mark.nodes
@@ -108,8 +114,8 @@ def test_blackout_leaves_the_replica_stable_and_it_recovers(blackout_run: Path) 
     assert not stale[first_stale:].all(), "the replica did not resume when the master came back"
     # Physics of the run (lockstep runs under a load average of 30 on 2 cores, 2026-12-02; the second with the
     # passive attractor and F_max = 10 N: |x_d - x_R| at most 21 / 38 mm and energy at most 0.32 / 0.29 J outside
-    # the blackout and the 2 s after it (a 9 s run), RMS 12 / 12.5 mm; the resume after the blackout peaks at 89 / 97 mm and
-    # 1.10 / 0.96 J). Bounds: x_b = 50 mm, the FIC's own saturation error, outside the loss and its recovery; RMS
+    # the blackout and the 2 s after it (a 9 s run), RMS 12 / 12.5 mm; the resume after the blackout peaks at 89 / 97 mm
+    # and 1.10 / 0.96 J). Bounds: x_b = 50 mm, the FIC's own saturation error, outside the loss and its recovery; RMS
     # 25 mm (about 2x); energy 0.6 J there and 2 J over the run (about 2x).
     # The loss and its recovery are the replica's own: from its first stale state to 3 s after it resumed (the
     # channel's clock origin is only known to within its first delivery). The catch-up takes longer than 2 s: two

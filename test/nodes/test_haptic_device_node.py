@@ -12,11 +12,10 @@ from pathlib import Path
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
+from conftest import assert_stopped_clean  # noqa: E402
 from geometry_msgs.msg import PoseStamped, WrenchStamped  # noqa: E402
 from rclpy.experimental import EventsExecutor  # noqa: E402
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
-from sensor_msgs.msg import Joy  # noqa: E402
-from conftest import assert_stopped_clean  # noqa: E402
 
 pytestmark = pytest.mark.nodes
 

@@ -17,15 +17,14 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import CONFIG
+from driver_peer import Peer, qos
+from replica_side import replica_env
 
 rclpy = pytest.importorskip("rclpy")
 
 from fic_core.arm_profile import FR3  # noqa: E402
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION  # noqa: E402
-
-from test_replica_node import replica_env  # noqa: E402
 
 FRANKA_WRENCH = "/franka_robot_state_broadcaster/external_wrench_in_base_frame"
 
@@ -35,43 +34,12 @@ def _replica_ros_args() -> list[str]:
             "-r", "/joint_states:=/franka/joint_states", "-r", f"/ft_sensor/wrench:={FRANKA_WRENCH}"]
 
 
-class Peer:
-    """A test-side node with an executor; spins until a condition holds or a deadline passes."""
-
-    def __init__(self, context, name: str) -> None:
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.node import Node
-
-        self.node = Node(name, context=context)
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
-
-    def spin(self, seconds: float) -> None:
-        deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
-            self.executor.spin_once(timeout_sec=0.005)
-
-    def spin_until(self, condition, seconds: float) -> bool:
-        deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
-            if condition():
-                return True
-            self.executor.spin_once(timeout_sec=0.01)
-        return condition()
-
-
-def _qos(reliable: bool, depth: int):
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-    return QoSProfile(reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-                      history=HistoryPolicy.KEEP_LAST, depth=depth)
-
-
 def test_replica_under_the_franka_profile(start_node, ros_env, rclpy_context) -> None:
-    from fic_teleop_msgs.msg import TeleoperationCommand
     from geometry_msgs.msg import WrenchStamped
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
+
+    from fic_teleop_msgs.msg import TeleoperationCommand
 
     # joint_state_timeout 0.5 s instead of the profile's 50 ms: a test process on a loaded 2-core machine is no
     # 1 kHz driver (its gaps alone engaged the ramp); the ramp itself is the same code.
@@ -80,14 +48,14 @@ def test_replica_under_the_franka_profile(start_node, ros_env, rclpy_context) ->
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     assert "gravity left to the robot" in replica.output()
     peer = Peer(rclpy_context, "test_franka")
-    joint_pub = peer.node.create_publisher(JointState, "/franka/joint_states", _qos(True, 10))
-    wrench_pub = peer.node.create_publisher(WrenchStamped, FRANKA_WRENCH, _qos(False, 1))
-    teleop_pub = peer.node.create_publisher(TeleoperationCommand, "/replica/teleop_command", _qos(True, 20))
+    joint_pub = peer.node.create_publisher(JointState, "/franka/joint_states", qos(True, 10))
+    wrench_pub = peer.node.create_publisher(WrenchStamped, FRANKA_WRENCH, qos(False, 1))
+    teleop_pub = peer.node.create_publisher(TeleoperationCommand, "/replica/teleop_command", qos(True, 20))
     commands: list[tuple[float, list[float]]] = []
     feedback: list[WrenchStamped] = []
     peer.node.create_subscription(Float64MultiArray, "/effort_controller/commands",
-                                  lambda m: commands.append((time.monotonic(), list(m.data))), _qos(True, 5000))
-    peer.node.create_subscription(WrenchStamped, "/replica/feedback_wrench", feedback.append, _qos(True, 500))
+                                  lambda m: commands.append((time.monotonic(), list(m.data))), qos(True, 5000))
+    peer.node.create_subscription(WrenchStamped, "/replica/feedback_wrench", feedback.append, qos(True, 500))
     names = list(FR3.joint_names())
 
     def publish_states(seconds: float, joint_names=names, offset=None, wrench_frame=None) -> None:
@@ -163,7 +131,7 @@ def test_replica_under_the_franka_profile(start_node, ros_env, rclpy_context) ->
     from rclpy.node import Node
 
     intruder = Node("test_intruder", context=rclpy_context)
-    intruder.create_publisher(JointState, "/franka/joint_states", _qos(True, 10))
+    intruder.create_publisher(JointState, "/franka/joint_states", qos(True, 10))
     try:
         deadline = time.monotonic() + 15.0
         while time.monotonic() < deadline and "SAFE HOLD" not in replica.output():
@@ -184,17 +152,17 @@ def test_fd_adapter(start_node, ros_env, rclpy_context) -> None:
                          params={"use_clutch": True})
     assert adapter.wait_for_output("fd adapter ready", timeout=60.0), adapter.output()
     peer = Peer(rclpy_context, "test_fd")
-    pose_pub = peer.node.create_publisher(PoseStamped, "/fd/ee_pose", _qos(True, 10))
-    joints_pub = peer.node.create_publisher(JointState, "/fd/joint_states", _qos(True, 10))
-    button_pub = peer.node.create_publisher(Bool, "/fd/button_state", _qos(True, 10))
-    clutch_pub = peer.node.create_publisher(Bool, "/fd/fd_clutch", _qos(True, 10))
-    wrench_pub = peer.node.create_publisher(WrenchStamped, "/haptic/wrench_command", _qos(True, 20))
+    pose_pub = peer.node.create_publisher(PoseStamped, "/fd/ee_pose", qos(True, 10))
+    joints_pub = peer.node.create_publisher(JointState, "/fd/joint_states", qos(True, 10))
+    button_pub = peer.node.create_publisher(Bool, "/fd/button_state", qos(True, 10))
+    clutch_pub = peer.node.create_publisher(Bool, "/fd/fd_clutch", qos(True, 10))
+    wrench_pub = peer.node.create_publisher(WrenchStamped, "/haptic/wrench_command", qos(True, 20))
     poses, twists, device, joys = [], [], [], []
-    peer.node.create_subscription(PoseStamped, "/haptic/pose", poses.append, _qos(True, 1000))
-    peer.node.create_subscription(TwistStamped, "/haptic/twist", twists.append, _qos(True, 1000))
+    peer.node.create_subscription(PoseStamped, "/haptic/pose", poses.append, qos(True, 1000))
+    peer.node.create_subscription(TwistStamped, "/haptic/twist", twists.append, qos(True, 1000))
     peer.node.create_subscription(Float64MultiArray, "/fd/fd_controller/commands",
-                                  lambda m: device.append((time.monotonic(), list(m.data))), _qos(True, 1000))
-    peer.node.create_subscription(Joy, "/operator/joy", joys.append, _qos(True, 50))
+                                  lambda m: device.append((time.monotonic(), list(m.data))), qos(True, 1000))
+    peer.node.create_subscription(Joy, "/operator/joy", joys.append, qos(True, 50))
 
     def drive(seconds: float, frame: str = "fd_base", button: bool = False, force=(1.0, 0.0, -2.0)) -> None:
         deadline = time.monotonic() + seconds
@@ -243,7 +211,6 @@ def test_fd_adapter(start_node, ros_env, rclpy_context) -> None:
 
     # The pose stream stops while the master still sends its force: x_M stops, the force ramps to zero.
     drive(0.5)
-    stopped = time.monotonic()
     deadline = time.monotonic() + 1.0
     while time.monotonic() < deadline:  # the master's force keeps coming; the device's pose does not
         wrench = WrenchStamped()
@@ -274,7 +241,7 @@ def test_franka_twin_holds_the_arm_through_the_profile(start_node, ros_env, rclp
                          ros_args=_replica_ros_args(), env=replica_env(ros_env), params={"control_rate": 500.0})
     peer = Peer(rclpy_context, "test_twin")
     states: list[JointState] = []
-    peer.node.create_subscription(JointState, "/franka/joint_states", states.append, _qos(False, 1))
+    peer.node.create_subscription(JointState, "/franka/joint_states", states.append, qos(False, 1))
     assert peer.spin_until(lambda: len(states) > 50 and "first joint state" in replica.output(), 60.0), \
         replica.output() + robot.output()
     assert states[-1].name == list(FR3.joint_names()) and states[-1].header.frame_id == "base_link"
@@ -311,8 +278,8 @@ def test_the_command_relay_ramps_the_arm_to_rest_when_the_replica_dies(start_nod
     commands: list[tuple[float, np.ndarray]] = []
     states: list[JointState] = []
     peer.node.create_subscription(Float64MultiArray, "/effort_controller/commands",
-                                  lambda m: commands.append((time.monotonic(), np.array(m.data))), _qos(True, 5000))
-    peer.node.create_subscription(JointState, "/franka/joint_states", states.append, _qos(False, 1))
+                                  lambda m: commands.append((time.monotonic(), np.array(m.data))), qos(True, 5000))
+    peer.node.create_subscription(JointState, "/franka/joint_states", states.append, qos(False, 1))
     assert peer.spin_until(lambda: len(commands) > 200 and len(states) > 50, 60.0), \
         replica.output() + relay.output() + robot.output()
     # Forwarded: the replica is the relay's only source, and the arm holds still under it. A replica stalled past

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import assert_stopped_clean, run_launcher, unclean_exit
 
 pytestmark = pytest.mark.nodes

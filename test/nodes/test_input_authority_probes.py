@@ -2,8 +2,8 @@
 
 The robot node (MuJoCo Panda, realtime) and the replica node run as processes; the test process plays the
 channel (a legitimate writer of /replica/teleop_command, x_d' = 0) and watches the simulator's ground-truth TCP
-(/sim/tcp_pose, which no input of the replica can fake) and /diagnostics. sim_bridge.tools.fault_probes is the outside
-process. Before fic_core.input_authority each of these moved the arm (0.37-0.6 m, docs/RESULTS.md).
+(/sim/tcp_pose, which no input of the replica can fake) and /diagnostics. fic_teleop_experiments.tools.fault_probes is
+the outside process. Before fic_core.input_authority each of these moved the arm (0.37-0.6 m, docs/RESULTS.md).
 """
 from __future__ import annotations
 
@@ -11,18 +11,16 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
-
 from config_values import config_values
 from conftest import robot_and_replica
 
 rclpy = pytest.importorskip("rclpy")
 pytestmark = pytest.mark.nodes
 
-PROBES = ["-m", "sim_bridge.tools.fault_probes"]
+PROBES = ["-m", "fic_teleop_experiments.tools.fault_probes"]
 POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
 
 
@@ -31,11 +29,12 @@ class Watcher:
 
     def __init__(self, context, channel: bool) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
-        from fic_teleop_msgs.msg import TeleoperationCommand
         from geometry_msgs.msg import PoseStamped
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from std_msgs.msg import Float64MultiArray
+
+        from fic_teleop_msgs.msg import TeleoperationCommand
 
         qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100)
         self.node = rclpy.create_node("test_channel", context=context)
@@ -134,7 +133,8 @@ def _arm(start_node, ros_env, rclpy_context, channel: bool):
     # The probe must be the only other writer: wait out any writer of an earlier test still in discovery.
     expected_writers = 1 if channel else 0
     assert watcher.wait(lambda: watcher.node.count_publishers("/replica/teleop_command") == expected_writers, 30.0), \
-        f"{watcher.node.count_publishers('/replica/teleop_command')} writers of /replica/teleop_command before the probe"
+        f"{watcher.node.count_publishers('/replica/teleop_command')} writers of /replica/teleop_command before the " \
+        "probe"
     assert watcher.wait(lambda: len(watcher.tcp) > 50, 60.0), robot.output()
     _watch_poses(watcher, 1.0)  # the arm settles under the replica's hold of its start pose
     return robot, replica, watcher

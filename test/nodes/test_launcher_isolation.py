@@ -16,7 +16,6 @@ import time
 from pathlib import Path
 
 import pytest
-
 from conftest import DEFAULT_LOCKSTEP_RUN, REPO, SAFETY_KEPT_EXITS, isolated_env, recorded_so_far, reserved_domain
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 import yaml
-
 from conftest import CONFIG, REPO, NodeProcess, installed_executable, isolated_env, reserved_domain
+
 from fic_teleop_runtime.params_file import write_node_params
 
 pytestmark = pytest.mark.nodes
@@ -214,7 +214,7 @@ def test_recorder_writes_every_joint_state_it_received_while_it_serves_the_live_
     """The view works on the recorder's writer thread, after the bag's write: with a client subscribed to every
     topic, every joint state the recorder received is in the finished bag, in order, and the view's channel got
     them only at its own rate. (Whether the recorder receives every state on a loaded 2-core machine is measured
-    with and without the view by python -m sim_bridge.tools.bench_live_view, not asserted here.)"""
+    with and without the view by python -m fic_teleop_experiments.tools.bench_live_view, not asserted here.)"""
     import struct
 
     from fic_teleop_tools.recording.bag_reader import read_messages

@@ -10,10 +10,9 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 fic_teleop_msgs = pytest.importorskip("fic_teleop_msgs.msg")
-from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped  # noqa: E402
-
 from conftest import CONFIG  # noqa: E402
-from test_master_planner_nodes import QOS, STARTUP_TIMEOUT, Peer  # noqa: E402
+from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped  # noqa: E402
+from master_peer import QOS, STARTUP_TIMEOUT, Peer  # noqa: E402
 
 pytestmark = pytest.mark.nodes
 OperatorTools = fic_teleop_msgs.OperatorTools

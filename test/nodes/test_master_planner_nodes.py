@@ -8,86 +8,20 @@ overshoot and tracks the paper's circle.
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
 fic_teleop_msgs = pytest.importorskip("fic_teleop_msgs.msg")
+from conftest import CONFIG  # noqa: E402
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped  # noqa: E402
-from rcl_interfaces.srv import GetParameters, SetParameters  # noqa: E402
-from rclpy.experimental import EventsExecutor  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from master_peer import JOY_QOS, QOS, STARTUP_TIMEOUT, Peer  # noqa: E402
 from sensor_msgs.msg import Joy  # noqa: E402
 
-from conftest import CONFIG  # noqa: E402
 from fic_core.profile import ForceProfile  # noqa: E402
 
 pytestmark = pytest.mark.nodes
-QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=20)
-JOY_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
-STARTUP_TIMEOUT = 60.0  # the machine may be shared: importing fic_core (pinocchio) can take seconds
-
-
-class Peer:
-    """The test's side of the graph: publishers, latest received messages, parameter calls."""
-
-    def __init__(self, context, name: str) -> None:
-        self.node = rclpy.create_node(name, context=context)
-        self.executor = EventsExecutor(context=context)
-        self.executor.add_node(self.node)
-        self.received: dict[str, list] = {}
-
-    def subscribe(self, message_type, topic: str) -> None:
-        self.received[topic] = []
-        self.node.create_subscription(message_type, topic, self.received[topic].append, QOS)
-
-    def spin_for(self, seconds: float, every: float = 0.0, action=None) -> None:
-        deadline = time.monotonic() + seconds
-        next_action = time.monotonic()
-        while time.monotonic() < deadline:
-            if action is not None and time.monotonic() >= next_action:
-                action()
-                next_action += every
-            self.executor.spin_once(timeout_sec=0.005)
-
-    def spin_until(self, condition, timeout: float, every: float = 0.01, action=None) -> bool:
-        deadline = time.monotonic() + timeout
-        next_action = time.monotonic()
-        while time.monotonic() < deadline:
-            if action is not None and time.monotonic() >= next_action:
-                action()
-                next_action += every
-            if condition():
-                return True
-            self.executor.spin_once(timeout_sec=0.005)
-        return condition()
-
-    def set_parameter(self, node: str, name: str, value) -> tuple[bool, str]:
-        """Set one parameter of ``node`` (its type from the Python value: a float is a double, a bool a bool, a
-        list of floats a double array); (successful, reason)."""
-        client = self.node.create_client(SetParameters, f"/{node}/set_parameters")
-        assert client.wait_for_service(timeout_sec=20.0)
-        request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
-        future = client.call_async(request)
-        assert self.spin_until(future.done, 20.0)
-        self.node.destroy_client(client)
-        result = future.result().results[0]
-        return result.successful, result.reason
-
-    def get_parameter(self, node: str, name: str):
-        client = self.node.create_client(GetParameters, f"/{node}/get_parameters")
-        assert client.wait_for_service(timeout_sec=20.0)
-        future = client.call_async(GetParameters.Request(names=[name]))
-        assert self.spin_until(future.done, 20.0)
-        self.node.destroy_client(client)
-        return future.result().values[0]
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
 
 
 def test_master_node(start_node, rclpy_context) -> None:

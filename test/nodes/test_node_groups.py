@@ -9,7 +9,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from conftest import REPO, assert_stopped_clean, isolated_env, reserved_domain, unclean_exit
 
 from fic_teleop_bringup import node_groups, run_profile
@@ -111,7 +110,8 @@ def test_a_groups_log_is_split_into_its_members_own_logs(tmp_path: Path) -> None
     forward = (tmp_path / "channel_forward.log").read_text()
     backward = (tmp_path / "channel_backward.log").read_text()
     assert not (tmp_path / "channel_forward.log").is_symlink()
-    assert forward == "[INFO] [1764892800.123] [channel_forward]: channel up\nTraceback (most recent call last):\n  boom\n"
+    assert forward == ("[INFO] [1764892800.123] [channel_forward]: channel up\n"
+                       "Traceback (most recent call last):\n  boom\n")
     assert backward.startswith("[WARN]") and "channel up" not in backward and "boom" in backward   # unclaimed: both
     assert (tmp_path / "channel_forward+channel_backward.log").read_text().count("\n") == 4   # kept whole
 

@@ -248,6 +248,7 @@ def test_recorder_bag_survives_sigkill(start_node, tmp_path, ros_env):
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
     from rosbags.highlevel import AnyReader
+
     from fic_teleop_tools.recording.recovery import recover
     from fic_teleop_tools.report import load_bag
 
@@ -271,7 +272,7 @@ def test_recorder_bag_survives_sigkill(start_node, tmp_path, ros_env):
     reader = make_reader(cat.stdout, validate_crcs=True, decoder_factories=[DecoderFactory()])
     stamps, ended_without_footer = [], False
     try:
-        for _, channel, _, message in reader.iter_decoded_messages(topics=["/joint_states"], log_time_order=False):
+        for _, _channel, _, message in reader.iter_decoded_messages(topics=["/joint_states"], log_time_order=False):
             stamps.append(message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec)
     except EndOfFile:
         ended_without_footer = True

@@ -5,9 +5,8 @@ healthy ticks, said too; every torque names the joint state it was computed on (
 from __future__ import annotations
 
 import pytest
-
 from conftest import CONFIG
-from test_replica_node import Robot, replica_env
+from replica_side import Robot, replica_env
 
 rclpy = pytest.importorskip("rclpy")
 

@@ -3,13 +3,10 @@ names a joint state older than the bound is refused (never applied, the watchdog
 state is applied. The arm is pushed 20 N m on joint 1 by the refused commands and must not move."""
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pinocchio as pin
 import pytest
-
-from test_robot_node import QOS, Controller, _stamp, _start_robot
+from robot_side import Controller, stamp_ns, start_robot
 
 rclpy = pytest.importorskip("rclpy")
 
@@ -19,7 +16,7 @@ from fic_core.command_stamp import label  # noqa: E402
 def test_a_torque_on_an_old_state_is_refused_and_one_on_a_fresh_state_applied(ros_env, rclpy_context, tmp_path):
     from std_msgs.msg import MultiArrayDimension, MultiArrayLayout
 
-    robot = _start_robot(ros_env, tmp_path, mode="realtime", scene="free_space", command_state_timeout=0.05)
+    robot = start_robot(ros_env, tmp_path, mode="realtime", scene="free_space", command_state_timeout=0.05)
     controller = Controller(rclpy_context)
     controller.answering = False
 
@@ -27,7 +24,7 @@ def test_a_torque_on_an_old_state_is_refused_and_one_on_a_fresh_state_applied(ro
         state = controller.states[-1]
         q = np.array(state.position)
         torque = pin.computeGeneralizedGravity(controller.model, controller.data, q) + [20.0, 0, 0, 0, 0, 0, 0]
-        layout = MultiArrayLayout(dim=[MultiArrayDimension(label=label(_stamp(state) - round(age_s * 1e9)),
+        layout = MultiArrayLayout(dim=[MultiArrayDimension(label=label(stamp_ns(state) - round(age_s * 1e9)),
                                                            size=7, stride=7)])
         controller.publisher.publish(controller._message(layout=layout, data=torque.tolist()))
 

@@ -2,90 +2,20 @@
 applies are the ones sent, bad commands are refused, and the watchdog holds the arm when commands stop."""
 from __future__ import annotations
 
-import os
-import sys
-import time
-from pathlib import Path
-
 import numpy as np
 import pinocchio as pin
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 
-from conftest import CONFIG, REPO, NodeProcess, installed_executable  # noqa: E402
-from fic_core.panda_description import load_pinocchio_model  # noqa: E402
+from robot_side import QOS, Controller, stamp_ns, start_robot  # noqa: E402
+
 from sim_bridge.robot.mujoco_panda import HOLD_DAMPING  # noqa: E402
-
-QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
-
-
-def _robot_node_command() -> list[str]:
-    """The installed executable (what `ros2 run sim_bridge robot_node` starts), or the module from source."""
-    path = installed_executable("sim_bridge", "robot_node")
-    if path.exists():
-        return [str(path)]
-    return [sys.executable, "-m", "sim_bridge.robot.robot_node"]
-
-
-def _start_robot(ros_env: dict[str, str], tmp_path: Path, **params) -> NodeProcess:
-    env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "sim_bridge"), env.get("PYTHONPATH")]))
-    command = _robot_node_command() + ["--ros-args", "--params-file", str(CONFIG / "robot.yaml")]
-    for key, value in params.items():
-        command += ["-p", f"{key}:={value}"]
-    return NodeProcess(command, env, tmp_path / "robot_node.log")
-
-
-class Controller:
-    """Answers every joint state with gravity compensation + damping (Pinocchio), like the replica would."""
-
-    def __init__(self, context) -> None:
-        from sensor_msgs.msg import JointState
-        from std_msgs.msg import Float64MultiArray
-
-        self.node = rclpy.create_node("test_controller", context=context)
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
-        self.model, self.data, _ = load_pinocchio_model()
-        self.publisher = self.node.create_publisher(Float64MultiArray, "/effort_controller/commands", QOS)
-        self.node.create_subscription(JointState, "/joint_states", self._on_state, QOS)
-        self.states: list = []
-        self.sent: list[np.ndarray] = []
-        self.answering = True
-        self.push = np.zeros(7)   # added to every answer (a controller gone wrong)
-        self._message = Float64MultiArray
-
-    def _on_state(self, message) -> None:
-        self.states.append(message)
-        if self.answering:
-            q, qd = np.array(message.position), np.array(message.velocity)
-            torque = pin.computeGeneralizedGravity(self.model, self.data, q) - 2.0 * qd + 0.5 * np.sin(len(self.sent) / 50.0)
-            torque = torque + self.push
-            self.sent.append(torque)
-            self.publisher.publish(self._message(data=torque.tolist()))
-
-    def send_raw(self, values: list[float]) -> None:
-        self.publisher.publish(self._message(data=values))
-
-    def spin_until(self, condition, timeout: float) -> bool:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if condition():
-                return True
-            self.executor.spin_once(timeout_sec=0.05)
-        return condition()
-
-
-def _stamp(message) -> int:
-    return message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
 
 
 def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_they_stop(ros_env, rclpy_context,
                                                                                       tmp_path):
-    robot = _start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.1,
+    robot = start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.1,
                          command_timeout=0.01, diagnostics_rate_hz=50.0)
     try:
         assert robot.wait_for_output("robot_sim ready", timeout=30.0), robot.output()
@@ -94,7 +24,7 @@ def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_the
         assert controller.spin_until(lambda: len(controller.sent) >= 400, timeout=40.0), robot.output()
         assert robot.wait_for_output("first torque command received", timeout=5.0)
 
-        stamps = [_stamp(m) for m in controller.states]
+        stamps = [stamp_ns(m) for m in controller.states]
         # Before the first step the initial state may come several times (stamp 0), then every physics step
         # once, 1 ms apart in simulation time (lockstep stamps are simulation time), none lost.
         first_step = next(i for i, stamp in enumerate(stamps) if stamp > 0)
@@ -140,14 +70,13 @@ def test_lockstep_node_steps_on_each_command_refuses_bad_ones_and_holds_when_the
     assert "robot_sim stopped" in log
 
 
-
 def test_a_joint_beyond_its_velocity_limit_stops_the_arm_for_the_run(ros_env, rclpy_context, tmp_path):
     """A controller that keeps pushing joint 1 (60 N m on top of gravity compensation): once joint 1 passes the
     Panda's 2.175 rad/s by the reflex's 10 % the robot says so in one error line, applies its hold torque from then
     on whatever it is sent (Franka: joint_velocity_violation), and the arm comes to rest; /diagnostics says ERROR."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
-    robot = _start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.1,
+    robot = start_robot(ros_env, tmp_path, mode="lockstep", scene="free_space", lockstep_timeout=0.1,
                          diagnostics_rate_hz=20.0)
     try:
         assert robot.wait_for_output("robot_sim ready", timeout=30.0), robot.output()
@@ -186,19 +115,19 @@ def test_realtime_joint_states_at_500_hz_lie_on_their_own_2_ms_grid_and_the_wren
     recorder and the report count gaps on that grid), while /ft_sensor/wrench stays at 250 Hz."""
     from geometry_msgs.msg import WrenchStamped
 
-    robot = _start_robot(ros_env, tmp_path, mode="realtime", scene="free_space", joint_state_rate_hz=500.0)
+    robot = start_robot(ros_env, tmp_path, mode="realtime", scene="free_space", joint_state_rate_hz=500.0)
     try:
         assert robot.wait_for_output("robot_sim ready", timeout=30.0), robot.output()
         controller = Controller(rclpy_context)
         wrenches: list = []
         controller.node.create_subscription(WrenchStamped, "/ft_sensor/wrench", wrenches.append, QOS)
         assert controller.spin_until(lambda: len(controller.states) >= 1000, timeout=30.0), robot.output()
-        stamps_ns = np.array([_stamp(m) for m in controller.states[10:]])
+        stamps_ns = np.array([stamp_ns(m) for m in controller.states[10:]])
         assert np.all(stamps_ns % 2_000_000 == 0)
         steps = np.diff(stamps_ns) / 2_000_000
         assert np.median(steps) == 1.0 and steps.min() >= 1.0
         span = (stamps_ns[-1] - stamps_ns[0]) * 1e-9
-        wrench_rate = sum(1 for w in wrenches if _stamp(w) >= stamps_ns[0]) / span
+        wrench_rate = sum(1 for w in wrenches if stamp_ns(w) >= stamps_ns[0]) / span
         assert 200.0 < wrench_rate < 300.0, wrench_rate
     finally:
         robot.stop(timeout=10.0)

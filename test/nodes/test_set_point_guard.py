@@ -12,7 +12,6 @@ import time
 
 import numpy as np
 import pytest
-
 from config_values import config_values
 from conftest import robot_and_replica
 

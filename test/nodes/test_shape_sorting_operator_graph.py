@@ -3,7 +3,7 @@ channel, reaches for the first piece, presses it until it feels the contact and 
 
 A short lockstep run of ``--scene shape_sorting`` (its default operator): the operator's phases come from the
 device node's log, the bond from the robot's ground truth (/sim/object_poses and its bond counter). The full
-trials are sim_bridge.experiments.e2_graph (docs/EXPERIMENTS.md "E2")."""
+trials are fic_teleop_experiments.e2_graph (docs/EXPERIMENTS.md "E2")."""
 from __future__ import annotations
 
 import json
@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import run_launcher
+
 from sim_bridge.robot.scenes import SHAPE_SORTING_PIECES
 
 pytestmark = pytest.mark.nodes
@@ -48,8 +48,8 @@ def test_the_operator_presses_the_first_piece_until_it_feels_it_and_sees_it_bond
 
 
 def test_the_piece_rose_on_the_bond_and_the_run_is_safe(sorting_run: Path) -> None:
+    from fic_teleop_experiments.shape_sorting import piece_outcomes
     from fic_teleop_tools.verdict.bag_series import read_run
-    from sim_bridge.experiments.shape_sorting import piece_outcomes
 
     series = read_run(sorting_run / "bag")
     outcomes = piece_outcomes(series)

@@ -15,8 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
-
-from conftest import CONFIG, REPO, installed_executable
+from conftest import CONFIG, installed_executable
 
 from fic_teleop_bringup.launch_supervision import die_with_launcher
 

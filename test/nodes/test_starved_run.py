@@ -1,8 +1,8 @@
 """One throttled run in the suite: the whole graph but the recorder under a cgroup CPU quota of 40 % of one CPU
-(the starvation harness, sim_bridge/tools/stress.py; the recorder spared so that the bag holds the run: starved
-with the rest, it wrote no bag at all in an 8 s run) must be flagged by the launcher as starved (its timing.json,
-and exit code 6 unless a safety figure broke first), and the arm must not run away. Needs root and the cgroup cpu
-controller."""
+(the starvation harness, fic_teleop_experiments/tools/stress.py; the recorder spared so that the bag holds the run:
+starved with the rest, it wrote no bag at all in an 8 s run) must be flagged by the launcher as starved (its
+timing.json, and exit code 6 unless a safety figure broke first), and the arm must not run away. Needs root and the
+cgroup cpu controller."""
 from __future__ import annotations
 
 import json
@@ -10,9 +10,7 @@ import os
 from pathlib import Path
 
 import pytest
-
-from conftest import REPO, isolated_env, reserved_domain
-
+from conftest import isolated_env, reserved_domain
 
 from fic_teleop_bringup.launch_supervision import EXIT_NODE_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_STARVED
 
@@ -21,7 +19,7 @@ LEVEL_PERCENT = 40.0
 
 
 def _quota_available() -> bool:
-    from sim_bridge.tools.stress import StressError, _cpu_hierarchy
+    from fic_teleop_experiments.tools.stress import StressError, _cpu_hierarchy
     try:
         _cpu_hierarchy()
     except StressError:
@@ -31,7 +29,7 @@ def _quota_available() -> bool:
 
 @pytest.mark.skipif(os.geteuid() != 0 or not _quota_available(), reason="a CPU quota needs root and cgroup cpu")
 def test_a_graph_at_40_percent_of_one_cpu_is_flagged_as_starved(tmp_path: Path) -> None:
-    from sim_bridge.tools.stress import run_figures, stressed_run
+    from fic_teleop_experiments.tools.stress import run_figures, stressed_run
 
     out = tmp_path / "run"
     with reserved_domain() as domain:

@@ -19,10 +19,7 @@ import time
 from pathlib import Path
 
 import pytest
-
-from conftest import SAFETY_KEPT_EXITS
-
-REPO = Path(__file__).resolve().parents[2]
+from conftest import REPO, SAFETY_KEPT_EXITS
 
 from fic_teleop_bringup import rtps_traffic, two_stations
 

@@ -15,9 +15,13 @@ def rotation_error(rotation: np.ndarray, desired: np.ndarray) -> np.ndarray:
     return 0.5 * sum(np.cross(rotation[:, i], desired[:, i]) for i in range(3))
 
 
-def cartesian_torque(sim: PandaSimulation, position: np.ndarray, rotation: np.ndarray, force: np.ndarray = np.zeros(3),
-                     stiffness: np.ndarray = np.array([400.0, 400.0, 400.0]), rotational_stiffness: float = 30.0,
+def cartesian_torque(sim: PandaSimulation, position: np.ndarray, rotation: np.ndarray, force: np.ndarray | None = None,
+                     stiffness: np.ndarray | None = None, rotational_stiffness: float = 30.0,
                      damping: float = 40.0, rotational_damping: float = 3.0) -> np.ndarray:
+    """A Cartesian spring-damper's joint torques (gravity compensated), pushing with ``force`` (default none),
+    translational ``stiffness`` 400 N/m an axis by default."""
+    force = np.zeros(3) if force is None else force
+    stiffness = np.array([400.0, 400.0, 400.0]) if stiffness is None else stiffness
     model, data = sim.model, sim.data
     jacp = np.zeros((3, model.nv))
     jacr = np.zeros((3, model.nv))

@@ -18,7 +18,8 @@ def _pick(sim: PandaSimulation, piece_index: int) -> tuple[np.ndarray, np.ndarra
             sim.step(cartesian_torque(sim, top + np.array([0.0, 0.0, height]), down))
     assert sim.bond_state.bonded_piece is None
     for _ in range(1000):  # down onto it, pressing with 6 N (formation needs 3 N)
-        sim.step(cartesian_torque(sim, top, down, force=np.array([0.0, 0.0, -6.0]), stiffness=np.array([400, 400, 0.0])))
+        sim.step(cartesian_torque(sim, top, down, force=np.array([0.0, 0.0, -6.0]), stiffness=np.array([400, 400,
+                                                                                                        0.0])))
         if sim.bond_state.bonded_piece is not None:
             break
     return top, down

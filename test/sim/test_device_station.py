@@ -11,7 +11,7 @@ import numpy as np
 from sim_bridge.device.device_station import DeviceStation
 from sim_bridge.device.haptic_device import HapticDevice
 from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
-from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptEvent, ScriptedOperator, load_script
+from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, ScriptEvent, load_script
 
 SCRIPT = Path(__file__).resolve().parents[2] / "config" / "operator_scripts" / "free_space.yaml"
 DT = 0.004

@@ -8,7 +8,6 @@ from rosbags.typesys import Stores, get_typestore
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_teleop_tools.recording.live_view import _cdr_string, joint_positions
 
-
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 
 

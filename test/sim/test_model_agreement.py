@@ -33,7 +33,8 @@ def test_tcp_pose_gravity_coriolis_and_mass_matrix_agree_over_random_states():
         pin_mass = np.triu(pin_mass) + np.triu(pin_mass, 1).T
         worst["position"] = max(worst["position"], np.abs(placement.translation - position).max())
         worst["rotation"] = max(worst["rotation"], np.abs(placement.rotation - rotation).max())
-        worst["gravity"] = max(worst["gravity"], np.abs(pin.computeGeneralizedGravity(pin_model, pin_data, q) - gravity).max())
+        worst["gravity"] = max(worst["gravity"], np.abs(pin.computeGeneralizedGravity(pin_model, pin_data,
+                                                                                      q) - gravity).max())
         worst["coriolis"] = max(worst["coriolis"],
                                 np.abs(pin.nonLinearEffects(pin_model, pin_data, q, qd) - coriolis_and_gravity).max())
         worst["mass"] = max(worst["mass"], np.abs(pin_mass - mass[:7, :7]).max())

@@ -2,7 +2,6 @@
 its reaction time, co-contraction with the felt force, and the hand alone on the handle settles at every range end."""
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
@@ -85,7 +84,8 @@ def test_a_seed_draws_each_figure_inside_its_range() -> None:
     for seed in range(20):
         p = ReactiveHandParameters.drawn(np.random.default_rng(seed), HandParameters())
         assert rh.REFLEX_LATENCY_RANGE_S[0] <= p.reflex_latency <= rh.REFLEX_LATENCY_RANGE_S[1]
-        assert rh.VOLUNTARY_REACTION_TIME_RANGE_S[0] <= p.voluntary_reaction_time <= rh.VOLUNTARY_REACTION_TIME_RANGE_S[1]
+        reaction = rh.VOLUNTARY_REACTION_TIME_RANGE_S
+        assert reaction[0] <= p.voluntary_reaction_time <= reaction[1]
         assert 0.25 * 300 <= p.reflex_stiffness <= 0.40 * 300
     assert len({ReactiveHandParameters.drawn(np.random.default_rng(s), HandParameters()) for s in range(5)}) == 5
 

@@ -1,8 +1,8 @@
 """ReplicaController closing the loop on the MuJoCo Panda (sim_bridge.robot.mujoco_panda), in one process, at 1 kHz.
 
 The controller's model is Pinocchio's; the plant here is MuJoCo's (its own integrator, implicit joint damping,
-armature, motor clamps), so the tracking claims of the replica (docs/CONTROL_LAWS.md, "Replica (Eq. 7)") are measured on a
-plant the controller does not simulate itself. Errors are taken from MuJoCo's TCP site, limits from MuJoCo's state,
+armature, motor clamps), so the tracking claims of the replica (docs/CONTROL_LAWS.md, "Replica (Eq. 7)") are measured on
+a plant the controller does not simulate itself. Errors are taken from MuJoCo's TCP site, limits from MuJoCo's state,
 and energy as the work the controller's wrench does on the arm (the integral of F . v), not the code's own
 stored-energy function. Figures of 2026-12-02 (deterministic: MuJoCo and the law are both deterministic):
 circle RMS after 1.5 s 14.5 mm (FIC alone), 5.9 mm (+ inertial feedforward), 0.35 mm (+ friction of the desired
@@ -50,6 +50,7 @@ def close_loop(robot: RobotModel, replica: ReplicaController, reference, seconds
     _, rotation = sim.tcp_pose
     start = sim.tcp_pose[0].copy()
     run = Run()
+    previous_position = start
     for tick in range(int(round(seconds / DT))):
         target, twist, acceleration = reference(tick * DT, start)
         before = sim.joint_velocities.copy()

@@ -5,8 +5,14 @@ import pytest
 
 from sim_bridge.robot import scenes
 from sim_bridge.robot.mujoco_panda import PandaSimulation
-from sim_bridge.robot.scenes import (HOLE_CLEARANCE, SHAPE_SORTING_PIECES, SORTER_CELL_HALF_SIZE, cell_minus_hole,
-                               convex_parts, piece_polygon)
+from sim_bridge.robot.scenes import (
+    HOLE_CLEARANCE,
+    SHAPE_SORTING_PIECES,
+    SORTER_CELL_HALF_SIZE,
+    cell_minus_hole,
+    convex_parts,
+    piece_polygon,
+)
 
 
 @pytest.mark.parametrize("scene", scenes.SCENE_NAMES)

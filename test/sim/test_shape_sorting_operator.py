@@ -9,8 +9,13 @@ import pytest
 from fic_core.errors import FicInputError
 from fic_core.teleoperation import TeleoperationCommandIntegrator
 from sim_bridge.channel.channel import Channel, ChannelConfig
-from sim_bridge.device.shape_sorting_operator import (ShapeSortingOperator, ShapeSortingParameters, SortingFrame,
-                                                      _RAMP_SHAPE, velocity_step)
+from sim_bridge.device.shape_sorting_operator import (
+    _RAMP_SHAPE,
+    ShapeSortingOperator,
+    ShapeSortingParameters,
+    SortingFrame,
+    velocity_step,
+)
 from sim_bridge.device.virtual_operator import BUTTON_TOGGLE_MODE
 from sim_bridge.robot.scenes import PIECE_HEIGHT, SHAPE_SORTING_PIECES
 
@@ -110,7 +115,7 @@ def test_on_the_simulated_robot_the_operator_grasps_the_first_piece_through_200_
     """The in-process runner (the MuJoCo Panda with the adhesive bond, the FIC as E2 runs it): within 20 s the
     operator reaches the cuboid, presses until it feels the contact and lifts it on the plate; the other pieces
     have not moved. Measured (seed 1, 2026-12-05): press felt at 15.5 s with 4.8 N, lifted at 16.5 s."""
-    from sim_bridge.experiments.in_process import RunConfig, run
+    from fic_teleop_experiments.in_process import RunConfig, run
 
     result = run(RunConfig(scene="shape_sorting", trajectory="fixed", duration=20.0, delay=0.2, seed=1,
                            operator="shape_sorting", hand="reactive", replica_overrides={"paper_law": True}))

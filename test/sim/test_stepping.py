@@ -25,7 +25,7 @@ def _lockstep_run(scene: str, seed: int) -> np.ndarray:
     def controller() -> None:
         for k in range(STEPS):
             with ready:
-                ready.wait_for(lambda: len(published) > k)
+                ready.wait_for(lambda: len(published) > k)  # noqa: B023
                 q, qd, hold = published[k]
             target = NOMINAL_CONFIGURATION + 0.2 * np.sin(np.arange(7) + k * 0.01)
             gate.deliver(hold + 20.0 * (target - q) - 2.0 * qd)
@@ -173,7 +173,7 @@ class SimulatedClock:
 def test_realtime_pacer_keeps_a_1khz_grid_on_the_wall_clock():
     """On the wall clock, bounds that hold under any load: never ahead of its grid, its rate measured over a span
     inside the test's. (How close to 1 kHz it gets depends on the machine's load: a speed, measured by
-    python -m sim_bridge.tools.bench_sim, not asserted here.)"""
+    python -m fic_teleop_experiments.tools.bench_sim, not asserted here.)"""
     pacer = RealtimePacer(period=0.001)
     started = time.monotonic()
     for _ in range(300):

@@ -1,4 +1,5 @@
-"""The virtual operator (sim_bridge/device/virtual_operator.py) and the scene scripts (sim_bridge/device/operator_scripts.py)."""
+"""The virtual operator (sim_bridge/device/virtual_operator.py) and the scene scripts
+(sim_bridge/device/operator_scripts.py)."""
 from __future__ import annotations
 
 import math
@@ -9,11 +10,26 @@ import pytest
 
 from fic_core.errors import FicInputError
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
-from sim_bridge.device.operator_scripts import (GENERATORS, SHAPE_SORTING_DEFAULTS, shape_sorting_script,
-                                         superimposition_script)
-from sim_bridge.device.virtual_operator import (BUTTON_HAPTIC_GAIN_UP, BUTTON_TOGGLE_MODE, Hand, HandParameters,
-                                         JoyTarget, OperatorScript, ScriptedOperator, ScriptEvent, Waypoint,
-                                         load_script, script_from_mapping, script_to_mapping)
+from sim_bridge.device.operator_scripts import (
+    GENERATORS,
+    SHAPE_SORTING_DEFAULTS,
+    shape_sorting_script,
+    superimposition_script,
+)
+from sim_bridge.device.virtual_operator import (
+    BUTTON_HAPTIC_GAIN_UP,
+    BUTTON_TOGGLE_MODE,
+    Hand,
+    HandParameters,
+    JoyTarget,
+    OperatorScript,
+    ScriptedOperator,
+    ScriptEvent,
+    Waypoint,
+    load_script,
+    script_from_mapping,
+    script_to_mapping,
+)
 
 CONFIG = Path(__file__).resolve().parents[2] / "config" / "operator_scripts"
 HALF_EXTENTS = np.array(HapticDeviceParameters().half_extents)

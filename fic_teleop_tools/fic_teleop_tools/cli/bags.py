@@ -12,11 +12,11 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from fic_core.errors import FicInputError
+from fic_teleop_runtime.message_types import message_class
+from fic_teleop_tools.cli.errors import CommandError
 from fic_teleop_tools.recording.bag_reader import BagReadError, ReadResult, mcap_file, read_messages
 from fic_teleop_tools.recording.bag_writer import BagError
 from fic_teleop_tools.recording.recovery import recover
-from fic_teleop_tools.cli.errors import CommandError
-from fic_teleop_runtime.message_types import message_class
 
 #: How long `bag play` waits in all, after the last message, for the reliable readers to acknowledge what they
 #: were sent.

@@ -35,8 +35,8 @@ def dataset_export(runs: list[str], out: str, fps: int | None, task: str | None,
 
 def episode_mark(event: str, timeout: float) -> int:
     """Publish one episode marker where the running graph's recorder takes it."""
-    from std_msgs.msg import String
     from rclpy.duration import Duration
+    from std_msgs.msg import String
 
     from fic_teleop_runtime.episode_markers import MARKER_TOPIC, MarkerError, checked_event
     from fic_teleop_runtime.qos import MARKERS

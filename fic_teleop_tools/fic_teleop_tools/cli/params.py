@@ -7,10 +7,10 @@ from rcl_interfaces.msg import ParameterType, ParameterValue
 from rclpy.parameter import get_parameter_value, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 
-from fic_teleop_tools.cli.errors import CommandError
-from fic_teleop_tools.cli.graph import fully_qualified, graph_node
 from fic_teleop_runtime.parameters import nearest_name_hint
 from fic_teleop_runtime.params_file import params_file_text
+from fic_teleop_tools.cli.errors import CommandError
+from fic_teleop_tools.cli.graph import fully_qualified, graph_node
 
 TYPE_NAMES = {ParameterType.PARAMETER_BOOL: "Boolean", ParameterType.PARAMETER_INTEGER: "Integer",
               ParameterType.PARAMETER_DOUBLE: "Double", ParameterType.PARAMETER_STRING: "String",

@@ -14,9 +14,9 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 
 from fic_core.errors import FicInputError
+from fic_teleop_runtime.message_types import message_class
 from fic_teleop_tools.cli.errors import CommandError
 from fic_teleop_tools.cli.graph import graph_node, settle, topic_type
-from fic_teleop_runtime.message_types import message_class
 
 # Best effort matches every publisher (a reliable reader would not match a best-effort writer); a deep queue so
 # that a 1 kHz topic is not thinned by the reader while it is being printed.

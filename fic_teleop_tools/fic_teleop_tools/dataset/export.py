@@ -30,12 +30,34 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from fic_teleop_tools.dataset import lerobot_layout as layout
-from fic_teleop_tools.dataset.frame_sampling import SamplingError, common_span, frame_times, held_indices, \
-    stream_rate_hz
-from fic_teleop_tools.dataset.run_recording import HANDLE_POSE, HANDLE_WRENCH, JOINT_STATES, OBJECT_POSES, \
-    SET_POINT, STREAMS, TCP_POSE, WRIST_WRENCH, RecordingError, RunRecording, read_run
-from fic_teleop_tools.dataset.scene_camera import CODEC_NAME, PIX_FMT, STATS_STRIDE, SceneCamera, VideoFile, \
-    stats_frame_numbers
+from fic_teleop_tools.dataset.frame_sampling import (
+    SamplingError,
+    common_span,
+    frame_times,
+    held_indices,
+    stream_rate_hz,
+)
+from fic_teleop_tools.dataset.run_recording import (
+    HANDLE_POSE,
+    HANDLE_WRENCH,
+    JOINT_STATES,
+    OBJECT_POSES,
+    SET_POINT,
+    STREAMS,
+    TCP_POSE,
+    WRIST_WRENCH,
+    RecordingError,
+    RunRecording,
+    read_run,
+)
+from fic_teleop_tools.dataset.scene_camera import (
+    CODEC_NAME,
+    PIX_FMT,
+    STATS_STRIDE,
+    SceneCamera,
+    VideoFile,
+    stats_frame_numbers,
+)
 
 CAMERA = "observation.images.scene"
 ROBOT_TYPE = "panda"

@@ -16,7 +16,7 @@ import numpy as np
 from mcap_ros2.decoder import DecoderFactory
 from numpy.typing import NDArray
 
-from fic_teleop_runtime.episode_markers import MARKER_TOPIC, MarkerError, outcome, EpisodeOutcome
+from fic_teleop_runtime.episode_markers import MARKER_TOPIC, EpisodeOutcome, MarkerError, outcome
 from fic_teleop_tools.recording.bag_reader import BagReadError, ReadResult, mcap_file, read_messages
 
 JOINT_STATES = "/joint_states"

@@ -32,6 +32,8 @@ class SceneCamera:
 
     def __init__(self, scene: str, joint_names: list[str], body_count: int, width: int, height: int) -> None:
         import sim_bridge  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported, when there is no display)
+
+        # isort: split
         import mujoco
 
         from sim_bridge.robot.mujoco_panda import build_model

@@ -21,9 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
-
 import foxglove
+import numpy as np
 from foxglove.channels import FrameTransformsChannel
 from foxglove.messages import FrameTransform, FrameTransforms, Quaternion, Timestamp, Vector3
 from rclpy.serialization import deserialize_message, serialize_message

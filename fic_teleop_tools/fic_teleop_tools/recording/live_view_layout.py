@@ -1,9 +1,9 @@
 """Write config/live_view.json, the Foxglove layout of the live view (`scripts/run_teleop.sh --live`).
 
 Built with the SDK's own layout types (foxglove.layouts), so the file is what Foxglove imports;
-test/test_launch_file.py regenerates it and compares, and checks that every field it plots is a field of a recorded
-topic's message. Panels: the arm in 3D (its URDF through the server's assets, posed by /live/transforms) with x_d
-(/replica/desired_pose) and x_R (/replica/tcp_pose); the interaction forces; the FIC phases and energy (paper Eq. 2:
+test/bringup/test_launch_file.py regenerates it and compares, and checks that every field it plots is a field of a
+recorded topic's message. Panels: the arm in 3D (its URDF through the server's assets, posed by /live/transforms) with
+x_d (/replica/desired_pose) and x_R (/replica/tcp_pose); the interaction forces; the FIC phases and energy (paper Eq. 2:
 divergence D = 0, convergence C = 1 per axis); the limit flags of the postural optimisation; the operator's tools
 (/master/operator_tools: engaged, clutched or homing, the loop gain k_F s_M K_H, the guidance fixture's force).
 
@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 import foxglove.layouts as fl
 
-LAYOUT_PATH = Path(__file__).resolve().parents[3] / "config" / "live_view.json"
+from fic_teleop_runtime.workspace import config_folder
+
+LAYOUT_PATH = config_folder() / "live_view.json"
 URDF_URL = "package://example-robot-data/robots/panda_description/urdf/panda.urdf"
 AXES = ("x", "y", "z")
 

@@ -1,4 +1,5 @@
-"""Recorder node: every topic of the teleoperation graph to a rosbag2-layout MCAP bag (README.md, "What the demo shows").
+"""Recorder node: every topic of the teleoperation graph to a rosbag2-layout MCAP bag (README.md, "What the demo
+shows").
 
 Wiring only; the file format is fic_teleop_tools.recording.bag_writer. The subscriptions are raw (CDR bytes, never
 deserialised) and belong to a second node of this process that no executor spins (``<name>_reader``): a taker
@@ -46,25 +47,30 @@ import threading
 import time
 from pathlib import Path
 
-import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import SubscriptionEventCallbacks
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from fic_core.errors import FicInputError
-from fic_teleop_tools.recording.bag_writer import BagError, BagWriter, MessageDefinitionError, full_type_name, message_definition, \
-    qos_profile_dict
-from fic_teleop_tools.recording.live_view import LiveView, LiveViewError
 from fic_teleop_runtime.cdr_header import header_stamp
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, defaults_for, integer, number, switch, text, texts
+from fic_teleop_tools.recording.bag_writer import (
+    BagError,
+    BagWriter,
+    MessageDefinitionError,
+    full_type_name,
+    message_definition,
+    qos_profile_dict,
+)
+from fic_teleop_tools.recording.live_view import LiveView, LiveViewError
 
 # Subscriber QoS: RELIABLE so that DDS resends what a busy recorder missed, KEEP_LAST deep enough to absorb a
-# 1 s stall of the writer at 1 kHz (docs/CONVENTIONS.md, "QoS": the robot keeps 1000 too; a deeper reader queue is free).
-# BEST_EFFORT / TRANSIENT_LOCAL only when every publisher offers it (a reliable reader cannot match a
+# 1 s stall of the writer at 1 kHz (docs/CONVENTIONS.md, "QoS": the robot keeps 1000 too; a deeper reader queue is
+# free). BEST_EFFORT / TRANSIENT_LOCAL only when every publisher offers it (a reliable reader cannot match a
 # best-effort writer; transient-local gets the latched sample).
 SCHEMA = Schema(
     "recorder.yaml",
@@ -420,7 +426,8 @@ def _finish(node: RecorderNode) -> None:
     node.finish()
 
 
-ENTRY = NodeEntry(RecorderNode, "recorder", refusals=(BagError, LiveViewError), stopped=_finish, slice_s=0.5, follow_sim_time=False)
+ENTRY = NodeEntry(RecorderNode, "recorder", refusals=(BagError, LiveViewError), stopped=_finish, slice_s=0.5,
+                  follow_sim_time=False)
 
 
 if __name__ == "__main__":

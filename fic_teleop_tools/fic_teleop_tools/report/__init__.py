@@ -1,4 +1,5 @@
-"""Turn a recorded session (rosbag2-layout MCAP bag) into metrics.json and the paper-style plots (docs/EXPERIMENTS.md, "Metrics").
+"""Turn a recorded session (rosbag2-layout MCAP bag) into metrics.json and the paper-style plots (docs/EXPERIMENTS.md,
+"Metrics").
 
     python -m fic_teleop_tools.report <bag folder or .mcap> [--out DIR] [--warmup 2.0] [--f-max 15]
 

@@ -1,5 +1,5 @@
-"""python -m fic_teleop_tools.report <bag> [--out DIR]: metrics.json, plots and a summary table of a recorded session, and
-the run's two verdicts, stable and safe, with their reasons (fic_teleop_tools.verdict.run_verdict; verdict.json)."""
+"""python -m fic_teleop_tools.report <bag> [--out DIR]: metrics.json, plots and a summary table of a recorded session,
+and the run's two verdicts, stable and safe, with their reasons (fic_teleop_tools.verdict.run_verdict; verdict.json)."""
 from __future__ import annotations
 
 import argparse
@@ -9,13 +9,12 @@ from pathlib import Path
 
 import yaml
 
+from fic_teleop_runtime.workspace import config_folder
+
 from .bag_data import BagReadError
 from .loop_rates import joint_states_period
 from .metrics import ReportSettings
 from .report import make_report, replica_config_defaults, summary_table
-
-
-REPO = Path(__file__).resolve().parents[3]
 
 
 def one_way_delay(run_dir: Path | None) -> float:
@@ -36,7 +35,7 @@ def one_way_delay(run_dir: Path | None) -> float:
                  if d is not None]
         if found:
             return sum(found) / len(found)
-    return delay(REPO / "config" / "channel.yaml") or 0.0
+    return delay(config_folder() / "channel.yaml") or 0.0
 
 
 def print_verdict(bag: Path, out: Path, delay: float) -> None:
@@ -67,7 +66,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="error bound x_b [m] drawn on the error plot (default %(default)s)")
     parser.add_argument("--render", action="store_true",
                         help="also render key frames of the arm from /joint_states (MuJoCo, offscreen)")
-    parser.add_argument("--scene", default="superimposition", help="scene drawn in the key frames (default %(default)s)")
+    parser.add_argument("--scene", default="superimposition",
+                        help="scene drawn in the key frames (default %(default)s)")
     parser.add_argument("--key-frame-interval", type=float, default=5.0,
                         help="seconds of sim time between key frames (default %(default)s)")
     parser.add_argument("--real-time-factor-target", type=float, default=None,

@@ -12,6 +12,8 @@ from .bag_data import BagData
 
 def render_key_frames(data: BagData, out: Path, scene: str, width: int = 640, height: int = 480) -> list[Path]:
     import sim_bridge  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported, when there is no display)
+
+    # isort: split
     import mujoco
 
     from sim_bridge.robot.mujoco_panda import build_model

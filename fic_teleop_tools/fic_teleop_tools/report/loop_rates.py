@@ -25,12 +25,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from fic_teleop_runtime.parameters import file_sections
 
 from fic_teleop_runtime.driver_topics import ForceDimensionTopics, FrankaRos2Topics
+from fic_teleop_runtime.parameters import file_sections
+from fic_teleop_runtime.workspace import config_folder
 from fic_teleop_tools.recording.bag_reader import read_messages
-
-REPO = Path(__file__).resolve().parents[3]
 
 
 @dataclass(frozen=True)
@@ -68,7 +67,7 @@ def _parameters(path: Path) -> dict:
 
 def nominal_rate(loop: Loop, run_dir: Path | None) -> float:
     """The loop's rate as started: the run's override, else config/."""
-    values = _parameters(REPO / "config" / loop.params_file)
+    values = _parameters(config_folder() / loop.params_file)
     if run_dir is not None:
         values.update(_parameters(run_dir / "params" / loop.params_file))
     return float(values[loop.parameter])

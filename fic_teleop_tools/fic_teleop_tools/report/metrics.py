@@ -53,7 +53,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .bag_data import DELIVERY_TOPIC, FIC_STATE_TOPIC, FORWARD_TOPICS, LIMIT_STATUS_TOPIC, BagData
+from .bag_data import FIC_STATE_TOPIC, FORWARD_TOPICS, LIMIT_STATUS_TOPIC, BagData
 
 # Targets of the default run (docs/EXPERIMENTS.md, "Metrics"): metric -> (comparison, value). The real-time factor's
 # is also the launcher's "machine was starved" bound unless a run profile sets its own (timing_bounds in
@@ -201,7 +201,7 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
         fic = series[FIC_STATE_TOPIC]
         order = np.argsort(fic.stamp, kind="stable")
         seen: set[int] = set()
-        for stamp, master_ns, age in zip(fic.stamp[order], fic.values["master_stamp_ns"][order],
+        for _stamp, master_ns, age in zip(fic.stamp[order], fic.values["master_stamp_ns"][order],
                                          fic.values["master_age"][order]):
             master_ns = int(master_ns)
             if master_ns == 0 or master_ns in seen:

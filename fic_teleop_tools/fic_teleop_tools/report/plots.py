@@ -79,7 +79,8 @@ def plot_force(data: BagData, analysis: Analysis, settings: ReportSettings, out:
         ax.plot(t, force[:, k], color=COLOURS[a], lw=0.9, alpha=0.8, label=f"$F_{a}$")
     ax.plot(t, np.linalg.norm(force, axis=1), color="black", lw=1.4, label="$|F|$")
     if settings.max_force_n:
-        ax.axhline(settings.max_force_n, color="tab:purple", ls="--", lw=1.2, label=f"$F_{{max}}$ = {settings.max_force_n:g} N")
+        ax.axhline(settings.max_force_n, color="tab:purple", ls="--", lw=1.2, label=f"$F_{{max}}$ = "
+                                                                                    f"{settings.max_force_n:g} N")
     ax.axhline(settings.free_force_threshold_n, color="grey", ls=":", lw=1, label="free-motion threshold")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("force [N]")

@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import yaml
+
+from fic_teleop_runtime.workspace import config_folder
 
 from .bag_data import load_bag
 from .metrics import Analysis, ReportSettings, analyse
@@ -22,9 +23,8 @@ SUMMARY_KEYS = [
 
 def replica_config_defaults() -> dict:
     """x_b and F_max of the replica's translation FIC from config/replica.yaml, when the workspace has it."""
-    root = os.environ.get("FIC_TELEOP_ROOT")
-    path = Path(root) / "config" / "replica.yaml" if root else None
-    if not path or not path.is_file():
+    path = config_folder() / "replica.yaml"
+    if not path.is_file():
         return {}
     try:
         parameters = yaml.safe_load(path.read_text())["/**"]["ros__parameters"]

@@ -1,8 +1,8 @@
 """Time series of one recorded run, read from its bag, for the experiments (stability, E2 success, E3 energy).
 
-Reads the rosbag2-layout MCAP that the recorder writes (finished or torn: recording.bag_reader.read_messages) and decodes
-only the topics asked for, with the ros2msg schemas embedded in the bag (mcap_ros2), so it needs neither rclpy nor
-the message packages. Times are the messages' header stamps in seconds (simulation time in lockstep).
+Reads the rosbag2-layout MCAP that the recorder writes (finished or torn: recording.bag_reader.read_messages) and
+decodes only the topics asked for, with the ros2msg schemas embedded in the bag (mcap_ros2), so it needs neither rclpy
+nor the message packages. Times are the messages' header stamps in seconds (simulation time in lockstep).
 """
 from __future__ import annotations
 

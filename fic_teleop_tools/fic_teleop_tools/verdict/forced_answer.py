@@ -230,8 +230,8 @@ def fit(time: NDArray, residual: NDArray, channels: list[Channel], use: NDArray,
         ridge = 1e-10 * max(float(np.trace(gram)), 1e-300) / parameters * np.eye(parameters)
 
         def solve(keep: NDArray) -> NDArray:
-            out = scaled[~keep]
-            return np.linalg.solve(gram - out.T @ out + ridge, moment - out.T @ y[~keep]) / scale
+            out = scaled[~keep]  # noqa: B023
+            return np.linalg.solve(gram - out.T @ out + ridge, moment - out.T @ y[~keep]) / scale  # noqa: B023
 
         # Out of sample: each of ``folds`` contiguous stretches of the run is predicted by the kernels fitted on the
         # others. A linear loop's answer is the same in every stretch, so it is predicted; a fit that explains an

@@ -71,13 +71,14 @@ CONTACT is told apart from instability with the scene's contact data: a sample i
 at least ``contact_force`` or was within the last ``contact_hold`` seconds (the free-motion definition of
 docs/EXPERIMENTS.md), or the contact flag is set; the oscillation, port-generation, runaway-error and parked tests
 leave out the contact samples and ``contact_margin`` + one round trip around them (the hand feels the contact one
-delay later and the replica sees the hand's answer another delay later). A push into an obstacle is contact, not instability.
+delay later and the replica sees the hand's answer another delay later). A push into an obstacle is contact, not
+instability.
 
 ``judge`` is a pure function of the stored series (VerdictInput), so a sweep's runs are re-judged without simulating.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -130,6 +131,10 @@ class VerdictCriterion:
     def longest_period_needed(self, one_way_delay: float) -> float:
         return max(self.round_trips_judged * 2.0 * one_way_delay, self.min_longest_period)
 
+    def run_needed(self, one_way_delay: float) -> float:
+        """[s] the least run (without a quiet tail) whose oscillation scan reaches ``longest_period_needed``."""
+        return self.settle + self.scan.min_cycles * self.longest_period_needed(one_way_delay)
+
     def tail_flush_s(self, one_way_delay: float) -> float:
         """[s] the start of a quiet tail that is not judged: the last input leaves the loop (module docstring)."""
         return self.tail_flush + 2.0 * one_way_delay
@@ -181,8 +186,8 @@ class VerdictInput:
 
     @classmethod
     def from_run_result(cls, result, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
-        """From an in-process run (sim_bridge.experiments.in_process.RunResult, or one loaded by
-        evidence_run.load_series): the commanded motion as the replica receives it, one delay later. In offset mode
+        """From an in-process run (fic_teleop_experiments.in_process.RunResult, or one loaded by
+        claims.load_series): the commanded motion as the replica receives it, one delay later. In offset mode
         throughout (or when the run did not record the master's mode) it is the planner's plus the hand's target
         (x_d' = s_M x_M with s_M = 1, Eq. 3). Once the master was in velocity mode the hand's target is a velocity
         command, not a place: x_d' is the integral of k_v x_M (Eq. 3), and after it an offset-mode stretch continues
@@ -220,16 +225,21 @@ class VerdictInput:
 
     @classmethod
     def from_bag(cls, path: str | Path, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
-        """From a recorded session (fic_teleop_tools.verdict.bag_series.read_run): the tracking error and the
-        controller's energy of /replica/fic_state, the F/T force, the joint speeds, the limit counter and the
-        nodes' last diagnostics (the robot's reflex and holds, the replica's safe hold). A bag holds no command and
-        no obstacle flag: its motion test is on x_d - x_R, its contact is the force's."""
+        """From a recorded session (fic_teleop_tools.verdict.bag_series.read_run, with its joint states): as
+        ``from_series``."""
         from fic_teleop_tools.verdict.bag_series import read_run
 
-        run = read_run(path, joint_states=True)
+        return cls.from_series(read_run(path, joint_states=True), one_way_delay, x_b, source=f"bag {Path(path).name}")
+
+    @classmethod
+    def from_series(cls, run, one_way_delay: float, x_b: float = X_B, source: str = "bag") -> "VerdictInput":
+        """From a bag's series (fic_teleop_tools.verdict.bag_series.RunSeries): the tracking error and the
+        controller's energy of /replica/fic_state, the F/T force, the joint speeds (when read), the limit counter and
+        the nodes' last diagnostics (the robot's reflex and holds, the replica's safe hold). A bag holds no command
+        and no obstacle flag: its motion test is on x_d - x_R, its contact is the force's."""
         time = run.fic_time
         if time.size < 8:
-            raise VerdictInputError(f"{path}: fewer than 8 /replica/fic_state messages ({time.size})")
+            raise VerdictInputError(f"{source}: fewer than 8 /replica/fic_state messages ({time.size})")
 
         def on_time(stamps: NDArray, values: NDArray) -> NDArray | None:
             if stamps.size < 2:
@@ -250,7 +260,21 @@ class VerdictInput:
                    controller_energy=run.total_energy, force=force, joint_speed=joint_speed,
                    limit_violations=violations, reflex_trips=reflex,
                    safe_holds=None if hold is None else int(hold != "no"), stale_holds=stale, x_b=x_b,
-                   source=f"bag {Path(path).name}")
+                   source=source)
+
+    def window(self, start: float | None = None, end: float | None = None) -> "VerdictInput":
+        """The samples within [start, end] (None: the run's own end); the whole-run counts stay as they are."""
+        time = np.asarray(self.time, dtype=float)
+        keep = np.ones(time.size, dtype=bool)
+        if start is not None:
+            keep &= time >= start
+        if end is not None:
+            keep &= time <= end
+        per_sample = {name: value[keep] for name, value in vars(self).items()
+                      if isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == time.size}
+        quiet_from = self.quiet_from if self.quiet_from is not None and keep.any() \
+            and time[keep][0] < self.quiet_from < time[keep][-1] else None
+        return replace(self, **per_sample, quiet_from=quiet_from)
 
 
 @dataclass
@@ -315,7 +339,9 @@ def _dilated(flags: NDArray, samples: int) -> NDArray:
     if samples <= 0 or not flags.any():
         return flags.copy()
     kernel = np.ones(2 * samples + 1)
-    return np.convolve(flags.astype(float), kernel, mode="same") > 0.0
+    # The full convolution's centre, flags.size long (mode="same" returns the longer of the two, so a margin wider
+    # than a short run gave an array longer than the run).
+    return np.convolve(flags.astype(float), kernel, mode="full")[samples:samples + flags.size] > 0.0
 
 
 def _longest_true(flags: NDArray, step: float) -> float:
@@ -737,9 +763,9 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
                               f"and a round trip of flush, then max({criterion.tail_round_trips:g} round trips, "
                               f"{criterion.tail_min:g} s))")
     elif finite:
-        run_needed = criterion.settle + criterion.scan.min_cycles * needed
         stable_reasons.append(f"not assessed: periods up to {needed:.1f} s (max(4 round trips, "
-                              f"{criterion.min_longest_period:g} s)) need {run_needed:.1f} s of run, it has "
+                              f"{criterion.min_longest_period:g} s)) need "
+                              f"{criterion.run_needed(data.one_way_delay):.1f} s of run, it has "
                               f"{time[-1] - time[0]:.1f} s")
     stable: bool | None = not stable_reasons
     if finite and not assessed:

@@ -1,4 +1,5 @@
-"""ROS 2 shell around the delay/dropout channel (sim_bridge/channel/channel.py): one direction of the master-replica link.
+"""ROS 2 shell around the delay/dropout channel (sim_bridge/channel/channel.py): one direction of the master-replica
+link.
 
 Each route ``in_topic:out_topic:pkg/msg/Type`` is a raw (CDR bytes) subscription, a ``Channel`` and a raw
 publisher, so any message type passes untouched and its header stamp is preserved. Run one instance per
@@ -25,12 +26,12 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from fic_core.errors import FicInputError
-from sim_bridge.channel.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
+from sim_bridge.channel.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
 
 try:
     from fic_teleop_msgs.msg import ChannelDelivery

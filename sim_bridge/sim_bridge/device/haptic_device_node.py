@@ -17,7 +17,6 @@ DeviceStation, which the in-process runner steps too: this node is its wiring (t
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -28,17 +27,17 @@ from std_msgs.msg import Bool, Float64MultiArray
 
 from fic_core.errors import FicInputError
 from fic_teleop_runtime import qos
+from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
 from fic_teleop_runtime.stamps import nanoseconds
+from fic_teleop_runtime.workspace import config_folder
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
 from sim_bridge.device.device_station import DeviceStation
-from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
 from sim_bridge.device.reactive_hand import ReactiveHand
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
-from sim_bridge.device.virtual_operator import (Hand, HandParameters, JoyTarget, ScriptedOperator,
-                                         load_script)
+from sim_bridge.device.virtual_operator import Hand, HandParameters, JoyTarget, ScriptedOperator, load_script
 
 # Device streams at 250 Hz (docs/CONVENTIONS.md): RELIABLE, written with the streams' deep writer history (a
 # stalled reader loses nothing), the force command read KEEP_LAST 20 like the other streams.
@@ -96,17 +95,12 @@ SCHEMA = Schema(
 
 
 def default_script_path(scene: str) -> Path:
-    """config/operator_scripts/<scene>.yaml of the workspace (FIC_TELEOP_ROOT, set by scripts/env.sh), else the
-    one next to this source tree (colcon's symlink install keeps it reachable)."""
-    candidates = []
-    if os.environ.get("FIC_TELEOP_ROOT"):
-        candidates.append(Path(os.environ["FIC_TELEOP_ROOT"]) / "config" / "operator_scripts" / f"{scene}.yaml")
-    candidates.append(Path(__file__).resolve().parents[2] / "config" / "operator_scripts" / f"{scene}.yaml")
-    for candidate in candidates:
-        if candidate.is_file():
-            return candidate
-    raise FicInputError(f"no operator script for scene {scene!r}: looked at {[str(c) for c in candidates]}; "
-                        "set the script_file parameter")
+    """config/operator_scripts/<scene>.yaml (fic_teleop_runtime.workspace.config_folder: the checkout's with
+    scripts/env.sh, else the installed copy)."""
+    path = config_folder() / "operator_scripts" / f"{scene}.yaml"
+    if path.is_file():
+        return path
+    raise FicInputError(f"no operator script for scene {scene!r}: looked at {path}; set the script_file parameter")
 
 
 class HapticDeviceNode(Node):
@@ -206,7 +200,8 @@ class HapticDeviceNode(Node):
         self.last_time = now
         # forcedimension_ros2's effort controller holds the last force with no timeout.
         self.station = DeviceStation(self.device, self.hand, script=self.scripted, watcher=self.watcher or self.sorter,
-                                     joy_target=self.joy_target, command_timeout=None if self.fd else self.command_timeout,
+                                     joy_target=self.joy_target,
+                                     command_timeout=None if self.fd else self.command_timeout,
                                      joy_timeout=self.joy_timeout, script_origin=self.script_origin)
         self.create_timer(1.0 / value("publish_rate_hz"), self._tick)
 

@@ -9,7 +9,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from fic_teleop_runtime.episode_markers import DISCARD, FAILURE, KEEP, SUCCESS
-from sim_bridge.device.virtual_operator import BUTTON_COUNT, BUTTON_HAPTIC_GAIN_DOWN, BUTTON_HAPTIC_GAIN_UP, BUTTON_TOGGLE_MODE
+from sim_bridge.device.virtual_operator import (
+    BUTTON_COUNT,
+    BUTTON_HAPTIC_GAIN_DOWN,
+    BUTTON_HAPTIC_GAIN_UP,
+    BUTTON_TOGGLE_MODE,
+)
 
 # Arrow keys arrive as ANSI escape sequences; they are decoded to these names first.
 ARROWS = {"\x1b[A": "up", "\x1b[B": "down", "\x1b[C": "right", "\x1b[D": "left"}

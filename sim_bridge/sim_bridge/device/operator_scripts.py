@@ -17,8 +17,9 @@ Conventions every script relies on (they are the master's, docs/CONTROL_LAWS.md)
 Superimposition (E1): the robot circles autonomously (0.20 m diameter, 5 s period); the operator sees each
 obstacle coming and acts early by the one-way delay plus the handle's lag, so that the offset reaches the
 replica as the robot reaches the obstacle. Around the FIRST obstacle the operator pulls the robot inward by
-``avoid_offset`` and up by ``avoid_lift`` (passing inside and over it) on every lap; at the SECOND obstacle, on the first lap, the operator takes
-the robot inside the circle and sweeps it outward through the obstacle, pushing it off the circle's path.
+``avoid_offset`` and up by ``avoid_lift`` (passing inside and over it) on every lap; at the SECOND obstacle, on the
+first lap, the operator takes the robot inside the circle and sweeps it outward through the obstacle, pushing it off the
+circle's path.
 
 Shape sorting (E2): the device's 0.19 m x 0.13 m workspace cannot span a table, and a larger workspace scale
 would multiply the hand's tremor and the handle lag by the same factor exactly when millimetres matter. So the
@@ -39,9 +40,16 @@ import yaml
 
 from fic_core.errors import FicInputError
 from sim_bridge.device.haptic_device import HapticDeviceParameters
+from sim_bridge.device.virtual_operator import (
+    BUTTON_HAPTIC_GAIN_DOWN,
+    BUTTON_HAPTIC_GAIN_UP,
+    BUTTON_TOGGLE_MODE,
+    OperatorScript,
+    ScriptEvent,
+    Waypoint,
+    script_to_mapping,
+)
 from sim_bridge.robot.scenes import PIECE_HEIGHT, SHAPE_SORTING_PIECES
-from sim_bridge.device.virtual_operator import (BUTTON_HAPTIC_GAIN_DOWN, BUTTON_HAPTIC_GAIN_UP, BUTTON_TOGGLE_MODE,
-                                         OperatorScript, ScriptEvent, Waypoint, script_to_mapping)
 
 WORKSPACE_HALF_EXTENTS = np.array(HapticDeviceParameters().half_extents)
 
@@ -70,7 +78,7 @@ SUPERIMPOSITION_DEFAULTS: dict[str, Any] = {
                                         #     the obstacle's near edge about 1 s before the TCP passes its centre
     "ramp": 0.5,                        # [s] hand moves between offsets
     "push_hold": 0.3,                   # [s] held outward after the sweep through the second obstacle
-    "laps": 6,                          # laps scripted (the first obstacle is avoided on each): covers the 30 s main job
+    "laps": 6,                          # laps scripted (the first obstacle is avoided on each): the 30 s main job
 }
 
 #: The replica's desired TCP position while x_d' = 0 in the E2 run: the planner's fixed point (config/planner.yaml
@@ -79,11 +87,12 @@ SHAPE_SORTING_REFERENCE = (0.45, 0.0, 0.35)
 
 
 def shape_sorting_pieces(reference=SHAPE_SORTING_REFERENCE) -> list[dict[str, Any]]:
-    """Each piece's top face centre and its hole's centre on the box's top face, from sim_bridge.robot.scenes (the scene the
-    robot sim builds), relative to ``reference``: the TCP (the plate's lower face) on the piece's top face."""
+    """Each piece's top face centre and its hole's centre on the box's top face, from sim_bridge.robot.scenes (the scene
+    the robot sim builds), relative to ``reference``: the TCP (the plate's lower face) on the piece's top face."""
     origin = np.asarray(reference, dtype=float)
     return [{"name": piece.shape,
-             "piece_top": np.round(np.asarray(piece.start_position) + [0.0, 0.0, PIECE_HEIGHT / 2] - origin, 6).tolist(),
+             "piece_top": np.round(np.asarray(piece.start_position) + [0.0, 0.0, PIECE_HEIGHT / 2] - origin,
+                                   6).tolist(),
              "hole_top": np.round(np.asarray(piece.hole_position) - origin, 6).tolist(),
              "height": PIECE_HEIGHT}
             for piece in SHAPE_SORTING_PIECES]
@@ -116,10 +125,10 @@ SHAPE_SORTING_DEFAULTS: dict[str, Any] = {
     "settle": 1.5,                      # [s] wait with the handle at rest before a mode switch (the operator's
                                         #     lean-in unwinds; 0.6 s left centimetres of drift in the closed loop)
     # {"<piece>:<leg>": [dx, dy, dz]} [m] added to where a travel leg ends. Measured in the closed loop: the misses of
-    # x_d' at each leg's end in one run of sim_bridge.experiments.e2_twin (the in-process graph; settle 1.5 s, a 12 mm
-    # search), half of each leg's own miss taken out (`--tune 1 --gain 0.5`). The misses come from the operator
+    # x_d' at each leg's end in one run of the in-process runner (settle 1.5 s, a 12 mm search), half of each leg's
+    # own miss taken out. The misses come from the operator
     # model's lean-in (Hand correction) winding up in contacts and from the handle's lag, which the velocity mode
-    # integrates. With these and the numbers above the twin put all three pieces in the box (seed 1); the graph's
+    # integrates. With these and the numbers above the runner put all three pieces in the box (seed 1); the graph's
     # own result is E2 in results/e2.json.
     "leg_corrections": {
         "cuboid:across": [0.00058, 0.00005, 0.00000],
@@ -233,7 +242,8 @@ def _ramp_area(displacement: float, deadband: float, ramp: float) -> float:
 
 
 def _velocity_leg(builder: _ScriptBuilder, travel: np.ndarray, p: Mapping[str, Any]) -> None:
-    """One straight travel in VELOCITY mode: a handle excursion whose area is travel / k_v (the velocity mode, docs/CONTROL_LAWS.md)."""
+    """One straight travel in VELOCITY mode: a handle excursion whose area is travel / k_v (the velocity mode,
+    docs/CONTROL_LAWS.md)."""
     distance = float(np.linalg.norm(travel))
     if distance < 1e-6:
         return
@@ -363,7 +373,8 @@ GENERATORS = {"superimposition": superimposition_script, "shape_sorting": shape_
 
 def write_script(script: OperatorScript, path: Path) -> Path:
     """One script as YAML, with the header the checked-in files carry."""
-    header = (f"# Operator script for the '{script.name}' scene, generated by sim_bridge/device/operator_scripts.py with the\n"
+    header = (f"# Operator script for the '{script.name}' scene, generated by sim_bridge/device/operator_scripts.py "
+              "with the\n"
               "# numbers under 'parameters'. Edit by hand, or regenerate with other numbers. Waypoints: handle\n"
               "# targets [m] in haptic_base at t [s] from the script's start; events: button presses.\n")
     path.write_text(header + yaml.safe_dump(_plain(script_to_mapping(script)), sort_keys=False,

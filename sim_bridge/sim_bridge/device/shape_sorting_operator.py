@@ -58,9 +58,16 @@ from numpy.typing import NDArray
 
 from fic_core.errors import FicInputError, finite_array, finite_scalar
 from sim_bridge.device.virtual_operator import BUTTON_TOGGLE_MODE, ScriptEvent
-from sim_bridge.robot.scenes import (PIECE_HEIGHT, SHAPE_SORTING_PIECES, SORTER_CENTRE_XY, SORTER_HALF_SIZE_XY,
-                                     SORTER_PLATE_THICKNESS, SORTER_TOP_HEIGHT, SORTER_WALL_THICKNESS,
-                                     TABLE_TOP_HEIGHT)
+from sim_bridge.robot.scenes import (
+    PIECE_HEIGHT,
+    SHAPE_SORTING_PIECES,
+    SORTER_CENTRE_XY,
+    SORTER_HALF_SIZE_XY,
+    SORTER_PLATE_THICKNESS,
+    SORTER_TOP_HEIGHT,
+    SORTER_WALL_THICKNESS,
+    TABLE_TOP_HEIGHT,
+)
 
 Vector3 = NDArray[np.float64]
 

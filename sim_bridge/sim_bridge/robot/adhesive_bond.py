@@ -8,13 +8,12 @@ while the force it transmits stays below a break threshold, and breaks above it.
 The bond is a MuJoCo weld equality (hand <-> piece), one per piece, inactive in the model and switched on at run
 time through ``data.eq_active`` with the relative pose of the moment it forms, so the piece is held rigidly by the
 constraint solver (implicit, stable at 1 ms) rather than by a stiff explicit spring. The force it transmits is the
-weld's constraint force on the piece (see ``_wrench_on_hand``). After a break, a piece cannot bond again until the plate has
-left it: a pull that just broke the bond must not re-form it on the next millisecond.
+weld's constraint force on the piece (see ``_wrench_on_hand``). After a break, a piece cannot bond again until the plate
+has left it: a pull that just broke the bond must not re-form it on the next millisecond.
 """
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, field
 
 import mujoco
@@ -86,7 +85,8 @@ class AdhesiveBond:
 
     def _draw_threshold(self) -> float:
         p = self._parameters
-        return float(np.clip(self._rng.normal(p.break_force_mean, p.break_force_sd), p.break_force_min, p.break_force_max))
+        return float(np.clip(self._rng.normal(p.break_force_mean, p.break_force_sd), p.break_force_min,
+                             p.break_force_max))
 
     def _wrench_on_hand(self, model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray) -> np.ndarray:
         """Wrench the active weld applies to the hand, about ``point``, world frame.

@@ -89,7 +89,8 @@ def check_video_path(path: str | Path) -> Path:
         try:
             import imageio_ffmpeg  # noqa: F401  (imageio's MP4 writer)
         except ImportError as exc:
-            raise ValueError(f"{path}: MP4 needs the imageio-ffmpeg package, which is not installed; use a .gif path") from exc
+            raise ValueError(f"{path}: MP4 needs the imageio-ffmpeg package, which is not installed; "
+                             "use a .gif path") from exc
         return path
     raise ValueError(f"{path}: the video must be .gif (or .mp4 with imageio-ffmpeg)")
 

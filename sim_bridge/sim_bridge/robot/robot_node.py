@@ -58,10 +58,10 @@ from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
+from fic_teleop_runtime.driver_topics import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
-from fic_teleop_runtime.driver_topics import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
 from sim_bridge.os_thread import name_os_thread
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.peer_barrier import PeerBarrier
@@ -93,7 +93,8 @@ SCHEMA = Schema(
     number("lockstep_timeout", 0.001, 10.0, "lockstep: longest wall-clock wait for the command of a step before "
                                             "stepping on the last one (counted) [s]"),
     texts("lockstep_peers", "lockstep: header-stamped topics of nodes that follow /clock (device, master, planner); "
-                            "no step past t until each has published a stamp >= t - lockstep_peer_lag, and no first step "
+                            "no step past t until each has published a stamp >= t - lockstep_peer_lag, and no first "
+                            "step "
                             "before each has a publisher (empty: none)"),
     integer("lockstep_subscribers", 0, 100, "lockstep: the simulation starts once /joint_states has this many "
                                             "readers (the replica, a recorder), or after "
@@ -238,7 +239,8 @@ class RobotNode(Node):
         objects = ", ".join(self._sim.layout.movable_bodies) or "none"
         self.get_logger().info(
             f"robot_sim ready: scene {self._scene}, mode {self._mode}, seed {p['seed']}, watchdog "
-            f"{p['command_timeout']:.3f} s{'' if self._hold_on_stale else ' (off: commands held, as a forward controller does)'}; "
+            f"{p['command_timeout']:.3f} "
+            f"s{'' if self._hold_on_stale else ' (off: commands held, as a forward controller does)'}; "
             f"driver interface {p['driver_interface']}, gravity "
             f"{'compensated by the arm' if p['gravity_compensation'] else 'in the command'}; "
             f"/sim/object_poses order: {objects}")
@@ -249,7 +251,8 @@ class RobotNode(Node):
     def _declare_parameters(self) -> dict:
         values = declare(self, SCHEMA)  # every row with its config/robot.yaml value; unknown keys refused
         if values["driver_interface"] not in ROBOT_INTERFACES:
-            raise FicInputError(f"driver_interface must be one of {ROBOT_INTERFACES}, got {values['driver_interface']!r}")
+            raise FicInputError(f"driver_interface must be one of {ROBOT_INTERFACES}, got "
+                                f"{values['driver_interface']!r}")
         if values["scene"] not in SCENE_NAMES:
             raise FicInputError(f"scene must be one of {SCENE_NAMES}, got {values['scene']!r}")
         values["lockstep_peers"] = [topic for topic in values["lockstep_peers"] if topic]
@@ -516,12 +519,14 @@ class RobotNode(Node):
                            "lockstep_peers_stalled": ",".join(self._barrier.stalled)})
         if self._mode == "realtime":
             values.update({"lateness_p50_ms": f"{summary.p50 * 1e3:.3f}", "lateness_p99_ms": f"{summary.p99 * 1e3:.3f}",
-                           "lateness_max_ms": f"{summary.max * 1e3:.3f}", "achieved_rate_hz": f"{summary.achieved_rate:.1f}",
+                           "lateness_max_ms": f"{summary.max * 1e3:.3f}",
+                           "achieved_rate_hz": f"{summary.achieved_rate:.1f}",
                            "overruns": str(summary.overruns)})
         bond = self._sim.bond_state
         if bond is not None:
             values.update({"bonded_piece": bond.bonded_piece or "", "bond_force_n": f"{bond.bond_force:.2f}",
-                           "bond_break_threshold_n": f"{bond.break_threshold:.2f}", "bonds_formed": str(bond.bonds_formed),
+                           "bond_break_threshold_n": f"{bond.break_threshold:.2f}",
+                           "bonds_formed": str(bond.bonds_formed),
                            "bond_breaks": str(bond.breaks)})
         return values
 

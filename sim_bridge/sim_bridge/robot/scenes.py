@@ -241,7 +241,8 @@ def _add_static_box(body: mujoco.MjsBody, name: str, centre, half_size, rgba, **
 
 # --- scene builders ----------------------------------------------------------------------------------------------
 def _add_floor_and_light(spec: mujoco.MjSpec) -> None:
-    spec.add_texture(name="floor_grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+    spec.add_texture(name="floor_grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
                      rgb1=[0.32, 0.34, 0.38], rgb2=[0.26, 0.28, 0.31], width=256, height=256)
     spec.add_material(name="floor", textures=["", "floor_grid"], texrepeat=[8, 8], reflectance=0.0)
     spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[3.0, 3.0, 0.05], material="floor",
@@ -292,7 +293,8 @@ def _add_sorter_box(spec: mujoco.MjSpec) -> None:
     _add_static_box(box, "sorter_top_back", (c + strip_x, 0, plate_z), (strip_x, hy, half_t), WOOD_RGBA)
     strip_y = (hy - cells_half_y) / 2
     if strip_y > 0:
-        _add_static_box(box, "sorter_top_right", (0, -(cells_half_y + strip_y), plate_z), (c, strip_y, half_t), WOOD_RGBA)
+        _add_static_box(box, "sorter_top_right", (0, -(cells_half_y + strip_y), plate_z), (c, strip_y, half_t),
+                        WOOD_RGBA)
         _add_static_box(box, "sorter_top_left", (0, cells_half_y + strip_y, plate_z), (c, strip_y, half_t), WOOD_RGBA)
     for piece in SHAPE_SORTING_PIECES:
         offset = np.array([piece.hole_position[0] - cx, piece.hole_position[1] - cy])

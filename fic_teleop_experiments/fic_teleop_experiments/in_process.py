@@ -1,0 +1,545 @@
+"""The teleoperation graph in one process: the same core objects the nodes wrap, stepped on one simulated clock.
+
+    operator's hand + haptic device (device node, 250 Hz; button presses at 50 Hz): a script, or in E1 the
+    closed-loop operator watching the camera frames that come back through the channel (30 Hz, backward delay)
+      -> fic_core.MasterStation (master node: force 250 Hz, x_d' 100 Hz)
+      -> Channel forward (channel node: delay, jitter, drop, blackouts, rate cap, seeded; delivered at 250 Hz)
+      -> fic_core.ReplicaStation (replica node, every joint state answered as in lockstep)  <- PlannerStation 100 Hz
+      -> PandaSimulation (robot node, 1 kHz; F/T at 250 Hz)  -> F_R at pose_rate -> Channel backward -> master
+
+Parameters come from config/*.yaml with the launcher's overrides for lockstep (control_rate 1000, every joint state
+answered, the operator script and the planner's circle on one origin), so a run here and
+``scripts/run_teleop.sh --time-mode lockstep`` execute the same laws at the same rates and delays. What differs:
+no DDS (a message is taken in at the millisecond it is sent, where a lockstep graph delivers it within a step or
+two), and the nodes' timers fire on exact multiples of their periods. Deterministic for a seed (the channel's
+draws, the bond thresholds and, when asked for, the operator's and the task's variation and the reactive hand's
+figures are the random elements, each from its own stream of the seed).
+"""
+from __future__ import annotations
+
+import math
+import time as wall_clock
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+import yaml
+
+from fic_core.channel_ports import ChannelPorts
+from fic_core.master_station import MasterStation
+from fic_core.panda_description import ARM_JOINT_NAMES
+from fic_core.planner_station import PlannerStation, make_source
+from fic_core.replica_station import ReplicaStation
+from fic_core.stopped_trajectory import StoppedTrajectory
+from fic_core.trajectories import LapVaryingCircle
+from fic_teleop_runtime.workspace import config_folder
+from sim_bridge.channel.channel import Channel, ChannelConfig
+from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
+from sim_bridge.device.device_station import DeviceStation
+from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.operator_scripts import superimposition_script
+from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
+from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
+from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
+from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog
+
+STEP = 0.001                     # the robot's physics step and joint-state period [s]
+SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
+PLANNER_LAG_S = 0.2
+JOY_RATE_HZ = 50.0               # the device node's button messages
+CAMERA_RATE_HZ = VIDEO_RATE_HZ    # the closed-loop operator's video frames
+#: "shape_sorting": E2's closed-loop operator (sim_bridge.device.shape_sorting_operator; docs/EXPERIMENTS.md "E2").
+OPERATORS = ("scripted", "closed_loop", "shape_sorting")
+HANDS = ("passive", "reactive")
+#: A task that does not repeat (RunConfig.task_variation; docs/EXPERIMENTS.md "Claims"): per seed, the circle's laps
+#: (LapVaryingCircle.randomised) and the closed-loop operator's moves (closed_loop_operator's VARYING) from these
+#: uniform ranges. The diameters keep both obstacles on the path (their 0.06 m width about the paper's 0.20 m).
+TASK_PERIOD_RANGE_S = (4.5, 5.5)           # each lap's period (the paper's 5 s +-10 %), the speed blended between laps
+TASK_DIAMETER_RANGE_M = (0.17, 0.23)       # each lap's end diameter (the paper's 0.20 m +-15 %)
+#: The start angle: on the arc at least 50 deg from both obstacles (at 90 and 270 deg) that meets the pushable one
+#: first, so that the robot does not start on an obstacle and the fixed one comes at least 230 deg (2.6 s) into the
+#: circle, when an operator at a short delay has seen the robot move (from the other arc, at 0.7-1.8 s, nobody could).
+TASK_PHASE_RANGES_RAD = ((math.radians(140.0), math.radians(220.0)),)
+MOVE_AMPLITUDE_RANGE = (0.85, 1.1)         # each avoid/push move's size, times the script's
+MOVE_DURATION_RANGE = (1.0, 1.3)           # each move's hold and ramp times, times the script's (never shorter)
+MOVE_TIMING_SPREAD_S = 0.1                 # each move's timing, +- about the predicted passing
+WANDER_AMPLITUDE_RANGE_M = (0.005, 0.02)   # the hand's random excursions
+WANDER_PERIOD_RANGE_S = (1.0, 4.0)
+WANDER_MEAN_GAP_S = 3.0
+#: The replica side is the node's fic_core.ReplicaStation on config/replica.yaml: its input authority judges every
+#: delivered command here as in the node (the workspace clamp of x_d', its speed bound, forgotten at a resume), its
+#: stream guard sees every joint state's stamp, its driver makes the command and F_R. Its one-writer checks have one
+#: writer to see in one process. The exchanged-energy observer (an observer only, about 30 us a tick) is left off.
+
+
+def _parameters(name: str) -> dict[str, Any]:
+    data = yaml.safe_load((config_folder() / name).read_text())
+    return dict(next(iter(data.values()))["ros__parameters"])
+
+
+@dataclass(frozen=True)
+class ReplicaStall:
+    """A replica process starved of CPU from ``start`` to ``end`` [s]: it wakes only after a gap drawn from the
+    seed in [min_gap, max_gap], takes the newest joint state (its depth-1 subscription), and its torque reaches the
+    robot ``delay`` later, drawn in [min_delay, max_delay] (a tick preempted half-way, the message queued behind
+    other work). The robot applies the last command it received until robot.yaml's command_timeout, then its hold
+    torque (robot_node's stale-command watchdog).
+
+    ``min_state_age``/``max_state_age``: the state the replica wakes to is older than the newest, by a draw in that
+    range (a state that waited in the reader's queue while the process slept; the two-station runaway's were
+    22-178 ms old): the loop gets that state with its own stamp, and its age against its clock."""
+
+    start: float
+    end: float
+    min_gap: float
+    max_gap: float
+    min_delay: float = 0.0
+    max_delay: float = 0.0
+    min_state_age: float = 0.0
+    max_state_age: float = 0.0
+    stale_velocity: bool = True   # False: the old state's q with the newest qd (tells the law's velocity terms apart)
+
+
+@dataclass
+class RunConfig:
+    scene: str = "superimposition"
+    duration: float = 10.0
+    delay: float = 0.2
+    jitter: float = 0.0
+    drop: float = 0.0
+    blackout_windows: tuple[tuple[float, float], ...] = ()
+    rate_cap: float = 0.0
+    controller: str = "fic"
+    # TDPA around the replica's law: the channel ports' passivity controllers act (fic_core.channel_ports);
+    # controller "linear_tdpa" is linear_bounded with this on.
+    tdpa: bool = False
+    control_rate: float = 1000.0
+    # True: the arm compensates its gravity (MuJoCo's gravcomp, the robot node's gravity_compensation) and the
+    # runner adds C(q, qd) qd at every physics step in place of the replica's, so control_rate lowers the rate of
+    # the Cartesian law alone (J^T FIC + posture), as on a Franka arm (docs/EXPERIMENTS.md "Bandwidth sweeps").
+    dynamics_at_physics_rate: bool = False
+    trajectory: str | None = None      # None: the circle in E1, a fixed point elsewhere (the launcher's choice)
+    seed: int = 1
+    script_path: Path | None = None    # None: config/operator_scripts/<scene>.yaml (E1: generated, script_delay)
+    # The operator (docs/EXPERIMENTS.md "Operators"): "scripted" plays a script; "closed_loop" (E1 only) times
+    # its moves from the delayed video (sim_bridge.device.closed_loop_operator). The E1 script's timing is
+    # generated for ``script_delay`` (None: the cell's delay, as an expert who practised at it).
+    operator: str = "scripted"
+    script_delay: float | None = None
+    reaction_time: float = 0.25        # [s] the closed-loop operator's; operator_timing_jitter is added to it
+    replica_overrides: dict[str, Any] = field(default_factory=dict)
+    master_overrides: dict[str, Any] = field(default_factory=dict)   # master.yaml values replaced
+    # Per-seed variation of the operator (docs/EXPERIMENTS.md "Operators"): the script's clock is shifted by a draw in
+    # [-operator_timing_jitter, +operator_timing_jitter] s, the hand's stiffness and damping scaled by a draw in
+    # [1 - hand_impedance_jitter, 1 + hand_impedance_jitter]; both drawn from the seed, off by default.
+    operator_timing_jitter: float = 0.0
+    hand_impedance_jitter: float = 0.0
+    # A starved replica process (ReplicaStall; docs/EXPERIMENTS.md "A starved replica").
+    replica_stalls: tuple[ReplicaStall, ...] = ()
+    # The robot's bound on the age of the state a torque was computed on (robot_node's command_state_timeout;
+    # None: robot.yaml's; math.inf: no such rule, as before it existed).
+    robot_command_state_timeout: float | None = None
+    # The operator's hand (docs/EXPERIMENTS.md "Claims"): "passive" is virtual_operator.Hand (the optimistic relaxed
+    # arm); "reactive" adds a stretch reflex and a voluntary response to the felt force (device.reactive_hand), its
+    # latencies and gains drawn from the seed.
+    hand: str = "passive"
+    # A task that does not repeat (closed-loop operator only): the planner's laps and the operator's moves drawn from
+    # the seed (TASK_*, MOVE_*, WANDER_* above).
+    task_variation: bool = False
+    # The quiet tail (docs/EXPERIMENTS.md, "The run verdict"): from this time [s] to ``duration`` the planner's
+    # trajectory stops (StoppedTrajectory: x_d'' comes to rest on its last point) and the operator's target holds
+    # still (DeviceStation's quiet_from); the hand keeps holding the handle, passive or reactive, and the link, its
+    # delay and rate, the master and the replica keep running. The free response the run verdict judges. None: none.
+    quiet_from: float | None = None
+
+
+@dataclass
+class RunResult:
+    time: np.ndarray                  # the replica's pose stamps [s] (pose_rate)
+    desired: np.ndarray               # x_d (n, 3)
+    tcp: np.ndarray                   # x_R (n, 3)
+    force: np.ndarray                 # F_R at those stamps (n, 3)
+    offset: np.ndarray                # x_d' in use at those stamps (n, 3)
+    objects: dict[str, tuple[np.ndarray, np.ndarray]]   # the scene's objects (position, quaternion) at the end
+    wall_s: float
+    simulated_s: float
+    limit_violations: int
+    shaped_ticks: int
+    # For the run verdict (fic_teleop_tools.verdict.run_verdict), at the same stamps:
+    master: np.ndarray | None = None               # x_M, the handle position (n, 3) [m]
+    planner: np.ndarray | None = None              # the planner's x_d (the commanded motion) (n, 3) [m]
+    arm_kinetic_energy: np.ndarray | None = None   # 1/2 qd^T M(q) qd of the arm's joints (n,) [J]
+    handle_kinetic_energy: np.ndarray | None = None  # 1/2 m_h |v_M|^2 (n,) [J]
+    operator_time_shift: float = 0.0               # [s] the draw of operator_timing_jitter
+    hand_scale: float = 1.0                        # the draw of hand_impedance_jitter
+    operator_target: np.ndarray | None = None      # the script's handle target at those stamps (n, 3) [m]
+    passivity_margin_min_j: float = 0.0            # the task-space port's smallest W - (V - V0) (passivity observer)
+    passivity_violation_ticks: int = 0
+    # Per stamp (n, 5): the channel's master-side and replica-side observers W [J], the energy the channel generated
+    # so far [J] (fic_core.channel_ports), the task-space port's smallest passivity margin [J], |offset drift| [m].
+    port_energy: np.ndarray | None = None
+    obstacle_contact: np.ndarray | None = None     # the robot touches E1's fixed obstacle at those stamps (n,)
+    operator_moves: list[tuple[str, float, float]] = field(default_factory=list)  # closed loop: (move, start, passing)
+    draws: dict[str, Any] = field(default_factory=dict)   # the seed's task and hand draws (task_variation, hand)
+    # The robot side over every physics step (docs/RESULTS.md "Starvation"): the fastest joint [rad/s], the robot's
+    # stale-command watchdog engaging, torques it refused as computed on a state older than its bound, the
+    # replica loop's own holds (fic_core.loop_health).
+    joint_speed_max: float = 0.0
+    robot_watchdog_engagements: int = 0
+    stale_torques_refused: int = 0
+    replica_holds: int = 0
+    # The master's side of the command at those stamps: its mode (n,) (fic_core.teleoperation.TeleoperationMode) and
+    # the x_d' it sent last (n, 3) [m]; the run verdict's command in velocity mode (VerdictInput.from_run_result).
+    command_mode: np.ndarray | None = None
+    sent_offset: np.ndarray | None = None
+    # [s] the quiet tail's start (RunConfig.quiet_from), None without one: the run verdict judges stability there.
+    quiet_from: float | None = None
+
+    @property
+    def tracking_error(self) -> np.ndarray:
+        return np.linalg.norm(self.desired - self.tcp, axis=1)
+
+    @property
+    def speed(self) -> float:
+        """Simulated seconds per wall second."""
+        return self.simulated_s / self.wall_s
+
+
+def _every(rate: float) -> int:
+    return max(1, int(round(1.0 / (rate * STEP))))
+
+
+def run(config: RunConfig) -> RunResult:
+    """One run of the graph (module docstring)."""
+    r, m, h = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("haptic_device.yaml")
+    pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
+    trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
+    # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (fic_core.channel_ports).
+    tdpa = config.tdpa or config.controller == "linear_tdpa"
+    law = "linear_bounded" if config.controller == "linear_tdpa" else config.controller
+    ports = ChannelPorts(tdpa, m["channel_max_damping"], m["channel_energy_window"])
+    station = ReplicaStation({**r, "controller": law, "control_rate": config.control_rate,
+                              "answer_every_state": True, "exchanged_energy_observer": False,
+                              **config.replica_overrides}, channel_port=ports.replica)
+    replica = station.loop
+    master = MasterStation({**m, **config.master_overrides})
+    device = HapticDevice(HapticDeviceParameters(
+        mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
+        wall_stiffness=h["wall_stiffness"], wall_damping=h["wall_damping"], max_force=h["max_force"],
+        substep=h["substep"]))
+    draws = np.random.default_rng([config.seed, 7919])   # apart from the channel's and the bond's streams
+    time_shift = float(draws.uniform(-1.0, 1.0)) * config.operator_timing_jitter
+    hand_scale = 1.0 + float(draws.uniform(-1.0, 1.0)) * config.hand_impedance_jitter
+    hand_parameters = HandParameters(stiffness=h["hand_stiffness"] * hand_scale,
+                                     damping=h["hand_damping"] * hand_scale, correction_rate=h["hand_correction_rate"],
+                                     max_correction=h["hand_max_correction"], max_force=h["hand_max_force"])
+    if config.operator not in OPERATORS:
+        raise ValueError(f"operator must be one of {OPERATORS}, got {config.operator!r}")
+    if config.hand not in HANDS:
+        raise ValueError(f"hand must be one of {HANDS}, got {config.hand!r}")
+    if config.quiet_from is not None and not (math.isfinite(config.quiet_from)
+                                              and 0.0 <= config.quiet_from < config.duration):
+        raise ValueError(f"quiet_from must be within the run (0 to {config.duration:g} s), got {config.quiet_from}")
+    if config.task_variation and config.operator != "closed_loop":
+        raise ValueError("task_variation needs the closed-loop operator: a script is timed for the paper's fixed "
+                         "circle")
+    drawn: dict[str, Any] = {}
+    reactive = config.hand == "reactive"
+    if reactive:
+        reflexes = ReactiveHandParameters.drawn(np.random.default_rng([config.seed, 6007]), hand_parameters)
+        drawn["hand"] = dict(vars(reflexes))
+        hand: Hand = ReactiveHand(hand_parameters, reflexes)
+    else:
+        hand = Hand(hand_parameters)
+    if config.operator == "closed_loop" and config.scene != "superimposition":
+        raise ValueError(f"the closed-loop operator drives the superimposition scene only, not {config.scene!r}")
+    if config.operator == "shape_sorting" and config.scene != "shape_sorting":
+        raise ValueError(f"the shape-sorting operator drives the shape_sorting scene only, not {config.scene!r}")
+    if config.script_path is None and config.scene == "superimposition":
+        script = superimposition_script({"one_way_delay": config.delay if config.script_delay is None
+                                         else config.script_delay})
+    else:
+        script = load_script(config.script_path or config_folder() / "operator_scripts" / f"{config.scene}.yaml")
+    script.check_workspace(device.parameters.half_extents)
+    operator = ScriptedOperator(script)
+    watcher = None
+    if config.operator == "closed_loop":
+        # The seed's timing draw is the reaction time's spread here (the script's clock is not played).
+        reaction = max(config.reaction_time + time_shift, 0.0)
+        varying = dict(seed=int(np.random.default_rng([config.seed, 4243]).integers(2 ** 31)),
+                       move_amplitude_range=MOVE_AMPLITUDE_RANGE, move_duration_range=MOVE_DURATION_RANGE,
+                       move_timing_spread=MOVE_TIMING_SPREAD_S, wander_amplitude_range=WANDER_AMPLITUDE_RANGE_M,
+                       wander_period_range=WANDER_PERIOD_RANGE_S, wander_mean_gap=WANDER_MEAN_GAP_S,
+                       ) if config.task_variation else {}
+        watcher = ClosedLoopOperator(ClosedLoopParameters.from_script_parameters(
+            script.parameters, reaction_time=reaction, assumed_one_way_delay=config.delay, **varying))
+    sorter = None
+    if config.operator == "shape_sorting":   # the seed's timing draw is the perception delay's spread
+        sorter = watcher = ShapeSortingOperator(ShapeSortingParameters(
+            perception_delay=max(config.reaction_time + time_shift, 0.0), assumed_one_way_delay=config.delay,
+            learnt_stiffness=m["stiffness"], learnt_max_force=m["max_force"], velocity_gain=m["velocity_gain"],
+            velocity_deadband=m["velocity_deadband"], handle_half_extents=tuple(h["half_extents"])))
+    channel = dict(delay=config.delay, jitter=config.jitter, jitter_distribution=ch["jitter_distribution"],
+                   allow_reorder=ch["allow_reorder"], drop_probability=config.drop,
+                   blackout_windows=tuple(config.blackout_windows), rate_cap_hz=config.rate_cap)
+    forward = Channel(ChannelConfig(**channel, seed=config.seed))
+    backward = Channel(ChannelConfig(**channel, seed=config.seed + 1))
+    # The video shares the backward link (delay, jitter, drops, blackouts) but not the command's rate cap.
+    video = Channel(ChannelConfig(**{**channel, "rate_cap_hz": 0.0}, seed=config.seed + 2))
+    source: LapVaryingCircle | None = None   # None: the planner's own (config/planner.yaml's circle or point)
+    if trajectory == "circle" and config.task_variation:
+        source = LapVaryingCircle.randomised(pl["circle_centre"], np.random.default_rng([config.seed, 31337]),
+                                             config.duration, TASK_PERIOD_RANGE_S, TASK_DIAMETER_RANGE_M,
+                                             pl["circle_normal"], TASK_PHASE_RANGES_RAD)
+        drawn["task"] = dict(periods=source.periods.tolist(), diameters=source.diameters.tolist(), phase=source.phase)
+    # The planner node's station, its trajectory's clock on the launcher's origin (shared with the E1 script).
+    planner_values = {**pl, "trajectory": "circle" if trajectory == "circle" else "fixed", "start_position": [],
+                      "start_time": SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0}
+    if config.quiet_from is not None:   # the quiet tail: the trajectory's clock stops (RunConfig.quiet_from)
+        source = StoppedTrajectory(source if source is not None else make_source(planner_values),
+                                   max(config.quiet_from - planner_values["start_time"], 0.0))
+    planner = PlannerStation(planner_values, 0.0, source)
+    sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
+    tick_dynamics, no_damping = np.zeros(7), np.zeros(7)
+    log_ports = []
+
+    device_every, master_every = _every(h["publish_rate_hz"]), _every(m["control_rate"])
+    network_every, planner_every = _every(m["network_rate"]), _every(pl["publish_rate"])
+    delivery_every, wrench_every = _every(ch["delivery_rate_hz"]), _every(250.0)
+    joy_every, camera_every = _every(JOY_RATE_HZ), _every(CAMERA_RATE_HZ)
+    fixed_obstacle = sim.model.geom("fixed_obstacle").id if config.scene == "superimposition" else -1
+    log_contact = []
+    # The device node's station: the device, the operator's hand and what drives it, the buttons' queue.
+    device_station = DeviceStation(device, hand, script=operator, watcher=watcher,
+                                   command_timeout=h["command_timeout"], script_origin=time_shift,
+                                   quiet_from=config.quiet_from)
+    ft_wrench = None
+    log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
+    log_m, log_arm, log_handle, log_target = [], [], [], []
+    log_mode, log_sent = [], []
+    arm_velocity, arm_momentum = np.zeros(sim.model.nv), np.zeros(sim.model.nv)
+    arm_dof = np.array([sim.model.jnt_dofadr[sim.model.joint(name).id] for name in ARM_JOINT_NAMES])
+    state = device.state
+    robot_values = _parameters("robot.yaml")
+    stall_draws = np.random.default_rng([config.seed, 104729])
+    replica_wakes, robot_torque = 0.0, None
+    in_flight: deque[tuple[float, np.ndarray, float]] = deque()   # a starved replica's torques on their way
+    # The robot node's watchdogs: its stale-command hold (command_timeout) and its rule on the state a torque was
+    # computed on (command_state_timeout: a torque on an older state is never applied).
+    watchdog = CommandWatchdog(robot_values["command_timeout"])
+    state_age = CommandStateAge(robot_values.get("command_state_timeout", math.inf)
+                                if config.robot_command_state_timeout is None else config.robot_command_state_timeout)
+    joint_speed_max = 0.0   # the fastest joint over every physics step [rad/s]
+    oldest_state = max((window.max_state_age for window in config.replica_stalls), default=0.0)
+    past_states: deque[tuple[float, np.ndarray, np.ndarray]] = deque(maxlen=int(round(oldest_state / STEP)) + 1)
+
+    def robot_holding() -> np.ndarray:
+        """No new torque this step: the robot's last one until its watchdog holds the arm."""
+        watchdog.check(now)
+        return sim.hold_torque() if watchdog.holding or robot_torque is None else robot_torque
+
+    def robot_takes(state_time: float) -> bool:
+        """Whether the robot applies a torque computed on the joint state of ``state_time`` (then it is fresh)."""
+        if not state_age.admits(state_time, now):
+            return False
+        watchdog.command_received(now)
+        return True
+
+    steps = int(round(config.duration / STEP))
+    wall = wall_clock.perf_counter()
+    for k in range(steps):
+        now = k * STEP
+        ns = k * 1_000_000
+        # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
+        if k % device_every == 0:
+            state = device_station.step(now, device_every * STEP if k else 0.0).state
+            master.add_pose(state.position, (0.0, 0.0, 0.0, 1.0), now)
+            master.add_twist(state.velocity, now)
+        if k % joy_every == 0:
+            pressed = [0, 0, 0]
+            button = device_station.press()
+            if button is not None:
+                pressed[button] = 1
+            master.press(pressed)
+        if k % master_every == 0:
+            # The channel's master port (fic_core.channel_ports): booked, and with TDPA damped, before Eq. 3.
+            ports.master.tick(master, now, master_every * STEP)
+            force, _ = master.force(now)
+            if force is not None:
+                device_station.command(force, now)
+        if k % network_every == 0:
+            offset = master.desired_offset(now)
+            if offset is not None:
+                integrator = master.integrator
+                forward.push((ns, offset, int(integrator.mode.value), master.law.haptic_gain,
+                              integrator.workspace_scale, integrator.velocity_gain,
+                              master.network_handle_position.copy(),
+                              ports.master.input_energy), now, now)
+        if k % planner_every == 0:
+            set_point = planner.step(now)
+            station.planner_pose(ns, set_point.position, set_point.orientation, now)
+            station.planner_acceleration(set_point.acceleration, now)
+        if watcher is not None and k % camera_every == 0:
+            poses = sim.object_poses()
+            video.push(Frame(now, sim.tcp_pose[0], poses["pushable_obstacle"][0]) if sorter is None
+                       else SortingFrame(now, sim.tcp_pose[0], np.array([pose[0] for pose in poses.values()])),
+                       now, now)
+        if watcher is not None and k % delivery_every == 0:
+            for delivery in video.pop_due(now):
+                watcher.see(now, delivery.payload)
+        if k % delivery_every == 0:
+            for delivery in forward.pop_due(now):
+                stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle, energy = delivery.payload
+                station.teleoperation_command(stamp_ns, now, mode=mode, haptic_gain=haptic_gain,
+                                              workspace_scale=workspace_scale, velocity_gain=velocity_gain,
+                                              handle_position=handle, desired_offset=offset,
+                                              master_input_energy=energy)
+            for delivery in backward.pop_due(now):
+                feedback, energy = delivery.payload
+                ports.master.receive_feedback(feedback, now)
+                ports.master.receive_energy(energy)
+                master.add_feedback(feedback, now)
+        # Robot side: the joint state of step k, the replica's answer, the physics step.
+        if k % wrench_every == 0:   # F_R through the driver's declared frame, as the node takes /ft_sensor/wrench
+            reading = sim.ft_wrench()
+            ft_wrench = station.wrench(station.driver.base_frame, reading[:3], reading[3:])[0]
+        stall = None
+        if config.replica_stalls:
+            stall = next((window for window in config.replica_stalls if window.start <= now < window.end), None)
+            while in_flight and in_flight[0][0] <= now:
+                _, torque, state_time = in_flight.popleft()
+                if robot_takes(state_time):
+                    robot_torque = torque
+            if stall is not None and now < replica_wakes or in_flight:
+                sim.step(robot_holding())   # the replica sleeps, or its last torque is still on its way
+                joint_speed_max = max(joint_speed_max, max(map(abs, sim.joint_velocities.tolist())))
+                continue
+        if oldest_state > 0.0:
+            past_states.append((now, sim.joint_positions.copy(), sim.joint_velocities.copy()))
+        if stall is not None and stall.max_state_age > 0.0:
+            back = int(round(float(stall_draws.uniform(stall.min_state_age, stall.max_state_age)) / STEP))
+            state_time, q_state, qd_state = past_states[max(len(past_states) - 1 - back, 0)]
+            if not stall.stale_velocity:
+                qd_state = sim.joint_velocities
+        else:
+            state_time, q_state, qd_state = now, sim.joint_positions, sim.joint_velocities
+        # The stream guard sees every state's stamp, as in the node; not the old states of a stall's model, drawn
+        # one per wake independently, so out of order, which a reader's queue never delivers.
+        if (stall is None or stall.max_state_age == 0.0) and not station.admits_joint_state(state_time, now)[0]:
+            sim.step(robot_holding())   # never here: the simulated robot is the one writer
+            continue
+        tick = station.joint_state(state_time, now, q_state, qd_state, ns)
+        result = tick.step
+        result.torque = tick.command
+        if stall is not None:
+            replica_wakes = now + float(stall_draws.uniform(stall.min_gap, stall.max_gap))
+            if result.torque is not None and stall.max_delay > 0.0:
+                in_flight.append((now + float(stall_draws.uniform(stall.min_delay, stall.max_delay)),
+                                  result.torque.copy(), state_time))
+                result.torque = None
+        if result.poses_due and replica.last_command is not None and ft_wrench is not None:
+            backward.push((ft_wrench, station.feedback_sent(ft_wrench)), now, now)
+            command = replica.last_command
+            log_t.append(now)
+            log_d.append(command.desired_position)
+            log_r.append(command.tcp_position.copy())
+            log_f.append(ft_wrench)
+            log_o.append(replica.desired.offset)
+            log_m.append(state.position)
+            log_target.append(np.asarray(device_station.target, dtype=float).copy())
+            log_mode.append(int(master.integrator.mode))
+            log_sent.append(master.integrator.desired_offset)
+            log_handle.append(0.5 * device.parameters.mass * float(state.velocity @ state.velocity))
+            arm_velocity[arm_dof] = sim.joint_velocities
+            mujoco.mj_mulM(sim.model, sim.data, arm_momentum, arm_velocity)   # M(q) qd of the arm's joints
+            log_arm.append(0.5 * float(arm_velocity @ arm_momentum))
+            drift = ports.replica.drift
+            log_ports.append((ports.master.observer.energy, ports.replica.observer.energy, ports.generated_energy,
+                              float(replica.passivity.margin.min()),
+                              float(np.linalg.norm(drift)) if drift.size else 0.0))
+            log_contact.append(_touches(sim, fixed_obstacle))
+        torque = result.torque
+        if config.dynamics_at_physics_rate and torque is not None:
+            # The law's torque held, its C qd + G(q) of the tick swapped for the arm's own at this step.
+            if result.command is not None:
+                tick_dynamics = replica.robot.nonlinear_effects.copy()
+            torque = torque - tick_dynamics + sim.hold_torque(no_damping)
+        if torque is not None and robot_takes(state_time):
+            robot_torque = torque
+            sim.step(torque)
+        else:   # before the first command (the hold), or a starved replica's torque not yet arrived
+            sim.step(robot_holding())
+        # max |qd| on Python floats: the value numpy's abs().max() gives, at a third of its cost per step.
+        joint_speed_max = max(joint_speed_max, max(map(abs, sim.joint_velocities.tolist())))
+    wall = wall_clock.perf_counter() - wall
+    desired, offset = np.array(log_d), np.array(log_o)
+    return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
+                     sim.object_poses(), wall, steps * STEP,
+                     replica.controller.violation_ticks, replica.controller.shaped_ticks,
+                     np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift,
+                     hand_scale, np.array(log_target),
+                     replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports),
+                     obstacle_contact=np.array(log_contact, dtype=bool),
+                     operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,
+                     joint_speed_max=joint_speed_max, robot_watchdog_engagements=watchdog.engagements,
+                     stale_torques_refused=state_age.refused, replica_holds=replica.health.holds,
+                     command_mode=np.array(log_mode, dtype=int), sent_offset=np.array(log_sent).reshape(-1, 3),
+                     quiet_from=config.quiet_from)
+
+
+def _touches(sim: PandaSimulation, geom: int) -> bool:
+    """Whether any contact of this step involves ``geom`` (E1's fixed obstacle touches nothing but the robot:
+    static bodies do not collide with the table)."""
+    if geom < 0:
+        return False
+    contacts = sim.data.contact[:sim.data.ncon]
+    return bool(np.any((contacts.geom1 == geom) | (contacts.geom2 == geom))) if sim.data.ncon else False
+
+
+@dataclass
+class Agreement:
+    """An in-process run against a recorded graph run, on the in-process pose stamps in [start, end]."""
+
+    samples: int
+    error_difference_max: float     # max | |e|_in-process - |e|_graph | [m], e = x_d - x_R
+    error_difference_rms: float     # [m]
+    tcp_difference_max: float       # max |x_R,in-process - x_R,graph| [m]
+    desired_difference_max: float   # max |x_d,in-process - x_d,graph| [m]
+    graph_error_rms: float          # [m]
+    in_process_error_rms: float     # [m]
+
+
+def agreement(bag: str | Path, result: RunResult, start: float = 0.5, end: float | None = None) -> Agreement:
+    """Compare ``result`` with the bag of a lockstep graph run of the same configuration (the report's tracking
+    error: x_d and x_R as the replica published them), from ``start`` to ``end`` (None: the end of both)."""
+    from fic_teleop_tools.report.bag_data import load_bag
+    from fic_teleop_tools.report.metrics import _tracking_error
+
+    data = load_bag(bag)
+    graph_time, graph_error, _ = _tracking_error(data)
+
+    def positions(topic: str) -> tuple[np.ndarray, np.ndarray]:
+        series = data.series[topic]
+        order = np.argsort(series.stamp, kind="stable")
+        return series.stamp[order], np.column_stack([series.values[axis][order] for axis in "xyz"])
+
+    tcp_time, tcp = positions("/replica/tcp_pose")
+    desired_time, desired = positions("/replica/desired_pose")
+    last = min(result.time[-1], graph_time[-1], tcp_time[-1], desired_time[-1])
+    window = (result.time >= start) & (result.time <= (last if end is None else min(end, last)))
+    times = result.time[window]
+    graph = np.interp(times, graph_time, graph_error)
+    mine = result.tracking_error[window]
+
+    def apart(stamps: np.ndarray, values: np.ndarray, ours: np.ndarray) -> float:
+        theirs = np.column_stack([np.interp(times, stamps, values[:, axis]) for axis in range(3)])
+        return float(np.linalg.norm(theirs - ours[window], axis=1).max())
+
+    difference = np.abs(mine - graph)
+    return Agreement(int(window.sum()), float(difference.max()), float(np.sqrt(np.mean(difference ** 2))),
+                     apart(tcp_time, tcp, result.tcp), apart(desired_time, desired, result.desired),
+                     float(np.sqrt(np.mean(graph ** 2))), float(np.sqrt(np.mean(mine ** 2))))
