@@ -61,11 +61,14 @@ def test_recording_records_every_physics_step_and_restores_the_runner() -> None:
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")   # the run verdict on 1 s: empty judged spans, not ours
-def test_a_short_trial_gives_its_row_and_the_100_hz_series_without_pulls() -> None:
+def test_a_short_trial_gives_its_row_and_the_100_hz_series_with_its_tail_without_pulls() -> None:
     result = e2_bond_pulls.in_process_pulls(3, "fic", 0.2, False, 1.0)
     assert result["pulls"] == [] and result["felt_pulls_n"] == [] and result["seed"] == 3
     series = result["series"]
-    assert len(series["time"]) == len(series["bond_n"]) == len(series["law_n"]) == 100
+    # The task's 1 s and the quiet tail after it (the trial ends as a claim run does, e2_in_process.trial).
+    from fic_teleop_tools.verdict.run_verdict import VerdictCriterion
+    samples = round((1.0 + VerdictCriterion().tail_needed(0.2)) * 100)
+    assert len(series["time"]) == len(series["bond_n"]) == len(series["law_n"]) == samples
     assert np.allclose(np.diff(series["time"]), 0.01)
     assert max(series["bond_n"]) == 0.0   # nothing is grasped in the first second
 
