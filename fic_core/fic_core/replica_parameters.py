@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from .attractor import PoseAttractor
+from .pose_attractor import PoseAttractor
 from .baseline import LinearImpedance
 from .errors import FicInputError
 from .limits import PandaLimits

@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fic_core.attractor import FractalAttractor, Phase, PoseAttractor
+from fic_core.attractor import FractalAttractor, Phase
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.errors import FicInputError
 from fic_core.profile import ForceProfile
 

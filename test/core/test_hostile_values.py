@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
-from fic_core.attractor import PoseAttractor
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.limits import LimitFlag, PandaLimits

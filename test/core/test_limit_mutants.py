@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fic_core.attractor import PoseAttractor
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.errors import FicInputError
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.master_station import MasterStation

@@ -11,7 +11,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fic_core.attractor import PoseAttractor
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.baseline import LinearImpedance
 from fic_core.errors import FicInputError
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
