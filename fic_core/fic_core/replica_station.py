@@ -216,6 +216,10 @@ class ReplicaStation:
         return self.channel_port.sent(force)
 
     # --- the control step ------------------------------------------------------------------------------------
+    def tick_dynamics(self) -> NDArray[np.float64]:
+        """C(q, qd) qd + G(q) of the robot model at the last joint state [N m] (a copy)."""
+        return self.loop.robot.nonlinear_effects.copy()
+
     def joint_state(self, time: float, now: float, q: NDArray[np.float64], qd: NDArray[np.float64],
                     stamp_ns: int | None = None, steady_now: float | None = None) -> ReplicaTick:
         """One admitted joint state (q, qd in the law's joint order, stamped ``time`` [s], received at ``now``;
