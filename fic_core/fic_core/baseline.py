@@ -76,7 +76,7 @@ class LinearImpedance:
     controller_name = "linear"
 
     def __init__(self, translation_stiffness: float, rotation_stiffness: float, translation_damping: float,
-                 rotation_damping: float, max_force: tuple[float, float] | None = None) -> None:
+                 rotation_damping: float, *, max_force: tuple[float, float] | None = None) -> None:
         translation_stiffness = finite_scalar("translation_stiffness", translation_stiffness, minimum=0.0)
         rotation_stiffness = finite_scalar("rotation_stiffness", rotation_stiffness, minimum=0.0)
         translation_damping = finite_scalar("translation_damping", translation_damping, minimum=0.0)

@@ -151,8 +151,9 @@ def _homing(values: Mapping[str, Any]) -> HandleHoming:
 def _fixture(values: Mapping[str, Any]) -> GuidanceFixture | None:
     """The fixture of ``values``, or None for ``none`` (its point and direction are checked either way)."""
     kind = fixture_kind(values["guidance_fixture"])
-    fixture = GuidanceFixture(FixtureKind.PLANE if kind == FixtureKind.NONE else kind,
-                              *(values[name] for name in FIXTURE_PARAMETERS[1:]))
+    fixture = GuidanceFixture(FixtureKind.PLANE if kind == FixtureKind.NONE else kind, values["guidance_point"],
+                              values["guidance_direction"], stiffness=values["guidance_stiffness"],
+                              damping=values["guidance_damping"], max_force=values["guidance_max_force"])
     return None if kind == FixtureKind.NONE else fixture
 
 

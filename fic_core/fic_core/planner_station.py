@@ -40,7 +40,7 @@ def make_source(values: Mapping[str, Any]) -> Circle | FixedPoint | ViaPoints:
     kind = values["trajectory"]
     if kind == "circle":
         return Circle(values["circle_centre"], values["circle_diameter"], values["circle_period"],
-                      values["circle_normal"], values["circle_phase"])
+                      normal=values["circle_normal"], phase=values["circle_phase"])
     if kind == "fixed":
         return FixedPoint(values["fixed_point"])
     if kind == "via_points":

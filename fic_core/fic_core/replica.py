@@ -329,7 +329,7 @@ class ReplicaController:
     |tau_k - tau_(k-1)| <= torque_rate * dt_k over the whole sequence sent.
     """
 
-    def __init__(self, robot: RobotModel, controller: TaskController, limits: PandaLimits | None = None,
+    def __init__(self, robot: RobotModel, controller: TaskController, *, limits: PandaLimits | None = None,
                  posture: NullSpacePosture | None = None, control_period: float = 0.001,
                  optimisation: PosturalOptimisation | None = None,
                  feedforward_regularisation: float = DEFAULT_FEEDFORWARD_REGULARISATION,
