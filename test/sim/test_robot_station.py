@@ -92,3 +92,14 @@ def test_the_physics_rate_dynamics_swap_the_ticks_bias_for_the_arms_own() -> Non
     own = robot.sim.hold_torque(np.zeros(7))
     robot.receive(PUSH, 0.001)   # between ticks: the same tick's C qd + G
     np.testing.assert_allclose(robot.command, PUSH - tick + own)
+
+
+def test_the_arms_kinetic_energy_and_the_contacts_of_a_geom() -> None:
+    robot = RobotStation(PandaSimulation("superimposition", 0), command_timeout=0.05)
+    assert robot.arm_kinetic_energy() == 0.0
+    robot.receive(robot.sim.hold_torque() + PUSH, 0.0)
+    for k in range(50):
+        robot.update(k * STEP)
+    assert robot.arm_kinetic_energy() > 0.0
+    # The pushable obstacle rests on the table; the fixed one (static) touches nothing but the robot.
+    assert robot.touches("pushable_obstacle") and not robot.touches("fixed_obstacle")

@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 import yaml
 
@@ -286,7 +285,6 @@ def run(config: RunConfig) -> RunResult:
     station = ReplicaStation({**r, "controller": law, "control_rate": config.control_rate,
                               "answer_every_state": True, "exchanged_energy_observer": False,
                               **config.replica_overrides}, channel_port=ports.replica)
-    replica = station.loop
     master = MasterStation({**m, **config.master_overrides})
     device = HapticDevice(HapticDeviceParameters(
         mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
@@ -377,13 +375,13 @@ def run(config: RunConfig) -> RunResult:
         else None,
         dynamics_at_physics_rate=config.dynamics_at_physics_rate)
     starved = StarvedReplica(config.replica_stalls, config.seed)
+    superimposition = config.scene == "superimposition"   # E1: contacts with its fixed obstacle are recorded
     log_ports = []
 
     device_every, master_every = _every(h["publish_rate_hz"]), _every(m["control_rate"])
     network_every, planner_every = _every(m["network_rate"]), _every(pl["publish_rate"])
     delivery_every, wrench_every = _every(ch["delivery_rate_hz"]), _every(250.0)
     joy_every, camera_every = _every(JOY_RATE_HZ), _every(CAMERA_RATE_HZ)
-    fixed_obstacle = sim.model.geom("fixed_obstacle").id if config.scene == "superimposition" else -1
     log_contact = []
     # The device node's station: the device, the operator's hand and what drives it, the buttons' queue.
     device_station = DeviceStation(device, hand, script=operator, watcher=watcher,
@@ -393,8 +391,6 @@ def run(config: RunConfig) -> RunResult:
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
     log_m, log_arm, log_handle, log_target = [], [], [], []
     log_mode, log_sent = [], []
-    arm_velocity, arm_momentum = np.zeros(sim.model.nv), np.zeros(sim.model.nv)
-    arm_dof = np.array([sim.model.jnt_dofadr[sim.model.joint(name).id] for name in ARM_JOINT_NAMES])
     state = device.state
     steps = int(round(config.duration / STEP))
     wall = wall_clock.perf_counter()
@@ -403,7 +399,7 @@ def run(config: RunConfig) -> RunResult:
         ns = k * 1_000_000
         # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
         if k % device_every == 0:
-            state = device_station.step(now, device_every * STEP if k else 0.0).state
+            state = device_station.update(now, device_every * STEP if k else 0.0).state
             master.add_pose(state.position, (0.0, 0.0, 0.0, 1.0), now)
             master.add_twist(state.velocity, now)
         if k % joy_every == 0:
@@ -419,15 +415,11 @@ def run(config: RunConfig) -> RunResult:
             if force is not None:
                 device_station.command(force, now)
         if k % network_every == 0:
-            offset = master.desired_offset(now)
-            if offset is not None:
-                integrator = master.integrator
-                forward.push((ns, offset, int(integrator.mode.value), master.law.haptic_gain,
-                              integrator.workspace_scale, integrator.velocity_gain,
-                              master.network_handle_position.copy(),
-                              ports.master.input_energy), now, now)
+            sample = master.teleoperation_command(now)
+            if sample is not None:
+                forward.push((ns, sample, ports.master.input_energy), now, now)
         if k % planner_every == 0:
-            set_point = planner.step(now)
+            set_point = planner.update(now)
             station.planner_pose(ns, set_point.position, set_point.orientation, now)
             station.planner_acceleration(set_point.acceleration, now)
         if watcher is not None and k % camera_every == 0:
@@ -440,11 +432,11 @@ def run(config: RunConfig) -> RunResult:
                 watcher.see(now, delivery.payload)
         if k % delivery_every == 0:
             for delivery in forward.pop_due(now):
-                stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle, energy = delivery.payload
-                station.teleoperation_command(stamp_ns, now, mode=mode, haptic_gain=haptic_gain,
-                                              workspace_scale=workspace_scale, velocity_gain=velocity_gain,
-                                              handle_position=handle, desired_offset=offset,
-                                              master_input_energy=energy)
+                stamp_ns, sent, energy = delivery.payload
+                station.teleoperation_command(stamp_ns, now, mode=sent.mode, haptic_gain=sent.haptic_gain,
+                                              workspace_scale=sent.workspace_scale, velocity_gain=sent.velocity_gain,
+                                              handle_position=sent.handle_position,
+                                              desired_offset=sent.desired_offset, master_input_energy=energy)
             for delivery in backward.pop_due(now):
                 feedback, energy = delivery.payload
                 ports.master.receive_feedback(feedback, now)
@@ -453,7 +445,7 @@ def run(config: RunConfig) -> RunResult:
         # Robot side: the joint state of step k, the replica's answer, the physics step.
         if k % wrench_every == 0:   # F_R through the driver's declared frame, as the node takes /ft_sensor/wrench
             reading = sim.ft_wrench()
-            ft_wrench = station.wrench(station.driver.base_frame, reading[:3], reading[3:])[0]
+            ft_wrench = station.wrench(station.base_frame, reading[:3], reading[3:])[0]
         stall = None
         if config.replica_stalls:
             stall = starved.window(now)
@@ -479,52 +471,43 @@ def run(config: RunConfig) -> RunResult:
             else None
         if stall is not None and starved.answered(now, stall, result.torque, state_time, tick_dynamics):
             result.torque = None   # on its way to the robot
-        if result.poses_due and replica.last_command is not None and ft_wrench is not None:
+        if result.poses_due and station.last_command is not None and ft_wrench is not None:
             backward.push((ft_wrench, station.feedback_sent(ft_wrench)), now, now)
-            command = replica.last_command
+            command = station.last_command
             log_t.append(now)
             log_d.append(command.desired_position)
             log_r.append(command.tcp_position.copy())
             log_f.append(ft_wrench)
-            log_o.append(replica.desired.offset)
+            log_o.append(station.offset_in_use)
             log_m.append(state.position)
             log_target.append(np.asarray(device_station.target, dtype=float).copy())
-            log_mode.append(int(master.integrator.mode))
-            log_sent.append(master.integrator.desired_offset)
-            log_handle.append(0.5 * device.parameters.mass * float(state.velocity @ state.velocity))
-            arm_velocity[arm_dof] = sim.joint_velocities
-            mujoco.mj_mulM(sim.model, sim.data, arm_momentum, arm_velocity)   # M(q) qd of the arm's joints
-            log_arm.append(0.5 * float(arm_velocity @ arm_momentum))
+            log_mode.append(int(master.mode))
+            log_sent.append(master.integrated_offset)
+            log_handle.append(device_station.handle_kinetic_energy)
+            log_arm.append(robot.arm_kinetic_energy())
             drift = ports.replica.drift
             log_ports.append((ports.master.observer.energy, ports.replica.observer.energy, ports.generated_energy,
-                              float(replica.passivity.margin.min()), float(np.linalg.norm(drift)) if drift.size else 0.0))
-            log_contact.append(_touches(sim, fixed_obstacle))
+                              station.passivity_margin, float(np.linalg.norm(drift)) if drift.size else 0.0))
+            # E1's fixed obstacle touches nothing but the robot (static bodies do not collide with the table).
+            log_contact.append(superimposition and robot.touches("fixed_obstacle"))
         if result.torque is not None and robot.admits(state_time, now):
             robot.receive(result.torque, now, tick_dynamics)
         robot.update(now)   # the torque taken, or the last one until the watchdog holds the arm
     wall = wall_clock.perf_counter() - wall
     desired, offset = np.array(log_d), np.array(log_o)
+    totals = station.totals()
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
                      sim.object_poses(), wall, steps * STEP,
-                     replica.controller.violation_ticks, replica.controller.shaped_ticks,
+                     totals.limit_violation_ticks, totals.shaped_ticks,
                      np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift, hand_scale, np.array(log_target),
-                     replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports),
+                     totals.passivity_min_margin, totals.passivity_violation_ticks, port_energy=np.array(log_ports),
                      obstacle_contact=np.array(log_contact, dtype=bool),
                      operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,
                      joint_speed_max=robot.joint_speed_max, robot_watchdog_engagements=robot.watchdog_engagements,
-                     stale_torques_refused=robot.refused_torques, replica_holds=replica.health.holds,
+                     stale_torques_refused=robot.refused_torques, replica_holds=totals.holds,
                      command_mode=np.array(log_mode, dtype=int), sent_offset=np.array(log_sent).reshape(-1, 3),
                      quiet_from=config.quiet_from,
                      velocity_reflex_time=None if robot.reflex_event is None else robot.reflex_event.time)
-
-
-def _touches(sim: PandaSimulation, geom: int) -> bool:
-    """Whether any contact of this step involves ``geom`` (E1's fixed obstacle touches nothing but the robot:
-    static bodies do not collide with the table)."""
-    if geom < 0:
-        return False
-    contacts = sim.data.contact[:sim.data.ncon]
-    return bool(np.any((contacts.geom1 == geom) | (contacts.geom2 == geom))) if sim.data.ncon else False
 
 
 @dataclass

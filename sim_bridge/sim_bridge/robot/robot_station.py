@@ -18,9 +18,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from fic_core.panda_description import ARM_JOINT_NAMES
 from sim_bridge.robot.mujoco_panda import PandaSimulation
 from sim_bridge.robot.velocity_reflex import ReflexEvent, VelocityReflex
 from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog, WatchdogEvent
@@ -54,6 +56,10 @@ class RobotStation:
         self._command: NDArray[np.float64] | None = None   # the torque the arm follows (the newest received)
         self._tick_dynamics = np.zeros(7)
         self.joint_speed_max = 0.0   # the fastest joint over every step so far [rad/s]
+        model = sim.model
+        self._arm_dof = np.array([model.jnt_dofadr[model.joint(name).id] for name in ARM_JOINT_NAMES])
+        self._arm_velocity, self._arm_momentum = np.zeros(model.nv), np.zeros(model.nv)
+        self._geoms: dict[str, int] = {}
 
     # --- read-outs -------------------------------------------------------------------------------------------
     @property
@@ -90,6 +96,24 @@ class RobotStation:
     def command(self) -> NDArray[np.float64] | None:
         """The torque the arm follows while no hold is on (None before the first)."""
         return self._command
+
+    def arm_kinetic_energy(self) -> float:
+        """1/2 qd^T M(q) qd of the arm's joints now [J] (the scene's other bodies at rest in it)."""
+        sim, velocity, momentum = self.sim, self._arm_velocity, self._arm_momentum
+        velocity[self._arm_dof] = sim.joint_velocities
+        mujoco.mj_mulM(sim.model, sim.data, momentum, velocity)   # M(q) qd
+        return 0.5 * float(velocity @ momentum)
+
+    def touches(self, geom: str) -> bool:
+        """Whether any contact of the last step involves the scene's geom named ``geom``."""
+        index = self._geoms.get(geom)
+        if index is None:
+            index = self._geoms[geom] = self.sim.model.geom(geom).id
+        data = self.sim.data
+        if not data.ncon:
+            return False
+        contacts = data.contact[:data.ncon]
+        return bool(np.any((contacts.geom1 == index) | (contacts.geom2 == index)))
 
     # --- inputs ----------------------------------------------------------------------------------------------
     def admits(self, state_time: float, newest_state_time: float) -> bool:
