@@ -27,9 +27,10 @@ reads the model while it moves); the executor thread only receives commands. Mod
   after a timeout is not mistaken for the next state's). While the watchdog holds (commands stopped), steps are
   paced by the wall clock instead of waiting: the world and /clock keep moving for whoever is still listening.
 
-Safety (watchdog.py): commands older than ``command_timeout`` (wall seconds in realtime; in lockstep simulated
-seconds since the state the newest command was computed on) are replaced by the hold torque (gravity compensation +
-damping); each transition is logged once.
+Safety (robot_station.py, the station the in-process runner steps too; watchdog.py, velocity_reflex.py): commands
+older than ``command_timeout`` (wall seconds in realtime; in lockstep simulated seconds since the state the newest
+command was computed on) are replaced by the hold torque (gravity compensation + damping); each transition is
+logged once.
 Commands with NaN/Inf or a length other than 7 are rejected with an error log and never reach the physics.
 Realtime: a command that names the joint state it was computed on (the replica's do, fic_core.command_stamp) is
 refused when that state is older than ``command_state_timeout`` against the newest state published: it is never
