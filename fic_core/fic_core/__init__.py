@@ -14,7 +14,7 @@ _EXPORTS = {
     # modes, harmonic planner (Eqs. 5-6) and its trajectory sources.
     "FicInputError": "errors",
     "ForceProfile": "profile", "force_profile": "profile",
-    "FractalAttractor": "attractor", "Phase": "attractor", "PoseAttractor": "attractor",
+    "FractalAttractor": "attractor", "Phase": "attractor", "PoseAttractor": "pose_attractor",
     "LinearImpedance": "baseline", "make_baseline_like": "baseline",
     "MasterLaw": "master",
     "TeleoperationCommandIntegrator": "teleoperation", "TeleoperationMode": "teleoperation",

@@ -139,7 +139,7 @@ class AttractorSnapshot(tuple):
         """The storage V per axis [J] as floats (V_D in D, V_C in C; module docstring)."""
         profile = self[0]
         return [convergence_storage(profile, latched, stiffness, latched_energy, error) if converging
-                else profile._scalar_energy(error)
+                else profile.scalar_energy(error)
                 for converging, latched, stiffness, latched_energy, error in zip(
                     self[1], self[2], self[3], self[4], self[5])]
 
@@ -236,7 +236,7 @@ class FractalAttractor:
         old = self._state
         profile = old[0]
         deadband = -self._rate_deadband
-        linear_limit = profile._linear_limit
+        linear_limit = profile.linear_limit
         max_force = profile.max_force
         phases = []
         forces = []
@@ -256,7 +256,7 @@ class FractalAttractor:
             phases.append(False)
             # Eq. 2, D (K0 e in the profile's linear region).
             forces.append(profile.stiffness * error if -linear_limit <= error <= linear_limit
-                          else profile._scalar_force(error))
+                          else profile.scalar_force(error))
         self._state = _new_snapshot(AttractorSnapshot, (profile, tuple(phases), old[2], old[3], old[4],
                                                         tuple(errors), tuple(forces)))
         return forces
@@ -283,7 +283,7 @@ class FractalAttractor:
                     ((error < 0.0) == (latched < 0.0))
                 # C -> D only where the D storage at e_{k-1} does not exceed the C storage there (the difference
                 # is dissipated); otherwise the axis stays on the C line, whose storage it keeps (deferred).
-                if staying or profile._scalar_energy(previous) > convergence_storage(
+                if staying or profile.scalar_energy(previous) > convergence_storage(
                         profile, latched, stiffness, latched_energies[axis], previous):
                     force = stiffness * (error - 0.5 * latched)  # Eq. 2, C
                     forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
@@ -291,8 +291,8 @@ class FractalAttractor:
                 in_convergence[axis] = False
             # D -> C past the dead-band, from a previous sample on the same side with a force there.
             elif magnitude_rate < deadband and previous * error > 0.0 and abs(previous) > smallest_latch:
-                latched_force = profile._scalar_force(abs(previous))
-                latched_energy = profile._scalar_energy(previous)
+                latched_force = profile.scalar_force(abs(previous))
+                latched_energy = profile.scalar_energy(previous)
                 magnitude = abs(previous)
                 # K_C = min(2 F_latch/|e_max|, 8 V_latch/e_max^2): Eq. 2's force-continuous stiffness, capped
                 # so that V_C >= 0 (the stored-energy sizing of the ROS 1 code).
@@ -304,17 +304,9 @@ class FractalAttractor:
                 force = stiffness * (error - 0.5 * previous)  # Eq. 2, C
                 forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
                 continue
-            forces.append(profile._scalar_force(error))  # Eq. 2, D
+            forces.append(profile.scalar_force(error))  # Eq. 2, D
         self._state = AttractorSnapshot(profile, tuple(in_convergence), tuple(latched_max_errors),
                                         tuple(convergence_stiffness), tuple(latched_energies), tuple(errors),
                                         tuple(forces))
         return forces
 
-
-def __getattr__(name: str):
-    """PoseAttractor and its snapshot live in fic_core/pose_attractor.py (it needs the rotational attractor, which
-    builds on this module); they are still importable from here, where callers have always found them."""
-    if name in ("PoseAttractor", "PoseAttractorSnapshot"):
-        from fic_core import pose_attractor
-        return getattr(pose_attractor, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

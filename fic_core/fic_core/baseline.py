@@ -2,7 +2,7 @@
 
     wrench = K*e + D*de/dt ,   e = x_d - x per axis (translation, then rotation vector)
 
-It has the same interface as ``attractor.PoseAttractor`` so the replica can run either.
+It has the same interface as ``pose_attractor.PoseAttractor`` so the replica can run either.
 
 Damping: a linear spring without damping is conservative and would ring forever, so the baseline needs a
 damping term; the FIC has none and gets its dissipation from the D/C phase switch (paper Eq. 2). The
@@ -23,8 +23,9 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fic_core.attractor import Phase, PoseAttractor
+from fic_core.attractor import Phase
 from fic_core.errors import finite_floats, finite_scalar
+from fic_core.pose_attractor import PoseAttractor
 
 #: Damping ratio of the baseline: near-critical, so it is neither sluggish nor ringing.
 DEFAULT_DAMPING_RATIO = 0.7
@@ -75,7 +76,7 @@ class LinearImpedance:
     controller_name = "linear"
 
     def __init__(self, translation_stiffness: float, rotation_stiffness: float, translation_damping: float,
-                 rotation_damping: float, max_force: tuple[float, float] | None = None) -> None:
+                 rotation_damping: float, *, max_force: tuple[float, float] | None = None) -> None:
         translation_stiffness = finite_scalar("translation_stiffness", translation_stiffness, minimum=0.0)
         rotation_stiffness = finite_scalar("rotation_stiffness", rotation_stiffness, minimum=0.0)
         translation_damping = finite_scalar("translation_damping", translation_damping, minimum=0.0)

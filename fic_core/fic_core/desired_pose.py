@@ -106,12 +106,13 @@ class DesiredPose:
 
     def _hold(self) -> SampledSetPoint:
         p = self._parameters
-        return SampledSetPoint(3, p.set_point_acceleration_filter, p.set_point_extrapolation, SET_POINT_MAX_GAP_S)
+        return SampledSetPoint(3, acceleration_time_constant=p.set_point_acceleration_filter,
+                               max_extrapolation=p.set_point_extrapolation, max_sample_gap=SET_POINT_MAX_GAP_S)
 
     def _link_hold(self) -> LinkHold:
         p = self._parameters
-        return LinkHold("interpolate" if p.interpolate_link_samples else "extrapolate", 3,
-                        p.set_point_acceleration_filter)
+        return LinkHold("interpolate" if p.interpolate_link_samples else "extrapolate", dimension=3,
+                        acceleration_time_constant=p.set_point_acceleration_filter)
 
     @property
     def parameters(self) -> DesiredPoseParameters:

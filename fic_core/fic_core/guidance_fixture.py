@@ -51,7 +51,7 @@ def fixture_kind(name: str) -> FixtureKind:
 class GuidanceFixture:
     """A plane or a line in x_d' coordinates and its guidance force (module docstring)."""
 
-    def __init__(self, kind: FixtureKind | str, point: ArrayLike, direction: ArrayLike, stiffness: float,
+    def __init__(self, kind: FixtureKind | str, point: ArrayLike, direction: ArrayLike, *, stiffness: float,
                  damping: float, max_force: float) -> None:
         self.kind = fixture_kind(kind) if isinstance(kind, str) else FixtureKind(kind)
         if self.kind == FixtureKind.NONE:

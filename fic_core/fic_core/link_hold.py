@@ -83,7 +83,7 @@ class SampleInterval:
 class LinkHold:
     """x_d' between link samples, with its velocity and its acceleration for the feedforward (module docstring)."""
 
-    def __init__(self, design: str = "interpolate", dimension: int = 3, acceleration_time_constant: float = 0.05,
+    def __init__(self, design: str = "interpolate", *, dimension: int = 3, acceleration_time_constant: float = 0.05,
                  min_sample_interval: float = 0.0005, max_speed: float = 1.0,
                  max_acceleration: float = 10.0) -> None:
         """

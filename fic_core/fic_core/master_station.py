@@ -27,6 +27,7 @@ its cause lasts: to be throttled).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
 
@@ -121,6 +122,19 @@ class Engagement(IntEnum):
     HOMING = 2
 
 
+@dataclass(frozen=True)
+class TeleoperationSample:
+    """What a network tick sends the replica (fic_teleop_msgs/TeleoperationCommand's fields): x_d' with the mode,
+    the gains and x_M it was made with, all of that tick."""
+
+    mode: int                                 # TeleoperationMode
+    haptic_gain: float                        # K_H
+    workspace_scale: float                    # s_M
+    velocity_gain: float                      # k_v [1/s]
+    handle_position: NDArray[np.float64]      # x_M at the tick's stamp [m]
+    desired_offset: NDArray[np.float64]       # x_d' [m]
+
+
 _ROWS = {**MASTER_NUMBERS, **MASTER_TOOLS}
 #: A guidance fixture switched on, off or moved takes the sent x_d' to its new place at this speed [m/s] (the
 #: replica's own resume speed): the replica's goal never jumps.
@@ -151,8 +165,9 @@ def _homing(values: Mapping[str, Any]) -> HandleHoming:
 def _fixture(values: Mapping[str, Any]) -> GuidanceFixture | None:
     """The fixture of ``values``, or None for ``none`` (its point and direction are checked either way)."""
     kind = fixture_kind(values["guidance_fixture"])
-    fixture = GuidanceFixture(FixtureKind.PLANE if kind == FixtureKind.NONE else kind,
-                              *(values[name] for name in FIXTURE_PARAMETERS[1:]))
+    fixture = GuidanceFixture(FixtureKind.PLANE if kind == FixtureKind.NONE else kind, values["guidance_point"],
+                              values["guidance_direction"], stiffness=values["guidance_stiffness"],
+                              damping=values["guidance_damping"], max_force=values["guidance_max_force"])
     return None if kind == FixtureKind.NONE else fixture
 
 
@@ -450,6 +465,26 @@ class MasterStation:
         self.sent_offset = self._goal_transition.apply(self._goal(self.integrator.update(handle, dt)), dt)
         return self.sent_offset
 
+    @property
+    def mode(self) -> TeleoperationMode:
+        return self.integrator.mode
+
+    @property
+    def integrated_offset(self) -> NDArray[np.float64]:
+        """x_d' as the teleoperation integrator holds it (before a guidance fixture's projection)."""
+        return self.integrator.desired_offset
+
+    def teleoperation_command(self, now: float) -> TeleoperationSample | None:
+        """The network tick at ``now``: x_d' (``desired_offset``) with what travels with it (None before the first
+        pose)."""
+        offset = self.desired_offset(now)
+        if offset is None:
+            return None
+        integrator = self.integrator
+        return TeleoperationSample(int(integrator.mode), float(self.law.haptic_gain),
+                                   float(integrator.workspace_scale), float(integrator.velocity_gain),
+                                   self.network_handle_position.copy(), offset)
+
     def _goal(self, offset: NDArray[np.float64]) -> NDArray[np.float64]:
         """The goal sent for the handle's x_d': its projection onto the guidance fixture, if there is one."""
         return offset if self.fixture is None else self.fixture.projection(offset)
@@ -482,4 +517,4 @@ class MasterStation:
             "desired_offset": " ".join(f"{v:.4f}" for v in self.integrator.desired_offset)}
 
 
-__all__ = ["Engagement", "MasterStation", "PROFILE_PARAMETERS", "READ_ONLY", "TeleoperationMode"]
+__all__ = ["Engagement", "MasterStation", "PROFILE_PARAMETERS", "READ_ONLY", "TeleoperationMode", "TeleoperationSample"]

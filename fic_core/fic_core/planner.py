@@ -48,7 +48,7 @@ VISCOSITY_RATIO = 0.01
 class HarmonicPlanner:
     """Per-axis harmonic planner producing x_d'' (paper Eqs. 5-6)."""
 
-    def __init__(self, natural_frequency: float, max_velocity: float, dimension: int = 3,
+    def __init__(self, natural_frequency: float, max_velocity: float, *, dimension: int = 3,
                  velocity_peak_ratio: float = VELOCITY_PEAK_RATIO, rate_deadband: float = 0.0,
                  retarget_tolerance: float = 1e-9) -> None:
         """

@@ -2,7 +2,7 @@
 
     trajectory source x_t(t) (circle, fixed point, via-points: fic_core.trajectories) --> PlannerSchedule (stepped
     in periods no longer than the publish period, whatever the timer does) --> HarmonicPlanner --> x_d'', its
-    acceleration and the fixed orientation, at ``step(now)``
+    acceleration and the fixed orientation, at ``update(now)``
 
 The trajectory's clock starts at ``start_time`` (an absolute time another side can share: the operator script
 plans its moves around the circle's obstacles) or, when that is negative, ``start_delay`` after the station is
@@ -40,7 +40,7 @@ def make_source(values: Mapping[str, Any]) -> Circle | FixedPoint | ViaPoints:
     kind = values["trajectory"]
     if kind == "circle":
         return Circle(values["circle_centre"], values["circle_diameter"], values["circle_period"],
-                      values["circle_normal"], values["circle_phase"])
+                      normal=values["circle_normal"], phase=values["circle_phase"])
     if kind == "fixed":
         return FixedPoint(values["fixed_point"])
     if kind == "via_points":
@@ -77,7 +77,7 @@ class PlannerStation:
     def planner(self) -> HarmonicPlanner:
         return self.schedule.planner
 
-    def step(self, now: float) -> PlannerSetPoint:
+    def update(self, now: float) -> PlannerSetPoint:
         """The planner advanced to clock time ``now``: x_d'' to publish."""
         position = self.schedule.advance(now)
         self.published += 1

@@ -165,7 +165,9 @@ class ForceProfile:
 
     # Scalar forms of force, secant_stiffness and energy for one axis, on plain floats that the caller has
     # validated (the attractor's per-axis loop): the same formulas, without numpy's per-call overhead on 3-vectors.
-    def _scalar_force(self, error: float) -> float:
+    # Nothing is checked here: a caller with unchecked input uses the array forms above.
+    def scalar_force(self, error: float) -> float:
+        """F_c(error) for one validated float (``force`` on one axis)."""
         magnitude = abs(error)
         if magnitude <= self._linear_limit:
             return self.stiffness * error
@@ -173,18 +175,20 @@ class ForceProfile:
             math.tanh((magnitude - self.saturation_error) / self._width + math.pi) - _TANH_START) / _TANH_SPAN
         return saturated if error > 0.0 else -saturated
 
-    def _scalar_secant_stiffness(self, error: float) -> float:
+    def scalar_secant_stiffness(self, error: float) -> float:
+        """F_c(e)/e for one validated float (``secant_stiffness`` on one axis)."""
         magnitude = abs(error)
         linear_limit = self._linear_limit
         if magnitude <= linear_limit and linear_limit > 0.0:
             return self.stiffness
         if magnitude > 1e-9 * self.saturation_error:
-            return abs(self._scalar_force(magnitude)) / magnitude
+            return abs(self.scalar_force(magnitude)) / magnitude
         if magnitude > 0.0:
             return (self._linear_limit_force + self._tangent_slope * (magnitude - linear_limit)) / magnitude
         return self._tangent_slope
 
-    def _scalar_energy(self, error: float) -> float:
+    def scalar_energy(self, error: float) -> float:
+        """V_D(|error|) for one validated float (``energy`` on one axis) [J]."""
         magnitude = abs(error)
         linear_limit = self._linear_limit
         if magnitude <= linear_limit:
@@ -219,13 +223,13 @@ class ForceProfile:
             magnitude = linear_limit + (energy - self._linear_energy) / self._linear_limit_force
         else:
             magnitude = self.saturation_error
-            while self._scalar_energy(magnitude) < energy:
+            while self.scalar_energy(magnitude) < energy:
                 magnitude *= 2.0
         for _ in range(60):
-            excess = self._scalar_energy(magnitude) - energy
+            excess = self.scalar_energy(magnitude) - energy
             if excess <= 0.0:
                 break
-            step = excess / self._scalar_force(magnitude)
+            step = excess / self.scalar_force(magnitude)
             magnitude -= step
             if step <= 1e-15 * magnitude:
                 break

@@ -71,7 +71,7 @@ from .limits import LIMIT_FLAGS, VIOLATION_TOLERANCE, LimitFlag, PandaLimits, vi
 from .postural_optimisation import VERDICT_INSIDE, PosturalOptimisation
 from .posture import NullSpacePosture
 from .quaternion import rotation_from_quaternion
-from .robot_model import RobotModel, checked_array
+from .robot_model import RobotModel, RobotState, checked_array
 from .torque_slew import TorqueSlew
 
 _ROTATION_TOLERANCE = 1e-6
@@ -170,6 +170,10 @@ class ReplicaCommand:
     # (``port_values()`` for a passivity observer when the controller offers it)
     dynamics: tuple[pin.Model, pin.Data]     # a Data of the replica's own, for the kinetic energy on read
     _cache: dict[str, object] | None = field(default=None, init=False, repr=False)  # made on the first report read
+
+    def clear_report_cache(self) -> None:
+        """No report value computed yet (a command whose fields are set one by one: ReplicaController.command)."""
+        self._cache = None
 
     def _cached(self, name: str, compute):
         cache = self._cache
@@ -325,7 +329,7 @@ class ReplicaController:
     |tau_k - tau_(k-1)| <= torque_rate * dt_k over the whole sequence sent.
     """
 
-    def __init__(self, robot: RobotModel, controller: TaskController, limits: PandaLimits | None = None,
+    def __init__(self, robot: RobotModel, controller: TaskController, *, limits: PandaLimits | None = None,
                  posture: NullSpacePosture | None = None, control_period: float = 0.001,
                  optimisation: PosturalOptimisation | None = None,
                  feedforward_regularisation: float = DEFAULT_FEEDFORWARD_REGULARISATION,
@@ -448,27 +452,79 @@ class ReplicaController:
         feedforward J^T Lambda a_d is added to tau_d before the postural optimisation (module docstring).
         ``time``: the joint-state time the command answers, for the slew's interval (None: one command period).
         Raises FicInputError on NaN/Inf or bad shapes, before any state changes.
+
+        One tick in four parts: the task wrench (``_task_wrench``), Eq. 7's tau_d (``_desired_torque``), the
+        postural optimisation (``_shaped``), the torque sent and its limit check (``_sent``); then the report.
         """
         desired_position = finite_floats("desired_position", desired_position, 3)
         desired_rotation = self._desired_rotation(desired_rotation)
         desired_twist = None if desired_twist is None else finite_floats("desired_twist", desired_twist, 6)
         if desired_acceleration is not None:
             desired_acceleration = _desired_acceleration(desired_acceleration)
-        robot = self.robot
-        state = robot.update(q, qd)  # validates q and qd
-        q, qd = state.q, state.qd
-        q_values, qd_values = state.q_values, state.qd_values
+        state = self.robot.update(q, qd)  # validates q and qd
         self._held_position = desired_position
         self._held_rotation = desired_rotation
-
-        # Eq. 7: tau_d = C qd + G + J^T (FIC(x~_R) [+ Lambda a_d]) + tau_posture.
-        position = state.tcp_position
-        rotation = state.tcp_rotation
-        jacobian = state.tcp_jacobian
         twist = state.tcp_twist.tolist()
-        x, y, z = position.tolist()
+        wrench, position_error, rotation_error = self._task_wrench(state, twist, desired_position, desired_rotation,
+                                                                   desired_twist)
+        margins = [value - lower if value - lower < upper - value else upper - value
+                   for value, lower, upper in zip(state.q_values, self._lower_values, self._upper_values)]
+        desired_torque, drive, posture_joint_torque, posture_task_force, feedforward_wrench = self._desired_torque(
+            state, wrench, margins, desired_twist, desired_acceleration)
+        previous = self._slew.last   # the torque sent last: the rate box is around it
+        torque, torque_values, flags, torque_change, solved_qp, relaxed, guard_clipped, verdict = self._shaped(
+            state, twist, wrench, desired_torque, drive, margins)
+        law_torque = torque
+        torque, flags, violations, interval, tcp_speed = self._sent(state, twist, torque, torque_values, flags,
+                                                                    verdict, margins, previous, time)
+
+        snapshot = getattr(self.controller, "snapshot", None)
+        # Every field of ReplicaCommand by name, as its keyword constructor takes them, but set on a bare instance:
+        # CPython passes a call with more than 15 keyword arguments through a dict (about 3.5 us here, 6 % of the
+        # tick), while these stores cost what the old positional constructor did (test_replica checks that the
+        # tick sets every field).
+        command = _new_command(ReplicaCommand)
+        command.torque = torque
+        command.unshaped_torque = desired_torque
+        command.wrench = wrench
+        command.rotation_error = rotation_error
+        command.desired_rotation = desired_rotation
+        command.tcp_rotation = state.tcp_rotation
+        command.limit_shaping = flags
+        command.limit_violations = violations
+        command.torque_change = torque_change
+        command.tcp_speed = tcp_speed
+        command.controller_name = self.controller.controller_name
+        command.solved_qp = solved_qp
+        command.relaxed = relaxed
+        command.guard_clipped = guard_clipped
+        command.q = state.q
+        command.qd = state.qd
+        command.previous_torque = previous
+        command.control_period = self.control_period
+        command.interval = interval
+        command.law_torque = law_torque
+        command.limits = self.limits
+        command.feedforward_wrench = feedforward_wrench
+        command.desired_position_values = desired_position
+        command.tcp_position = state.tcp_position
+        command.tracking_error_values = position_error
+        command.jacobian = state.tcp_jacobian
+        command.posture_joint_torque = posture_joint_torque
+        command.posture_task_force = posture_task_force
+        command.controller_snapshot = snapshot() if snapshot is not None else _EagerSnapshot(self.controller)
+        command.dynamics = self._report_dynamics
+        command.clear_report_cache()
+        return command
+
+    def _task_wrench(self, state: RobotState, twist: list[float], desired_position: list[float],
+                     desired_rotation: NDArray[np.float64],
+                     desired_twist: list[float] | None) -> tuple[NDArray[np.float64], list[float], NDArray[np.float64]]:
+        """The task controller's wrench (Eq. 2 for the FIC) on the pose and twist errors of the TCP: (wrench,
+        position error, rotation error as a rotation vector)."""
+        x, y, z = state.tcp_position.tolist()
         position_error = [desired_position[0] - x, desired_position[1] - y, desired_position[2] - z]
-        rotation_error = pin.log3(desired_rotation.dot(rotation.T))
+        rotation_error = pin.log3(desired_rotation.dot(state.tcp_rotation.T))
         if desired_twist is None:
             twist_error = [-value for value in twist]
         else:
@@ -482,13 +538,21 @@ class ReplicaController:
                                 dtype=float)
             if wrench.shape != (6,):
                 raise FicInputError(f"the controller returned a mis-shaped wrench: {wrench}")
-        limits = self.limits
+        return wrench, position_error, rotation_error
+
+    def _desired_torque(self, state: RobotState, wrench: NDArray[np.float64], margins: list[float],
+                        desired_twist: list[float] | None, desired_acceleration: NDArray[np.float64] | None
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                   NDArray[np.float64], NDArray[np.float64] | None]:
+        """Eq. 7: tau_d = C qd + G + J^T (FIC(x~_R) [+ Lambda a_d]) + tau_posture [+ D qd_d]. Returns (tau_d, the
+        drive tau_d - (C qd + G), the posture's joint torque, its task force, the feedforward wrench or None)."""
+        robot = self.robot
+        jacobian = state.tcp_jacobian
         minv = state.mass_matrix_inverse
-        margins = [value - lower if value - lower < upper - value else upper - value
-                   for value, lower, upper in zip(q_values, self._lower_values, self._upper_values)]
         posture = self.posture
         # Null-space posture, N^T tau_0 = tau_0 - J^T Lambda J M^-1 tau_0 (posture.py), with J M^-1 shared.
-        posture_joint_torque = np.array(posture.joint_torque_values(q_values, qd_values, q, min(margins)))
+        posture_joint_torque = np.array(posture.joint_torque_values(state.q_values, state.qd_values, state.q,
+                                                                    min(margins)))
         j_minv = jacobian.dot(minv)
         task_inverse_inertia = j_minv.dot(jacobian.T)  # J M^-1 J^T
         posture_task_force = posture.apply_task_inertia(task_inverse_inertia, j_minv.dot(posture_joint_torque))
@@ -500,7 +564,6 @@ class ReplicaController:
             if self.feedforward_limit is not None:
                 feedforward_wrench = _limited_wrench(feedforward_wrench, self.feedforward_limit)
             task_force += feedforward_wrench
-        nonlinear = state.nonlinear_effects
         # tau_d - (C qd + g) = J^T (FIC [+ Lambda a_d] - Lambda J M^-1 tau_0) + tau_0.
         drive = task_force.dot(jacobian)
         drive += posture_joint_torque
@@ -513,18 +576,26 @@ class ReplicaController:
             velocity_limit = self.limits.joint_velocity_array
             drive += robot.joint_damping * np.minimum(np.maximum(desired_joint_velocity, -velocity_limit),
                                                       velocity_limit)  # np.clip, without its dispatch
-        desired_torque = nonlinear + drive
+        return state.nonlinear_effects + drive, drive, posture_joint_torque, posture_task_force, feedforward_wrench
 
+    def _shaped(self, state: RobotState, twist: list[float], wrench: NDArray[np.float64],
+                desired_torque: NDArray[np.float64], drive: NDArray[np.float64], margins: list[float]
+                ) -> tuple[NDArray[np.float64], list[float], LimitFlag, float, bool, bool, bool, int]:
+        """The postural optimisation of tau_d: (torque, its values, the limit flags, the torque change, solved by
+        the QP, relaxed, guard-clipped, the optimisation's verdict on tau_d). FicInputError for a tau_d not
+        finite."""
         # Postural optimisation: M qdd = tau - (C qd + g) - D qd in the prediction (the arm's joint damping).
         # Its fast path first, on floats: the acceleration under tau_d, and the TCP velocity extrapolated T ahead.
         optimisation = self.optimisation
         horizon = self._horizon
-        damping = robot.joint_damping
+        qd = state.qd
+        minv = state.mass_matrix_inverse
+        jacobian = state.tcp_jacobian
+        damping = self.robot.joint_damping
         acceleration = minv.dot(drive - damping * qd)
         tcp_acceleration = jacobian[:3].dot(acceleration).tolist()
         tcp_ahead = [velocity + horizon * value for velocity, value in zip(twist, tcp_acceleration)]
         tcp_ahead_squared = tcp_ahead[0] * tcp_ahead[0] + tcp_ahead[1] * tcp_ahead[1] + tcp_ahead[2] * tcp_ahead[2]
-        previous = self._slew.last   # the torque sent last: the rate box is around it
         previous_values = self._previous_values
         desired_values = desired_torque.tolist()
         # One check for every term (NaN/Inf propagate into the sum; a sum that overflowed is checked in full).
@@ -532,23 +603,26 @@ class ReplicaController:
             if not np.isfinite(wrench).all():
                 raise FicInputError(f"the controller returned a non-finite wrench: {wrench}")
             raise FicInputError(f"the desired torque is not finite: {desired_torque}")
-        verdict = optimisation.admissible(desired_values, previous_values, q_values, qd_values,
+        verdict = optimisation.admissible(desired_values, previous_values, state.q_values, state.qd_values,
                                           acceleration.tolist(), tcp_ahead_squared, margins)
         if verdict:
             # tau_d breaks no constraint of the optimisation: it is the command, unshaped (as shape() would say).
-            torque, torque_values = desired_torque.copy(), desired_values
-            flags, torque_change, solved_qp, relaxed, guard_clipped = _NO_LIMIT, 0.0, False, False, False
-        else:
-            # The verdict already ran shape()'s fast-path tests (on these floats): straight to the flags and the QP.
-            torque, flags, torque_change, solved_qp, relaxed, guard_clipped = optimisation.shape_rejected(
-                desired_torque, desired_values, previous_values, q_values, qd, qd_values, nonlinear + damping * qd,
-                minv, jacobian[:3])
-            if not solved_qp:
-                torque = desired_torque.copy()
-            torque_values = torque.tolist()
-            flags = LIMIT_FLAGS[flags]
-        # The torque sent: the law's, slewed from the last one sent over the time since it (torque_slew.py).
-        law_torque = torque
+            return desired_torque.copy(), desired_values, _NO_LIMIT, 0.0, False, False, False, verdict
+        # The verdict already ran shape()'s fast-path tests (on these floats): straight to the flags and the QP.
+        torque, flags, torque_change, solved_qp, relaxed, guard_clipped = optimisation.shape_rejected(
+            desired_torque, desired_values, previous_values, state.q_values, qd, state.qd_values,
+            state.nonlinear_effects + damping * qd, minv, jacobian[:3])
+        if not solved_qp:
+            torque = desired_torque.copy()
+        return torque, torque.tolist(), LIMIT_FLAGS[flags], torque_change, solved_qp, relaxed, guard_clipped, verdict
+
+    def _sent(self, state: RobotState, twist: list[float], law_torque: NDArray[np.float64],
+              torque_values: list[float], flags: LimitFlag, verdict: int, margins: list[float],
+              previous: NDArray[np.float64] | None,
+              time: float | None) -> tuple[NDArray[np.float64], LimitFlag, LimitFlag, float, float]:
+        """The torque sent: the law's, slewed from the last one sent over the time since it (torque_slew.py), and
+        the limits it breaks, counted. Returns (torque, flags with TORQUE_RATE if slewed, violations, the
+        interval since the last torque sent, the TCP speed)."""
         self._target = law_torque
         interval = self._slew.interval(time)
         torque = self._slew.step(law_torque, time)
@@ -567,55 +641,17 @@ class ReplicaController:
         full_interval = interval >= self.control_period * (1.0 - 1e-9)
         if (tcp_speed <= self._tcp_speed_bound
                 if verdict >= VERDICT_INSIDE and self._verdict_covers_violations and not slewed and full_interval
-                else self._violation_free(torque_values, qd_values, margins, tcp_speed, interval)):
+                else self._violation_free(torque_values, state.qd_values, margins, tcp_speed, interval)):
             violations = _NO_LIMIT
         else:
-            violations = self._violations(previous, torque, qd, np.array(margins), tcp_speed, interval)
+            violations = self._violations(previous, torque, state.qd, np.array(margins), tcp_speed, interval)
         self._previous_values = torque_values
         self.ticks += 1
         if flags:
             self.shaped_ticks += 1
         if violations:
             self.violation_ticks += 1
-
-        snapshot = getattr(controller, "snapshot", None)
-        # Every field of ReplicaCommand by name, as its keyword constructor takes them, but set on a bare instance:
-        # CPython passes a call with more than 15 keyword arguments through a dict (about 3.5 us here, 6 % of the
-        # tick), while these stores cost what the old positional constructor did (test_replica checks that the
-        # tick sets every field).
-        command = _new_command(ReplicaCommand)
-        command.torque = torque
-        command.unshaped_torque = desired_torque
-        command.wrench = wrench
-        command.rotation_error = rotation_error
-        command.desired_rotation = desired_rotation
-        command.tcp_rotation = rotation
-        command.limit_shaping = flags
-        command.limit_violations = violations
-        command.torque_change = torque_change
-        command.tcp_speed = tcp_speed
-        command.controller_name = controller.controller_name
-        command.solved_qp = solved_qp
-        command.relaxed = relaxed
-        command.guard_clipped = guard_clipped
-        command.q = q
-        command.qd = qd
-        command.previous_torque = previous
-        command.control_period = self.control_period
-        command.interval = interval
-        command.law_torque = law_torque
-        command.limits = limits
-        command.feedforward_wrench = feedforward_wrench
-        command.desired_position_values = desired_position
-        command.tcp_position = position
-        command.tracking_error_values = position_error
-        command.jacobian = jacobian
-        command.posture_joint_torque = posture_joint_torque
-        command.posture_task_force = posture_task_force
-        command.controller_snapshot = snapshot() if snapshot is not None else _EagerSnapshot(controller)
-        command.dynamics = self._report_dynamics
-        command._cache = None
-        return command
+        return torque, flags, violations, interval, tcp_speed
 
     def _desired_rotation(self, value: ArrayLike) -> NDArray[np.float64]:
         """``_desired_rotation``, whose orthonormality test is skipped for a matrix equal to the last one that

@@ -11,11 +11,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from .attractor import PoseAttractor
 from .baseline import LinearImpedance
 from .errors import FicInputError
 from .limits import PandaLimits
 from .parameter_row import ParameterRow, number, rows_by_name, switch
+from .pose_attractor import PoseAttractor
 from .postural_optimisation import PosturalOptimisation
 from .posture import NullSpacePosture
 from .profile import ForceProfile
@@ -151,14 +151,15 @@ def build_replica_controller(robot: RobotModel, limits: PandaLimits, values: Map
     else:
         controller = LinearImpedance(p["translation_stiffness"], p["rotation_stiffness"],
                                      p["linear_translation_damping"], p["linear_rotation_damping"],
-                                     (p["translation_max_force"], p["rotation_max_force"])
+                                     max_force=(p["translation_max_force"], p["rotation_max_force"])
                                      if p["controller"] == "linear_bounded" else None)
     posture = NullSpacePosture(robot.lower_position_limit, robot.upper_position_limit,
                                stiffness=p["posture_stiffness"], damping=p["posture_damping"],
                                limit_band=p["posture_limit_band"], limit_stiffness=p["posture_limit_stiffness"])
     period = 1.0 / p["control_rate"]
     optimisation = PosturalOptimisation(limits, period, velocity_horizon=p["velocity_horizon"])
-    return ReplicaController(robot, controller, limits, posture, period, optimisation,
+    return ReplicaController(robot, controller, limits=limits, posture=posture, control_period=period,
+                             optimisation=optimisation,
                              joint_damping_compensation=p["joint_damping_compensation"],
                              # The feedforward never pushes harder than the FIC may (fic_core.replica).
                              feedforward_limit=(p["translation_max_force"], p["rotation_max_force"]),

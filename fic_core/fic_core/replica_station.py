@@ -32,6 +32,7 @@ from .channel_ports import ReplicaChannelPort
 from .errors import FicInputError
 from .exchanged_energy_ports import ReplicaExchangedEnergy
 from .input_authority import AuthorityBounds, CommandAuthority, RobotStreamGuard
+from .replica import ReplicaCommand
 from .replica_driver import ReplicaDriver
 from .replica_loop import ReplicaLoop, ReplicaStep
 from .replica_parameters import REPLICA_LOOP_PARAMETERS
@@ -59,6 +60,17 @@ def stream_owner(topic: str) -> str:
     if topic in ROBOT_STREAMS:
         return "the robot's"
     return "the channel's" if topic in CHANNEL_STREAMS else "the planner's"
+
+
+@dataclass(frozen=True)
+class ReplicaTotals:
+    """The replica's counts over a run so far."""
+
+    limit_violation_ticks: int        # control ticks whose command or measured state broke a limit
+    shaped_ticks: int                 # control ticks the postural optimisation changed
+    passivity_min_margin: float       # the task-space port's smallest W - (V - V0) [J]
+    passivity_violation_ticks: int    # ticks that margin was below zero
+    holds: int                        # the loop's own holds (fic_core.loop_health)
 
 
 @dataclass
@@ -100,6 +112,31 @@ class ReplicaStation:
     @property
     def hold_reason(self) -> str | None:
         return self.streams.reason if self.streams.held else None
+
+    @property
+    def base_frame(self) -> str:
+        """The frame the driver declares its readings in (the robot's base)."""
+        return self.driver.base_frame
+
+    @property
+    def last_command(self) -> ReplicaCommand | None:
+        """The last control tick's report (None before the first)."""
+        return self.loop.last_command
+
+    @property
+    def offset_in_use(self) -> NDArray[np.float64]:
+        """x_d' as the law uses it now (held while the master is stale, given back on a resume)."""
+        return self.loop.desired.offset
+
+    @property
+    def passivity_margin(self) -> float:
+        """The task-space port's smallest W - (V - V0) over its axes at the last tick [J]."""
+        return float(self.loop.passivity.margin.min())
+
+    def totals(self) -> ReplicaTotals:
+        loop = self.loop
+        return ReplicaTotals(loop.controller.violation_ticks, loop.controller.shaped_ticks,
+                             loop.passivity.min_margin, loop.passivity.violation_ticks, loop.health.holds)
 
     def configure(self, changes: Mapping[str, Any]) -> dict[str, Any]:
         """The loop's run-time parameters, all or none (FicInputError names the bad one)."""
@@ -216,6 +253,10 @@ class ReplicaStation:
         return self.channel_port.sent(force)
 
     # --- the control step ------------------------------------------------------------------------------------
+    def tick_dynamics(self) -> NDArray[np.float64]:
+        """C(q, qd) qd + G(q) of the robot model at the last joint state [N m] (a copy)."""
+        return self.loop.robot.nonlinear_effects.copy()
+
     def joint_state(self, time: float, now: float, q: NDArray[np.float64], qd: NDArray[np.float64],
                     stamp_ns: int | None = None, steady_now: float | None = None) -> ReplicaTick:
         """One admitted joint state (q, qd in the law's joint order, stamped ``time`` [s], received at ``now``;
@@ -277,4 +318,4 @@ class ReplicaStation:
 
 
 __all__ = ["CHANNEL_STREAMS", "ROBOT_STREAMS", "SET_POINT_STREAMS", "TELEOP_STREAM", "ReplicaStation", "ReplicaTick",
-           "stream_owner"]
+           "ReplicaTotals", "stream_owner"]

@@ -41,7 +41,7 @@ from .norm_bound import norm_bounded
 class SampledSetPoint:
     """First-order hold of a sampled set-point, with its velocity and a filtered acceleration (module docstring)."""
 
-    def __init__(self, dimension: int = 3, acceleration_time_constant: float = 0.05,
+    def __init__(self, dimension: int = 3, *, acceleration_time_constant: float = 0.05,
                  max_extrapolation: float = 0.05, max_sample_gap: float = 0.1, min_sample_interval: float = 0.002,
                  max_speed: float = 1.0, max_acceleration: float = 10.0, blend_time: float = 0.05) -> None:
         """

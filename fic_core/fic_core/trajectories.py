@@ -94,7 +94,8 @@ class Circle:
     """
 
     def __init__(self, centre: ArrayLike, diameter: float = PAPER_CIRCLE_DIAMETER,
-                 period: float = PAPER_CIRCLE_PERIOD, normal: ArrayLike = (0.0, 0.0, 1.0), phase: float = 0.0) -> None:
+                 period: float = PAPER_CIRCLE_PERIOD, *, normal: ArrayLike = (0.0, 0.0, 1.0),
+                 phase: float = 0.0) -> None:
         self._centre = finite_array("centre", centre, (3,))
         self._radius = 0.5 * finite_scalar("diameter", diameter, minimum=0.0, minimum_inclusive=False)
         self._period = finite_scalar("period", period, minimum=0.0, minimum_inclusive=False)
@@ -152,7 +153,7 @@ class LapVaryingCircle:
     the path as long as the diameters stay within their width of the paper's 0.20 m.
     """
 
-    def __init__(self, centre: ArrayLike, periods: ArrayLike, diameters: ArrayLike,
+    def __init__(self, centre: ArrayLike, periods: ArrayLike, diameters: ArrayLike, *,
                  normal: ArrayLike = (0.0, 0.0, 1.0), phase: float = 0.0) -> None:
         self._centre = finite_array("centre", centre, (3,))
         self._periods = finite_array("periods", periods)
@@ -170,7 +171,7 @@ class LapVaryingCircle:
             0.5 * self._periods * (self._speeds[:-1] + self._speeds[1:]))])
         self._phase = finite_scalar("phase", phase)
         # The plane's axes as Circle builds them (the same start point and direction for the same normal).
-        frame = Circle(self._centre, 1.0, 1.0, normal, 0.0)
+        frame = Circle(self._centre, 1.0, 1.0, normal=normal, phase=0.0)
         self._u = frame.point(0.0) - self._centre
         self._u = self._u / float(np.linalg.norm(self._u))
         self._v = frame.point(0.25) - self._centre
@@ -196,7 +197,7 @@ class LapVaryingCircle:
             periods.append(float(draws.uniform(*period_range)))
         diameters = draws.uniform(*diameter_range, size=len(periods) + 1)
         phase = float(draws.uniform(*phase_ranges[int(draws.integers(len(phase_ranges)))]))
-        return cls(centre, periods, diameters, normal, phase)
+        return cls(centre, periods, diameters, normal=normal, phase=phase)
 
     @property
     def periods(self) -> NDArray[np.float64]:

@@ -24,10 +24,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 import yaml
 
+from fic_core.arm_profile import arm_profile
 from fic_core.channel_ports import ChannelPorts
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
@@ -45,7 +45,8 @@ from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
 from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
 from sim_bridge.robot.mujoco_panda import PandaSimulation
-from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog
+from sim_bridge.robot.robot_station import RobotStation
+from sim_bridge.robot.velocity_reflex import VelocityReflex
 
 STEP = 0.001                     # the robot's physics step and joint-state period [s]
 SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
@@ -104,6 +105,60 @@ class ReplicaStall:
     stale_velocity: bool = True   # False: the old state's q with the newest qd (tells the law's velocity terms apart)
 
 
+class StarvedReplica:
+    """The replica process of ``stalls`` (ReplicaStall), on its own stream of the seed: when it wakes, which state it
+    reads, and when its torque reaches the robot. The draws come in the order the runner asks for them, one wake
+    after another: the state's age, then the gap to the next wake, then the torque's delay."""
+
+    def __init__(self, stalls: tuple[ReplicaStall, ...], seed: int) -> None:
+        self.stalls = stalls
+        self._draws = np.random.default_rng([seed, 104729])
+        self._wakes = 0.0
+        # Torques on their way (arrival, torque, the time of the state it was computed on, the tick's C qd + G).
+        self._in_flight: deque[tuple[float, np.ndarray, float, np.ndarray | None]] = deque()
+        oldest_state = max((window.max_state_age for window in stalls), default=0.0)
+        self._keeps_states = oldest_state > 0.0
+        self._past_states: deque[tuple[float, np.ndarray, np.ndarray]] = deque(
+            maxlen=int(round(oldest_state / STEP)) + 1)
+
+    def window(self, now: float) -> ReplicaStall | None:
+        """The stall at ``now``, None outside every window."""
+        return next((window for window in self.stalls if window.start <= now < window.end), None)
+
+    def arrivals(self, now: float) -> list[tuple[np.ndarray, float, np.ndarray | None]]:
+        """The torques that reach the robot by ``now``: (torque, its state's time, its tick's C qd + G)."""
+        arrived = []
+        while self._in_flight and self._in_flight[0][0] <= now:
+            arrived.append(self._in_flight.popleft()[1:])
+        return arrived
+
+    def asleep(self, now: float, window: ReplicaStall | None) -> bool:
+        """The replica sleeps at ``now``, or its last torque is still on its way: no state is read."""
+        return window is not None and now < self._wakes or bool(self._in_flight)
+
+    def state(self, now: float, window: ReplicaStall | None, q: np.ndarray,
+              qd: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """The joint state the replica reads at ``now`` (the newest is (now, q, qd)): (its time, q, qd)."""
+        if self._keeps_states:
+            self._past_states.append((now, q.copy(), qd.copy()))
+        if window is None or window.max_state_age <= 0.0:
+            return now, q, qd
+        back = int(round(float(self._draws.uniform(window.min_state_age, window.max_state_age)) / STEP))
+        state_time, q_state, qd_state = self._past_states[max(len(self._past_states) - 1 - back, 0)]
+        return (state_time, q_state, qd_state) if window.stale_velocity else (state_time, q_state, qd)
+
+    def answered(self, now: float, window: ReplicaStall, torque: np.ndarray | None, state_time: float,
+                 tick_dynamics: np.ndarray | None) -> bool:
+        """The replica answered at ``now`` within ``window``: its next wake drawn, and ``torque``, if any, sent
+        on its way when the window delays torques. Whether it was (then it is not the robot's yet)."""
+        self._wakes = now + float(self._draws.uniform(window.min_gap, window.max_gap))
+        if torque is None or window.max_delay <= 0.0:
+            return False
+        self._in_flight.append((now + float(self._draws.uniform(window.min_delay, window.max_delay)),
+                                torque.copy(), state_time, tick_dynamics))
+        return True
+
+
 @dataclass
 class RunConfig:
     scene: str = "superimposition"
@@ -143,6 +198,9 @@ class RunConfig:
     # The robot's bound on the age of the state a torque was computed on (robot_node's command_state_timeout;
     # None: robot.yaml's; math.inf: no such rule, as before it existed).
     robot_command_state_timeout: float | None = None
+    # The robot's velocity reflex (robot_node's velocity_reflex; None: robot.yaml's, on): a joint 10 % past its
+    # datasheet speed stops the arm, held, for the rest of the run (sim_bridge.robot.velocity_reflex).
+    robot_velocity_reflex: bool | None = None
     # The operator's hand (docs/EXPERIMENTS.md "Claims"): "passive" is virtual_operator.Hand (the optimistic relaxed
     # arm); "reactive" adds a stretch reflex and a voluntary response to the felt force (device.reactive_hand), its
     # latencies and gains drawn from the seed.
@@ -198,6 +256,8 @@ class RunResult:
     sent_offset: np.ndarray | None = None
     # [s] the quiet tail's start (RunConfig.quiet_from), None without one: the run verdict judges stability there.
     quiet_from: float | None = None
+    # [s] when the robot's velocity reflex stopped the arm (robot_node's velocity_reflex), None if it never did.
+    velocity_reflex_time: float | None = None
 
     @property
     def tracking_error(self) -> np.ndarray:
@@ -225,7 +285,6 @@ def run(config: RunConfig) -> RunResult:
     station = ReplicaStation({**r, "controller": law, "control_rate": config.control_rate,
                               "answer_every_state": True, "exchanged_energy_observer": False,
                               **config.replica_overrides}, channel_port=ports.replica)
-    replica = station.loop
     master = MasterStation({**m, **config.master_overrides})
     device = HapticDevice(HapticDeviceParameters(
         mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
@@ -304,14 +363,26 @@ def run(config: RunConfig) -> RunResult:
                                    max(config.quiet_from - planner_values["start_time"], 0.0))
     planner = PlannerStation(planner_values, 0.0, source)
     sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
-    tick_dynamics, no_damping = np.zeros(7), np.zeros(7)
+    # The robot node's station: its stale-command hold (command_timeout), its rule on the state a torque was computed
+    # on (command_state_timeout: a torque on an older state is never applied), its velocity reflex.
+    robot_values = _parameters("robot.yaml")
+    robot = RobotStation(
+        sim, command_timeout=robot_values["command_timeout"],
+        command_state_timeout=robot_values.get("command_state_timeout", math.inf)
+        if config.robot_command_state_timeout is None else config.robot_command_state_timeout,
+        hold_on_stale=robot_values["hold_on_stale_commands"],
+        reflex=VelocityReflex(arm_profile("panda").joint_velocity, ARM_JOINT_NAMES)
+        if (robot_values["velocity_reflex"] if config.robot_velocity_reflex is None else config.robot_velocity_reflex)
+        else None,
+        dynamics_at_physics_rate=config.dynamics_at_physics_rate)
+    starved = StarvedReplica(config.replica_stalls, config.seed)
+    superimposition = config.scene == "superimposition"   # E1: contacts with its fixed obstacle are recorded
     log_ports = []
 
     device_every, master_every = _every(h["publish_rate_hz"]), _every(m["control_rate"])
     network_every, planner_every = _every(m["network_rate"]), _every(pl["publish_rate"])
     delivery_every, wrench_every = _every(ch["delivery_rate_hz"]), _every(250.0)
     joy_every, camera_every = _every(JOY_RATE_HZ), _every(CAMERA_RATE_HZ)
-    fixed_obstacle = sim.model.geom("fixed_obstacle").id if config.scene == "superimposition" else -1
     log_contact = []
     # The device node's station: the device, the operator's hand and what drives it, the buttons' queue.
     device_station = DeviceStation(device, hand, script=operator, watcher=watcher,
@@ -321,34 +392,7 @@ def run(config: RunConfig) -> RunResult:
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
     log_m, log_arm, log_handle, log_target = [], [], [], []
     log_mode, log_sent = [], []
-    arm_velocity, arm_momentum = np.zeros(sim.model.nv), np.zeros(sim.model.nv)
-    arm_dof = np.array([sim.model.jnt_dofadr[sim.model.joint(name).id] for name in ARM_JOINT_NAMES])
     state = device.state
-    robot_values = _parameters("robot.yaml")
-    stall_draws = np.random.default_rng([config.seed, 104729])
-    replica_wakes, robot_torque = 0.0, None
-    in_flight: deque[tuple[float, np.ndarray, float]] = deque()   # a starved replica's torques on their way
-    # The robot node's watchdogs: its stale-command hold (command_timeout) and its rule on the state a torque was
-    # computed on (command_state_timeout: a torque on an older state is never applied).
-    watchdog = CommandWatchdog(robot_values["command_timeout"])
-    state_age = CommandStateAge(robot_values.get("command_state_timeout", math.inf)
-                                if config.robot_command_state_timeout is None else config.robot_command_state_timeout)
-    joint_speed_max = 0.0   # the fastest joint over every physics step [rad/s]
-    oldest_state = max((window.max_state_age for window in config.replica_stalls), default=0.0)
-    past_states: deque[tuple[float, np.ndarray, np.ndarray]] = deque(maxlen=int(round(oldest_state / STEP)) + 1)
-
-    def robot_holding() -> np.ndarray:
-        """No new torque this step: the robot's last one until its watchdog holds the arm."""
-        watchdog.check(now)
-        return sim.hold_torque() if watchdog.holding or robot_torque is None else robot_torque
-
-    def robot_takes(state_time: float) -> bool:
-        """Whether the robot applies a torque computed on the joint state of ``state_time`` (then it is fresh)."""
-        if not state_age.admits(state_time, now):
-            return False
-        watchdog.command_received(now)
-        return True
-
     steps = int(round(config.duration / STEP))
     wall = wall_clock.perf_counter()
     for k in range(steps):
@@ -356,7 +400,7 @@ def run(config: RunConfig) -> RunResult:
         ns = k * 1_000_000
         # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
         if k % device_every == 0:
-            state = device_station.step(now, device_every * STEP if k else 0.0).state
+            state = device_station.update(now, device_every * STEP if k else 0.0).state
             master.add_pose(state.position, (0.0, 0.0, 0.0, 1.0), now)
             master.add_twist(state.velocity, now)
         if k % joy_every == 0:
@@ -372,15 +416,11 @@ def run(config: RunConfig) -> RunResult:
             if force is not None:
                 device_station.command(force, now)
         if k % network_every == 0:
-            offset = master.desired_offset(now)
-            if offset is not None:
-                integrator = master.integrator
-                forward.push((ns, offset, int(integrator.mode.value), master.law.haptic_gain,
-                              integrator.workspace_scale, integrator.velocity_gain,
-                              master.network_handle_position.copy(),
-                              ports.master.input_energy), now, now)
+            sample = master.teleoperation_command(now)
+            if sample is not None:
+                forward.push((ns, sample, ports.master.input_energy), now, now)
         if k % planner_every == 0:
-            set_point = planner.step(now)
+            set_point = planner.update(now)
             station.planner_pose(ns, set_point.position, set_point.orientation, now)
             station.planner_acceleration(set_point.acceleration, now)
         if watcher is not None and k % camera_every == 0:
@@ -393,11 +433,11 @@ def run(config: RunConfig) -> RunResult:
                 watcher.see(now, delivery.payload)
         if k % delivery_every == 0:
             for delivery in forward.pop_due(now):
-                stamp_ns, offset, mode, haptic_gain, workspace_scale, velocity_gain, handle, energy = delivery.payload
-                station.teleoperation_command(stamp_ns, now, mode=mode, haptic_gain=haptic_gain,
-                                              workspace_scale=workspace_scale, velocity_gain=velocity_gain,
-                                              handle_position=handle, desired_offset=offset,
-                                              master_input_energy=energy)
+                stamp_ns, sent, energy = delivery.payload
+                station.teleoperation_command(stamp_ns, now, mode=sent.mode, haptic_gain=sent.haptic_gain,
+                                              workspace_scale=sent.workspace_scale, velocity_gain=sent.velocity_gain,
+                                              handle_position=sent.handle_position,
+                                              desired_offset=sent.desired_offset, master_input_energy=energy)
             for delivery in backward.pop_due(now):
                 feedback, energy = delivery.payload
                 ports.master.receive_feedback(feedback, now)
@@ -406,98 +446,70 @@ def run(config: RunConfig) -> RunResult:
         # Robot side: the joint state of step k, the replica's answer, the physics step.
         if k % wrench_every == 0:   # F_R through the driver's declared frame, as the node takes /ft_sensor/wrench
             reading = sim.ft_wrench()
-            ft_wrench = station.wrench(station.driver.base_frame, reading[:3], reading[3:])[0]
+            ft_wrench = station.wrench(station.base_frame, reading[:3], reading[3:])[0]
         stall = None
         if config.replica_stalls:
-            stall = next((window for window in config.replica_stalls if window.start <= now < window.end), None)
-            while in_flight and in_flight[0][0] <= now:
-                _, torque, state_time = in_flight.popleft()
-                if robot_takes(state_time):
-                    robot_torque = torque
-            if stall is not None and now < replica_wakes or in_flight:
-                sim.step(robot_holding())   # the replica sleeps, or its last torque is still on its way
-                joint_speed_max = max(joint_speed_max, max(map(abs, sim.joint_velocities.tolist())))
+            stall = starved.window(now)
+            for torque, state_time, tick_dynamics in starved.arrivals(now):
+                if robot.admits(state_time, now):
+                    robot.receive(torque, now, tick_dynamics)
+            if starved.asleep(now, stall):
+                robot.update(now)   # the replica sleeps, or its last torque is still on its way
                 continue
-        if oldest_state > 0.0:
-            past_states.append((now, sim.joint_positions.copy(), sim.joint_velocities.copy()))
-        if stall is not None and stall.max_state_age > 0.0:
-            back = int(round(float(stall_draws.uniform(stall.min_state_age, stall.max_state_age)) / STEP))
-            state_time, q_state, qd_state = past_states[max(len(past_states) - 1 - back, 0)]
-            if not stall.stale_velocity:
-                qd_state = sim.joint_velocities
+            state_time, q_state, qd_state = starved.state(now, stall, sim.joint_positions, sim.joint_velocities)
         else:
             state_time, q_state, qd_state = now, sim.joint_positions, sim.joint_velocities
         # The stream guard sees every state's stamp, as in the node; not the old states of a stall's model, drawn
         # one per wake independently, so out of order, which a reader's queue never delivers.
         if (stall is None or stall.max_state_age == 0.0) and not station.admits_joint_state(state_time, now)[0]:
-            sim.step(robot_holding())   # never here: the simulated robot is the one writer
+            robot.update(now)   # never here: the simulated robot is the one writer
             continue
         tick = station.joint_state(state_time, now, q_state, qd_state, ns)
         result = tick.step
         result.torque = tick.command
-        if stall is not None:
-            replica_wakes = now + float(stall_draws.uniform(stall.min_gap, stall.max_gap))
-            if result.torque is not None and stall.max_delay > 0.0:
-                in_flight.append((now + float(stall_draws.uniform(stall.min_delay, stall.max_delay)),
-                                  result.torque.copy(), state_time))
-                result.torque = None
-        if result.poses_due and replica.last_command is not None and ft_wrench is not None:
+        # The law's C qd + G at a control tick, for a robot that swaps it for its own at each physics step.
+        tick_dynamics = station.tick_dynamics() if config.dynamics_at_physics_rate and result.command is not None \
+            else None
+        if stall is not None and starved.answered(now, stall, result.torque, state_time, tick_dynamics):
+            result.torque = None   # on its way to the robot
+        if result.poses_due and station.last_command is not None and ft_wrench is not None:
             backward.push((ft_wrench, station.feedback_sent(ft_wrench)), now, now)
-            command = replica.last_command
+            command = station.last_command
             log_t.append(now)
             log_d.append(command.desired_position)
             log_r.append(command.tcp_position.copy())
             log_f.append(ft_wrench)
-            log_o.append(replica.desired.offset)
+            log_o.append(station.offset_in_use)
             log_m.append(state.position)
             log_target.append(np.asarray(device_station.target, dtype=float).copy())
-            log_mode.append(int(master.integrator.mode))
-            log_sent.append(master.integrator.desired_offset)
-            log_handle.append(0.5 * device.parameters.mass * float(state.velocity @ state.velocity))
-            arm_velocity[arm_dof] = sim.joint_velocities
-            mujoco.mj_mulM(sim.model, sim.data, arm_momentum, arm_velocity)   # M(q) qd of the arm's joints
-            log_arm.append(0.5 * float(arm_velocity @ arm_momentum))
+            log_mode.append(int(master.mode))
+            log_sent.append(master.integrated_offset)
+            log_handle.append(device_station.handle_kinetic_energy)
+            log_arm.append(robot.arm_kinetic_energy())
             drift = ports.replica.drift
             log_ports.append((ports.master.observer.energy, ports.replica.observer.energy, ports.generated_energy,
-                              float(replica.passivity.margin.min()),
-                              float(np.linalg.norm(drift)) if drift.size else 0.0))
-            log_contact.append(_touches(sim, fixed_obstacle))
-        torque = result.torque
-        if config.dynamics_at_physics_rate and torque is not None:
-            # The law's torque held, its C qd + G(q) of the tick swapped for the arm's own at this step.
-            if result.command is not None:
-                tick_dynamics = replica.robot.nonlinear_effects.copy()
-            torque = torque - tick_dynamics + sim.hold_torque(no_damping)
-        if torque is not None and robot_takes(state_time):
-            robot_torque = torque
-            sim.step(torque)
-        else:   # before the first command (the hold), or a starved replica's torque not yet arrived
-            sim.step(robot_holding())
-        # max |qd| on Python floats: the value numpy's abs().max() gives, at a third of its cost per step.
-        joint_speed_max = max(joint_speed_max, max(map(abs, sim.joint_velocities.tolist())))
+                              station.passivity_margin, float(np.linalg.norm(drift)) if drift.size else 0.0))
+            # E1's fixed obstacle touches nothing but the robot (static bodies do not collide with the table).
+            log_contact.append(superimposition and robot.touches("fixed_obstacle"))
+        if result.torque is not None and robot.admits(state_time, now):
+            robot.receive(result.torque, now, tick_dynamics)
+        robot.update(now)   # the torque taken, or the last one until the watchdog holds the arm
     wall = wall_clock.perf_counter() - wall
     desired, offset = np.array(log_d), np.array(log_o)
+    totals = station.totals()
     return RunResult(np.array(log_t), desired, np.array(log_r), np.array(log_f), offset,
                      sim.object_poses(), wall, steps * STEP,
-                     replica.controller.violation_ticks, replica.controller.shaped_ticks,
+                     totals.limit_violation_ticks, totals.shaped_ticks,
                      np.array(log_m), desired - offset, np.array(log_arm), np.array(log_handle), time_shift,
                      hand_scale, np.array(log_target),
-                     replica.passivity.min_margin, replica.passivity.violation_ticks, port_energy=np.array(log_ports),
+                     totals.passivity_min_margin, totals.passivity_violation_ticks, port_energy=np.array(log_ports),
                      obstacle_contact=np.array(log_contact, dtype=bool),
                      operator_moves=list(watcher.moves_started) if watcher is not None else [], draws=drawn,
-                     joint_speed_max=joint_speed_max, robot_watchdog_engagements=watchdog.engagements,
-                     stale_torques_refused=state_age.refused, replica_holds=replica.health.holds,
+                     joint_speed_max=robot.joint_speed_max, robot_watchdog_engagements=robot.watchdog_engagements,
+                     stale_torques_refused=robot.refused_torques, replica_holds=totals.holds,
                      command_mode=np.array(log_mode, dtype=int), sent_offset=np.array(log_sent).reshape(-1, 3),
-                     quiet_from=config.quiet_from)
-
-
-def _touches(sim: PandaSimulation, geom: int) -> bool:
-    """Whether any contact of this step involves ``geom`` (E1's fixed obstacle touches nothing but the robot:
-    static bodies do not collide with the table)."""
-    if geom < 0:
-        return False
-    contacts = sim.data.contact[:sim.data.ncon]
-    return bool(np.any((contacts.geom1 == geom) | (contacts.geom2 == geom))) if sim.data.ncon else False
+                     quiet_from=config.quiet_from,
+                     velocity_reflex_time=None if robot.reflex_event is None else robot.reflex_event.time)
 
 
 @dataclass

@@ -207,10 +207,10 @@ class MasterNode(Node):
         self._wrench_publisher.publish(message)
 
     def _network_tick(self) -> None:
-        desired_offset = self._station.desired_offset(self._now())
-        if desired_offset is None:
+        sample = self._station.teleoperation_command(self._now())
+        if sample is None:
             return
-        station, handle = self._station, self._station.network_handle_position  # x_M at this tick's stamp
+        station, handle, desired_offset = self._station, sample.handle_position, sample.desired_offset
         pose = PoseStamped()
         pose.header.stamp = self.get_clock().now().to_msg()  # sampling time: the channel keeps it
         pose.header.frame_id = self._frame_id
@@ -219,9 +219,9 @@ class MasterNode(Node):
         o.x, o.y, o.z, o.w = station.handle_orientation
         self._pose_publisher.publish(pose)
         self._command_publisher.publish(TeleoperationCommand(
-            header=pose.header, mode=int(station.integrator.mode), haptic_gain=float(station.law.haptic_gain),
-            workspace_scale=float(station.integrator.workspace_scale),
-            velocity_gain=float(station.integrator.velocity_gain), handle_position=pose.pose.position,
+            header=pose.header, mode=sample.mode, haptic_gain=sample.haptic_gain,
+            workspace_scale=sample.workspace_scale, velocity_gain=sample.velocity_gain,
+            handle_position=pose.pose.position,
             desired_offset=Point(x=float(desired_offset[0]), y=float(desired_offset[1]), z=float(desired_offset[2]))))
         observer = self._channel_port.observer  # E_in travels with x_d' (x: E_in, y: E_out, z: W of this port)
         energy = Vector3Stamped(header=pose.header)

@@ -118,7 +118,7 @@ class PlannerNode(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _tick(self) -> None:
-        set_point = self._station.step(self._now())
+        set_point = self._station.update(self._now())
         message = PoseStamped()
         message.header.stamp = self.get_clock().now().to_msg()
         message.header.frame_id = self._frame_id

@@ -8,8 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fic_core.attractor import FractalAttractor, Phase, PoseAttractor
+from fic_core.attractor import FractalAttractor, Phase
 from fic_core.errors import FicInputError
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 
 PROFILE = ForceProfile(stiffness=1000.0, saturation_error=0.05, saturation_start=0.5, max_force=40.0)

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from fic_core.attractor import PoseAttractor
 from fic_core.baseline import LinearImpedance, make_baseline_like
 from fic_core.errors import FicInputError
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 
 TRANSLATION = ForceProfile(stiffness=1000.0, saturation_error=0.05, saturation_start=0.5, max_force=40.0)

@@ -41,11 +41,11 @@ class LiteralEquationTwo(FractalAttractor):
                 converging = False
             elif not converging and magnitude_rate < -self.rate_deadband and error != 0.0:
                 converging, e_max = True, error
-                k_c = 2.0 * abs(profile._scalar_force(error)) / abs(error)
+                k_c = 2.0 * abs(profile.scalar_force(error)) / abs(error)
             phases.append(converging)
             latched.append(e_max)
             stiffness.append(k_c)
-            forces.append(k_c * (error - 0.5 * e_max) if converging else profile._scalar_force(error))
+            forces.append(k_c * (error - 0.5 * e_max) if converging else profile.scalar_force(error))
         self._state = type(old)(profile, tuple(phases), tuple(latched), tuple(stiffness), (0.0,) * len(errors),
                                 tuple(errors), tuple(forces))
         return forces

@@ -18,7 +18,7 @@ directions = vectors.filter(lambda v: np.linalg.norm(v) > 1e-3)
 @settings(max_examples=200, deadline=None)
 @given(kind=st.sampled_from(["plane", "line"]), point=vectors, direction=directions, goal=vectors)
 def test_the_projection_is_the_nearest_point_of_the_fixture(kind, point, direction, goal) -> None:
-    fixture = GuidanceFixture(kind, point, direction, 100.0, 1.0, 4.0)
+    fixture = GuidanceFixture(kind, point, direction, stiffness=100.0, damping=1.0, max_force=4.0)
     projected = fixture.projection(goal)
     unit = direction / np.linalg.norm(direction)
     residual = goal - projected
@@ -38,7 +38,7 @@ def test_the_projection_is_the_nearest_point_of_the_fixture(kind, point, directi
 
 
 def test_the_force_is_a_bounded_spring_toward_the_fixture_and_a_damper_across_it() -> None:
-    plane = GuidanceFixture("plane", [0.0, 0.0, 0.1], [0.0, 0.0, 2.0], 100.0, 1.0, 4.0)
+    plane = GuidanceFixture("plane", [0.0, 0.0, 0.1], [0.0, 0.0, 2.0], stiffness=100.0, damping=1.0, max_force=4.0)
     goal = np.array([0.3, -0.2, 0.12])          # 2 cm above the plane, anywhere along it
     np.testing.assert_allclose(plane.force(goal, np.zeros(3)), [0.0, 0.0, -2.0])
     # Motion along the plane is free; across it, damped.
@@ -46,7 +46,7 @@ def test_the_force_is_a_bounded_spring_toward_the_fixture_and_a_damper_across_it
     np.testing.assert_allclose(plane.force(goal, np.array([0.0, 0.0, 0.5])), [0.0, 0.0, -2.5])
     # Bounded in norm: 10 cm off is 10 N of spring, rendered at 4 N.
     np.testing.assert_allclose(plane.force(np.array([0.0, 0.0, 0.2]), np.zeros(3)), [0.0, 0.0, -4.0])
-    line = GuidanceFixture("line", [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 100.0, 1.0, 4.0)
+    line = GuidanceFixture("line", [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], stiffness=100.0, damping=1.0, max_force=4.0)
     np.testing.assert_allclose(line.force(np.array([0.05, 0.01, -0.02]), np.array([0.3, 0.0, 0.0])),
                                [0.0, -1.0, 2.0])
     assert line.kind == FixtureKind.LINE
@@ -54,10 +54,10 @@ def test_the_force_is_a_bounded_spring_toward_the_fixture_and_a_damper_across_it
 
 def test_bad_fixtures_are_refused() -> None:
     with pytest.raises(FicInputError, match="guidance_direction must not be zero"):
-        GuidanceFixture("plane", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 100.0, 1.0, 4.0)
+        GuidanceFixture("plane", [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], stiffness=100.0, damping=1.0, max_force=4.0)
     with pytest.raises(FicInputError, match="guidance_fixture must be one of none, plane, line"):
-        GuidanceFixture("cylinder", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 100.0, 1.0, 4.0)
+        GuidanceFixture("cylinder", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], stiffness=100.0, damping=1.0, max_force=4.0)
     with pytest.raises(FicInputError, match="guidance_point"):
-        GuidanceFixture("line", [0.0, 0.0], [0.0, 0.0, 1.0], 100.0, 1.0, 4.0)
+        GuidanceFixture("line", [0.0, 0.0], [0.0, 0.0, 1.0], stiffness=100.0, damping=1.0, max_force=4.0)
     with pytest.raises(FicInputError, match="a plane or a line"):
-        GuidanceFixture("none", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 100.0, 1.0, 4.0)
+        GuidanceFixture("none", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], stiffness=100.0, damping=1.0, max_force=4.0)

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from config_values import config_values, replica_loop_values
 
-from fic_core.attractor import PoseAttractor
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.limits import LimitFlag, PandaLimits
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel

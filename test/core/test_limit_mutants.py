@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from config_values import config_values
 
-from fic_core.attractor import PoseAttractor
 from fic_core.errors import FicInputError
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.master_station import MasterStation
 from fic_core.panda_description import NOMINAL_CONFIGURATION
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel

@@ -18,9 +18,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fic_core.attractor import PoseAttractor
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.panda_description import NOMINAL_CONFIGURATION
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.postural_optimisation import (
     BRAKING_TORQUE_RAMP,
     DEFAULT_BRAKING_DECELERATION,

@@ -243,3 +243,17 @@ def test_switching_a_fixture_moves_the_sent_goal_at_a_bounded_speed_never_in_a_j
     back = [move(station, handle, 0.59 + 0.01 * k)[1] for k in range(1, 40)]
     assert np.linalg.norm(np.diff([sent[-1], *back], axis=0), axis=1).max() <= GOAL_TRANSITION_SPEED * 0.01 + 1e-12
     np.testing.assert_allclose(back[-1], [0.02, 0.0, 0.03], atol=1e-12)
+
+
+def test_the_teleoperation_command_carries_x_d_prime_with_the_mode_gains_and_handle_of_its_tick() -> None:
+    station = MasterStation({**DEFAULTS, "handle_extrapolation": 0.0})
+    assert station.teleoperation_command(0.0) is None   # no handle pose yet
+    station.add_pose([0.01, -0.02, 0.03], (0.0, 0.0, 0.0, 1.0), 0.0)
+    sample = station.teleoperation_command(0.01)
+    assert sample is not None and sample.mode == int(station.mode) == int(TeleoperationMode(DEFAULTS["mode"]))
+    assert sample.haptic_gain == station.law.haptic_gain and sample.workspace_scale == DEFAULTS["workspace_scale"]
+    assert sample.velocity_gain == DEFAULTS["velocity_gain"]
+    np.testing.assert_array_equal(sample.handle_position, [0.01, -0.02, 0.03])
+    np.testing.assert_array_equal(sample.desired_offset, station.integrated_offset)   # no fixture: as integrated
+    sample.handle_position[0] = 1.0   # the sample's own copy
+    assert station.network_handle_position[0] == 0.01

@@ -14,9 +14,9 @@ import numpy as np
 import pinocchio as pin
 import quadprog
 
-from fic_core.attractor import PoseAttractor
 from fic_core.limits import LimitFlag, PandaLimits
 from fic_core.panda_description import NOMINAL_CONFIGURATION
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.postural_optimisation import BRAKING_TORQUE_RAMP, DEFAULT_BRAKING_DECELERATION, PosturalOptimisation
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController

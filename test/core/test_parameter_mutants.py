@@ -84,7 +84,7 @@ def test_the_scalar_secant_stiffness_agrees_with_the_array_one_near_zero(saturat
     (there both use the profile's tangent at xi x_b)."""
     profile = ForceProfile(200.0, 0.05, saturation_start, 30.0)
     for magnitude in (0.0, 1e-13, 1e-12, 3e-12, 1e-11, 4e-11, 1e-6, 0.02, 0.2):
-        scalar = profile._scalar_secant_stiffness(magnitude)
+        scalar = profile.scalar_secant_stiffness(magnitude)
         array = float(profile.secant_stiffness(magnitude))
         assert math.isclose(scalar, array, rel_tol=1e-9), (magnitude, scalar, array)
 

@@ -9,8 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fic_core.attractor import FractalAttractor, Phase, PoseAttractor
+from fic_core.attractor import FractalAttractor, Phase
 from fic_core.passivity_observer import PassivityObserver
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_teleop_experiments.tools.passivity_oracle import (
     DT,
@@ -141,13 +142,13 @@ def test_the_old_switching_rule_fails_this_judge() -> None:
                     converging = False
                 elif not converging and magnitude_rate < -self.rate_deadband and error != 0.0:
                     converging, e_max = True, error
-                    k_c = 2.0 * abs(profile._scalar_force(error)) / abs(error)
-                    v_latch = profile._scalar_energy(error)
+                    k_c = 2.0 * abs(profile.scalar_force(error)) / abs(error)
+                    v_latch = profile.scalar_energy(error)
                 phases.append(converging)
                 latched.append(e_max)
                 stiffness.append(k_c)
                 energies.append(v_latch)
-                forces.append(k_c * (error - 0.5 * e_max) if converging else profile._scalar_force(error))
+                forces.append(k_c * (error - 0.5 * e_max) if converging else profile.scalar_force(error))
             self._state = type(old)(profile, tuple(phases), tuple(latched), tuple(stiffness), tuple(energies),
                                     tuple(errors), tuple(forces))
             return forces

@@ -4,9 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fic_core.attractor import FractalAttractor, PoseAttractor
+from fic_core.attractor import FractalAttractor
 from fic_core.errors import FicInputError
 from fic_core.passivity_observer import PassivityObserver
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 
 

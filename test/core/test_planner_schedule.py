@@ -16,7 +16,7 @@ PERIOD = 0.004
 
 def schedule(origin: float = 0.0) -> PlannerSchedule:
     planner = HarmonicPlanner(8.0, 0.25)
-    circle = Circle([0.45, 0.0, 0.35], 0.2, 5.0, [0.0, 0.0, 1.0], 0.0)
+    circle = Circle([0.45, 0.0, 0.35], 0.2, 5.0, normal=[0.0, 0.0, 1.0], phase=0.0)
     planner.reset(circle.point(0.0))
     return PlannerSchedule(planner, circle, origin, PERIOD)
 

@@ -17,14 +17,14 @@ def values(**changes):
 def test_the_station_starts_on_the_trajectory_and_follows_its_clock() -> None:
     station = PlannerStation(values(start_time=1.0), 0.0)
     circle = make_source(values())
-    first = station.step(0.0)
+    first = station.update(0.0)
     np.testing.assert_allclose(first.position, circle.point(0.0))
     np.testing.assert_allclose(first.orientation, [1.0, 0.0, 0.0, 0.0])
     for k in range(1, 101):   # before start_time the trajectory's clock stands at 0: x_d'' stays
-        point = station.step(0.01 * k)
+        point = station.update(0.01 * k)
     np.testing.assert_allclose(point.position, circle.point(0.0), atol=1e-12)
     for k in range(101, 300):
-        point = station.step(0.01 * k)
+        point = station.update(0.01 * k)
     assert np.linalg.norm(point.position - circle.point(0.0)) > 0.05   # moving round the circle
     assert np.linalg.norm(point.acceleration) > 0.0 and station.published == 300
 

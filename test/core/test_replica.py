@@ -11,11 +11,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fic_core.attractor import PoseAttractor
 from fic_core.baseline import LinearImpedance
 from fic_core.errors import FicInputError
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
 from fic_core.panda_description import JOINT_DAMPING, NOMINAL_CONFIGURATION
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_core.quaternion import rotation_from_quaternion
 from fic_core.replica import ReplicaCommand, ReplicaController

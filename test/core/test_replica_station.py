@@ -148,3 +148,17 @@ def test_feedback_carries_the_ports_input_energy() -> None:
     run(replica, 0.0, 5)
     assert replica.feedback_sent([1.0, 0.0, 0.0]) == replica.channel_port.input_energy
     np.testing.assert_array_equal(replica.channel_port.force_sent, [1.0, 0.0, 0.0])
+
+
+def test_the_read_outs_and_totals_say_what_the_loop_did() -> None:
+    replica = station()
+    assert replica.last_command is None and replica.base_frame == replica.driver.base_frame
+    run(replica, 0.0, 10)
+    assert replica.last_command is replica.loop.last_command is not None
+    np.testing.assert_array_equal(replica.offset_in_use, np.zeros(3))   # no teleoperation command yet
+    assert replica.passivity_margin == float(replica.loop.passivity.margin.min())
+    totals = replica.totals()
+    assert totals.holds == 0 and totals.limit_violation_ticks == replica.loop.controller.violation_ticks
+    assert totals.shaped_ticks == replica.loop.controller.shaped_ticks
+    assert totals.passivity_min_margin <= 0.0 and totals.passivity_violation_ticks >= 0
+    np.testing.assert_array_equal(replica.tick_dynamics(), replica.loop.robot.nonlinear_effects)

@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from fic_core.attractor import PoseAttractor
 from fic_core.errors import FicInputError
 from fic_core.panda_description import NOMINAL_CONFIGURATION
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel

@@ -15,7 +15,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fic_core.attractor import FractalAttractor, PoseAttractor
+from fic_core.attractor import FractalAttractor
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_core.rotational_attractor import RotationalAttractor
 from fic_teleop_experiments.tools.passivity_oracle import random_profile, shipped_profiles

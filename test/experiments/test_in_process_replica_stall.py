@@ -13,7 +13,7 @@ STALL = ReplicaStall(2.0, 3.5, 0.02, 0.1, 0.01, 0.08)
 # The stall's mechanics alone: the replica's own loop check and the robot's bound on a torque's state out of reach
 # (test_starved_replica.py has them on).
 UNCHECKED = dict(replica_overrides={"loop_max_state_age": 10.0, "loop_max_tick_gap": 10.0},
-                 robot_command_state_timeout=math.inf)
+                 robot_command_state_timeout=math.inf, robot_velocity_reflex=False)
 
 
 def test_a_starved_replica_answers_seldom_in_its_window_and_the_run_stays_deterministic() -> None:

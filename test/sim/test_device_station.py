@@ -19,11 +19,11 @@ DT = 0.004
 
 def test_a_stale_command_renders_zero_said_once_and_a_fresh_one_ends_it() -> None:
     station = DeviceStation(HapticDevice(), Hand(HandParameters()), command_timeout=0.02)
-    assert not station.step(0.0, 0.0).command.any()            # no command yet: zero, and nothing to say
+    assert not station.update(0.0, 0.0).command.any()            # no command yet: zero, and nothing to say
     assert not station.command([1.0, 0.0, 0.0], 0.004)
-    step = station.step(0.008, DT)
+    step = station.update(0.008, DT)
     assert step.command.tolist() == [1.0, 0.0, 0.0] and not step.stale_now
-    stale = [station.step(0.008 + DT * k, DT) for k in range(1, 10)]
+    stale = [station.update(0.008 + DT * k, DT) for k in range(1, 10)]
     assert sum(s.stale_now for s in stale) == 1 and not stale[-1].command.any()
     assert station.command([2.0, 0.0, 0.0], 0.05)                # ends the stale period
 
@@ -31,7 +31,7 @@ def test_a_stale_command_renders_zero_said_once_and_a_fresh_one_ends_it() -> Non
 def test_a_driver_that_holds_the_last_force_never_goes_stale() -> None:
     station = DeviceStation(HapticDevice(), Hand(HandParameters()), command_timeout=None)
     station.command([0.0, 1.0, 0.0], 0.0)
-    step = station.step(100.0, DT)
+    step = station.update(100.0, DT)
     assert step.command.tolist() == [0.0, 1.0, 0.0] and not step.stale_now
 
 
@@ -43,7 +43,7 @@ def test_the_script_drives_the_hand_on_its_own_clock_and_its_presses_come_one_at
     end = script.duration + origin + 0.1
     presses, now = [], 0.0
     while now < end:
-        station.step(now, DT if now else 0.0)
+        station.update(now, DT if now else 0.0)
         np.testing.assert_allclose(station.target, script.target(max(now - origin, 0.0)))
         if round(now / DT) % 5 == 0:   # the 50 Hz button timer
             presses.append(station.press())
@@ -63,7 +63,7 @@ def test_a_joy_message_is_due_only_at_a_press_and_its_release() -> None:
                             command_timeout=0.02, script_origin=0.0)
     messages, now, ticks = [], 0.0, 0
     while now < script.duration + 0.1:
-        station.step(now, DT if now else 0.0)
+        station.update(now, DT if now else 0.0)
         if round(now / DT) % 5 == 0:   # the 50 Hz button timer
             ticks += 1
             buttons = station.button_states()
@@ -90,5 +90,5 @@ def test_the_reactive_hand_feels_the_force_the_motors_render() -> None:
         return original(target, position, dt, velocity, rendered)
 
     hand.update = spy
-    station.step(0.004, DT)
+    station.update(0.004, DT)
     np.testing.assert_allclose(felt[-1], device.saturate(np.array([0.0, 0.0, 50.0])))

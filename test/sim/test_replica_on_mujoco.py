@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fic_core.attractor import PoseAttractor
 from fic_core.baseline import LinearImpedance
 from fic_core.limits import LimitFlag, PandaLimits
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel

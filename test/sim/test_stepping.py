@@ -8,7 +8,7 @@ import pytest
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from sim_bridge.robot.mujoco_panda import PandaSimulation
 from sim_bridge.robot.stepping import LockstepCommand, LockstepGate, RealtimePacer, ZeroOrderHold
-from sim_bridge.robot.watchdog import CommandWatchdog
+from sim_bridge.robot.watchdog import CommandWatchdog, WatchdogEvent
 
 STEPS = 400
 
@@ -93,13 +93,20 @@ def test_lockstep_gate_matches_a_stamped_answer_to_the_state_it_names():
     assert gate.latest_named() == (prompt, 2 * STEP_NS)
 
 
+def _take(applied: LockstepCommand, watchdog: CommandWatchdog, command: np.ndarray | None, fresh: bool,
+          now: float) -> WatchdogEvent | None:
+    """The robot node's lockstep step: the command taken, and the watchdog released from its state's time."""
+    since = applied.take(command, fresh, now, watchdog.holding, watchdog.timeout)
+    return None if since is None else watchdog.command_received(since)
+
+
 def _starved_controller_run(stamped: bool, steps: int = 400) -> tuple[CommandWatchdog, list[float]]:
     """The shape-sorting graph trials' pattern: a replica starved of CPU answers only some states, each at once on
     the newest state it reads (depth 1), and the robot steps on after its wait for the others times out. The
     controller here answers two states of every three (the third it never reads); the robot's side is the node's:
     LockstepGate, LockstepCommand and the 50 ms stale-command watchdog on simulated time."""
     gate, watchdog = LockstepGate(), CommandWatchdog(0.05)
-    applied = LockstepCommand(gate, watchdog)
+    applied = LockstepCommand(gate)
     ages = []
     for k in range(steps):
         now = k * 1e-3
@@ -107,7 +114,7 @@ def _starved_controller_run(stamped: bool, steps: int = 400) -> tuple[CommandWat
         if k % 3 != 1:
             gate.deliver(np.full(7, float(k)), k * STEP_NS if stamped else None)
         command, fresh = gate.wait(timeout=0.0)
-        applied.take(command, fresh, now)
+        _take(applied, watchdog, command, fresh, now)
         watchdog.check(now)
         if applied.command is not None and not watchdog.holding:
             ages.append(now - applied.command[0] * 1e-3)   # each command carries its state's index
@@ -126,18 +133,18 @@ def test_lockstep_watchdog_counts_the_age_of_the_applied_torque_on_the_simulated
 
 def test_lockstep_command_does_not_end_a_hold_on_a_torque_older_than_the_bound():
     gate, watchdog = LockstepGate(), CommandWatchdog(0.05)
-    applied = LockstepCommand(gate, watchdog)
+    applied = LockstepCommand(gate)
     gate.state_published(0)
     gate.deliver(np.zeros(7), 0)
-    applied.take(*gate.wait(timeout=0.0), 0.0)
+    _take(applied, watchdog, *gate.wait(timeout=0.0), 0.0)
     watchdog.check(0.0)
     assert not watchdog.holding
     assert watchdog.check(0.051) is not None and watchdog.holding   # silence: the hold
     gate.deliver(np.ones(7), 10 * STEP_NS)                          # a torque on the state of 10 ms, at 120 ms
-    assert applied.take(*gate.poll_any(), 0.120) is None and watchdog.holding
+    assert _take(applied, watchdog, *gate.poll_any(), 0.120) is None and watchdog.holding
     assert applied.command is not None and applied.command[0] == 0.0
     gate.deliver(np.full(7, 2.0), 115 * STEP_NS)                    # one on a state 5 ms old ends it
-    event = applied.take(*gate.poll_any(), 0.120)
+    event = _take(applied, watchdog, *gate.poll_any(), 0.120)
     assert event is not None and not event.engaged and not watchdog.holding and applied.command[0] == 2.0
 
 

@@ -30,11 +30,12 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from fic_core.attractor import FractalAttractor, PoseAttractor
+from fic_core.attractor import FractalAttractor
 from fic_core.master import MasterLaw
 from fic_core.panda_description import JOINT_DAMPING, NOMINAL_CONFIGURATION
 from fic_core.passivity_observer import PassivityObserver
 from fic_core.planner import HarmonicPlanner
+from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel

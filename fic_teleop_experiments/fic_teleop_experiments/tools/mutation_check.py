@@ -93,8 +93,8 @@ MUTATIONS = [
                "                latched_max_errors[axis] = error\n")],
              ["test/core/test_passivity.py", "test/core/test_attractor.py"]),
     Mutation("attractor: C -> D without the storage check (the C line not kept)", "attractor.py",
-             [("if staying or profile._scalar_energy(previous) > convergence_storage(",
-               "if staying or profile._scalar_energy(previous) > 1e300 + convergence_storage(")],
+             [("if staying or profile.scalar_energy(previous) > convergence_storage(",
+               "if staying or profile.scalar_energy(previous) > 1e300 + convergence_storage(")],
              ["test/core/test_passivity.py"]),
     Mutation("attractor: stays in C across the target (sign-change exit dropped)", "attractor.py",
              [("if (rate < 0.0 and latched > 0.0) if error > 0.0 else \\\n"

@@ -132,7 +132,7 @@ class DivergenceStorage:
 
     def quad_check(self, magnitudes: np.ndarray) -> float:
         """Largest |table - scipy.integrate.quad| over the magnitudes [J]."""
-        force = self.profile._scalar_force
+        force = self.profile.scalar_force
         limit = self.profile.linear_limit
         worst = 0.0
         for magnitude in magnitudes:

@@ -207,7 +207,8 @@ class VerdictInput:
             command = result.planner + later
         ports = result.port_energy
         # The runner keeps the fastest joint, the robot's stale-command watchdog and the replica's holds over every
-        # physics step (absent from older series: not recorded). It has no velocity reflex.
+        # physics step (absent from older series: not recorded). Its velocity reflex trip (velocity_reflex_time) is
+        # not read: a series saved before the runner had the reflex cannot tell no trip from no reflex.
         def count(name: str) -> int | None:
             return int(getattr(result, name)) if hasattr(result, name) else None
 

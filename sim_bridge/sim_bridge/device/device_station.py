@@ -85,7 +85,7 @@ class DeviceStation:
         return self.command_timeout is None or now - self.command_time <= self.command_timeout
 
     # --- the step --------------------------------------------------------------------------------------------
-    def step(self, now: float, dt: float) -> DeviceStep:
+    def update(self, now: float, dt: float) -> DeviceStep:
         """The operator and the handle over ``dt`` up to ``now``."""
         fresh = self.fresh(now)
         stale_now = not fresh and self.command_time is not None and not self.stale
@@ -127,6 +127,12 @@ class DeviceStation:
         state = device.step(command, hand_force, dt)
         moves = list(watcher.moves_started[moves_before:]) if watcher is not None else []
         return DeviceStep(state, command, stale_now, moves)
+
+    @property
+    def handle_kinetic_energy(self) -> float:
+        """1/2 m_h |v_M|^2 of the handle now [J]."""
+        velocity = self.device.velocity
+        return 0.5 * self.device.parameters.mass * float(velocity @ velocity)
 
     def press(self, skip_first: bool = False) -> int | None:
         """At a button tick: the button to press now, or None (edge-triggered: a press, then a tick with all

@@ -277,7 +277,7 @@ class HapticDeviceNode(Node):
         now = self._now()
         dt = min(max(now - self.last_time, 0.0), LONGEST_STEP)
         self.last_time = now
-        step = self.station.step(now, dt)
+        step = self.station.update(now, dt)
         if step.stale_now:
             # Once per stale episode, not every tick: a lost master makes the handle go limp, which is safe.
             self.get_logger().warning(f"force command stale (older than {self.command_timeout:.3f} s): "

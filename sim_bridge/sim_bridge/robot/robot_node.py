@@ -27,9 +27,10 @@ reads the model while it moves); the executor thread only receives commands. Mod
   after a timeout is not mistaken for the next state's). While the watchdog holds (commands stopped), steps are
   paced by the wall clock instead of waiting: the world and /clock keep moving for whoever is still listening.
 
-Safety (watchdog.py): commands older than ``command_timeout`` (wall seconds in realtime; in lockstep simulated
-seconds since the state the newest command was computed on) are replaced by the hold torque (gravity compensation +
-damping); each transition is logged once.
+Safety (robot_station.py, the station the in-process runner steps too; watchdog.py, velocity_reflex.py): commands
+older than ``command_timeout`` (wall seconds in realtime; in lockstep simulated seconds since the state the newest
+command was computed on) are replaced by the hold torque (gravity compensation + damping); each transition is
+logged once.
 Commands with NaN/Inf or a length other than 7 are rejected with an error log and never reach the physics.
 Realtime: a command that names the joint state it was computed on (the replica's do, fic_core.command_stamp) is
 refused when that state is older than ``command_state_timeout`` against the newest state published: it is never
@@ -66,10 +67,11 @@ from sim_bridge.os_thread import name_os_thread
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.peer_barrier import PeerBarrier
 from sim_bridge.robot.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
+from sim_bridge.robot.robot_station import RobotStation, RobotUpdate
 from sim_bridge.robot.scenes import SCENE_NAMES
 from sim_bridge.robot.stepping import STEPPING_MODES, LockstepCommand, LockstepGate, RealtimePacer, ZeroOrderHold
 from sim_bridge.robot.velocity_reflex import VelocityReflex
-from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog, WatchdogEvent
+from sim_bridge.robot.watchdog import WatchdogEvent
 
 # 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 1000. A reliable writer overwrites samples a
 # slow reader has not acknowledged once its history is full, so a deep history (one second, only memory) is what
@@ -162,8 +164,6 @@ class RobotNode(Node):
         self._scene = p["scene"]
         self._lockstep_timeout = p["lockstep_timeout"]
         self._lockstep_subscribers = p["lockstep_subscribers"]
-        self._watchdog = CommandWatchdog(p["command_timeout"])
-        self._state_age = CommandStateAge(round(p["command_state_timeout"] * 1e9))   # on the stamp grid [ns]
         self._gate = LockstepGate()
         self._barrier = (PeerBarrier(p["lockstep_peers"], p["lockstep_peer_lag"], p["lockstep_peer_timeout"])
                          if self._mode == "lockstep" and p["lockstep_peers"] else None)
@@ -196,7 +196,7 @@ class RobotNode(Node):
         self._accepted_commands = 0
         self._last_command_count = 0
         self._last_command: np.ndarray | None = None
-        self._applied = LockstepCommand(self._gate, self._watchdog)   # lockstep: the command the arm gets
+        self._applied = LockstepCommand(self._gate)   # lockstep: the command the arm gets
         self._stop = threading.Event()
         self._wall_epoch_ns = self.get_clock().now().nanoseconds
 
@@ -231,8 +231,12 @@ class RobotNode(Node):
         self._joint_state.name = ([f"{franka.joint_prefix}_joint{i}" for i in range(1, 8)] if self._franka
                                   else list(ARM_JOINT_NAMES))
         # The simulated arm is the Panda; behind the franka_ros2 twin it stands for an FR3 and stops at its limits.
-        self._reflex = VelocityReflex(arm_profile("fr3" if self._franka else "panda").joint_velocity,
-                                      self._joint_state.name) if p["velocity_reflex"] else None
+        reflex = VelocityReflex(arm_profile("fr3" if self._franka else "panda").joint_velocity,
+                                self._joint_state.name) if p["velocity_reflex"] else None
+        # The watchdog and the state-age rule (on the stamp grid: nanoseconds), the reflex and the hold.
+        self._station = RobotStation(self._sim, command_timeout=p["command_timeout"],
+                                     command_state_timeout=round(p["command_state_timeout"] * 1e9),
+                                     hold_on_stale=self._hold_on_stale, reflex=reflex)
         self._wrench = WrenchStamped()
         self._wrench.header.frame_id = franka.external_wrench_frame if self._franka else BASE_FRAME
 
@@ -283,12 +287,13 @@ class RobotNode(Node):
         if state_ns is None:
             return False
         newest_ns = self._wall_epoch_ns + self._sim.steps * round(TIMESTEP * 1e9)
-        if self._state_age.admits(state_ns, newest_ns):
+        station = self._station
+        if station.admits(state_ns, newest_ns):
             return False
         self.get_logger().warning(
             f"refused a torque command computed on a joint state {(newest_ns - state_ns) * 1e-6:.1f} ms old "
-            f"(command_state_timeout {self._state_age.timeout * 1e-6:g} ms; {self._state_age.refused} so far): "
-            "not applied", throttle_duration_sec=1.0)
+            f"(command_state_timeout {station.command_state_timeout * 1e-6:g} ms; {station.refused_torques} so "
+            "far): not applied", throttle_duration_sec=1.0)
         return True
 
     # --- lockstep peers (executor thread) -------------------------------------------------------------------------
@@ -346,11 +351,8 @@ class RobotNode(Node):
             command, arrival, count = self._hold.latest()
             if count != self._last_command_count:
                 self._last_command_count = count
-                self._log_event(self._watchdog.command_received(arrival))
-            self._log_event(self._watchdog.check(time.monotonic()))
-            # Before the first command there is none to hold: the hold torque, in both semantics.
-            held = self._reflex_stopped() or command is None or (self._watchdog.holding and self._hold_on_stale)
-            self._sim.step(self._sim.hold_torque() if held else command)
+                self._log_event(self._station.receive(command, arrival))
+            self._log_update(self._station.update(time.monotonic()))
             self._after_step(lateness)
 
     def _run_lockstep(self) -> None:
@@ -379,13 +381,13 @@ class RobotNode(Node):
         for topic in peers:
             if topic in self._peer_subscriptions:
                 self._barrier.expect(topic, self._sim.time)
-        self._log_event(self._watchdog.check(self._sim.time))
+        self._log_event(self._station.check_watchdog(self._sim.time))
         late_steps = 0  # consecutive steps whose wait saw only late answers
         while not self._stop.is_set():
             self._gate.state_published(self._sim.steps * STEP_NS)  # before publishing: an instant answer must count
             self._publish_state()
             started = self._last_command is not None
-            if started and self._watchdog.holding:
+            if started and self._station.holding:
                 self._pacer.wait_next()  # held after commands stopped: keep the world moving at wall-clock pace
                 command, fresh = self._gate.poll_any()
                 if fresh:  # the controller is back: take its burst of answers, then count afresh
@@ -405,28 +407,26 @@ class RobotNode(Node):
                 return
             if not fresh and not started:
                 continue  # no command ever: wait at t=0, re-publishing the initial state
-            self._log_event(self._applied.take(command, fresh, self._sim.time))
+            station = self._station
+            since = self._applied.take(command, fresh, self._sim.time, station.holding, station.command_timeout)
+            if since is not None:   # a newer torque: followed, its age counted from ``since``
+                self._log_event(station.receive(self._applied.command, since))
             self._last_command = self._applied.command
-            self._log_event(self._watchdog.check(self._sim.time))
             if self._barrier is not None:
                 for topic in self._barrier.wait(self._sim.time):
                     self.get_logger().warning(
                         f"lockstep: peer {topic} held the simulation at t = {self._sim.time:.3f} s for more than "
                         f"lockstep_peer_timeout; not waiting for it until it catches up")
-            stopped = self._reflex_stopped()
-            self._sim.step(self._sim.hold_torque() if stopped or (self._watchdog.holding and self._hold_on_stale)
-                           else self._last_command)
+            self._log_update(station.update(self._sim.time))
             self._after_step(None)
 
-    def _reflex_stopped(self) -> bool:
-        """Whether the velocity reflex has stopped the arm, checked on the state about to be stepped (logged once)."""
-        if self._reflex is None:
-            return False
-        event = self._reflex.check(self._sim.joint_velocities, self._sim.time)
+    def _log_update(self, update: RobotUpdate) -> None:
+        """A step's watchdog transition, and the velocity reflex's trip (said once, at once in /diagnostics)."""
+        self._log_event(update.watchdog)
+        event = update.reflex
         if event is not None:
             self.get_logger().error(f"{event.message} (t = {event.time:.3f} s)")
             self._publish_diagnostics()   # in the bag at once, not at the next 1 Hz status
-        return self._reflex.tripped
 
     def _after_step(self, lateness: float | None) -> None:
         steps = self._sim.steps
@@ -503,12 +503,12 @@ class RobotNode(Node):
             "scene": self._scene,
             "sim_time": f"{self._sim.time:.3f}",
             "steps": str(self._sim.steps),
-            "watchdog_holding": str(self._watchdog.holding),
-            "watchdog_engagements": str(self._watchdog.engagements),
-            "reflex": "" if self._reflex is None or self._reflex.event is None else self._reflex.event.message,
+            "watchdog_holding": str(self._station.holding),
+            "watchdog_engagements": str(self._station.watchdog_engagements),
+            "reflex": "" if self._station.reflex_event is None else self._station.reflex_event.message,
             "commands_accepted": str(self._accepted_commands),
             "commands_rejected": str(self._rejected_commands),
-            "commands_on_old_states": str(self._state_age.refused),
+            "commands_on_old_states": str(self._station.refused_torques),
             "lockstep_answered": str(self._gate.answered_steps),
             "lockstep_timeouts": str(self._gate.timeouts),
         }
@@ -534,8 +534,8 @@ class RobotNode(Node):
         values = self.statistics()
         array = DiagnosticArray()
         array.header.stamp = self._stamp()
-        holding = self._watchdog.holding
-        reflex = self._reflex is not None and self._reflex.tripped
+        holding = self._station.holding
+        reflex = self._station.reflex_tripped
         status = DiagnosticStatus(
             level=DiagnosticStatus.ERROR if reflex else
             DiagnosticStatus.WARN if holding or self._rejected_commands else DiagnosticStatus.OK,

@@ -21,7 +21,6 @@ from typing import Callable
 import numpy as np
 
 from fic_core.errors import finite_scalar
-from sim_bridge.robot.watchdog import CommandWatchdog, WatchdogEvent
 
 STEPPING_MODES: tuple[str, ...] = ("realtime", "lockstep")
 
@@ -212,28 +211,29 @@ class LockstepCommand:
     releases the step (``fresh``), as before stamps.
     """
 
-    def __init__(self, gate: LockstepGate, watchdog: CommandWatchdog) -> None:
+    def __init__(self, gate: LockstepGate) -> None:
         self._gate = gate
-        self._watchdog = watchdog
         self.command: np.ndarray | None = None
         self.state_ns: int | None = None   # the state the applied command names (None: it names none)
 
-    def take(self, command: np.ndarray | None, fresh: bool, now: float) -> WatchdogEvent | None:
-        """After the step's wait (its ``command``, ``fresh``) at simulated time ``now``: the watchdog's release
-        event, if this ends a hold."""
+    def take(self, command: np.ndarray | None, fresh: bool, now: float, holding: bool,
+             timeout: float) -> float | None:
+        """After the step's wait (its ``command``, ``fresh``) at simulated time ``now``, the watchdog ``holding``
+        or not with its bound ``timeout``: the time the watchdog counts the age of a newly taken ``self.command``
+        from (the caller releases the watchdog with it), None when nothing new is taken."""
         latest, named_ns = self._gate.latest_named()
         if named_ns is None:
             if not fresh:
                 return None
             self.command, self.state_ns = command, None
-            return self._watchdog.command_received(now)
+            return now
         if self.state_ns is not None and named_ns <= self.state_ns:
             return None
         state_time = min(named_ns * 1e-9, now)
-        if self._watchdog.holding and now - state_time > self._watchdog.timeout:
+        if holding and now - state_time > timeout:
             return None
         self.command, self.state_ns = latest, named_ns
-        return self._watchdog.command_received(state_time)
+        return state_time
 
 
 class ZeroOrderHold:
