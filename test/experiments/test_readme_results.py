@@ -111,24 +111,10 @@ def readme_results() -> str:
 DOCUMENTS = {"RESULTS": results_page, "README": readme_results}
 
 
-def cell(file: str, cell_id: str, controller: str) -> dict:
-    return next(c["statistics"] for c in result(file)["cells"]
-                if c["cell"] == cell_id and c["controller"] == controller)
-
-
-def stable_count(file: str, cell_id: str, controller: str) -> str:
-    return str(cell(file, cell_id, controller)["stable"])
-
-
 def one_count_of(values) -> str:
     """One figure for several laws, cells or baselines: it must be the same for all of them."""
     found = set(values)
     return found.pop() if len(found) == 1 else f"differs: {sorted(found)}"
-
-
-def one_count(file: str, cell_id: str, controllers: tuple[str, ...], *more_cells: str) -> str:
-    """The stable count given for several laws (or cells) at once: it must be the same for all of them."""
-    return one_count_of(str(cell(file, c_id, c)["stable"]) for c_id in (cell_id, *more_cells) for c in controllers)
 
 
 def mm(metres: float) -> str:
@@ -143,9 +129,7 @@ class Figure:
     expected: Callable[[], dict[str, str]]        # the same names, from results/, as the document writes them
 
 
-BOUNDED = ("fic", "fic_paper_law", "linear_bounded", "linear_tdpa")
 BASELINES = ("fic_paper_law", "linear", "linear_bounded", "linear_tdpa")
-CLOSED_LOOP = "evidence_closed_loop_5seeds.json"
 
 
 def bench_runs(name: str) -> list[float]:
@@ -330,41 +314,6 @@ FIGURES = [
            r"(?P<base_low>\d+)-(?P<base_high>\d+) \|",
            lambda: dict(zip(("fic_low", "fic_high"), map(str, safe_range(("fic",)))),
                         **dict(zip(("base_low", "base_high"), map(str, safe_range(BASELINES)))))),
-    # -- RESULTS.md: the earlier five-seed sweeps --------------------------------------------------------------------
-    Figure("closed-loop operator at 1 and 2 s: stable counts", "RESULTS",
-           r"at 1 s the FIC (?P<fic_1>\d)/5 against (?P<low_1>\d)-(?P<high_1>\d)/5, at 2 s the FIC and the passivity "
-           r"baseline (?P<fic_2>\d)/5, the others (?P<others_2>\d)/5",
-           lambda: dict(fic_1=stable_count(CLOSED_LOOP, "delay_1", "fic"),
-                        low_1=str(min(cell(CLOSED_LOOP, "delay_1", c)["stable"] for c in BASELINES)),
-                        high_1=str(max(cell(CLOSED_LOOP, "delay_1", c)["stable"] for c in BASELINES)),
-                        fic_2=one_count(CLOSED_LOOP, "delay_2", ("fic", "linear_tdpa")),
-                        others_2=one_count(CLOSED_LOOP, "delay_2", ("fic_paper_law", "linear", "linear_bounded")))),
-    Figure("closed-loop operator at 1 s: the FIC against the linear law", "RESULTS",
-           r"\(FIC (?P<fic_low>[\d.]+)-(?P<fic_high>[\d.]+) against linear (?P<lin_low>[\d.]+)-(?P<lin_high>[\d.]+) "
-           r"at 1 s\)",
-           lambda: dict(zip(("fic_low", "fic_high", "lin_low", "lin_high"), (f"{v:.2f}" for v in (
-               *cell(CLOSED_LOOP, "delay_1", "fic")["stable_interval_95"],
-               *cell(CLOSED_LOOP, "delay_1", "linear")["stable_interval_95"]))))),
-    Figure("scripted operator, delay 0-2 s: every law", "RESULTS",
-           r"delay 0-2 s, scripted operator \| every law (?P<stable>\d)/5",
-           lambda: dict(stable=one_count("evidence.json", "delay_0", ("fic", *BASELINES), "delay_0.2", "delay_0.5",
-                                         "delay_1", "delay_2"))),
-    Figure("10 Hz: the whole torque loop", "RESULTS",
-           r"the whole torque loop (?P<linear>\d)/5 for the unbounded linear law and (?P<low>\d)-(?P<high>\d)/5 for "
-           r"every bounded law, the FIC (?P<fic>\d)/5",
-           lambda: dict(linear=stable_count("evidence.json", "torque_loop_10", "linear"),
-                        low=str(min(cell("evidence.json", "torque_loop_10", c)["stable"] for c in BOUNDED)),
-                        high=str(max(cell("evidence.json", "torque_loop_10", c)["stable"] for c in BOUNDED)),
-                        fic=stable_count("evidence.json", "torque_loop_10", "fic"))),
-    Figure("10 Hz: only the law (gravity at the physics rate)", "RESULTS",
-           r"only the law at 10 Hz, the unbounded and bounded linear laws (?P<linear>\d)/5 and "
-           r"(?P<bounded>\d)/5, the FIC, the paper's law and `linear_tdpa` (?P<fic>\d)/5",
-           lambda: dict(linear=stable_count("evidence.json", "feedback_rate_10", "linear"),
-                        bounded=stable_count("evidence.json", "feedback_rate_10", "linear_bounded"),
-                        fic=one_count("evidence.json", "feedback_rate_10", ("fic", "fic_paper_law", "linear_tdpa")))),
-    Figure("5 Hz: the FIC in both rate sweeps", "RESULTS",
-           r"the FIC (?P<fic>\d)/5 in both",
-           lambda: dict(fic=one_count("evidence.json", "feedback_rate_5", ("fic",), "torque_loop_5"))),
     # -- RESULTS.md: shape sorting -----------------------------------------------------------------------------------
     Figure("E2 graph, the replica's default law at 200 ms: trials complete and their interval", "RESULTS",
            r"the FIC completes (?P<complete>\d+) of (?P<trials>\d+) graph trials "
