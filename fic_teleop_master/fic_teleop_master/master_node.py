@@ -46,6 +46,7 @@ from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
 from fic_teleop_runtime.parameters import Schema, declare, integer, refuse_unknown_names, text
 from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
+from fic_teleop_runtime.periodic import PeriodicCallbacks
 
 # Device and teleoperation streams RELIABLE (the channel alone loses on purpose), read 20 deep and written with
 # the streams' deep writer history; button presses are events: a lost toggle would invert the mode for the rest
@@ -63,6 +64,7 @@ SCHEMA = Schema("master.yaml", MASTER_NUMBERS.values(),
 class MasterNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("master", **node_options)
+        self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
         values = declare(self, SCHEMA)  # every row with its config/master.yaml value; unknown keys refused
         self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, *MASTER_TOOLS, "mode",
                                                                        "frame_id")})
@@ -91,10 +93,10 @@ class MasterNode(Node):
         self.add_on_set_parameters_callback(self._on_set_parameters)
         if values["haptic_gain"] != self._station.law.haptic_gain:  # clamped at start: make `param get` show it
             self._sync_haptic_gain_parameter()
-        self.create_timer(1.0 / values["control_rate"], self._control_tick)
-        self.create_timer(1.0 / values["network_rate"], self._network_tick)
-        self.create_timer(1.0 / values["diagnostics_rate"], self._publish_diagnostics)
-        self.create_timer(1.0 / values["tools_rate"], self._publish_tools)
+        self._periodic.create(1.0 / values["control_rate"], self._control_tick)
+        self._periodic.create(1.0 / values["network_rate"], self._network_tick)
+        self._periodic.create(1.0 / values["diagnostics_rate"], self._publish_diagnostics)
+        self._periodic.create(1.0 / values["tools_rate"], self._publish_tools)
         self.get_logger().info(
             f"master up: K_H = {self._station.law.haptic_gain:.2f}, mode {self._station.integrator.mode.name}, "
             f"{self._station.engagement.name.lower()}, control {values['control_rate']:.0f} Hz, network "
@@ -265,7 +267,7 @@ def main(args: list[str] | None = None) -> None:
     run_entry(ENTRY, args)
 
 
-ENTRY = NodeEntry(MasterNode, "master")
+ENTRY = NodeEntry(MasterNode, "master", follow_sim_time=False)  # its timers: periodic.py
 
 
 if __name__ == "__main__":

@@ -41,6 +41,7 @@ from fic_teleop_runtime.geometry import set_pose, set_xyz
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, switch, text
 from fic_teleop_runtime.parameters import values as parameter_values
+from fic_teleop_runtime.periodic import PeriodicCallbacks
 
 # docs/CONVENTIONS.md: RELIABLE, the streams' deep writer history (a stalled reader, the recorder, loses nothing)
 POSE_QOS, DIAGNOSTICS_QOS = qos.STREAM_WRITER, qos.DIAGNOSTICS
@@ -82,6 +83,7 @@ SCHEMA = Schema(
 class PlannerNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("planner", **node_options)
+        self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
         declare(self, SCHEMA)  # every row with its config/planner.yaml value; unknown keys refused
         value = self._value
         # Stepped in periods no longer than publish_rate's, whatever the timer does (fic_core.planner_schedule).
@@ -93,8 +95,8 @@ class PlannerNode(Node):
         self._accel_publisher = self.create_publisher(AccelStamped, "/planner/desired_accel", POSE_QOS)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.create_timer(1.0 / value("publish_rate"), self._tick)
-        self.create_timer(1.0 / value("diagnostics_rate"), self._publish_diagnostics)
+        self._periodic.create(1.0 / value("publish_rate"), self._tick)
+        self._periodic.create(1.0 / value("diagnostics_rate"), self._publish_diagnostics)
         self.get_logger().info(
             f"planner up: trajectory {value('trajectory')}, w_n = {value('natural_frequency')} rad/s, "
             f"v_d = {value('max_velocity')} m/s, start {np.round(self._station.planner.position, 4).tolist()}")
@@ -141,7 +143,7 @@ def main(args: list[str] | None = None) -> None:
     run_entry(ENTRY, args)
 
 
-ENTRY = NodeEntry(PlannerNode, "planner")
+ENTRY = NodeEntry(PlannerNode, "planner", follow_sim_time=False)  # its timers: periodic.py
 
 
 if __name__ == "__main__":

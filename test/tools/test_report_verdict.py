@@ -119,3 +119,23 @@ def test_a_reflex_trip_in_the_diagnostics_makes_a_session_unsafe(bags, tmp_path,
     assert "safe: 1 velocity reflex trips" in printed
     assert json.loads((tmp_path / "verdict.json").read_text())["figures"]["joint_speed_ratio_max"] == \
         pytest.approx(1.2 / 2.175, rel=0.01)
+
+
+def test_the_verdict_reads_the_reports_pass_as_the_experiments_decode_the_bag(bags):
+    """The report reads the bag once for its figures and its verdict (load_bag with joint_velocities)."""
+    from fic_teleop_tools.report.bag_data import load_bag
+    from fic_teleop_tools.verdict.bag_series import read_run
+    from fic_teleop_tools.verdict.run_verdict import VerdictInput
+
+    bag = bags["oscillating"]
+    data = load_bag(bag, joint_velocities=True)
+    assert data.joint_velocity.shape == (len(data.series["/joint_states"]), 7)
+    ours = VerdictInput.from_bag_data(data, one_way_delay=0.2)
+    run = read_run(bag, joint_states=True)     # the experiments' own decoding of the same topics
+    np.testing.assert_array_equal(ours.time, run.fic_time)
+    np.testing.assert_allclose(ours.tracking_error, run.error)
+    np.testing.assert_allclose(ours.controller_energy, run.total_energy)
+    np.testing.assert_allclose(run.joint_velocity, data.joint_velocity[np.argsort(data.series["/joint_states"].stamp,
+                                                                                  kind="stable")])
+    assert ours.limit_violations == int(run.violation_ticks.max())
+    assert ours.joint_speed is not None and ours.joint_speed.shape == (run.fic_time.size, 7)

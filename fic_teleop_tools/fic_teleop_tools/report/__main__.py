@@ -11,7 +11,7 @@ import yaml
 
 from fic_teleop_runtime.workspace import config_folder
 
-from .bag_data import BagReadError
+from .bag_data import BagData, BagReadError, load_bag
 from .loop_rates import joint_states_period
 from .metrics import ReportSettings
 from .report import make_report, replica_config_defaults, summary_table
@@ -38,13 +38,14 @@ def one_way_delay(run_dir: Path | None) -> float:
     return delay(config_folder() / "channel.yaml") or 0.0
 
 
-def print_verdict(bag: Path, out: Path, delay: float) -> None:
-    """The two verdicts of the session, printed and written to ``out``/verdict.json; a bag the verdict cannot judge
-    gets one line saying why."""
+def print_verdict(bag: Path | BagData, out: Path, delay: float) -> None:
+    """The two verdicts of the session (a bag, or as the report's pass read it with ``joint_velocities``), printed
+    and written to ``out``/verdict.json; a bag the verdict cannot judge gets one line saying why."""
     from fic_teleop_tools.verdict.run_verdict import VerdictInput, VerdictInputError, judge
 
     try:
-        verdict = judge(VerdictInput.from_bag(bag, one_way_delay=delay))
+        data = bag if isinstance(bag, BagData) else load_bag(bag, joint_velocities=True)
+        verdict = judge(VerdictInput.from_bag_data(data, one_way_delay=delay))
     except (VerdictInputError, ValueError) as error:
         print(f"[report] verdict: cannot judge this bag: {error}", file=sys.stderr)
         return
@@ -89,10 +90,12 @@ def main(argv: list[str] | None = None) -> int:
     settings = ReportSettings(warmup_s=args.warmup, max_force_n=args.f_max, error_bound_m=args.x_b,
                               joint_states_period_s=joint_states_period(run_dir),
                               real_time_factor_target=args.real_time_factor_target)
+    key_frame_interval = args.key_frame_interval if args.render else None
     try:
-        analysis, plots = make_report(args.bag, out, settings,
-                                      key_frame_interval=args.key_frame_interval if args.render else None,
-                                      scene=args.scene)
+        # One pass over the bag for the report and its verdict (the joint velocities are the verdict's).
+        data = load_bag(args.bag, keyframe_interval=key_frame_interval, joint_velocities=True)
+        analysis, plots = make_report(args.bag, out, settings, key_frame_interval=key_frame_interval,
+                                      scene=args.scene, data=data)
     except BagReadError as error:
         print(f"[report] cannot read the bag: {error}", file=sys.stderr)
         return 2
@@ -104,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         print("[report] note: the bag has no footer (recorder killed?); read up to its last complete chunk",
               file=sys.stderr)
     print(summary_table(metrics))
-    print_verdict(args.bag, out, args.delay if args.delay is not None else one_way_delay(run_dir))
+    print_verdict(data, out, args.delay if args.delay is not None else one_way_delay(run_dir))
     print(f"[report] {out / 'metrics.json'}; plots: {', '.join(p.name for p in plots) or 'none'}")
     return 0
 

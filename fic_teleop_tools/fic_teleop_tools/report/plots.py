@@ -165,6 +165,7 @@ def plot_all(data: BagData, analysis: Analysis, settings: ReportSettings, out: P
 
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    # zlib level 1: a plot's PNG in a fifth of the default level's time (6), about a third larger.
+    fig.savefig(path, dpi=110, pil_kwargs={"compress_level": 1})
     plt.close(fig)
     return path

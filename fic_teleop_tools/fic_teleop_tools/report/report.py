@@ -8,7 +8,7 @@ import yaml
 
 from fic_teleop_runtime.workspace import config_folder
 
-from .bag_data import load_bag
+from .bag_data import BagData, load_bag
 from .metrics import Analysis, ReportSettings, analyse
 from .plots import plot_all
 
@@ -39,14 +39,15 @@ def replica_config_defaults() -> dict:
 
 
 def make_report(bag: str | Path, out: str | Path, settings: ReportSettings | None = None, *,
-                key_frame_interval: float | None = None, scene: str = "superimposition"
-                ) -> tuple[Analysis, list[Path]]:
-    """Read `bag`, write `out`/metrics.json and the PNG plots (and key frames every `key_frame_interval` s of
-    sim time, when given); returns the analysis and the image paths."""
+                key_frame_interval: float | None = None, scene: str = "superimposition",
+                data: BagData | None = None) -> tuple[Analysis, list[Path]]:
+    """Read `bag` (or take `data`, the bag as load_bag read it with the same `key_frame_interval`), write
+    `out`/metrics.json and the PNG plots (and key frames every `key_frame_interval` s of sim time, when given);
+    returns the analysis and the image paths."""
     settings = settings or ReportSettings()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    data = load_bag(bag, keyframe_interval=key_frame_interval)
+    data = data if data is not None else load_bag(bag, keyframe_interval=key_frame_interval)
     analysis = analyse(data, settings)
     plots = plot_all(data, analysis, settings, out)
     if key_frame_interval:

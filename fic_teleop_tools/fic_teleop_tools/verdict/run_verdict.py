@@ -80,6 +80,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -89,6 +90,9 @@ from fic_core.arm_profile import arm_profile
 from fic_core.teleoperation import TeleoperationMode
 from fic_teleop_tools.verdict.forced_answer import Channel, ForcedAnswer, ForcedSettings, fit, free_oscillation_period
 from fic_teleop_tools.verdict.oscillation_scan import Oscillation, ScanSettings, scan
+
+if TYPE_CHECKING:
+    from fic_teleop_tools.report.bag_data import BagData
 
 X_B = 0.05   # [m] the paper's error bound x_b (Sec. III)
 
@@ -226,11 +230,57 @@ class VerdictInput:
 
     @classmethod
     def from_bag(cls, path: str | Path, one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
-        """From a recorded session (fic_teleop_tools.verdict.bag_series.read_run, with its joint states): as
-        ``from_series``."""
-        from fic_teleop_tools.verdict.bag_series import read_run
+        """From a recorded session (the report's reader, fic_teleop_tools.report.bag_data; from_bag_data)."""
+        from fic_teleop_tools.report.bag_data import load_bag
 
-        return cls.from_series(read_run(path, joint_states=True), one_way_delay, x_b, source=f"bag {Path(path).name}")
+        return cls.from_bag_data(load_bag(path, joint_velocities=True), one_way_delay, x_b)
+
+    @classmethod
+    def from_bag_data(cls, data: "BagData", one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
+        """From a session the report has read (``load_bag(..., joint_velocities=True)``: the report and its verdict
+        read the bag once): the tracking error and the controller's energy of /replica/fic_state, the F/T force,
+        the joint speeds, the limit counter and the nodes' last diagnostics (the robot's reflex and holds, the
+        replica's safe hold). A bag holds no command and no obstacle flag: its motion test is on x_d - x_R, its
+        contact is the force's."""
+        def ordered(topic: str, columns: tuple[str, ...]) -> tuple[NDArray, NDArray]:
+            """A topic's stamps and value columns in stamp order (empty when the bag has none)."""
+            series = data.series.get(topic)
+            if series is None or len(series) == 0:
+                return np.zeros(0), np.zeros((0, len(columns)))
+            order = np.argsort(series.stamp, kind="stable")
+            return series.stamp[order], np.column_stack([series.values[name] for name in columns])[order]
+
+        time, fic = ordered("/replica/fic_state", ("ex", "ey", "ez", "total_energy"))
+        if time.size < 8:
+            raise VerdictInputError(f"{data.path}: fewer than 8 /replica/fic_state messages ({time.size})")
+
+        def on_time(stamps: NDArray, values: NDArray) -> NDArray | None:
+            if stamps.size < 2:
+                return None
+            return np.column_stack([np.interp(time, stamps, values[:, column]) for column in range(values.shape[1])])
+
+        force = on_time(*ordered("/ft_sensor/wrench", ("fx", "fy", "fz")))
+        # The peak speed of each joint since the previous fic_state stamp (a 1 kHz spike is not interpolated away).
+        joints = data.series.get("/joint_states")
+        velocity = data.joint_velocity
+        joint_speed = None
+        if joints is not None and len(joints) >= 2 and velocity.ndim == 2 and velocity.shape == (len(joints),
+                                                                                                   velocity.shape[1]) \
+                and velocity.shape[1]:
+            order = np.argsort(joints.stamp, kind="stable")
+            joint_speed = _uniform(joints.stamp[order], np.abs(velocity[order]), time, peak=True)
+        robot = data.diagnostics.get("robot_sim", {})
+        replica = data.diagnostics.get("replica", {})
+        reflex = None if "reflex" not in robot else int(bool(robot["reflex"]))
+        stale = int(robot["watchdog_engagements"]) if robot.get("watchdog_engagements", "").isdigit() else None
+        hold = replica.get("input_safe_hold")
+        _, ticks = ordered("/replica/limit_status", ("violation_ticks",))
+        violations = int(ticks.max()) if ticks.size else None
+        return cls(time=time, one_way_delay=float(one_way_delay), tracking_error=fic[:, :3],
+                   controller_energy=fic[:, 3], force=force, joint_speed=joint_speed,
+                   limit_violations=violations, reflex_trips=reflex,
+                   safe_holds=None if hold is None else int(hold != "no"), stale_holds=stale, x_b=x_b,
+                   source=f"bag {data.path.parent.name if data.path.suffix == '.mcap' else data.path.name}")
 
     @classmethod
     def from_series(cls, run, one_way_delay: float, x_b: float = X_B, source: str = "bag") -> "VerdictInput":

@@ -31,6 +31,7 @@ from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
+from fic_teleop_runtime.periodic import PeriodicCallbacks
 from sim_bridge.channel.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
 
 try:
@@ -113,6 +114,7 @@ def _time_msg(seconds: float) -> Time:
 class ChannelNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("channel", **node_options)
+        self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
         declare(self, SCHEMA)  # every row with its config/channel.yaml value; unknown keys refused
         self._origin = self._now()           # "start" time reference: blackout/lost_from relative to this
         config = self._config_from({name: self._parameter(name) for name in LINK_PARAMETERS})
@@ -149,8 +151,8 @@ class ChannelNode(Node):
                 self._deliveries = self.create_publisher(ChannelDelivery, "/channel/deliveries", DELIVERY_QOS)
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.create_timer(1.0 / self.get_parameter("delivery_rate_hz").value, self._deliver)
-        self.create_timer(1.0 / self.get_parameter("statistics_rate_hz").value, self._publish_statistics)
+        self._periodic.create(1.0 / self.get_parameter("delivery_rate_hz").value, self._deliver)
+        self._periodic.create(1.0 / self.get_parameter("statistics_rate_hz").value, self._publish_statistics)
         self.get_logger().info(f"channel up: {self._describe(config)}")
 
     # -- parameters -------------------------------------------------------------------------------------------
@@ -283,8 +285,9 @@ def main(args: list[str] | None = None) -> None:
     run_entry(ENTRY, args)
 
 
-ENTRY = NodeEntry(ChannelNode, "channel", stopped=lambda node: rclpy.logging.get_logger(node.get_name()).info(
-    f"channel stopped: {node.summary()}"))
+ENTRY = NodeEntry(ChannelNode, "channel", follow_sim_time=False,
+                  stopped=lambda node: rclpy.logging.get_logger(node.get_name()).info(
+                      f"channel stopped: {node.summary()}"))
 
 
 if __name__ == "__main__":

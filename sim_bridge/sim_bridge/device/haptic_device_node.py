@@ -30,6 +30,7 @@ from fic_teleop_runtime import qos
 from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
+from fic_teleop_runtime.periodic import PeriodicCallbacks
 from fic_teleop_runtime.stamps import nanoseconds
 from fic_teleop_runtime.workspace import config_folder
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
@@ -106,6 +107,7 @@ def default_script_path(scene: str) -> Path:
 class HapticDeviceNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("haptic_device", **node_options)
+        self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
         values = declare(self, SCHEMA)  # every row with its config/haptic_device.yaml value; unknown keys refused
         value = values.__getitem__
         parameters = HapticDeviceParameters(
@@ -167,7 +169,7 @@ class HapticDeviceNode(Node):
                     f"closed-loop operator: watches {VIDEO_TCP_TOPIC} and {VIDEO_OBJECTS_TOPIC}, reaction "
                     f"{value('reaction_time'):.2f} s, assumed one-way delay {value('assumed_one_way_delay'):.2f} s")
             self.joy_publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
-            self.create_timer(1.0 / JOY_RATE_HZ, self._publish_buttons)
+            self._periodic.create(1.0 / JOY_RATE_HZ, self._publish_buttons)
             self.get_logger().info(f"scripted operator: {path} ({script.name}, {script.duration:.1f} s, "
                                    f"{len(script.events)} button presses)")
         elif self.source == "shape_sorting":
@@ -183,7 +185,7 @@ class HapticDeviceNode(Node):
             self.create_subscription(PoseStamped, VIDEO_TCP_TOPIC, self._on_video_tcp, VIDEO_QOS)
             self.create_subscription(PoseArray, VIDEO_OBJECTS_TOPIC, self._on_video_objects, VIDEO_QOS)
             self.joy_publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
-            self.create_timer(1.0 / JOY_RATE_HZ, self._publish_buttons)
+            self._periodic.create(1.0 / JOY_RATE_HZ, self._publish_buttons)
             self.get_logger().info(
                 f"shape-sorting operator: watches {VIDEO_TCP_TOPIC} and {VIDEO_OBJECTS_TOPIC}, perception "
                 f"{value('reaction_time'):.2f} s, assumed one-way delay {value('assumed_one_way_delay'):.2f} s")
@@ -203,7 +205,7 @@ class HapticDeviceNode(Node):
                                      joy_target=self.joy_target,
                                      command_timeout=None if self.fd else self.command_timeout,
                                      joy_timeout=self.joy_timeout, script_origin=self.script_origin)
-        self.create_timer(1.0 / value("publish_rate_hz"), self._tick)
+        self._periodic.create(1.0 / value("publish_rate_hz"), self._tick)
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -345,7 +347,7 @@ def main(args: list[str] | None = None) -> None:
     run_entry(ENTRY, args)
 
 
-ENTRY = NodeEntry(HapticDeviceNode, "haptic_device")
+ENTRY = NodeEntry(HapticDeviceNode, "haptic_device", follow_sim_time=False)  # its timers: periodic.py
 
 
 if __name__ == "__main__":
