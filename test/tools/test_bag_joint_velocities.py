@@ -12,7 +12,7 @@ from mcap_ros2.decoder import DecoderFactory
 from fic_teleop_tools.recording.bag_reader import read_messages
 from fic_teleop_tools.report.bag_data import _cdr_joint_velocities
 
-BAG = Path(__file__).resolve().parent / "data" / "e1_lockstep_4s" / "bag"
+BAG = Path(__file__).resolve().parents[1] / "data" / "e1_lockstep_4s" / "bag"
 
 
 def test_joint_velocities_from_the_cdr_bytes_are_the_decoded_messages():
