@@ -84,6 +84,10 @@ def test_the_recorded_seed_sets_never_meet_and_a_fresh_seed_is_in_neither(tmp_pa
     path = _seeds_file(tmp_path, [3], [9])
     assert (random_mutation.role_of(3, path), random_mutation.role_of(9, path), random_mutation.role_of(11, path)) \
         == ("fitting", "held_out", "held_out")
+    noted = tmp_path / "noted.yaml"   # a held-out seed may carry a note (when and why it was drawn), as fitting ones do
+    noted.write_text("fitting:\n  - seed: 3\n    note: read\n"
+                     "held_out:\n  - 9\n  - seed: 12\n    note: drawn for a score\n")
+    assert random_mutation.seed_sets(noted) == ({3}, [9, 12])
 
 
 def _fake_draws(monkeypatch, verdicts: dict[int, tuple[str, str, float]], modules: list[str]) -> None:

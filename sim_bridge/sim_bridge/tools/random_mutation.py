@@ -299,7 +299,7 @@ def seed_sets(path: Path | None = None) -> tuple[set[int], list[int]]:
     entries = yaml.safe_load(path.read_text()) if path.exists() else None
     entries = entries or {}
     fitting = {int(entry["seed"] if isinstance(entry, dict) else entry) for entry in entries.get(FITTING) or []}
-    held_out = [int(seed) for seed in entries.get(HELD_OUT) or []]
+    held_out = [int(entry["seed"] if isinstance(entry, dict) else entry) for entry in entries.get(HELD_OUT) or []]
     both = fitting.intersection(held_out)
     if both:
         raise ValueError(f"{path.name}: seeds {sorted(both)} are both fitting and held out")
