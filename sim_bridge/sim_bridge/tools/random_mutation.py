@@ -35,6 +35,7 @@ is wanted; the result gives the kill rate per module either way.
 
     source scripts/env.sh && python -m sim_bridge.tools.random_mutation --seed 1 --sample 60 [--out OUT.json]
     python -m sim_bridge.tools.random_mutation --law --held-out --out-dir results   # the score, one JSON a seed
+    python -m sim_bridge.tools.random_mutation --law --seed 9 --commit C --out-dir results --resume  # go on
     python -m sim_bridge.tools.random_mutation --table results/random_mutation_held_out_*.json  # per module
     python -m sim_bridge.tools.random_mutation --count          # how many sites fic_core has, per kind
     python -m sim_bridge.tools.random_mutation --seed 3 --sample 60 --list   # a fitting sample, without running it
@@ -445,16 +446,21 @@ def per_module(rows: list[dict], modules: tuple[str, ...] | None = None) -> dict
 
 
 def _judge(chosen: list[Site], root: Path, timeout: float, equivalent: dict, echo, partial: dict,
-           out: Path | None, jobs: int = 1) -> list[dict]:
+           out: Path | None, jobs: int = 1, judged: dict | None = None) -> list[dict]:
     """Every verdict of ``chosen`` in the snapshot at ``root``, ``jobs`` mutants at a time, in the sample's order,
-    written to ``out`` as it goes (``partial`` is the JSON's head)."""
+    written to ``out`` as it goes (``partial`` is the JSON's head); ``judged`` (key -> row, from an interrupted run
+    of the same commit and seed) gives the verdicts already found, which are not run again."""
     rows = []
+    judged = judged or {}
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, jobs))   # each mutant is a pytest process
-    verdicts = [None if key(site) in equivalent else pool.submit(run_mutant, site, timeout, root)
-                for site in chosen]
+    verdicts = [None if key(site) in equivalent or key(site) in judged
+                else pool.submit(run_mutant, site, timeout, root) for site in chosen]
     for number, (site, pending) in enumerate(zip(chosen, verdicts), 1):
-        if pending is None:
+        if key(site) in equivalent:
             verdict, detail, seconds = "EQUIVALENT", equivalent[key(site)], 0.0
+        elif pending is None:
+            found = judged[key(site)]
+            verdict, detail, seconds = found["verdict"], found["detail"], found["seconds"]
         else:
             verdict, detail, seconds = pending.result()
         rows.append({**asdict(site), "verdict": verdict, "detail": detail, "seconds": round(seconds, 1)})
@@ -482,11 +488,14 @@ def _result(head: dict, rows: list[dict], sites: int, seconds: float, modules: t
 
 def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | None], *, module: str | None = None,
               modules: tuple[str, ...] | None = None, echo=print, commit: str = "HEAD",
-              baseline_timeout: float = BASELINE_TIMEOUT, rerun: dict | None = None, jobs: int = 1) -> list[dict]:
+              baseline_timeout: float = BASELINE_TIMEOUT, rerun: dict | None = None, jobs: int = 1,
+              resume: bool = False) -> list[dict]:
     """Each seed's draw of ``commit``'s fic_core (``module`` only, or ``modules``) against its test/core, from one
     snapshot and one unmutated run; returns (and writes to its ``outs`` path) each draw's verdicts, its kill rate
     overall and per module, and its role (``role_of``). With ``rerun`` (an earlier run's JSON, one seed): its
-    survivors again instead of a sample. Raises RuntimeError when test/core fails on the unmutated tree."""
+    survivors again instead of a sample. With ``resume``: the verdicts an interrupted run of the same commit, seed and
+    modules left in an ``outs`` file are kept (``judged_before``), the rest are run. Raises RuntimeError when
+    test/core fails on the unmutated tree."""
     equivalent = equivalent_mutants()
     revision = subprocess.run(["git", "rev-parse", commit], cwd=REPO, capture_output=True, text=True,
                               check=True).stdout.strip()
@@ -507,7 +516,8 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
             head = {"commit": revision, "seed": seed, "role": role_of(seed), "drawn_from": drawn_from}
             if rerun is not None:
                 head["rerun_of"] = rerun.get("commit")
-            rows = _judge(chosen, root, timeout, equivalent, echo, head, out, jobs)
+            judged = judged_before(out, head) if resume and rerun is None else {}
+            rows = _judge(chosen, root, timeout, equivalent, echo, head, out, jobs, judged)
             result = _result(head, rows, in_scope, time.monotonic() - started,
                              modules if module is None else (module,))
             if out is not None:
@@ -515,6 +525,18 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
                 out.write_text(json.dumps(result, indent=2) + "\n")
             results.append(result)
     return results
+
+
+def judged_before(out: Path | None, head: dict) -> dict[tuple[str, str, str, str], dict]:
+    """key -> row of the verdicts (killed, survived, no tests) in ``out``, when it holds a run of ``head``'s commit,
+    seed and modules (an interrupted draw); {} otherwise. An ERROR says nothing about its mutant: it is run again."""
+    if out is None or not out.exists():
+        return {}
+    earlier = json.loads(out.read_text())
+    if any(earlier.get(field) != head[field] for field in ("commit", "seed", "drawn_from")):
+        return {}
+    return {(row["module"], row["scope"], row["source_line"], row["change"]): row for row in earlier["mutants"]
+            if row["verdict"] in COUNTED}
 
 
 def _scope_name(modules: tuple[str, ...] | None) -> str:
@@ -594,6 +616,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rerun", type=Path, default=None,
                         help="run the survivors of an earlier --out JSON again (found by module, line text, change); "
                              "refused for a held-out draw, whose survivors are not for fitting")
+    parser.add_argument("--resume", action="store_true",
+                        help="keep the verdicts an interrupted run of the same commit and seed left in its JSON "
+                             "(--out or --out-dir), run the rest")
     parser.add_argument("--list", action="store_true", help="print a fitting seed's sample and exit")
     parser.add_argument("--count", action="store_true", help="print the number of sites per kind and exit")
     parser.add_argument("--table", type=Path, nargs="+", default=None,
@@ -657,7 +682,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         results = run_draws(seeds, arguments.sample, arguments.timeout, outs, module=arguments.module,
                             modules=modules, echo=lambda text: print(text, flush=True), commit=arguments.commit,
-                            baseline_timeout=arguments.baseline_timeout, rerun=rerun, jobs=arguments.jobs)
+                            baseline_timeout=arguments.baseline_timeout, rerun=rerun, jobs=arguments.jobs,
+                            resume=arguments.resume)
     except RuntimeError as error:   # the unmutated tree failed or did not finish: no mutant can be judged
         print(f"[random_mutation] {error}", file=sys.stderr)
         return 2
