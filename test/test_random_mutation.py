@@ -229,3 +229,17 @@ def test_a_resumed_draw_keeps_the_verdicts_its_interrupted_run_left_and_runs_the
     random_mutation.run_draws([9], 3, 60.0, [out], modules=random_mutation.LAW_MODULES, echo=lambda text: None)
     assert ran == [10, 20, 30]
     assert random_mutation.judged_before(out, {"commit": first["commit"], "seed": 11, "drawn_from": "law"}) == {}
+
+
+def test_an_interrupted_draw_is_tallied_over_what_it_judged_and_gives_no_score(monkeypatch, tmp_path: Path) -> None:
+    verdicts = {10: (KILLED, "test/core/test_limits.py::test_edge", 3.0), 20: ("SURVIVED", "every test passed", 4.0)}
+    _fake_draws(monkeypatch, verdicts, ["limits.py", "replica.py"])
+    monkeypatch.setattr(random_mutation, "SEEDS_FILE", _seeds_file(tmp_path, [3], [9]))
+    whole = random_mutation.run_draws([9], 2, 60.0, [None], modules=random_mutation.LAW_MODULES,
+                                      echo=lambda text: None)[0]
+    interrupted = {field: whole[field] for field in ("commit", "seed", "role", "drawn_from")}
+    interrupted |= {"partial": True, "mutants": whole["mutants"][:1]}
+    tally = random_mutation.tallied(interrupted)
+    assert (tally["sample"], tally["killed"], tally["kill_rate"], tally["score"]) == (1, 1, 1.0, None)
+    assert tally["per_module"]["limits.py"]["killed"] == 1 and random_mutation.tallied(whole) is whole
+    assert "held_out, partial" in random_mutation.pooled_table([tally])

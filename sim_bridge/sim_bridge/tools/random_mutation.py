@@ -473,7 +473,7 @@ def _judge(chosen: list[Site], root: Path, timeout: float, equivalent: dict, ech
     return rows
 
 
-def _result(head: dict, rows: list[dict], sites: int, seconds: float, modules: tuple[str, ...] | None) -> dict:
+def _result(head: dict, rows: list[dict], sites: int | None, seconds: float, modules: tuple[str, ...] | None) -> dict:
     counted = [row for row in rows if row["verdict"] in COUNTED]
     killed = sum(row["verdict"] == "KILLED" for row in counted)
     timed_out = sum(row["verdict"] == "KILLED" and row["detail"].startswith(TIMEOUT_DETAIL) for row in counted)
@@ -571,7 +571,9 @@ def pooled_table(results: list[dict]) -> str:
         lines.append(f"| {name.removesuffix('.py')} | {entry['drawn']} | {entry['equivalent']} | "
                      f"{entry['killed']} / {entry['non_equivalent']} | {rate} |")
     for result in results:
-        lines.append(f"| seed {result['seed']} ({result['role']}, {result['commit'][:10]}) | {result['sample']} | "
+        unfinished = ", partial" if result.get("partial") else ""
+        lines.append(f"| seed {result['seed']} ({result['role']}{unfinished}, {result['commit'][:10]}) | "
+                     f"{result['sample']} | "
                      f"{result['equivalent']} | {result['killed']} / {result['non_equivalent']} | "
                      f"{result['kill_rate']} |")
     counted = sum(result["non_equivalent"] for result in results)
@@ -580,6 +582,18 @@ def pooled_table(results: list[dict]) -> str:
     lines.append(f"| all | {len(rows)} | {sum(result['equivalent'] for result in results)} | {killed} / {counted} "
                  f"| {rate} |")
     return "\n".join(lines)
+
+
+def tallied(result: dict) -> dict:
+    """A draw's JSON with its counts: a finished one as it is; an interrupted one (``partial``: the verdicts so far,
+    which ``--resume`` goes on from) counted over the mutants it judged, marked partial, with no score: a score is
+    a whole draw's."""
+    if not result.get("partial"):
+        return result
+    head = {field: result[field] for field in ("commit", "seed", "role", "drawn_from")}
+    law = str(result["drawn_from"]).startswith("law")
+    return {**_result(head, result["mutants"], None, 0.0, LAW_MODULES if law else None), "partial": True,
+            "score": None}
 
 
 def _summary(result: dict) -> str:
@@ -637,7 +651,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{'all':12s} {len(sites)}")
         return 0
     if arguments.table:
-        print(pooled_table([json.loads(path.read_text()) for path in arguments.table]))
+        print(pooled_table([tallied(json.loads(path.read_text())) for path in arguments.table]))
         return 0
     try:
         fitting, held_out = seed_sets()
