@@ -161,3 +161,33 @@ def test_bounds_from_the_replica_parameters_are_the_shipped_ones() -> None:
     assert (bounds.max_offset_speed, bounds.max_offset_burst, bounds.future_tolerance, bounds.max_age) == (
         values["max_offset_speed"], values["max_offset_burst"], values["command_future_tolerance"],
         values["max_command_age"])
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(steps=st.lists(st.one_of(st.floats(-2.0, 2.0), st.sampled_from([math.nan, math.inf, -math.inf, 0.5, 0.5001])),
+                      min_size=1, max_size=12))
+def test_every_joint_state_not_used_is_counted_once_and_no_used_one_is(steps: list[float]) -> None:
+    """Stamps at NOW + step against an independent reading of the rule: a stamp is used when finite, at most
+    future_tolerance ahead of the receiver's clock and not behind the last used one; every other one adds one to
+    skipped_states, whichever rule refused it (non-finite, future, back in time)."""
+    guard = RobotStreamGuard(future_tolerance=0.5)
+    last, skipped = None, 0
+    for step in steps:
+        stamp = NOW + step
+        expected = math.isfinite(stamp) and stamp - NOW <= 0.5 and (last is None or stamp >= last)
+        used, _ = guard.joint_state(stamp, NOW)
+        assert used == expected, (stamp, last)
+        if used:
+            last = stamp
+        else:
+            skipped += 1
+        assert guard.skipped_states == skipped
+
+
+@pytest.mark.parametrize("stamp", [math.nan, math.inf, -math.inf, NOW + 0.6])
+def test_a_non_finite_or_future_stamp_adds_one_skipped_state(stamp: float) -> None:
+    guard = RobotStreamGuard(future_tolerance=0.5)
+    assert guard.joint_state(NOW, NOW) == (True, "")
+    assert not guard.joint_state(stamp, NOW)[0]
+    assert not guard.joint_state(stamp, NOW)[0]
+    assert guard.skipped_states == 2

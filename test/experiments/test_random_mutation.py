@@ -6,6 +6,7 @@ passed all of test/core; the kill rate per law module. The pytest runs are repla
 own accounting."""
 from __future__ import annotations
 
+import json
 import subprocess
 from pathlib import Path
 
@@ -84,6 +85,10 @@ def test_the_recorded_seed_sets_never_meet_and_a_fresh_seed_is_in_neither(tmp_pa
     path = _seeds_file(tmp_path, [3], [9])
     assert (random_mutation.role_of(3, path), random_mutation.role_of(9, path), random_mutation.role_of(11, path)) \
         == ("fitting", "held_out", "held_out")
+    noted = tmp_path / "noted.yaml"   # a held-out seed may carry a note (when and why it was drawn), as fitting ones do
+    noted.write_text("fitting:\n  - seed: 3\n    note: read\n"
+                     "held_out:\n  - 9\n  - seed: 12\n    note: drawn for a score\n")
+    assert random_mutation.seed_sets(noted) == ({3}, [9, 12])
 
 
 def _fake_draws(monkeypatch, verdicts: dict[int, tuple[str, str, float]], modules: list[str]) -> None:
@@ -199,3 +204,43 @@ def test_several_seeds_write_one_json_each_named_by_role(monkeypatch, tmp_path: 
     assert seen["seeds"] == [9, 11]
     assert random_mutation.main(["--seed", "9", "11"]) == 2   # two draws, one --out
     assert "give --out-dir" in capsys.readouterr().err
+
+
+def test_a_resumed_draw_keeps_the_verdicts_its_interrupted_run_left_and_runs_the_rest(monkeypatch,
+                                                                                       tmp_path: Path) -> None:
+    verdicts = {10: (KILLED, "test/core/test_limits.py::test_edge", 3.0), 20: ("SURVIVED", "every test passed", 4.0),
+                30: (KILLED, "test/core/test_replica.py::test_x", 2.0)}
+    _fake_draws(monkeypatch, verdicts, ["limits.py", "limits.py", "replica.py"])
+    monkeypatch.setattr(random_mutation, "SEEDS_FILE", _seeds_file(tmp_path, [3], [9]))
+    out = tmp_path / "9.json"
+    first = random_mutation.run_draws([9], 3, 60.0, [out], modules=random_mutation.LAW_MODULES,
+                                      echo=lambda text: None)[0]
+    rows = first["mutants"]
+    rows[2]["verdict"], rows[2]["detail"] = "ERROR", "interrupted"   # says nothing: run again
+    out.write_text(json.dumps({**{field: first[field] for field in ("commit", "seed", "role", "drawn_from")},
+                               "partial": True, "mutants": rows}))
+    ran = []
+    monkeypatch.setattr(random_mutation, "run_mutant",
+                        lambda site, timeout, root: ran.append(site.line) or verdicts[site.line])
+    resumed = random_mutation.run_draws([9], 3, 60.0, [out], modules=random_mutation.LAW_MODULES,
+                                        echo=lambda text: None, resume=True)[0]
+    assert ran == [30] and resumed["killed"] == 2 and resumed["score"] == first["score"]
+    assert [row["seconds"] for row in resumed["mutants"]] == [3.0, 4.0, 2.0]
+    ran.clear()   # another seed's file, or without --resume: every mutant runs
+    random_mutation.run_draws([9], 3, 60.0, [out], modules=random_mutation.LAW_MODULES, echo=lambda text: None)
+    assert ran == [10, 20, 30]
+    assert random_mutation.judged_before(out, {"commit": first["commit"], "seed": 11, "drawn_from": "law"}) == {}
+
+
+def test_an_interrupted_draw_is_tallied_over_what_it_judged_and_gives_no_score(monkeypatch, tmp_path: Path) -> None:
+    verdicts = {10: (KILLED, "test/core/test_limits.py::test_edge", 3.0), 20: ("SURVIVED", "every test passed", 4.0)}
+    _fake_draws(monkeypatch, verdicts, ["limits.py", "replica.py"])
+    monkeypatch.setattr(random_mutation, "SEEDS_FILE", _seeds_file(tmp_path, [3], [9]))
+    whole = random_mutation.run_draws([9], 2, 60.0, [None], modules=random_mutation.LAW_MODULES,
+                                      echo=lambda text: None)[0]
+    interrupted = {field: whole[field] for field in ("commit", "seed", "role", "drawn_from")}
+    interrupted |= {"partial": True, "mutants": whole["mutants"][:1]}
+    tally = random_mutation.tallied(interrupted)
+    assert (tally["sample"], tally["killed"], tally["kill_rate"], tally["score"]) == (1, 1, 1.0, None)
+    assert tally["per_module"]["limits.py"]["killed"] == 1 and random_mutation.tallied(whole) is whole
+    assert "held_out, partial" in random_mutation.pooled_table([tally])

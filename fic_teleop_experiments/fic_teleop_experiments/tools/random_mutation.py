@@ -33,12 +33,12 @@ every held-out seed, one JSON each, and prints the kill rate per law module over
 draws a seed in neither set. ``--law`` draws from the control-law modules only (``LAW_MODULES``), where the score
 is wanted; the result gives the kill rate per module either way.
 
-    source scripts/env.sh && python -m fic_teleop_experiments.tools.random_mutation --seed 1 --sample 60 [--out
-    OUT.json] python -m fic_teleop_experiments.tools.random_mutation --law --held-out --out-dir results   # the score,
-    one JSON a seed python -m fic_teleop_experiments.tools.random_mutation --table
-    results/random_mutation_held_out_*.json  # per module python -m fic_teleop_experiments.tools.random_mutation --count
-    # how many sites fic_core has, per kind python -m fic_teleop_experiments.tools.random_mutation --seed 3 --sample 60
-    --list   # a fitting sample, without running it
+    source scripts/env.sh && python -m fic_teleop_experiments.tools.random_mutation --seed 1 --sample 60 [--out F]
+    python -m fic_teleop_experiments.tools.random_mutation --law --held-out --out-dir results   # the score
+    python -m fic_teleop_experiments.tools.random_mutation --law --seed 9 --commit C --out-dir results --resume
+    python -m fic_teleop_experiments.tools.random_mutation --table results/random_mutation_held_out_*.json
+    python -m fic_teleop_experiments.tools.random_mutation --count     # how many sites fic_core has, per kind
+    python -m fic_teleop_experiments.tools.random_mutation --seed 3 --sample 60 --list   # a fitting sample, not run
 
 Exits 1 when the kill rate of the non-equivalent mutants is below --require (default 0.9). A mutant pytest could
 not judge (mutation_verdict.py: ERROR) counts in neither the kills nor the survivors; exits 2 when test/core fails,
@@ -303,7 +303,7 @@ def seed_sets(path: Path | None = None) -> tuple[set[int], list[int]]:
     entries = yaml.safe_load(path.read_text()) if path.exists() else None
     entries = entries or {}
     fitting = {int(entry["seed"] if isinstance(entry, dict) else entry) for entry in entries.get(FITTING) or []}
-    held_out = [int(seed) for seed in entries.get(HELD_OUT) or []]
+    held_out = [int(entry["seed"] if isinstance(entry, dict) else entry) for entry in entries.get(HELD_OUT) or []]
     both = fitting.intersection(held_out)
     if both:
         raise ValueError(f"{path.name}: seeds {sorted(both)} are both fitting and held out")
@@ -449,16 +449,21 @@ def per_module(rows: list[dict], modules: tuple[str, ...] | None = None) -> dict
 
 
 def _judge(chosen: list[Site], root: Path, timeout: float, equivalent: dict, echo, partial: dict,
-           out: Path | None, jobs: int = 1) -> list[dict]:
+           out: Path | None, jobs: int = 1, judged: dict | None = None) -> list[dict]:
     """Every verdict of ``chosen`` in the snapshot at ``root``, ``jobs`` mutants at a time, in the sample's order,
-    written to ``out`` as it goes (``partial`` is the JSON's head)."""
+    written to ``out`` as it goes (``partial`` is the JSON's head); ``judged`` (key -> row, from an interrupted run
+    of the same commit and seed) gives the verdicts already found, which are not run again."""
     rows = []
+    judged = judged or {}
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, jobs))   # each mutant is a pytest process
-    verdicts = [None if key(site) in equivalent else pool.submit(run_mutant, site, timeout, root)
-                for site in chosen]
+    verdicts = [None if key(site) in equivalent or key(site) in judged
+                else pool.submit(run_mutant, site, timeout, root) for site in chosen]
     for number, (site, pending) in enumerate(zip(chosen, verdicts), 1):
-        if pending is None:
+        if key(site) in equivalent:
             verdict, detail, seconds = "EQUIVALENT", equivalent[key(site)], 0.0
+        elif pending is None:
+            found = judged[key(site)]
+            verdict, detail, seconds = found["verdict"], found["detail"], found["seconds"]
         else:
             verdict, detail, seconds = pending.result()
         rows.append({**asdict(site), "verdict": verdict, "detail": detail, "seconds": round(seconds, 1)})
@@ -471,7 +476,7 @@ def _judge(chosen: list[Site], root: Path, timeout: float, equivalent: dict, ech
     return rows
 
 
-def _result(head: dict, rows: list[dict], sites: int, seconds: float, modules: tuple[str, ...] | None) -> dict:
+def _result(head: dict, rows: list[dict], sites: int | None, seconds: float, modules: tuple[str, ...] | None) -> dict:
     counted = [row for row in rows if row["verdict"] in COUNTED]
     killed = sum(row["verdict"] == "KILLED" for row in counted)
     timed_out = sum(row["verdict"] == "KILLED" and row["detail"].startswith(TIMEOUT_DETAIL) for row in counted)
@@ -486,11 +491,14 @@ def _result(head: dict, rows: list[dict], sites: int, seconds: float, modules: t
 
 def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | None], *, module: str | None = None,
               modules: tuple[str, ...] | None = None, echo=print, commit: str = "HEAD",
-              baseline_timeout: float = BASELINE_TIMEOUT, rerun: dict | None = None, jobs: int = 1) -> list[dict]:
+              baseline_timeout: float = BASELINE_TIMEOUT, rerun: dict | None = None, jobs: int = 1,
+              resume: bool = False) -> list[dict]:
     """Each seed's draw of ``commit``'s fic_core (``module`` only, or ``modules``) against its test/core, from one
     snapshot and one unmutated run; returns (and writes to its ``outs`` path) each draw's verdicts, its kill rate
     overall and per module, and its role (``role_of``). With ``rerun`` (an earlier run's JSON, one seed): its
-    survivors again instead of a sample. Raises RuntimeError when test/core fails on the unmutated tree."""
+    survivors again instead of a sample. With ``resume``: the verdicts an interrupted run of the same commit, seed and
+    modules left in an ``outs`` file are kept (``judged_before``), the rest are run. Raises RuntimeError when
+    test/core fails on the unmutated tree."""
     equivalent = equivalent_mutants()
     revision = subprocess.run(["git", "rev-parse", commit], cwd=REPO, capture_output=True, text=True,
                               check=True).stdout.strip()
@@ -511,7 +519,8 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
             head = {"commit": revision, "seed": seed, "role": role_of(seed), "drawn_from": drawn_from}
             if rerun is not None:
                 head["rerun_of"] = rerun.get("commit")
-            rows = _judge(chosen, root, timeout, equivalent, echo, head, out, jobs)
+            judged = judged_before(out, head) if resume and rerun is None else {}
+            rows = _judge(chosen, root, timeout, equivalent, echo, head, out, jobs, judged)
             result = _result(head, rows, in_scope, time.monotonic() - started,
                              modules if module is None else (module,))
             if out is not None:
@@ -519,6 +528,18 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
                 out.write_text(json.dumps(result, indent=2) + "\n")
             results.append(result)
     return results
+
+
+def judged_before(out: Path | None, head: dict) -> dict[tuple[str, str, str, str], dict]:
+    """key -> row of the verdicts (killed, survived, no tests) in ``out``, when it holds a run of ``head``'s commit,
+    seed and modules (an interrupted draw); {} otherwise. An ERROR says nothing about its mutant: it is run again."""
+    if out is None or not out.exists():
+        return {}
+    earlier = json.loads(out.read_text())
+    if any(earlier.get(field) != head[field] for field in ("commit", "seed", "drawn_from")):
+        return {}
+    return {(row["module"], row["scope"], row["source_line"], row["change"]): row for row in earlier["mutants"]
+            if row["verdict"] in COUNTED}
 
 
 def _scope_name(modules: tuple[str, ...] | None) -> str:
@@ -553,7 +574,9 @@ def pooled_table(results: list[dict]) -> str:
         lines.append(f"| {name.removesuffix('.py')} | {entry['drawn']} | {entry['equivalent']} | "
                      f"{entry['killed']} / {entry['non_equivalent']} | {rate} |")
     for result in results:
-        lines.append(f"| seed {result['seed']} ({result['role']}, {result['commit'][:10]}) | {result['sample']} | "
+        unfinished = ", partial" if result.get("partial") else ""
+        lines.append(f"| seed {result['seed']} ({result['role']}{unfinished}, {result['commit'][:10]}) | "
+                     f"{result['sample']} | "
                      f"{result['equivalent']} | {result['killed']} / {result['non_equivalent']} | "
                      f"{result['kill_rate']} |")
     counted = sum(result["non_equivalent"] for result in results)
@@ -562,6 +585,18 @@ def pooled_table(results: list[dict]) -> str:
     lines.append(f"| all | {len(rows)} | {sum(result['equivalent'] for result in results)} | {killed} / {counted} "
                  f"| {rate} |")
     return "\n".join(lines)
+
+
+def tallied(result: dict) -> dict:
+    """A draw's JSON with its counts: a finished one as it is; an interrupted one (``partial``: the verdicts so far,
+    which ``--resume`` goes on from) counted over the mutants it judged, marked partial, with no score: a score is
+    a whole draw's."""
+    if not result.get("partial"):
+        return result
+    head = {field: result[field] for field in ("commit", "seed", "role", "drawn_from")}
+    law = str(result["drawn_from"]).startswith("law")
+    return {**_result(head, result["mutants"], None, 0.0, LAW_MODULES if law else None), "partial": True,
+            "score": None}
 
 
 def _summary(result: dict) -> str:
@@ -598,6 +633,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rerun", type=Path, default=None,
                         help="run the survivors of an earlier --out JSON again (found by module, line text, change); "
                              "refused for a held-out draw, whose survivors are not for fitting")
+    parser.add_argument("--resume", action="store_true",
+                        help="keep the verdicts an interrupted run of the same commit and seed left in its JSON "
+                             "(--out or --out-dir), run the rest")
     parser.add_argument("--list", action="store_true", help="print a fitting seed's sample and exit")
     parser.add_argument("--count", action="store_true", help="print the number of sites per kind and exit")
     parser.add_argument("--table", type=Path, nargs="+", default=None,
@@ -616,7 +654,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{'all':12s} {len(sites)}")
         return 0
     if arguments.table:
-        print(pooled_table([json.loads(path.read_text()) for path in arguments.table]))
+        print(pooled_table([tallied(json.loads(path.read_text())) for path in arguments.table]))
         return 0
     try:
         fitting, held_out = seed_sets()
@@ -661,7 +699,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         results = run_draws(seeds, arguments.sample, arguments.timeout, outs, module=arguments.module,
                             modules=modules, echo=lambda text: print(text, flush=True), commit=arguments.commit,
-                            baseline_timeout=arguments.baseline_timeout, rerun=rerun, jobs=arguments.jobs)
+                            baseline_timeout=arguments.baseline_timeout, rerun=rerun, jobs=arguments.jobs,
+                            resume=arguments.resume)
     except RuntimeError as error:   # the unmutated tree failed or did not finish: no mutant can be judged
         print(f"[random_mutation] {error}", file=sys.stderr)
         return 2
