@@ -134,7 +134,10 @@ def test_the_graph_kills_a_node_that_ignores_its_stop_and_names_it(tmp_path: Pat
     graph = Graph(tmp_path)
     stubborn = "import signal, sys, time; signal.signal(signal.SIGINT, signal.SIG_IGN); print(1, flush=True); " \
                "time.sleep(60)"
-    willing = "import sys, time; print(1, flush=True); time.sleep(60)"
+    # Its SIGINT handler set, not inherited: a shell's background job (`cmd &`, as a CI runner may start the suite)
+    # starts with SIGINT ignored, and Python then installs no KeyboardInterrupt handler of its own.
+    willing = ("import signal, sys, time; signal.signal(signal.SIGINT, signal.default_int_handler); "
+               "print(1, flush=True); time.sleep(60)")
     for name, code in (("robot", willing), ("haptic_device+master", stubborn)):
         process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE)
         assert process.stdout.readline().strip() == b"1"   # its handler is in
