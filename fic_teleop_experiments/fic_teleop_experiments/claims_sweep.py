@@ -45,6 +45,11 @@ from fic_teleop_runtime.workspace import working_folder
 REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
 
 
+def verdict_holds(earlier: dict | None, row: dict) -> bool:
+    """Whether ``earlier`` (a judged row) is ``row`` with its verdict: the run unchanged, so its verdict stands."""
+    return earlier is not None and {k: v for k, v in earlier.items() if k != "verdict"} == row
+
+
 def finished(jsonl: Path, directory: Path, judged_rows: dict[str, dict] | None = None) -> dict[str, dict]:
     """The rows of runs already done: a line in ``jsonl`` whose series file is in ``directory``, or whose verdict
     ``judged_rows`` holds for the same row (judged by this verdict code: its series is no longer needed, and a series
@@ -58,9 +63,7 @@ def finished(jsonl: Path, directory: Path, judged_rows: dict[str, dict] | None =
                 row = json.loads(line)
             except json.JSONDecodeError:
                 continue
-            earlier = judged_rows.get(row.get("key"))
-            kept_verdict = earlier is not None and {k: v for k, v in earlier.items() if k != "verdict"} == row
-            if kept_verdict or (directory / row["series"]).exists():
+            if verdict_holds(judged_rows.get(row.get("key")), row) or (directory / row["series"]).exists():
                 rows[row["key"]] = row
     return rows
 
@@ -131,7 +134,7 @@ def judged(rows: list[dict], directory: Path, executor: Executor, progress: bool
     out, pending = [], []
     for row in rows:
         before = earlier.get(row["key"])
-        if before is not None and {k: v for k, v in before.items() if k != "verdict"} == row:
+        if verdict_holds(before, row):
             out.append(before)
         else:
             pending.append(row)
