@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-from fic_teleop_bringup import demonstrations, hardware_twin, node_groups, run_bag, run_profile, two_stations
+from fic_teleop_bringup import dds_transport, demonstrations, hardware_twin, node_groups, run_bag, run_profile, two_stations
 from fic_teleop_bringup.launch_checks import (
     ArgumentRefusal,
     check_options,
@@ -611,6 +611,9 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         return two_stations.run(list(sys.argv[1:] if argv is None else argv), args, run_dir)
     stations = two_stations.inside_hooks(args, run_dir)
+    if stations is None:   # two stations write their own Fast DDS profile (two_stations.py)
+        dds_profile = args.run_profile.get("dds_profile")
+        print(f"[run] {dds_transport.apply(os.environ, CONFIG / dds_profile if dds_profile else None)}")
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     # numpy's OpenBLAS would start a worker per core that busy-waits after each call: the nodes' matrices are 7x7,
     # a worker only costs CPU here (and must never be a FIFO thread, realtime_scheduling.py).
