@@ -23,7 +23,15 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-from fic_teleop_bringup import dds_transport, demonstrations, hardware_twin, node_groups, run_bag, run_profile, two_stations
+from fic_teleop_bringup import (
+    dds_transport,
+    demonstrations,
+    hardware_twin,
+    node_groups,
+    run_bag,
+    run_profile,
+    two_stations,
+)
 from fic_teleop_bringup.launch_checks import (
     ArgumentRefusal,
     check_options,
