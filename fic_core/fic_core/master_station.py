@@ -7,6 +7,11 @@ the in-process runner steps.
     x_M --> TeleoperationCommandIntegrator --> x_d' (offset or velocity mode, at the network rate)
     operator buttons (edges, fic_core.operator_buttons) --> mode toggle, K_H steps, the clutch
 
+A control tick is one call, ``update``, which owns its order: the channel's master port booked on the F_R held and
+the rate of x_d' (fic_core.channel_ports; with TDPA the F_R Eq. 3 renders is the port's damped one), then Eq. 3
+(``force``), then the handle FIC's port booked by the exchanged-energy observer (fic_core.exchanged_energy_ports,
+when ``exchanged_energy_observer`` is on). F_R arrives with ``add_feedback``, which also hands it to the port.
+
 The operator's tools (beyond the paper; docs/TOOLS.md, "The operator's tools"), each a parameter settable live:
 - the clutch (indexing): while held, x_d' holds still and the handle feels its own FIC only (F_R and the guidance
   answer a motion the handle no longer makes); released, the handle is engaged again, re-anchored so that x_d'
@@ -35,7 +40,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .attractor import FractalAttractor
+from .channel_ports import MasterChannelPort, port_velocity
 from .errors import FicInputError, finite_array, finite_scalar
+from .exchanged_energy_ports import MasterExchangedEnergy
 from .guidance_fixture import FixtureKind, GuidanceFixture, fixture_kind
 from .handle_homing import HandleHoming
 from .master import MasterLaw, checked_loop_gain, haptic_gain_ceiling, loop_gain
@@ -178,9 +185,11 @@ def clamped_haptic_gain(value: float) -> float:
 
 
 class MasterStation:
-    """Eq. 3 and the teleoperation command for a parameter mapping (the master's parameters; module docstring)."""
+    """Eq. 3 and the teleoperation command for a parameter mapping (config/master.yaml's keys; module docstring).
+    ``channel_port``: the channel's master port, when the caller holds both ends (the in-process runner sums the
+    channel's balance); else one is built from the parameters."""
 
-    def __init__(self, values: Mapping[str, Any]) -> None:
+    def __init__(self, values: Mapping[str, Any], channel_port: MasterChannelPort | None = None) -> None:
         values = {**values, **_checked(values)}
         self.parameters = dict(values)
         self.law = MasterLaw(_attractor(values), 0.0, _device_limit(values["max_device_force"]), values["force_scale"])
@@ -215,6 +224,10 @@ class MasterStation:
         self.wrench_count = 0
         self.saturated_count = 0
         self.law_evaluations = 0   # wrench commands that evaluated Eq. 3 (not the zero of a stale pose)
+        self.channel_port = MasterChannelPort(values["channel_passivity_control"], values["channel_max_damping"],
+                                              values["channel_energy_window"]) if channel_port is None else channel_port
+        self.exchanged = MasterExchangedEnergy(1.0 / values["control_rate"]) \
+            if values["exchanged_energy_observer"] else None
 
     # --- parameters ------------------------------------------------------------------------------------------
     def configure(self, changes: Mapping[str, Any]) -> list[Notice]:
@@ -354,8 +367,21 @@ class MasterStation:
         self.handle_velocity = finite_array("handle_velocity", velocity, (3,)).copy()
         self._twist_received = now
 
-    def add_feedback(self, force: ArrayLike, now: float) -> list[Notice]:
-        """F_R through the channel."""
+    def add_feedback(self, force: ArrayLike, now: float, replica_input_energy: float | None = None) -> list[Notice]:
+        """F_R through the channel, for Eq. 3 and the channel's master port, with the replica port's E_in when it
+        travels with F_R (in one process; on the graph it comes on its own: ``replica_port_energy``)."""
+        notices = self._keep_feedback(force, now)
+        self.channel_port.receive_feedback(force, now)
+        if replica_input_energy is not None:
+            self.channel_port.receive_energy(replica_input_energy)
+        return notices
+
+    def replica_port_energy(self, input_energy: float) -> None:
+        """The replica port's E_in, as the channel delivered it."""
+        self.channel_port.receive_energy(input_energy)
+
+    def _keep_feedback(self, force: ArrayLike, now: float) -> list[Notice]:
+        """The F_R Eq. 3 renders (the received one, or the channel port's damped one)."""
         self._replica_force = finite_array("replica_force", force, (3,)).copy()
         self.feedback_received = now
         if self.feedback_stale:
@@ -387,6 +413,27 @@ class MasterStation:
         return notices, tuple(changed)
 
     # --- outputs ---------------------------------------------------------------------------------------------
+    def update(self, now: float, dt: float) -> tuple[NDArray[np.float64] | None, list[Notice]]:
+        """One control tick at ``now``, ``dt`` [s] after the last, in its order (module docstring): the channel's
+        master port, Eq. 3, the handle FIC's exchanged energy. Returns what ``force`` returns: the device force
+        (None before the first pose) and the notices."""
+        damped = self.channel_port.tick(now, dt, self._offset_rate(), self.feedback_timeout)
+        if damped is not None:
+            self._keep_feedback(*damped)   # fresh already: nothing to say
+        force, notices = self.force(now)
+        if self.exchanged is not None:
+            self.exchanged.observe(self.law_evaluations, self.law.attractor)
+        return force, notices
+
+    def _offset_rate(self) -> NDArray[np.float64]:
+        """The rate of x_d' the channel's master port books: zero while x_d' stands still (the clutch held, homing,
+        no handle yet)."""
+        integrator = self.integrator
+        if self.handle_position is None or integrator.held:
+            return np.zeros(3)
+        return port_velocity(integrator.mode, integrator.workspace_scale, integrator.velocity_gain,
+                             self.handle_position, self.handle_velocity)
+
     def pose_stale(self, now: float) -> bool:
         return self.pose_received is None or now - self.pose_received > self.pose_timeout
 
@@ -405,7 +452,8 @@ class MasterStation:
     def force(self, now: float) -> tuple[NDArray[np.float64] | None, list[Notice]]:
         """The device force f at ``now`` (None before the first pose; zero while the pose is stale): Eq. 3 with the
         guidance fixture's force while engaged, the handle's own FIC alone while the clutch is held, the homing
-        attractor's force while homing (which engages the handle once it is home)."""
+        attractor's force while homing (which engages the handle once it is home). Eq. 3 alone: a control tick is
+        ``update``, which books the channel's port before it and the exchanged energy after it."""
         position = self.handle_position
         if position is None:
             return None, []

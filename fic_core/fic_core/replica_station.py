@@ -10,7 +10,8 @@ node runs and the in-process runner steps, beside fic_core.master_station on the
     teleoperation command --> one writer? --> the channel's replica port (booked, with TDPA corrected) -->
         CommandAuthority (inside the loop) --> x_d'
     planner pose and acceleration --> SetPointAuthority (inside the loop) --> x_d''
-    F/T reading --> the driver's wrench frame --> F_R, sent back with the port's E_in
+    F/T reading --> the driver's wrench frame --> F_R, sent back with the port's E_in at each joint state whose
+        poses are due (the tick carries both: ``ReplicaTick.feedback``)
 
 Every value comes in as a plain value (numbers, arrays, names), every message out as plain values; the node turns
 them into and out of messages. Notices (what the caller should log) come back as (level, text), level one of info,
@@ -81,6 +82,9 @@ class ReplicaTick:
     command: NDArray[np.float64] | None      # the driver's command to publish (None: nothing)
     state_stamp_ns: int | None               # the joint state ``command`` was computed on (its label)
     hold_began: bool = False                 # the loop's own hold began at this state: say so at once
+    # F_R to send the master now (the last F/T reading in the base frame, at pose_rate once the law has ticked and a
+    # reading came) and the channel port's E_in to travel with it; None: nothing to send at this state.
+    feedback: tuple[NDArray[np.float64], float] | None = None
 
 
 class ReplicaStation:
@@ -103,6 +107,7 @@ class ReplicaStation:
         self.exchanged = ReplicaExchangedEnergy(1.0 / self.loop.parameters["control_rate"]) \
             if values["exchanged_energy_observer"] else None
         self.state_stamp_ns: int | None = None   # the joint state the last torque was computed on
+        self.feedback_force: NDArray[np.float64] | None = None   # F_R of the last F/T reading (None: none yet)
 
     @property
     def held(self) -> bool:
@@ -244,13 +249,11 @@ class ReplicaStation:
                                                             None if command is None else command.tcp_rotation)
         except FicInputError as exc:
             self.loop.counts["rejected_wrenches"] += 1
-            return np.zeros(3), np.zeros(3), exc
+            self.feedback_force = np.zeros(3)
+            return self.feedback_force, np.zeros(3), exc
         self.loop.counts["wrenches"] += 1
+        self.feedback_force = force
         return force, torque, None
-
-    def feedback_sent(self, force: ArrayLike) -> float:
-        """F_R as sent back to the master; the channel port's E_in, to travel with it."""
-        return self.channel_port.sent(force)
 
     # --- the control step ------------------------------------------------------------------------------------
     def tick_dynamics(self) -> NDArray[np.float64]:
@@ -275,8 +278,11 @@ class ReplicaStation:
         step.notices[:0] = notices
         if self.exchanged is not None and step.command is not None:
             self.exchanged.observe(step.command, loop.controller.controller)
+        feedback = None
+        if step.poses_due and loop.last_command is not None and self.feedback_force is not None:
+            feedback = (self.feedback_force, self.channel_port.sent(self.feedback_force))   # E_in travels with F_R
         return ReplicaTick(step, self.driver.command_to_send(step.torque, loop.robot), stamp_ns,
-                           loop.health.holds != holds)
+                           loop.health.holds != holds, feedback)
 
     def named_joint_state(self, time: float, now: float, names: Sequence[str], positions: Sequence[float],
                           velocities: Sequence[float], stamp_ns: int | None = None,

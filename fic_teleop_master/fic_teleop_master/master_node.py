@@ -17,11 +17,12 @@ past k_F s_M K_H = 1 in one line), ``guidance_fixture`` and its ``guidance_*``. 
 set their parameter too, so ``param get`` tells the truth; their state goes out on /master/operator_tools at
 ``tools_rate`` and at once when the engagement changes.
 
-The channel's master port (fic_core.channel_ports.MasterChannelPort): booked at every control tick before Eq. 3,
-its E_in sent on /master/port_energy (through channel_forward), the replica port's E_in read from
+The channel's master port (fic_core.channel_ports.MasterChannelPort, the station's): booked at every control tick
+before Eq. 3, its E_in sent on /master/port_energy (through channel_forward), the replica port's E_in read from
 /master/replica_port_energy; with channel_passivity_control (TDPA) its damper shapes the F_R that Eq. 3 renders.
 The handle FIC's port is booked by the exchanged-energy observer (fic_core.exchanged_energy_ports) at every tick
-that evaluates Eq. 3, on /diagnostics as "master: exchanged energy".
+that evaluates Eq. 3, on /diagnostics as "master: exchanged energy". A control tick is the station's one
+``update``, which keeps that order.
 """
 from __future__ import annotations
 
@@ -35,9 +36,9 @@ from std_msgs.msg import Float64
 
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
-from fic_core.channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES, MasterChannelPort
+from fic_core.channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES
 from fic_core.errors import FicInputError
-from fic_core.exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES, MasterExchangedEnergy
+from fic_core.exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES
 from fic_core.master_station import MASTER_NUMBERS, MASTER_TOOLS, MasterStation, clamped_haptic_gain
 from fic_teleop_msgs.msg import OperatorTools, TeleoperationCommand
 from fic_teleop_runtime import qos
@@ -66,14 +67,12 @@ class MasterNode(Node):
         super().__init__("master", **node_options)
         self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
         values = declare(self, SCHEMA)  # every row with its config/master.yaml value; unknown keys refused
-        self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, *MASTER_TOOLS, "mode",
-                                                                       "frame_id")})
+        self._station = MasterStation({name: values[name] for name in (
+            *MASTER_NUMBERS, *MASTER_TOOLS, *CHANNEL_PORT_SWITCHES, *CHANNEL_PORT_NUMBERS, *EXCHANGED_ENERGY_SWITCHES,
+            "mode", "frame_id")})
         self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
         self._frame_id = values["frame_id"]
-        self._channel_port = MasterChannelPort(values["channel_passivity_control"], values["channel_max_damping"],
-                                               values["channel_energy_window"])
         self._control_period, self._last_control_tick = 1.0 / values["control_rate"], None
-        self._exchanged = MasterExchangedEnergy(self._control_period) if values["exchanged_energy_observer"] else None
         self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_WRITER_QOS)
         self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_WRITER_QOS)
         self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command",
@@ -157,16 +156,14 @@ class MasterNode(Node):
 
     def _on_feedback(self, message: WrenchStamped) -> None:
         try:
-            now = self._now()
-            self._log(self._station.add_feedback(xyz(message.wrench.force), now))
-            self._channel_port.receive_feedback(xyz(message.wrench.force), now)
+            self._log(self._station.add_feedback(xyz(message.wrench.force), self._now()))
         except FicInputError:
             self.get_logger().error("refused /master/feedback_wrench with non-finite values",
                                     throttle_duration_sec=1.0)
 
     def _on_replica_port_energy(self, message: Vector3Stamped) -> None:
         try:
-            self._channel_port.receive_energy(message.vector.x)  # x: the replica port's E_in
+            self._station.replica_port_energy(message.vector.x)  # x: the replica port's E_in
         except FicInputError as error:
             self.get_logger().error(f"refused /master/replica_port_energy: {error}", throttle_duration_sec=1.0)
 
@@ -191,14 +188,11 @@ class MasterNode(Node):
         now = self._now()
         dt = self._control_period if self._last_control_tick is None else max(now - self._last_control_tick, 0.0)
         self._last_control_tick = now
-        self._channel_port.tick(self._station, now, dt)  # booked (and with TDPA damped) before Eq. 3
         engagement = self._station.engagement
-        force, notices = self._station.force(now)
+        force, notices = self._station.update(now, dt)  # the channel's port, Eq. 3, the exchanged energy
         if self._station.engagement != engagement:  # homed: engaged (or still clutched)
             self._sync_parameters(("homing",))
             self._publish_tools()
-        if self._exchanged is not None:
-            self._exchanged.observe(self._station)
         self._log(notices)
         if force is None:
             return  # no handle yet: nothing to render
@@ -225,7 +219,7 @@ class MasterNode(Node):
             workspace_scale=sample.workspace_scale, velocity_gain=sample.velocity_gain,
             handle_position=pose.pose.position,
             desired_offset=Point(x=float(desired_offset[0]), y=float(desired_offset[1]), z=float(desired_offset[2]))))
-        observer = self._channel_port.observer  # E_in travels with x_d' (x: E_in, y: E_out, z: W of this port)
+        observer = station.channel_port.observer  # E_in travels with x_d' (x: E_in, y: E_out, z: W of this port)
         energy = Vector3Stamped(header=pose.header)
         energy.vector.x, energy.vector.y, energy.vector.z = observer.input_energy, observer.output_energy, \
             observer.energy
@@ -255,10 +249,11 @@ class MasterNode(Node):
                                   level=DiagnosticStatus.WARN if problems else DiagnosticStatus.OK,
                                   message="; ".join(problems) if problems else "ok",
                                   values=[KeyValue(key=key, value=value) for key, value in values.items()])
+        station = self._station
         array = DiagnosticArray(status=[status, channel_port_status("master", "backward",
-                                                                    self._channel_port.diagnostics())])
-        if self._exchanged is not None:
-            array.status.append(exchanged_energy_status("master", self._exchanged.observer, "N s/m"))
+                                                                    station.channel_port.diagnostics())])
+        if station.exchanged is not None:
+            array.status.append(exchanged_energy_status("master", station.exchanged.observer, "N s/m"))
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_publisher.publish(array)
 

@@ -192,9 +192,8 @@ class ReplicaNode(Node):
             self._desired_pose_pub.publish(messages.pose(stamp, frame, command.desired_position,
                                                          command.desired_rotation))
             self._tcp_pose_pub.publish(messages.pose(stamp, frame, command.tcp_position, command.tcp_rotation))
-            if self._wrench is not None:
+            if tick.feedback is not None:  # F_R of self._wrench, its E_in booked by the station
                 self._feedback_pub.publish(self._wrench)
-                station.feedback_sent(xyz(self._wrench.wrench.force))  # E_in travels with F_R
                 observer = station.channel_port.observer
                 energy = Vector3Stamped(header=self._wrench.header)
                 energy.vector.x, energy.vector.y, energy.vector.z = (observer.input_energy, observer.output_energy,

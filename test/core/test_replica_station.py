@@ -143,11 +143,24 @@ def test_the_loops_own_hold_is_said_once_and_the_law_resumes_after_healthy_ticks
     assert not tick.step.held and tick.step.command is not None and replica.loop.health.holds == 1
 
 
-def test_feedback_carries_the_ports_input_energy() -> None:
+def ticks(replica: ReplicaStation, start: float, count: int) -> list:
+    return [replica.joint_state(start + k * PERIOD, start + k * PERIOD, Q0, QD0) for k in range(1, count + 1)]
+
+
+def test_feedback_goes_back_at_the_pose_rate_with_the_ports_input_energy() -> None:
     replica = station()
-    run(replica, 0.0, 5)
-    assert replica.feedback_sent([1.0, 0.0, 0.0]) == replica.channel_port.input_energy
+    assert all(tick.feedback is None for tick in ticks(replica, 0.0, 20))   # no F/T reading yet: nothing to send
+    replica.wrench(replica.base_frame, [1.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    due = [tick for tick in ticks(replica, 20 * PERIOD, 20) if tick.step.poses_due]
+    assert due and all(tick.feedback is not None for tick in due)
+    force, energy = due[-1].feedback
+    assert force.tolist() == [1.0, 0.0, 0.0] and energy == replica.channel_port.input_energy
     np.testing.assert_array_equal(replica.channel_port.force_sent, [1.0, 0.0, 0.0])
+    quiet = [tick for tick in ticks(replica, 40 * PERIOD, 20) if not tick.step.poses_due]
+    assert quiet and all(tick.feedback is None for tick in quiet)    # between the pose ticks nothing goes back
+    replica.wrench("tool0", [1.0, 2.0, 3.0], [0.0, 0.0, 0.0])         # refused: the operator feels nothing
+    sent = [tick.feedback for tick in ticks(replica, 60 * PERIOD, 20) if tick.feedback is not None]
+    assert sent and sent[-1][0].tolist() == [0.0, 0.0, 0.0]
 
 
 def test_the_read_outs_and_totals_say_what_the_loop_did() -> None:
