@@ -29,7 +29,7 @@ import yaml
 
 from fic_core.arm_profile import arm_profile
 from fic_core.channel_ports import ChannelPorts
-from fic_core.master_station import MasterStation
+from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_core.planner_station import PlannerStation, make_source
 from fic_core.replica_station import ReplicaStation
@@ -285,8 +285,8 @@ def run(config: RunConfig) -> RunResult:
     station = ReplicaStation({**r, "controller": law, "control_rate": config.control_rate,
                               "answer_every_state": True, "exchanged_energy_observer": False,
                               **config.replica_overrides}, channel_port=ports.replica)
-    master = MasterStation({**m, "exchanged_energy_observer": False, **config.master_overrides},
-                           channel_port=ports.master)
+    master = MasterStation(MasterParameters.from_values({**m, "exchanged_energy_observer": False,
+                                                         **config.master_overrides}), channel_port=ports.master)
     device = HapticDevice(HapticDeviceParameters(
         mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
         wall_stiffness=h["wall_stiffness"], wall_damping=h["wall_damping"], max_force=h["max_force"],

@@ -36,16 +36,14 @@ from std_msgs.msg import Float64
 
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
-from fic_core.channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES
 from fic_core.errors import FicInputError
-from fic_core.exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES
-from fic_core.master_station import MASTER_NUMBERS, MASTER_TOOLS, MasterStation, clamped_haptic_gain
+from fic_core.master_station import MASTER_PARAMETERS, MasterParameters, MasterStation, clamped_haptic_gain
 from fic_teleop_msgs.msg import OperatorTools, TeleoperationCommand
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
-from fic_teleop_runtime.parameters import Schema, declare, integer, refuse_unknown_names, text
+from fic_teleop_runtime.parameters import Schema, declare, refuse_unknown_names
 from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
 from fic_teleop_runtime.periodic import PeriodicCallbacks
 
@@ -54,12 +52,9 @@ from fic_teleop_runtime.periodic import PeriodicCallbacks
 # of the run (fic_teleop_runtime.qos).
 STREAM_QOS, STREAM_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
 JOY_QOS, DIAGNOSTICS_QOS = qos.EVENTS, qos.DIAGNOSTICS
-SCHEMA = Schema("master.yaml", MASTER_NUMBERS.values(),
-                integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
-                                      "(x_d' += k_v*x_M*dt)"),
-                text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True),
-                MASTER_TOOLS.values(), CHANNEL_PORT_SWITCHES.values(), CHANNEL_PORT_NUMBERS.values(),
-                EXCHANGED_ENERGY_SWITCHES.values())
+#: The master's table (fic_core.master_station): the node declares these rows, the station takes their values as
+#: one MasterParameters.
+SCHEMA = Schema("master.yaml", MASTER_PARAMETERS.values())
 
 
 class MasterNode(Node):
@@ -67,9 +62,7 @@ class MasterNode(Node):
         super().__init__("master", **node_options)
         self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
         values = declare(self, SCHEMA)  # every row with its config/master.yaml value; unknown keys refused
-        self._station = MasterStation({name: values[name] for name in (
-            *MASTER_NUMBERS, *MASTER_TOOLS, *CHANNEL_PORT_SWITCHES, *CHANNEL_PORT_NUMBERS, *EXCHANGED_ENERGY_SWITCHES,
-            "mode", "frame_id")})
+        self._station = MasterStation(MasterParameters.from_values(values))
         self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
         self._frame_id = values["frame_id"]
         self._control_period, self._last_control_tick = 1.0 / values["control_rate"], None
@@ -135,7 +128,7 @@ class MasterNode(Node):
     def _sync_parameters(self, names) -> None:
         """Make ``param get`` show what a button or the station itself changed (the on-set callback then finds
         the station already there)."""
-        self.set_parameters([Parameter(name, value=self._station.parameters[name]) for name in names])
+        self.set_parameters([Parameter(name, value=getattr(self._station.parameters, name)) for name in names])
 
     # -- inputs ---------------------------------------------------------------------------------------------
     def _now(self) -> float:

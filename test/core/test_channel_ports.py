@@ -11,15 +11,16 @@ from config_values import config_values
 
 from fic_core.channel_ports import ChannelPorts, MasterChannelPort, ReplicaChannelPort
 from fic_core.errors import FicInputError
-from fic_core.master_station import MasterStation
+from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.windowed_rate import WindowedRate
 
 DEFAULTS = config_values("master.yaml")   # offset mode, s_M = 1, feedback_timeout 0.5 s
+PARAMETERS = MasterParameters.from_values(DEFAULTS)
 DT = 0.004                                # the master's 250 Hz
 
 
 def station_moving(velocity: list[float], port: MasterChannelPort | None = None) -> MasterStation:
-    station = MasterStation(DEFAULTS, channel_port=port)
+    station = MasterStation(PARAMETERS, channel_port=port)
     station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 0.0)
     station.add_twist(velocity, 0.0)
     return station
@@ -96,7 +97,7 @@ def test_two_halves_across_a_delay_sum_as_one_process() -> None:
     delay late, yet E_out,M + E_out,R - E_in,M - E_in,R is ChannelPorts' balance, and the per-direction figures are
     -W of each side."""
     ports = ChannelPorts(False, 125.0)
-    station = MasterStation(DEFAULTS, channel_port=ports.master)
+    station = MasterStation(PARAMETERS, channel_port=ports.master)
     lag = 50                                           # 0.2 s at DT
     forward: deque = deque([None] * lag)
     backward: deque = deque([None] * lag)

@@ -13,7 +13,7 @@ import pytest
 from config_values import config_values, replica_loop_values
 
 from fic_core.exchanged_energy_ports import MasterExchangedEnergy, ReplicaExchangedEnergy
-from fic_core.master_station import MasterStation
+from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
 
@@ -60,7 +60,8 @@ def test_only_the_fic_is_booked() -> None:
 
 
 def test_the_master_fic_port_books_each_evaluation_once() -> None:
-    station = MasterStation({**config_values("master.yaml"), "exchanged_energy_observer": True})
+    station = MasterStation(MasterParameters.from_values({**config_values("master.yaml"),
+                                                          "exchanged_energy_observer": True}))
     watch = station.exchanged                   # the station's own, booked by its control tick
     assert isinstance(watch, MasterExchangedEnergy) and watch.observer.period_s == pytest.approx(0.004)
     station.update(0.0, 0.004)                  # no pose yet: nothing evaluated, nothing booked
