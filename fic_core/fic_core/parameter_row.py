@@ -180,6 +180,11 @@ class ParameterSet:
         """A copy with ``changes`` (names of rows, each value checked against its row)."""
         return dataclasses.replace(self, **type(self)._checked(changes))
 
+    def part(self, kind: type[Parameters]) -> Parameters:
+        """The values of ``kind``'s rows (a set of some of this set's rows: a station's part takes its own), as a
+        ``kind``; checked already, by the same rows."""
+        return kind(**{name: getattr(self, name) for name in kind.ROWS})
+
 
 def parameter_set(class_name: str, module: str, owner: str, rows: Iterable[ParameterRow],
                   doc: str) -> type[ParameterSet]:

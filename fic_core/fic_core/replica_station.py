@@ -29,17 +29,36 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .channel_ports import ReplicaChannelPort
+from .channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES, ReplicaChannelPort
 from .errors import FicInputError
-from .exchanged_energy_ports import ReplicaExchangedEnergy
-from .input_authority import AuthorityBounds, CommandAuthority, RobotStreamGuard
+from .exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES, ReplicaExchangedEnergy
+from .input_authority import (
+    AUTHORITY_PARAMETERS,
+    AuthorityBounds,
+    AuthorityParameters,
+    CommandAuthority,
+    RobotStreamGuard,
+)
+from .parameter_row import ParameterRow, parameter_set, rows_by_name, text
 from .replica import ReplicaCommand
-from .replica_driver import ReplicaDriver
+from .replica_driver import DRIVER_PARAMETERS, DriverParameters, ReplicaDriver
 from .replica_loop import ReplicaLoop, ReplicaStep
-from .replica_parameters import REPLICA_LOOP_PARAMETERS
+from .replica_parameters import CONTROLLER_DESCRIPTION, REPLICA_LOOP_PARAMETERS, REPLICA_NUMBERS, REPLICA_SWITCHES
 from .robot_model import RobotModel
 
 Notice = tuple[str, str]
+
+#: Every parameter of the replica, in the order the replica node declares them (config/replica.yaml's keys): the
+#: loop's (the law, fic_core.replica_parameters), the driver's (fic_core.replica_driver), the input authority's
+#: (fic_core.input_authority), the channel's replica port and the exchanged-energy observer.
+REPLICA_PARAMETERS: dict[str, ParameterRow] = {
+    **rows_by_name(text("controller", CONTROLLER_DESCRIPTION)), **REPLICA_NUMBERS, **REPLICA_SWITCHES,
+    **DRIVER_PARAMETERS, **AUTHORITY_PARAMETERS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS,
+    **EXCHANGED_ENERGY_SWITCHES}
+#: The replica's parameters as one typed object, one field a row of REPLICA_PARAMETERS (fic_core.parameter_row):
+#: ``ReplicaParameters.from_values(values)`` checks every value and refuses a name no row has, naming the nearest.
+ReplicaParameters = parameter_set("ReplicaParameters", __name__, "replica", REPLICA_PARAMETERS.values(),
+                                  "The replica's parameters (REPLICA_PARAMETERS), checked, one field a row.")
 
 #: Robot-side streams that must have exactly one writer: the robot's driver, and the replica. The wrist's F/T reading
 #: is one: it is F_R, which the replica sends the operator, and a second writer's force would be felt on the handle.
@@ -88,24 +107,26 @@ class ReplicaTick:
 
 
 class ReplicaStation:
-    """The replica's loop, its input guarding and its driver semantics for a parameter mapping (config/replica.yaml's
-    keys; module docstring). ``channel_port``: the channel's replica port, when the caller holds both ends (the
-    in-process runner sums the channel's balance); else one is built from the parameters."""
+    """The replica's loop, its input guarding and its driver semantics for the replica's parameters (module
+    docstring). ``channel_port``: the channel's replica port, when the caller holds both ends (the in-process runner
+    sums the channel's balance); else one is built from the parameters. The loop keeps its own run-time values
+    (``loop.parameters``, changed by ``configure``)."""
 
-    def __init__(self, values: Mapping[str, Any], robot: RobotModel | None = None,
+    def __init__(self, parameters: ReplicaParameters, robot: RobotModel | None = None,
                  channel_port: ReplicaChannelPort | None = None) -> None:
-        self.driver = ReplicaDriver(values)
+        p = parameters
+        self.driver = ReplicaDriver(p.part(DriverParameters))
         robot = RobotModel() if robot is None else robot
         # What an outside input may ask of the arm (fic_core.input_authority): bounded commands (the loop's
         # authority), one writer per guarded stream (the stream guard's); a breach holds the arm.
-        self.authority = CommandAuthority(AuthorityBounds.from_parameters(values))
-        self.loop = ReplicaLoop({name: values[name] for name in REPLICA_LOOP_PARAMETERS if name in values}, robot,
+        self.authority = CommandAuthority(AuthorityBounds.from_parameters(p.part(AuthorityParameters)))
+        self.loop = ReplicaLoop({name: getattr(p, name) for name in REPLICA_LOOP_PARAMETERS}, robot,
                                 self.driver.limits(robot), self.authority)   # FicInputError if bad
-        self.streams = RobotStreamGuard(future_tolerance=float(values["command_future_tolerance"]))
-        self.channel_port = ReplicaChannelPort(values["channel_passivity_control"], values["channel_energy_window"]) \
+        self.streams = RobotStreamGuard(future_tolerance=p.command_future_tolerance)
+        self.channel_port = ReplicaChannelPort(p.channel_passivity_control, p.channel_energy_window) \
             if channel_port is None else channel_port
         self.exchanged = ReplicaExchangedEnergy(1.0 / self.loop.parameters["control_rate"]) \
-            if values["exchanged_energy_observer"] else None
+            if p.exchanged_energy_observer else None
         self.state_stamp_ns: int | None = None   # the joint state the last torque was computed on
         self.feedback_force: NDArray[np.float64] | None = None   # F_R of the last F/T reading (None: none yet)
 

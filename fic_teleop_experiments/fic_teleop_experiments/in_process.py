@@ -32,7 +32,7 @@ from fic_core.channel_ports import ChannelPorts
 from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_core.planner_station import PlannerStation, make_source
-from fic_core.replica_station import ReplicaStation
+from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.trajectories import LapVaryingCircle
 from fic_teleop_runtime.workspace import config_folder
@@ -282,9 +282,9 @@ def run(config: RunConfig) -> RunResult:
     tdpa = config.tdpa or config.controller == "linear_tdpa"
     law = "linear_bounded" if config.controller == "linear_tdpa" else config.controller
     ports = ChannelPorts(tdpa, m["channel_max_damping"], m["channel_energy_window"])
-    station = ReplicaStation({**r, "controller": law, "control_rate": config.control_rate,
-                              "answer_every_state": True, "exchanged_energy_observer": False,
-                              **config.replica_overrides}, channel_port=ports.replica)
+    station = ReplicaStation(ReplicaParameters.from_values({
+        **r, "controller": law, "control_rate": config.control_rate, "answer_every_state": True,
+        "exchanged_energy_observer": False, **config.replica_overrides}), channel_port=ports.replica)
     master = MasterStation(MasterParameters.from_values({**m, "exchanged_energy_observer": False,
                                                          **config.master_overrides}), channel_port=ports.master)
     device = HapticDevice(HapticDeviceParameters(

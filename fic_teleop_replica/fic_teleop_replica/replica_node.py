@@ -34,7 +34,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayou
 
 from fic_core import command_stamp
 from fic_core.errors import FicInputError
-from fic_core.replica_station import ReplicaStation
+from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 from fic_teleop_replica import messages
 from fic_teleop_replica.input_guard import InputGuard
@@ -55,7 +55,7 @@ class ReplicaNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__(NODE_NAME, **node_options)
         values = declare(self, SCHEMA)  # every row with its config/replica.yaml value; unknown keys refused
-        self._station = ReplicaStation(values)   # FicInputError if bad
+        self._station = ReplicaStation(ReplicaParameters.from_values(values))   # FicInputError if bad
         self._loop = self._station.loop
         self._driver = self._station.driver
         self._wrench: WrenchStamped | None = None  # F_R as last received

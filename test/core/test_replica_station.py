@@ -10,7 +10,15 @@ from config_values import config_values
 
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
-from fic_core.replica_station import CHANNEL_STREAMS, ROBOT_STREAMS, SET_POINT_STREAMS, ReplicaStation, stream_owner
+from fic_core.replica_station import (
+    CHANNEL_STREAMS,
+    REPLICA_PARAMETERS,
+    ROBOT_STREAMS,
+    SET_POINT_STREAMS,
+    ReplicaParameters,
+    ReplicaStation,
+    stream_owner,
+)
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
 QD0 = np.zeros(7)
@@ -20,7 +28,25 @@ PERIOD = 0.002
 def station(**changes) -> ReplicaStation:
     values = {**config_values("replica.yaml"), "control_rate": 500.0, "command_period": PERIOD,
               "exchanged_energy_observer": False, **changes}
-    return ReplicaStation(values)
+    return ReplicaStation(ReplicaParameters.from_values(values))
+
+
+def test_the_parameters_are_one_typed_object_of_the_replicas_table() -> None:
+    """ReplicaParameters: one field a row of the table the node declares (loop, driver, input authority, channel
+    port), each value checked; a misspelt name is refused in one line naming the nearest row."""
+    values = config_values("replica.yaml")
+    parameters = ReplicaParameters.from_values(values)
+    assert set(REPLICA_PARAMETERS) == set(values)                      # config/replica.yaml gives every row
+    assert parameters.translation_stiffness == values["translation_stiffness"]
+    assert parameters.wrench_frame_ids == values["wrench_frame_ids"] and parameters.controller == values["controller"]
+    with pytest.raises(FicInputError, match=r"^unknown replica parameter 'translaton_stiffness'; did you mean "
+                                            r"'translation_stiffness'\?$"):
+        ReplicaParameters.from_values({**values, "translaton_stiffness": 400.0})
+    with pytest.raises(FicInputError, match=r"^offset_workspace must be in \[0.01, 2\]"):
+        ReplicaParameters.from_values({**values, "offset_workspace": 5.0})
+    replica = ReplicaStation(parameters)
+    assert replica.authority.bounds.max_offset_speed == values["max_offset_speed"]
+    assert replica.driver.base_frame == values["base_frame"] and replica.loop.parameters["controller"] == "fic"
 
 
 def run(replica: ReplicaStation, start: float, ticks: int) -> float:
