@@ -14,7 +14,7 @@ from fic_core.attractor import FractalAttractor, convergence_storage
 from fic_core.control_schedule import RateGate
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AuthorityBounds
-from fic_core.master_station import MASTER_NUMBERS, MasterStation
+from fic_core.master_station import MASTER_NUMBERS, MasterParameters, MasterStation
 from fic_core.profile import ForceProfile
 from fic_core.trajectories import ViaPoints
 
@@ -37,7 +37,7 @@ def test_every_value_the_master_may_be_set_to_passes_the_replicas_authority(name
     assert (bound_low, bound_high) == (low, high)
     defaults = {**config_values("master.yaml"), "haptic_gain": 0.0}  # K_H = 0: the loop-gain bound spares s_M
     for value in (low, high):
-        assert getattr(MasterStation({**defaults, name: value}).integrator, name) == value
+        assert getattr(MasterStation(MasterParameters.from_values({**defaults, name: value})).integrator, name) == value
 
 
 def test_via_points_as_one_flat_list() -> None:

@@ -30,7 +30,7 @@ def jsonl(name: str) -> list[dict]:
 
 
 def complete(trial: dict) -> bool:
-    """An E2 trial is complete when every piece ended inside the box (as e2_sweep's summary counts it)."""
+    """An E2 trial is complete when every piece ended inside the box (as the E2 sweep's summary counts it)."""
     return len(trial["pieces_inside"]) == len(PIECE_NAMES)
 
 
