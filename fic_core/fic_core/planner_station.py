@@ -24,6 +24,7 @@ from .errors import FicInputError
 from .planner import HarmonicPlanner
 from .planner_schedule import PlannerSchedule, TrajectorySource
 from .quaternion import unit_quaternion
+from .stopped_trajectory import StoppedTrajectory
 from .trajectories import Circle, FixedPoint, ViaPoints
 
 TRAJECTORIES = ("circle", "fixed", "via_points")
@@ -31,7 +32,8 @@ TRAJECTORY_PARAMETERS = ("trajectory", "circle_centre", "circle_diameter", "circ
                          "circle_phase", "fixed_point", "via_points", "via_dwell", "via_tolerance", "via_loop")
 PLANNER_PARAMETERS = ("natural_frequency", "max_velocity")
 #: Fixed at start: the timers and the trajectory's origin are made from them.
-READ_ONLY = ("publish_rate", "diagnostics_rate", "frame_id", "start_position", "start_delay", "start_time")
+READ_ONLY = ("publish_rate", "diagnostics_rate", "frame_id", "start_position", "start_delay", "start_time",
+             "stop_time")
 Notice = tuple[str, str]
 
 
@@ -70,6 +72,9 @@ class PlannerStation:
         planner.reset(start if start else source.point(0.0))
         start_time = values["start_time"]
         origin = start_time if start_time >= 0.0 else now + values["start_delay"]
+        stop_time = values.get("stop_time", -1.0)
+        if stop_time >= 0.0:   # a quiet tail: the trajectory's clock stops there (StoppedTrajectory)
+            source = StoppedTrajectory(source, max(stop_time - origin, 0.0))
         self.schedule = PlannerSchedule(planner, source, origin, 1.0 / values["publish_rate"])
         self.published = 0
 

@@ -74,6 +74,8 @@ SCHEMA = Schema(
     number("start_delay", 0.0, 3600.0, "the trajectory's clock starts this long after the node [s]", True),
     number("start_time", -1.0, 1e10, "node-clock time at which the trajectory's clock starts [s] (sim time with "
                                      "use_sim_time); negative: start_delay after the node starts", True),
+    number("stop_time", -1.0, 1e10, "node-clock time at which the trajectory's clock stops and x_d'' comes to rest "
+                                    "on its point there (a run's quiet tail) [s]; negative: never", True),
     number("publish_rate", 1.0, 5000.0, "/planner/desired_pose rate [Hz]", True),
     number("diagnostics_rate", 0.01, 100.0, "/diagnostics rate [Hz]", True),
     text("frame_id", "frame of /planner/desired_pose", read_only=True),

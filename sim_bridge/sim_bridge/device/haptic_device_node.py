@@ -81,6 +81,8 @@ SCHEMA = Schema(
     text("script_file", "operator script YAML; empty: config/operator_scripts/<scene>.yaml"),
     number("script_start_time", -1.0, 1e10, "node-clock time of the script's t = 0 [s]; negative: when the node "
                                             "starts"),
+    number("quiet_from", -1.0, 1e10, "node-clock time from which the operator's target holds still and the hand "
+                                     "keeps holding the handle (a run's quiet tail) [s]; negative: never"),
     number("hand_stiffness", 1.0, 5000.0, "operator hand [N/m]"),
     number("hand_damping", 0.0, 200.0, "operator hand [N s/m]"),
     number("hand_correction_rate", 0.0, 50.0, "how fast the operator leans in to put the handle on target [1/s]; "
@@ -204,7 +206,8 @@ class HapticDeviceNode(Node):
         self.station = DeviceStation(self.device, self.hand, script=self.scripted, watcher=self.watcher or self.sorter,
                                      joy_target=self.joy_target,
                                      command_timeout=None if self.fd else self.command_timeout,
-                                     joy_timeout=self.joy_timeout, script_origin=self.script_origin)
+                                     joy_timeout=self.joy_timeout, script_origin=self.script_origin,
+                                     quiet_from=value("quiet_from") if value("quiet_from") >= 0.0 else None)
         self._periodic.create(1.0 / value("publish_rate_hz"), self._tick)
 
     def _now(self) -> float:
