@@ -17,10 +17,12 @@ the seed and the site's key (below), so that a run is repeatable, its sample is 
 one module leaves the sample elsewhere as it was. Mutants and tests come from a commit (``git archive``, HEAD by
 default), not from the work tree, which other work may be changing; test/core must pass on that commit unmutated
 before any mutant counts. Each mutant is the module parsed, the one node changed, and written back with
-``ast.unparse`` into a copy of fic_core (the work tree is never touched); the tests are the files of test/core that
-import the mutated module, directly or through another fic_core module, the direct importers first, with ``-x``
-and a timeout (a hang counts as killed); a mutant they do not kill runs the rest of test/core too before it counts as a
-survivor, so a survivor has passed the whole of test/core. Equivalent mutants (no behaviour can tell them from
+``ast.unparse`` into a copy of fic_core (the work tree is never touched); the tests are those of test/core that
+execute the mutated line on the unmutated tree (line_coverage_map.py, whose rule widens that set wherever a test
+could see the mutant without executing the line, and lets a mutant no test executes survive unrun), those in the
+files importing the module first, with ``-x`` and a timeout (a hang counts as killed). With ``--full-suite``, the
+files of test/core that import the mutated module run first, then the rest, so a survivor has passed the whole of
+test/core. Equivalent mutants (no behaviour can tell them from
 the original) are listed with a reason in ``equivalent_mutants.yaml`` beside this file, keyed by module,
 enclosing function, source line and mutation so that the key survives code moving up or down; they are not run
 and do not count in the kill rate.
@@ -39,6 +41,7 @@ is wanted; the result gives the kill rate per module either way.
     python -m fic_teleop_experiments.tools.random_mutation --table results/random_mutation_held_out_*.json
     python -m fic_teleop_experiments.tools.random_mutation --count     # how many sites fic_core has, per kind
     python -m fic_teleop_experiments.tools.random_mutation --seed 3 --sample 60 --list   # a fitting sample, not run
+    python -m fic_teleop_experiments.tools.random_mutation --compare FULL.json SELECTED.json   # the two ways agree?
 
 Exits 1 when the kill rate of the non-equivalent mutants is below --require (default 0.9). A mutant pytest could
 not judge (mutation_verdict.py: ERROR) counts in neither the kills nor the survivors; exits 2 when test/core fails,
