@@ -660,22 +660,27 @@ def pooled_table(results: list[dict]) -> str:
     law = all(str(result.get("drawn_from", "")).startswith("law") for result in results)
     names = tuple(LAW_MODULES) + tuple(sorted(drawn - set(LAW_MODULES))) if law else tuple(sorted(drawn))
     table = per_module(rows, names)
-    lines = ["| module | drawn | equivalent | killed / non-equivalent | kill rate |", "|---|---|---|---|---|"]
+    # With several draws, a column a draw: killed / non-equivalent of each module in that draw alone.
+    draws = [per_module(result["mutants"], names) for result in results] if len(results) > 1 else []
+    seeds = "".join(f" seed {result['seed']} |" for result in results) if draws else ""
+    lines = [f"| module | drawn | equivalent |{seeds} killed / non-equivalent | kill rate |",
+             "|---|---|---|" + "---|" * len(draws) + "---|---|"]
     for name, entry in table.items():
         rate = "-" if entry["kill_rate"] is None else f"{entry['kill_rate']:.3f}"
-        lines.append(f"| {name.removesuffix('.py')} | {entry['drawn']} | {entry['equivalent']} | "
+        each = "".join(f" {draw[name]['killed']} / {draw[name]['non_equivalent']} |" for draw in draws)
+        lines.append(f"| {name.removesuffix('.py')} | {entry['drawn']} | {entry['equivalent']} |{each} "
                      f"{entry['killed']} / {entry['non_equivalent']} | {rate} |")
     for result in results:
         unfinished = ", partial" if result.get("partial") else ""
         lines.append(f"| seed {result['seed']} ({result['role']}{unfinished}, {result['commit'][:10]}) | "
-                     f"{result['sample']} | "
-                     f"{result['equivalent']} | {result['killed']} / {result['non_equivalent']} | "
-                     f"{result['kill_rate']} |")
+                     f"{result['sample']} | {result['equivalent']} |" + " |" * len(draws) +
+                     f" {result['killed']} / {result['non_equivalent']} | {result['kill_rate']} |")
     counted = sum(result["non_equivalent"] for result in results)
     killed = sum(result["killed"] for result in results)
     rate = f"{killed / counted:.3f}" if counted else "-"
-    lines.append(f"| all | {len(rows)} | {sum(result['equivalent'] for result in results)} | {killed} / {counted} "
-                 f"| {rate} |")
+    each = "".join(f" {result['killed']} / {result['non_equivalent']} |" for result in results) if draws else ""
+    lines.append(f"| all | {len(rows)} | {sum(result['equivalent'] for result in results)} |{each} "
+                 f"{killed} / {counted} | {rate} |")
     return "\n".join(lines)
 
 
