@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from fic_teleop_experiments.tools import random_mutation
+from fic_teleop_experiments.tools import line_coverage_map, random_mutation
+from fic_teleop_experiments.tools.line_coverage_map import LineMap
 from fic_teleop_experiments.tools.random_mutation import KILLED, Site
 
 
@@ -24,10 +25,19 @@ def test_test_core_that_does_not_finish_on_the_unmutated_tree_is_one_line_and_ex
     def slow(root: Path, folder: str, files: list[Path], timeout: float) -> subprocess.CompletedProcess:
         raise subprocess.TimeoutExpired(["pytest"], timeout)
 
+    def slow_map(root: Path, timeout: float):
+        raise subprocess.TimeoutExpired(["coverage"], timeout)
+
     monkeypatch.setattr(random_mutation, "snapshot", lambda commit, folder: random_mutation.REPO)
     monkeypatch.setattr(random_mutation, "_pytest", slow)
     with pytest.raises(RuntimeError, match="did not finish on the unmutated tree in 7 s"):
         random_mutation.baseline(random_mutation.REPO, 7.0)
+    assert random_mutation.main(["--seed", "2", "--sample", "3", "--baseline-timeout", "7", "--full-suite"]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "--baseline-timeout" in error[0], error
+    # The same with the line map, which is built by the unmutated run (none stored for this tree here).
+    monkeypatch.setattr(line_coverage_map, "cached", lambda root, cache: None)
+    monkeypatch.setattr(line_coverage_map, "build", slow_map)
     assert random_mutation.main(["--seed", "2", "--sample", "3", "--baseline-timeout", "7"]) == 2
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "--baseline-timeout" in error[0], error
@@ -40,12 +50,13 @@ def test_kills_by_the_timeout_are_counted_apart(monkeypatch, tmp_path: Path) -> 
                 30: ("SURVIVED", "every test passed", 4.0),
                 40: (KILLED, f"{random_mutation.TIMEOUT_DETAIL} 900 s (a hang counts)", 900.0)}
     monkeypatch.setattr(random_mutation, "snapshot", lambda commit, folder: random_mutation.REPO)
-    monkeypatch.setattr(random_mutation, "baseline",
-                        lambda root, timeout: subprocess.CompletedProcess(["pytest"], 0, "9 passed", ""))
+    monkeypatch.setattr(random_mutation, "unmutated_line_map",
+                        lambda root, timeout, cache, echo: LineMap("tree", (), {}))
     monkeypatch.setattr(random_mutation, "all_sites", lambda root: sites)
     monkeypatch.setattr(random_mutation, "sample", lambda seed, size, module, root, modules=None: sites)
     monkeypatch.setattr(random_mutation, "equivalent_mutants", lambda: {})
-    monkeypatch.setattr(random_mutation, "run_mutant", lambda site, timeout, root: verdicts[site.line])
+    monkeypatch.setattr(random_mutation, "run_mutant",
+                        lambda site, timeout, root, chosen: (*verdicts[site.line], 1.0))
     result = random_mutation.run(2, 4, 900.0, out=tmp_path / "out.json", echo=lambda text: None)
     assert (result["killed"], result["killed_by_timeout"], result["non_equivalent"]) == (3, 2, 4)
     assert result["kill_rate"] == 0.75
@@ -95,12 +106,13 @@ def _fake_draws(monkeypatch, verdicts: dict[int, tuple[str, str, float]], module
     sites = [Site(module, line, line, "comparison", "< -> <=", f"a < b  # {line}")
              for line, module in zip(sorted(verdicts), modules)]
     monkeypatch.setattr(random_mutation, "snapshot", lambda commit, folder: random_mutation.REPO)
-    monkeypatch.setattr(random_mutation, "baseline",
-                        lambda root, timeout: subprocess.CompletedProcess(["pytest"], 0, "9 passed", ""))
+    monkeypatch.setattr(random_mutation, "unmutated_line_map",
+                        lambda root, timeout, cache, echo: LineMap("tree", (), {}))
     monkeypatch.setattr(random_mutation, "all_sites", lambda root: sites)
     monkeypatch.setattr(random_mutation, "sample", lambda seed, size, module, root, modules=None: sites)
     monkeypatch.setattr(random_mutation, "equivalent_mutants", lambda: {})
-    monkeypatch.setattr(random_mutation, "run_mutant", lambda site, timeout, root: verdicts[site.line])
+    monkeypatch.setattr(random_mutation, "run_mutant",
+                        lambda site, timeout, root, chosen: (*verdicts[site.line], 1.0))
 
 
 def test_only_a_held_out_draw_scores_and_each_law_module_gets_its_kill_rate(monkeypatch, tmp_path: Path) -> None:
@@ -147,7 +159,7 @@ def test_a_mutant_the_importers_leave_alive_runs_the_rest_of_test_core(monkeypat
 
     monkeypatch.setattr(random_mutation, "_pytest", passing)
     site = next(site for site in random_mutation.all_sites() if site.module == "limits.py")
-    verdict, _, _ = random_mutation.run_mutant(site, 60.0)
+    verdict, *_ = random_mutation.run_mutant(site, 60.0)
     assert verdict == "SURVIVED"
     every = sorted((random_mutation.REPO / "test" / "core").glob("test_*.py"))
     assert sorted(path for files in runs for path in files) == every   # each file once, all of them
@@ -221,7 +233,7 @@ def test_a_resumed_draw_keeps_the_verdicts_its_interrupted_run_left_and_runs_the
                                "partial": True, "mutants": rows}))
     ran = []
     monkeypatch.setattr(random_mutation, "run_mutant",
-                        lambda site, timeout, root: ran.append(site.line) or verdicts[site.line])
+                        lambda site, timeout, root, chosen: ran.append(site.line) or (*verdicts[site.line], 1.0))
     resumed = random_mutation.run_draws([9], 3, 60.0, [out], modules=random_mutation.LAW_MODULES,
                                         echo=lambda text: None, resume=True)[0]
     assert ran == [30] and resumed["killed"] == 2 and resumed["score"] == first["score"]

@@ -24,21 +24,24 @@ _INTERRUPTED = 2      #: pytest's exit code when the session stopped early (a co
 SETTINGS_PLUGIN = "fic_mutation_settings"
 
 
-def settings_plugin_text(derandomize: bool) -> str:
+def settings_plugin_text(derandomize: bool, timing_free: bool = False) -> str:
     """A pytest plugin loaded with ``-p SETTINGS_PLUGIN``: hypothesis reports the first failing example as it
     finds it, without shrinking (shrinking one failing attractor simulation took minutes; a mutant only has to be
     killed) and without an example database (one mutant's failing examples would be replayed under the next).
     ``derandomize`` draws the same examples for the unmutated tree and every mutant, so a property that fails on
-    rare random examples neither fails the baseline by chance nor counts as a kill."""
-    return ("from hypothesis import Phase, settings\n\n"
+    rare random examples neither fails the baseline by chance nor counts as a kill. ``timing_free`` drops the
+    deadline and the health checks, which time a test but choose no example (for a run under coverage, which is
+    slower: line_coverage_map.py)."""
+    timing = ", deadline=None, suppress_health_check=list(HealthCheck)" if timing_free else ""
+    return ("from hypothesis import HealthCheck, Phase, settings\n\n"
             "settings.register_profile(\"mutation\", phases=(Phase.explicit, Phase.generate), database=None"
-            f"{', derandomize=True' if derandomize else ''})\n"
+            f"{', derandomize=True' if derandomize else ''}{timing})\n"
             "settings.load_profile(\"mutation\")\n")
 
 
-def write_settings_plugin(folder: Path, derandomize: bool) -> None:
+def write_settings_plugin(folder: Path, derandomize: bool, timing_free: bool = False) -> None:
     """Write the plugin next to the mutated copy of fic_core (that folder leads PYTHONPATH)."""
-    (Path(folder) / f"{SETTINGS_PLUGIN}.py").write_text(settings_plugin_text(derandomize))
+    (Path(folder) / f"{SETTINGS_PLUGIN}.py").write_text(settings_plugin_text(derandomize, timing_free))
 
 
 def pytest_verdict(result: subprocess.CompletedProcess) -> tuple[str, str]:

@@ -17,10 +17,12 @@ the seed and the site's key (below), so that a run is repeatable, its sample is 
 one module leaves the sample elsewhere as it was. Mutants and tests come from a commit (``git archive``, HEAD by
 default), not from the work tree, which other work may be changing; test/core must pass on that commit unmutated
 before any mutant counts. Each mutant is the module parsed, the one node changed, and written back with
-``ast.unparse`` into a copy of fic_core (the work tree is never touched); the tests are the files of test/core that
-import the mutated module, directly or through another fic_core module, the direct importers first, with ``-x``
-and a timeout (a hang counts as killed); a mutant they do not kill runs the rest of test/core too before it counts as a
-survivor, so a survivor has passed the whole of test/core. Equivalent mutants (no behaviour can tell them from
+``ast.unparse`` into a copy of fic_core (the work tree is never touched); the tests are those of test/core that
+execute the mutated line on the unmutated tree (line_coverage_map.py, whose rule widens that set wherever a test
+could see the mutant without executing the line, and lets a mutant no test executes survive unrun), those in the
+files importing the module first, with ``-x`` and a timeout (a hang counts as killed). With ``--full-suite``, the
+files of test/core that import the mutated module run first, then the rest, so a survivor has passed the whole of
+test/core. Equivalent mutants (no behaviour can tell them from
 the original) are listed with a reason in ``equivalent_mutants.yaml`` beside this file, keyed by module,
 enclosing function, source line and mutation so that the key survives code moving up or down; they are not run
 and do not count in the kill rate.
@@ -39,6 +41,7 @@ is wanted; the result gives the kill rate per module either way.
     python -m fic_teleop_experiments.tools.random_mutation --table results/random_mutation_held_out_*.json
     python -m fic_teleop_experiments.tools.random_mutation --count     # how many sites fic_core has, per kind
     python -m fic_teleop_experiments.tools.random_mutation --seed 3 --sample 60 --list   # a fitting sample, not run
+    python -m fic_teleop_experiments.tools.random_mutation --compare FULL.json SELECTED.json   # the two ways agree?
 
 Exits 1 when the kill rate of the non-equivalent mutants is below --require (default 0.9). A mutant pytest could
 not judge (mutation_verdict.py: ERROR) counts in neither the kills nor the survivors; exits 2 when test/core fails,
@@ -56,6 +59,7 @@ import hashlib
 import json
 import os
 import re
+import resource
 import secrets
 import shutil
 import subprocess
@@ -68,7 +72,16 @@ from pathlib import Path
 
 import yaml
 
-from fic_teleop_experiments.tools.mutation_verdict import KILLED, SETTINGS_PLUGIN, pytest_verdict, write_settings_plugin
+from fic_teleop_experiments.tools import line_coverage_map
+from fic_teleop_experiments.tools.line_coverage_map import ALL, NONE, Selection
+from fic_teleop_experiments.tools.line_coverage_map import TESTS as TESTS_SELECTED
+from fic_teleop_experiments.tools.mutation_verdict import (
+    KILLED,
+    SETTINGS_PLUGIN,
+    SURVIVED,
+    pytest_verdict,
+    write_settings_plugin,
+)
 from fic_teleop_runtime.workspace import working_folder
 
 REPO = working_folder()   # runs/ and results/ (FIC_TELEOP_ROOT, else the current folder)
@@ -346,8 +359,9 @@ def snapshot(commit: str, folder: Path) -> Path:
     return folder
 
 
-def _pytest(root: Path, folder: str, files: list[Path], timeout: float) -> subprocess.CompletedProcess:
-    """pytest over ``files`` in the tree at ``root``, with the fic_core under ``folder`` first on the path."""
+def _pytest(root: Path, folder: str, files: list[Path] | list[str], timeout: float) -> subprocess.CompletedProcess:
+    """pytest over ``files`` (or test ids) in the tree at ``root``, with the fic_core under ``folder`` first on the
+    path."""
     env = dict(os.environ, PYTHONPATH=folder + os.pathsep + os.environ.get("PYTHONPATH", ""),
                PYTHONDONTWRITEBYTECODE="1", FIC_TELEOP_ROOT=str(root))
     probe = subprocess.run([sys.executable, "-c", "import fic_core; print(fic_core.__file__)"], env=env,
@@ -385,16 +399,30 @@ def baseline(root: Path, timeout: float = BASELINE_TIMEOUT) -> subprocess.Comple
                                f"machine: give a longer --baseline-timeout)") from None
 
 
-def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str, float]:
-    """(verdict, detail, seconds): KILLED with the first failing test (or a timeout), SURVIVED, ERROR, or NO
-    TESTS. The files that import the module run first, the direct importers before the others; a mutant they
-    leave alive runs the rest of test/core as well, so that a survivor has passed all of it (a test/core file may
-    reach a module through the fixtures of test/conftest.py or a tools module, which the import scan misses)."""
+def run_mutant(site: Site, timeout: float, root: Path = REPO,
+               chosen: Selection | None = None) -> tuple[str, str, float, float]:
+    """(verdict, detail, seconds, CPU seconds of its processes): KILLED with the first failing test (or a timeout),
+    SURVIVED, ERROR, or NO TESTS. ``chosen`` (line_coverage_map.selection) names the tests that execute the
+    mutated line: only they run, the direct importers' first, and a mutant no test executes survives without a run.
+    Without it (or when every test must run), the files that import the module run first, the direct importers
+    before the others; a mutant they leave alive runs the rest of test/core as well, so that a survivor has passed
+    all of it (a test/core file may reach a module through the fixtures of test/conftest.py or a tools module,
+    which the import scan misses). The CPU seconds are exact when one mutant runs at a time."""
+    if chosen is not None and chosen.kind == NONE:
+        return SURVIVED, chosen.why, 0.0, 0.0
     direct, indirect = test_files(site.module, root)
     if not direct and not indirect:
-        return "NO TESTS", f"no file of test/core imports {site.module}", 0.0
+        return "NO TESTS", f"no file of test/core imports {site.module}", 0.0, 0.0
     importers = set(direct) | set(indirect)
     rest = [path for path in sorted((root / TESTS.relative_to(REPO)).glob("test_*.py")) if path not in importers]
+    if chosen is not None and chosen.kind == TESTS_SELECTED:
+        # One run over the chosen test ids, those in the importers' files first: most mutants are killed there.
+        order = {str(path.relative_to(root)): rank for rank, group in enumerate((direct, indirect, rest))
+                 for path in group}
+        runs = [sorted(chosen.tests, key=lambda test_id: order.get(test_id.split("::")[0], len(order)))]
+    else:
+        runs = [files for files in (direct, indirect, rest) if files]
+    cpu_before = _children_cpu()
     with tempfile.TemporaryDirectory(prefix="fic_random_mutation_") as folder:
         copy = Path(folder) / "fic_core"
         shutil.copytree(root / "fic_core" / "fic_core", copy, ignore=shutil.ignore_patterns("__pycache__"))
@@ -405,18 +433,23 @@ def run_mutant(site: Site, timeout: float, root: Path = REPO) -> tuple[str, str,
         write_settings_plugin(Path(folder), derandomize=True)
         started = time.monotonic()
         result = None
-        for files in (direct, indirect, rest):   # the direct importers first: most mutants are killed there
-            if not files:
-                continue
+        for tests in runs:   # the direct importers first: most mutants are killed there
             try:
-                result = _pytest(root, folder, files, timeout - (time.monotonic() - started))
+                result = _pytest(root, folder, tests, timeout - (time.monotonic() - started))
             except subprocess.TimeoutExpired:
-                return KILLED, f"{TIMEOUT_DETAIL} {timeout:.0f} s (a hang counts)", timeout
+                return KILLED, f"{TIMEOUT_DETAIL} {timeout:.0f} s (a hang counts)", timeout, \
+                    _children_cpu() - cpu_before
             if result.returncode != 0:
                 break
         seconds = time.monotonic() - started
     verdict, detail = pytest_verdict(result)
-    return verdict, detail, seconds
+    return verdict, detail, seconds, _children_cpu() - cpu_before
+
+
+def _children_cpu() -> float:
+    """CPU seconds (user and system) of this process's finished children so far."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def matching(sites: list[Site], previous: dict, verdicts: tuple[str, ...] = ("SURVIVED",)) -> list[Site]:
@@ -449,31 +482,83 @@ def per_module(rows: list[dict], modules: tuple[str, ...] | None = None) -> dict
 
 
 def _judge(chosen: list[Site], root: Path, timeout: float, equivalent: dict, echo, partial: dict,
-           out: Path | None, jobs: int = 1, judged: dict | None = None) -> list[dict]:
+           out: Path | None, jobs: int = 1, judged: dict | None = None,
+           selections: dict[tuple[str, str, str, str], Selection] | None = None) -> list[dict]:
     """Every verdict of ``chosen`` in the snapshot at ``root``, ``jobs`` mutants at a time, in the sample's order,
     written to ``out`` as it goes (``partial`` is the JSON's head); ``judged`` (key -> row, from an interrupted run
-    of the same commit and seed) gives the verdicts already found, which are not run again."""
+    of the same commit and seed) gives the verdicts already found, which are not run again; ``selections`` (key ->
+    the tests that execute the mutant's line) what each runs, every test where it gives none."""
     rows = []
     judged = judged or {}
+    selections = selections or {}
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, jobs))   # each mutant is a pytest process
     verdicts = [None if key(site) in equivalent or key(site) in judged
-                else pool.submit(run_mutant, site, timeout, root) for site in chosen]
+                else pool.submit(run_mutant, site, timeout, root, selections.get(key(site))) for site in chosen]
     for number, (site, pending) in enumerate(zip(chosen, verdicts), 1):
+        cpu, ran = None, _ran(selections.get(key(site)))
         if key(site) in equivalent:
-            verdict, detail, seconds = "EQUIVALENT", equivalent[key(site)], 0.0
+            verdict, detail, seconds, ran = "EQUIVALENT", equivalent[key(site)], 0.0, None
         elif pending is None:
             found = judged[key(site)]
             verdict, detail, seconds = found["verdict"], found["detail"], found["seconds"]
+            cpu, ran = found.get("cpu_seconds"), found.get("tests_run")
         else:
-            verdict, detail, seconds = pending.result()
-        rows.append({**asdict(site), "verdict": verdict, "detail": detail, "seconds": round(seconds, 1)})
+            verdict, detail, seconds, cpu = pending.result()
+            cpu = round(cpu, 1) if jobs == 1 else None   # children of several mutants overlap otherwise
+        rows.append({**asdict(site), "verdict": verdict, "detail": detail, "seconds": round(seconds, 1),
+                     "cpu_seconds": cpu, "tests_run": ran})
         if out is not None:   # as it goes: an interrupted run keeps its verdicts
             out.parent.mkdir(parents=True, exist_ok=True)
             out.write_text(json.dumps({**partial, "partial": True, "mutants": rows}, indent=2) + "\n")
         echo(f"{number:3d} {verdict:10s} {site.module}:{site.line} {site.kind}: {site.change}\n"
-             f"               {site.source_line[:100]}\n               {detail} ({seconds:.0f} s)")
+             f"               {site.source_line[:100]}\n               {detail} ({seconds:.0f} s"
+             f"{'' if cpu is None else f', {cpu:.0f} CPU-s'}; tests: {ran})")
     pool.shutdown()
     return rows
+
+
+def _ran(chosen: Selection | None) -> str | int | None:
+    """What a mutant's row says it ran: "all" (the importers' files, then the rest), the number of test ids
+    chosen, or 0 (no test executes its line)."""
+    if chosen is None or chosen.kind == ALL:
+        return "all"
+    return len(chosen.tests)
+
+
+def selections_of(sites: list[Site], root: Path, line_map: line_coverage_map.LineMap) -> dict:
+    """key -> line_coverage_map.selection of each site, its module parsed from the tree at ``root``."""
+    trees: dict[str, tuple[ast.AST, list[ast.AST]]] = {}
+    found = {}
+    for site in sites:
+        if site.module not in trees:
+            tree = ast.parse((root / PACKAGE.relative_to(REPO) / site.module).read_text())
+            trees[site.module] = (tree, list(ast.walk(tree)))
+        tree, nodes = trees[site.module]
+        found[key(site)] = line_coverage_map.selection(line_map, site.module, tree, nodes[site.node])
+    return found
+
+
+def unmutated_line_map(root: Path, timeout: float, cache: Path, echo=print) -> line_coverage_map.LineMap:
+    """The line map of the tree at ``root``: read from ``cache`` when a run of this tree's content built it (that
+    run passed: it was the baseline), else test/core run once under coverage, which is then the baseline, and the
+    map stored. Raises RuntimeError when test/core fails or does not finish in ``timeout`` seconds."""
+    found = line_coverage_map.cached(root, cache)
+    if found is not None:
+        echo(f"[random_mutation] line map of tree {found.tree[:12]} read from {cache} (test/core passed on it "
+             f"when it was built)")
+        return found
+    started = time.monotonic()
+    try:
+        found, result = line_coverage_map.build(root, timeout)
+    except subprocess.TimeoutExpired:
+        raise RuntimeError(f"test/core did not finish on the unmutated tree in {timeout:.0f} s (a loaded "
+                           f"machine: give a longer --baseline-timeout)") from None
+    if found is None:
+        raise RuntimeError("test/core fails on the unmutated tree: " + result.stdout.strip()[-400:])
+    path = line_coverage_map.store(found, cache)
+    echo(f"[random_mutation] line map of {len(found.tests)} tests built in {time.monotonic() - started:.0f} s, "
+         f"stored in {path}")
+    return found
 
 
 def _result(head: dict, rows: list[dict], sites: int | None, seconds: float, modules: tuple[str, ...] | None) -> dict:
@@ -492,13 +577,14 @@ def _result(head: dict, rows: list[dict], sites: int | None, seconds: float, mod
 def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | None], *, module: str | None = None,
               modules: tuple[str, ...] | None = None, echo=print, commit: str = "HEAD",
               baseline_timeout: float = BASELINE_TIMEOUT, rerun: dict | None = None, jobs: int = 1,
-              resume: bool = False) -> list[dict]:
+              resume: bool = False, full_suite: bool = False, cache: Path | None = None) -> list[dict]:
     """Each seed's draw of ``commit``'s fic_core (``module`` only, or ``modules``) against its test/core, from one
     snapshot and one unmutated run; returns (and writes to its ``outs`` path) each draw's verdicts, its kill rate
     overall and per module, and its role (``role_of``). With ``rerun`` (an earlier run's JSON, one seed): its
     survivors again instead of a sample. With ``resume``: the verdicts an interrupted run of the same commit, seed and
-    modules left in an ``outs`` file are kept (``judged_before``), the rest are run. Raises RuntimeError when
-    test/core fails on the unmutated tree."""
+    modules left in an ``outs`` file are kept (``judged_before``), the rest are run. Each mutant runs the tests that
+    execute its line (line_coverage_map, its map kept in ``cache``), or with ``full_suite`` test/core until a test
+    fails. Raises RuntimeError when test/core fails on the unmutated tree."""
     equivalent = equivalent_mutants()
     revision = subprocess.run(["git", "rev-parse", commit], cwd=REPO, capture_output=True, text=True,
                               check=True).stdout.strip()
@@ -506,9 +592,13 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
     drawn_from = module if module is not None else _scope_name(modules)
     with tempfile.TemporaryDirectory(prefix="fic_random_mutation_tree_") as tree:
         root = snapshot(revision, Path(tree))
-        unmutated = baseline(root, baseline_timeout)
-        if unmutated.returncode != 0:
-            raise RuntimeError("test/core fails on the unmutated tree: " + unmutated.stdout.strip()[-400:])
+        if full_suite:
+            line_map = None
+            unmutated = baseline(root, baseline_timeout)
+            if unmutated.returncode != 0:
+                raise RuntimeError("test/core fails on the unmutated tree: " + unmutated.stdout.strip()[-400:])
+        else:
+            line_map = unmutated_line_map(root, baseline_timeout, cache or REPO / line_coverage_map.CACHE, echo)
         every_site = all_sites(root)
         in_scope = len([site for site in every_site if (module is None or site.module == module)
                         and (modules is None or site.module in modules)])
@@ -516,11 +606,13 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
             started = time.monotonic()
             chosen = matching(every_site, rerun) if rerun is not None else sample(seed, size, module, root,
                                                                                    modules=modules)
-            head = {"commit": revision, "seed": seed, "role": role_of(seed), "drawn_from": drawn_from}
+            head = {"commit": revision, "seed": seed, "role": role_of(seed), "drawn_from": drawn_from,
+                    "tests": "full suite" if full_suite else "the tests that execute the mutated line"}
             if rerun is not None:
                 head["rerun_of"] = rerun.get("commit")
             judged = judged_before(out, head) if resume and rerun is None else {}
-            rows = _judge(chosen, root, timeout, equivalent, echo, head, out, jobs, judged)
+            selections = None if line_map is None else selections_of(chosen, root, line_map)
+            rows = _judge(chosen, root, timeout, equivalent, echo, head, out, jobs, judged, selections)
             result = _result(head, rows, in_scope, time.monotonic() - started,
                              modules if module is None else (module,))
             if out is not None:
@@ -568,23 +660,50 @@ def pooled_table(results: list[dict]) -> str:
     law = all(str(result.get("drawn_from", "")).startswith("law") for result in results)
     names = tuple(LAW_MODULES) + tuple(sorted(drawn - set(LAW_MODULES))) if law else tuple(sorted(drawn))
     table = per_module(rows, names)
-    lines = ["| module | drawn | equivalent | killed / non-equivalent | kill rate |", "|---|---|---|---|---|"]
+    # With several draws, a column a draw: killed / non-equivalent of each module in that draw alone.
+    draws = [per_module(result["mutants"], names) for result in results] if len(results) > 1 else []
+    seeds = "".join(f" seed {result['seed']} |" for result in results) if draws else ""
+    lines = [f"| module | drawn | equivalent |{seeds} killed / non-equivalent | kill rate |",
+             "|---|---|---|" + "---|" * len(draws) + "---|---|"]
     for name, entry in table.items():
         rate = "-" if entry["kill_rate"] is None else f"{entry['kill_rate']:.3f}"
-        lines.append(f"| {name.removesuffix('.py')} | {entry['drawn']} | {entry['equivalent']} | "
+        each = "".join(f" {draw[name]['killed']} / {draw[name]['non_equivalent']} |" for draw in draws)
+        lines.append(f"| {name.removesuffix('.py')} | {entry['drawn']} | {entry['equivalent']} |{each} "
                      f"{entry['killed']} / {entry['non_equivalent']} | {rate} |")
     for result in results:
         unfinished = ", partial" if result.get("partial") else ""
         lines.append(f"| seed {result['seed']} ({result['role']}{unfinished}, {result['commit'][:10]}) | "
-                     f"{result['sample']} | "
-                     f"{result['equivalent']} | {result['killed']} / {result['non_equivalent']} | "
-                     f"{result['kill_rate']} |")
+                     f"{result['sample']} | {result['equivalent']} |" + " |" * len(draws) +
+                     f" {result['killed']} / {result['non_equivalent']} | {result['kill_rate']} |")
     counted = sum(result["non_equivalent"] for result in results)
     killed = sum(result["killed"] for result in results)
     rate = f"{killed / counted:.3f}" if counted else "-"
-    lines.append(f"| all | {len(rows)} | {sum(result['equivalent'] for result in results)} | {killed} / {counted} "
-                 f"| {rate} |")
+    each = "".join(f" {result['killed']} / {result['non_equivalent']} |" for result in results) if draws else ""
+    lines.append(f"| all | {len(rows)} | {sum(result['equivalent'] for result in results)} |{each} "
+                 f"{killed} / {counted} | {rate} |")
     return "\n".join(lines)
+
+
+def compared(full: dict, selected: dict) -> tuple[str, bool]:
+    """(a Markdown table of each mutant judged in both runs: its verdict and CPU seconds with the full suite and
+    with the tests that execute its line, then the mean CPU seconds of each; whether every verdict agrees)."""
+    verdicts = {(row["module"], row["scope"], row["source_line"], row["change"]): row for row in full["mutants"]}
+    lines = ["| mutant | full suite | CPU-s | selected tests | CPU-s |", "|---|---|---|---|---|"]
+    agree, spent = True, [[], []]
+    for row in selected["mutants"]:
+        other = verdicts.get((row["module"], row["scope"], row["source_line"], row["change"]))
+        if other is None or "EQUIVALENT" in (row["verdict"], other["verdict"]):
+            continue
+        agree &= other["verdict"] == row["verdict"]
+        for costs, judged in zip(spent, (other, row)):
+            if judged.get("cpu_seconds") is not None:
+                costs.append(judged["cpu_seconds"])
+        lines.append(f"| {row['module']}:{row['line']} {row['change']} | {other['verdict']} | "
+                     f"{other.get('cpu_seconds')} | {row['verdict']} ({row.get('tests_run')} tests) | "
+                     f"{row.get('cpu_seconds')} |")
+    means = [f"{sum(costs) / len(costs):.1f}" if costs else "-" for costs in spent]
+    lines.append(f"| mean of {len(lines) - 2} | | {means[0]} | | {means[1]} |")
+    return "\n".join(lines), agree
 
 
 def tallied(result: dict) -> dict:
@@ -636,6 +755,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--resume", action="store_true",
                         help="keep the verdicts an interrupted run of the same commit and seed left in its JSON "
                              "(--out or --out-dir), run the rest")
+    parser.add_argument("--full-suite", action="store_true",
+                        help="run test/core until a test fails for every mutant (the importers' files first), not "
+                             "only the tests that execute its line")
+    parser.add_argument("--compare", type=Path, nargs=2, default=None, metavar=("FULL", "SELECTED"),
+                        help="print, mutant by mutant, the verdicts and CPU seconds of a --full-suite JSON and a run "
+                             "of the same mutants with the tests that execute their lines, and exit (1 if a verdict "
+                             "differs)")
     parser.add_argument("--list", action="store_true", help="print a fitting seed's sample and exit")
     parser.add_argument("--count", action="store_true", help="print the number of sites per kind and exit")
     parser.add_argument("--table", type=Path, nargs="+", default=None,
@@ -656,6 +782,10 @@ def main(argv: list[str] | None = None) -> int:
     if arguments.table:
         print(pooled_table([tallied(json.loads(path.read_text())) for path in arguments.table]))
         return 0
+    if arguments.compare:
+        text, agree = compared(*(json.loads(path.read_text()) for path in arguments.compare))
+        print(text)
+        return 0 if agree else 1
     try:
         fitting, held_out = seed_sets()
     except ValueError as error:
@@ -700,7 +830,7 @@ def main(argv: list[str] | None = None) -> int:
         results = run_draws(seeds, arguments.sample, arguments.timeout, outs, module=arguments.module,
                             modules=modules, echo=lambda text: print(text, flush=True), commit=arguments.commit,
                             baseline_timeout=arguments.baseline_timeout, rerun=rerun, jobs=arguments.jobs,
-                            resume=arguments.resume)
+                            resume=arguments.resume, full_suite=arguments.full_suite)
     except RuntimeError as error:   # the unmutated tree failed or did not finish: no mutant can be judged
         print(f"[random_mutation] {error}", file=sys.stderr)
         return 2
