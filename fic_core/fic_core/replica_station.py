@@ -39,11 +39,11 @@ from .input_authority import (
     CommandAuthority,
     RobotStreamGuard,
 )
-from .parameter_row import ParameterRow, parameter_set, rows_by_name, text
+from .parameter_row import ParameterRow, parameter_set
 from .replica import ReplicaCommand
 from .replica_driver import DRIVER_PARAMETERS, DriverParameters, ReplicaDriver
 from .replica_loop import ReplicaLoop, ReplicaStep
-from .replica_parameters import CONTROLLER_DESCRIPTION, REPLICA_LOOP_PARAMETERS, REPLICA_NUMBERS, REPLICA_SWITCHES
+from .replica_parameters import REPLICA_LOOP_ROWS, ReplicaLoopParameters
 from .robot_model import RobotModel
 
 Notice = tuple[str, str]
@@ -52,8 +52,7 @@ Notice = tuple[str, str]
 #: loop's (the law, fic_core.replica_parameters), the driver's (fic_core.replica_driver), the input authority's
 #: (fic_core.input_authority), the channel's replica port and the exchanged-energy observer.
 REPLICA_PARAMETERS: dict[str, ParameterRow] = {
-    **rows_by_name(text("controller", CONTROLLER_DESCRIPTION)), **REPLICA_NUMBERS, **REPLICA_SWITCHES,
-    **DRIVER_PARAMETERS, **AUTHORITY_PARAMETERS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS,
+    **REPLICA_LOOP_ROWS, **DRIVER_PARAMETERS, **AUTHORITY_PARAMETERS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS,
     **EXCHANGED_ENERGY_SWITCHES}
 #: The replica's parameters as one typed object, one field a row of REPLICA_PARAMETERS (fic_core.parameter_row):
 #: ``ReplicaParameters.from_values(values)`` checks every value and refuses a name no row has, naming the nearest.
@@ -109,8 +108,8 @@ class ReplicaTick:
 class ReplicaStation:
     """The replica's loop, its input guarding and its driver semantics for the replica's parameters (module
     docstring). ``channel_port``: the channel's replica port, when the caller holds both ends (the in-process runner
-    sums the channel's balance); else one is built from the parameters. The loop keeps its own run-time values
-    (``loop.parameters``, changed by ``configure``)."""
+    sums the channel's balance); else one is built from the parameters. The loop takes its part and keeps it as it
+    runs it (``loop.parameters``, replaced by ``configure``)."""
 
     def __init__(self, parameters: ReplicaParameters, robot: RobotModel | None = None,
                  channel_port: ReplicaChannelPort | None = None) -> None:
@@ -120,12 +119,12 @@ class ReplicaStation:
         # What an outside input may ask of the arm (fic_core.input_authority): bounded commands (the loop's
         # authority), one writer per guarded stream (the stream guard's); a breach holds the arm.
         self.authority = CommandAuthority(AuthorityBounds.from_parameters(p.part(AuthorityParameters)))
-        self.loop = ReplicaLoop({name: getattr(p, name) for name in REPLICA_LOOP_PARAMETERS}, robot,
-                                self.driver.limits(robot), self.authority)   # FicInputError if bad
+        self.loop = ReplicaLoop(p.part(ReplicaLoopParameters), robot, self.driver.limits(robot),
+                                self.authority)   # FicInputError if bad
         self.streams = RobotStreamGuard(future_tolerance=p.command_future_tolerance)
         self.channel_port = ReplicaChannelPort(p.channel_passivity_control, p.channel_energy_window) \
             if channel_port is None else channel_port
-        self.exchanged = ReplicaExchangedEnergy(1.0 / self.loop.parameters["control_rate"]) \
+        self.exchanged = ReplicaExchangedEnergy(1.0 / self.loop.parameters.control_rate) \
             if p.exchanged_energy_observer else None
         self.state_stamp_ns: int | None = None   # the joint state the last torque was computed on
         self.feedback_force: NDArray[np.float64] | None = None   # F_R of the last F/T reading (None: none yet)
@@ -164,8 +163,12 @@ class ReplicaStation:
         return ReplicaTotals(loop.controller.violation_ticks, loop.controller.shaped_ticks,
                              loop.passivity.min_margin, loop.passivity.violation_ticks, loop.health.holds)
 
-    def configure(self, changes: Mapping[str, Any]) -> dict[str, Any]:
-        """The loop's run-time parameters, all or none (FicInputError names the bad one)."""
+    def configure(self, changes: Mapping[str, Any]) -> ReplicaLoopParameters:
+        """The loop's run-time parameters, all or none (FicInputError names the bad one); returns the loop's
+        parameters now in force. The other parts' (driver, input authority, channel port) are fixed at start."""
+        fixed = [name for name in changes if name in REPLICA_PARAMETERS and name not in REPLICA_LOOP_ROWS]
+        if fixed:
+            raise FicInputError(f"{', '.join(fixed)}: fixed at start (only the loop's parameters change at run time)")
         return self.loop.configure(changes)
 
     # --- who writes ------------------------------------------------------------------------------------------

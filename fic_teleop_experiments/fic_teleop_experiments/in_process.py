@@ -31,7 +31,7 @@ from fic_core.arm_profile import arm_profile
 from fic_core.channel_ports import ChannelPorts
 from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
-from fic_core.planner_station import PlannerStation, make_source
+from fic_core.planner_station import PlannerParameters, PlannerStation, make_source
 from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.trajectories import LapVaryingCircle
@@ -357,12 +357,13 @@ def run(config: RunConfig) -> RunResult:
                                              pl["circle_normal"], TASK_PHASE_RANGES_RAD)
         drawn["task"] = dict(periods=source.periods.tolist(), diameters=source.diameters.tolist(), phase=source.phase)
     # The planner node's station, its trajectory's clock on the launcher's origin (shared with the E1 script).
-    planner_values = {**pl, "trajectory": "circle" if trajectory == "circle" else "fixed", "start_position": [],
-                      "start_time": SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0}
+    planner_parameters = PlannerParameters.from_values({
+        **pl, "trajectory": "circle" if trajectory == "circle" else "fixed", "start_position": [],
+        "start_time": SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0})
     if config.quiet_from is not None:   # the quiet tail: the trajectory's clock stops (RunConfig.quiet_from)
-        source = StoppedTrajectory(source if source is not None else make_source(planner_values),
-                                   max(config.quiet_from - planner_values["start_time"], 0.0))
-    planner = PlannerStation(planner_values, 0.0, source)
+        source = StoppedTrajectory(source if source is not None else make_source(planner_parameters),
+                                   max(config.quiet_from - planner_parameters.start_time, 0.0))
+    planner = PlannerStation(planner_parameters, 0.0, source)
     sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
     # The robot node's station: its stale-command hold (command_timeout), its rule on the state a torque was computed
     # on (command_state_timeout: a torque on an older state is never applied), its velocity reflex.

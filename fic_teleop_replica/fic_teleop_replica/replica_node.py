@@ -88,25 +88,25 @@ class ReplicaNode(Node):
         self.create_subscription(AccelStamped, "/planner/desired_accel", self._on_planner_accel, qos.SET_POINT,
                                  event_callbacks=guard.stream_events("/planner/desired_accel"))
         p = self._loop.parameters
-        self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
+        self._diagnostics_timer = self.create_timer(1.0 / p.diagnostics_rate, self._publish_diagnostics)
         # The joint-state watchdog runs on the steady clock: with a real driver, silence is wall time.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         if self._driver.ramp is not None:
             self.create_timer(0.01, self._check_joint_states, clock=self._steady)
         self.get_logger().info(f"driver: {self._driver.describe()}")
-        self.get_logger().info(f"replica ready: controller {p['controller']}, control_rate {p['control_rate']:g} Hz, "
-                               f"master_timeout {p['master_timeout']:g} s; waiting for /joint_states")
+        self.get_logger().info(f"replica ready: controller {p.controller}, control_rate {p.control_rate:g} Hz, "
+                               f"master_timeout {p.master_timeout:g} s; waiting for /joint_states")
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         changes = {parameter.name: parameter.value for parameter in parameters}
-        old_rate = self._loop.parameters["diagnostics_rate"]
+        old_rate = self._loop.parameters.diagnostics_rate
         try:
             p = self._station.configure(changes)
         except FicInputError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        if p["diagnostics_rate"] != old_rate:
+        if p.diagnostics_rate != old_rate:
             self._diagnostics_timer.cancel()
-            self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
+            self._diagnostics_timer = self.create_timer(1.0 / p.diagnostics_rate, self._publish_diagnostics)
         self.get_logger().info(f"parameters changed: {', '.join(f'{k}={v}' for k, v in changes.items())}")
         return SetParametersResult(successful=True)
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from fic_core.planner_station import PlannerStation
+from fic_core.planner_station import PlannerParameters, PlannerStation
 from fic_teleop_bringup import teleop_launcher
 from fic_teleop_bringup.launch_checks import ArgumentRefusal, check_options
 
@@ -41,8 +41,9 @@ def test_the_planner_comes_to_rest_on_the_circles_point_at_its_stop_time() -> No
     from fic_teleop_bringup.workspace import CONFIG
 
     values = yaml.safe_load((CONFIG / "planner.yaml").read_text())["/**"]["ros__parameters"]
-    stopping = PlannerStation({**values, "start_time": 0.0, "stop_time": 3.0}, 0.0)
-    running = PlannerStation({**values, "start_time": 0.0}, 0.0)
+    values = {**values, "start_time": 0.0, "start_position": []}
+    stopping = PlannerStation(PlannerParameters.from_values({**values, "stop_time": 3.0}), 0.0)
+    running = PlannerStation(PlannerParameters.from_values(values), 0.0)
     points = {}
     for step in range(0, 601):   # 6 s at 100 Hz
         now = step / 100.0

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from config_values import config_values, replica_loop_values
+from config_values import config_values, replica_loop_parameters
 
 from fic_core.exchanged_energy_ports import MasterExchangedEnergy, ReplicaExchangedEnergy
 from fic_core.master_station import MasterParameters, MasterStation
@@ -24,7 +24,7 @@ WRIST = np.array([0.0, 0.0, 0.0, 0.15, 0.0, 0.25, 0.35])   # a loop in joints 4,
 def arm_loop(controller: str, seconds: float = 2.0) -> tuple[ReplicaLoop, ReplicaExchangedEnergy]:
     """The arm driven round q(t) = Q0 + WRIST sin(2 pi t / seconds) (1 - cos) / 2, one closed loop, the set-point
     held: every control tick of the replica booked by the watch."""
-    loop = ReplicaLoop(replica_loop_values(controller=controller, answer_every_state=True))
+    loop = ReplicaLoop(replica_loop_parameters(controller=controller, answer_every_state=True))
     watch = ReplicaExchangedEnergy(0.001)
     steps = int(round(seconds / 0.001))
     for k in range(steps + 1):

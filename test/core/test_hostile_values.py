@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 import pytest
-from config_values import config_values, replica_loop_values
+from config_values import config_values, replica_loop_parameters
 
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AUTHORITY_PARAMETERS, AuthorityBounds, AuthorityParameters, CommandAuthority
@@ -165,7 +165,7 @@ def test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits(
 
     limits = PandaLimits.from_robot(robot)
     sim = PandaSimulation("free_space", 0)
-    loop = ReplicaLoop(replica_loop_values(answer_every_state=True), robot)
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True), robot)
     authority = CommandAuthority(AuthorityBounds.from_parameters(AuthorityParameters.from_values(
         {name: REPLICA_DEFAULTS[name] for name in AUTHORITY_PARAMETERS})))
     base = 1000.0

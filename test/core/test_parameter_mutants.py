@@ -240,7 +240,7 @@ def test_a_solver_that_reports_success_with_non_finite_values_is_not_trusted(rob
 def test_the_exchanged_energy_watch_books_a_tick_only_with_the_law_that_made_it() -> None:
     """A linear law's tick given with a FIC (a law switched between the tick and its booking) is not booked, nor
     is the FIC's tick given with the linear law: the storage and the snapshot must be the same law's."""
-    from config_values import replica_loop_values
+    from config_values import replica_loop_parameters
 
     from fic_core.exchanged_energy_ports import ReplicaExchangedEnergy
     from fic_core.panda_description import NOMINAL_CONFIGURATION
@@ -250,7 +250,7 @@ def test_the_exchanged_energy_watch_books_a_tick_only_with_the_law_that_made_it(
     commands = {}
     laws = {}
     for controller in ("fic", "linear"):
-        loop = ReplicaLoop(replica_loop_values(controller=controller, answer_every_state=True))
+        loop = ReplicaLoop(replica_loop_parameters(controller=controller, answer_every_state=True))
         step = loop.joint_state(0.0, 0.0, q0, np.zeros(7))
         commands[controller], laws[controller] = step.command, loop.controller.controller
     watch = ReplicaExchangedEnergy(0.001)

@@ -4,12 +4,15 @@ reading through the driver's frame, the driver's command with the state stamp it
 own hold and resume as the station passes them on."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from config_values import config_values
 
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
+from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
 from fic_core.replica_station import (
     CHANNEL_STREAMS,
     REPLICA_PARAMETERS,
@@ -46,7 +49,15 @@ def test_the_parameters_are_one_typed_object_of_the_replicas_table() -> None:
         ReplicaParameters.from_values({**values, "offset_workspace": 5.0})
     replica = ReplicaStation(parameters)
     assert replica.authority.bounds.max_offset_speed == values["max_offset_speed"]
-    assert replica.driver.base_frame == values["base_frame"] and replica.loop.parameters["controller"] == "fic"
+    assert replica.driver.base_frame == values["base_frame"] and replica.loop.parameters.controller == "fic"
+    # The loop's part: its own rows only, the same values; a run-time change replaces it, the station's copy stays.
+    assert set(dataclasses.asdict(replica.loop.parameters)) == set(REPLICA_LOOP_PARAMETERS)
+    assert replica.configure({"control_rate": 500.0}).control_rate == 500.0 == replica.loop.parameters.control_rate
+    with pytest.raises(FicInputError, match="^offset_workspace: fixed at start"):   # the input authority's
+        replica.configure({"offset_workspace": 0.5, "control_rate": 250.0})
+    with pytest.raises(FicInputError, match="^unknown replica parameter 'use_sim_time'"):
+        replica.configure({"use_sim_time": True})
+    assert replica.loop.parameters.control_rate == 500.0
 
 
 def run(replica: ReplicaStation, start: float, ticks: int) -> float:
