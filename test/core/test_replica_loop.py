@@ -276,3 +276,30 @@ def test_the_paper_law_switches_off_the_terms_beyond_eq_7() -> None:
     assert not (p.planner_feedforward or p.offset_feedforward or p.joint_damping_compensation)
     assert not loop.controller.joint_damping_compensation and not loop.desired.parameters.planner_feedforward
     assert ReplicaLoop(replica_loop_parameters(paper_law=False, **beyond)).parameters.offset_feedforward
+
+
+@pytest.mark.parametrize("position, quaternion", [((math.nan, 0.0, 0.5), (0.0, 0.0, 0.0, 1.0)),
+                                                  ((0.3, 0.0, 0.5), (0.0, 0.0, 0.0, 0.0)),
+                                                  ((0.3, 0.0), (0.0, 0.0, 0.0, 1.0))])
+def test_a_refused_planner_pose_is_counted_as_refused_and_changes_nothing(position, quaternion) -> None:
+    """A planner pose with a non-finite or short position, or a zero quaternion, is refused in one line
+    (FicInputError), counted under rejected_planner_poses and not as received, and x_d stays where it was."""
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True))
+    loop.joint_state(0.0, 0.0, Q0, QD0)
+    before = loop.desired.update(0.001, 0.001).position.copy()
+    with pytest.raises(FicInputError):
+        loop.add_planner_pose(1_000_000, position, quaternion, 0.001)
+    assert loop.counts["rejected_planner_poses"] == 1 and loop.counts["planner_poses"] == 0
+    np.testing.assert_array_equal(loop.desired.update(0.002, 0.001).position, before)
+    loop.add_planner_pose(2_000_000, before, (0.0, 0.0, 0.0, 1.0), 0.002)
+    assert loop.counts["rejected_planner_poses"] == 1 and loop.counts["planner_poses"] == 1
+
+
+def test_a_refused_teleoperation_offset_is_counted_as_refused() -> None:
+    """x_d' with a non-finite entry, given straight to add_teleoperation: refused, counted as refused only."""
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True))
+    loop.joint_state(0.0, 0.0, Q0, QD0)
+    with pytest.raises(FicInputError):
+        loop.add_teleoperation(1_000_000, (0.0, math.inf, 0.0), 0.001)
+    assert loop.counts["rejected_teleop_commands"] == 1 and loop.counts["teleop_commands"] == 0
+    assert loop.desired.master_received is None
