@@ -61,7 +61,7 @@ def test_unconstrained_torque_passes_unchanged(robot, limits) -> None:
     desired = gravity + 0.3
     result, _ = shape(optimisation, robot, NOMINAL_CONFIGURATION, np.zeros(7), desired, gravity)
     assert result.flags == LimitFlag.NONE
-    assert not result.solved_qp
+    assert not result.solved_qp and result.iterations == 0   # the fast path: no solver iterations
     assert result.torque_change == 0.0
     np.testing.assert_array_equal(result.torque, desired)
 
@@ -75,6 +75,7 @@ def test_torque_saturation_is_flagged_torque(robot, limits) -> None:
     desired[4] = 30.0  # joint 5's limit is 12 N m
     result, bias = shape(optimisation, robot, NOMINAL_CONFIGURATION, qd, desired, None)
     assert result.flags == LimitFlag.TORQUE
+    assert result.solved_qp and result.iterations >= 1   # the QP ran: its solver's iterations, counted up
     assert result.torque[4] == pytest.approx(12.0)
     assert result.torque_change > 0.0
     assert_inside_box(result, None, limits)

@@ -303,3 +303,27 @@ def test_a_refused_teleoperation_offset_is_counted_as_refused() -> None:
         loop.add_teleoperation(1_000_000, (0.0, math.inf, 0.0), 0.001)
     assert loop.counts["rejected_teleop_commands"] == 1 and loop.counts["teleop_commands"] == 0
     assert loop.desired.master_received is None
+
+
+def test_a_control_step_that_refuses_its_inputs_is_counted_said_and_held(monkeypatch) -> None:
+    """The controller refusing what the loop hands it (only a bug upstream could cause it): the tick holds instead
+    (the same law toward the held pose), counts a controller error, and says why at the error level."""
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True))
+    loop.joint_state(0.0, 0.0, Q0, QD0)
+    held = loop.controller.hold(Q0, QD0)
+
+    law = loop.controller.command
+    calls = []
+
+    def refuse_once(*args, **kwargs):   # the hold then runs the law itself, toward the held pose
+        calls.append(args)
+        if len(calls) == 1:
+            raise FicInputError("desired_position has a NaN")
+        return law(*args, **kwargs)
+    monkeypatch.setattr(loop.controller, "command", refuse_once)
+    step = loop.joint_state(0.001, 0.001, Q0, QD0)
+    assert loop.counts["controller_errors"] == 1
+    assert any(level == "error" and "refused its inputs" in text for level, text in step.notices)
+    assert step.command is not None and np.all(np.isfinite(step.command.torque))
+    assert len(calls) == 2
+    np.testing.assert_allclose(step.command.torque, held.torque, atol=1e-6)
