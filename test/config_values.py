@@ -7,7 +7,7 @@ from typing import Any
 
 import yaml
 
-from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
+from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS, ReplicaLoopParameters
 
 CONFIG = Path(__file__).resolve().parents[1] / "config"
 
@@ -20,3 +20,8 @@ def replica_loop_values(**changes: Any) -> dict[str, Any]:
     """config/replica.yaml's ReplicaLoop parameters (not the node's driver or input-authority keys), changed."""
     values = {name: value for name, value in config_values("replica.yaml").items() if name in REPLICA_LOOP_PARAMETERS}
     return {**values, **changes}
+
+
+def replica_loop_parameters(**changes: Any) -> ReplicaLoopParameters:
+    """``replica_loop_values`` as the loop takes them, each checked by its row."""
+    return ReplicaLoopParameters.from_values(replica_loop_values(**changes))

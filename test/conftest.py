@@ -235,16 +235,13 @@ def start_node(ros_env: dict[str, str], tmp_path: Path):
         pytest.fail("a node did not stop clean:\n" + "\n".join(problems), pytrace=False)
 
 
-def robot_and_replica(start_node, ros_env: dict[str, str]):
+def robot_and_replica(start_node):
     """The simulated robot (free space, realtime) and the replica at 500 Hz from this checkout's build, started by
     the ``start_node`` fixture: the graph the input probes write into."""
-    env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "build" / "fic_teleop_replica"),
-                                                      env.get("PYTHONPATH")]))
     robot = start_node("sim_bridge", "robot_node", params_file=CONFIG / "robot.yaml",
                        params={"mode": "realtime", "scene": "free_space"})
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 500.0, "diagnostics_rate": 5.0}, env=env)
+                         params={"control_rate": 500.0, "diagnostics_rate": 5.0})
     return robot, replica
 
 

@@ -1,6 +1,7 @@
 """The delayed channel's two ports, each at its end of the link: time-domain passivity observers and, with
 ``control`` (TDPA), their passivity controllers (fic_core.channel_passivity_observer, passivity_controller).
-The master node and the replica node each hold one half; the in-process runner holds both (``ChannelPorts``).
+Each side's station holds its half (fic_core.master_station, fic_core.replica_station), built from its parameters; the
+in-process runner builds both (``ChannelPorts``) and hands each station its own, to sum the channel's balance.
 
 Where each port's power is measurable: at the master, the rate v of the offset x_d' the master sends (offset mode:
 s_M times the handle's velocity, 250 Hz; velocity mode: k_v x_M) against the replica force F_R it receives;
@@ -25,7 +26,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from .channel_passivity_observer import ChannelPortObserver
 from .errors import finite_array, finite_scalar
-from .master_station import MasterStation
 from .parameter_row import ParameterRow, number, rows_by_name, switch
 from .passivity_controller import ForcePortPassivityController, MotionPortPassivityController
 from .teleoperation import TeleoperationMode
@@ -111,20 +111,16 @@ class MasterChannelPort(_ChannelPort):
         self._feedback = finite_array("replica_force", force, (3,)).copy()
         self._feedback_received = finite_scalar("now", now)
 
-    def tick(self, station: MasterStation, now: float, dt: float) -> None:
-        """Book one master control tick of ``dt`` [s] before Eq. 3 is evaluated; with ``control`` the station
-        renders the damped F_R (F_R - alpha v) instead of the received one. A stale F_R is booked as zero, as
-        Eq. 3 renders it."""
-        fresh = self._feedback_received is not None and now - self._feedback_received <= station.feedback_timeout
-        integrator = station.integrator
-        # While the clutch is held or the handle is homed, x_d' stands still: its rate is zero.
-        velocity = np.zeros(3) if station.handle_position is None or integrator.held else port_velocity(
-            integrator.mode, integrator.workspace_scale, integrator.velocity_gain, station.handle_position,
-            station.handle_velocity)
+    def tick(self, now: float, dt: float, velocity: NDArray[np.float64],
+             feedback_timeout: float) -> tuple[NDArray[np.float64], float] | None:
+        """Book one master control tick of ``dt`` [s] before Eq. 3 is evaluated, ``velocity`` being the rate of
+        x_d' (``port_velocity``; zero while x_d' stands still). A F_R older than ``feedback_timeout`` is booked as
+        zero, as Eq. 3 renders it. Returns, with ``control`` and a fresh F_R, the damped F_R (F_R - alpha v) and
+        when F_R was received, for Eq. 3 to render instead of the received one; else None."""
+        fresh = self._feedback_received is not None and now - self._feedback_received <= feedback_timeout
         rendered = self.controller.step(self._feedback if fresh else np.zeros(3), velocity, dt)
-        if self.control and fresh:
-            station.add_feedback(rendered, self._feedback_received)
         self.generated_rate.add(now, self.generated_energy)
+        return (rendered, self._feedback_received) if self.control and fresh else None
 
     def diagnostics(self) -> dict[str, float]:
         return {**self._observer_values(), "damping_n_s_per_m": self.controller.damping}

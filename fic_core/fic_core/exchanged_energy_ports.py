@@ -24,7 +24,6 @@ import pinocchio as pin
 from .attractor import FractalAttractor
 from .attractor_storage import AttractorStorage
 from .exchanged_energy_observer import DEFAULT_TOLERANCE_J, ExchangedEnergyObserver
-from .master_station import MasterStation
 from .parameter_row import ParameterRow, rows_by_name, switch
 from .pose_attractor import PoseAttractor, PoseAttractorSnapshot
 from .replica import ReplicaCommand
@@ -81,12 +80,12 @@ class MasterExchangedEnergy:
         self._storage: AttractorStorage | None = None
         self._evaluations = 0
 
-    def observe(self, station: MasterStation) -> None:
-        """Book the station's last Eq. 3 evaluation, if a new one (call after each ``station.force``)."""
-        if station.law_evaluations == self._evaluations:
+    def observe(self, law_evaluations: int, attractor: FractalAttractor) -> None:
+        """Book the master's last Eq. 3 evaluation of the handle's ``attractor``, if a new one: ``law_evaluations``
+        is the master station's count of them (its ``update`` calls this after each control tick)."""
+        if law_evaluations == self._evaluations:
             return   # no new evaluation (no pose yet, or a stale pose commanded zero without one)
-        self._evaluations = station.law_evaluations
-        attractor = station.law.attractor
+        self._evaluations = law_evaluations
         snapshot = attractor.snapshot()
         if attractor is not self._attractor:
             self._attractor, self._storage = attractor, AttractorStorage(attractor.profile)

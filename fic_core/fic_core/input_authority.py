@@ -42,16 +42,35 @@ trusted.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import FicInputError, finite_array, finite_scalar
+from .parameter_row import ParameterRow, number, parameter_set, rows_by_name
 
 MODES = (0, 1)  # TeleoperationCommand MODE_OFFSET, MODE_VELOCITY
+
+
+#: What an outside input may ask of the arm: the replica's parameters behind AuthorityBounds (config/replica.yaml
+#: holds the values; part of the table the replica node declares, fic_core.replica_station).
+AUTHORITY_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
+    number("offset_workspace", 0.01, 2.0, "x_d' is clamped to +- this on each axis, about the start pose [m] "
+                                          "(fic_core.input_authority)"),
+    number("max_offset_speed", 0.01, 10.0, "x_d' moves toward a teleoperation command no faster than this, on "
+                                           "this node's clock [m/s]"),
+    number("max_offset_burst", 0.0, 1.0, "x_d' may move this far at once, for bursts of delayed commands [m]"),
+    number("command_future_tolerance", 0.0, 10.0, "commands and joint states stamped further ahead of this node's "
+                                                  "clock are refused [s]"),
+    number("max_command_age", 0.05, 600.0, "teleoperation commands stamped longer ago are refused [s] (the "
+                                           "channel's delay must fit inside it; the launcher raises it with "
+                                           "--delay)"),
+)
+#: Those rows as one typed object (fic_core.parameter_row.parameter_set).
+AuthorityParameters = parameter_set("AuthorityParameters", __name__, "input authority", AUTHORITY_PARAMETERS.values(),
+                                    "The input authority's parameters (AUTHORITY_PARAMETERS), checked, one field a "
+                                    "row.")
 
 
 @dataclass(frozen=True)
@@ -72,15 +91,13 @@ class AuthorityBounds:
     max_handle_position: float = 10.0   # [m] |x_M| per axis; a haptic handle moves a few cm
 
     @classmethod
-    def from_parameters(cls, values: Mapping[str, Any]) -> AuthorityBounds:
+    def from_parameters(cls, parameters: AuthorityParameters) -> AuthorityBounds:
         """The bounds from the replica's parameters (config/replica.yaml): ``offset_workspace`` (half the box's
         side), ``max_offset_speed``, ``max_offset_burst``, ``command_future_tolerance``, ``max_command_age``."""
-        half = float(values["offset_workspace"])
+        half = parameters.offset_workspace
         return cls(offset_lower=(-half, -half, -half), offset_upper=(half, half, half),
-                   max_offset_speed=float(values["max_offset_speed"]),
-                   max_offset_burst=float(values["max_offset_burst"]),
-                   future_tolerance=float(values["command_future_tolerance"]),
-                   max_age=float(values["max_command_age"]))
+                   max_offset_speed=parameters.max_offset_speed, max_offset_burst=parameters.max_offset_burst,
+                   future_tolerance=parameters.command_future_tolerance, max_age=parameters.max_command_age)
 
     def __post_init__(self) -> None:
         lower = finite_array("offset_lower", self.offset_lower, (3,))

@@ -7,6 +7,11 @@ the in-process runner steps.
     x_M --> TeleoperationCommandIntegrator --> x_d' (offset or velocity mode, at the network rate)
     operator buttons (edges, fic_core.operator_buttons) --> mode toggle, K_H steps, the clutch
 
+A control tick is one call, ``update``, which owns its order: the channel's master port booked on the F_R held and
+the rate of x_d' (fic_core.channel_ports; with TDPA the F_R Eq. 3 renders is the port's damped one), then Eq. 3
+(``force``), then the handle FIC's port booked by the exchanged-energy observer (fic_core.exchanged_energy_ports,
+when ``exchanged_energy_observer`` is on). F_R arrives with ``add_feedback``, which also hands it to the port.
+
 The operator's tools (beyond the paper; docs/TOOLS.md, "The operator's tools"), each a parameter settable live:
 - the clutch (indexing): while held, x_d' holds still and the handle feels its own FIC only (F_R and the guidance
   answer a motion the handle no longer makes); released, the handle is engaged again, re-anchored so that x_d'
@@ -19,13 +24,16 @@ The operator's tools (beyond the paper; docs/TOOLS.md, "The operator's tools"), 
   replica is projected onto it, and its guidance force is added to Eq. 3's while the handle is engaged. Switching
   a fixture on, off or elsewhere moves the sent goal to its new place at ``GOAL_TRANSITION_SPEED``, never in a jump.
 
-``configure`` is the parameter dispatch: a change of the handle's profile rebuilds its attractor (phase reset),
-the others are applied in place; every value is checked before any is applied. Notices (what the caller should
+The station takes its parameters as one typed object, ``MasterParameters``, generated from the master's table
+(``MASTER_PARAMETERS``, the rows the master node declares) and checked against it when built. ``configure`` is the
+parameter dispatch: a change of the handle's profile rebuilds its attractor (phase reset), the others are applied in
+place; every value is checked before any is applied. Notices (what the caller should
 log) come back as (level, text), level one of info, warning and repeated_warning (one said at every tick while
 its cause lasts: to be throttled).
 """
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import IntEnum
@@ -35,13 +43,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .attractor import FractalAttractor
+from .channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES, MasterChannelPort, port_velocity
 from .errors import FicInputError, finite_array, finite_scalar
+from .exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES, MasterExchangedEnergy
 from .guidance_fixture import FixtureKind, GuidanceFixture, fixture_kind
 from .handle_homing import HandleHoming
 from .master import MasterLaw, checked_loop_gain, haptic_gain_ceiling, loop_gain
 from .norm_bound import norm_bounded
 from .operator_buttons import HAPTIC_GAIN_STEP, ButtonEdges, OperatorButton
-from .parameter_row import ParameterRow, number, numbers, rows_by_name, switch, text
+from .parameter_row import ParameterRow, integer, number, numbers, parameter_set, rows_by_name, switch, text
 from .profile import ForceProfile
 from .set_point import ShrinkingOffset
 from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
@@ -112,6 +122,19 @@ MASTER_TOOLS: dict[str, ParameterRow] = rows_by_name(
     numbers("guidance_direction", "the plane's normal or the line's direction, in x_d' coordinates (3 numbers, not "
                                   "zero)"),
 )
+#: Every parameter of the master, in the order the master node declares them (config/master.yaml's keys): the
+#: numbers, the mode and the frame, the operator's tools, the channel's master port and the handle FIC's exchanged
+#: energy.
+MASTER_PARAMETERS: dict[str, ParameterRow] = {
+    **MASTER_NUMBERS,
+    **rows_by_name(integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
+                                         "(x_d' += k_v*x_M*dt)"),
+                   text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True)),
+    **MASTER_TOOLS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS, **EXCHANGED_ENERGY_SWITCHES}
+#: The master's parameters as one typed object, one field a row of MASTER_PARAMETERS (fic_core.parameter_row):
+#: ``MasterParameters.from_values(values)`` checks every value and refuses a name no row has, naming the nearest.
+MasterParameters = parameter_set("MasterParameters", __name__, "master", MASTER_PARAMETERS.values(),
+                                 "The master's parameters (MASTER_PARAMETERS), checked, one field a row.")
 
 
 class Engagement(IntEnum):
@@ -135,7 +158,6 @@ class TeleoperationSample:
     desired_offset: NDArray[np.float64]       # x_d' [m]
 
 
-_ROWS = {**MASTER_NUMBERS, **MASTER_TOOLS}
 #: A guidance fixture switched on, off or moved takes the sent x_d' to its new place at this speed [m/s] (the
 #: replica's own resume speed): the replica's goal never jumps.
 GOAL_TRANSITION_SPEED = 0.1
@@ -143,31 +165,25 @@ _NO_FORCE = np.zeros(3)   # F_R while the clutch is held, the guidance force whi
 _NO_FORCE.setflags(write=False)
 
 
-def _checked(values: Mapping[str, Any]) -> dict[str, Any]:
-    """The values of ``values`` that are rows of MASTER_NUMBERS or MASTER_TOOLS, each checked against its row."""
-    return {name: _ROWS[name].checked(value) for name, value in values.items() if name in _ROWS}
-
-
-def _attractor(values: Mapping[str, Any]) -> FractalAttractor:
-    profile = ForceProfile(values["stiffness"], values["saturation_error"], values["saturation_start"],
-                           values["max_force"])
-    return FractalAttractor(profile, 3, values["rate_deadband"])
+def _attractor(p: MasterParameters) -> FractalAttractor:
+    return FractalAttractor(ForceProfile(p.stiffness, p.saturation_error, p.saturation_start, p.max_force), 3,
+                            p.rate_deadband)
 
 
 def _device_limit(value: float) -> float | None:
     return None if value == 0.0 else value
 
 
-def _homing(values: Mapping[str, Any]) -> HandleHoming:
-    return HandleHoming(*(values[name] for name in HOMING_PARAMETERS))
+def _homing(p: MasterParameters) -> HandleHoming:
+    return HandleHoming(p.homing_stiffness, p.homing_damping, p.homing_speed, p.homing_tolerance)
 
 
-def _fixture(values: Mapping[str, Any]) -> GuidanceFixture | None:
-    """The fixture of ``values``, or None for ``none`` (its point and direction are checked either way)."""
-    kind = fixture_kind(values["guidance_fixture"])
-    fixture = GuidanceFixture(FixtureKind.PLANE if kind == FixtureKind.NONE else kind, values["guidance_point"],
-                              values["guidance_direction"], stiffness=values["guidance_stiffness"],
-                              damping=values["guidance_damping"], max_force=values["guidance_max_force"])
+def _fixture(p: MasterParameters) -> GuidanceFixture | None:
+    """The fixture of ``p``, or None for ``none`` (its point and direction are checked either way)."""
+    kind = fixture_kind(p.guidance_fixture)
+    fixture = GuidanceFixture(FixtureKind.PLANE if kind == FixtureKind.NONE else kind, p.guidance_point,
+                              p.guidance_direction, stiffness=p.guidance_stiffness, damping=p.guidance_damping,
+                              max_force=p.guidance_max_force)
     return None if kind == FixtureKind.NONE else fixture
 
 
@@ -178,28 +194,30 @@ def clamped_haptic_gain(value: float) -> float:
 
 
 class MasterStation:
-    """Eq. 3 and the teleoperation command for a parameter mapping (the master's parameters; module docstring)."""
+    """Eq. 3 and the teleoperation command for the master's parameters (module docstring). ``channel_port``: the
+    channel's master port, when the caller holds both ends (the in-process runner sums the channel's balance); else
+    one is built from the parameters. ``parameters`` is kept as the station holds them now (the buttons, homing and
+    a clamped K_H change some)."""
 
-    def __init__(self, values: Mapping[str, Any]) -> None:
-        values = {**values, **_checked(values)}
-        self.parameters = dict(values)
-        self.law = MasterLaw(_attractor(values), 0.0, _device_limit(values["max_device_force"]), values["force_scale"])
-        self.law.set_haptic_gain(values["haptic_gain"])
-        self.integrator = TeleoperationCommandIntegrator(values["workspace_scale"], values["velocity_gain"],
-                                                         values["mode"], values["velocity_deadband"])
+    def __init__(self, parameters: MasterParameters, channel_port: MasterChannelPort | None = None) -> None:
+        p = self.parameters = parameters
+        self.law = MasterLaw(_attractor(p), 0.0, _device_limit(p.max_device_force), p.force_scale)
+        self.law.set_haptic_gain(p.haptic_gain)
+        self.integrator = TeleoperationCommandIntegrator(p.workspace_scale, p.velocity_gain, p.mode,
+                                                         p.velocity_deadband)
         checked_loop_gain(self.law.force_scale, self.integrator.workspace_scale, self.law.haptic_gain)
-        self.homing = _homing(values)
-        self.fixture = _fixture(values)
-        self.clutch_held = bool(values["clutch"])
-        self.homing_active = bool(values["homing"])
+        self.homing = _homing(p)
+        self.fixture = _fixture(p)
+        self.clutch_held = p.clutch
+        self.homing_active = p.homing
         self.guidance_force = _NO_FORCE   # the fixture's force at the last control tick (read only)
         # The sent x_d' (projected onto the fixture, if any) and what is left of a fixture change's jump.
         self.sent_offset: NDArray[np.float64] | None = None
         self._goal_transition = ShrinkingOffset()
         self.integrator.hold(self.engagement != Engagement.ENGAGED)
-        self.feedback_timeout = finite_scalar("feedback_timeout", values["feedback_timeout"], minimum=0.0)
-        self.pose_timeout = finite_scalar("pose_timeout", values["pose_timeout"], minimum=0.0)
-        self.handle_extrapolation = finite_scalar("handle_extrapolation", values["handle_extrapolation"], minimum=0.0)
+        self.feedback_timeout = finite_scalar("feedback_timeout", p.feedback_timeout, minimum=0.0)
+        self.pose_timeout = finite_scalar("pose_timeout", p.pose_timeout, minimum=0.0)
+        self.handle_extrapolation = finite_scalar("handle_extrapolation", p.handle_extrapolation, minimum=0.0)
         self._buttons = ButtonEdges()
         self.handle_position: NDArray[np.float64] | None = None   # x_M, last good
         self.handle_orientation = (0.0, 0.0, 0.0, 1.0)
@@ -215,17 +233,21 @@ class MasterStation:
         self.wrench_count = 0
         self.saturated_count = 0
         self.law_evaluations = 0   # wrench commands that evaluated Eq. 3 (not the zero of a stale pose)
+        self.channel_port = MasterChannelPort(p.channel_passivity_control, p.channel_max_damping,
+                                              p.channel_energy_window) if channel_port is None else channel_port
+        self.exchanged = MasterExchangedEnergy(1.0 / p.control_rate) if p.exchanged_energy_observer else None
 
     # --- parameters ------------------------------------------------------------------------------------------
     def configure(self, changes: Mapping[str, Any]) -> list[Notice]:
-        """Apply parameter changes, all or none (FicInputError names the bad one)."""
+        """Apply parameter changes, all or none (FicInputError names the bad one). Names that are not the master's
+        (rclpy's own, such as use_sim_time, which a node's set may carry) are not the station's to apply."""
         for name, new in changes.items():
             if name in READ_ONLY:
                 raise FicInputError(f"{name} is fixed at start")
             if isinstance(new, float) and not np.isfinite(new):
                 raise FicInputError(f"{name} must be finite, got {new}")
-        changes = {**changes, **_checked(changes)}
-        values = {**self.parameters, **changes}
+        values = self.parameters.replaced({name: new for name, new in changes.items() if name in MASTER_PARAMETERS})
+        changes = {name: getattr(values, name) for name in changes if name in MASTER_PARAMETERS}   # as checked
         attractor = _attractor(values) if any(name in PROFILE_PARAMETERS for name in changes) else None
         for name in INTEGRATOR_PARAMETERS:  # checked before anything is applied
             if name in changes:
@@ -235,7 +257,7 @@ class MasterStation:
             if name in changes:
                 finite_scalar(name, changes[name], minimum=0.0)
         haptic_gain = min(changes["haptic_gain"], 1.0) if "haptic_gain" in changes else self.law.haptic_gain
-        checked_loop_gain(values["force_scale"], values["workspace_scale"], haptic_gain)
+        checked_loop_gain(values.force_scale, values.workspace_scale, haptic_gain)
         homing = _homing(values) if any(name in HOMING_PARAMETERS for name in changes) else None
         fixture_changed = any(name in FIXTURE_PARAMETERS for name in changes)
         fixture = _fixture(values) if fixture_changed else None
@@ -251,7 +273,7 @@ class MasterStation:
             if self.sent_offset is not None:   # the sent goal moves to its new place at a bounded speed
                 self._goal_transition.start(self.sent_offset, self._goal(self.integrator.desired_offset),
                                             GOAL_TRANSITION_SPEED)
-            notices.append(("info", f"guidance fixture: {values['guidance_fixture']}"))
+            notices.append(("info", f"guidance fixture: {values.guidance_fixture}"))
         for name, new in changes.items():
             if name == "haptic_gain":
                 notices += self.set_haptic_gain(new, "parameter")
@@ -272,8 +294,8 @@ class MasterStation:
                 setattr(self.integrator, name, new)
             elif name in ("feedback_timeout", "pose_timeout"):
                 setattr(self, name, float(new))
-        self.parameters = {**values, "haptic_gain": self.law.haptic_gain, "clutch": self.clutch_held,
-                           "homing": self.homing_active}
+        self.parameters = dataclasses.replace(values, haptic_gain=self.law.haptic_gain, clutch=self.clutch_held,
+                                              homing=self.homing_active)
         return notices
 
     def set_haptic_gain(self, value: float, source: str) -> list[Notice]:
@@ -282,7 +304,7 @@ class MasterStation:
         ceiling = haptic_gain_ceiling(self.law.force_scale, self.integrator.workspace_scale)
         requested = finite_scalar("haptic_gain", value)
         self.law.set_haptic_gain(min(requested, ceiling))
-        self.parameters["haptic_gain"] = self.law.haptic_gain
+        self.parameters = dataclasses.replace(self.parameters, haptic_gain=self.law.haptic_gain)
         if self.law.haptic_gain == requested:
             return []
         why = ": force_scale x workspace_scale x haptic_gain may not exceed 1" if requested > ceiling < 1.0 else ""
@@ -298,7 +320,7 @@ class MasterStation:
 
     def _engage_if_free(self) -> None:
         self.integrator.hold(self.engagement != Engagement.ENGAGED)
-        self.parameters["clutch"], self.parameters["homing"] = self.clutch_held, self.homing_active
+        self.parameters = dataclasses.replace(self.parameters, clutch=self.clutch_held, homing=self.homing_active)
 
     def set_clutch(self, held: bool, source: str) -> list[Notice]:
         """Hold the clutch (x_d' holds still) or release it (engaged again, re-anchored)."""
@@ -354,8 +376,21 @@ class MasterStation:
         self.handle_velocity = finite_array("handle_velocity", velocity, (3,)).copy()
         self._twist_received = now
 
-    def add_feedback(self, force: ArrayLike, now: float) -> list[Notice]:
-        """F_R through the channel."""
+    def add_feedback(self, force: ArrayLike, now: float, replica_input_energy: float | None = None) -> list[Notice]:
+        """F_R through the channel, for Eq. 3 and the channel's master port, with the replica port's E_in when it
+        travels with F_R (in one process; on the graph it comes on its own: ``replica_port_energy``)."""
+        notices = self._keep_feedback(force, now)
+        self.channel_port.receive_feedback(force, now)
+        if replica_input_energy is not None:
+            self.channel_port.receive_energy(replica_input_energy)
+        return notices
+
+    def replica_port_energy(self, input_energy: float) -> None:
+        """The replica port's E_in, as the channel delivered it."""
+        self.channel_port.receive_energy(input_energy)
+
+    def _keep_feedback(self, force: ArrayLike, now: float) -> list[Notice]:
+        """The F_R Eq. 3 renders (the received one, or the channel port's damped one)."""
         self._replica_force = finite_array("replica_force", force, (3,)).copy()
         self.feedback_received = now
         if self.feedback_stale:
@@ -371,7 +406,7 @@ class MasterStation:
         changed: list[str] = []
         if OperatorButton.TOGGLE_MODE in pressed:
             mode = self.integrator.toggle_mode()
-            self.parameters["mode"] = int(mode)
+            self.parameters = dataclasses.replace(self.parameters, mode=int(mode))
             notices.append(("info", f"teleoperation mode: {mode.name} (button)"))
             changed.append("mode")
         step = HAPTIC_GAIN_STEP * ((OperatorButton.HAPTIC_GAIN_UP in pressed) -
@@ -387,6 +422,27 @@ class MasterStation:
         return notices, tuple(changed)
 
     # --- outputs ---------------------------------------------------------------------------------------------
+    def update(self, now: float, dt: float) -> tuple[NDArray[np.float64] | None, list[Notice]]:
+        """One control tick at ``now``, ``dt`` [s] after the last, in its order (module docstring): the channel's
+        master port, Eq. 3, the handle FIC's exchanged energy. Returns what ``force`` returns: the device force
+        (None before the first pose) and the notices."""
+        damped = self.channel_port.tick(now, dt, self._offset_rate(), self.feedback_timeout)
+        if damped is not None:
+            self._keep_feedback(*damped)   # fresh already: nothing to say
+        force, notices = self.force(now)
+        if self.exchanged is not None:
+            self.exchanged.observe(self.law_evaluations, self.law.attractor)
+        return force, notices
+
+    def _offset_rate(self) -> NDArray[np.float64]:
+        """The rate of x_d' the channel's master port books: zero while x_d' stands still (the clutch held, homing,
+        no handle yet)."""
+        integrator = self.integrator
+        if self.handle_position is None or integrator.held:
+            return np.zeros(3)
+        return port_velocity(integrator.mode, integrator.workspace_scale, integrator.velocity_gain,
+                             self.handle_position, self.handle_velocity)
+
     def pose_stale(self, now: float) -> bool:
         return self.pose_received is None or now - self.pose_received > self.pose_timeout
 
@@ -405,7 +461,8 @@ class MasterStation:
     def force(self, now: float) -> tuple[NDArray[np.float64] | None, list[Notice]]:
         """The device force f at ``now`` (None before the first pose; zero while the pose is stale): Eq. 3 with the
         guidance fixture's force while engaged, the handle's own FIC alone while the clutch is held, the homing
-        attractor's force while homing (which engages the handle once it is home)."""
+        attractor's force while homing (which engages the handle once it is home). Eq. 3 alone: a control tick is
+        ``update``, which books the channel's port before it and the exchanged energy after it."""
         position = self.handle_position
         if position is None:
             return None, []
@@ -510,11 +567,12 @@ class MasterStation:
         return problems, {
             "mode": self.integrator.mode.name, "haptic_gain": f"{self.law.haptic_gain:.3f}",
             "engagement": self.engagement.name, "force_scale": f"{self.law.force_scale:.3f}",
-            "loop_gain": f"{self.loop_gain():.3f}", "guidance_fixture": str(self.parameters["guidance_fixture"]),
+            "loop_gain": f"{self.loop_gain():.3f}", "guidance_fixture": str(self.parameters.guidance_fixture),
             "feedback_age_s": f"{feedback_age:.3f}",
             "phase": " ".join(str(int(p)) for p in self.law.attractor.phase),
             "wrench_commands": str(self.wrench_count), "device_force_saturated_ticks": str(self.saturated_count),
             "desired_offset": " ".join(f"{v:.4f}" for v in self.integrator.desired_offset)}
 
 
-__all__ = ["Engagement", "MasterStation", "PROFILE_PARAMETERS", "READ_ONLY", "TeleoperationMode", "TeleoperationSample"]
+__all__ = ["Engagement", "MASTER_PARAMETERS", "MasterParameters", "MasterStation", "PROFILE_PARAMETERS", "READ_ONLY",
+           "TeleoperationMode", "TeleoperationSample"]

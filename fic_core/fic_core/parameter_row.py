@@ -6,14 +6,21 @@ Every table of parameters is made of these rows: fic_core's own (``replica_param
 schemas (``fic_teleop_runtime.parameters``), which declare them on rclpy with the same range as a descriptor and
 read the params files under config/ through ``checked``. So a range is written once and refused the same way by
 fic_core, by the params-file loader and (through the descriptor) by rclpy.
+
+A table also gives its station a typed object (``parameter_set``): a frozen dataclass generated at import from the
+same rows, one field a row, so a station reads ``parameters.stiffness`` where it looked up ``values["stiffness"]``,
+and a name that is not in the table is refused where the object is built, in one line naming the nearest one.
 """
 from __future__ import annotations
 
 import array
+import dataclasses
+import difflib
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import Any, ClassVar, TypeVar
 
 from .errors import FicInputError
 
@@ -125,3 +132,66 @@ def rows_by_name(*rows: ParameterRow) -> dict[str, ParameterRow]:
             raise ValueError(f"parameter {row.name!r} given twice")
         table[row.name] = row
     return table
+
+
+def nearest_name_hint(name: str, known: Sequence[str], otherwise: str | None = None) -> str:
+    """``; did you mean 'x'?`` for the declared name nearest ``name``, else ``otherwise`` (default: the declared
+    names)."""
+    close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+    if close:
+        return f"; did you mean {close[0]!r}?"
+    return f"; declared: {', '.join(sorted(known))}" if otherwise is None else otherwise
+
+
+#: The Python type of each kind's value, as ``ParameterRow.checked`` returns it.
+PYTHON_TYPES = {Kind.NUMBER: float, Kind.INTEGER: int, Kind.SWITCH: bool, Kind.TEXT: str, Kind.NUMBERS: list[float],
+                Kind.INTEGERS: list[int], Kind.TEXTS: list[str]}
+
+Parameters = TypeVar("Parameters", bound="ParameterSet")
+
+
+class ParameterSet:
+    """What every generated parameter set (``parameter_set``) has besides its fields: its rows, and the two ways to
+    build one from names and values, both checked against the rows."""
+
+    __slots__ = ()
+    ROWS: ClassVar[dict[str, ParameterRow]]
+    OWNER: ClassVar[str]   # whose parameters, for the refusals ("master")
+
+    @classmethod
+    def _checked(cls, values: Mapping[str, Any]) -> dict[str, Any]:
+        for name in values:
+            if name not in cls.ROWS:
+                raise FicInputError(f"unknown {cls.OWNER} parameter {name!r}{nearest_name_hint(name, list(cls.ROWS))}")
+        return {name: cls.ROWS[name].checked(value) for name, value in values.items()}
+
+    @classmethod
+    def from_values(cls: type[Parameters], values: Mapping[str, Any]) -> Parameters:
+        """Every row's value from ``values`` (a node's declared values, or config/<node>.yaml's with overrides),
+        each checked against its row; FicInputError names a key no row has (and the nearest row), the first value
+        of the wrong type or out of its range, or the rows not given."""
+        checked = cls._checked(values)
+        missing = [name for name in cls.ROWS if name not in checked]
+        if missing:
+            raise FicInputError(f"{cls.OWNER} parameters missing: {', '.join(missing)}")
+        return cls(**checked)
+
+    def replaced(self: Parameters, changes: Mapping[str, Any]) -> Parameters:
+        """A copy with ``changes`` (names of rows, each value checked against its row)."""
+        return dataclasses.replace(self, **type(self)._checked(changes))
+
+    def part(self, kind: type[Parameters]) -> Parameters:
+        """The values of ``kind``'s rows (a set of some of this set's rows: a station's part takes its own), as a
+        ``kind``; checked already, by the same rows."""
+        return kind(**{name: getattr(self, name) for name in kind.ROWS})
+
+
+def parameter_set(class_name: str, module: str, owner: str, rows: Iterable[ParameterRow],
+                  doc: str) -> type[ParameterSet]:
+    """A frozen dataclass named ``class_name`` in ``module`` (the module that binds it to that name), one field a
+    row in the rows' order, typed by its kind (``PYTHON_TYPES``): the typed object a station takes
+    (``ParameterSet.from_values``); ``owner`` names whose parameters they are in a refusal."""
+    table = rows_by_name(*rows)
+    return dataclasses.make_dataclass(
+        class_name, [(name, PYTHON_TYPES[row.kind]) for name, row in table.items()], bases=(ParameterSet,),
+        namespace={"__doc__": doc, "ROWS": table, "OWNER": owner, "__module__": module}, frozen=True, slots=True)

@@ -43,7 +43,7 @@ from .loop_health import LoopHealth, LoopHealthBounds
 from .passivity_observer import PassivityObserver
 from .quaternion import rotation_from_quaternion
 from .replica import ReplicaCommand, ReplicaController
-from .replica_parameters import build_replica_controller, checked
+from .replica_parameters import ReplicaLoopParameters, build_replica_controller, checked
 from .robot_model import RobotModel
 from .sampled_spring_damping import late_hold
 
@@ -63,21 +63,21 @@ class ReplicaStep:
     held: bool = False                            # the torque is the loop's hold, not the law (loop_health)
 
 
-def _loop_health_bounds(p: Mapping[str, Any]) -> LoopHealthBounds:
-    return LoopHealthBounds(p["loop_max_state_age"], p["loop_max_tick_gap"], int(p["loop_resume_ticks"]),
-                            p["loop_resume_ramp"])
+def _loop_health_bounds(p: ReplicaLoopParameters) -> LoopHealthBounds:
+    return LoopHealthBounds(p.loop_max_state_age, p.loop_max_tick_gap, int(p.loop_resume_ticks), p.loop_resume_ramp)
 
 
-def _desired_pose_parameters(p: Mapping[str, Any]) -> DesiredPoseParameters:
-    return DesiredPoseParameters(p["master_timeout"], p["resume_speed"], p["set_point_acceleration_filter"],
-                                 p["set_point_extrapolation"], p["planner_feedforward"], p["offset_feedforward"],
-                                 p["use_planner_orientation"], p["interpolate_link_samples"])
+def _desired_pose_parameters(p: ReplicaLoopParameters) -> DesiredPoseParameters:
+    return DesiredPoseParameters(p.master_timeout, p.resume_speed, p.set_point_acceleration_filter,
+                                 p.set_point_extrapolation, p.planner_feedforward, p.offset_feedforward,
+                                 p.use_planner_orientation, p.interpolate_link_samples)
 
 
 class ReplicaLoop:
-    """The replica's control logic for a parameter mapping (fic_core.replica_parameters; module docstring)."""
+    """The replica's control logic for its parameters (fic_core.replica_parameters; module docstring).
+    ``parameters`` is kept as the loop runs them now (``configure`` replaces it)."""
 
-    def __init__(self, values: Mapping[str, Any], robot: RobotModel | None = None,
+    def __init__(self, parameters: ReplicaLoopParameters, robot: RobotModel | None = None,
                  limits: PandaLimits | None = None, authority: CommandAuthority | None = None) -> None:
         self.robot = RobotModel() if robot is None else robot
         #: What a teleoperation command may ask (fic_core.input_authority; None: its documented default bounds).
@@ -89,14 +89,13 @@ class ReplicaLoop:
         self._planner_rotation = np.eye(3)
         # The arm's datasheet limits (fic_core.arm_profile: Panda by default, an FR3 behind franka_ros2).
         self.limits = PandaLimits.from_robot(self.robot) if limits is None else limits
-        self.parameters = checked(values)
-        p = self.parameters
+        p = self.parameters = checked(parameters)
         self.controller: ReplicaController = build_replica_controller(self.robot, self.limits, p)
         self.desired = DesiredPose(_desired_pose_parameters(p))
-        self.velocity_filter = DesiredVelocityFilter(p["desired_velocity_filter"])
-        self.schedule = ControlSchedule(p["control_rate"], p["command_period"], p["tick_on_command"])
-        self._pose_gate = RateGate(p["pose_rate"], p["command_period"])
-        self._status_gate = RateGate(p["status_rate"], p["command_period"])
+        self.velocity_filter = DesiredVelocityFilter(p.desired_velocity_filter)
+        self.schedule = ControlSchedule(p.control_rate, p.command_period, p.tick_on_command)
+        self._pose_gate = RateGate(p.pose_rate, p.command_period)
+        self._status_gate = RateGate(p.status_rate, p.command_period)
         self.last_command: ReplicaCommand | None = None
         #: Port work and storage of the task-space controller, every control tick (fic_core.passivity_observer).
         self.passivity = PassivityObserver(6)
@@ -108,12 +107,13 @@ class ReplicaLoop:
         self._hold_torque: NDArray[np.float64] | None = None   # the last hold torque sent
 
     # --- parameters ------------------------------------------------------------------------------------------
-    def configure(self, changes: Mapping[str, Any]) -> dict[str, Any]:
-        """Change parameters at run time: all or none (FicInputError names the bad one). The new controller
-        takes over the torque sent, the counters and the control grid; returns the new full mapping."""
-        p = checked({**self.parameters, **changes})
+    def configure(self, changes: Mapping[str, Any]) -> ReplicaLoopParameters:
+        """Change parameters at run time (names of the loop's rows): all or none (FicInputError names the bad
+        one, or a name no row has and the nearest). The new controller takes over the torque sent, the counters
+        and the control grid; returns the parameters now in force."""
+        p = checked(self.parameters.replaced(changes))
         controller = build_replica_controller(self.robot, self.limits, p)
-        schedule = ControlSchedule(p["control_rate"], p["command_period"], p["tick_on_command"])
+        schedule = ControlSchedule(p.control_rate, p.command_period, p.tick_on_command)
         desired = _desired_pose_parameters(p)
         controller.continue_from(self.controller)
         schedule.continue_from(self.schedule)
@@ -121,9 +121,9 @@ class ReplicaLoop:
         self.passivity.restart_port()  # a new controller, a new storage
         self.desired.parameters = desired
         self.health.bounds = _loop_health_bounds(p)
-        self.velocity_filter.time_constant = p["desired_velocity_filter"]
-        for gate, rate in ((self._pose_gate, p["pose_rate"]), (self._status_gate, p["status_rate"])):
-            gate.rate, gate.command_period = rate, p["command_period"]
+        self.velocity_filter.time_constant = p.desired_velocity_filter
+        for gate, rate in ((self._pose_gate, p.pose_rate), (self._status_gate, p.status_rate)):
+            gate.rate, gate.command_period = rate, p.command_period
         self.parameters = p
         return p
 
@@ -193,7 +193,7 @@ class ReplicaLoop:
     # --- the control step ------------------------------------------------------------------------------------
     def skips(self, time: float) -> bool:
         """Whether a joint state stamped ``time`` can be counted and dropped unread (no tick, no answer)."""
-        return not self.parameters["answer_every_state"] and self.schedule.last_tick is not None and \
+        return not self.parameters.answer_every_state and self.schedule.last_tick is not None and \
             not self.schedule.due(time, self.desired.command_unused)
 
     def skip(self) -> None:
@@ -234,7 +234,7 @@ class ReplicaLoop:
             else:
                 step.command = self._resume_or_control(q, qd, time, now, dt, step.notices)
                 step.torque = step.command.torque
-        elif self.parameters["answer_every_state"]:
+        elif self.parameters.answer_every_state:
             if health.holding:
                 step.torque, step.held = (None if self._hold_torque is None else self._hold_torque.copy()), True
             else:
@@ -344,7 +344,7 @@ class ReplicaLoop:
         optimisation = controller.optimisation
         values = {key: str(value) for key, value in self.counts.items()}
         values.update({
-            "controller": self.parameters["controller"],
+            "controller": self.parameters.controller,
             "master_watchdog": self.watchdog_state(),
             "planner": "ok" if self.desired.has_planner else "no pose yet (holding the start pose)",
             "ticks": str(controller.ticks),

@@ -1,20 +1,22 @@
-"""The replica's parameters as one plain mapping, and the controller built from it.
+"""The replica loop's parameters as one typed object, and the controller built from it.
 
-``REPLICA_NUMBERS`` and ``REPLICA_SWITCHES`` are the schema (name: fic_core.parameter_row rows) the node declares
-its parameters from and the in-process runner reads config/replica.yaml against. The defaults are config/replica.yaml's
-alone (one home for each value): ``checked`` needs every parameter, refuses a value outside its range and names
-it; ``build_replica_controller`` makes the ReplicaController (paper Eq. 7 with the FIC, or the linear baseline, a
-null-space posture and the postural optimisation) for a mapping.
+``REPLICA_NUMBERS`` and ``REPLICA_SWITCHES``, with the ``controller`` row, are the loop's part of the replica's table
+(fic_core.replica_station's REPLICA_PARAMETERS, which the node declares and the in-process runner reads
+config/replica.yaml against); ``ReplicaLoopParameters`` is generated from them (fic_core.parameter_row), so a value
+out of its row's range or a name no row has is refused where the object is built. The defaults are
+config/replica.yaml's alone (one home for each value). ``checked`` adds the rules that tie rows together (the
+controller's name, the control rate against the joint states, the paper law's switches);
+``build_replica_controller`` makes the ReplicaController (paper Eq. 7 with the FIC, or the linear baseline, a
+null-space posture and the postural optimisation) for a set of them.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+import dataclasses
 
 from .baseline import LinearImpedance
 from .errors import FicInputError
 from .limits import PandaLimits
-from .parameter_row import ParameterRow, number, rows_by_name, switch
+from .parameter_row import ParameterRow, number, parameter_set, rows_by_name, switch, text
 from .pose_attractor import PoseAttractor
 from .postural_optimisation import PosturalOptimisation
 from .posture import NullSpacePosture
@@ -111,56 +113,58 @@ CONTROLLER_DESCRIPTION = ("task-space law: 'fic' (the paper's Fractal Impedance 
                           "FIC's F_max: translation_max_force, rotation_max_force)")
 
 
-#: Every parameter ReplicaLoop takes (config/replica.yaml also holds the node's driver and input-authority keys).
-REPLICA_LOOP_PARAMETERS = ("controller", *REPLICA_NUMBERS, *REPLICA_SWITCHES)
+#: Every row ReplicaLoop takes, the law's name first (config/replica.yaml also holds the node's driver and
+#: input-authority keys: fic_core.replica_station).
+REPLICA_LOOP_ROWS: dict[str, ParameterRow] = {**rows_by_name(text("controller", CONTROLLER_DESCRIPTION)),
+                                              **REPLICA_NUMBERS, **REPLICA_SWITCHES}
+#: Their names.
+REPLICA_LOOP_PARAMETERS = tuple(REPLICA_LOOP_ROWS)
+#: The loop's parameters as one typed object, one field a row of REPLICA_LOOP_ROWS (fic_core.parameter_row):
+#: ``from_values`` checks each value against its row and refuses a name no row has, naming the nearest.
+ReplicaLoopParameters = parameter_set("ReplicaLoopParameters", __name__, "replica", REPLICA_LOOP_ROWS.values(),
+                                      "The replica loop's parameters (REPLICA_LOOP_ROWS), one field a row.")
 
 
-def checked(values: Mapping[str, Any]) -> dict[str, Any]:
-    """A checked copy of ``values``, which must give every parameter of REPLICA_LOOP_PARAMETERS (the defaults are
-    config/replica.yaml's); FicInputError names the first one missing, unknown, of the wrong type or out of its
-    range."""
-    for name in values:
-        if name not in REPLICA_LOOP_PARAMETERS:
-            raise FicInputError(f"unknown replica parameter {name!r}")
-    missing = [name for name in REPLICA_LOOP_PARAMETERS if name not in values]
-    if missing:
-        raise FicInputError(f"replica parameters missing: {', '.join(missing)}")
-    result = dict(values)
-    for row in (*REPLICA_NUMBERS.values(), *REPLICA_SWITCHES.values()):
-        result[row.name] = row.checked(result[row.name])
-    if result["paper_law"]:  # Eq. 7 + posture + postural optimisation only
-        result.update(planner_feedforward=False, offset_feedforward=False, joint_damping_compensation=False)
-    if result["controller"] not in CONTROLLERS:
-        raise FicInputError(f"controller must be one of {CONTROLLERS}, got {result['controller']!r}")
-    if 1.0 / result["control_rate"] < result["command_period"] * 0.999:
-        raise FicInputError(f"control_rate {result['control_rate']:g} Hz is faster than the joint states "
-                            f"(command_period {result['command_period']:g} s)")
-    return result
+def checked(parameters: ReplicaLoopParameters) -> ReplicaLoopParameters:
+    """``parameters`` (each value checked by its row already) under the rules between rows: FicInputError for a
+    controller that is not one of CONTROLLERS or a control rate faster than the joint states; with ``paper_law`` the
+    terms beyond Eq. 7 switched off."""
+    p = parameters
+    if p.paper_law:  # Eq. 7 + posture + postural optimisation only
+        p = dataclasses.replace(p, planner_feedforward=False, offset_feedforward=False,
+                                joint_damping_compensation=False)
+    if p.controller not in CONTROLLERS:
+        raise FicInputError(f"controller must be one of {CONTROLLERS}, got {p.controller!r}")
+    if 1.0 / p.control_rate < p.command_period * 0.999:
+        raise FicInputError(f"control_rate {p.control_rate:g} Hz is faster than the joint states "
+                            f"(command_period {p.command_period:g} s)")
+    return p
 
 
-def build_replica_controller(robot: RobotModel, limits: PandaLimits, values: Mapping[str, Any]) -> ReplicaController:
-    """The ReplicaController for the parameters ``values`` (checked first; FicInputError names a bad one)."""
-    p = checked(values)
-    if p["controller"] == "fic":
+def build_replica_controller(robot: RobotModel, limits: PandaLimits,
+                             parameters: ReplicaLoopParameters) -> ReplicaController:
+    """The ReplicaController for ``parameters`` (``checked`` first; FicInputError names a bad one)."""
+    p = checked(parameters)
+    if p.controller == "fic":
         controller: PoseAttractor | LinearImpedance = PoseAttractor(
-            ForceProfile(p["translation_stiffness"], p["translation_saturation_error"],
-                         p["translation_saturation_start"], p["translation_max_force"]),
-            ForceProfile(p["rotation_stiffness"], p["rotation_saturation_error"], p["rotation_saturation_start"],
-                         p["rotation_max_force"]),
-            p["rate_deadband_translation"], p["rate_deadband_rotation"])
+            ForceProfile(p.translation_stiffness, p.translation_saturation_error, p.translation_saturation_start,
+                         p.translation_max_force),
+            ForceProfile(p.rotation_stiffness, p.rotation_saturation_error, p.rotation_saturation_start,
+                         p.rotation_max_force),
+            p.rate_deadband_translation, p.rate_deadband_rotation)
     else:
-        controller = LinearImpedance(p["translation_stiffness"], p["rotation_stiffness"],
-                                     p["linear_translation_damping"], p["linear_rotation_damping"],
-                                     max_force=(p["translation_max_force"], p["rotation_max_force"])
-                                     if p["controller"] == "linear_bounded" else None)
+        controller = LinearImpedance(p.translation_stiffness, p.rotation_stiffness, p.linear_translation_damping,
+                                     p.linear_rotation_damping,
+                                     max_force=(p.translation_max_force, p.rotation_max_force)
+                                     if p.controller == "linear_bounded" else None)
     posture = NullSpacePosture(robot.lower_position_limit, robot.upper_position_limit,
-                               stiffness=p["posture_stiffness"], damping=p["posture_damping"],
-                               limit_band=p["posture_limit_band"], limit_stiffness=p["posture_limit_stiffness"])
-    period = 1.0 / p["control_rate"]
-    optimisation = PosturalOptimisation(limits, period, velocity_horizon=p["velocity_horizon"])
+                               stiffness=p.posture_stiffness, damping=p.posture_damping,
+                               limit_band=p.posture_limit_band, limit_stiffness=p.posture_limit_stiffness)
+    period = 1.0 / p.control_rate
+    optimisation = PosturalOptimisation(limits, period, velocity_horizon=p.velocity_horizon)
     return ReplicaController(robot, controller, limits=limits, posture=posture, control_period=period,
                              optimisation=optimisation,
-                             joint_damping_compensation=p["joint_damping_compensation"],
+                             joint_damping_compensation=p.joint_damping_compensation,
                              # The feedforward never pushes harder than the FIC may (fic_core.replica).
-                             feedforward_limit=(p["translation_max_force"], p["rotation_max_force"]),
-                             command_period=p["command_period"])
+                             feedforward_limit=(p.translation_max_force, p.rotation_max_force),
+                             command_period=p.command_period)

@@ -10,7 +10,8 @@ node runs and the in-process runner steps, beside fic_core.master_station on the
     teleoperation command --> one writer? --> the channel's replica port (booked, with TDPA corrected) -->
         CommandAuthority (inside the loop) --> x_d'
     planner pose and acceleration --> SetPointAuthority (inside the loop) --> x_d''
-    F/T reading --> the driver's wrench frame --> F_R, sent back with the port's E_in
+    F/T reading --> the driver's wrench frame --> F_R, sent back with the port's E_in at each joint state whose
+        poses are due (the tick carries both: ``ReplicaTick.feedback``)
 
 Every value comes in as a plain value (numbers, arrays, names), every message out as plain values; the node turns
 them into and out of messages. Notices (what the caller should log) come back as (level, text), level one of info,
@@ -28,17 +29,35 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .channel_ports import ReplicaChannelPort
+from .channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES, ReplicaChannelPort
 from .errors import FicInputError
-from .exchanged_energy_ports import ReplicaExchangedEnergy
-from .input_authority import AuthorityBounds, CommandAuthority, RobotStreamGuard
+from .exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES, ReplicaExchangedEnergy
+from .input_authority import (
+    AUTHORITY_PARAMETERS,
+    AuthorityBounds,
+    AuthorityParameters,
+    CommandAuthority,
+    RobotStreamGuard,
+)
+from .parameter_row import ParameterRow, parameter_set
 from .replica import ReplicaCommand
-from .replica_driver import ReplicaDriver
+from .replica_driver import DRIVER_PARAMETERS, DriverParameters, ReplicaDriver
 from .replica_loop import ReplicaLoop, ReplicaStep
-from .replica_parameters import REPLICA_LOOP_PARAMETERS
+from .replica_parameters import REPLICA_LOOP_ROWS, ReplicaLoopParameters
 from .robot_model import RobotModel
 
 Notice = tuple[str, str]
+
+#: Every parameter of the replica, in the order the replica node declares them (config/replica.yaml's keys): the
+#: loop's (the law, fic_core.replica_parameters), the driver's (fic_core.replica_driver), the input authority's
+#: (fic_core.input_authority), the channel's replica port and the exchanged-energy observer.
+REPLICA_PARAMETERS: dict[str, ParameterRow] = {
+    **REPLICA_LOOP_ROWS, **DRIVER_PARAMETERS, **AUTHORITY_PARAMETERS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS,
+    **EXCHANGED_ENERGY_SWITCHES}
+#: The replica's parameters as one typed object, one field a row of REPLICA_PARAMETERS (fic_core.parameter_row):
+#: ``ReplicaParameters.from_values(values)`` checks every value and refuses a name no row has, naming the nearest.
+ReplicaParameters = parameter_set("ReplicaParameters", __name__, "replica", REPLICA_PARAMETERS.values(),
+                                  "The replica's parameters (REPLICA_PARAMETERS), checked, one field a row.")
 
 #: Robot-side streams that must have exactly one writer: the robot's driver, and the replica. The wrist's F/T reading
 #: is one: it is F_R, which the replica sends the operator, and a second writer's force would be felt on the handle.
@@ -81,28 +100,34 @@ class ReplicaTick:
     command: NDArray[np.float64] | None      # the driver's command to publish (None: nothing)
     state_stamp_ns: int | None               # the joint state ``command`` was computed on (its label)
     hold_began: bool = False                 # the loop's own hold began at this state: say so at once
+    # F_R to send the master now (the last F/T reading in the base frame, at pose_rate once the law has ticked and a
+    # reading came) and the channel port's E_in to travel with it; None: nothing to send at this state.
+    feedback: tuple[NDArray[np.float64], float] | None = None
 
 
 class ReplicaStation:
-    """The replica's loop, its input guarding and its driver semantics for a parameter mapping (config/replica.yaml's
-    keys; module docstring). ``channel_port``: the channel's replica port, when the caller holds both ends (the
-    in-process runner sums the channel's balance); else one is built from the parameters."""
+    """The replica's loop, its input guarding and its driver semantics for the replica's parameters (module
+    docstring). ``channel_port``: the channel's replica port, when the caller holds both ends (the in-process runner
+    sums the channel's balance); else one is built from the parameters. The loop takes its part and keeps it as it
+    runs it (``loop.parameters``, replaced by ``configure``)."""
 
-    def __init__(self, values: Mapping[str, Any], robot: RobotModel | None = None,
+    def __init__(self, parameters: ReplicaParameters, robot: RobotModel | None = None,
                  channel_port: ReplicaChannelPort | None = None) -> None:
-        self.driver = ReplicaDriver(values)
+        p = parameters
+        self.driver = ReplicaDriver(p.part(DriverParameters))
         robot = RobotModel() if robot is None else robot
         # What an outside input may ask of the arm (fic_core.input_authority): bounded commands (the loop's
         # authority), one writer per guarded stream (the stream guard's); a breach holds the arm.
-        self.authority = CommandAuthority(AuthorityBounds.from_parameters(values))
-        self.loop = ReplicaLoop({name: values[name] for name in REPLICA_LOOP_PARAMETERS if name in values}, robot,
-                                self.driver.limits(robot), self.authority)   # FicInputError if bad
-        self.streams = RobotStreamGuard(future_tolerance=float(values["command_future_tolerance"]))
-        self.channel_port = ReplicaChannelPort(values["channel_passivity_control"], values["channel_energy_window"]) \
+        self.authority = CommandAuthority(AuthorityBounds.from_parameters(p.part(AuthorityParameters)))
+        self.loop = ReplicaLoop(p.part(ReplicaLoopParameters), robot, self.driver.limits(robot),
+                                self.authority)   # FicInputError if bad
+        self.streams = RobotStreamGuard(future_tolerance=p.command_future_tolerance)
+        self.channel_port = ReplicaChannelPort(p.channel_passivity_control, p.channel_energy_window) \
             if channel_port is None else channel_port
-        self.exchanged = ReplicaExchangedEnergy(1.0 / self.loop.parameters["control_rate"]) \
-            if values["exchanged_energy_observer"] else None
+        self.exchanged = ReplicaExchangedEnergy(1.0 / self.loop.parameters.control_rate) \
+            if p.exchanged_energy_observer else None
         self.state_stamp_ns: int | None = None   # the joint state the last torque was computed on
+        self.feedback_force: NDArray[np.float64] | None = None   # F_R of the last F/T reading (None: none yet)
 
     @property
     def held(self) -> bool:
@@ -138,8 +163,12 @@ class ReplicaStation:
         return ReplicaTotals(loop.controller.violation_ticks, loop.controller.shaped_ticks,
                              loop.passivity.min_margin, loop.passivity.violation_ticks, loop.health.holds)
 
-    def configure(self, changes: Mapping[str, Any]) -> dict[str, Any]:
-        """The loop's run-time parameters, all or none (FicInputError names the bad one)."""
+    def configure(self, changes: Mapping[str, Any]) -> ReplicaLoopParameters:
+        """The loop's run-time parameters, all or none (FicInputError names the bad one); returns the loop's
+        parameters now in force. The other parts' (driver, input authority, channel port) are fixed at start."""
+        fixed = [name for name in changes if name in REPLICA_PARAMETERS and name not in REPLICA_LOOP_ROWS]
+        if fixed:
+            raise FicInputError(f"{', '.join(fixed)}: fixed at start (only the loop's parameters change at run time)")
         return self.loop.configure(changes)
 
     # --- who writes ------------------------------------------------------------------------------------------
@@ -244,13 +273,11 @@ class ReplicaStation:
                                                             None if command is None else command.tcp_rotation)
         except FicInputError as exc:
             self.loop.counts["rejected_wrenches"] += 1
-            return np.zeros(3), np.zeros(3), exc
+            self.feedback_force = np.zeros(3)
+            return self.feedback_force, np.zeros(3), exc
         self.loop.counts["wrenches"] += 1
+        self.feedback_force = force
         return force, torque, None
-
-    def feedback_sent(self, force: ArrayLike) -> float:
-        """F_R as sent back to the master; the channel port's E_in, to travel with it."""
-        return self.channel_port.sent(force)
 
     # --- the control step ------------------------------------------------------------------------------------
     def tick_dynamics(self) -> NDArray[np.float64]:
@@ -275,8 +302,11 @@ class ReplicaStation:
         step.notices[:0] = notices
         if self.exchanged is not None and step.command is not None:
             self.exchanged.observe(step.command, loop.controller.controller)
+        feedback = None
+        if step.poses_due and loop.last_command is not None and self.feedback_force is not None:
+            feedback = (self.feedback_force, self.channel_port.sent(self.feedback_force))   # E_in travels with F_R
         return ReplicaTick(step, self.driver.command_to_send(step.torque, loop.robot), stamp_ns,
-                           loop.health.holds != holds)
+                           loop.health.holds != holds, feedback)
 
     def named_joint_state(self, time: float, now: float, names: Sequence[str], positions: Sequence[float],
                           velocities: Sequence[float], stamp_ns: int | None = None,

@@ -36,6 +36,7 @@ def _number(name: str, value: float, low: float, high: float, *, low_open: bool 
 def check_options(args: argparse.Namespace) -> None:
     """Every numeric option of the launcher, for finiteness and range. Raises ArgumentRefusal."""
     _number("--duration [s]", args.duration, 0.0, 86400.0, low_open=True)
+    _number("--quiet-tail [s]", getattr(args, "quiet_tail", 0.0), 0.0, 3600.0)
     _number("--delay [s]", args.delay, 0.0, 60.0)
     _number("--jitter [s]", args.jitter, 0.0, 60.0)
     _number("--drop (a probability)", args.drop, 0.0, 1.0)

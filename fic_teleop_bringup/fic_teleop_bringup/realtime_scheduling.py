@@ -15,9 +15,10 @@ these loops would use.
 
 Which threads: in each node process, every thread named like the process (the main thread that runs the
 callbacks, rclpy's timer thread), a thread the node named ``physics`` (the robot's simulation loop,
-sim_bridge/os_thread.py) and Fast DDS's shared-memory receive threads (``dds.shm.<port>``), once the process has
-run SETTLE_S (its threads are all there). Not Fast DDS's event, UDP and watchdog threads. Threads started later
-come out in the normal class (SCHED_RESET_ON_FORK). The launcher sets OPENBLAS_NUM_THREADS=1: OpenBLAS's
+sim_bridge/os_thread.py) and Fast DDS's receive threads of a port (``dds.shm.<port>`` with shared memory,
+``dds.udp.<port>`` with the default loopback UDP profile, config/fastdds_loopback_udp.xml), once the process has
+run SETTLE_S (its threads are all there). Not Fast DDS's event, asynchronous-send and watchdog threads. Threads
+started later come out in the normal class (SCHED_RESET_ON_FORK). The launcher sets OPENBLAS_NUM_THREADS=1: OpenBLAS's
 workers busy-wait after each call, which a FIFO thread must never do (``chrt -a`` on every thread of the
 replica and the robot made both spin at 100 % of a core).
 
@@ -35,7 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 # Node name -> SCHED_FIFO priority (1-99; higher pre-empts lower): the run profile's fifo_priorities.
-SHARED_MEMORY_THREAD_PREFIX = "dds.shm."
+RECEIVE_THREAD_PREFIXES = ("dds.shm.", "dds.udp.")   # Fast DDS's receive threads, named by transport and port
 LOOP_THREAD_NAMES = ("physics",)   # sim_bridge/robot/robot_node.py PHYSICS_THREAD_NAME
 SETTLE_S = 6.0   # [s] a node process is left alone this long after its start (imports, DDS participant, executor)
 
@@ -59,8 +60,7 @@ def process_age(pid: int) -> float | None:
 
 def loop_threads(pid: int) -> list[int]:
     """Thread ids of process ``pid`` that carry its loop: every thread named like the process (the main thread,
-    rclpy's executor and timer threads), threads named in LOOP_THREAD_NAMES, and Fast DDS's shared-memory receive
-    threads."""
+    rclpy's executor and timer threads), threads named in LOOP_THREAD_NAMES, and Fast DDS's receive threads."""
     process_name = _comm(Path(f"/proc/{pid}/comm"))
     try:
         tasks = list(Path(f"/proc/{pid}/task").iterdir())
@@ -71,10 +71,9 @@ def loop_threads(pid: int) -> list[int]:
         name = _comm(task / "comm")
         if name is None:
             continue
-        port = name[len(SHARED_MEMORY_THREAD_PREFIX):]
+        receives = any(name.startswith(prefix) and name[len(prefix):].isdigit() for prefix in RECEIVE_THREAD_PREFIXES)
         # The main thread is named like the process (/proc/<pid>/comm is its name).
-        if name == process_name or name in LOOP_THREAD_NAMES or \
-                (name.startswith(SHARED_MEMORY_THREAD_PREFIX) and port.isdigit()):
+        if name == process_name or name in LOOP_THREAD_NAMES or receives:
             threads.append(int(task.name))
     return threads
 

@@ -53,6 +53,7 @@ KEYS: dict[str, type | tuple[type, ...]] = {
     "timing_bounds": dict,
     "stations": dict,
     "dataset": dict,
+    "dds_profile": (str, type(None)),
 }
 #: Keys that only their mode's layer gives (realtime.yaml, the base, gives every other one).
 MODE_KEYS = {"stations": "two_stations", "dataset": "demonstrations"}

@@ -29,12 +29,10 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:   # two_stations.py runs this analysis and hands its layout in: no import back
-    from fic_teleop_bringup.two_stations import StationLayout
+from fic_teleop_bringup.station_layout import StationLayout
 
 DELIVERY_TOPICS = {"robot": "/channel/deliveries", "master": "/master_station/channel/deliveries"}
 #: The streams whose longest gaps a link cut is judged by, each with the node that publishes it (docs/INTERFACES.md).
@@ -46,7 +44,7 @@ GAP_STREAM_PUBLISHERS = {"/joint_states": "robot", "/clock": "robot", "/ft_senso
                          "/haptic/wrench_command": "master", "/master/feedback_wrench": "channel_backward"}
 
 
-def station_streams(layout: "StationLayout") -> dict[str, list[str]]:
+def station_streams(layout: StationLayout) -> dict[str, list[str]]:
     """{"robot": [...], "master": [...]}: each gap stream on the side of the station its publisher runs in, so a
     profile that moves a node moves its stream's statistics with it (its own station's recorder should lose none)."""
     streams: dict[str, list[str]] = {"robot": [], "master": []}
@@ -196,7 +194,7 @@ def clock_figures(robot: dict, master: dict, capture: dict, warmup_origin: float
     return result
 
 
-def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path, layout: "StationLayout",
+def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path, layout: StationLayout,
                      master_ahead_s: float = 0.0) -> dict:
     """`master_ahead_s`: the master station's clock offset (estimated), taken off its bag's receive times; `layout`:
     the run's stations (which station's bag holds each gap stream)."""
@@ -247,7 +245,7 @@ def _log_lines(log_dir: Path) -> dict:
     return lines
 
 
-def analyse_run(run_dir: Path, outer_record: dict, layout: "StationLayout") -> str:
+def analyse_run(run_dir: Path, outer_record: dict, layout: StationLayout) -> str:
     """stations.json of a finished run and the lines to print; ``layout``: the run profile's stations."""
     path = run_dir / "stations.json"
     record = json.loads(path.read_text()) if path.exists() else {}

@@ -23,7 +23,15 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
-from fic_teleop_bringup import demonstrations, hardware_twin, node_groups, run_bag, run_profile, two_stations
+from fic_teleop_bringup import (
+    dds_transport,
+    demonstrations,
+    hardware_twin,
+    node_groups,
+    run_bag,
+    run_profile,
+    two_stations,
+)
 from fic_teleop_bringup.launch_checks import (
     ArgumentRefusal,
     check_options,
@@ -152,6 +160,9 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
         origin = (0.0 if profile["use_sim_time"] else time.time()) + profile["start_margin_s"]
         operator_timing = {"script_start_time": origin, **_script_for_delay(args.delay, bag_path.parent)}
         planner_timing = {"start_time": origin + SCRIPT_CIRCLE_START_S - PLANNER_LAG_S}
+        if args.quiet_tail > 0.0:   # the task is --duration from the run's start (the origin in realtime)
+            quiet_from = (origin if not profile["use_sim_time"] else 0.0) + args.duration
+            operator_timing["quiet_from"] = planner_timing["stop_time"] = quiet_from
     closed_loop = operator in ("closed_loop", "shape_sorting")   # an operator that watches the video
     joint_states, recorded_joint_states = {}, {}
     if args.joint_state_rate is not None:   # the recorder counts gaps on the same grid (launch_checks.py checks it)
@@ -463,6 +474,11 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--scene", default="superimposition", choices=["superimposition", "shape_sorting",
                                                                        "free_space"])
     parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds to run (default 30)")
+    parser.add_argument("--quiet-tail", type=float, default=0.0,
+                        help="seconds of quiet tail after --duration (the scripted superimposition run): the planner's "
+                             "circle stops, the operator's target holds still, the hand keeps holding the handle; the "
+                             "run verdict then judges stability by the loop's free response there "
+                             "(docs/EXPERIMENTS.md, 'The run verdict'); default 0: none")
     parser.add_argument("--delay", type=float, default=0.2, help="one-way channel delay [s], both ways (default 0.2)")
     parser.add_argument("--jitter", type=float, default=0.0, help="delay jitter [s]")
     parser.add_argument("--drop", type=float, default=0.0, help="drop probability in [0, 1]")
@@ -611,6 +627,9 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         return two_stations.run(list(sys.argv[1:] if argv is None else argv), args, run_dir)
     stations = two_stations.inside_hooks(args, run_dir)
+    if stations is None:   # two stations write their own Fast DDS profile (two_stations.py)
+        dds_profile = args.run_profile.get("dds_profile")
+        print(f"[run] {dds_transport.apply(os.environ, CONFIG / dds_profile if dds_profile else None)}")
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     # numpy's OpenBLAS would start a worker per core that busy-waits after each call: the nodes' matrices are 7x7,
     # a worker only costs CPU here (and must never be a FIFO thread, realtime_scheduling.py).
@@ -660,6 +679,14 @@ def main(argv: list[str] | None = None) -> int:
         # wall clock), so that the script's last moves are not cut by the nodes' start-up time.
         script_origin = next((node.params["script_start_time"] for spec in specs for node in (spec.members or [spec])
                               if "script_start_time" in node.params), None)
+        quiet_from = next((node.params["quiet_from"] for spec in specs for node in (spec.members or [spec])
+                           if "quiet_from" in node.params), None)
+        if args.quiet_tail > 0.0:
+            if quiet_from is None:
+                print("[run] refused: --quiet-tail needs the scripted superimposition run (its circle and operator "
+                      "script), not this graph", file=sys.stderr)
+                return EXIT_REFUSED
+            _add_to_run_record(run_dir, "quiet_from", quiet_from)
         wall_origin = script_origin if args.time_mode == "realtime" else None
         if stations is not None:
             stations.adapt(specs, NodeSpec)
@@ -678,7 +705,7 @@ def main(argv: list[str] | None = None) -> int:
                       "loaded machine expect a lower real-time factor and a longer pipeline latency", file=sys.stderr)
             _add_to_run_record(run_dir, "prioritised", granted)
         if not interrupted.is_set():
-            window = wait_for_sim_time(args.duration, running, stop=interrupted,
+            window = wait_for_sim_time(args.duration + args.quiet_tail, running, stop=interrupted,
                                             wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
                                             wall_origin=wall_origin,
                                             progress=stations.progress if stations is not None else None,

@@ -2,9 +2,10 @@
 
 `scripts/run_teleop.sh --two-stations` comes here (teleop_launcher.py hands over). What runs where is the run
 profile's ``stations`` (fic_teleop_bringup/profiles/two_stations.yaml, docs/DEPLOYMENT.md), read into a
-`StationLayout`: the master station holds the haptic device with the operator, the master, the master-side channel
-`channel_backward` and a recorder of its own topics (bag_master/); the robot station the robot, the replica, the
-planner, the robot-side channel `channel_forward` and the recorder whose bag (bag/) the report reads.
+`StationLayout` (station_layout.py, which the link's analysis, station_analysis.py, reads too): the master station
+holds the haptic device with the operator, the master, the master-side channel `channel_backward` and a recorder of
+its own topics (bag_master/); the robot station the robot, the replica, the planner, the robot-side channel
+`channel_forward` and the recorder whose bag (bag/) the report reads.
 
 Each channel node sits on the receiving side of its direction, so it measures its hold on its own station's clock
 from the moment the message arrived over the link, and only the two streams the paper's architecture needs cross
@@ -37,55 +38,16 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
+from fic_teleop_bringup.station_layout import StationError, StationLayout
 from fic_teleop_bringup.workspace import CONFIG
 
 INSIDE_ENV = "FIC_TWO_STATIONS"          # set in the launcher that runs inside the robot station
 FASTDDS_PROFILE = CONFIG / "fastdds_two_stations.xml"
 RUN_FASTDDS_PROFILE = "fastdds_two_stations.xml"   # its copy in the run folder, with the profile's addresses
 TAG_PATTERN = re.compile(r"^[a-z0-9]{1,8}$")
-
-
-@dataclass(frozen=True)
-class StationLayout:
-    """The run profile's ``stations`` (profiles/two_stations.yaml; run_profile.check_stations_whole has checked it):
-    which node runs in which station, the namespaces' prefix, the link's addresses and the streams it is for."""
-
-    namespace_prefix: str
-    prefix_length: int
-    master_address: str
-    robot_address: str
-    master_nodes: frozenset[str]
-    robot_nodes: frozenset[str]
-    link_streams: tuple[str, ...]
-    master_topics: tuple[str, ...] = ()                     # recorded in the master station (bag_master/)
-    master_remaps: dict[str, str] = field(default_factory=dict)
-    robot_not_recorded: tuple[str, ...] = ()                # left out of the robot station's recorder as well
-
-    @classmethod
-    def from_profile(cls, profile: dict) -> "StationLayout":
-        stations = profile["stations"]
-        master, robot = stations["master"], stations["robot"]
-        return cls(namespace_prefix=stations["namespace_prefix"], prefix_length=stations["prefix_length"],
-                   master_address=master["address"], robot_address=robot["address"],
-                   master_nodes=frozenset(master["nodes"]), robot_nodes=frozenset(robot["nodes"]),
-                   link_streams=tuple(stations["link_streams"]), master_topics=tuple(master.get("topics", ())),
-                   master_remaps=dict(master.get("remaps", {})),
-                   robot_not_recorded=tuple(robot.get("not_recorded", ())))
-
-    @property
-    def robot_station_excluded(self) -> set[str]:
-        """What the robot station's recorder leaves out of its topic table (it would cross the link)."""
-        return set(self.master_topics) | set(self.robot_not_recorded)
-
-    def station_of(self, node_name: str) -> str:
-        if node_name in self.master_nodes:
-            return "master"
-        if node_name in self.robot_nodes:
-            return "robot"
-        raise StationError(f"node {node_name} is in neither station of the profile's stations")
 
 
 @dataclass(frozen=True)
@@ -113,10 +75,6 @@ class StationPair:
 
     def namespace_of(self, node_name: str) -> str:
         return self.master_namespace if self.layout.station_of(node_name) == "master" else self.robot_namespace
-
-
-class StationError(RuntimeError):
-    """A two-station run cannot start; the message is the one line to print."""
 
 
 def _ip(*arguments: str, check: bool = True) -> subprocess.CompletedProcess:

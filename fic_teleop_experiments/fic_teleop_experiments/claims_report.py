@@ -31,6 +31,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fic_teleop_experiments.cell_statistics import Proportion, compare_laws, median_and_p95, proportion
+from fic_teleop_experiments.tables import claims_block, claims_markdown
+from fic_teleop_experiments.unstable_tests import unstable_by_test
 
 REFERENCE_LAW = "fic"
 VERDICTS = ("stable", "safe")
@@ -83,24 +85,6 @@ def judged(row: dict) -> bool:
 
 def figure_of(row: dict, name: str):
     return row.get("figures", row).get(name)
-
-
-#: The stable verdict's tests (fic_teleop_tools.verdict.run_verdict), each named by how its reasons begin.
-UNSTABLE_TESTS = {"tail motion": "free oscillation in the quiet tail",
-                  "tail energy": "energy does not decay in the quiet tail",
-                  "oscillation (no tail)": "sustained oscillation", "growing energy": "growing energy",
-                  "port generation": "steady energy generation", "runaway": "runaway", "parked": "parked"}
-
-
-def unstable_by_test(rows: Sequence[dict]) -> dict[str, int]:
-    """How many of the judged runs each stable test failed (a run may fail several): what a reader needs to see
-    whether one test, or one threshold, decides a law's share."""
-    counts = dict.fromkeys(UNSTABLE_TESTS, 0)
-    for row in rows:
-        reasons = row.get("verdict", {}).get("stable_reasons", []) if isinstance(row.get("verdict"), dict) else []
-        for test, start in UNSTABLE_TESTS.items():
-            counts[test] += any(reason.startswith(start) for reason in reasons)
-    return counts
 
 
 def law_statistics(rows: Sequence[dict]) -> dict:
@@ -184,7 +168,6 @@ def write_claims_statistics(source: Path, out: Path, seeds_planned: int | None =
     _differences.png from a judged sweep or run file; returns the paths written (a figure with nothing to show is
     not written). The stem of results/claims_statistics.json is results/claims."""
     from fic_teleop_experiments.plots import plot_claim_differences, plot_claim_proportions
-    from fic_teleop_experiments.tables import claims_markdown
 
     document = claims_statistics(read_runs(source), seeds_planned)
     document["source"] = Path(source).name
@@ -207,8 +190,6 @@ CLAIMS_BEGIN, CLAIMS_END = "<!-- claims: begin", "<!-- claims: end -->"
 def update_claims_block(document: Path, statistics: dict) -> None:
     """Replace the claims block of ``document`` (docs/RESULTS.md: between its begin and end markers) with the one
     generated from ``statistics``; ValueError when the document has not exactly one block."""
-    from fic_teleop_experiments.tables import claims_block
-
     text = document.read_text()
     if text.count(CLAIMS_BEGIN) != 1 or text.count(CLAIMS_END) != 1:
         raise ValueError(f"{document} must hold exactly one '{CLAIMS_BEGIN} ...' ... '{CLAIMS_END}' block")
@@ -233,8 +214,6 @@ def main(argv: list[str] | None = None) -> int:
                              "statistics (after a new --judge)")
     args = parser.parse_args(argv)
     if args.block is not None:
-        from fic_teleop_experiments.tables import claims_block
-
         print(claims_block(json.loads(args.block.read_text())), end="")
         return 0
     source = args.source or Path(os.environ.get("FIC_TELEOP_ROOT") or Path.cwd()) / "results" / "claims.json"

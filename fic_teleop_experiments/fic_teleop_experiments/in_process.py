@@ -29,10 +29,10 @@ import yaml
 
 from fic_core.arm_profile import arm_profile
 from fic_core.channel_ports import ChannelPorts
-from fic_core.master_station import MasterStation
+from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
-from fic_core.planner_station import PlannerStation, make_source
-from fic_core.replica_station import ReplicaStation
+from fic_core.planner_station import PlannerParameters, PlannerStation, make_source
+from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.trajectories import LapVaryingCircle
 from fic_teleop_runtime.workspace import config_folder
@@ -282,10 +282,11 @@ def run(config: RunConfig) -> RunResult:
     tdpa = config.tdpa or config.controller == "linear_tdpa"
     law = "linear_bounded" if config.controller == "linear_tdpa" else config.controller
     ports = ChannelPorts(tdpa, m["channel_max_damping"], m["channel_energy_window"])
-    station = ReplicaStation({**r, "controller": law, "control_rate": config.control_rate,
-                              "answer_every_state": True, "exchanged_energy_observer": False,
-                              **config.replica_overrides}, channel_port=ports.replica)
-    master = MasterStation({**m, **config.master_overrides})
+    station = ReplicaStation(ReplicaParameters.from_values({
+        **r, "controller": law, "control_rate": config.control_rate, "answer_every_state": True,
+        "exchanged_energy_observer": False, **config.replica_overrides}), channel_port=ports.replica)
+    master = MasterStation(MasterParameters.from_values({**m, "exchanged_energy_observer": False,
+                                                         **config.master_overrides}), channel_port=ports.master)
     device = HapticDevice(HapticDeviceParameters(
         mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
         wall_stiffness=h["wall_stiffness"], wall_damping=h["wall_damping"], max_force=h["max_force"],
@@ -356,12 +357,13 @@ def run(config: RunConfig) -> RunResult:
                                              pl["circle_normal"], TASK_PHASE_RANGES_RAD)
         drawn["task"] = dict(periods=source.periods.tolist(), diameters=source.diameters.tolist(), phase=source.phase)
     # The planner node's station, its trajectory's clock on the launcher's origin (shared with the E1 script).
-    planner_values = {**pl, "trajectory": "circle" if trajectory == "circle" else "fixed", "start_position": [],
-                      "start_time": SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0}
+    planner_parameters = PlannerParameters.from_values({
+        **pl, "trajectory": "circle" if trajectory == "circle" else "fixed", "start_position": [],
+        "start_time": SCRIPT_CIRCLE_START_S - PLANNER_LAG_S if trajectory == "circle" else 0.0})
     if config.quiet_from is not None:   # the quiet tail: the trajectory's clock stops (RunConfig.quiet_from)
-        source = StoppedTrajectory(source if source is not None else make_source(planner_values),
-                                   max(config.quiet_from - planner_values["start_time"], 0.0))
-    planner = PlannerStation(planner_values, 0.0, source)
+        source = StoppedTrajectory(source if source is not None else make_source(planner_parameters),
+                                   max(config.quiet_from - planner_parameters.start_time, 0.0))
+    planner = PlannerStation(planner_parameters, 0.0, source)
     sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
     # The robot node's station: its stale-command hold (command_timeout), its rule on the state a torque was computed
     # on (command_state_timeout: a torque on an older state is never applied), its velocity reflex.
@@ -388,7 +390,6 @@ def run(config: RunConfig) -> RunResult:
     device_station = DeviceStation(device, hand, script=operator, watcher=watcher,
                                    command_timeout=h["command_timeout"], script_origin=time_shift,
                                    quiet_from=config.quiet_from)
-    ft_wrench = None
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
     log_m, log_arm, log_handle, log_target = [], [], [], []
     log_mode, log_sent = [], []
@@ -410,9 +411,8 @@ def run(config: RunConfig) -> RunResult:
                 pressed[button] = 1
             master.press(pressed)
         if k % master_every == 0:
-            # The channel's master port (fic_core.channel_ports): booked, and with TDPA damped, before Eq. 3.
-            ports.master.tick(master, now, master_every * STEP)
-            force, _ = master.force(now)
+            # The master's control tick: its channel port booked (and with TDPA damped) before Eq. 3.
+            force, _ = master.update(now, master_every * STEP)
             if force is not None:
                 device_station.command(force, now)
         if k % network_every == 0:
@@ -440,13 +440,11 @@ def run(config: RunConfig) -> RunResult:
                                               desired_offset=sent.desired_offset, master_input_energy=energy)
             for delivery in backward.pop_due(now):
                 feedback, energy = delivery.payload
-                ports.master.receive_feedback(feedback, now)
-                ports.master.receive_energy(energy)
-                master.add_feedback(feedback, now)
+                master.add_feedback(feedback, now, replica_input_energy=energy)
         # Robot side: the joint state of step k, the replica's answer, the physics step.
         if k % wrench_every == 0:   # F_R through the driver's declared frame, as the node takes /ft_sensor/wrench
             reading = sim.ft_wrench()
-            ft_wrench = station.wrench(station.base_frame, reading[:3], reading[3:])[0]
+            station.wrench(station.base_frame, reading[:3], reading[3:])
         stall = None
         if config.replica_stalls:
             stall = starved.window(now)
@@ -472,8 +470,9 @@ def run(config: RunConfig) -> RunResult:
             else None
         if stall is not None and starved.answered(now, stall, result.torque, state_time, tick_dynamics):
             result.torque = None   # on its way to the robot
-        if result.poses_due and station.last_command is not None and ft_wrench is not None:
-            backward.push((ft_wrench, station.feedback_sent(ft_wrench)), now, now)
+        if tick.feedback is not None:   # F_R due back to the master, with the replica port's E_in
+            ft_wrench, _ = tick.feedback
+            backward.push(tick.feedback, now, now)
             command = station.last_command
             log_t.append(now)
             log_d.append(command.desired_position)

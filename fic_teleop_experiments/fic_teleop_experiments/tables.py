@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from fic_teleop_experiments.unstable_tests import UNSTABLE_TESTS
+
 
 def _number(value, digits: int = 3, scale: float = 1.0) -> str:
     if value is None:
@@ -153,8 +155,6 @@ def claims_markdown(document: dict) -> str:
                          f"{_pair(s['error_rms_median'], s['error_rms_p95'], 1e3, 1)} | {safe} | {safe_interval} | "
                          f"{_pair(s['error_max_median'], s['error_max_p95'], 1e3, 1)} | "
                          f"{_pair(s['peak_force_median'], s['peak_force_p95'], 1.0, 1)} |")
-    from fic_teleop_experiments.claims_report import UNSTABLE_TESTS
-
     lines += ["", "Which stable test each law's unstable runs failed (a run may fail several; "
               "fic_teleop_tools/verdict/run_verdict.py):", "",
               "| cell | law | not stable | " + " | ".join(UNSTABLE_TESTS) + " |",

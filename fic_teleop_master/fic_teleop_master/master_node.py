@@ -17,11 +17,12 @@ past k_F s_M K_H = 1 in one line), ``guidance_fixture`` and its ``guidance_*``. 
 set their parameter too, so ``param get`` tells the truth; their state goes out on /master/operator_tools at
 ``tools_rate`` and at once when the engagement changes.
 
-The channel's master port (fic_core.channel_ports.MasterChannelPort): booked at every control tick before Eq. 3,
-its E_in sent on /master/port_energy (through channel_forward), the replica port's E_in read from
+The channel's master port (fic_core.channel_ports.MasterChannelPort, the station's): booked at every control tick
+before Eq. 3, its E_in sent on /master/port_energy (through channel_forward), the replica port's E_in read from
 /master/replica_port_energy; with channel_passivity_control (TDPA) its damper shapes the F_R that Eq. 3 renders.
 The handle FIC's port is booked by the exchanged-energy observer (fic_core.exchanged_energy_ports) at every tick
-that evaluates Eq. 3, on /diagnostics as "master: exchanged energy".
+that evaluates Eq. 3, on /diagnostics as "master: exchanged energy". A control tick is the station's one
+``update``, which keeps that order.
 """
 from __future__ import annotations
 
@@ -35,16 +36,14 @@ from std_msgs.msg import Float64
 
 # Submodule imports: from the repository root a bare `import fic_core` finds the project folder fic_core/ as a
 # namespace package first (the editable install resolves submodules only).
-from fic_core.channel_ports import CHANNEL_PORT_NUMBERS, CHANNEL_PORT_SWITCHES, MasterChannelPort
 from fic_core.errors import FicInputError
-from fic_core.exchanged_energy_ports import EXCHANGED_ENERGY_SWITCHES, MasterExchangedEnergy
-from fic_core.master_station import MASTER_NUMBERS, MASTER_TOOLS, MasterStation, clamped_haptic_gain
+from fic_core.master_station import MASTER_PARAMETERS, MasterParameters, MasterStation, clamped_haptic_gain
 from fic_teleop_msgs.msg import OperatorTools, TeleoperationCommand
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
-from fic_teleop_runtime.parameters import Schema, declare, integer, refuse_unknown_names, text
+from fic_teleop_runtime.parameters import Schema, declare, refuse_unknown_names
 from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
 from fic_teleop_runtime.periodic import PeriodicCallbacks
 
@@ -53,12 +52,9 @@ from fic_teleop_runtime.periodic import PeriodicCallbacks
 # of the run (fic_teleop_runtime.qos).
 STREAM_QOS, STREAM_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
 JOY_QOS, DIAGNOSTICS_QOS = qos.EVENTS, qos.DIAGNOSTICS
-SCHEMA = Schema("master.yaml", MASTER_NUMBERS.values(),
-                integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
-                                      "(x_d' += k_v*x_M*dt)"),
-                text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True),
-                MASTER_TOOLS.values(), CHANNEL_PORT_SWITCHES.values(), CHANNEL_PORT_NUMBERS.values(),
-                EXCHANGED_ENERGY_SWITCHES.values())
+#: The master's table (fic_core.master_station): the node declares these rows, the station takes their values as
+#: one MasterParameters.
+SCHEMA = Schema("master.yaml", MASTER_PARAMETERS.values())
 
 
 class MasterNode(Node):
@@ -66,14 +62,10 @@ class MasterNode(Node):
         super().__init__("master", **node_options)
         self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
         values = declare(self, SCHEMA)  # every row with its config/master.yaml value; unknown keys refused
-        self._station = MasterStation({name: values[name] for name in (*MASTER_NUMBERS, *MASTER_TOOLS, "mode",
-                                                                       "frame_id")})
+        self._station = MasterStation(MasterParameters.from_values(values))
         self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
         self._frame_id = values["frame_id"]
-        self._channel_port = MasterChannelPort(values["channel_passivity_control"], values["channel_max_damping"],
-                                               values["channel_energy_window"])
         self._control_period, self._last_control_tick = 1.0 / values["control_rate"], None
-        self._exchanged = MasterExchangedEnergy(self._control_period) if values["exchanged_energy_observer"] else None
         self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_WRITER_QOS)
         self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_WRITER_QOS)
         self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command",
@@ -136,7 +128,7 @@ class MasterNode(Node):
     def _sync_parameters(self, names) -> None:
         """Make ``param get`` show what a button or the station itself changed (the on-set callback then finds
         the station already there)."""
-        self.set_parameters([Parameter(name, value=self._station.parameters[name]) for name in names])
+        self.set_parameters([Parameter(name, value=getattr(self._station.parameters, name)) for name in names])
 
     # -- inputs ---------------------------------------------------------------------------------------------
     def _now(self) -> float:
@@ -157,16 +149,14 @@ class MasterNode(Node):
 
     def _on_feedback(self, message: WrenchStamped) -> None:
         try:
-            now = self._now()
-            self._log(self._station.add_feedback(xyz(message.wrench.force), now))
-            self._channel_port.receive_feedback(xyz(message.wrench.force), now)
+            self._log(self._station.add_feedback(xyz(message.wrench.force), self._now()))
         except FicInputError:
             self.get_logger().error("refused /master/feedback_wrench with non-finite values",
                                     throttle_duration_sec=1.0)
 
     def _on_replica_port_energy(self, message: Vector3Stamped) -> None:
         try:
-            self._channel_port.receive_energy(message.vector.x)  # x: the replica port's E_in
+            self._station.replica_port_energy(message.vector.x)  # x: the replica port's E_in
         except FicInputError as error:
             self.get_logger().error(f"refused /master/replica_port_energy: {error}", throttle_duration_sec=1.0)
 
@@ -191,14 +181,11 @@ class MasterNode(Node):
         now = self._now()
         dt = self._control_period if self._last_control_tick is None else max(now - self._last_control_tick, 0.0)
         self._last_control_tick = now
-        self._channel_port.tick(self._station, now, dt)  # booked (and with TDPA damped) before Eq. 3
         engagement = self._station.engagement
-        force, notices = self._station.force(now)
+        force, notices = self._station.update(now, dt)  # the channel's port, Eq. 3, the exchanged energy
         if self._station.engagement != engagement:  # homed: engaged (or still clutched)
             self._sync_parameters(("homing",))
             self._publish_tools()
-        if self._exchanged is not None:
-            self._exchanged.observe(self._station)
         self._log(notices)
         if force is None:
             return  # no handle yet: nothing to render
@@ -225,7 +212,7 @@ class MasterNode(Node):
             workspace_scale=sample.workspace_scale, velocity_gain=sample.velocity_gain,
             handle_position=pose.pose.position,
             desired_offset=Point(x=float(desired_offset[0]), y=float(desired_offset[1]), z=float(desired_offset[2]))))
-        observer = self._channel_port.observer  # E_in travels with x_d' (x: E_in, y: E_out, z: W of this port)
+        observer = station.channel_port.observer  # E_in travels with x_d' (x: E_in, y: E_out, z: W of this port)
         energy = Vector3Stamped(header=pose.header)
         energy.vector.x, energy.vector.y, energy.vector.z = observer.input_energy, observer.output_energy, \
             observer.energy
@@ -255,10 +242,11 @@ class MasterNode(Node):
                                   level=DiagnosticStatus.WARN if problems else DiagnosticStatus.OK,
                                   message="; ".join(problems) if problems else "ok",
                                   values=[KeyValue(key=key, value=value) for key, value in values.items()])
+        station = self._station
         array = DiagnosticArray(status=[status, channel_port_status("master", "backward",
-                                                                    self._channel_port.diagnostics())])
-        if self._exchanged is not None:
-            array.status.append(exchanged_energy_status("master", self._exchanged.observer, "N s/m"))
+                                                                    station.channel_port.diagnostics())])
+        if station.exchanged is not None:
+            array.status.append(exchanged_energy_status("master", station.exchanged.observer, "N s/m"))
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_publisher.publish(array)
 

@@ -16,8 +16,6 @@ restarts the planner at its current position, at rest.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped
@@ -29,83 +27,53 @@ from rclpy.parameter import Parameter
 # namespace package first (the editable install resolves submodules only).
 from fic_core.errors import FicInputError
 from fic_core.planner_station import (
+    HARMONIC_PLANNER_PARAMETERS,
     PLANNER_PARAMETERS,
     READ_ONLY,
     TRAJECTORIES,
     TRAJECTORY_PARAMETERS,
+    PlannerParameters,
     PlannerStation,
     make_source,
 )
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import set_pose, set_xyz
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
-from fic_teleop_runtime.parameters import Schema, declare, number, numbers, switch, text
-from fic_teleop_runtime.parameters import values as parameter_values
+from fic_teleop_runtime.parameters import Schema, declare
 from fic_teleop_runtime.periodic import PeriodicCallbacks
 
 # docs/CONVENTIONS.md: RELIABLE, the streams' deep writer history (a stalled reader, the recorder, loses nothing)
 POSE_QOS, DIAGNOSTICS_QOS = qos.STREAM_WRITER, qos.DIAGNOSTICS
 #: The station's tables, kept importable from here (what the node declares and refuses at run time).
-__all__ = ["PLANNER_PARAMETERS", "READ_ONLY", "SCHEMA", "TRAJECTORIES", "TRAJECTORY_PARAMETERS", "PlannerNode",
-           "make_source"]
+__all__ = ["HARMONIC_PLANNER_PARAMETERS", "PLANNER_PARAMETERS", "READ_ONLY", "SCHEMA", "TRAJECTORIES",
+           "TRAJECTORY_PARAMETERS", "PlannerNode", "make_source"]
 
-
-SCHEMA = Schema(
-    "planner.yaml",
-    text("trajectory", f"trajectory source: one of {TRAJECTORIES}"),
-    numbers("circle_centre", "centre of the circle [m] in panda_link0 (config: the E1 scene's, between the "
-                             "obstacles)"),
-    number("circle_diameter", 0.001, 2.0, "circle diameter [m] (paper: 0.20)"),
-    number("circle_period", 0.1, 600.0, "circle period [s] (paper: 5)"),
-    numbers("circle_normal", "normal of the circle's plane (+z: horizontal, counter-clockwise from above)"),
-    number("circle_phase", -2 * math.pi, 2 * math.pi, "start angle [rad]"),
-    numbers("fixed_point", "target of the fixed trajectory [m] in panda_link0"),
-    numbers("via_points", "via-points as a flat list x0, y0, z0, x1, ... [m] in panda_link0"),
-    number("via_dwell", 0.0, 600.0, "time a via-point is held once reached before the next [s]"),
-    number("via_tolerance", 1e-5, 1.0, "a via-point is reached within this [m]"),
-    switch("via_loop", "start the via-points again after the last one"),
-    number("natural_frequency", 0.1, 100.0, "w_n of the planner [rad/s] (Eq. 5)"),
-    number("max_velocity", 0.001, 1.7, "v_d: desired tangential velocity and speed limit [m/s] (Eq. 6); Panda "
-                                       "TCP <= 1.7"),
-    numbers("orientation", "fixed desired orientation [x, y, z, w] in panda_link0 (gripper down: a rotation of pi "
-                           "about x, as in the Panda's ready pose)"),
-    numbers("start_position", "x_d'' at start [m]; unset or empty: the trajectory's first point", read_only=True,
-            optional=True),
-    number("start_delay", 0.0, 3600.0, "the trajectory's clock starts this long after the node [s]", True),
-    number("start_time", -1.0, 1e10, "node-clock time at which the trajectory's clock starts [s] (sim time with "
-                                     "use_sim_time); negative: start_delay after the node starts", True),
-    number("publish_rate", 1.0, 5000.0, "/planner/desired_pose rate [Hz]", True),
-    number("diagnostics_rate", 0.01, 100.0, "/diagnostics rate [Hz]", True),
-    text("frame_id", "frame of /planner/desired_pose", read_only=True),
-)
+#: The planner's table (fic_core.planner_station): the node declares these rows, the station takes their values as
+#: one PlannerParameters.
+SCHEMA = Schema("planner.yaml", PLANNER_PARAMETERS.values())
 
 
 class PlannerNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("planner", **node_options)
         self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
-        declare(self, SCHEMA)  # every row with its config/planner.yaml value; unknown keys refused
-        value = self._value
+        values = declare(self, SCHEMA)  # every row with its config/planner.yaml value; unknown keys refused
+        p = PlannerParameters.from_values(values)
         # Stepped in periods no longer than publish_rate's, whatever the timer does (fic_core.planner_schedule).
-        self._station = PlannerStation(parameter_values(self, SCHEMA, SCHEMA.names),
-                                       self._now())
-        self._frame_id = value("frame_id")
+        self._station = PlannerStation(p, self._now())
+        self._frame_id = p.frame_id
 
         self._publisher = self.create_publisher(PoseStamped, "/planner/desired_pose", POSE_QOS)
         self._accel_publisher = self.create_publisher(AccelStamped, "/planner/desired_accel", POSE_QOS)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self._periodic.create(1.0 / value("publish_rate"), self._tick)
-        self._periodic.create(1.0 / value("diagnostics_rate"), self._publish_diagnostics)
+        self._periodic.create(1.0 / p.publish_rate, self._tick)
+        self._periodic.create(1.0 / p.diagnostics_rate, self._publish_diagnostics)
         self.get_logger().info(
-            f"planner up: trajectory {value('trajectory')}, w_n = {value('natural_frequency')} rad/s, "
-            f"v_d = {value('max_velocity')} m/s, start {np.round(self._station.planner.position, 4).tolist()}")
+            f"planner up: trajectory {p.trajectory}, w_n = {p.natural_frequency} rad/s, "
+            f"v_d = {p.max_velocity} m/s, start {np.round(self._station.planner.position, 4).tolist()}")
 
     # -- parameters -----------------------------------------------------------------------------------------
-    def _value(self, name: str):
-        """A parameter's value; an array declared without a default and left unset reads as empty."""
-        return parameter_values(self, SCHEMA, (name,))[name]
-
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         try:
             notices = self._station.configure({p.name: p.value for p in parameters}, self._now())

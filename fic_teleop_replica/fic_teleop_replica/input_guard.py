@@ -5,7 +5,7 @@ are foreign are ReplicaStation's (fic_core.input_authority inside). This module 
 every PUBLISHER_CHECK_PERIOD_S, gives the guarded subscriptions the middleware's writer-matched event (which comes
 with a second writer's first message), counts the writers of /replica/teleop_command for each command, logs the
 safe hold in one error line and has the node publish /diagnostics at once (level ERROR; recorded in the bag, read
-back by the launcher's exit code). It also declares the input authority's parameters.
+back by the launcher's exit code). The input authority's parameters are fic_core.input_authority's rows.
 """
 from __future__ import annotations
 
@@ -13,24 +13,8 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 
 from fic_core.replica_station import CHANNEL_STREAMS, ROBOT_STREAMS, SET_POINT_STREAMS, TELEOP_STREAM, ReplicaStation
-from fic_teleop_runtime.parameters import number
 
 PUBLISHER_CHECK_PERIOD_S = 0.5  # graph lookups are cheap; a new writer is discovered within about a second anyway
-
-#: What an outside input may ask of the arm (config/replica.yaml holds the values).
-AUTHORITY_PARAMETERS = (
-    number("offset_workspace", 0.01, 2.0, "x_d' is clamped to +- this on each axis, about the start pose [m] "
-                                          "(fic_core.input_authority)"),
-    number("max_offset_speed", 0.01, 10.0, "x_d' moves toward a teleoperation command no faster than this, on "
-                                           "this node's clock [m/s]"),
-    number("max_offset_burst", 0.0, 1.0, "x_d' may move this far at once, for bursts of delayed commands [m]"),
-    number("command_future_tolerance", 0.0, 10.0, "commands and joint states stamped further ahead of this node's "
-                                                  "clock are refused [s]"),
-    number("max_command_age", 0.05, 600.0, "teleoperation commands stamped longer ago are refused [s] (the "
-                                           "channel's delay must fit inside it; the launcher raises it with "
-                                           "--delay)"),
-)
-
 
 UNNAMED = "a node not yet named in discovery"
 #: After a hold that could not name every writer: how long the graph is still asked for their names [s].

@@ -34,7 +34,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayou
 
 from fic_core import command_stamp
 from fic_core.errors import FicInputError
-from fic_core.replica_station import ReplicaStation
+from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 from fic_teleop_replica import messages
 from fic_teleop_replica.input_guard import InputGuard
@@ -55,7 +55,7 @@ class ReplicaNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__(NODE_NAME, **node_options)
         values = declare(self, SCHEMA)  # every row with its config/replica.yaml value; unknown keys refused
-        self._station = ReplicaStation(values)   # FicInputError if bad
+        self._station = ReplicaStation(ReplicaParameters.from_values(values))   # FicInputError if bad
         self._loop = self._station.loop
         self._driver = self._station.driver
         self._wrench: WrenchStamped | None = None  # F_R as last received
@@ -88,25 +88,25 @@ class ReplicaNode(Node):
         self.create_subscription(AccelStamped, "/planner/desired_accel", self._on_planner_accel, qos.SET_POINT,
                                  event_callbacks=guard.stream_events("/planner/desired_accel"))
         p = self._loop.parameters
-        self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
+        self._diagnostics_timer = self.create_timer(1.0 / p.diagnostics_rate, self._publish_diagnostics)
         # The joint-state watchdog runs on the steady clock: with a real driver, silence is wall time.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         if self._driver.ramp is not None:
             self.create_timer(0.01, self._check_joint_states, clock=self._steady)
         self.get_logger().info(f"driver: {self._driver.describe()}")
-        self.get_logger().info(f"replica ready: controller {p['controller']}, control_rate {p['control_rate']:g} Hz, "
-                               f"master_timeout {p['master_timeout']:g} s; waiting for /joint_states")
+        self.get_logger().info(f"replica ready: controller {p.controller}, control_rate {p.control_rate:g} Hz, "
+                               f"master_timeout {p.master_timeout:g} s; waiting for /joint_states")
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         changes = {parameter.name: parameter.value for parameter in parameters}
-        old_rate = self._loop.parameters["diagnostics_rate"]
+        old_rate = self._loop.parameters.diagnostics_rate
         try:
             p = self._station.configure(changes)
         except FicInputError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        if p["diagnostics_rate"] != old_rate:
+        if p.diagnostics_rate != old_rate:
             self._diagnostics_timer.cancel()
-            self._diagnostics_timer = self.create_timer(1.0 / p["diagnostics_rate"], self._publish_diagnostics)
+            self._diagnostics_timer = self.create_timer(1.0 / p.diagnostics_rate, self._publish_diagnostics)
         self.get_logger().info(f"parameters changed: {', '.join(f'{k}={v}' for k, v in changes.items())}")
         return SetParametersResult(successful=True)
 
@@ -192,9 +192,8 @@ class ReplicaNode(Node):
             self._desired_pose_pub.publish(messages.pose(stamp, frame, command.desired_position,
                                                          command.desired_rotation))
             self._tcp_pose_pub.publish(messages.pose(stamp, frame, command.tcp_position, command.tcp_rotation))
-            if self._wrench is not None:
+            if tick.feedback is not None:  # F_R of self._wrench, its E_in booked by the station
                 self._feedback_pub.publish(self._wrench)
-                station.feedback_sent(xyz(self._wrench.wrench.force))  # E_in travels with F_R
                 observer = station.channel_port.observer
                 energy = Vector3Stamped(header=self._wrench.header)
                 energy.vector.x, energy.vector.y, energy.vector.z = (observer.input_energy, observer.output_energy,

@@ -20,7 +20,6 @@ declared by its own type and read back as an empty list.
 """
 from __future__ import annotations
 
-import difflib
 import re
 import sys
 from collections.abc import Iterable, Mapping, Sequence
@@ -37,8 +36,20 @@ from rclpy.parameter import Parameter
 
 from fic_core.errors import FicInputError
 
-# The row constructors, for the nodes' tables (one row type for fic_core's tables and the nodes').
-from fic_core.parameter_row import LISTS, Kind, ParameterRow, integer, number, numbers, switch, text, texts  # noqa: F401
+# The row constructors, for the nodes' tables (one row type for fic_core's tables and the nodes'), and the one hint
+# of the nearest declared name that every refusal of an unknown name gives.
+from fic_core.parameter_row import (  # noqa: F401
+    LISTS,
+    Kind,
+    ParameterRow,
+    integer,
+    nearest_name_hint,
+    number,
+    numbers,
+    switch,
+    text,
+    texts,
+)
 from fic_teleop_runtime.workspace import config_folder
 
 Type = Parameter.Type
@@ -155,15 +166,6 @@ def typed(row: ParameterRow, value: Any, where: str) -> Any:
 def unknown_key_error(name: str, known: Sequence[str], node_name: str) -> FicInputError:
     """The refusal of a key no row declares, naming the nearest declared one."""
     return FicInputError(f"unknown parameter {name!r} for node {node_name}{nearest_name_hint(name, known)}")
-
-
-def nearest_name_hint(name: str, known: Sequence[str], otherwise: str | None = None) -> str:
-    """``; did you mean 'x'?`` for the declared name nearest ``name``, else ``otherwise`` (default: the declared
-    names)."""
-    close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
-    if close:
-        return f"; did you mean {close[0]!r}?"
-    return f"; declared: {', '.join(sorted(known))}" if otherwise is None else otherwise
 
 
 def check_keys(given: Iterable[str], schema: Schema, node_name: str, also_known: Iterable[str] = ()) -> None:

@@ -37,7 +37,7 @@ CHILD = textwrap.dedent("""
             time.sleep(120)
         threading.Thread(target=run, daemon=True).start()
 
-    for name in ("physics", "dds.shm.7411", "dds.shm.wdog", "dds.ev.0", ""):
+    for name in ("physics", "dds.shm.7411", "dds.udp.24169", "dds.shm.wdog", "dds.ev.0", "dds.asyn.0.0", ""):
         named(name)
     for line in sys.stdin:
         if line.strip() == "spawn":
@@ -51,7 +51,7 @@ def child():
     process = subprocess.Popen([sys.executable, "-c", CHILD], stdin=subprocess.PIPE,
                                stdout=subprocess.PIPE, text=True)
     tids = {}
-    for _ in range(5):
+    for _ in range(7):
         _, name, tid = process.stdout.readline().split()
         tids[name] = int(tid)
     tids["main"] = process.pid
@@ -77,7 +77,7 @@ def _may_use_fifo() -> bool:
 def test_only_the_loop_threads_are_chosen(child) -> None:
     _, tids = child
     chosen = set(loop_threads(tids["main"]))
-    assert chosen == {tids["main"], tids["worker"], tids["physics"], tids["dds.shm.7411"]}
+    assert chosen == {tids["main"], tids["worker"], tids["physics"], tids["dds.shm.7411"], tids["dds.udp.24169"]}
 
 
 def test_the_loop_threads_run_fifo_and_nothing_else_does(child) -> None:
@@ -94,19 +94,19 @@ def test_the_loop_threads_run_fifo_and_nothing_else_does(child) -> None:
         assert scheduler.summary()["robot"]["policy"] == "refused"
         assert all(_policy(tid) == os.SCHED_OTHER for tid in tids.values())
         return
-    for name in ("main", "worker", "physics", "dds.shm.7411"):
+    for name in ("main", "worker", "physics", "dds.shm.7411", "dds.udp.24169"):
         assert _policy(tids[name]) == os.SCHED_FIFO, name
         assert os.sched_getparam(tids[name]).sched_priority == 42
-    for name in ("dds.shm.wdog", "dds.ev.0"):
+    for name in ("dds.shm.wdog", "dds.ev.0", "dds.asyn.0.0"):
         assert _policy(tids[name]) == os.SCHED_OTHER, name
     # A thread the FIFO main thread starts afterwards does not inherit FIFO (SCHED_RESET_ON_FORK).
     process.stdin.write("spawn\n")
     process.stdin.flush()
     _, name, tid = process.stdout.readline().split()
     assert name == "worker" and _policy(int(tid)) == os.SCHED_OTHER
-    assert scheduler.summary()["robot"] == {"policy": "fifo", "priority": 42, "threads": 4}
+    assert scheduler.summary()["robot"] == {"policy": "fifo", "priority": 42, "threads": 5}
     scheduler.apply()  # again: the late thread is one of the loop's (named like the process) and now joins
-    assert scheduler.summary()["robot"]["threads"] == 5 and _policy(int(tid)) == os.SCHED_FIFO
+    assert scheduler.summary()["robot"]["threads"] == 6 and _policy(int(tid)) == os.SCHED_FIFO
 
 
 def test_a_gone_process_and_a_bad_priority() -> None:

@@ -8,7 +8,7 @@ import numpy as np
 
 from fic_teleop_bringup import run_profile
 from fic_teleop_bringup.station_analysis import GAP_STREAM_PUBLISHERS, link_cut_figures, station_streams
-from fic_teleop_bringup.two_stations import StationLayout
+from fic_teleop_bringup.station_layout import StationLayout
 from fic_teleop_bringup.workspace import PROFILES
 
 BUILT_IN = run_profile.merged(run_profile.read_layer(PROFILES / "realtime.yaml"),

@@ -10,14 +10,14 @@ import pytest
 from config_values import config_values
 
 from fic_core.panda_description import NOMINAL_CONFIGURATION
-from fic_core.replica_driver import ReplicaDriver
+from fic_core.replica_driver import DRIVER_PARAMETERS, DriverParameters, ReplicaDriver
 
 
 @pytest.mark.parametrize("gravity_compensated_by_robot", [False, True])
 def test_stale_joint_states_ramp_to_the_gravity_only_hold(robot, gravity_compensated_by_robot: bool) -> None:
     values = {**config_values("replica.yaml"), "joint_state_timeout": 0.0625, "torque_ramp_time": 0.5,
               "gravity_compensated_by_robot": gravity_compensated_by_robot}
-    driver = ReplicaDriver(values)
+    driver = ReplicaDriver(DriverParameters.from_values({name: values[name] for name in DRIVER_PARAMETERS}))
     robot.update(NOMINAL_CONFIGURATION + 0.1, np.zeros(7))
     gravity = robot.gravity
     rest = np.zeros(7) if gravity_compensated_by_robot else gravity

@@ -10,10 +10,10 @@ import math
 
 import numpy as np
 import pytest
-from config_values import config_values, replica_loop_values
+from config_values import config_values, replica_loop_parameters
 
 from fic_core.exchanged_energy_ports import MasterExchangedEnergy, ReplicaExchangedEnergy
-from fic_core.master_station import MasterStation
+from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
 
@@ -24,7 +24,7 @@ WRIST = np.array([0.0, 0.0, 0.0, 0.15, 0.0, 0.25, 0.35])   # a loop in joints 4,
 def arm_loop(controller: str, seconds: float = 2.0) -> tuple[ReplicaLoop, ReplicaExchangedEnergy]:
     """The arm driven round q(t) = Q0 + WRIST sin(2 pi t / seconds) (1 - cos) / 2, one closed loop, the set-point
     held: every control tick of the replica booked by the watch."""
-    loop = ReplicaLoop(replica_loop_values(controller=controller, answer_every_state=True))
+    loop = ReplicaLoop(replica_loop_parameters(controller=controller, answer_every_state=True))
     watch = ReplicaExchangedEnergy(0.001)
     steps = int(round(seconds / 0.001))
     for k in range(steps + 1):
@@ -60,20 +60,21 @@ def test_only_the_fic_is_booked() -> None:
 
 
 def test_the_master_fic_port_books_each_evaluation_once() -> None:
-    station, watch = MasterStation(config_values("master.yaml")), MasterExchangedEnergy(0.004)
-    watch.observe(station)                      # no pose yet: nothing evaluated, nothing booked
+    station = MasterStation(MasterParameters.from_values({**config_values("master.yaml"),
+                                                          "exchanged_energy_observer": True}))
+    watch = station.exchanged                   # the station's own, booked by its control tick
+    assert isinstance(watch, MasterExchangedEnergy) and watch.observer.period_s == pytest.approx(0.004)
+    station.update(0.0, 0.004)                  # no pose yet: nothing evaluated, nothing booked
     assert watch.observer.ticks == 0
     for k in range(501):                         # the handle round a 3 cm circle in 2 s at 250 Hz
         now = 0.004 * k
         angle = 2.0 * math.pi * now / 2.0
         station.add_pose([0.03 * (1.0 - math.cos(angle)), 0.03 * math.sin(angle), 0.0], (0, 0, 0, 1), now)
         station.add_twist([0.03 * math.pi * math.sin(angle), 0.03 * math.pi * math.cos(angle), 0.0], now)
-        station.force(now)
-        watch.observe(station)
-        watch.observe(station)                   # a second look at the same tick books nothing
+        station.update(now, 0.004)
+        watch.observe(station.law_evaluations, station.law.attractor)   # a second look at the tick books nothing
     assert watch.observer.ticks == 501
     assert watch.observer.violation_ticks == 0
-    station.force(2.0 + 1.0)                     # the pose is stale: zero commanded, the law not evaluated
-    watch.observe(station)
+    station.update(2.0 + 1.0, 0.004)             # the pose is stale: zero commanded, the law not evaluated
     assert watch.observer.ticks == 501
     assert set(watch.observer.diagnostics()) >= {"shortfall_j", "damping_needed", "min_margin_j", "violation_ticks"}

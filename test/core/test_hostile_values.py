@@ -11,10 +11,10 @@ import warnings
 
 import numpy as np
 import pytest
-from config_values import config_values, replica_loop_values
+from config_values import config_values, replica_loop_parameters
 
 from fic_core.errors import FicInputError
-from fic_core.input_authority import AuthorityBounds, CommandAuthority
+from fic_core.input_authority import AUTHORITY_PARAMETERS, AuthorityBounds, AuthorityParameters, CommandAuthority
 from fic_core.limits import LimitFlag, PandaLimits
 from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
@@ -165,8 +165,9 @@ def test_the_replica_loop_on_mujoco_survives_hostile_commands_inside_its_limits(
 
     limits = PandaLimits.from_robot(robot)
     sim = PandaSimulation("free_space", 0)
-    loop = ReplicaLoop(replica_loop_values(answer_every_state=True), robot)
-    authority = CommandAuthority(AuthorityBounds.from_parameters(REPLICA_DEFAULTS))
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True), robot)
+    authority = CommandAuthority(AuthorityBounds.from_parameters(AuthorityParameters.from_values(
+        {name: REPLICA_DEFAULTS[name] for name in AUTHORITY_PARAMETERS})))
     base = 1000.0
     hostile_commands = {60: (hostile, 0.0), 61: (-hostile, 0.0), 62: (0.0, 1e9), 63: (0.0, -base),
                         64: (0.0, 1e308 - base), 65: (hostile, 1e9)}

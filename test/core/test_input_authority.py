@@ -9,7 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fic_core.errors import FicInputError
-from fic_core.input_authority import AuthorityBounds, CommandAuthority, RobotStreamGuard
+from fic_core.input_authority import (
+    AUTHORITY_PARAMETERS,
+    AuthorityBounds,
+    AuthorityParameters,
+    CommandAuthority,
+    RobotStreamGuard,
+)
 
 NOW = 1.7e9  # a wall-clock time, as in a realtime run
 
@@ -155,7 +161,8 @@ def test_bounds_from_the_replica_parameters_are_the_shipped_ones() -> None:
     from config_values import config_values
 
     values = config_values("replica.yaml")
-    bounds = AuthorityBounds.from_parameters(values)
+    bounds = AuthorityBounds.from_parameters(AuthorityParameters.from_values(
+        {name: values[name] for name in AUTHORITY_PARAMETERS}))
     half = values["offset_workspace"]
     assert bounds.offset_lower == (-half, -half, -half) and bounds.offset_upper == (half, half, half)
     assert (bounds.max_offset_speed, bounds.max_offset_burst, bounds.future_tolerance, bounds.max_age) == (

@@ -9,7 +9,7 @@ from config_values import config_values
 
 from fic_core.errors import FicInputError
 from fic_core.limits import LimitFlag, PandaLimits, limit_violations
-from fic_core.master_station import MasterStation
+from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.pose_attractor import PoseAttractor
 from fic_core.profile import ForceProfile
@@ -68,7 +68,7 @@ def test_a_desired_rotation_as_nested_lists_is_checked_and_accepted(robot: Robot
 def test_velocity_mode_integrates_over_the_time_between_network_ticks() -> None:
     """x_d' += k_v x_M dt with dt the time since the previous network tick (the first tick: dt = 0)."""
     values = {**config_values("master.yaml"), "mode": 1, "velocity_gain": 2.0, "velocity_deadband": 0.0}
-    station = MasterStation(values)
+    station = MasterStation(MasterParameters.from_values(values))
     station.add_pose([0.05, 0.0, 0.0], (0, 0, 0, 1), 10.0)
     first = station.desired_offset(10.0)
     np.testing.assert_allclose(first, [0.0, 0.0, 0.0], atol=1e-15)

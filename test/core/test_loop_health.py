@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from config_values import replica_loop_values
+from config_values import replica_loop_parameters
 
 from fic_core.errors import FicInputError
 from fic_core.loop_health import HEALTHY, HOLD_DAMPING, HOLDING, RESUMING, LoopHealth, LoopHealthBounds
@@ -93,7 +93,7 @@ def test_command_gaps_are_measured() -> None:
 
 # --- in the replica loop ---------------------------------------------------------------------------------------
 def loop() -> ReplicaLoop:
-    return ReplicaLoop(replica_loop_values(control_rate=500.0, command_period=0.002, loop_max_state_age=0.04,
+    return ReplicaLoop(replica_loop_parameters(control_rate=500.0, command_period=0.002, loop_max_state_age=0.04,
                                            loop_max_tick_gap=0.04, loop_resume_ticks=5, loop_resume_ramp=0.1))
 
 

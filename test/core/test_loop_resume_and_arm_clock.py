@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from config_values import replica_loop_values
+from config_values import replica_loop_parameters
 
 from fic_core.loop_health import HEALTHY, HOLDING, RESUMING, LoopHealth, LoopHealthBounds
 from fic_core.panda_description import NOMINAL_CONFIGURATION
@@ -63,7 +63,7 @@ def _planner_pose(replica: ReplicaLoop, position: np.ndarray, now: float) -> Non
 
 
 def test_the_law_resumes_at_the_tcp_and_gives_the_set_points_progress_back_at_resume_speed() -> None:
-    replica = ReplicaLoop(replica_loop_values(control_rate=500.0, command_period=PERIOD, loop_max_state_age=0.04,
+    replica = ReplicaLoop(replica_loop_parameters(control_rate=500.0, command_period=PERIOD, loop_max_state_age=0.04,
                                               loop_max_tick_gap=0.05, loop_resume_ticks=5, loop_resume_ramp=0.1,
                                               resume_speed=0.1, use_planner_orientation=False))
     robot = RobotModel()

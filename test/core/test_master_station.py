@@ -2,16 +2,49 @@
 feedback's staleness, the button edges and the parameter dispatch."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from config_values import config_values
 
 from fic_core.errors import FicInputError
-from fic_core.master_station import GOAL_TRANSITION_SPEED, Engagement, MasterStation
+from fic_core.master_station import (
+    GOAL_TRANSITION_SPEED,
+    MASTER_PARAMETERS,
+    Engagement,
+    MasterParameters,
+    MasterStation,
+)
 from fic_core.operator_buttons import ButtonEdges, OperatorButton
 from fic_core.teleoperation import TeleoperationMode
 
 DEFAULTS = config_values("master.yaml")  # the master node starts from these
+
+
+def master(values: dict = DEFAULTS) -> MasterStation:
+    """The station for these values, as the node builds it (MasterParameters, checked)."""
+    return MasterStation(MasterParameters.from_values(values))
+
+
+def test_the_parameters_are_one_typed_object_of_the_masters_table() -> None:
+    """MasterParameters: one field a row of the table the node declares, each value checked against its row; a
+    misspelt name is refused in one line naming the nearest row, as at the node's start."""
+    parameters = MasterParameters.from_values(DEFAULTS)
+    assert [field.name for field in dataclasses.fields(parameters)] == list(MASTER_PARAMETERS)
+    assert set(MASTER_PARAMETERS) == set(DEFAULTS)                      # config/master.yaml gives every row
+    assert parameters.stiffness == DEFAULTS["stiffness"] and parameters.mode == DEFAULTS["mode"]
+    assert isinstance(parameters.replaced({"stiffness": 300}).stiffness, float)   # an integer is a number
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        parameters.stiffness = 1.0
+    with pytest.raises(FicInputError, match=r"^unknown master parameter 'stifness'; did you mean 'stiffness'\?$"):
+        MasterParameters.from_values({**DEFAULTS, "stifness": 100.0})
+    with pytest.raises(FicInputError, match=r"^master parameters missing: stiffness$"):
+        MasterParameters.from_values({name: value for name, value in DEFAULTS.items() if name != "stiffness"})
+    with pytest.raises(FicInputError, match=r"^stiffness must be in \[1, 5000\]"):
+        MasterParameters.from_values({**DEFAULTS, "stiffness": 0.0})
+    with pytest.raises(FicInputError, match="did you mean 'clutch'"):
+        parameters.replaced({"clutc": True})
 
 
 def test_edges_are_presses_not_held_buttons() -> None:
@@ -23,10 +56,10 @@ def test_edges_are_presses_not_held_buttons() -> None:
 
 
 def test_buttons_toggle_the_mode_and_step_the_gain() -> None:
-    station = MasterStation(DEFAULTS)
+    station = master()
     notices, changed = station.press([1, 1, 0])
     assert changed == ("mode", "haptic_gain") and station.integrator.mode == TeleoperationMode.VELOCITY
-    assert station.law.haptic_gain == pytest.approx(0.6) and station.parameters["mode"] == 1
+    assert station.law.haptic_gain == pytest.approx(0.6) and station.parameters.mode == 1
     station.press([0, 0, 0])
     for _ in range(10):
         station.press([0, 0, 1])   # HAPTIC_GAIN_DOWN
@@ -36,7 +69,7 @@ def test_buttons_toggle_the_mode_and_step_the_gain() -> None:
 
 
 def test_velocity_by_differences_unless_a_twist_is_fresh() -> None:
-    station = MasterStation(DEFAULTS)
+    station = master()
     station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 0.0)
     station.add_pose([0.001, 0.0, 0.0], (0, 0, 0, 1), 0.01)
     np.testing.assert_allclose(station.handle_velocity, [0.1, 0.0, 0.0])
@@ -51,7 +84,7 @@ def test_the_network_tick_sends_the_handle_at_its_own_stamp() -> None:
     """x_M carried forward over the pose's age (device and network timers are not aligned), if that age is at
     most handle_extrapolation; x_d' is computed from it and the command carries the same x_M."""
     extrapolation = 0.01
-    station = MasterStation({**DEFAULTS, "handle_extrapolation": extrapolation})   # offset mode, s_M = 1
+    station = master({**DEFAULTS, "handle_extrapolation": extrapolation})   # offset mode, s_M = 1
     assert station.desired_offset(0.0) is None and station.handle_at(0.0) is None
     station.add_pose([0.1, 0.0, 0.0], (0, 0, 0, 1), 1.0)
     station.add_twist([0.2, -0.1, 0.0], 1.0)
@@ -60,11 +93,11 @@ def test_the_network_tick_sends_the_handle_at_its_own_stamp() -> None:
     too_old = 1.0 + extrapolation + 1e-3
     np.testing.assert_allclose(station.handle_at(too_old), [0.1, 0.0, 0.0])   # an old pose is sent as it is
     np.testing.assert_allclose(station.handle_at(0.999), [0.1, 0.0, 0.0])     # a clock behind the pose: no guess
-    reference = MasterStation(DEFAULTS)
+    reference = master()
     reference.add_pose([0.1006, -0.0003, 0.0], (0, 0, 0, 1), 1.003)
     np.testing.assert_allclose(station.desired_offset(1.003), reference.desired_offset(1.003))
     np.testing.assert_allclose(station.network_handle_position, [0.1006, -0.0003, 0.0])
-    off = MasterStation(DEFAULTS)   # master.yaml: off, the pose as received
+    off = master()   # master.yaml: off, the pose as received
     off.add_pose([0.1, 0.0, 0.0], (0, 0, 0, 1), 1.0)
     off.add_twist([0.2, -0.1, 0.0], 1.0)
     np.testing.assert_allclose(off.handle_at(1.003), [0.1, 0.0, 0.0])
@@ -73,7 +106,7 @@ def test_the_network_tick_sends_the_handle_at_its_own_stamp() -> None:
 
 
 def test_stale_feedback_is_rendered_as_zero_and_said_once() -> None:
-    station = MasterStation({**DEFAULTS, "haptic_gain": 1.0, "stiffness": 1.0})
+    station = master({**DEFAULTS, "haptic_gain": 1.0, "stiffness": 1.0})
     station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 0.0)
     station.add_feedback([3.0, 0.0, 0.0], 0.0)
     force, notices = station.force(0.05)
@@ -90,13 +123,13 @@ def test_stale_feedback_is_rendered_as_zero_and_said_once() -> None:
 
 
 def test_a_bad_parameter_changes_nothing() -> None:
-    station = MasterStation(DEFAULTS)
+    station = master()
     law = station.law
     with pytest.raises(FicInputError):
         station.configure({"stiffness": 10.0, "max_force": 0.01})     # F_max below xi*K0*x_b
     with pytest.raises(FicInputError, match="fixed at start"):
         station.configure({"control_rate": 10.0})
-    assert station.law is law and station.parameters["stiffness"] == DEFAULTS["stiffness"]
+    assert station.law is law and station.parameters.stiffness == DEFAULTS["stiffness"]
     notices = station.configure({"stiffness": 50.0, "workspace_scale": 2.0})
     assert station.law is not law and station.integrator.workspace_scale == 2.0 and "rebuilt" in notices[0][1]
 
@@ -104,7 +137,7 @@ def test_a_bad_parameter_changes_nothing() -> None:
 # --- the operator's tools ----------------------------------------------------------------------------------------
 def engaged_station(**overrides) -> MasterStation:
     """Offset mode, s_M = 2, a fresh F_R of 3 N along z, the handle still at x_M."""
-    station = MasterStation({**DEFAULTS, "workspace_scale": 2.0, "haptic_gain": 0.5, **overrides})
+    station = master({**DEFAULTS, "workspace_scale": 2.0, "haptic_gain": 0.5, **overrides})
     station.add_feedback([0.0, 0.0, 3.0], 0.0)
     return station
 
@@ -141,18 +174,18 @@ def test_the_clutch_button_is_held_and_its_release_engages() -> None:
     station = engaged_station()
     move(station, [0.01, 0.0, 0.0], 0.01)
     notices, changed = station.press([0, 0, 0, 1])
-    assert changed == ("clutch",) and station.parameters["clutch"] and station.integrator.held
+    assert changed == ("clutch",) and station.parameters.clutch and station.integrator.held
     assert station.press([0, 0, 0, 1])[1] == ()          # still held: no edge
     assert station.press([1, 0, 0, 1])[1] == ("mode",)   # another button while it is held
     notices, changed = station.press([0, 0, 0, 0])
-    assert changed == ("clutch",) and not station.parameters["clutch"] and not station.integrator.held
+    assert changed == ("clutch",) and not station.parameters.clutch and not station.integrator.held
 
 
 def test_homing_drives_the_handle_home_at_a_bounded_speed_then_engages() -> None:
     station = engaged_station()
     _, offset, _ = move(station, [0.01, 0.0, 0.0], 0.01)
     station.configure({"homing": True})
-    assert station.engagement == Engagement.HOMING and station.parameters["homing"]
+    assert station.engagement == Engagement.HOMING and station.parameters.homing
     # A free handle (0.5 kg, 2 N s/m) 6 cm out, the station's force held over each 4 ms tick, integrated at 1 ms.
     position, velocity, now, speeds, offsets = np.array([0.06, -0.02, 0.0]), np.zeros(3), 0.02, [], []
     while station.engagement == Engagement.HOMING and now < 5.0:
@@ -166,7 +199,7 @@ def test_homing_drives_the_handle_home_at_a_bounded_speed_then_engages() -> None
             position = position + 0.001 * velocity
             speeds.append(np.linalg.norm(velocity))
         now += 0.004
-    assert station.engagement == Engagement.ENGAGED and not station.parameters["homing"]
+    assert station.engagement == Engagement.ENGAGED and not station.parameters.homing
     assert max(speeds) <= DEFAULTS["homing_speed"] and np.linalg.norm(position) < 2 * DEFAULTS["homing_tolerance"]
     for held in offsets:
         np.testing.assert_allclose(held, offset)        # x_d' still until homed, and engaged without a jump
@@ -192,7 +225,7 @@ def test_the_force_scale_is_set_live_within_the_loop_gain_bound() -> None:
     notices, _ = station.press([0, 1, 0, 0])
     assert station.law.haptic_gain == pytest.approx(0.5) and "may not exceed 1" in notices[0][1]
     with pytest.raises(FicInputError):
-        MasterStation({**DEFAULTS, "force_scale": 3.0})   # at start too: 3 x 1 x 0.5
+        master({**DEFAULTS, "force_scale": 3.0})   # at start too: 3 x 1 x 0.5
 
 
 def test_a_plane_fixture_guides_x_d_onto_it_while_engaged() -> None:
@@ -223,7 +256,7 @@ def test_a_plane_fixture_guides_x_d_onto_it_while_engaged() -> None:
         station.configure({"guidance_direction": [0.0, 0.0, 0.0]})
     with pytest.raises(FicInputError, match="guidance_fixture must be one of"):
         station.configure({"guidance_fixture": "sphere"})
-    assert station.fixture.kind.name == "LINE" and station.parameters["guidance_fixture"] == "line"
+    assert station.fixture.kind.name == "LINE" and station.parameters.guidance_fixture == "line"
 
 
 def test_switching_a_fixture_moves_the_sent_goal_at_a_bounded_speed_never_in_a_jump() -> None:
@@ -246,7 +279,7 @@ def test_switching_a_fixture_moves_the_sent_goal_at_a_bounded_speed_never_in_a_j
 
 
 def test_the_teleoperation_command_carries_x_d_prime_with_the_mode_gains_and_handle_of_its_tick() -> None:
-    station = MasterStation({**DEFAULTS, "handle_extrapolation": 0.0})
+    station = master({**DEFAULTS, "handle_extrapolation": 0.0})
     assert station.teleoperation_command(0.0) is None   # no handle pose yet
     station.add_pose([0.01, -0.02, 0.03], (0.0, 0.0, 0.0, 1.0), 0.0)
     sample = station.teleoperation_command(0.01)

@@ -14,7 +14,7 @@ from fic_core.attractor import FractalAttractor, convergence_storage
 from fic_core.control_schedule import RateGate
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AuthorityBounds
-from fic_core.master_station import MASTER_NUMBERS, MasterStation
+from fic_core.master_station import MASTER_NUMBERS, MasterParameters, MasterStation
 from fic_core.profile import ForceProfile
 from fic_core.trajectories import ViaPoints
 
@@ -37,7 +37,7 @@ def test_every_value_the_master_may_be_set_to_passes_the_replicas_authority(name
     assert (bound_low, bound_high) == (low, high)
     defaults = {**config_values("master.yaml"), "haptic_gain": 0.0}  # K_H = 0: the loop-gain bound spares s_M
     for value in (low, high):
-        assert getattr(MasterStation({**defaults, name: value}).integrator, name) == value
+        assert getattr(MasterStation(MasterParameters.from_values({**defaults, name: value})).integrator, name) == value
 
 
 def test_via_points_as_one_flat_list() -> None:
@@ -240,7 +240,7 @@ def test_a_solver_that_reports_success_with_non_finite_values_is_not_trusted(rob
 def test_the_exchanged_energy_watch_books_a_tick_only_with_the_law_that_made_it() -> None:
     """A linear law's tick given with a FIC (a law switched between the tick and its booking) is not booked, nor
     is the FIC's tick given with the linear law: the storage and the snapshot must be the same law's."""
-    from config_values import replica_loop_values
+    from config_values import replica_loop_parameters
 
     from fic_core.exchanged_energy_ports import ReplicaExchangedEnergy
     from fic_core.panda_description import NOMINAL_CONFIGURATION
@@ -250,7 +250,7 @@ def test_the_exchanged_energy_watch_books_a_tick_only_with_the_law_that_made_it(
     commands = {}
     laws = {}
     for controller in ("fic", "linear"):
-        loop = ReplicaLoop(replica_loop_values(controller=controller, answer_every_state=True))
+        loop = ReplicaLoop(replica_loop_parameters(controller=controller, answer_every_state=True))
         step = loop.joint_state(0.0, 0.0, q0, np.zeros(7))
         commands[controller], laws[controller] = step.command, loop.controller.controller
     watch = ReplicaExchangedEnergy(0.001)

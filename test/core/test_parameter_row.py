@@ -3,12 +3,29 @@ and (through the descriptor) rclpy's declaration."""
 from __future__ import annotations
 
 import array
+import dataclasses
 import math
+import pickle
 
 import pytest
 
 from fic_core.errors import FicInputError
-from fic_core.parameter_row import Kind, ParameterRow, number, numbers, rows_by_name, switch, texts
+from fic_core.parameter_row import (
+    Kind,
+    ParameterRow,
+    integer,
+    number,
+    numbers,
+    parameter_set,
+    rows_by_name,
+    switch,
+    texts,
+)
+
+#: A parameter set generated as a station's is, bound to its own name here so that it pickles (the engine's workers).
+Sample = parameter_set("Sample", __name__, "sample", [number("gain", 0.0, 2.0, "a gain"), integer("mode", 0, 1, "m"),
+                                                      switch("on", "s"), numbers("point", "p"), texts("names", "n")],
+                       "A sample of a station's parameters.")
 
 
 def test_a_number_inside_its_range_passes_and_outside_is_refused_by_name() -> None:
@@ -55,3 +72,24 @@ def test_the_replica_and_master_tables_are_rows_and_fic_core_checks_them() -> No
     for row in (*REPLICA_NUMBERS.values(), *REPLICA_SWITCHES.values(), *MASTER_NUMBERS.values()):
         assert isinstance(row, ParameterRow)
     assert MASTER_NUMBERS["control_rate"].read_only and not MASTER_NUMBERS["stiffness"].read_only
+
+
+def test_a_parameter_set_is_a_frozen_dataclass_of_its_rows_each_value_checked() -> None:
+    sample = Sample.from_values({"gain": 1, "mode": 0, "on": True, "point": array.array("d", [0.5]), "names": ["a"]})
+    assert [(field.name, field.type) for field in dataclasses.fields(sample)] == \
+        [("gain", float), ("mode", int), ("on", bool), ("point", list[float]), ("names", list[str])]
+    assert sample.gain == 1.0 and isinstance(sample.gain, float) and sample.point == [0.5]
+    assert Sample.__doc__ == "A sample of a station's parameters." and Sample.ROWS["gain"].high == 2.0
+    assert pickle.loads(pickle.dumps(sample)) == sample
+    assert sample.replaced({"mode": 1}) == dataclasses.replace(sample, mode=1) and sample.mode == 0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        sample.gain = 0.5
+    with pytest.raises(FicInputError, match=r"^unknown sample parameter 'gian'; did you mean 'gain'\?$"):
+        sample.replaced({"gian": 0.5})
+    with pytest.raises(FicInputError, match=r"^gain must be in \[0, 2\], got 3.0$"):
+        sample.replaced({"gain": 3.0})
+    with pytest.raises(FicInputError, match=r"^unknown sample parameter 'zzz'; declared: gain, mode, names, on, "
+                                            r"point$"):
+        Sample.from_values({"zzz": 1})
+    with pytest.raises(FicInputError, match=r"^sample parameters missing: on, point, names$"):
+        Sample.from_values({"gain": 1.0, "mode": 1})

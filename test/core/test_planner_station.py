@@ -7,11 +7,12 @@ import pytest
 from config_values import config_values
 
 from fic_core.errors import FicInputError
-from fic_core.planner_station import PlannerStation, make_source
+from fic_core.planner_station import PlannerParameters, PlannerStation, make_source
 
 
-def values(**changes):
-    return {**config_values("planner.yaml"), "start_position": [], **changes}
+def values(**changes) -> PlannerParameters:
+    """config/planner.yaml's values, changed, as the station takes them."""
+    return PlannerParameters.from_values({**config_values("planner.yaml"), "start_position": [], **changes})
 
 
 def test_the_station_starts_on_the_trajectory_and_follows_its_clock() -> None:
@@ -40,10 +41,19 @@ def test_changes_are_checked_before_any_is_applied() -> None:
         station.configure({"publish_rate": 50.0}, 1.0)
     with pytest.raises(FicInputError):
         station.configure({"trajectory": "spiral", "natural_frequency": 4.0}, 1.0)
-    assert station.planner.natural_frequency == 8.0 and station.parameters["trajectory"] == "circle"
-    notices = station.configure({"trajectory": "fixed", "natural_frequency": 4.0}, 1.0)
+    with pytest.raises(FicInputError, match="natural_frequency must be in"):
+        station.configure({"trajectory": "fixed", "natural_frequency": -1.0}, 1.0)
+    assert station.planner.natural_frequency == 8.0 and station.parameters.trajectory == "circle"
+    notices = station.configure({"trajectory": "fixed", "natural_frequency": 4.0, "use_sim_time": True}, 1.0)
     assert len(notices) == 2 and station.planner.natural_frequency == 4.0
     assert station.schedule.origin == 1.0 and station.diagnostic_values()["trajectory"] == "fixed"
+    assert station.parameters.trajectory == "fixed" and station.parameters.natural_frequency == 4.0
+
+
+def test_a_name_no_row_has_is_refused_where_the_parameters_are_built() -> None:
+    with pytest.raises(FicInputError, match="^unknown planner parameter 'natural_frequncy'; did you mean "
+                                            "'natural_frequency'"):
+        values(natural_frequncy=4.0)
 
 
 def test_the_station_integrates_one_publish_period_a_tick() -> None:

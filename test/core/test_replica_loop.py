@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from config_values import replica_loop_values
+from config_values import replica_loop_parameters, replica_loop_values
 from hypothesis import Phase, given, settings
 from hypothesis import strategies as st
 
@@ -19,7 +19,7 @@ from fic_core.input_authority import AuthorityBounds, CommandAuthority
 from fic_core.limits import PANDA_TORQUE_RATE_LIMIT, LimitFlag
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.replica_loop import ReplicaLoop
-from fic_core.replica_parameters import checked
+from fic_core.replica_parameters import ReplicaLoopParameters, checked
 from fic_core.torque_slew import TorqueSlew
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
@@ -178,7 +178,7 @@ def test_the_sent_torque_is_what_the_limit_status_describes(control_rate) -> Non
     """Lockstep (every state answered), a 10 cm step of x_d' and a hot swap of the controller in the middle: every
     torque sent is within rate x 1 ms of the one before (the slew is inside the controller), and the torque-rate
     ratio the LimitStatus reports is of that torque, so it never exceeds 1."""
-    loop = ReplicaLoop(replica_loop_values(control_rate=control_rate, answer_every_state=True))
+    loop = ReplicaLoop(replica_loop_parameters(control_rate=control_rate, answer_every_state=True))
     steps = run_loop(loop, 300, offset=[0.1, 0.0, 0.0])
     loop.configure({"controller": "linear", "translation_stiffness": 2000.0})
     steps += run_loop(loop, 300, start=0.3, offset=[-0.1, 0.0, 0.0])
@@ -195,7 +195,7 @@ def test_the_sent_torque_is_what_the_limit_status_describes(control_rate) -> Non
 
 
 def test_between_ticks_realtime_sends_nothing_and_lets_states_be_skipped() -> None:
-    loop = ReplicaLoop(replica_loop_values(control_rate=250.0))
+    loop = ReplicaLoop(replica_loop_parameters(control_rate=250.0))
     steps = run_loop(loop, 8)
     assert [step.torque is not None for step in steps] == [True, False, False, False] * 2
     assert loop.skips(0.006) and not loop.skips(0.008)
@@ -203,7 +203,7 @@ def test_between_ticks_realtime_sends_nothing_and_lets_states_be_skipped() -> No
 
 
 def test_status_and_pose_gates_and_or_ed_flags() -> None:
-    loop = ReplicaLoop(replica_loop_values(status_rate=100.0, pose_rate=50.0))
+    loop = ReplicaLoop(replica_loop_parameters(status_rate=100.0, pose_rate=50.0))
     steps = run_loop(loop, 100)
     assert sum(step.status_due for step in steps) == 10 and sum(step.poses_due for step in steps) == 5
     assert loop.take_limit_flags() == (int(LimitFlag.NONE), int(LimitFlag.NONE))
@@ -219,7 +219,7 @@ def test_the_authority_forgets_its_last_command_at_a_resume_only(silence: float)
     """A command 0.3 m from the last one: in a stream, the authority's rate bound (1 m/s, 0.05 m burst) lets x_d'
     move by the burst and 1 m/s of the 10 ms since; after a loss (master_timeout 0.5 s passed, the watchdog
     stale) it is accepted whole, since DesiredPose gives the jump back at resume_speed (0.1 m/s) instead."""
-    loop = ReplicaLoop(replica_loop_values(master_timeout=0.5, answer_every_state=True),
+    loop = ReplicaLoop(replica_loop_parameters(master_timeout=0.5, answer_every_state=True),
                        authority=CommandAuthority(AuthorityBounds(max_offset_speed=1.0, max_offset_burst=0.05)))
     now = 0.0
     for tick in range(300 + int(silence * 1000)):
@@ -240,7 +240,7 @@ def test_the_authority_forgets_its_last_command_at_a_resume_only(silence: float)
 
 
 def test_a_refused_command_is_counted_and_changes_nothing() -> None:
-    loop = ReplicaLoop(replica_loop_values(answer_every_state=True))
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True))
     loop.joint_state(0.0, 0.0, Q0, QD0)
     verdict, notice = _command(loop, 0.001, (math.nan, 0.0, 0.0))
     assert not verdict.accepted and notice is None and loop.authority.refused == 1
@@ -248,14 +248,31 @@ def test_a_refused_command_is_counted_and_changes_nothing() -> None:
 
 
 def test_a_bad_parameter_changes_nothing() -> None:
-    loop = ReplicaLoop(replica_loop_values())
+    loop = ReplicaLoop(replica_loop_parameters())
     controller = loop.controller
     with pytest.raises(FicInputError, match="translation_stiffness"):
         loop.configure({"translation_stiffness": -1.0})
     with pytest.raises(FicInputError, match="control_rate"):
         loop.configure({"control_rate": 1000.0, "command_period": 0.01})
-    with pytest.raises(FicInputError, match="unknown"):
-        checked(replica_loop_values(translation_stifness=1.0))
+    with pytest.raises(FicInputError, match="^controller must be one of"):
+        loop.configure({"controller": "pid"})
+    with pytest.raises(FicInputError, match="^unknown replica parameter 'translation_stifness'; did you mean "
+                                            "'translation_stiffness'"):
+        loop.configure({"translation_stifness": 1.0})
     with pytest.raises(FicInputError, match="missing: translation_stiffness"):
-        checked({name: value for name, value in replica_loop_values().items() if name != "translation_stiffness"})
-    assert loop.controller is controller and loop.parameters == checked(replica_loop_values())
+        ReplicaLoopParameters.from_values({name: value for name, value in replica_loop_values().items()
+                                           if name != "translation_stiffness"})
+    assert loop.controller is controller and loop.parameters == checked(replica_loop_parameters())
+    assert loop.configure({"translation_stiffness": 300}).translation_stiffness == 300.0   # a float, as checked
+    assert loop.parameters.translation_stiffness == 300.0 and loop.controller is not controller
+
+
+def test_the_paper_law_switches_off_the_terms_beyond_eq_7() -> None:
+    """paper_law: the planner and offset feedforward and the joint friction compensation are off whatever their own
+    rows say, in the loop's parameters and in the controller built from them."""
+    beyond = {"planner_feedforward": True, "offset_feedforward": True, "joint_damping_compensation": True}
+    loop = ReplicaLoop(replica_loop_parameters(paper_law=True, **beyond))
+    p = loop.parameters
+    assert not (p.planner_feedforward or p.offset_feedforward or p.joint_damping_compensation)
+    assert not loop.controller.joint_damping_compensation and not loop.desired.parameters.planner_feedforward
+    assert ReplicaLoop(replica_loop_parameters(paper_law=False, **beyond)).parameters.offset_feedforward

@@ -4,13 +4,24 @@ reading through the driver's frame, the driver's command with the state stamp it
 own hold and resume as the station passes them on."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from config_values import config_values
 
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
-from fic_core.replica_station import CHANNEL_STREAMS, ROBOT_STREAMS, SET_POINT_STREAMS, ReplicaStation, stream_owner
+from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
+from fic_core.replica_station import (
+    CHANNEL_STREAMS,
+    REPLICA_PARAMETERS,
+    ROBOT_STREAMS,
+    SET_POINT_STREAMS,
+    ReplicaParameters,
+    ReplicaStation,
+    stream_owner,
+)
 
 Q0 = np.array(NOMINAL_CONFIGURATION, dtype=float)
 QD0 = np.zeros(7)
@@ -20,7 +31,33 @@ PERIOD = 0.002
 def station(**changes) -> ReplicaStation:
     values = {**config_values("replica.yaml"), "control_rate": 500.0, "command_period": PERIOD,
               "exchanged_energy_observer": False, **changes}
-    return ReplicaStation(values)
+    return ReplicaStation(ReplicaParameters.from_values(values))
+
+
+def test_the_parameters_are_one_typed_object_of_the_replicas_table() -> None:
+    """ReplicaParameters: one field a row of the table the node declares (loop, driver, input authority, channel
+    port), each value checked; a misspelt name is refused in one line naming the nearest row."""
+    values = config_values("replica.yaml")
+    parameters = ReplicaParameters.from_values(values)
+    assert set(REPLICA_PARAMETERS) == set(values)                      # config/replica.yaml gives every row
+    assert parameters.translation_stiffness == values["translation_stiffness"]
+    assert parameters.wrench_frame_ids == values["wrench_frame_ids"] and parameters.controller == values["controller"]
+    with pytest.raises(FicInputError, match=r"^unknown replica parameter 'translaton_stiffness'; did you mean "
+                                            r"'translation_stiffness'\?$"):
+        ReplicaParameters.from_values({**values, "translaton_stiffness": 400.0})
+    with pytest.raises(FicInputError, match=r"^offset_workspace must be in \[0.01, 2\]"):
+        ReplicaParameters.from_values({**values, "offset_workspace": 5.0})
+    replica = ReplicaStation(parameters)
+    assert replica.authority.bounds.max_offset_speed == values["max_offset_speed"]
+    assert replica.driver.base_frame == values["base_frame"] and replica.loop.parameters.controller == "fic"
+    # The loop's part: its own rows only, the same values; a run-time change replaces it, the station's copy stays.
+    assert set(dataclasses.asdict(replica.loop.parameters)) == set(REPLICA_LOOP_PARAMETERS)
+    assert replica.configure({"control_rate": 500.0}).control_rate == 500.0 == replica.loop.parameters.control_rate
+    with pytest.raises(FicInputError, match="^offset_workspace: fixed at start"):   # the input authority's
+        replica.configure({"offset_workspace": 0.5, "control_rate": 250.0})
+    with pytest.raises(FicInputError, match="^unknown replica parameter 'use_sim_time'"):
+        replica.configure({"use_sim_time": True})
+    assert replica.loop.parameters.control_rate == 500.0
 
 
 def run(replica: ReplicaStation, start: float, ticks: int) -> float:
@@ -143,11 +180,24 @@ def test_the_loops_own_hold_is_said_once_and_the_law_resumes_after_healthy_ticks
     assert not tick.step.held and tick.step.command is not None and replica.loop.health.holds == 1
 
 
-def test_feedback_carries_the_ports_input_energy() -> None:
+def ticks(replica: ReplicaStation, start: float, count: int) -> list:
+    return [replica.joint_state(start + k * PERIOD, start + k * PERIOD, Q0, QD0) for k in range(1, count + 1)]
+
+
+def test_feedback_goes_back_at_the_pose_rate_with_the_ports_input_energy() -> None:
     replica = station()
-    run(replica, 0.0, 5)
-    assert replica.feedback_sent([1.0, 0.0, 0.0]) == replica.channel_port.input_energy
+    assert all(tick.feedback is None for tick in ticks(replica, 0.0, 20))   # no F/T reading yet: nothing to send
+    replica.wrench(replica.base_frame, [1.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    due = [tick for tick in ticks(replica, 20 * PERIOD, 20) if tick.step.poses_due]
+    assert due and all(tick.feedback is not None for tick in due)
+    force, energy = due[-1].feedback
+    assert force.tolist() == [1.0, 0.0, 0.0] and energy == replica.channel_port.input_energy
     np.testing.assert_array_equal(replica.channel_port.force_sent, [1.0, 0.0, 0.0])
+    quiet = [tick for tick in ticks(replica, 40 * PERIOD, 20) if not tick.step.poses_due]
+    assert quiet and all(tick.feedback is None for tick in quiet)    # between the pose ticks nothing goes back
+    replica.wrench("tool0", [1.0, 2.0, 3.0], [0.0, 0.0, 0.0])         # refused: the operator feels nothing
+    sent = [tick.feedback for tick in ticks(replica, 60 * PERIOD, 20) if tick.feedback is not None]
+    assert sent and sent[-1][0].tolist() == [0.0, 0.0, 0.0]
 
 
 def test_the_read_outs_and_totals_say_what_the_loop_did() -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from config_values import replica_loop_values
+from config_values import replica_loop_parameters
 
 from fic_core.errors import FicInputError
 from fic_core.input_authority import AuthorityBounds, CommandAuthority, SetPointAuthority
@@ -60,7 +60,7 @@ def test_two_writers_flipping_x_d_pp_move_it_by_no_more_than_the_speed_allows() 
 
 
 def test_the_loop_bounds_the_planner_pose_and_takes_one_sent_before_its_first_state() -> None:
-    loop = ReplicaLoop(replica_loop_values(), authority=CommandAuthority(BOUNDS))
+    loop = ReplicaLoop(replica_loop_parameters(), authority=CommandAuthority(BOUNDS))
     loop.add_planner_pose(0, [5.0, 0.0, 0.0], QUATERNION, 0.0)   # before any state: waits for the start
     loop.joint_state(0.001, 0.001, Q0, np.zeros(7))
     start = loop.desired.start_position

@@ -1,4 +1,4 @@
-"""The E2 bond-pull reader (fic_teleop_experiments.e2_bond_pulls): the lock-and-pull windows from the operator's
+"""The E2 bond-pull reader (fic_teleop_experiments.e2.bond_pulls): the lock-and-pull windows from the operator's
 phases, what the recorder takes from the simulation and the replica at a step, and that recording leaves the
 runner's classes as they were and records every physics step of a run."""
 from __future__ import annotations
@@ -9,7 +9,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from fic_teleop_experiments import e2_bond_pulls, in_process
+from fic_teleop_experiments import in_process
+from fic_teleop_experiments.e2 import bond_pulls as e2_bond_pulls
+from fic_teleop_experiments.e2.command_line import main
 
 
 def test_a_window_runs_from_the_lock_to_the_first_phase_after_the_pull() -> None:
@@ -65,7 +67,7 @@ def test_a_short_trial_gives_its_row_and_the_100_hz_series_with_its_tail_without
     result = e2_bond_pulls.in_process_pulls(3, "fic", 0.2, False, 1.0)
     assert result["pulls"] == [] and result["felt_pulls_n"] == [] and result["seed"] == 3
     series = result["series"]
-    # The task's 1 s and the quiet tail after it (the trial ends as a claim run does, e2_in_process.trial).
+    # The task's 1 s and the quiet tail after it (the trial ends as a claim run does, e2.trial.trial).
     from fic_teleop_tools.verdict.run_verdict import VerdictCriterion
     samples = round((1.0 + VerdictCriterion().tail_needed(0.2)) * 100)
     assert len(series["time"]) == len(series["bond_n"]) == len(series["law_n"]) == samples
@@ -80,10 +82,10 @@ def test_the_plot_draws_one_panel_a_result(tmp_path) -> None:
               "pulls": [{"start_s": 0.0, "end_s": 0.02, "broke": True}]}
     path = tmp_path / "bond.json"
     path.write_text(json.dumps(result))
-    assert e2_bond_pulls.main(["--plot", str(tmp_path / "bond.png"), "--results", str(path), str(path)]) == 0
+    assert main(["bond-pulls", "--plot", str(tmp_path / "bond.png"), "--results", str(path), str(path)]) == 0
     assert (tmp_path / "bond.png").stat().st_size > 10_000
     with pytest.raises(SystemExit):
-        e2_bond_pulls.main(["--plot", str(tmp_path / "none.png")])
+        main(["bond-pulls", "--plot", str(tmp_path / "none.png")])
 
 
 def test_a_result_s_row_names_the_pull_that_broke_the_bond_and_the_forces_there(tmp_path, capsys) -> None:
@@ -98,5 +100,5 @@ def test_a_result_s_row_names_the_pull_that_broke_the_bond_and_the_forces_there(
         "| fic, the graph's twin | 2 | 14.4, 18.2 | at pull 2 | 11.1-12.9 | 1.5-9.0 |"
     path = tmp_path / "fic.json"
     path.write_text(json.dumps(dict(result, jitter=True, pulls=pulls[:1])))
-    assert e2_bond_pulls.main(["--table", "--results", str(path)]) == 0
+    assert main(["bond-pulls", "--table", "--results", str(path)]) == 0
     assert capsys.readouterr().out == "| fic, the sweep's draws | 1 | 14.4 | no | 11.1-11.1 | 1.5-1.5 |\n"

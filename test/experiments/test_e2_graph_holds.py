@@ -1,4 +1,4 @@
-"""The E2 graph trials' account of the robot's stale-command holds (fic_teleop_experiments.e2_graph.stale_holds): for
+"""The E2 graph trials' account of the robot's stale-command holds (fic_teleop_experiments.e2.graph.stale_holds): for
 each hold, the wall time the simulation took for the watchdog's bound before it and the replica's commands in that
 span, from the bag's receive times and the robot's log."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 from mcap.writer import Writer
 
 from fic_core import command_stamp
-from fic_teleop_experiments.e2_graph import pace, stale_holds
+from fic_teleop_experiments.e2.graph import pace, stale_holds
 
 EPOCH = 1_800_000_000.0   # [s] wall clock of the run's first step
 

@@ -1,5 +1,5 @@
-"""The E2 graph's tables (fic_teleop_experiments.e2_graph --table, --agreement): the graph's laws in e2_sweep's table
-and each graph trial beside the runner's trial of the same law, delay and seed."""
+"""The E2 graph's tables (python -m fic_teleop_experiments.e2 graph --table, --agreement): the graph's laws in the
+sweep's table and each graph trial beside the runner's trial of the same law, delay and seed."""
 from __future__ import annotations
 
 import json
@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from fic_teleop_experiments import e2_graph
+from fic_teleop_experiments.e2 import graph as e2_graph
+from fic_teleop_experiments.e2.command_line import main
 
 
 def _row(law: str, seed: int, inside: int, peak: float, task: float | None, stable: bool = True) -> dict:
@@ -35,7 +36,7 @@ def test_the_table_reads_several_graph_files_and_needs_no_trials_file(tmp_path: 
                       ("linear", [_row("linear", 1, 3, 45.0, 99.0)])):
         files.append(tmp_path / f"{law}.jsonl")
         files[-1].write_text("".join(json.dumps(row) + "\n" for row in rows))
-    assert e2_graph.main(["--table", *map(str, files)]) == 0
+    assert main(["graph", "--table", *map(str, files)]) == 0
     table = capsys.readouterr().out
     assert "| fic | 0.2 | 1/2 (0.09-0.91) | 3/6 (0.19-0.81) |" in table
     assert "| linear | 0.2 | 1/1 (0.21-1.00) | 3/3 (0.44-1.00) |" in table
@@ -43,6 +44,6 @@ def test_the_table_reads_several_graph_files_and_needs_no_trials_file(tmp_path: 
 
 def test_running_without_a_trials_file_or_an_agreement_without_graph_files_is_refused() -> None:
     with pytest.raises(SystemExit):
-        e2_graph.main(["--seeds", "1"])
+        main(["graph", "--seeds", "1"])
     with pytest.raises(SystemExit):
-        e2_graph.main(["--agreement", "results/e2_sweep.jsonl"])
+        main(["graph", "--agreement", "results/e2_sweep.jsonl"])

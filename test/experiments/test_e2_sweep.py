@@ -1,14 +1,20 @@
-"""The E2 sweep's driver (fic_teleop_experiments.e2_sweep): seed-major order, the laws as the runner's controller and
-the paper's Eq. 7, resumption from the jsonl (a line cut short by a stopped run is run again), the table's k/n and
-Wilson intervals, and the failed pieces' contact phases (e2_in_process.phase_forces)."""
+"""The E2 sweep's driver (fic_teleop_experiments.e2.sweep): seed-major order, the laws as the runner's controller and
+the paper's Eq. 7, resumption from the jsonl (a line cut short by a stopped run is run again), the command line's
+engine (one worker unless told), the table's k/n and Wilson intervals, and the failed pieces' contact phases
+(e2.outcome.phase_forces)."""
 from __future__ import annotations
 
+import contextlib
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
 
-from fic_teleop_experiments import e2_sweep
-from fic_teleop_experiments.e2_in_process import phase_forces
+from fic_teleop_experiments.e2 import sweep as e2_sweep
+from fic_teleop_experiments.e2.command_line import main
+from fic_teleop_experiments.e2.jsonl import read_rows
+from fic_teleop_experiments.e2.outcome import phase_forces
+from fic_teleop_experiments.engine import Engine
 
 
 def _row(seed: int, inside: list[str], peak: float = 12.0) -> dict:
@@ -31,17 +37,40 @@ def test_the_sweep_runs_seed_major_and_resumes_from_its_jsonl(tmp_path: Path, mo
 
     monkeypatch.setattr(e2_sweep, "trial", fake_trial)
     out = tmp_path / "sweep.jsonl"
-    assert e2_sweep.main(["--out", str(out), "--seeds", "2", "--cells", "fic_paper_law@0.2", "linear@1"]) == 0
+    cells = [("fic_paper_law", 0.2), ("linear", 1.0)]
+    with ThreadPoolExecutor(max_workers=1) as executor:   # the default engine's one worker, in this process
+        assert e2_sweep.run_cells(out, cells, 2, 10.0, executor) == 4
     assert calls == [(1, "fic", True, 0.2), (1, "linear", False, 1.0), (2, "fic", True, 0.2), (2, "linear", False, 1.0)]
+    assert [(row["law"], row["seed"]) for row in read_rows(out)] == \
+        [("fic_paper_law", 1), ("linear", 1), ("fic_paper_law", 2), ("linear", 2)]
     # A stopped run: its last line cut short. The rerun keeps the three whole trials and runs the fourth again.
     lines = out.read_text().splitlines()
     out.write_text("\n".join(lines[:3]) + "\n" + lines[3][:40])
     calls.clear()
-    assert e2_sweep.main(["--out", str(out), "--seeds", "2", "--cells", "fic_paper_law@0.2", "linear@1"]) == 0
+    with ThreadPoolExecutor(max_workers=1) as executor:
+        assert e2_sweep.run_cells(out, cells, 2, 10.0, executor) == 1
     assert calls == [(2, "linear", False, 1.0)]
-    rows = e2_sweep.done_trials(out)
+    rows = read_rows(out)
     assert sorted((row["law"], row["seed"]) for row in rows) == [("fic_paper_law", 1), ("fic_paper_law", 2),
                                                                  ("linear", 1), ("linear", 2)]
+
+
+def test_the_command_line_runs_its_cells_on_one_engine_worker_unless_told(tmp_path: Path, monkeypatch) -> None:
+    opened = []
+
+    @contextlib.contextmanager
+    def engine(args):
+        opened.append((args.workers, args.engine, args.cluster))
+        with ThreadPoolExecutor(max_workers=args.workers) as executor:
+            yield Engine(executor=executor, name="pool", address=None, workers=args.workers)
+
+    monkeypatch.setattr(e2_sweep, "trial", lambda seed, *args, **kwargs: _row(seed, ["cuboid"]))
+    monkeypatch.setattr(e2_sweep, "engine_from_arguments", engine)
+    out = tmp_path / "sweep.jsonl"
+    assert main(["sweep", "--out", str(out), "--seeds", "2", "--cells", "linear@1"]) == 0
+    assert main(["sweep", "--out", str(out), "--seeds", "3", "--cells", "linear@1", "--workers", "2"]) == 0
+    assert opened == [(1, None, None), (2, None, None)]
+    assert sorted(row["seed"] for row in read_rows(out)) == [1, 2, 3]
 
 
 def test_the_table_gives_k_of_n_with_wilson_intervals() -> None:
@@ -66,7 +95,7 @@ def test_a_failed_piece_shows_its_contact_phases_forces_and_errors() -> None:
 @pytest.mark.parametrize("cell", ["fic", "fic@x", "pid@0.2", "fic@9"])
 def test_a_malformed_cell_is_refused(cell: str) -> None:
     with pytest.raises(SystemExit):
-        e2_sweep.main(["--out", "/tmp/unused.jsonl", "--cells", cell])
+        main(["sweep", "--out", "/tmp/unused.jsonl", "--cells", cell])
 
 
 def test_the_default_cells_are_every_law_at_every_delay_the_paper_s_first() -> None:

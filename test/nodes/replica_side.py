@@ -1,22 +1,10 @@
 """The test's side of a replica node (test/nodes/test_replica_node.py, test_replica_loop_health.py,
-test_hardware_profiles.py): the node's environment and a robot that publishes joint states and records the answers."""
+test_hardware_profiles.py): a robot that publishes joint states and records the answers."""
 from __future__ import annotations
 
 import time
 
-from conftest import REPO
-
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
-
-
-def replica_env(ros_env: dict[str, str]) -> dict[str, str]:
-    """The fixture's environment plus colcon's develop-mode build folder, where the entry point's metadata lives
-    (colcon --symlink-install keeps fic_teleop_replica.egg-info in build/, which `install/setup.bash` adds via a
-    hook that scripts/env.sh does not run)."""
-    env = dict(ros_env)
-    build = str(REPO / "build" / "fic_teleop_replica")
-    env["PYTHONPATH"] = build + (":" + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    return env
 
 
 class Robot:

@@ -2,7 +2,6 @@
 from its installed executable, and a controller that answers every joint state."""
 from __future__ import annotations
 
-import os
 import sys
 import time
 from pathlib import Path
@@ -10,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import rclpy
-from conftest import CONFIG, REPO, NodeProcess, installed_executable
+from conftest import CONFIG, NodeProcess, installed_executable
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -29,7 +28,6 @@ def robot_node_command() -> list[str]:
 
 def start_robot(ros_env: dict[str, str], tmp_path: Path, **params) -> NodeProcess:
     env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO / "sim_bridge"), env.get("PYTHONPATH")]))
     command = robot_node_command() + ["--ros-args", "--params-file", str(CONFIG / "robot.yaml")]
     for key, value in params.items():
         command += ["-p", f"{key}:={value}"]

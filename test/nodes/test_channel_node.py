@@ -27,7 +27,6 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 
 pytestmark = pytest.mark.nodes
 
-REPO = Path(__file__).resolve().parents[2]
 # The probe writes and reads with the product streams' writer history (fic_teleop_runtime.qos, 1000): a
 # reliable KEEP_LAST history overwrites what a stalled peer has not taken.
 QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=1000)
@@ -41,7 +40,6 @@ def graph(tmp_path, ros_env):
     domain = ros_env["ROS_DOMAIN_ID"]
     env = dict(os.environ, ROS_DOMAIN_ID=domain, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
-    env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
     saved = {key: os.environ.get(key) for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")}
     os.environ.update({key: env[key] for key in saved})
     context = rclpy.Context()
@@ -216,7 +214,6 @@ def test_a_logged_delivery_that_is_not_a_route_is_refused_at_start(tmp_path, ros
     """logged_deliveries names the out topics whose deliveries go on /channel/deliveries; a topic no route writes
     (a typo) is refused in one line, exit 2, before anything is forwarded."""
     env = dict(ros_env)
-    env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
     result = subprocess.run([sys.executable, "-m", "sim_bridge.channel.channel_node", "--ros-args", "-r",
                              f"__node:={NODE}", "-p",
                              f"routes:=['{IN_TOPIC}:{OUT_TOPIC}:geometry_msgs/msg/PoseStamped']",

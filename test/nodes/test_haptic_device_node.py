@@ -26,7 +26,6 @@ QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.K
 def test_force_command_moves_the_handle_nan_is_refused_and_stale_commands_go_limp(tmp_path, ros_env):
     env = dict(os.environ, ROS_DOMAIN_ID=ros_env["ROS_DOMAIN_ID"], ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1", RCUTILS_COLORIZED_OUTPUT="0")
-    env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
     saved = {key: os.environ.get(key) for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")}
     os.environ.update({key: env[key] for key in saved})
     log_path = tmp_path / "haptic.log"

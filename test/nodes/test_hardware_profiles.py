@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 from conftest import CONFIG
 from driver_peer import Peer, qos
-from replica_side import replica_env
 
 rclpy = pytest.importorskip("rclpy")
 
@@ -44,7 +43,7 @@ def test_replica_under_the_franka_profile(start_node, ros_env, rclpy_context) ->
     # joint_state_timeout 0.5 s instead of the profile's 50 ms: a test process on a loaded 2-core machine is no
     # 1 kHz driver (its gaps alone engaged the ramp); the ramp itself is the same code.
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         ros_args=_replica_ros_args() + ["-p", "joint_state_timeout:=0.5"], env=replica_env(ros_env))
+                         ros_args=_replica_ros_args() + ["-p", "joint_state_timeout:=0.5"])
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     assert "gravity left to the robot" in replica.output()
     peer = Peer(rclpy_context, "test_franka")
@@ -238,7 +237,7 @@ def test_franka_twin_holds_the_arm_through_the_profile(start_node, ros_env, rclp
                                "gravity_compensation": True, "hold_on_stale_commands": False})
     assert robot.wait_for_output("robot_sim ready", timeout=60.0), robot.output()
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         ros_args=_replica_ros_args(), env=replica_env(ros_env), params={"control_rate": 500.0})
+                         ros_args=_replica_ros_args(), params={"control_rate": 500.0})
     peer = Peer(rclpy_context, "test_twin")
     states: list[JointState] = []
     peer.node.create_subscription(JointState, "/franka/joint_states", states.append, qos(False, 1))
@@ -273,7 +272,7 @@ def test_the_command_relay_ramps_the_arm_to_rest_when_the_replica_dies(start_nod
     relay = start_node("fic_teleop_replica", "command_relay_node", params_file=CONFIG / "command_relay.yaml")
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
                          ros_args=_replica_ros_args() + ["-r", "/effort_controller/commands:=/replica/effort_command"],
-                         env=replica_env(ros_env), params={"control_rate": 500.0})
+                         params={"control_rate": 500.0})
     peer = Peer(rclpy_context, "test_relay")
     commands: list[tuple[float, np.ndarray]] = []
     states: list[JointState] = []

@@ -127,7 +127,7 @@ def _probed(ros_env: dict[str, str], watcher: Watcher, settle: float, *arguments
 
 
 def _arm(start_node, ros_env, rclpy_context, channel: bool):
-    robot, replica = robot_and_replica(start_node, ros_env)
+    robot, replica = robot_and_replica(start_node)
     watcher = Watcher(rclpy_context, channel)
     assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
     # The probe must be the only other writer: wait out any writer of an earlier test still in discovery.

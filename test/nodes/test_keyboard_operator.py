@@ -19,14 +19,12 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import Joy  # noqa: E402
 
 pytestmark = pytest.mark.nodes
-REPO = Path(__file__).resolve().parents[2]
 QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=50)
 
 
 def _env(tmp_path: Path, ros_env: dict[str, str]) -> dict[str, str]:
     env = dict(os.environ, ROS_DOMAIN_ID=ros_env["ROS_DOMAIN_ID"], ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1")
-    env["PYTHONPATH"] = str(REPO / "sim_bridge") + os.pathsep + env.get("PYTHONPATH", "")
     return env
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 from conftest import CONFIG
-from replica_side import Robot, replica_env
+from replica_side import Robot
 
 rclpy = pytest.importorskip("rclpy")
 
@@ -21,7 +21,7 @@ def test_a_gap_in_the_loop_holds_and_is_said_on_diagnostics(start_node, ros_env,
     from std_msgs.msg import Float64MultiArray
 
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"control_rate": 250.0, "diagnostics_rate": 5.0}, env=replica_env(ros_env))
+                         params={"control_rate": 250.0, "diagnostics_rate": 5.0})
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     robot = Robot(rclpy_context)
     record = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=5000)

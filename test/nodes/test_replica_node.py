@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 from conftest import CONFIG
-from replica_side import Robot, replica_env
+from replica_side import Robot
 
 rclpy = pytest.importorskip("rclpy")
 fic_teleop_msgs = pytest.importorskip("fic_teleop_msgs.msg")
@@ -24,7 +24,7 @@ from fic_core.robot_model import RobotModel  # noqa: E402
 
 def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
-                         params={"master_timeout": 0.3, "status_rate": 1000.0}, env=replica_env(ros_env))
+                         params={"master_timeout": 0.3, "status_rate": 1000.0})
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     assert rclpy_context.ok()
     robot = Robot(rclpy_context)
@@ -124,7 +124,7 @@ def test_replica_below_the_joint_state_rate(start_node, ros_env, rclpy_context) 
     stretches)."""
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
                          params={"control_rate": 250.0, "status_rate": 50.0, "answer_every_state": False,
-                                 "diagnostics_rate": 10.0}, env=replica_env(ros_env))
+                                 "diagnostics_rate": 10.0})
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     robot = Robot(rclpy_context)
     robot.wait_for_replica()
@@ -164,8 +164,7 @@ def test_a_new_command_is_used_at_the_next_joint_state(start_node, ros_env, rclp
     (the stamp of the command the tick used), in that callback, in that order."""
     replica = start_node("fic_teleop_replica", "replica_node", params_file=CONFIG / "replica.yaml",
                          params={"control_rate": 50.0, "status_rate": 1000.0, "answer_every_state": False,
-                                 "tick_on_command": tick_on_command, "diagnostics_rate": 10.0},
-                         env=replica_env(ros_env))
+                                 "tick_on_command": tick_on_command, "diagnostics_rate": 10.0})
     assert replica.wait_for_output("waiting for /joint_states", timeout=60.0), replica.output()
     robot = Robot(rclpy_context)
     robot.wait_for_replica()

@@ -118,7 +118,7 @@ def test_a_second_planner_writer_puts_the_replica_into_its_safe_hold_and_the_han
                                                                                        rclpy_context) -> None:
     from diagnostic_msgs.msg import DiagnosticStatus
 
-    robot, replica = robot_and_replica(start_node, ros_env)
+    robot, replica = robot_and_replica(start_node)
     planners = Planners(rclpy_context)
     try:
         assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
@@ -164,7 +164,7 @@ def test_a_second_wrench_writer_puts_the_replica_into_its_safe_hold(start_node, 
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    robot, replica = robot_and_replica(start_node, ros_env)
+    robot, replica = robot_and_replica(start_node)
     assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
     assert "SAFE HOLD" not in replica.output(), replica.output()
     qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
@@ -213,7 +213,7 @@ def test_a_second_master_port_energy_writer_puts_the_replica_into_its_safe_hold(
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    _, replica = robot_and_replica(start_node, ros_env)
+    _, replica = robot_and_replica(start_node)
     assert replica.wait_for_output("first joint state", timeout=120.0), replica.output()
     qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
     nodes = [rclpy.create_node(name, context=rclpy_context) for name in ("channel_reverse", "outside_client")]

@@ -3,7 +3,7 @@ channel, reaches for the first piece, presses it until it feels the contact and 
 
 A short lockstep run of ``--scene shape_sorting`` (its default operator): the operator's phases come from the
 device node's log, the bond from the robot's ground truth (/sim/object_poses and its bond counter). The full
-trials are fic_teleop_experiments.e2_graph (docs/EXPERIMENTS.md "E2")."""
+trials are fic_teleop_experiments.e2.graph (docs/EXPERIMENTS.md "E2")."""
 from __future__ import annotations
 
 import json

@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 from conftest import REPO, SAFETY_KEPT_EXITS
 
-from fic_teleop_bringup import rtps_traffic, two_stations
+from fic_teleop_bringup import rtps_traffic, station_layout, two_stations
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
 ROOT = os.geteuid() == 0 and shutil.which("ip") is not None and shutil.which("tc") is not None
@@ -106,12 +106,12 @@ def _arguments(*argv: str):
     return teleop_launcher.parse_arguments(list(argv))
 
 
-def _layout(*argv: str) -> two_stations.StationLayout:
+def _layout(*argv: str) -> station_layout.StationLayout:
     """The station layout of a two-station run's profile (profiles/two_stations.yaml, then ``argv``'s)."""
     from fic_teleop_bringup import teleop_launcher
     args = _arguments("--two-stations", *argv)
     teleop_launcher.resolve_defaults(args)
-    return two_stations.StationLayout.from_profile(args.run_profile)
+    return station_layout.StationLayout.from_profile(args.run_profile)
 
 
 @pytest.mark.parametrize("argv, words", [

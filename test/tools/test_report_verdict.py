@@ -139,3 +139,31 @@ def test_the_verdict_reads_the_reports_pass_as_the_experiments_decode_the_bag(ba
                                                                                   kind="stable")])
     assert ours.limit_violations == int(run.violation_ticks.max())
     assert ours.joint_speed is not None and ours.joint_speed.shape == (run.fic_time.size, 7)
+
+
+def test_a_run_folders_quiet_tail_is_judged_by_its_free_response_and_left_out_of_the_error_figures(bags, tmp_path):
+    """The launcher's --quiet-tail writes quiet_from (a stamp) in run.json: the report hands it to the verdict,
+    which judges stability in the tail (the sine never dies: NOT STABLE there), and its error figures describe the
+    task before it."""
+    from fic_teleop_tools.report.__main__ import print_verdict, quiet_from
+    from fic_teleop_tools.report.bag_data import load_bag
+    from fic_teleop_tools.report.metrics import ReportSettings, analyse
+    from fic_teleop_tools.verdict.run_verdict import VerdictInput
+
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    tail_from = BASE_NS * 1e-9 + 2.5   # 9.5 s of tail: the verdict needs 1 s + 2 delays, then 8 s, at 0.2 s
+    (run_dir / "run.json").write_text(json.dumps({"quiet_from": tail_from}))
+    assert quiet_from(run_dir) == tail_from and quiet_from(tmp_path) is None and quiet_from(None) is None
+    print_verdict(bags["oscillating"], tmp_path / "tail", DELAY, quiet_from(run_dir))
+    verdict = json.loads((tmp_path / "tail" / "verdict.json").read_text())
+    assert verdict["stable"] is False and verdict["figures"]["quiet_from_s"] == pytest.approx(tail_from)
+    assert verdict["figures"]["tail_s"] >= verdict["figures"]["tail_needed_s"] - 0.1
+    data = load_bag(bags["oscillating"])
+    whole = analyse(data, ReportSettings(warmup_s=0.0)).metrics
+    task = analyse(data, ReportSettings(warmup_s=0.0, quiet_from=tail_from)).metrics
+    series = VerdictInput.from_bag_data(data, one_way_delay=DELAY)   # the error series and their stamps
+    errors, before = np.linalg.norm(series.tracking_error, axis=1), series.time < tail_from
+    assert task["free_motion_error_max_m"] == pytest.approx(errors[before].max(), rel=1e-6)
+    assert task["free_motion_error_rms_m"] != pytest.approx(whole["free_motion_error_rms_m"], rel=1e-6)
+

@@ -29,7 +29,7 @@ import yaml
 
 from fic_core.limits import PANDA_JOINT_VELOCITY_LIMIT
 from fic_core.replica_loop import ReplicaLoop
-from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
+from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS, ReplicaLoopParameters
 from fic_teleop_runtime.workspace import config_folder
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.watchdog import CommandWatchdog
@@ -58,7 +58,7 @@ def sampled_run(period: float, kick: tuple[float, ...] = DEFAULT_KICK, duration:
     drawn from the seed in [period, longest], as a starved replica's); per-joint peaks, growth, holds."""
     draws = np.random.default_rng(seed)
     sim = PandaSimulation("free_space", seed=1)
-    replica = ReplicaLoop(replica_values(**changes))
+    replica = ReplicaLoop(ReplicaLoopParameters.from_values(replica_values(**changes)))
     limit = np.array(PANDA_JOINT_VELOCITY_LIMIT)
     steps = int(round((SETTLE_S + duration) / TIMESTEP))
     every_settle = int(round(0.002 / TIMESTEP))

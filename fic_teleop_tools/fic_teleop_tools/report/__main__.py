@@ -38,14 +38,24 @@ def one_way_delay(run_dir: Path | None) -> float:
     return delay(config_folder() / "channel.yaml") or 0.0
 
 
-def print_verdict(bag: Path | BagData, out: Path, delay: float) -> None:
+def quiet_from(run_dir: Path | None) -> float | None:
+    """The stamp the run's quiet tail starts at, as the launcher wrote it in run.json (--quiet-tail); None when
+    the run has none or the bag is not in a run folder."""
+    try:
+        value = json.loads((run_dir / "run.json").read_text()).get("quiet_from") if run_dir is not None else None
+    except (OSError, ValueError):
+        return None
+    return float(value) if isinstance(value, (int, float)) and value > 0 else None
+
+
+def print_verdict(bag: Path | BagData, out: Path, delay: float, tail_from: float | None = None) -> None:
     """The two verdicts of the session (a bag, or as the report's pass read it with ``joint_velocities``), printed
     and written to ``out``/verdict.json; a bag the verdict cannot judge gets one line saying why."""
     from fic_teleop_tools.verdict.run_verdict import VerdictInput, VerdictInputError, judge
 
     try:
         data = bag if isinstance(bag, BagData) else load_bag(bag, joint_velocities=True)
-        verdict = judge(VerdictInput.from_bag_data(data, one_way_delay=delay))
+        verdict = judge(VerdictInput.from_bag_data(data, one_way_delay=delay, quiet_from=tail_from))
     except (VerdictInputError, ValueError) as error:
         print(f"[report] verdict: cannot judge this bag: {error}", file=sys.stderr)
         return
@@ -89,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     run_dir = args.bag.parent if (args.bag.parent / "params").is_dir() else None
     settings = ReportSettings(warmup_s=args.warmup, max_force_n=args.f_max, error_bound_m=args.x_b,
                               joint_states_period_s=joint_states_period(run_dir),
-                              real_time_factor_target=args.real_time_factor_target)
+                              real_time_factor_target=args.real_time_factor_target, quiet_from=quiet_from(run_dir))
     key_frame_interval = args.key_frame_interval if args.render else None
     try:
         # One pass over the bag for the report and its verdict (the joint velocities are the verdict's).
@@ -107,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
         print("[report] note: the bag has no footer (recorder killed?); read up to its last complete chunk",
               file=sys.stderr)
     print(summary_table(metrics))
-    print_verdict(data, out, args.delay if args.delay is not None else one_way_delay(run_dir))
+    print_verdict(data, out, args.delay if args.delay is not None else one_way_delay(run_dir), settings.quiet_from)
     print(f"[report] {out / 'metrics.json'}; plots: {', '.join(p.name for p in plots) or 'none'}")
     return 0
 

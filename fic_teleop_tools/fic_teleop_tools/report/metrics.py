@@ -80,6 +80,9 @@ class ReportSettings:
     max_force_n: float | None = None      # F_max of the controller (plotted when known)
     joint_states_period_s: float = 0.001  # the simulator's physics step
     real_time_factor_target: float | None = None   # None: TARGETS' (a run profile's bound, from the launcher)
+    # The quiet tail's start (a stamp, the run's quiet_from; None: no tail). The error and force figures describe
+    # the task before it; the tail is the free-response test of the run verdict (docs/EXPERIMENTS.md).
+    quiet_from: float | None = None
 
     def targets(self) -> dict[str, tuple[str, float]]:
         """TARGETS with this run's real-time-factor bound."""
@@ -184,7 +187,7 @@ def analyse(data: BagData, settings: ReportSettings | None = None) -> Analysis:
         error_free = np.ones(len(error_t), dtype=bool)
         contact_intervals = []
         m["peak_interaction_force_n"] = None
-    counted = error_t >= cut
+    counted = (error_t >= cut) & (error_t < (settings.quiet_from if settings.quiet_from is not None else np.inf))
     free_errors, contact_errors = error[counted & error_free], error[counted & ~error_free]
     m["free_motion_error_max_m"] = _number(free_errors.max()) if len(free_errors) else None
     m["free_motion_error_rms_m"] = _number(np.sqrt(np.mean(free_errors ** 2))) if len(free_errors) else None

@@ -236,12 +236,14 @@ class VerdictInput:
         return cls.from_bag_data(load_bag(path, joint_velocities=True), one_way_delay, x_b)
 
     @classmethod
-    def from_bag_data(cls, data: "BagData", one_way_delay: float, x_b: float = X_B) -> "VerdictInput":
+    def from_bag_data(cls, data: "BagData", one_way_delay: float, x_b: float = X_B,
+                      quiet_from: float | None = None) -> "VerdictInput":
         """From a session the report has read (``load_bag(..., joint_velocities=True)``: the report and its verdict
         read the bag once): the tracking error and the controller's energy of /replica/fic_state, the F/T force,
         the joint speeds, the limit counter and the nodes' last diagnostics (the robot's reflex and holds, the
         replica's safe hold). A bag holds no command and no obstacle flag: its motion test is on x_d - x_R, its
-        contact is the force's."""
+        contact is the force's. ``quiet_from``: the stamp the run's quiet tail starts at (the launcher's
+        --quiet-tail, run.json), None without one."""
         def ordered(topic: str, columns: tuple[str, ...]) -> tuple[NDArray, NDArray]:
             """A topic's stamps and value columns in stamp order (empty when the bag has none)."""
             series = data.series.get(topic)
@@ -280,6 +282,7 @@ class VerdictInput:
                    controller_energy=fic[:, 3], force=force, joint_speed=joint_speed,
                    limit_violations=violations, reflex_trips=reflex,
                    safe_holds=None if hold is None else int(hold != "no"), stale_holds=stale, x_b=x_b,
+                   quiet_from=quiet_from,
                    source=f"bag {data.path.parent.name if data.path.suffix == '.mcap' else data.path.name}")
 
     @classmethod

@@ -21,11 +21,11 @@ import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from fic_core.errors import FicInputError
+from fic_core.parameter_row import parameter_set
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.message_types import message_class
@@ -76,6 +76,10 @@ SCHEMA = Schema(
     texts("logged_deliveries", "with publish_deliveries: the out topics whose deliveries go on /channel/deliveries; "
                                "unset: every route's", read_only=True, optional=True),
 )
+#: The channel node's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row); a list
+#: left unset reads as empty (rcl reads an empty list in a params file as no value, so the two are one).
+ChannelParameters = parameter_set("ChannelParameters", __name__, "channel", SCHEMA.rows,
+                                  "The channel's parameters (SCHEMA), checked, one field a row.")
 
 
 @dataclass
@@ -115,10 +119,13 @@ class ChannelNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("channel", **node_options)
         self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
-        declare(self, SCHEMA)  # every row with its config/channel.yaml value; unknown keys refused
+        # Every row with its config/channel.yaml value (unknown keys refused), kept as the links run them.
+        p = self._link_parameters = ChannelParameters.from_values(declare(self, SCHEMA))
         self._origin = self._now()           # "start" time reference: blackout/lost_from relative to this
-        config = self._config_from({name: self._parameter(name) for name in LINK_PARAMETERS})
-        specs = self._route_specs()
+        config = self._config_from(p)
+        if not p.routes:
+            raise FicInputError("parameter routes is empty: give at least one in_topic:out_topic:pkg/msg/Type")
+        specs = list(p.routes)
         seeds = route_seeds(config.seed, len(specs))
         self._routes: list[Route] = []
         for spec, seed in zip(specs, seeds):
@@ -135,8 +142,8 @@ class ChannelNode(Node):
         # The delivery log only where a figure reads it (the report's latency and delay: the teleoperation command;
         # the two-station analysis: F_R; the closed-loop operator's video): one ChannelDelivery per forwarded port
         # energy too was 175 messages a second that nothing read, published here and taken by the recorder.
-        logged = self._parameter("logged_deliveries").value
-        if logged is not None:
+        logged = p.logged_deliveries
+        if logged:
             unknown = sorted(set(logged) - {route.out_topic for route in self._routes})
             if unknown:
                 raise FicInputError(f"logged_deliveries names {', '.join(unknown)}, not an out topic of this node's "
@@ -144,63 +151,43 @@ class ChannelNode(Node):
             for route in self._routes:
                 route.logged = route.out_topic in logged
         self._deliveries = None
-        if self.get_parameter("publish_deliveries").value:
+        if p.publish_deliveries:
             if ChannelDelivery is None:
                 self.get_logger().warning("fic_teleop_msgs is not built: /channel/deliveries is not published")
             else:
                 self._deliveries = self.create_publisher(ChannelDelivery, "/channel/deliveries", DELIVERY_QOS)
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self._periodic.create(1.0 / self.get_parameter("delivery_rate_hz").value, self._deliver)
-        self._periodic.create(1.0 / self.get_parameter("statistics_rate_hz").value, self._publish_statistics)
+        self._periodic.create(1.0 / p.delivery_rate_hz, self._deliver)
+        self._periodic.create(1.0 / p.statistics_rate_hz, self._publish_statistics)
         self.get_logger().info(f"channel up: {self._describe(config)}")
 
     # -- parameters -------------------------------------------------------------------------------------------
-    def _parameter(self, name: str) -> Parameter:
-        """The parameter, or an unset one (value None) for an array declared without a default."""
-        try:
-            return self.get_parameter(name)
-        except ParameterUninitializedException:
-            return Parameter(name, Parameter.Type.NOT_SET, None)
-
-    def _route_specs(self) -> list[str]:
-        value = self._parameter("routes").value
-        if not value:
-            raise FicInputError("parameter routes is empty: give at least one in_topic:out_topic:pkg/msg/Type")
-        return list(value)
-
-    def _config_from(self, parameters: dict[str, Parameter]) -> ChannelConfig:
-        values = {name: p.value for name, p in parameters.items()}
-        reference = values["time_reference"]
-        if reference not in ("start", "clock"):
-            raise FicInputError(f"time_reference must be 'start' or 'clock', got {reference!r}")
-        offset = self._origin if reference == "start" else 0.0
-        flat = list(values["blackout_windows"] or [])
-        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in flat):
-            raise FicInputError(f"blackout_windows must be numbers t0,t1,t0,t1,...; got {flat!r}")
+    def _config_from(self, p: ChannelParameters) -> ChannelConfig:
+        """The links' configuration of ``p`` (FicInputError for a value its row cannot refuse alone)."""
+        if p.time_reference not in ("start", "clock"):
+            raise FicInputError(f"time_reference must be 'start' or 'clock', got {p.time_reference!r}")
+        offset = self._origin if p.time_reference == "start" else 0.0
+        flat = p.blackout_windows   # numbers, checked by the row
         if len(flat) % 2:
             raise FicInputError(f"blackout_windows needs pairs t0,t1; got {len(flat)} numbers")
-        windows = tuple((float(flat[i]) + offset, float(flat[i + 1]) + offset) for i in range(0, len(flat), 2))
-        lost_from = float(values["lost_from"])
-        seed = int(values["seed"])
-        return ChannelConfig(delay=float(values["delay"]), jitter=float(values["jitter"]),
-                             jitter_distribution=str(values["jitter_distribution"]),
-                             allow_reorder=bool(values["allow_reorder"]),
-                             drop_probability=float(values["drop_probability"]), blackout_windows=windows,
-                             lost_from=None if lost_from < 0.0 else lost_from + offset,
-                             rate_cap_hz=float(values["rate_cap_hz"]), seed=None if seed < 0 else seed)
+        windows = tuple((flat[i] + offset, flat[i + 1] + offset) for i in range(0, len(flat), 2))
+        return ChannelConfig(delay=p.delay, jitter=p.jitter, jitter_distribution=p.jitter_distribution,
+                             allow_reorder=p.allow_reorder, drop_probability=p.drop_probability,
+                             blackout_windows=windows, lost_from=None if p.lost_from < 0.0 else p.lost_from + offset,
+                             rate_cap_hz=p.rate_cap_hz, seed=None if p.seed < 0 else p.seed)
 
     def _on_set_parameters(self, changes: list[Parameter]) -> SetParametersResult:
-        link_changes = {p.name: p for p in changes if p.name in LINK_PARAMETERS}
+        link_changes = {p.name: p.value for p in changes if p.name in LINK_PARAMETERS}
         if not link_changes:
             return SetParametersResult(successful=True)
-        candidate = {name: self._parameter(name) for name in LINK_PARAMETERS}
-        candidate.update(link_changes)
         try:
+            candidate = self._link_parameters.replaced(link_changes)
             config = self._config_from(candidate)
         except FicInputError as exc:
             self.get_logger().error(f"channel parameters refused: {exc}")
             return SetParametersResult(successful=False, reason=str(exc))
+        self._link_parameters = candidate
         seeds = route_seeds(config.seed, len(self._routes))
         for route, seed in zip(self._routes, seeds):
             # A changed seed restarts each route's stream from its route seed, as at start; otherwise the

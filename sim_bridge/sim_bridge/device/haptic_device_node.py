@@ -26,6 +26,7 @@ from sensor_msgs.msg import JointState, Joy
 from std_msgs.msg import Bool, Float64MultiArray
 
 from fic_core.errors import FicInputError
+from fic_core.parameter_row import parameter_set
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
@@ -81,6 +82,8 @@ SCHEMA = Schema(
     text("script_file", "operator script YAML; empty: config/operator_scripts/<scene>.yaml"),
     number("script_start_time", -1.0, 1e10, "node-clock time of the script's t = 0 [s]; negative: when the node "
                                             "starts"),
+    number("quiet_from", -1.0, 1e10, "node-clock time from which the operator's target holds still and the hand "
+                                     "keeps holding the handle (a run's quiet tail) [s]; negative: never"),
     number("hand_stiffness", 1.0, 5000.0, "operator hand [N/m]"),
     number("hand_damping", 0.0, 200.0, "operator hand [N s/m]"),
     number("hand_correction_rate", 0.0, 50.0, "how fast the operator leans in to put the handle on target [1/s]; "
@@ -93,6 +96,10 @@ SCHEMA = Schema(
     text("driver_interface", f"topics to speak: one of {DEVICE_INTERFACES} (forcedimension: the twin of "
                              "forcedimension_ros2, driver_topics.py; publish_rate_hz is then its update rate)"),
 )
+#: The device node's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row): a name no
+#: row has is refused where it is built, naming the nearest.
+DeviceNodeParameters = parameter_set("DeviceNodeParameters", __name__, "haptic device", SCHEMA.rows,
+                                     "The simulated device's parameters (SCHEMA), checked, one field a row.")
 
 
 def default_script_path(scene: str) -> Path:
@@ -108,25 +115,23 @@ class HapticDeviceNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("haptic_device", **node_options)
         self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
-        values = declare(self, SCHEMA)  # every row with its config/haptic_device.yaml value; unknown keys refused
-        value = values.__getitem__
+        # Every row with its config/haptic_device.yaml value; unknown keys refused.
+        p = DeviceNodeParameters.from_values(declare(self, SCHEMA))
         parameters = HapticDeviceParameters(
-            mass=value("mass"), damping=value("damping"), half_extents=tuple(value("half_extents")),
-            wall_stiffness=value("wall_stiffness"), wall_damping=value("wall_damping"),
-            max_force=value("max_force"), substep=value("substep"))
+            mass=p.mass, damping=p.damping, half_extents=tuple(p.half_extents), wall_stiffness=p.wall_stiffness,
+            wall_damping=p.wall_damping, max_force=p.max_force, substep=p.substep)
         self.device = HapticDevice(parameters)
-        self.hand = Hand(HandParameters(stiffness=value("hand_stiffness"), damping=value("hand_damping"),
-                                        correction_rate=value("hand_correction_rate"),
-                                        max_correction=value("hand_max_correction"),
-                                        max_force=value("hand_max_force")))
-        self.frame_id = value("frame_id")
-        self.command_timeout = value("command_timeout")
-        self.joy_timeout = value("joy_timeout")
-        self.source = value("operator_source")
+        self.hand = Hand(HandParameters(stiffness=p.hand_stiffness, damping=p.hand_damping,
+                                        correction_rate=p.hand_correction_rate, max_correction=p.hand_max_correction,
+                                        max_force=p.hand_max_force))
+        self.frame_id = p.frame_id
+        self.command_timeout = p.command_timeout
+        self.joy_timeout = p.joy_timeout
+        self.source = p.operator_source
         if self.source not in OPERATOR_SOURCES:
             raise FicInputError(f"operator_source must be one of {OPERATOR_SOURCES}, got {self.source!r}")
 
-        self.interface = value("driver_interface")
+        self.interface = p.driver_interface
         if self.interface not in DEVICE_INTERFACES:
             raise FicInputError(f"driver_interface must be one of {DEVICE_INTERFACES}, got {self.interface!r}")
         self.fd = self.interface == "forcedimension"
@@ -152,35 +157,34 @@ class HapticDeviceNode(Node):
         self.video_halves: dict[tuple[str, int], np.ndarray] = {}
         self.joy_target: JoyTarget | None = None
         if self.source in ("scripted", "closed_loop"):
-            scene = value("scene")
+            scene = p.scene
             if self.source == "closed_loop" and scene != "superimposition":
                 raise FicInputError(f"operator_source closed_loop drives the superimposition scene only, not {scene!r}")
-            path = Path(value("script_file")) if value("script_file") else default_script_path(scene)
+            path = Path(p.script_file) if p.script_file else default_script_path(scene)
             script = load_script(path)
             script.check_workspace(parameters.half_extents)
             self.scripted = ScriptedOperator(script)   # closed_loop: its button presses and its moves' numbers
             if self.source == "closed_loop":
                 self.watcher = ClosedLoopOperator(ClosedLoopParameters.from_script_parameters(
-                    script.parameters, reaction_time=value("reaction_time"),
-                    assumed_one_way_delay=value("assumed_one_way_delay")))
+                    script.parameters, reaction_time=p.reaction_time, assumed_one_way_delay=p.assumed_one_way_delay))
                 self.create_subscription(PoseStamped, VIDEO_TCP_TOPIC, self._on_video_tcp, VIDEO_QOS)
                 self.create_subscription(PoseArray, VIDEO_OBJECTS_TOPIC, self._on_video_objects, VIDEO_QOS)
                 self.get_logger().info(
                     f"closed-loop operator: watches {VIDEO_TCP_TOPIC} and {VIDEO_OBJECTS_TOPIC}, reaction "
-                    f"{value('reaction_time'):.2f} s, assumed one-way delay {value('assumed_one_way_delay'):.2f} s")
+                    f"{p.reaction_time:.2f} s, assumed one-way delay {p.assumed_one_way_delay:.2f} s")
             self.joy_publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
             self._periodic.create(1.0 / JOY_RATE_HZ, self._publish_buttons)
             self.get_logger().info(f"scripted operator: {path} ({script.name}, {script.duration:.1f} s, "
                                    f"{len(script.events)} button presses)")
         elif self.source == "shape_sorting":
-            if value("scene") != "shape_sorting":
+            if p.scene != "shape_sorting":
                 raise FicInputError(f"operator_source shape_sorting drives the shape_sorting scene only, not "
-                                    f"{value('scene')!r}")
+                                    f"{p.scene!r}")
             # What it has learnt of the master (K0, F_max, k_v, the dead-band) is config/master.yaml's, the
             # parameters' defaults; the hand reacts to the force it feels (reactive_hand.py, its mean figures).
             self.sorter = ShapeSortingOperator(ShapeSortingParameters(
-                perception_delay=value("reaction_time"), assumed_one_way_delay=value("assumed_one_way_delay"),
-                handle_half_extents=tuple(value("half_extents"))))
+                perception_delay=p.reaction_time, assumed_one_way_delay=p.assumed_one_way_delay,
+                handle_half_extents=tuple(p.half_extents)))
             self.hand = ReactiveHand(self.hand.parameters)
             self.create_subscription(PoseStamped, VIDEO_TCP_TOPIC, self._on_video_tcp, VIDEO_QOS)
             self.create_subscription(PoseArray, VIDEO_OBJECTS_TOPIC, self._on_video_objects, VIDEO_QOS)
@@ -188,24 +192,25 @@ class HapticDeviceNode(Node):
             self._periodic.create(1.0 / JOY_RATE_HZ, self._publish_buttons)
             self.get_logger().info(
                 f"shape-sorting operator: watches {VIDEO_TCP_TOPIC} and {VIDEO_OBJECTS_TOPIC}, perception "
-                f"{value('reaction_time'):.2f} s, assumed one-way delay {value('assumed_one_way_delay'):.2f} s")
+                f"{p.reaction_time:.2f} s, assumed one-way delay {p.assumed_one_way_delay:.2f} s")
         elif self.source == "joy":
-            self.joy_target = JoyTarget(parameters.half_extents, max_speed=value("joy_max_speed"))
+            self.joy_target = JoyTarget(parameters.half_extents, max_speed=p.joy_max_speed)
             self.create_subscription(Joy, "/operator/joy", self._on_joy, JOY_QOS)
             self.get_logger().info("operator steered by /operator/joy axes 0..2")
         else:
             self.get_logger().info("no operator: the handle moves under the force command alone")
 
         now = self._now()
-        start = value("script_start_time")
+        start = p.script_start_time
         self.script_origin = now if start < 0.0 else start
         self.last_time = now
         # forcedimension_ros2's effort controller holds the last force with no timeout.
         self.station = DeviceStation(self.device, self.hand, script=self.scripted, watcher=self.watcher or self.sorter,
                                      joy_target=self.joy_target,
                                      command_timeout=None if self.fd else self.command_timeout,
-                                     joy_timeout=self.joy_timeout, script_origin=self.script_origin)
-        self._periodic.create(1.0 / value("publish_rate_hz"), self._tick)
+                                     joy_timeout=self.joy_timeout, script_origin=self.script_origin,
+                                     quiet_from=p.quiet_from if p.quiet_from >= 0.0 else None)
+        self._periodic.create(1.0 / p.publish_rate_hz, self._tick)
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

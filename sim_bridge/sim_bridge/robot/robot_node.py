@@ -57,6 +57,7 @@ from fic_core.arm_profile import arm_profile
 from fic_core.command_stamp import stamp_ns as command_state_stamp_ns
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES
+from fic_core.parameter_row import parameter_set
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.driver_topics import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
@@ -136,6 +137,11 @@ SCHEMA = Schema(
                               "profile's velocity limit, as a Franka arm stops with joint_velocity_violation"),
 )
 
+#: The robot node's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row): a name no
+#: row has is refused where it is built, naming the nearest.
+RobotParameters = parameter_set("RobotParameters", __name__, "robot", SCHEMA.rows,
+                                "The simulated robot's parameters (SCHEMA), checked, one field a row.")
+
 
 # The physics thread's name as the OS shows it (top -H, /proc): the launcher gives it real-time priority by it.
 PHYSICS_THREAD_NAME = "physics"
@@ -156,40 +162,40 @@ class RobotNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("robot_sim", **node_options)
         p = self._declare_parameters()
-        self._mode = p["mode"]
-        self._sim = PandaSimulation(p["scene"], p["seed"], p["initial_configuration"],
-                                    gravity_compensation=p["gravity_compensation"])
-        self._franka = p["driver_interface"] == "franka_ros2"
-        self._hold_on_stale = p["hold_on_stale_commands"]
-        self._scene = p["scene"]
-        self._lockstep_timeout = p["lockstep_timeout"]
-        self._lockstep_subscribers = p["lockstep_subscribers"]
+        self._mode = p.mode
+        self._sim = PandaSimulation(p.scene, p.seed, p.initial_configuration,
+                                    gravity_compensation=p.gravity_compensation)
+        self._franka = p.driver_interface == "franka_ros2"
+        self._hold_on_stale = p.hold_on_stale_commands
+        self._scene = p.scene
+        self._lockstep_timeout = p.lockstep_timeout
+        self._lockstep_subscribers = p.lockstep_subscribers
         self._gate = LockstepGate()
-        self._barrier = (PeerBarrier(p["lockstep_peers"], p["lockstep_peer_lag"], p["lockstep_peer_timeout"])
-                         if self._mode == "lockstep" and p["lockstep_peers"] else None)
+        self._barrier = (PeerBarrier(p.lockstep_peers, p.lockstep_peer_lag, p.lockstep_peer_timeout)
+                         if self._mode == "lockstep" and p.lockstep_peers else None)
         self._hold = ZeroOrderHold()
         self._pacer = RealtimePacer(TIMESTEP)
-        self._clock_every = 1 if self._mode == "lockstep" else _every(p["realtime_clock_rate_hz"])
-        self._lateness_every = _every(p["lateness_rate_hz"])
-        self._joint_state_every = 1 if self._mode == "lockstep" else _every(p["joint_state_rate_hz"])
+        self._clock_every = 1 if self._mode == "lockstep" else _every(p.realtime_clock_rate_hz)
+        self._lateness_every = _every(p.lateness_rate_hz)
+        self._joint_state_every = 1 if self._mode == "lockstep" else _every(p.joint_state_rate_hz)
         self._joint_state_phase = 0
-        self._wrench_every = _every(p["wrench_rate_hz"])
-        self._poses_every = _every(p["object_pose_rate_hz"])
-        self._diagnostics_every = _every(p["diagnostics_rate_hz"])
-        self._video_path = p["render_video_path"] or None
-        self._snapshot_dir = p["snapshot_dir"] or None
+        self._wrench_every = _every(p.wrench_rate_hz)
+        self._poses_every = _every(p.object_pose_rate_hz)
+        self._diagnostics_every = _every(p.diagnostics_rate_hz)
+        self._video_path = p.render_video_path or None
+        self._snapshot_dir = p.snapshot_dir or None
         if self._video_path:
             try:
                 check_video_path(self._video_path)  # refuse an unwritable format now, not after the run
             except ValueError as exc:
                 raise FicInputError(f"render_video_path: {exc}") from exc
-        self._tape = (StateTape(1.0 / p["video_frame_rate_hz"]) if (self._video_path or self._snapshot_dir) else None)
+        self._tape = (StateTape(1.0 / p.video_frame_rate_hz) if (self._video_path or self._snapshot_dir) else None)
         if self._tape is not None:
             self._tape.maybe_record(self._sim.data)  # the initial state is the first frame
-        self._video_fps = p["video_frame_rate_hz"]
-        self._snapshot_interval = p["snapshot_interval"]
-        self._viewer = launch_viewer(self._sim.model, self._sim.data) if p["viewer"] else None
-        if p["viewer"] and self._viewer is None:
+        self._video_fps = p.video_frame_rate_hz
+        self._snapshot_interval = p.snapshot_interval
+        self._viewer = launch_viewer(self._sim.model, self._sim.data) if p.viewer else None
+        if p.viewer and self._viewer is None:
             self.get_logger().warning("viewer requested but there is no display: running without it")
 
         self._rejected_commands = 0
@@ -232,37 +238,36 @@ class RobotNode(Node):
                                   else list(ARM_JOINT_NAMES))
         # The simulated arm is the Panda; behind the franka_ros2 twin it stands for an FR3 and stops at its limits.
         reflex = VelocityReflex(arm_profile("fr3" if self._franka else "panda").joint_velocity,
-                                self._joint_state.name) if p["velocity_reflex"] else None
+                                self._joint_state.name) if p.velocity_reflex else None
         # The watchdog and the state-age rule (on the stamp grid: nanoseconds), the reflex and the hold.
-        self._station = RobotStation(self._sim, command_timeout=p["command_timeout"],
-                                     command_state_timeout=round(p["command_state_timeout"] * 1e9),
+        self._station = RobotStation(self._sim, command_timeout=p.command_timeout,
+                                     command_state_timeout=round(p.command_state_timeout * 1e9),
                                      hold_on_stale=self._hold_on_stale, reflex=reflex)
         self._wrench = WrenchStamped()
         self._wrench.header.frame_id = franka.external_wrench_frame if self._franka else BASE_FRAME
 
         objects = ", ".join(self._sim.layout.movable_bodies) or "none"
         self.get_logger().info(
-            f"robot_sim ready: scene {self._scene}, mode {self._mode}, seed {p['seed']}, watchdog "
-            f"{p['command_timeout']:.3f} "
+            f"robot_sim ready: scene {self._scene}, mode {self._mode}, seed {p.seed}, watchdog "
+            f"{p.command_timeout:.3f} "
             f"s{'' if self._hold_on_stale else ' (off: commands held, as a forward controller does)'}; "
-            f"driver interface {p['driver_interface']}, gravity "
-            f"{'compensated by the arm' if p['gravity_compensation'] else 'in the command'}; "
+            f"driver interface {p.driver_interface}, gravity "
+            f"{'compensated by the arm' if p.gravity_compensation else 'in the command'}; "
             f"/sim/object_poses order: {objects}")
         self._thread = threading.Thread(target=self._run, name=PHYSICS_THREAD_NAME, daemon=True)
         self._thread.start()
 
     # --- parameters --------------------------------------------------------------------------------------------
-    def _declare_parameters(self) -> dict:
-        values = declare(self, SCHEMA)  # every row with its config/robot.yaml value; unknown keys refused
-        if values["driver_interface"] not in ROBOT_INTERFACES:
-            raise FicInputError(f"driver_interface must be one of {ROBOT_INTERFACES}, got "
-                                f"{values['driver_interface']!r}")
-        if values["scene"] not in SCENE_NAMES:
-            raise FicInputError(f"scene must be one of {SCENE_NAMES}, got {values['scene']!r}")
-        values["lockstep_peers"] = [topic for topic in values["lockstep_peers"] if topic]
-        if values["mode"] not in STEPPING_MODES:
-            raise FicInputError(f"mode must be one of {STEPPING_MODES}, got {values['mode']!r}")
-        return values
+    def _declare_parameters(self) -> RobotParameters:
+        # Every row with its config/robot.yaml value; unknown keys refused.
+        p = RobotParameters.from_values(declare(self, SCHEMA))
+        if p.driver_interface not in ROBOT_INTERFACES:
+            raise FicInputError(f"driver_interface must be one of {ROBOT_INTERFACES}, got {p.driver_interface!r}")
+        if p.scene not in SCENE_NAMES:
+            raise FicInputError(f"scene must be one of {SCENE_NAMES}, got {p.scene!r}")
+        if p.mode not in STEPPING_MODES:
+            raise FicInputError(f"mode must be one of {STEPPING_MODES}, got {p.mode!r}")
+        return p.replaced({"lockstep_peers": [topic for topic in p.lockstep_peers if topic]})
 
     # --- commands (executor thread) ------------------------------------------------------------------------------
     def _on_command(self, message: Float64MultiArray) -> None:

@@ -9,10 +9,10 @@ to +-0.1 s, the hand's impedance by up to +-20 %, the reactive hand's latencies 
 5 ms of channel jitter. A piece counts when it ends inside the box (fic_teleop_experiments.shape_sorting.inside_box);
 the outcome of each trial also gives the operator's phases, its retries and the time it took per piece.
 
-    source scripts/env.sh && python -m fic_teleop_experiments.e2_in_process --trials 4 --json
-    results/e2_operator_fic.json python -m fic_teleop_experiments.e2_in_process --controller linear --first-seed 3
-    --trials 1 --json linear_3.json python -m fic_teleop_experiments.e2_in_process --merge linear_1.json linear_3.json
-    --json OUT.json --plot OUT.png
+    source scripts/env.sh
+    python -m fic_teleop_experiments.e2 trial --trials 4 --json results/e2_operator_fic.json
+    python -m fic_teleop_experiments.e2 trial --controller linear --first-seed 3 --trials 1 --json linear_3.json
+    python -m fic_teleop_experiments.e2 trial --merge linear_1.json linear_3.json --json OUT.json --plot OUT.png
 """
 from __future__ import annotations
 
@@ -34,57 +34,7 @@ from fic_teleop_tools.verdict.run_verdict import VerdictCriterion, VerdictInput,
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
 from sim_bridge.device.virtual_operator import load_script
 
-FORCE_OF_NOTE_N = 10.0   # the replica's F_max: time spent above it is reported, as in the graph's E2 table
-
-
-def operator_outcome(moves: list[tuple[str, float, float]], force: np.ndarray, time: np.ndarray) -> dict:
-    """Per piece, from the operator's phase log: when it was started and finished (seen inside, or given up), the
-    grasp and insertion attempts (a retry is any attempt after the first), the phases it went through with their
-    start times, and the peak force at the replica between its start and finish."""
-    pieces: dict[str, dict] = {}
-    for label, start, value in moves:
-        shape, phase = label.split(":", 1)
-        piece = pieces.setdefault(shape, {"start_s": round(start, 2), "end_s": None, "result": "unfinished",
-                                          "grasps": 0, "insertions": 0, "phases": []})
-        if phase == "reach":
-            piece["grasps"] += 1
-        elif phase == "descend":
-            piece["insertions"] += 1
-        elif phase in ("done", "gave_up"):
-            piece["end_s"], piece["result"] = round(start, 2), "inside" if phase == "done" else "gave up"
-        if not piece["phases"] or piece["phases"][-1][0] != phase:
-            piece["phases"].append((phase, round(start, 2), round(value, 4)))
-    for piece in pieces.values():
-        end = piece["end_s"] if piece["end_s"] is not None else float(time[-1])
-        window = (time >= piece["start_s"]) & (time <= end)
-        piece["duration_s"] = round(end - piece["start_s"], 2)
-        piece["retries"] = max(piece["grasps"] - 1, 0) + max(piece["insertions"] - piece["grasps"], 0)
-        piece["peak_force_n"] = round(float(force[window].max()), 1) if window.any() else 0.0
-    return pieces
-
-
-#: The contact phases whose forces tell why a piece failed: the press that forms the bond, the insertion, the lock
-#: against the hole's wall and the pull that should break the bond.
-CONTACT_PHASES = ("press_felt", "descend", "search", "insert", "lock", "pull")
-
-
-def phase_forces(row: dict) -> list[tuple[str, float, float, float, float | None]]:
-    """From a trial's trace: each contact phase (CONTACT_PHASES) as (label, start, end, the replica's peak |F_R| in
-    it [N], the largest |x_d - x_R| in it [m] or None when the trace has no error), in order."""
-    trace = row["trace"]
-    time, force = np.asarray(trace["time"]), np.asarray(trace["force_n"])
-    error = np.asarray(trace["error_m"]) if "error_m" in trace else None
-    phases = trace["phases"]
-    result = []
-    for (label, start), (_, end) in zip(phases, [*phases[1:], ("end", float(time[-1]))]):
-        if label.split(":", 1)[1] not in CONTACT_PHASES:
-            continue
-        window = (time >= start) & (time < end)
-        if not window.any():
-            continue
-        result.append((label, start, end, round(float(force[window].max()), 1),
-                       None if error is None else round(float(error[window].max()), 3)))
-    return result
+from .outcome import FORCE_OF_NOTE_N, operator_outcome
 
 
 def trial(seed: int, duration: float, jitter: bool, operator: str, controller: str, delay: float,
@@ -130,8 +80,8 @@ def trial(seed: int, duration: float, jitter: bool, operator: str, controller: s
     return row
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``trial`` subcommand's options (fic_teleop_experiments.e2.command_line)."""
     parser.add_argument("--trials", type=int, default=4, help="seeds 1..N (default 4, the paper's count)")
     parser.add_argument("--first-seed", type=int, default=1)
     parser.add_argument("--operator", choices=("shape_sorting", "scripted"), default="shape_sorting")
@@ -150,7 +100,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plot", type=Path, default=None,
                         help="with --merge or a run: the replica's |F| against time for each trial, F_max and the "
                              "operator's phases (PNG)")
-    args = parser.parse_args(argv)
+
+
+def run_trials(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """The ``trial`` subcommand: run seeds first-seed.. (or merge earlier runs), summarise, plot."""
     if args.merge:
         runs = [json.loads(path.read_text()) for path in args.merge]
         trials = sorted((row for run in runs for row in run["trials"]), key=lambda row: row["seed"])
@@ -160,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.trials < 1:
         parser.error("--trials must be at least 1")
     script = load_script(config_folder() / "operator_scripts" / "shape_sorting.yaml")
-    # The operator's trial length, as on the graph (paper_experiments.py, e2_graph.py); the script's own length.
+    # The operator's trial length, as on the graph (paper_experiments.py, e2/graph.py); the script's own length.
     duration = args.duration or (round(script.duration + 1.0, 1) if args.operator == "scripted" else TRIAL_DURATION_S)
     trials = []
     seeds = range(args.first_seed, args.first_seed + args.trials)
@@ -228,6 +181,3 @@ def summarise(trials: list[dict], setup: dict, path: Path | None) -> int:
         print(f"[e2] {path}")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -7,18 +7,18 @@ most sqrt(2) F_max = 14.1 N with two axes past x_b, as in a lock (x) held while 
 |F_R| at the replica, which the trials report. This reads them per lock-and-pull window (from the operator's
 ``lock`` to the phase after its ``pulled``: the return from the pull is in it):
 
-- in process, by running one trial (e2_in_process.trial, the sweep's or the graph's twin's draws) with the
+- in process, by running one trial (e2.trial, the sweep's or the graph's twin's draws) with the
   simulation and the replica station recorded at every 1 ms physics step; the trial itself is the same;
 - on the graph, from a run folder: the bag's /replica/fic_state (the law's force and error per axis, 100 Hz),
   /ft_sensor/wrench and the robot's /diagnostics (the bond's force, 1 Hz samples: not peaks), and the robot log's
   bond events (formed with its threshold, broke at a force).
 
     source scripts/env.sh
-    python -m fic_teleop_experiments.e2_bond_pulls --seed 3 --law fic --json results/e2_bond_pulls_fic_3.json
-    python -m fic_teleop_experiments.e2_bond_pulls --seed 3 --law fic --no-jitter ...     # the graph's twin
-    python -m fic_teleop_experiments.e2_bond_pulls --graph runs/e2_graph_fic/fic_0.2_seed3 --jsonl \
+    python -m fic_teleop_experiments.e2 bond-pulls --seed 3 --law fic --json results/e2_bond_pulls_fic_3.json
+    python -m fic_teleop_experiments.e2 bond-pulls --seed 3 --law fic --no-jitter ...     # the graph's twin
+    python -m fic_teleop_experiments.e2 bond-pulls --graph runs/e2_graph_fic/fic_0.2_seed3 --jsonl \
         results/e2_graph_fic.jsonl
-    python -m fic_teleop_experiments.e2_bond_pulls --plot results/e2_bond_pulls_seed3.png --results A.json B.json
+    python -m fic_teleop_experiments.e2 bond-pulls --plot results/e2_bond_pulls_seed3.png --results A.json B.json
 """
 from __future__ import annotations
 
@@ -27,14 +27,14 @@ import contextlib
 import json
 import math
 import re
-import sys
 from pathlib import Path
 from typing import Iterator
 
 import numpy as np
 
 from fic_teleop_experiments import in_process
-from fic_teleop_experiments.e2_sweep import LAWS
+
+from .sweep import LAWS
 
 STEP_S = 0.001
 #: x_b of config/replica.yaml (paper Sec. III): beyond it an axis of Eq. 1 is saturated toward F_max.
@@ -113,7 +113,7 @@ def felt_pulls(row: dict) -> list[float]:
 
 def in_process_pulls(seed: int, law: str, delay: float, jitter: bool, duration: float) -> dict:
     """One trial recorded (module docstring): its row (without the trace) and one entry per lock-and-pull."""
-    from fic_teleop_experiments.e2_in_process import trial
+    from .trial import trial
 
     controller, paper_law = LAWS[law]
     with recording() as recorder:
@@ -157,7 +157,7 @@ BOND_EVENT = re.compile(r"bond with (\w+) (formed \(breaks above ([\d.]+) N\)|br
 
 
 def graph_pulls(run_dir: Path, row: dict) -> dict:
-    """One graph trial (its folder and its e2_graph row): one entry per lock-and-pull (module docstring)."""
+    """One graph trial (its folder and its e2.graph row): one entry per lock-and-pull (module docstring)."""
     from mcap_ros2.decoder import DecoderFactory
 
     from fic_teleop_runtime.stamps import seconds
@@ -267,8 +267,8 @@ def plot(results: list[dict], titles: list[str], path: Path) -> None:
     print(f"[e2-bond] {path}")
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``bond-pulls`` subcommand's options (fic_teleop_experiments.e2.command_line)."""
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--law", choices=tuple(LAWS), default="fic")
     parser.add_argument("--delay", type=float, default=0.2)
@@ -276,7 +276,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-jitter", action="store_true",
                         help="the graph's twin: no per-seed operator draws, no channel jitter")
     parser.add_argument("--graph", type=Path, default=None, help="instead of running: a graph trial's run folder")
-    parser.add_argument("--jsonl", type=Path, default=None, help="with --graph: the e2_graph jsonl holding its row")
+    parser.add_argument("--jsonl", type=Path, default=None, help="with --graph: the graph trials' jsonl holding its "
+                                                                 "row")
     parser.add_argument("--json", type=Path, default=None, help="write the result here")
     parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
                         help="instead of running: plot the in-process results given by --results")
@@ -284,7 +285,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="with --plot or --table: results of in-process runs (--json), one panel or row each")
     parser.add_argument("--table", action="store_true",
                         help="instead of running: one markdown row a result of --results (the cuboid's pulls)")
-    args = parser.parse_args(argv)
+
+
+def run_bond_pulls(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """The ``bond-pulls`` subcommand: one trial's pulls (in process, or a graph run's), or a plot or table of
+    earlier results."""
     if args.table:
         if not args.results:
             parser.error("--table needs --results")
@@ -317,6 +322,3 @@ def main(argv: list[str] | None = None) -> int:
         args.json.write_text(json.dumps(result, indent=1) + "\n")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,34 +1,38 @@
 """E2 (shape sorting) sweep on the in-process runner: every law at the paper's 200 ms and at 0, 0.5 and 1 s, with
-the closed-loop shape-sorting operator and the force-reactive hand (e2_in_process.py runs one trial). Resumable: every
-finished trial is one line of the jsonl (--out); a rerun skips the trials already there, so the sweep can be stopped and
-restarted at any time. Trials run seed-major (seed 1 of every cell, then seed 2, ...), so whatever has finished covers
-every cell.
+the closed-loop shape-sorting operator and the force-reactive hand (one trial: e2.trial). Resumable: every finished
+trial is one line of the jsonl (--out); a rerun skips the trials already there, so the sweep can be stopped and
+restarted at any time. Trials are submitted seed-major (seed 1 of every cell, then seed 2, ...), so whatever has
+finished covers every cell. They run on the sweeps' engine (fic_teleop_experiments.engine, docs/CLUSTER.md): one
+worker process by default, which runs them one after another in that order; --workers N, --engine dask or
+--cluster ADDRESS run several at once, each line appended as its trial finishes.
 
 Laws: fic (the replica's default, config/replica.yaml: Eq. 7 with the inertial feedforward and the friction
 compensation), fic_paper_law (Eq. 7 as the paper writes it), linear, linear_bounded, linear_tdpa (linear_bounded
 behind the channel's time-domain passivity controllers).
 
     source scripts/env.sh
-    nice -n 5 python -m fic_teleop_experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10   # run (or resume)
-    nice -n 5 python -m fic_teleop_experiments.e2_sweep --out results/e2_sweep.jsonl --cells fic@0.2 linear@0.2
+    nice -n 5 python -m fic_teleop_experiments.e2 sweep --out results/e2_sweep.jsonl --seeds 10   # run (or resume)
+    nice -n 5 python -m fic_teleop_experiments.e2 sweep --out results/e2_sweep.jsonl --cells fic@0.2 linear@0.2
     # the paper's cell first, every law to 10 seeds, then the default cells (the 200 ms ones are skipped as done)
-    python -m fic_teleop_experiments.e2_sweep --out results/e2_sweep.jsonl --seeds 10 --cells fic@0.2 \
+    python -m fic_teleop_experiments.e2 sweep --out results/e2_sweep.jsonl --seeds 10 --cells fic@0.2 \
         fic_paper_law@0.2 linear@0.2 linear_bounded@0.2 linear_tdpa@0.2
-    python -m fic_teleop_experiments.e2_sweep --out results/e2_sweep.jsonl --summary results/e2_sweep.md  # k/n, Wilson
+    python -m fic_teleop_experiments.e2 sweep --out results/e2_sweep.jsonl --summary results/e2_sweep.md  # k/n
 """
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import sys
 from collections import defaultdict
+from concurrent.futures import Executor, as_completed
 from pathlib import Path
 
 from fic_teleop_experiments.cell_statistics import wilson_interval
-from fic_teleop_experiments.e2_in_process import FORCE_OF_NOTE_N, phase_forces, plot, trial
+from fic_teleop_experiments.engine import EngineError, add_engine_arguments, engine_from_arguments
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
+
+from .jsonl import append_row, close_cut_line, read_rows
+from .outcome import FORCE_OF_NOTE_N, phase_forces
+from .trial import plot, trial
 
 #: law -> (the runner's controller, the paper's Eq. 7 as written)
 LAWS = {"fic": ("fic", False), "fic_paper_law": ("fic", True), "linear": ("linear", False),
@@ -50,19 +54,6 @@ def parse_cell(text: str) -> tuple[str, float]:
     if not 0.0 <= value <= 5.0:
         raise argparse.ArgumentTypeError(f"a cell's delay must be 0-5 s, got {value}")
     return law, value
-
-
-def done_trials(path: Path) -> list[dict]:
-    """The finished trials in the jsonl (a line cut short by a stopped run is skipped)."""
-    if not path.exists():
-        return []
-    rows = []
-    for line in path.read_text().splitlines():
-        try:
-            rows.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return rows
 
 
 def verdicts(trials: list[dict], name: str) -> str:
@@ -125,8 +116,33 @@ def why(rows: list[dict]) -> str:
     return "\n".join(lines) + ("\n" if lines else "")
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def cell_trial(law: str, delay: float, seed: int, duration: float) -> dict:
+    """One trial of a cell (the row the jsonl keeps): the law's controller and Eq. 7 reading, the sweep's draws."""
+    controller, paper_law = LAWS[law]
+    row = trial(seed, duration, True, "shape_sorting", controller, delay, paper_law=paper_law)
+    return {"law": law, "delay_s": delay, **row}
+
+
+def run_cells(out: Path, cells: list[tuple[str, float]], seeds: int, duration: float, executor: Executor) -> int:
+    """Every trial of ``cells`` x seeds 1..``seeds`` not yet in ``out``, submitted seed-major to ``executor``; each
+    row appended to ``out`` as its trial finishes. Returns how many ran."""
+    done = {(row["law"], row["delay_s"], row["seed"]) for row in read_rows(out)}
+    todo = [(law, delay, seed) for seed in range(1, seeds + 1) for law, delay in cells
+            if (law, delay, seed) not in done]
+    print(f"[e2-sweep] {len(done)} trials done, {len(todo)} to run", flush=True)
+    close_cut_line(out)
+    futures = [executor.submit(cell_trial, law, delay, seed, duration) for law, delay, seed in todo]
+    for future in as_completed(futures):
+        row = future.result()
+        append_row(out, row)
+        print(f"[e2-sweep] {row['law']}@{row['delay_s']:g} seed {row['seed']}: {len(row['pieces_inside'])}/"
+              f"{len(PIECE_NAMES)} inside, peak {row['peak_force_n']} N, {row['time_above_f_max_s']} s above "
+              f"{FORCE_OF_NOTE_N:g} N, {row['wall_s']} s wall", flush=True)
+    return len(todo)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``sweep`` subcommand's options (fic_teleop_experiments.e2.command_line)."""
     parser.add_argument("--out", type=Path, required=True, help="the jsonl of finished trials (read, then appended)")
     parser.add_argument("--cells", type=parse_cell, nargs="+", default=None, metavar="LAW@DELAY",
                         help="the cells to run, seed-major; default: every law at every delay, "
@@ -142,20 +158,26 @@ def main(argv: list[str] | None = None) -> int:
                         help="instead of running: for every trial that left a piece outside, each failed piece's "
                              "contact phases with the replica's peak force and largest |x_d - x_R| in each, and what "
                              "the operator logged (the felt force, the seen error)")
-    args = parser.parse_args(argv)
+    parser.add_argument("--workers", type=int, default=None,
+                        help="worker processes on this machine (default 1: one trial after another, seed-major)")
+    add_engine_arguments(parser)
+
+
+def run_sweep(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """The ``sweep`` subcommand: run (or resume) the cells, or report on what the jsonl holds."""
     if args.why:
-        print(why(done_trials(args.out)), end="")
+        print(why(read_rows(args.out)), end="")
         return 0
     if args.plot is not None:
         cells: dict[tuple[str, float], list[dict]] = defaultdict(list)
-        for row in done_trials(args.out):
+        for row in read_rows(args.out):
             cells[(row["law"], row["delay_s"])].append(row)
         for (law, delay), trials in sorted(cells.items()):
             plot(sorted(trials, key=lambda row: row["seed"]), Path(f"{args.plot}_{law}_{delay:g}.png"),
                  f"{law} at {delay:g} s")
         return 0
     if args.summary is not None:
-        table = summary(done_trials(args.out))
+        table = summary(read_rows(args.out))
         if str(args.summary) == "-":
             print(table, end="")
         else:
@@ -165,26 +187,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.seeds < 1:
         parser.error("--seeds must be at least 1")
     cells = args.cells or [parse_cell(cell) for cell in DEFAULT_CELLS]
-    done = {(row["law"], row["delay_s"], row["seed"]) for row in done_trials(args.out)}
-    todo = [(law, delay, seed) for seed in range(1, args.seeds + 1) for law, delay in cells
-            if (law, delay, seed) not in done]
-    print(f"[e2-sweep] {len(done)} trials done, {len(todo)} to run", flush=True)
-    if args.out.exists() and args.out.stat().st_size and not args.out.read_bytes().endswith(b"\n"):
-        with args.out.open("a") as handle:   # a line cut short by a stopped run: the next trial starts a line
-            handle.write("\n")
-    for law, delay, seed in todo:
-        controller, paper_law = LAWS[law]
-        row = trial(seed, args.duration, True, "shape_sorting", controller, delay, paper_law=paper_law)
-        row = {"law": law, "delay_s": delay, **row}
-        with args.out.open("a") as handle:   # one line a trial, flushed: a stopped sweep keeps what it finished
-            handle.write(json.dumps(row) + "\n")
-            handle.flush()
-            os.fsync(handle.fileno())
-        print(f"[e2-sweep] {law}@{delay:g} seed {seed}: {len(row['pieces_inside'])}/{len(PIECE_NAMES)} inside, "
-              f"peak {row['peak_force_n']} N, {row['time_above_f_max_s']} s above {FORCE_OF_NOTE_N:g} N, "
-              f"{row['wall_s']} s wall", flush=True)
+    if args.workers is None and args.cluster is None:
+        args.workers = 1   # on this machine, one trial at a time unless told (a cluster brings its own workers)
+    try:
+        with engine_from_arguments(args) as engine:
+            run_cells(args.out, cells, args.seeds, args.duration, engine.executor)
+    except EngineError as error:
+        parser.error(str(error))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

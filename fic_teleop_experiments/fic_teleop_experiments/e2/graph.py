@@ -1,5 +1,5 @@
 """E2 (shape sorting) trials on the DDS graph: the launcher in lockstep with the shape-sorting operator (the scene's
-default, --operator shape-sorting), one run a seed, judged as e2_in_process.py judges the runner's trials.
+default, --operator shape-sorting), one run a seed, judged as e2.trial judges the runner's trials.
 
 Resumable: each finished trial is one line of the jsonl (--out); a rerun skips the seeds already there. Per trial:
 the pieces inside the box (the robot's ground truth, fic_teleop_experiments.shape_sorting), the operator's phases,
@@ -9,13 +9,13 @@ The seed sets the channel's jitter draws and the bonds' break thresholds; the op
 every graph trial (the in-process runner also varies those by seed).
 
     source scripts/env.sh
-    nice -n 5 python -m fic_teleop_experiments.e2_graph --out results/e2_graph.jsonl --seeds 1 2 3 4
-    python -m fic_teleop_experiments.e2_graph --out results/e2_graph.jsonl --summary -
-    # the docs' tables: every graph law in one (e2_sweep's columns), and graph against the runner seed by seed
-    python -m fic_teleop_experiments.e2_graph --table results/e2_graph_fic.jsonl results/e2_graph_stamped.jsonl \
+    nice -n 5 python -m fic_teleop_experiments.e2 graph --out results/e2_graph.jsonl --seeds 1 2 3 4
+    python -m fic_teleop_experiments.e2 graph --out results/e2_graph.jsonl --summary -
+    # the docs' tables: every graph law in one (the sweep's columns), and graph against the runner seed by seed
+    python -m fic_teleop_experiments.e2 graph --table results/e2_graph_fic.jsonl results/e2_graph_stamped.jsonl \
         results/e2_graph_linear.jsonl
-    python -m fic_teleop_experiments.e2_graph --agreement results/e2_sweep.jsonl --table results/e2_graph_fic.jsonl \
-        results/e2_graph_linear.jsonl
+    python -m fic_teleop_experiments.e2 graph --agreement results/e2_sweep.jsonl \
+        --table results/e2_graph_fic.jsonl results/e2_graph_linear.jsonl
 
 --controller picks the replica's law (config/replica.yaml's ``controller``: fic, or a baseline with the same
 stiffness), --paper-law the FIC's Eq. 7 as the paper writes it.
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import subprocess
 import sys
@@ -34,9 +33,11 @@ from pathlib import Path
 import numpy as np
 
 from fic_teleop_experiments.cell_statistics import wilson_interval
-from fic_teleop_experiments.e2_in_process import FORCE_OF_NOTE_N, operator_outcome
 from fic_teleop_experiments.shape_sorting import PIECE_NAMES, piece_outcomes
 from sim_bridge.device.shape_sorting_operator import TRIAL_DURATION_S
+
+from .jsonl import append_row, close_cut_line, read_rows
+from .outcome import FORCE_OF_NOTE_N, operator_outcome
 
 PHASE = re.compile(r"shape-sorting operator: (\w+:\w+) at ([\d.]+) s \(([-\d.e+naif]+)\)")
 
@@ -163,16 +164,6 @@ def pace(out: Path) -> dict:
     return figures
 
 
-def done_rows(path: Path) -> list[dict]:
-    rows = []
-    for line in path.read_text().splitlines() if path.exists() else []:
-        try:
-            rows.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return rows
-
-
 def summary(rows: list[dict]) -> str:
     by_cell: dict[tuple[str, float], list[dict]] = {}
     for row in rows:
@@ -233,8 +224,8 @@ def agreement(graph_rows: list[dict], runner_rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``graph`` subcommand's options (fic_teleop_experiments.e2.command_line)."""
     parser.add_argument("--out", type=Path, default=None, help="the jsonl of finished trials (read, then appended)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4], help="default 1 2 3 4 (the paper's 4)")
     parser.add_argument("--delay", type=float, default=0.2)
@@ -249,24 +240,27 @@ def main(argv: list[str] | None = None) -> int:
                                                              "robot's stale-command holds with the clocks around "
                                                              "them (stale_holds) and the run's wall pace")
     parser.add_argument("--table", type=Path, nargs="+", default=None, metavar="JSONL",
-                        help="instead of running: e2_sweep's markdown table of these graph jsonl files together "
+                        help="instead of running: the sweep's markdown table of these graph jsonl files together "
                              "(one row a law and delay), or with --agreement the trials they hold")
     parser.add_argument("--agreement", type=Path, default=None, metavar="RUNNER_JSONL",
                         help="with --table: each graph trial beside the runner's trial of the same law, delay and "
-                             "seed in this jsonl (e2_sweep's), as a markdown table")
-    args = parser.parse_args(argv)
+                             "seed in this jsonl (the sweep's), as a markdown table")
+
+
+def run_graph(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """The ``graph`` subcommand: run the seeds not in the jsonl yet, or report on what the jsonl files hold."""
     if args.agreement is not None and args.table is None:
         parser.error("--agreement needs --table (the graph's jsonl files)")
     if args.table is not None:
-        from fic_teleop_experiments.e2_sweep import summary as sweep_table
+        from .sweep import summary as sweep_table
 
-        rows = [row for path in args.table for row in done_rows(path)]
-        print(agreement(rows, done_rows(args.agreement)) if args.agreement else sweep_table(rows), end="")
+        rows = [row for path in args.table for row in read_rows(path)]
+        print(agreement(rows, read_rows(args.agreement)) if args.agreement else sweep_table(rows), end="")
         return 0
     if args.out is None:
         parser.error("--out is needed (the trials' jsonl), except with --table")
     if args.holds:
-        for row in done_rows(args.out):
+        for row in read_rows(args.out):
             out = Path(row["run_dir"])
             print(f"{row['law']}@{row['delay_s']:g} seed {row['seed']}: wall per simulated ms {pace(out)}")
             for hold in stale_holds(out):
@@ -275,30 +269,22 @@ def main(argv: list[str] | None = None) -> int:
                       f"a state {hold.get('newest_state_age_ms')} ms old")
         return 0
     if args.summary is not None:
-        text = summary(done_rows(args.out))
+        text = summary(read_rows(args.out))
         print(text, end="") if str(args.summary) == "-" else args.summary.write_text(text)
         return 0
     args.runs_dir.mkdir(parents=True, exist_ok=True)
     law = args.controller + ("_paper_law" if args.paper_law else "")
-    done = {(row["law"], row["delay_s"], row["seed"]) for row in done_rows(args.out)}
-    if args.out.exists() and args.out.stat().st_size and not args.out.read_bytes().endswith(b"\n"):
-        with args.out.open("a") as handle:   # a line cut short by a stopped run: the next trial starts a line
-            handle.write("\n")
+    done = {(row["law"], row["delay_s"], row["seed"]) for row in read_rows(args.out)}
+    close_cut_line(args.out)
     for seed in args.seeds:
         if (law, args.delay, seed) in done:
             continue
         row = run_trial(seed, args.delay, args.controller, args.paper_law, args.duration, args.runs_dir,
                         args.wall_limit)
-        with args.out.open("a") as handle:
-            handle.write(json.dumps(row) + "\n")
-            handle.flush()
-            os.fsync(handle.fileno())
+        append_row(args.out, row)
         print(f"[e2-graph] {law}@{args.delay:g} seed {seed}: exit {row['launcher_exit_code']}, "
               f"{row['simulated_s']} s simulated in {row['wall_s']} s, {len(row['pieces_inside'])}/{len(PIECE_NAMES)} "
               f"inside, peak {row['peak_force_n']} N, stable {row['verdict']['stable']}, safe {row['verdict']['safe']}",
               flush=True)
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

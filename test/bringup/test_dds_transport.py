@@ -1,0 +1,63 @@
+"""The launcher's DDS transport: the run profile's Fast DDS profile only where the user chose nothing else."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from fic_teleop_bringup import dds_transport
+from fic_teleop_bringup.run_profile import profile_path, read_layer
+from fic_teleop_bringup.workspace import CONFIG
+
+
+@pytest.fixture()
+def profile(tmp_path: Path) -> Path:
+    path = tmp_path / "fastdds.xml"
+    path.write_text("<dds/>")
+    return path
+
+
+def test_the_default_environment_gets_the_profile_and_a_range_that_keeps_its_transports(profile):
+    environ: dict[str, str] = {}
+    line = dds_transport.apply(environ, profile)
+    assert environ["FASTRTPS_DEFAULT_PROFILES_FILE"] == environ["FASTDDS_DEFAULT_PROFILES_FILE"] == str(profile)
+    assert environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SUBNET"
+    assert profile.name in line
+
+
+@pytest.mark.parametrize("given", [
+    {"FASTRTPS_DEFAULT_PROFILES_FILE": "/mine.xml"},
+    {"FASTDDS_DEFAULT_PROFILES_FILE": "/mine.xml"},
+    {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"},
+    {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT"},
+    {"RMW_IMPLEMENTATION": "rmw_cyclonedds_cpp"},
+])
+def test_a_users_own_choice_is_left_as_it_is_and_named(profile, given):
+    environ = dict(given)
+    line = dds_transport.apply(environ, profile)
+    assert environ == given
+    assert any(value in line for value in given.values())
+
+
+def test_localhost_set_explicitly_is_the_default_single_host_case(profile):
+    environ = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+    dds_transport.apply(environ, profile)
+    assert environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SUBNET"
+
+
+def test_no_profile_leaves_the_environment_alone():
+    environ: dict[str, str] = {}
+    assert "defaults" in dds_transport.apply(environ, None)
+    assert environ == {}
+
+
+def test_a_missing_profile_file_is_refused_in_one_line(tmp_path):
+    with pytest.raises(FileNotFoundError, match="dds_profile"):
+        dds_transport.apply({}, tmp_path / "absent.xml")
+
+
+def test_the_default_run_profile_names_the_loopback_udp_file_which_has_no_shared_memory():
+    name = read_layer(profile_path("realtime"))["dds_profile"]
+    text = (CONFIG / name).read_text()
+    assert "<type>UDPv4</type>" in text and "<address>127.0.0.1</address>" in text
+    assert "<useBuiltinTransports>false</useBuiltinTransports>" in text and "SHM" not in text
