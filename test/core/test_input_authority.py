@@ -198,3 +198,17 @@ def test_a_non_finite_or_future_stamp_adds_one_skipped_state(stamp: float) -> No
     assert not guard.joint_state(stamp, NOW)[0]
     assert not guard.joint_state(stamp, NOW)[0]
     assert guard.skipped_states == 2
+
+
+def test_a_jump_of_exactly_the_burst_is_taken_whole_and_one_a_hair_longer_is_rate_limited() -> None:
+    """After a second's rest the bucket holds max_offset_burst (0.05 m): a command that far from the last is
+    within it, taken as sent and not rate-limited; the next float above it is beyond it and clamped to the burst."""
+    for length, limited in ((0.05, False), (float(np.nextafter(0.05, 1.0)), True)):
+        authority = CommandAuthority(AuthorityBounds(max_offset_speed=1.0, max_offset_burst=0.05))
+        authority.check(**command(now=NOW, desired_offset=[0.0, 0.0, 0.0]))
+        verdict = authority.check(**command(now=NOW + 1.0, desired_offset=[0.0, 0.0, -length]))
+        assert verdict.accepted and verdict.rate_limited == limited and not verdict.clamped, length
+        if limited:
+            assert np.linalg.norm(verdict.offset) <= 0.05 and "beyond 1 m/s" in verdict.reason
+        else:
+            np.testing.assert_array_equal(verdict.offset, [0.0, 0.0, -0.05])

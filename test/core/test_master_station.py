@@ -80,6 +80,19 @@ def test_velocity_by_differences_unless_a_twist_is_fresh() -> None:
     np.testing.assert_allclose(station.handle_velocity, [0.001 / 0.48, 0.0, 0.0])
 
 
+def test_a_pose_received_at_the_same_time_as_the_last_keeps_the_differenced_velocity() -> None:
+    """Two poses with one receipt time (a burst delivered together): no time has passed to difference over, so
+    the handle velocity stays the last one measured, finite, and the newer pose is the handle's position."""
+    station = master()
+    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 0.0)
+    station.add_pose([0.001, 0.0, 0.0], (0, 0, 0, 1), 0.01)
+    station.add_pose([0.002, 0.0, 0.0], (0, 0, 0, 1), 0.01)
+    np.testing.assert_allclose(station.handle_velocity, [0.1, 0.0, 0.0])
+    np.testing.assert_array_equal(station.handle_position, [0.002, 0.0, 0.0])
+    station.add_pose([0.003, 0.0, 0.0], (0, 0, 0, 1), 0.02)   # differenced from the newer pose of the burst
+    np.testing.assert_allclose(station.handle_velocity, [0.1, 0.0, 0.0])
+
+
 def test_the_network_tick_sends_the_handle_at_its_own_stamp() -> None:
     """x_M carried forward over the pose's age (device and network timers are not aligned), if that age is at
     most handle_extrapolation; x_d' is computed from it and the command carries the same x_M."""

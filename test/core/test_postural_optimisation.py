@@ -61,7 +61,7 @@ def test_unconstrained_torque_passes_unchanged(robot, limits) -> None:
     desired = gravity + 0.3
     result, _ = shape(optimisation, robot, NOMINAL_CONFIGURATION, np.zeros(7), desired, gravity)
     assert result.flags == LimitFlag.NONE
-    assert not result.solved_qp
+    assert not result.solved_qp and result.iterations == 0   # the fast path: no solver iterations
     assert result.torque_change == 0.0
     np.testing.assert_array_equal(result.torque, desired)
 
@@ -75,6 +75,7 @@ def test_torque_saturation_is_flagged_torque(robot, limits) -> None:
     desired[4] = 30.0  # joint 5's limit is 12 N m
     result, bias = shape(optimisation, robot, NOMINAL_CONFIGURATION, qd, desired, None)
     assert result.flags == LimitFlag.TORQUE
+    assert result.solved_qp and result.iterations >= 1   # the QP ran: its solver's iterations, counted up
     assert result.torque[4] == pytest.approx(12.0)
     assert result.torque_change > 0.0
     assert_inside_box(result, None, limits)
@@ -145,6 +146,33 @@ def test_tcp_speed_limit(robot, limits) -> None:
     _, tcp_ahead = predicted_velocity(optimisation, robot, result.torque, bias)
     assert np.linalg.norm(tcp_ahead) <= 1.7 * (1 + TCP_RELATIVE_TOLERANCE)
     assert np.linalg.norm(tcp_ahead) >= 1.7 * (1 - 2e-3)  # braked to the limit, not far below it
+
+
+def test_the_tcp_speed_cut_is_flagged_whenever_it_shapes_the_command_with_other_limits(robot, limits) -> None:
+    """The TCP-speed case above with one joint's demand also 20 N m past its torque limit, each joint either way, so
+    that a joint limit shapes the command too: TCP_SPEED is flagged exactly when the command is braked onto the TCP
+    limit (its cut active at the solution), beside the joint limit's flag, as when it is the only one shaping it."""
+    optimisation = PosturalOptimisation(limits, DT)
+    q = np.array([-0.994, -0.313, -1.997, -1.823, -2.153, 1.711, -2.071])
+    direction = np.array([-0.125, -0.787, 0.604])
+    robot.update(q, np.zeros(7))
+    weights = np.diag(limits.joint_velocity_array)
+    joint_direction = weights @ np.linalg.pinv(robot.tcp_jacobian[:3] @ weights) @ direction
+    qd = joint_direction * 1.65 / np.linalg.norm(robot.tcp_jacobian[:3] @ joint_direction)
+    robot.update(q, qd)
+    pushing = robot.nonlinear_effects + robot.joint_damping * qd + robot.tcp_jacobian[:3].T @ (20.0 * direction)
+    both = 0
+    for joint in range(7):
+        for sign in (1.0, -1.0):
+            demand = pushing.copy()
+            demand[joint] = sign * (limits.torque[joint] + 20.0)
+            result, bias = shape(optimisation, robot, q, qd, demand, None)
+            assert result.flags & ~LimitFlag.TCP_SPEED, (joint, sign)   # a joint limit shaped it as well
+            _, tcp_ahead = predicted_velocity(optimisation, robot, result.torque, bias)
+            on_the_limit = np.linalg.norm(tcp_ahead) >= 1.7 * (1 - 2e-3)
+            assert (LimitFlag.TCP_SPEED in result.flags) == on_the_limit, (joint, sign, np.linalg.norm(tcp_ahead))
+            both += on_the_limit
+    assert both >= 7
 
 
 def test_joint_beyond_its_limit_relaxes_without_exception(robot, limits) -> None:

@@ -163,3 +163,39 @@ def test_non_finite_errors_are_rejected(bad: float) -> None:
             call(np.array([0.0, bad]))
     with pytest.raises(FicInputError, match="error"):
         force_profile([bad], stiffness=1000.0, saturation_error=0.05, saturation_start=0.5, max_force=40.0)
+
+
+def test_the_secant_stiffness_at_the_end_of_the_linear_region_is_k0_exactly() -> None:
+    """xi x_b is the largest |e| of the linear region (F_c = K0 e there, Eq. 1's first line): its secant stiffness
+    is K0 itself, in the array and the float form, on either side, not K0 xi x_b / (xi x_b) rounded (which misses
+    K0 by an ulp for about one profile in ten of these)."""
+    rng = np.random.default_rng(146)
+    for _ in range(200):
+        profile = ForceProfile(rng.uniform(1.0, 5000.0), rng.uniform(1e-3, 1.0), rng.uniform(0.01, 0.99), 1e6)
+        for error in (profile.linear_limit, -profile.linear_limit):
+            assert float(profile.force(error)) == profile.stiffness * error
+            assert float(profile.secant_stiffness(error)) == profile.stiffness, profile
+            assert profile.scalar_secant_stiffness(error) == profile.stiffness, profile
+
+
+@pytest.mark.parametrize("stiffness, saturation_start, max_force", [(1e4, 1e-11, 30.0), (1e4, 1e-11, 1e-5),
+                                                                    (200.0, 1e-12, 30.0), (5e3, 0.0, 2.0)])
+def test_just_past_a_tiny_linear_region_the_secant_follows_the_tangent_at_its_end(
+        stiffness: float, saturation_start: float, max_force: float) -> None:
+    """Below 1e-9 x_b (and past xi x_b) F_c(a)/a is taken from the line F0 + F_c'(xi x_b+) (a - xi x_b), as the
+    difference of two tanh values loses its digits there: the slope is Eq. 1's derivative at the start of the
+    saturation, dF / (1 - tanh(-pi)) x sech^2(-pi) / S, recomputed here from the parameters."""
+    saturation_error = 0.05
+    profile = ForceProfile(stiffness, saturation_error, saturation_start, max_force)
+    start = saturation_start * saturation_error
+    start_force = saturation_start * stiffness * saturation_error
+    width = (1.0 - saturation_start) * saturation_error / (2.0 * math.pi)
+    slope = (max_force - start_force) / (1.0 - math.tanh(-math.pi)) * (1.0 - math.tanh(-math.pi) ** 2) / width
+    for magnitude in (start * 2.0 + 1e-14, 4e-12, 1e-11, 4e-11):
+        assert start < magnitude <= 1e-9 * saturation_error
+        expected = (start_force + slope * (magnitude - start)) / magnitude
+        for value in (float(profile.secant_stiffness(magnitude)), profile.scalar_secant_stiffness(magnitude)):
+            assert math.isclose(value, expected, rel_tol=1e-13), (magnitude, value, expected)
+    if saturation_start == 0.0:   # no linear region: the secant at 0 is that slope
+        assert math.isclose(float(profile.secant_stiffness(0.0)), slope, rel_tol=1e-13)
+        assert math.isclose(profile.scalar_secant_stiffness(0.0), slope, rel_tol=1e-13)

@@ -345,3 +345,34 @@ def test_a_controller_with_only_the_protocol_gives_the_same_command(robot: Robot
         NOMINAL_CONFIGURATION, np.full(7, 0.05), target, rotation)
     np.testing.assert_allclose(foreign.torque, native.torque, atol=1e-12)
     np.testing.assert_allclose(foreign.stored_energy, native.stored_energy, atol=1e-15)
+
+
+def test_the_commands_ratios_are_each_limits_share_and_never_above_one(robot: RobotModel, limits: PandaLimits) -> None:
+    """torque_ratio and torque_rate_ratio report how much of its limit each joint's command uses (|tau| / tau_max,
+    |tau - tau_prev| / (rate x interval)): recomputed here, and at most 1 on ticks whose demands drive the torque
+    onto its box (the command never breaks either limit)."""
+    replica = ReplicaController(robot, paper_fic())
+    target, rotation = nominal_pose(robot)
+    rng = np.random.default_rng(245)
+    largest = 0.0
+    for _ in range(40):
+        command = replica.command(NOMINAL_CONFIGURATION, np.zeros(7), target + rng.normal(scale=0.5, size=3),
+                                  rotation)
+        np.testing.assert_allclose(command.torque_ratio, np.abs(command.torque) / limits.torque_array, rtol=1e-12)
+        assert np.all(command.torque_ratio <= 1.0 + 1e-9) and np.all(command.torque_rate_ratio <= 1.0 + 1e-9)
+        largest = max(largest, float(command.torque_ratio.max()))
+    assert largest > 0.1
+
+
+def test_the_feedforward_wrench_solves_its_system_also_when_the_model_is_corrupt(robot: RobotModel) -> None:
+    """Lambda a = (J M^-1 J^T + mu I)^-1 a by Cholesky; a corrupt model whose J M^-1 J^T is not positive
+    semidefinite makes Cholesky fail, and the wrench is then the least-squares solution of the same system."""
+    replica = ReplicaController(robot, paper_fic())
+    acceleration = np.array([0.3, -0.2, 0.1, 0.5, 0.0, -0.4])
+    rng = np.random.default_rng(673)
+    basis = np.linalg.qr(rng.normal(size=(6, 6)))[0]
+    for eigenvalues in ((2.0, 1.0, 0.5, 0.3, 0.2, 0.1), (2.0, -1.0, 0.5, -0.3, 0.2, 0.1)):
+        task_inverse_inertia = basis @ np.diag(eigenvalues) @ basis.T
+        wrench = replica._feedforward_wrench(task_inverse_inertia, acceleration)
+        matrix = task_inverse_inertia + replica.feedforward_regularisation * np.eye(6)
+        np.testing.assert_allclose(matrix @ wrench, acceleration, atol=1e-9)

@@ -276,3 +276,54 @@ def test_the_paper_law_switches_off_the_terms_beyond_eq_7() -> None:
     assert not (p.planner_feedforward or p.offset_feedforward or p.joint_damping_compensation)
     assert not loop.controller.joint_damping_compensation and not loop.desired.parameters.planner_feedforward
     assert ReplicaLoop(replica_loop_parameters(paper_law=False, **beyond)).parameters.offset_feedforward
+
+
+@pytest.mark.parametrize("position, quaternion", [((math.nan, 0.0, 0.5), (0.0, 0.0, 0.0, 1.0)),
+                                                  ((0.3, 0.0, 0.5), (0.0, 0.0, 0.0, 0.0)),
+                                                  ((0.3, 0.0), (0.0, 0.0, 0.0, 1.0))])
+def test_a_refused_planner_pose_is_counted_as_refused_and_changes_nothing(position, quaternion) -> None:
+    """A planner pose with a non-finite or short position, or a zero quaternion, is refused in one line
+    (FicInputError), counted under rejected_planner_poses and not as received, and x_d stays where it was."""
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True))
+    loop.joint_state(0.0, 0.0, Q0, QD0)
+    before = loop.desired.update(0.001, 0.001).position.copy()
+    with pytest.raises(FicInputError):
+        loop.add_planner_pose(1_000_000, position, quaternion, 0.001)
+    assert loop.counts["rejected_planner_poses"] == 1 and loop.counts["planner_poses"] == 0
+    np.testing.assert_array_equal(loop.desired.update(0.002, 0.001).position, before)
+    loop.add_planner_pose(2_000_000, before, (0.0, 0.0, 0.0, 1.0), 0.002)
+    assert loop.counts["rejected_planner_poses"] == 1 and loop.counts["planner_poses"] == 1
+
+
+def test_a_refused_teleoperation_offset_is_counted_as_refused() -> None:
+    """x_d' with a non-finite entry, given straight to add_teleoperation: refused, counted as refused only."""
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True))
+    loop.joint_state(0.0, 0.0, Q0, QD0)
+    with pytest.raises(FicInputError):
+        loop.add_teleoperation(1_000_000, (0.0, math.inf, 0.0), 0.001)
+    assert loop.counts["rejected_teleop_commands"] == 1 and loop.counts["teleop_commands"] == 0
+    assert loop.desired.master_received is None
+
+
+def test_a_control_step_that_refuses_its_inputs_is_counted_said_and_held(monkeypatch) -> None:
+    """The controller refusing what the loop hands it (only a bug upstream could cause it): the tick holds instead
+    (the same law toward the held pose), counts a controller error, and says why at the error level."""
+    loop = ReplicaLoop(replica_loop_parameters(answer_every_state=True))
+    loop.joint_state(0.0, 0.0, Q0, QD0)
+    held = loop.controller.hold(Q0, QD0)
+
+    law = loop.controller.command
+    calls = []
+
+    def refuse_once(*args, **kwargs):   # the hold then runs the law itself, toward the held pose
+        calls.append(args)
+        if len(calls) == 1:
+            raise FicInputError("desired_position has a NaN")
+        return law(*args, **kwargs)
+    monkeypatch.setattr(loop.controller, "command", refuse_once)
+    step = loop.joint_state(0.001, 0.001, Q0, QD0)
+    assert loop.counts["controller_errors"] == 1
+    assert any(level == "error" and "refused its inputs" in text for level, text in step.notices)
+    assert step.command is not None and np.all(np.isfinite(step.command.torque))
+    assert len(calls) == 2
+    np.testing.assert_allclose(step.command.torque, held.torque, atol=1e-6)

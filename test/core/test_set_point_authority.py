@@ -69,3 +69,19 @@ def test_the_loop_bounds_the_planner_pose_and_takes_one_sent_before_its_first_st
     # x_d'' moved from the box's edge toward the new pose by no more than the burst
     assert loop.planner_authority.rate_limited == 1
     assert loop.statistics()["clamped_planner_poses"] == "1"
+
+
+def test_a_step_of_exactly_the_burst_is_taken_whole_and_one_a_hair_longer_is_rate_limited() -> None:
+    """The bucket holds max_offset_burst (0.01 m) after a second's rest: a step of exactly that is within it (taken
+    as asked, not counted rate-limited, no reason), the next float above it is beyond it (clamped to the burst)."""
+    for length, limited in ((0.01, False), (float(np.nextafter(0.01, 1.0)), True)):
+        bounded = authority()
+        bounded.check(START, 0.0)
+        target = START + [0.0, length, 0.0]
+        position = bounded.check(target, 1.0)
+        assert bounded.rate_limited == int(limited), length
+        assert ("jumps beyond" in bounded.last_reason) == limited
+        if limited:
+            assert np.linalg.norm(position - START) <= 0.01
+        else:
+            np.testing.assert_array_equal(position, target)
