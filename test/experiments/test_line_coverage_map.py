@@ -148,17 +148,22 @@ def test_what_runs_at_import_selects_every_test(built: LineMap) -> None:
 
 
 def test_contexts_outside_a_test_or_in_a_fixture_widen_and_a_call_does_not() -> None:
-    tests = [{"id": "test/core/test_a.py::test_1", "shared": ["robot"]},
-             {"id": "test/core/test_a.py::test_2", "shared": []},
-             {"id": "test/core/test_a.py::test_3", "shared": ["robot"]},
-             {"id": "test/core/test_b.py::test_1", "shared": []}]
+    tests = [{"id": "test/core/test_a.py::test_1", "shared": {"robot": "module"}},
+             {"id": "test/core/test_a.py::test_2", "shared": {}},
+             {"id": "test/core/test_a.py::test_3", "shared": {"robot": "module"}},
+             {"id": "test/core/test_b.py::test_1", "shared": {"robot": "module", "world": "session"}},
+             {"id": "test/core/test_c.py::test_1", "shared": {"world": "session"}},
+             {"id": "test/core/test_c.py::test_2", "shared": {}}]
     line_map = line_coverage_map.line_map_from("t", tests, {"m.py": {
         1: [""],                                                    # importing or collecting
         2: ["test/core/test_a.py::test_2|setup"],                   # a fixture: the file's tests
-        3: ["test/core/test_a.py::test_2|run", "test/core/test_b.py::test_1|run"],
-        4: ["test/core/test_a.py::test_1|run"],                     # shares robot with test_3
+        3: ["test/core/test_a.py::test_2|run", "test/core/test_c.py::test_2|run"],
+        4: ["test/core/test_a.py::test_1|run"],                     # shares robot (module) with test_3 only
+        5: ["test/core/test_b.py::test_1|run"],                     # shares world (session) with test_c's test_1
+        6: ["test/core/test_b.py::test_1|setup"],                   # may set up the session's world
+        7: ["test/core/test_c.py::test_2|teardown"],                # the last test: the session's fixtures end
     }})
-    assert line_map.lines["m.py"] == {1: ALL, 2: (0, 1, 2), 3: (1, 3), 4: (0, 2)}
+    assert line_map.lines["m.py"] == {1: ALL, 2: (0, 1, 2), 3: (1, 5), 4: (0, 2), 5: (3, 4), 6: ALL, 7: ALL}
 
 
 def test_a_mutant_no_test_executes_survives_without_a_pytest_run(monkeypatch) -> None:

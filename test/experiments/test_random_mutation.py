@@ -132,9 +132,12 @@ def test_only_a_held_out_draw_scores_and_each_law_module_gets_its_kill_rate(monk
     assert score["per_module"]["replica.py"]["kill_rate"] == 1.0
     assert score["per_module"]["planner.py"] == {"drawn": 0, "equivalent": 0, "non_equivalent": 0, "killed": 0,
                                                  "kill_rate": None}
-    table = random_mutation.pooled_table([fit, score])
-    assert "| limits | 4 | 0 | 2 / 4 | 0.500 |" in table and "| replica | 4 | 0 | 4 / 4 | 1.000 |" in table
-    assert "| planner | 0 | 0 | 0 / 0 | - |" in table and "| all | 8 | 0 | 6 / 8 | 0.750 |" in table
+    table = random_mutation.pooled_table([fit, score])   # a column a draw, then the pooled figures
+    assert "| limits | 4 | 0 | 1 / 2 | 1 / 2 | 2 / 4 | 0.500 |" in table
+    assert "| replica | 4 | 0 | 2 / 2 | 2 / 2 | 4 / 4 | 1.000 |" in table
+    assert "| planner | 0 | 0 | 0 / 0 | 0 / 0 | 0 / 0 | - |" in table
+    assert "| all | 8 | 0 | 3 / 4 | 3 / 4 | 6 / 8 | 0.750 |" in table
+    assert "| limits | 2 | 0 | 1 / 2 | 0.500 |" in random_mutation.pooled_table([score])   # one draw: no column
 
 
 def test_a_held_out_draw_can_be_neither_listed_nor_rerun(monkeypatch, tmp_path: Path, capsys) -> None:

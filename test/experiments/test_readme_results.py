@@ -344,10 +344,11 @@ FIGURES = [
            r"(?P<fic_paper_law>\d+, \d+ and \d+), linear (?P<linear>\d+, \d+ and \d+), linear_bounded "
            r"(?P<linear_bounded>\d+, \d+ and \d+), linear_tdpa (?P<linear_tdpa>\d+, \d+ and \d+)",
            lambda: e2_sweep_other_delays()),
-    Figure("E2 lockstep graph, scripted operator: trials complete", "RESULTS",
-           r"\((?P<complete>\d+) of (?P<trials>\d+) trials complete, 2026-12-02\)",
-           lambda: dict(complete=str(result("e2.json")["successful_trials"]),
-                        trials=str(len(result("e2.json")["trials"])))),
+    Figure("E2 on the new command path: the FIC's graph trials", "RESULTS",
+           r"graph, seeds 1-4: the FIC completes (?P<complete>\d+) of (?P<trials>\d+) trials",
+           lambda: {key: value for key, value in graph_trials(
+               "e2_graph_fic_link_hold.jsonl", r"graph, seeds 1-4: the FIC completes \d+ of (?P<trials>\d+) trials"
+           ).items() if key in ("complete", "trials")}),
 ]
 
 

@@ -14,11 +14,13 @@ The rule (``selection``), sound by construction:
 - a line executed outside any test (importing a test file, collecting its parameters, its module-level objects):
   every test runs, as every test may hold what it made;
 - a line executed while a test's fixtures were set up or torn down: every test of that file runs (a module-scoped
-  fixture, such as conftest's ``robot`` and ``limits``, is shared by the file's tests; none of test/core's is
-  wider);
-- a line executed in a test's call: that test, and the tests of its file that share a fixture wider than one test
-  with it (an object such a fixture hands out may keep what the line computed, as ``PandaLimits``' cached
-  properties do, and the next test reads it without executing the line);
+  fixture, such as conftest's ``robot`` and ``limits``, is shared by the file's tests), every test when the test
+  reaches a session- or package-scoped fixture (shared across files) or is the last to run (its teardown ends
+  the session's fixtures);
+- a line executed in a test's call: that test, the tests of its file that share a module- or class-scoped fixture
+  with it, and the tests anywhere that share a session- or package-scoped one (an object such a fixture hands
+  out may keep what the line computed, as ``PandaLimits``' cached properties do, and the next test reads it
+  without executing the line);
 - a line no test executes: the mutant survives without a pytest run, as no test can see it.
 
 The map is built once per tree: the hash of what decides it (fic_core's modules, test/conftest.py, test/core,
@@ -50,6 +52,9 @@ CONTEXT_PLUGIN = "fic_line_contexts"
 #: Where the maps are kept, under the repository (gitignored): one JSON per tree hash.
 CACHE = Path(".cache") / "line_coverage_map"
 
+#: Fixture scopes whose one value several test files share.
+_ACROSS_FILES = ("session", "package")
+
 ALL = "all"
 TESTS = "tests"
 NONE = "none"
@@ -74,8 +79,8 @@ def _switch(name):
 
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_setup(item):
-    shared = sorted(name for name, definitions in item._fixtureinfo.name2fixturedefs.items()
-                    if definitions and definitions[-1].scope != "function")
+    shared = {name: definitions[-1].scope for name, definitions in item._fixtureinfo.name2fixturedefs.items()
+              if definitions and definitions[-1].scope != "function"}
     _TESTS.append({"id": item.nodeid, "shared": shared})
     _switch(item.nodeid + "|setup")
     yield
@@ -180,18 +185,24 @@ def _test_file(test_id: str) -> str:
 
 
 def line_map_from(tree: str, tests: list[dict], contexts_by_line: dict[str, dict[int, list[str]]]) -> LineMap:
-    """The map from what the coverage run recorded: ``tests`` (the plugin's list, in run order: id and shared
-    fixture names), ``contexts_by_line`` (module file name -> line -> its contexts, "" for none)."""
+    """The map from what the coverage run recorded: ``tests`` (the plugin's list, in run order: id and the scope
+    of each fixture wider than one test it reaches), ``contexts_by_line`` (module file name -> line -> its
+    contexts, "" for none)."""
     ids = [test["id"] for test in tests]
     index = {test_id: number for number, test_id in enumerate(ids)}
     by_file: dict[str, list[int]] = {}
     for number, test_id in enumerate(ids):
         by_file.setdefault(_test_file(test_id), []).append(number)
     sharing: dict[int, set[int]] = {}
+    reaches_across: set[int] = set()   # tests that reach a fixture shared across files
     for number, test in enumerate(tests):
-        shared = set(test["shared"])
+        within = {name for name, scope in test["shared"].items() if scope not in _ACROSS_FILES}
+        across = {name for name, scope in test["shared"].items() if scope in _ACROSS_FILES}
+        if across:
+            reaches_across.add(number)
         sharing[number] = {number} | {other for other in by_file[_test_file(test["id"])]
-                                      if shared & set(tests[other]["shared"])}
+                                      if within & set(tests[other]["shared"])}
+        sharing[number] |= {other for other in range(len(tests)) if across & set(tests[other]["shared"])}
     lines: dict[str, dict[int, str | tuple[int, ...]]] = {}
     for module, by_line in contexts_by_line.items():
         table = lines.setdefault(module, {})
@@ -204,6 +215,9 @@ def line_map_from(tree: str, tests: list[dict], contexts_by_line: dict[str, dict
                     break
                 if phase == "run":
                     chosen |= sharing[index[test_id]]
+                elif index[test_id] in reaches_across or index[test_id] == len(ids) - 1:
+                    chosen = None                          # a fixture shared across files, or the session's end
+                    break
                 else:                                      # a fixture's setup or teardown: the file's tests
                     chosen.update(by_file[_test_file(test_id)])
             table[line] = ALL if chosen is None else tuple(sorted(chosen))
