@@ -128,19 +128,25 @@ def test_joint_position_limit_brakes_in_time(robot, limits) -> None:
     assert next_velocity[3] * lag + next_velocity[3] ** 2 / (2 * a) <= room + 1e-6
 
 
-def test_tcp_speed_limit(robot, limits) -> None:
-    optimisation = PosturalOptimisation(limits, DT)
-    # A configuration and direction where 1.65 m/s at the TCP needs less than half of every joint speed limit.
+def _tcp_at_1_65_m_s(robot, limits) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A configuration moving at 1.65 m/s at the TCP, near its 1.7 m/s limit (robot updated to it), and the torque
+    that pushes on along that direction with 20 N at the TCP: (q, qd, pushing)."""
     q = np.array([-0.994, -0.313, -1.997, -1.823, -2.153, 1.711, -2.071])
     direction = np.array([-0.125, -0.787, 0.604])
     robot.update(q, np.zeros(7))
     weights = np.diag(limits.joint_velocity_array)
     joint_direction = weights @ np.linalg.pinv(robot.tcp_jacobian[:3] @ weights) @ direction
     qd = joint_direction * 1.65 / np.linalg.norm(robot.tcp_jacobian[:3] @ joint_direction)
-    assert np.all(np.abs(qd) < 0.5 * limits.joint_velocity_array)
     robot.update(q, qd)
-    bias = robot.nonlinear_effects + robot.joint_damping * qd
-    pushing = bias + robot.tcp_jacobian[:3].T @ (20.0 * direction)
+    pushing = robot.nonlinear_effects + robot.joint_damping * qd + robot.tcp_jacobian[:3].T @ (20.0 * direction)
+    return q, qd, pushing
+
+
+def test_tcp_speed_limit(robot, limits) -> None:
+    optimisation = PosturalOptimisation(limits, DT)
+    q, qd, pushing = _tcp_at_1_65_m_s(robot, limits)
+    # A configuration and direction where 1.65 m/s at the TCP needs less than half of every joint speed limit.
+    assert np.all(np.abs(qd) < 0.5 * limits.joint_velocity_array)
     result, bias = shape(optimisation, robot, q, qd, pushing, None)
     assert result.flags == LimitFlag.TCP_SPEED
     _, tcp_ahead = predicted_velocity(optimisation, robot, result.torque, bias)
@@ -153,14 +159,7 @@ def test_the_tcp_speed_cut_is_flagged_whenever_it_shapes_the_command_with_other_
     that a joint limit shapes the command too: TCP_SPEED is flagged exactly when the command is braked onto the TCP
     limit (its cut active at the solution), beside the joint limit's flag, as when it is the only one shaping it."""
     optimisation = PosturalOptimisation(limits, DT)
-    q = np.array([-0.994, -0.313, -1.997, -1.823, -2.153, 1.711, -2.071])
-    direction = np.array([-0.125, -0.787, 0.604])
-    robot.update(q, np.zeros(7))
-    weights = np.diag(limits.joint_velocity_array)
-    joint_direction = weights @ np.linalg.pinv(robot.tcp_jacobian[:3] @ weights) @ direction
-    qd = joint_direction * 1.65 / np.linalg.norm(robot.tcp_jacobian[:3] @ joint_direction)
-    robot.update(q, qd)
-    pushing = robot.nonlinear_effects + robot.joint_damping * qd + robot.tcp_jacobian[:3].T @ (20.0 * direction)
+    q, qd, pushing = _tcp_at_1_65_m_s(robot, limits)
     both = 0
     for joint in range(7):
         for sign in (1.0, -1.0):
