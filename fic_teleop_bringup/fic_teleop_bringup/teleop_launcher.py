@@ -342,6 +342,12 @@ class Graph:
         return codes
 
 
+def _node_parameter(specs: list, name: str):
+    """The first value of parameter ``name`` the graph's nodes are given (a group's members too), None if none is."""
+    return next((node.params[name] for spec in specs for node in (spec.members or [spec]) if name in node.params),
+                None)
+
+
 def _interrupt(process: subprocess.Popen, timeout: float) -> tuple[int, bool]:
     """SIGINT, then SIGKILL after ``timeout`` s: (the exit code, whether it had to be killed)."""
     if process.poll() is None:
@@ -677,10 +683,7 @@ def main(argv: list[str] | None = None) -> int:
             return EXIT_REFUSED
         # Realtime with a scripted operator: the run's duration counts from the script's start (its origin on the
         # wall clock), so that the script's last moves are not cut by the nodes' start-up time.
-        script_origin = next((node.params["script_start_time"] for spec in specs for node in (spec.members or [spec])
-                              if "script_start_time" in node.params), None)
-        quiet_from = next((node.params["quiet_from"] for spec in specs for node in (spec.members or [spec])
-                           if "quiet_from" in node.params), None)
+        script_origin, quiet_from = _node_parameter(specs, "script_start_time"), _node_parameter(specs, "quiet_from")
         if args.quiet_tail > 0.0:
             if quiet_from is None:
                 print("[run] refused: --quiet-tail needs the scripted superimposition run (its circle and operator "
@@ -705,8 +708,9 @@ def main(argv: list[str] | None = None) -> int:
                       "loaded machine expect a lower real-time factor and a longer pipeline latency", file=sys.stderr)
             _add_to_run_record(run_dir, "prioritised", granted)
         if not interrupted.is_set():
-            window = wait_for_sim_time(args.duration + args.quiet_tail, running, stop=interrupted,
-                                            wall_limit=args.wall_limit or max(120.0, 6.0 * args.duration),
+            simulated = args.duration + args.quiet_tail
+            window = wait_for_sim_time(simulated, running, stop=interrupted,
+                                            wall_limit=args.wall_limit or max(120.0, 6.0 * simulated),
                                             wall_origin=wall_origin,
                                             progress=stations.progress if stations is not None else None,
                                             watch=(stations.watched_topic, stations.command_seen)
