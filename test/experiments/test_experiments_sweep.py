@@ -25,10 +25,6 @@ DURATION = 8.0
 @pytest.mark.nodes
 @pytest.mark.slow
 @pytest.mark.timeout(420)
-@pytest.mark.xfail(strict=True, reason=(
-    "open (2026-12-06): on the one run verdict and the low-rate command path the FIC's 8 s cell reads 'growing "
-    "energy 2.8x' (two windows after the start-up, the operator's push rising through both) and its free-motion "
-    "error max is 61.1 mm (bound 50 mm, x_b; linear 45.2 mm); on 16 s it is STABLE with 72.6 mm"))
 def test_two_cell_lockstep_sweep_writes_the_summary(tmp_path: Path):
     environment = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "ros_log"), PYTHONUNBUFFERED="1")
     completed = subprocess.run(
