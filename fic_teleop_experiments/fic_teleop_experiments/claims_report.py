@@ -163,14 +163,31 @@ def _as_proportion(share: dict) -> Proportion:
     return Proportion(share["k"], share["n"], None if interval is None else tuple(interval))
 
 
-def write_claims_statistics(source: Path, out: Path, seeds_planned: int | None = None) -> dict[str, Path]:
+def runs_by_tail_start(runs: Sequence[dict], classification: Path, on_obstacle: bool) -> list[dict]:
+    """The runs whose quiet tail begins on the fixed obstacle (``on_obstacle``) or off it, by the classification
+    fic_teleop_experiments.tail_start wrote; a run it could not classify (no series) is left out of both."""
+    kinds = json.loads(Path(classification).read_text())["runs"]
+    return [row for row in runs
+            if kinds.get(row.get("key"), {}).get("tail_begins_on_obstacle") is on_obstacle]
+
+
+def write_claims_statistics(source: Path, out: Path, seeds_planned: int | None = None,
+                            tail_start: tuple[Path, bool] | None = None) -> dict[str, Path]:
     """<out>.json (the statistics), <out stem>_tables.md and the figures <out stem>_proportions.png and
     _differences.png from a judged sweep or run file; returns the paths written (a figure with nothing to show is
-    not written). The stem of results/claims_statistics.json is results/claims."""
+    not written). The stem of results/claims_statistics.json is results/claims. ``tail_start`` (classification
+    file, on the obstacle or not) keeps only the runs whose tail begins so (runs_by_tail_start)."""
     from fic_teleop_experiments.plots import plot_claim_differences, plot_claim_proportions
 
-    document = claims_statistics(read_runs(source), seeds_planned)
+    runs = read_runs(source)
+    if tail_start is not None:
+        runs = runs_by_tail_start(runs, *tail_start)
+    document = claims_statistics(runs, seeds_planned)
     document["source"] = Path(source).name
+    if tail_start is not None:
+        document["runs_kept"] = ("runs whose quiet tail begins on the fixed obstacle" if tail_start[1] else
+                                 "runs whose quiet tail begins off the fixed obstacle") + \
+            f" ({Path(tail_start[0]).name}; runs without a series left out)"
     out = Path(out)
     stem = out.name.removesuffix(".json").removesuffix("_statistics")
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -212,6 +229,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--update-results", type=Path, default=None, metavar="RESULTS_MD",
                         help="also rewrite the claims block of this document (docs/RESULTS.md) from the new "
                              "statistics (after a new --judge)")
+    parser.add_argument("--tail-start", type=Path, default=None, metavar="CLASSIFICATION_JSON",
+                        help="keep only the runs whose quiet tail begins as --tail-begins says, by this file of "
+                             "fic_teleop_experiments.tail_start (the stem gets _on_obstacle or _off_obstacle)")
+    parser.add_argument("--tail-begins", choices=("off-obstacle", "on-obstacle"), default="off-obstacle")
     args = parser.parse_args(argv)
     if args.block is not None:
         print(claims_block(json.loads(args.block.read_text())), end="")
@@ -220,8 +241,14 @@ def main(argv: list[str] | None = None) -> int:
     if not source.is_file():
         parser.error(f"no judged sweep at {source} (scripts/experiments.sh claims --judge writes it)")
     stem = source.name.removesuffix(".jsonl").removesuffix(".json").removesuffix("_runs")
+    tail_start = None
+    if args.tail_start is not None:
+        if not args.tail_start.is_file():
+            parser.error(f"no tail-start classification at {args.tail_start} (fic_teleop_experiments.tail_start)")
+        tail_start = (args.tail_start, args.tail_begins == "on-obstacle")
+        stem += "_" + args.tail_begins.replace("-", "_")
     written = write_claims_statistics(source, args.out or source.parent / f"{stem}_statistics.json",
-                                      args.seeds_planned)
+                                      args.seeds_planned, tail_start)
     for name, path in written.items():
         print(f"{name}: {path}")
     if args.update_results is not None:
