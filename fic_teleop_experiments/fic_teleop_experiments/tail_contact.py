@@ -9,7 +9,9 @@ runs with one thing changed at a time:
   longer reaches the operator's hand, so a cycle through the hand and the delayed force feedback cannot close;
 - ``stop 2 s earlier`` / ``stop 2 s later``: the same run with the task stopped at 28 s or 32 s: the same laws, hand
   and link, with the quiet tail begun at another point of the circle (and of the operator's moves around the
-  obstacle).
+  obstacle);
+- ``no offset feedforward`` / ``no joint damping compensation`` / ``no planner feedforward``: the replica without
+  one of its terms beyond paper Eq. 7 (fic_core.replica; the paper's law has none of the three).
 
 For each run: the verdict (fic_teleop_tools.verdict.run_verdict), the obstacle contact time and peak contact force
 in the tail, and the tail's last-window swing of x_M about the operator's target, the figure the verdict names.
@@ -30,9 +32,15 @@ from typing import Any
 import numpy as np
 
 from fic_teleop_experiments.claims import ClaimRun, duration_for, tail_for
-from fic_teleop_experiments.in_process import run
+from fic_teleop_experiments.in_process import RunConfig, run
 
-VARIANTS = ("as swept", "no force feedback", "stop 2 s earlier", "stop 2 s later")
+VARIANTS = ("as swept", "no force feedback", "stop 2 s earlier", "stop 2 s later", "no offset feedforward",
+            "no joint damping compensation", "no planner feedforward")
+#: The variants that switch off one of the replica's terms beyond paper Eq. 7 (fic_core.replica): the replica
+#: parameter each sets false.
+TERMS_OFF = {"no offset feedforward": "offset_feedforward",
+             "no joint damping compensation": "joint_damping_compensation",
+             "no planner feedforward": "planner_feedforward"}
 
 
 def variant_run(claim: ClaimRun, variant: str) -> ClaimRun:
@@ -45,7 +53,17 @@ def variant_run(claim: ClaimRun, variant: str) -> ClaimRun:
         return replace(claim, duration=claim.duration - 2.0)
     if variant == "stop 2 s later":
         return replace(claim, duration=claim.duration + 2.0)
+    if variant in TERMS_OFF:
+        return claim
     raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+
+
+def variant_config(claim: ClaimRun, variant: str) -> RunConfig:
+    """The in-process run of ``variant`` of ``claim`` (its task and tail changed, or one replica term off)."""
+    config = variant_run(claim, variant).config()
+    if variant in TERMS_OFF:
+        config = replace(config, replica_overrides={**config.replica_overrides, TERMS_OFF[variant]: False})
+    return config
 
 
 def tail_figures(claim: ClaimRun, variant: str) -> dict[str, Any]:
@@ -53,7 +71,7 @@ def tail_figures(claim: ClaimRun, variant: str) -> dict[str, Any]:
     from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
 
     changed = variant_run(claim, variant)
-    result = run(changed.config())
+    result = run(variant_config(claim, variant))
     verdict = judge(VerdictInput.from_run_result(result, one_way_delay=changed.delay))
     tail = result.time >= changed.duration
     step = float(np.median(np.diff(result.time)))
