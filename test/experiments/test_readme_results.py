@@ -185,6 +185,14 @@ def tail_error_range(laws: tuple[str, ...]) -> str:
     return f"{min(values):.1f}-{max(values):.1f}"
 
 
+def tail_start_stable(where: str, law: str, delay: float = 1.0) -> str:
+    """"k of n" stable at ``delay`` for ``law`` over the runs whose quiet tail begins ``where`` ("off" or "on" the
+    fixed obstacle; results/claims_tail_<where>_obstacle_statistics.json, fic_teleop_experiments.tail_start)."""
+    shares = [c["laws"][law]["stable"] for c in result(f"claims_tail_{where}_obstacle_statistics.json")["cells"]
+              if c["delay"] == delay and law in c["laws"]]
+    return f"{sum(s['k'] for s in shares)} of {sum(s['n'] for s in shares)}"
+
+
 def link_hold_gains(design: str, rate_hz: float = 10.0) -> str:
     """The range of the FIC's peak gain over the runs of one hold design at one link rate
     (results/link_hold_designs.json)."""
@@ -291,6 +299,11 @@ FIGURES = [
            r"linear_tdpa (?P<linear_tdpa>\d+), fic_paper_law (?P<fic_paper_law>\d+)",
            lambda: dict(n=str(tail_stable(1.0, ("fic",))[1]),
                         **{law: str(tail_stable(1.0, (law,))[0]) for law in ("fic", *BASELINES)})),
+    *(Figure(f"claims on the new path: 1 s, the tail begun {where} the obstacle", "RESULTS",
+             rf"\| {where} the obstacle \| (?P<fic>\d+ of \d+) \| (?P<fic_paper_law>\d+ of \d+) \| "
+             rf"(?P<linear>\d+ of \d+) \| (?P<linear_bounded>\d+ of \d+) \| (?P<linear_tdpa>\d+ of \d+) \|",
+             lambda where=where: {law: tail_start_stable(where, law) for law in ("fic", *BASELINES)})
+      for where in ("off", "on")),
     Figure("claims on the new path: tracking error", "RESULTS",
            r"the FIC (?P<fic>[\d.]+-[\d.]+) mm, linear and linear_bounded (?P<linear>[\d.]+-[\d.]+) mm, linear_tdpa "
            r"(?P<tdpa>[\d.]+-[\d.]+) mm",
