@@ -54,18 +54,21 @@ MODES = (0, 1)  # TeleoperationCommand MODE_OFFSET, MODE_VELOCITY
 
 
 #: What an outside input may ask of the arm: the replica's parameters behind AuthorityBounds (config/replica.yaml
-#: holds the values; part of the table the replica node declares, fic_core.replica_station).
+#: holds the values; part of the table the replica node declares, fic_core.replica_station). Fixed at start, as the
+#: driver's rows are: they are the envelope a session's safety was judged in (docs/SECURITY.md), and a live change
+#: would let any client on the domain widen it with one parameter request, mid-motion.
 AUTHORITY_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
     number("offset_workspace", 0.01, 2.0, "x_d' is clamped to +- this on each axis, about the start pose [m] "
-                                          "(fic_core.input_authority)"),
+                                          "(fic_core.input_authority)", read_only=True),
     number("max_offset_speed", 0.01, 10.0, "x_d' moves toward a teleoperation command no faster than this, on "
-                                           "this node's clock [m/s]"),
-    number("max_offset_burst", 0.0, 1.0, "x_d' may move this far at once, for bursts of delayed commands [m]"),
+                                           "this node's clock [m/s]", read_only=True),
+    number("max_offset_burst", 0.0, 1.0, "x_d' may move this far at once, for bursts of delayed commands [m]",
+           read_only=True),
     number("command_future_tolerance", 0.0, 10.0, "commands and joint states stamped further ahead of this node's "
-                                                  "clock are refused [s]"),
+                                                  "clock are refused [s]", read_only=True),
     number("max_command_age", 0.05, 600.0, "teleoperation commands stamped longer ago are refused [s] (the "
                                            "channel's delay must fit inside it; the launcher raises it with "
-                                           "--delay)"),
+                                           "--delay)", read_only=True),
 )
 #: Those rows as one typed object (fic_core.parameter_row.parameter_set).
 AuthorityParameters = parameter_set("AuthorityParameters", __name__, "input authority", AUTHORITY_PARAMETERS.values(),

@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 import yaml
 
-from fic_core.arm_profile import arm_profile
 from fic_core.channel_ports import ChannelPorts
 from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
@@ -36,17 +35,20 @@ from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.trajectories import LapVaryingCircle
 from fic_teleop_runtime.workspace import config_folder
-from sim_bridge.channel.channel import Channel, ChannelConfig
+from sim_bridge.channel.channel import Channel
+from sim_bridge.channel.channel_parameters import ChannelParameters, channel_config
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ, ClosedLoopOperator, ClosedLoopParameters, Frame
+from sim_bridge.device.device_parameters import DeviceNodeParameters, haptic_device_parameters
+from sim_bridge.device.device_parameters import hand_parameters as device_hand_parameters
 from sim_bridge.device.device_station import DeviceStation
-from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.haptic_device import HapticDevice
 from sim_bridge.device.operator_scripts import superimposition_script
 from sim_bridge.device.reactive_hand import ReactiveHand, ReactiveHandParameters
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
-from sim_bridge.device.virtual_operator import Hand, HandParameters, ScriptedOperator, load_script
+from sim_bridge.device.virtual_operator import Hand, ScriptedOperator, load_script
 from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.robot_parameters import RobotParameters
 from sim_bridge.robot.robot_station import RobotStation
-from sim_bridge.robot.velocity_reflex import VelocityReflex
 
 STEP = 0.001                     # the robot's physics step and joint-state period [s]
 SCRIPT_CIRCLE_START_S = 2.0      # the launcher's origin of the E1 script and the planner's circle
@@ -275,8 +277,7 @@ def _every(rate: float) -> int:
 
 def run(config: RunConfig) -> RunResult:
     """One run of the graph (module docstring)."""
-    r, m, h = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("haptic_device.yaml")
-    pl, ch = _parameters("planner.yaml"), _parameters("channel.yaml")
+    r, m, pl = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("planner.yaml")
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
     # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (fic_core.channel_ports).
     tdpa = config.tdpa or config.controller == "linear_tdpa"
@@ -287,16 +288,6 @@ def run(config: RunConfig) -> RunResult:
         "exchanged_energy_observer": False, **config.replica_overrides}), channel_port=ports.replica)
     master = MasterStation(MasterParameters.from_values({**m, "exchanged_energy_observer": False,
                                                          **config.master_overrides}), channel_port=ports.master)
-    device = HapticDevice(HapticDeviceParameters(
-        mass=h["mass"], damping=h["damping"], half_extents=tuple(h["half_extents"]),
-        wall_stiffness=h["wall_stiffness"], wall_damping=h["wall_damping"], max_force=h["max_force"],
-        substep=h["substep"]))
-    draws = np.random.default_rng([config.seed, 7919])   # apart from the channel's and the bond's streams
-    time_shift = float(draws.uniform(-1.0, 1.0)) * config.operator_timing_jitter
-    hand_scale = 1.0 + float(draws.uniform(-1.0, 1.0)) * config.hand_impedance_jitter
-    hand_parameters = HandParameters(stiffness=h["hand_stiffness"] * hand_scale,
-                                     damping=h["hand_damping"] * hand_scale, correction_rate=h["hand_correction_rate"],
-                                     max_correction=h["hand_max_correction"], max_force=h["hand_max_force"])
     if config.operator not in OPERATORS:
         raise ValueError(f"operator must be one of {OPERATORS}, got {config.operator!r}")
     if config.hand not in HANDS:
@@ -307,6 +298,17 @@ def run(config: RunConfig) -> RunResult:
     if config.task_variation and config.operator != "closed_loop":
         raise ValueError("task_variation needs the closed-loop operator: a script is timed for the paper's fixed "
                          "circle")
+    draws = np.random.default_rng([config.seed, 7919])   # apart from the channel's and the bond's streams
+    time_shift = float(draws.uniform(-1.0, 1.0)) * config.operator_timing_jitter
+    hand_scale = 1.0 + float(draws.uniform(-1.0, 1.0)) * config.hand_impedance_jitter
+    # The device node's parameters as the launcher gives them for this run: the operator, the scene, the video's
+    # reaction time (the seed's timing draw is its spread) and the delay the operator has learnt, the quiet tail.
+    device_parameters = DeviceNodeParameters.from_values({
+        **_parameters("haptic_device.yaml"), "operator_source": config.operator, "scene": config.scene,
+        "reaction_time": max(config.reaction_time + time_shift, 0.0), "assumed_one_way_delay": config.delay,
+        "quiet_from": -1.0 if config.quiet_from is None else config.quiet_from})
+    device = HapticDevice(haptic_device_parameters(device_parameters))
+    hand_parameters = device_hand_parameters(device_parameters, hand_scale)
     drawn: dict[str, Any] = {}
     reactive = config.hand == "reactive"
     if reactive:
@@ -329,27 +331,31 @@ def run(config: RunConfig) -> RunResult:
     watcher = None
     if config.operator == "closed_loop":
         # The seed's timing draw is the reaction time's spread here (the script's clock is not played).
-        reaction = max(config.reaction_time + time_shift, 0.0)
         varying = dict(seed=int(np.random.default_rng([config.seed, 4243]).integers(2 ** 31)),
                        move_amplitude_range=MOVE_AMPLITUDE_RANGE, move_duration_range=MOVE_DURATION_RANGE,
                        move_timing_spread=MOVE_TIMING_SPREAD_S, wander_amplitude_range=WANDER_AMPLITUDE_RANGE_M,
                        wander_period_range=WANDER_PERIOD_RANGE_S, wander_mean_gap=WANDER_MEAN_GAP_S,
                        ) if config.task_variation else {}
         watcher = ClosedLoopOperator(ClosedLoopParameters.from_script_parameters(
-            script.parameters, reaction_time=reaction, assumed_one_way_delay=config.delay, **varying))
+            script.parameters, reaction_time=device_parameters.reaction_time,
+            assumed_one_way_delay=device_parameters.assumed_one_way_delay, **varying))
     sorter = None
     if config.operator == "shape_sorting":   # the seed's timing draw is the perception delay's spread
         sorter = watcher = ShapeSortingOperator(ShapeSortingParameters(
-            perception_delay=max(config.reaction_time + time_shift, 0.0), assumed_one_way_delay=config.delay,
+            perception_delay=device_parameters.reaction_time,
+            assumed_one_way_delay=device_parameters.assumed_one_way_delay,
             learnt_stiffness=m["stiffness"], learnt_max_force=m["max_force"], velocity_gain=m["velocity_gain"],
-            velocity_deadband=m["velocity_deadband"], handle_half_extents=tuple(h["half_extents"])))
-    channel = dict(delay=config.delay, jitter=config.jitter, jitter_distribution=ch["jitter_distribution"],
-                   allow_reorder=ch["allow_reorder"], drop_probability=config.drop,
-                   blackout_windows=tuple(config.blackout_windows), rate_cap_hz=config.rate_cap)
-    forward = Channel(ChannelConfig(**channel, seed=config.seed))
-    backward = Channel(ChannelConfig(**channel, seed=config.seed + 1))
+            velocity_deadband=m["velocity_deadband"], handle_half_extents=tuple(device_parameters.half_extents)))
+    # The channel node's parameters with this run's link (no routes: the runner hands the messages over itself),
+    # each direction on its own seed of the run's.
+    link = ChannelParameters.from_values({
+        **_parameters("channel.yaml"), "routes": [], "logged_deliveries": [], "delay": config.delay,
+        "jitter": config.jitter, "drop_probability": config.drop, "rate_cap_hz": config.rate_cap,
+        "blackout_windows": [bound for window in config.blackout_windows for bound in window], "seed": config.seed})
+    forward = Channel(channel_config(link))
+    backward = Channel(channel_config(link.replaced({"seed": config.seed + 1})))
     # The video shares the backward link (delay, jitter, drops, blackouts) but not the command's rate cap.
-    video = Channel(ChannelConfig(**{**channel, "rate_cap_hz": 0.0}, seed=config.seed + 2))
+    video = Channel(channel_config(link.replaced({"seed": config.seed + 2, "rate_cap_hz": 0.0})))
     source: LapVaryingCircle | None = None   # None: the planner's own (config/planner.yaml's circle or point)
     if trajectory == "circle" and config.task_variation:
         source = LapVaryingCircle.randomised(pl["circle_centre"], np.random.default_rng([config.seed, 31337]),
@@ -367,29 +373,28 @@ def run(config: RunConfig) -> RunResult:
     sim = PandaSimulation(config.scene, config.seed, gravity_compensation=config.dynamics_at_physics_rate)
     # The robot node's station: its stale-command hold (command_timeout), its rule on the state a torque was computed
     # on (command_state_timeout: a torque on an older state is never applied), its velocity reflex.
-    robot_values = _parameters("robot.yaml")
-    robot = RobotStation(
-        sim, command_timeout=robot_values["command_timeout"],
-        command_state_timeout=robot_values.get("command_state_timeout", math.inf)
-        if config.robot_command_state_timeout is None else config.robot_command_state_timeout,
-        hold_on_stale=robot_values["hold_on_stale_commands"],
-        reflex=VelocityReflex(arm_profile("panda").joint_velocity, ARM_JOINT_NAMES)
-        if (robot_values["velocity_reflex"] if config.robot_velocity_reflex is None else config.robot_velocity_reflex)
-        else None,
-        dynamics_at_physics_rate=config.dynamics_at_physics_rate)
+    robot_changes: dict[str, Any] = {}
+    no_state_age_rule = config.robot_command_state_timeout == math.inf
+    if config.robot_command_state_timeout is not None and not no_state_age_rule:
+        robot_changes["command_state_timeout"] = config.robot_command_state_timeout
+    if config.robot_velocity_reflex is not None:
+        robot_changes["velocity_reflex"] = config.robot_velocity_reflex
+    robot_parameters = RobotParameters.from_values({**_parameters("robot.yaml"), **robot_changes})
+    robot = RobotStation.from_parameters(sim, robot_parameters, ARM_JOINT_NAMES, state_age_rule=not no_state_age_rule,
+                                         dynamics_at_physics_rate=config.dynamics_at_physics_rate)
     starved = StarvedReplica(config.replica_stalls, config.seed)
     superimposition = config.scene == "superimposition"   # E1: contacts with its fixed obstacle are recorded
     log_ports = []
 
-    device_every, master_every = _every(h["publish_rate_hz"]), _every(m["control_rate"])
+    device_every, master_every = _every(device_parameters.publish_rate_hz), _every(m["control_rate"])
     network_every, planner_every = _every(m["network_rate"]), _every(pl["publish_rate"])
-    delivery_every, wrench_every = _every(ch["delivery_rate_hz"]), _every(250.0)
+    delivery_every, wrench_every = _every(link.delivery_rate_hz), _every(robot_parameters.wrench_rate_hz)
     joy_every, camera_every = _every(JOY_RATE_HZ), _every(CAMERA_RATE_HZ)
     log_contact = []
     # The device node's station: the device, the operator's hand and what drives it, the buttons' queue.
     device_station = DeviceStation(device, hand, script=operator, watcher=watcher,
-                                   command_timeout=h["command_timeout"], script_origin=time_shift,
-                                   quiet_from=config.quiet_from)
+                                   command_timeout=device_parameters.command_timeout, script_origin=time_shift,
+                                   quiet_from=config.quiet_from if device_parameters.quiet_from >= 0.0 else None)
     log_t, log_d, log_r, log_f, log_o = [], [], [], [], []
     log_m, log_arm, log_handle, log_target = [], [], [], []
     log_mode, log_sent = [], []

@@ -32,6 +32,7 @@ from std_msgs.msg import Bool, Float64, Float64MultiArray
 from fic_core.errors import FicInputError
 from fic_core.haptic_device_mapping import DeviceFrameMapping, GraspGain, device_command
 from fic_core.operator_buttons import BUTTON_COUNT, OperatorButton
+from fic_core.parameter_row import parameter_set
 from fic_core.stale_input_ramp import StaleInputRamp
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
@@ -78,29 +79,33 @@ SCHEMA = Schema(
            True),
     number("force_ramp_time", 0.0, 10.0, "duration of the ramp to zero force [s]", True),
 )
+#: The adapter's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row): a name no row
+#: has is refused where it is built, naming the nearest.
+FdAdapterParameters = parameter_set("FdAdapterParameters", __name__, "fd adapter", SCHEMA.rows,
+                                    "The fd adapter's parameters (SCHEMA), checked, one field a row.")
 
 
 class FdAdapterNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__(NODE_NAME, **node_options)
-        values = declare(self, SCHEMA)  # every row with its profile value; unknown keys refused
-        value = values.__getitem__
-        self._device_frame = value("device_frame")
-        self._master_frame = value("master_frame")
-        self._mapping = DeviceFrameMapping(value("rotation"), value("workspace_centre"))
-        self._translation_joints = tuple(value("translation_joints"))
+        # Every row with its profile value (unknown keys refused), as one typed object.
+        p = FdAdapterParameters.from_values(declare(self, SCHEMA))
+        self._device_frame = p.device_frame
+        self._master_frame = p.master_frame
+        self._mapping = DeviceFrameMapping(p.rotation, p.workspace_centre)
+        self._translation_joints = tuple(p.translation_joints)
         if len(self._translation_joints) != 3:
             raise FicInputError(f"translation_joints must name 3 joints, got {list(self._translation_joints)}")
-        self._grasp_joint = value("grasp_joint")
-        self._grasp = GraspGain(value("grasp_open_angle"), value("grasp_closed_angle"), value("grasp_max_gain"))
-        self._button_action = value("button_action")
+        self._grasp_joint = p.grasp_joint
+        self._grasp = GraspGain(p.grasp_open_angle, p.grasp_closed_angle, p.grasp_max_gain)
+        self._button_action = p.button_action
         if self._button_action not in BUTTON_ACTIONS:
             raise FicInputError(f"button_action must be one of {', '.join(BUTTON_ACTIONS)}, got "
                                 f"{self._button_action!r}")
-        self._command_size = value("command_size")
-        self._max_force = value("max_force")
-        self._pose_ramp = StaleInputRamp(value("pose_timeout"), value("force_ramp_time"))
-        self._command_ramp = StaleInputRamp(value("command_timeout"), value("force_ramp_time"))
+        self._command_size = p.command_size
+        self._max_force = p.max_force
+        self._pose_ramp = StaleInputRamp(p.pose_timeout, p.force_ramp_time)
+        self._command_ramp = StaleInputRamp(p.command_timeout, p.force_ramp_time)
 
         self._position: np.ndarray | None = None     # x_M, newest
         self._velocity = np.zeros(3)                 # xd_M, newest
@@ -123,14 +128,14 @@ class FdAdapterNode(Node):
         self.create_subscription(JointState, "/fd/joint_states", self._on_joint_state, NEWEST_QOS)
         # Button and clutch are events: reliable, as the driver publishes them, so an edge is not lost.
         self.create_subscription(Bool, "/fd/button_state", self._on_button, DRIVER_QOS)
-        if value("use_clutch"):
+        if p.use_clutch:
             self.create_subscription(Bool, "/fd/fd_clutch", self._on_clutch, DRIVER_QOS)
         self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_wrench_command, STREAM_QOS)
-        self.create_timer(1.0 / value("publish_rate_hz"), self._tick)
+        self.create_timer(1.0 / p.publish_rate_hz, self._tick)
         self.get_logger().info(
             f"fd adapter ready: {self._device_frame} -> {self._master_frame}, force to /fd/fd_controller/commands "
             f"({self._command_size} entries), grasp joint {self._grasp_joint or 'none'}, pose_timeout "
-            f"{value('pose_timeout'):g} s, command_timeout {value('command_timeout'):g} s")
+            f"{p.pose_timeout:g} s, command_timeout {p.command_timeout:g} s")
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

@@ -22,6 +22,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayLayout
 
 from fic_core.command_watchdog import CommandWatchdog
 from fic_core.errors import FicInputError
+from fic_core.parameter_row import parameter_set
 from fic_core.robot_model import RobotModel
 from fic_core.torque_semantics import TorqueSemantics
 from fic_teleop_runtime import qos
@@ -40,6 +41,10 @@ SCHEMA = Schema(
     switch("gravity_compensated_by_robot", "the arm compensates its own gravity: the rest command is zero "
            "(else G(q) at the last /joint_states)", read_only=True),
 )
+#: The relay's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row): a name no row
+#: has is refused where it is built, naming the nearest.
+CommandRelayParameters = parameter_set("CommandRelayParameters", __name__, "command relay", SCHEMA.rows,
+                                       "The command relay's parameters (SCHEMA), checked, one field a row.")
 #: What ros2_control's forward command controller subscribes with (rclcpp::SystemDefaultsQoS: reliable, keep
 #: last 10); the replica's commands come reliable too, and only the newest matters.
 COMMAND_QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10)
@@ -51,9 +56,10 @@ STATE_QOS = QoSProfile(reliability=ReliabilityPolicy.BEST_EFFORT, history=Histor
 class CommandRelayNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__(NODE_NAME, **node_options)
-        value = declare(self, SCHEMA)
-        semantics = TorqueSemantics(bool(value["gravity_compensated_by_robot"]))
-        self._watchdog = CommandWatchdog(value["timeout"], value["ramp_time"], semantics)
+        # Every row with its config/command_relay.yaml value (unknown keys refused), as one typed object.
+        p = CommandRelayParameters.from_values(declare(self, SCHEMA))
+        semantics = TorqueSemantics(p.gravity_compensated_by_robot)
+        self._watchdog = CommandWatchdog(p.timeout, p.ramp_time, semantics)
         # Silence is measured on the steady clock: a sim clock that stops with the replica would hide it.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._robot = None if semantics.gravity_compensated_by_robot else RobotModel()
@@ -62,10 +68,10 @@ class CommandRelayNode(Node):
         self.create_subscription(Float64MultiArray, "/replica/effort_command", self._on_command, COMMAND_QOS)
         if self._robot is not None:
             self.create_subscription(JointState, "/joint_states", self._on_joint_state, STATE_QOS)
-        self.create_timer(1.0 / value["check_rate"], self._check, clock=self._steady)
+        self.create_timer(1.0 / p.check_rate, self._check, clock=self._steady)
         rest = "zero (the arm compensates gravity)" if self._robot is None else "G(q) at the last joint state"
         self.get_logger().info(f"command relay up: /replica/effort_command -> /effort_controller/commands; after "
-                               f"{value['timeout']:g} s of silence, ramp over {value['ramp_time']:g} s to {rest}")
+                               f"{p.timeout:g} s of silence, ramp over {p.ramp_time:g} s to {rest}")
 
     def _now(self) -> float:
         return self._steady.now().nanoseconds * 1e-9

@@ -11,6 +11,7 @@ import pytest
 from config_values import config_values
 
 from fic_core.errors import FicInputError
+from fic_core.input_authority import AUTHORITY_PARAMETERS
 from fic_core.panda_description import ARM_JOINT_NAMES, NOMINAL_CONFIGURATION
 from fic_core.replica_parameters import REPLICA_LOOP_PARAMETERS
 from fic_core.replica_station import (
@@ -58,6 +59,20 @@ def test_the_parameters_are_one_typed_object_of_the_replicas_table() -> None:
     with pytest.raises(FicInputError, match="^unknown replica parameter 'use_sim_time'"):
         replica.configure({"use_sim_time": True})
     assert replica.loop.parameters.control_rate == 500.0
+
+
+def test_the_table_says_which_rows_change_at_run_time() -> None:
+    """The node declares each row read-only or not by the table, and rclpy refuses a live change of a read-only row
+    before the station sees it; the station changes the loop's rows only. So every row that is not the loop's
+    (the driver's, the input authority's, the channel port's, the observer's) is read-only in the table, and
+    the input authority's bounds among them: a live change of one is refused by the station too."""
+    changeable = {name for name, row in REPLICA_PARAMETERS.items() if not row.read_only}
+    assert changeable <= set(REPLICA_LOOP_PARAMETERS)
+    assert all(REPLICA_PARAMETERS[name].read_only for name in AUTHORITY_PARAMETERS)
+    replica = station()
+    for name in AUTHORITY_PARAMETERS:
+        with pytest.raises(FicInputError, match=f"^{name}: fixed at start"):
+            replica.configure({name: 1.0})   # inside every one of their ranges
 
 
 def run(replica: ReplicaStation, start: float, ticks: int) -> float:

@@ -1,5 +1,6 @@
 """The keyboard operator in a pseudo-terminal: keys become Joy messages; q quits and restores the terminal;
-without a TTY it refuses to start with a clear message."""
+without a TTY it refuses to start with a clear message, and so it does, in one line, with a misspelt or
+out-of-range parameter."""
 from __future__ import annotations
 
 import os
@@ -108,5 +109,35 @@ def test_keys_become_joy_messages_and_q_restores_the_terminal(tmp_path, ros_env)
     assert code == 0
     assert b"keyboard operator" in output and b"terminal restored" in output
     assert termios.tcgetattr(slave)[3] == before[3]      # local modes (echo, canonical) as before
+    os.close(master)
+    os.close(slave)
+
+
+@pytest.mark.parametrize("rule, complaint", [
+    ("hold_tim:=0.2", "unknown parameter 'hold_tim' for node keyboard_operator; did you mean 'hold_time'?"),
+    ("rate_hz:=1000.0", "rate_hz out of range")])
+def test_a_bad_parameter_is_refused_in_one_line(rule, complaint, tmp_path, ros_env):
+    """Refused before the help text and the cbreak mode: exit 2, one FATAL line, the terminal as it was."""
+    master, slave = pty.openpty()
+    before = termios.tcgetattr(slave)
+    process = subprocess.Popen([sys.executable, "-m", "sim_bridge.device.keyboard_operator", "--ros-args", "-p",
+                                rule], env=_env(tmp_path, ros_env), stdin=slave, stdout=slave, stderr=slave,
+                               close_fds=True)
+    output = b""
+    try:
+        code = process.wait(timeout=60)
+        while select.select([master], [], [], 0.2)[0]:
+            chunk = os.read(master, 4096)
+            if not chunk:
+                break
+            output += chunk
+    finally:
+        if process.poll() is None:
+            process.kill()
+    text = output.decode(errors="replace")
+    fatal = [line for line in text.splitlines() if "FATAL" in line]
+    assert code == 2 and len(fatal) == 1 and "cannot start" in fatal[0] and complaint in fatal[0], text
+    assert "Traceback" not in text and "terminal restored" in text and "hold a key to keep moving" not in text
+    assert termios.tcgetattr(slave)[3] == before[3]
     os.close(master)
     os.close(slave)

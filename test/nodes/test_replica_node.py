@@ -3,7 +3,8 @@
 Checks: nothing is published before the first joint state; the torques it publishes are finite and inside the
 Panda's torque and torque-rate limits; at rest it holds the arm (gravity compensation); a NaN teleoperation
 command is refused with a log line and the last good x_d' kept; a good one is approached without a jump; the
-watchdog says when the master goes silent; invalid run-time parameters are refused; Ctrl-C stops it cleanly.
+watchdog says when the master goes silent; invalid run-time parameters are refused, and so is any change of the
+input authority's bounds (read-only); Ctrl-C stops it cleanly.
 """
 from __future__ import annotations
 
@@ -107,6 +108,12 @@ def test_replica_node_end_to_end(start_node, ros_env, rclpy_context) -> None:
     assert not ok and reason
     ok, reason = robot.set_parameter("control_rate", 100.0)
     assert ok, reason
+    # The input authority's bounds are fixed at start (read-only rows): rclpy refuses a live change, as
+    # ``ros2 param set`` sends it, and x_d' stays inside the bound of the start.
+    ok, reason = robot.set_parameter("offset_workspace", 0.01)
+    assert not ok and "read-only" in reason and "offset_workspace" in reason, reason
+    assert robot.publish_until(lambda: robot.fic_states[-1].error[0] > 0.025, teleop_offset=[0.03, 0.0, 0.0]), \
+        (robot.fic_states[-1].error[0], replica.output())   # 0.01 m would have clamped x_d' there
 
     # Ctrl-C: a clean exit.
     assert replica.stop(timeout=15.0) == 0, replica.log_path.read_text()

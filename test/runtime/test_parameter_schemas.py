@@ -28,6 +28,24 @@ def _schemas() -> dict[str, object]:
             "keyboard_operator": keyboard_operator.SCHEMA, "command_relay": command_relay_node.SCHEMA}
 
 
+def _typed_sets() -> dict[str, type]:
+    """Each node's typed parameter object (fic_core.parameter_row.parameter_set), by the table it is made of."""
+    from fic_core.master_station import MasterParameters
+    from fic_core.planner_station import PlannerParameters
+    from fic_core.replica_station import ReplicaParameters
+    from fic_teleop_master.fd_adapter_node import FdAdapterParameters
+    from fic_teleop_replica.command_relay_node import CommandRelayParameters
+    from sim_bridge.channel.channel_parameters import ChannelParameters
+    from sim_bridge.device.device_parameters import DeviceNodeParameters
+    from sim_bridge.device.keyboard_operator import KeyboardOperatorParameters
+    from sim_bridge.robot.robot_parameters import RobotParameters
+
+    return {"replica": ReplicaParameters, "master": MasterParameters, "planner": PlannerParameters,
+            "channel": ChannelParameters, "robot": RobotParameters, "haptic_device": DeviceNodeParameters,
+            "fd_adapter": FdAdapterParameters, "command_relay": CommandRelayParameters,
+            "keyboard_operator": KeyboardOperatorParameters}
+
+
 #: Each params file -> (the node table its keys are checked against, the node names it is loaded for).
 FILES = {
     "replica.yaml": ("replica", ["replica"]),
@@ -133,3 +151,35 @@ def test_the_declared_range_is_the_rows_own() -> None:
                 assert not ranges, row.name
             else:
                 assert (ranges[0].from_value, ranges[0].to_value) == (row.low, row.high), row.name
+
+
+@pytest.mark.parametrize("node", ["replica", "master", "planner", "channel", "robot", "haptic_device", "fd_adapter",
+                                  "command_relay", "keyboard_operator"])
+def test_each_nodes_typed_parameters_are_made_of_the_rows_it_declares(node: str) -> None:
+    """One mechanism for every node: the typed object it builds from its declared values is generated from the very
+    rows it declares (same names, order, kinds and ranges), takes its own file's values (a list rcl reads as no
+    value, as empty), and refuses a misspelt name in one line naming the nearest row."""
+    from fic_core.errors import FicInputError
+    from fic_teleop_runtime.parameters import defaults_for
+
+    schema, kind = _schemas()[node], _typed_sets()[node]
+    assert list(kind.ROWS.values()) == list(schema.rows)
+    name = next(names for file_name, (table, names) in FILES.items()
+                if table == node and file_name == schema.config_file)[0]
+    values = {**{row.name: [] for row in schema.rows if row.optional}, **defaults_for(schema, name, CONFIG)}
+    parameters = kind.from_values(values)
+    assert all(getattr(parameters, key) == value for key, value in values.items())
+    first = schema.rows[0].name
+    with pytest.raises(FicInputError, match=f"^unknown {kind.OWNER} parameter '{first}x'; did you mean '{first}'\\?$"):
+        kind.from_values({**values, f"{first}x": values[first]})
+
+
+def test_the_interfaces_a_description_names_are_the_drivers_own() -> None:
+    """The simulator's tables name the driver interfaces in words (they import no rclpy, and driver_topics does):
+    the words must be the runtime's names."""
+    from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, ROBOT_INTERFACES
+    from sim_bridge.device.device_parameters import DEVICE_PARAMETERS
+    from sim_bridge.robot.robot_parameters import ROBOT_PARAMETERS
+
+    for rows, names in ((ROBOT_PARAMETERS, ROBOT_INTERFACES), (DEVICE_PARAMETERS, DEVICE_INTERFACES)):
+        assert all(name in rows["driver_interface"].description for name in names)

@@ -5,11 +5,13 @@ import math
 
 import numpy as np
 import pytest
+from config_values import config_values
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fic_core.errors import FicInputError
 from sim_bridge.channel.channel import Channel, ChannelConfig
+from sim_bridge.channel.channel_parameters import ChannelParameters, channel_config
 
 TICK = 0.001   # the node's delivery timer period
 
@@ -201,3 +203,21 @@ def test_header_stamp_is_read_from_cdr_bytes():
     assert header_stamp(b"\x00\x01\x00\x00\x01\x00") is None                       # too short
     assert header_stamp(b"\x00\x07\x00\x00" + body) is None                        # not plain CDR
     assert header_stamp(b"\x00\x01\x00\x00" + struct.pack("<iI", 1, 2_000_000_000)) is None
+
+
+def test_the_links_configuration_from_the_channels_parameters():
+    """channel_config, for channel_node and the in-process runner: config/channel.yaml's values as the typed object
+    the node declares; blackout windows and lost_from counted from the node's start or on its clock; a seed of -1
+    from the OS; what a row cannot refuse alone (an odd count of bounds, an unknown time reference) refused."""
+    parameters = ChannelParameters.from_values({**config_values("channel.yaml"), "routes": [], "logged_deliveries": [],
+                                                "blackout_windows": [1.0, 2.0], "lost_from": 5.0})
+    assert parameters.time_reference == "start" and parameters.seed == -1
+    config = channel_config(parameters, origin=10.0)
+    assert config.blackout_windows == ((11.0, 12.0),) and config.lost_from == 15.0 and config.seed is None
+    assert config.delay == parameters.delay and config.jitter_distribution == parameters.jitter_distribution
+    on_clock = channel_config(parameters.replaced({"time_reference": "clock", "seed": 3}), origin=10.0)
+    assert on_clock.blackout_windows == ((1.0, 2.0),) and on_clock.lost_from == 5.0 and on_clock.seed == 3
+    with pytest.raises(FicInputError, match="blackout_windows needs pairs"):
+        channel_config(parameters.replaced({"blackout_windows": [1.0, 2.0, 3.0]}))
+    with pytest.raises(FicInputError, match="time_reference must be 'start' or 'clock'"):
+        channel_config(parameters.replaced({"time_reference": "wall"}))

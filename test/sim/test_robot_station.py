@@ -3,12 +3,16 @@ torques go stale, the refusal of a torque on an old state, the velocity reflex t
 to a forward controller's semantics, and the physics-rate dynamics, each on the MuJoCo Panda."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
+from config_values import config_values
 
 from fic_core.arm_profile import arm_profile
 from fic_core.panda_description import ARM_JOINT_NAMES
 from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.robot_parameters import RobotParameters
 from sim_bridge.robot.robot_station import RobotStation
 from sim_bridge.robot.velocity_reflex import VelocityReflex
 
@@ -103,3 +107,20 @@ def test_the_arms_kinetic_energy_and_the_contacts_of_a_geom() -> None:
     assert robot.arm_kinetic_energy() > 0.0
     # The pushable obstacle rests on the table; the fixed one (static) touches nothing but the robot.
     assert robot.touches("pushable_obstacle") and not robot.touches("fixed_obstacle")
+
+
+def test_the_node_and_the_runner_build_it_from_the_robots_parameters() -> None:
+    """RobotStation.from_parameters: config/robot.yaml's values as the typed object robot_node declares; the
+    state-age bound on the node's nanosecond stamp grid or in the runner's seconds, or none (the robot before the
+    rule); the hold as the parameters say."""
+    parameters = RobotParameters.from_values(config_values("robot.yaml"))
+    sim = PandaSimulation("free_space", 0)
+    node = RobotStation.from_parameters(sim, parameters, ARM_JOINT_NAMES, nanosecond_stamps=True)
+    assert node.command_timeout == parameters.command_timeout and node.hold_on_stale
+    assert node.command_state_timeout == round(parameters.command_state_timeout * 1e9)
+    assert isinstance(node.command_state_timeout, int)
+    runner = RobotStation.from_parameters(sim, parameters.replaced({"hold_on_stale_commands": False}),
+                                          ARM_JOINT_NAMES)
+    assert runner.command_state_timeout == parameters.command_state_timeout and not runner.hold_on_stale
+    assert RobotStation.from_parameters(sim, parameters, ARM_JOINT_NAMES,
+                                        state_age_rule=False).command_state_timeout == math.inf

@@ -25,14 +25,14 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from fic_core.errors import FicInputError
-from fic_core.parameter_row import parameter_set
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
-from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
+from fic_teleop_runtime.parameters import Schema, declare
 from fic_teleop_runtime.periodic import PeriodicCallbacks
-from sim_bridge.channel.channel import JITTER_DISTRIBUTIONS, Channel, ChannelConfig
+from sim_bridge.channel.channel import Channel, ChannelConfig
+from sim_bridge.channel.channel_parameters import CHANNEL_PARAMETERS, ChannelParameters, channel_config
 
 try:
     from fic_teleop_msgs.msg import ChannelDelivery
@@ -52,34 +52,7 @@ LINK_PARAMETERS = ("delay", "jitter", "jitter_distribution", "allow_reorder", "d
                    "blackout_windows", "lost_from", "rate_cap_hz", "seed", "time_reference")
 
 
-SCHEMA = Schema(
-    "channel.yaml",
-    texts("routes", "in_topic:out_topic:pkg/msg/Type for each forwarded stream", read_only=True, optional=True),
-    number("delay", 0.0, 10.0, "fixed one-way delay [s]"),
-    number("jitter", 0.0, 1.0, "bound on the deviation from delay [s]"),
-    text("jitter_distribution", f"one of {JITTER_DISTRIBUTIONS} (normal: sigma = jitter/3, truncated at +-jitter)"),
-    switch("allow_reorder", "let jitter reorder messages (false: FIFO, a message waits for its predecessor)"),
-    number("drop_probability", 0.0, 1.0, "independent loss probability"),
-    numbers("blackout_windows", "link-down windows as a flat list of doubles t0,t1,t0,t1,... [s] (see "
-                                "time_reference); unset: none; to clear at run time set [0.0, 0.0] (an empty window)",
-            optional=True),
-    number("lost_from", -1e9, 1e9, "link lost for good from this time [s] (see time_reference); negative: never"),
-    number("rate_cap_hz", 0.0, 10000.0, "at most this many deliveries a second per route, newest first; 0: no cap"),
-    integer("seed", -1, 2 ** 31 - 1, "seed of the random draws; negative: from the OS"),
-    text("time_reference", "'start': blackout_windows and lost_from are relative to the node clock at node start "
-                           "(with use_sim_time and no /clock yet that is sim time 0); 'clock': absolute node clock"),
-    number("delivery_rate_hz", 10.0, 10000.0, "how often due messages are released [Hz]; sets the delay "
-                                              "resolution"),
-    number("statistics_rate_hz", 0.01, 100.0, "/diagnostics rate [Hz]"),
-    switch("publish_deliveries", "publish fic_teleop_msgs/ChannelDelivery on /channel/deliveries for each "
-                                 "delivery"),
-    texts("logged_deliveries", "with publish_deliveries: the out topics whose deliveries go on /channel/deliveries; "
-                               "unset: every route's", read_only=True, optional=True),
-)
-#: The channel node's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row); a list
-#: left unset reads as empty (rcl reads an empty list in a params file as no value, so the two are one).
-ChannelParameters = parameter_set("ChannelParameters", __name__, "channel", SCHEMA.rows,
-                                  "The channel's parameters (SCHEMA), checked, one field a row.")
+SCHEMA = Schema("channel.yaml", CHANNEL_PARAMETERS.values())
 
 
 @dataclass
@@ -164,18 +137,9 @@ class ChannelNode(Node):
 
     # -- parameters -------------------------------------------------------------------------------------------
     def _config_from(self, p: ChannelParameters) -> ChannelConfig:
-        """The links' configuration of ``p`` (FicInputError for a value its row cannot refuse alone)."""
-        if p.time_reference not in ("start", "clock"):
-            raise FicInputError(f"time_reference must be 'start' or 'clock', got {p.time_reference!r}")
-        offset = self._origin if p.time_reference == "start" else 0.0
-        flat = p.blackout_windows   # numbers, checked by the row
-        if len(flat) % 2:
-            raise FicInputError(f"blackout_windows needs pairs t0,t1; got {len(flat)} numbers")
-        windows = tuple((flat[i] + offset, flat[i + 1] + offset) for i in range(0, len(flat), 2))
-        return ChannelConfig(delay=p.delay, jitter=p.jitter, jitter_distribution=p.jitter_distribution,
-                             allow_reorder=p.allow_reorder, drop_probability=p.drop_probability,
-                             blackout_windows=windows, lost_from=None if p.lost_from < 0.0 else p.lost_from + offset,
-                             rate_cap_hz=p.rate_cap_hz, seed=None if p.seed < 0 else p.seed)
+        """The links' configuration of ``p``, on this node's start (FicInputError for a value its row cannot refuse
+        alone)."""
+        return channel_config(p, self._origin)
 
     def _on_set_parameters(self, changes: list[Parameter]) -> SetParametersResult:
         link_changes = {p.name: p.value for p in changes if p.name in LINK_PARAMETERS}

@@ -26,20 +26,26 @@ from sensor_msgs.msg import JointState, Joy
 from std_msgs.msg import Bool, Float64MultiArray
 
 from fic_core.errors import FicInputError
-from fic_core.parameter_row import parameter_set
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
-from fic_teleop_runtime.parameters import Schema, declare, number, numbers, text
+from fic_teleop_runtime.parameters import Schema, declare
 from fic_teleop_runtime.periodic import PeriodicCallbacks
 from fic_teleop_runtime.stamps import nanoseconds
 from fic_teleop_runtime.workspace import config_folder
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
+from sim_bridge.device.device_parameters import (
+    DEVICE_PARAMETERS,
+    OPERATOR_SOURCES,
+    DeviceNodeParameters,
+    hand_parameters,
+    haptic_device_parameters,
+)
 from sim_bridge.device.device_station import DeviceStation
-from sim_bridge.device.haptic_device import HapticDevice, HapticDeviceParameters
+from sim_bridge.device.haptic_device import HapticDevice
 from sim_bridge.device.reactive_hand import ReactiveHand
 from sim_bridge.device.shape_sorting_operator import ShapeSortingOperator, ShapeSortingParameters, SortingFrame
-from sim_bridge.device.virtual_operator import Hand, HandParameters, JoyTarget, ScriptedOperator, load_script
+from sim_bridge.device.virtual_operator import Hand, JoyTarget, ScriptedOperator, load_script
 
 # Device streams at 250 Hz (docs/CONVENTIONS.md): RELIABLE, written with the streams' deep writer history (a
 # stalled reader loses nothing), the force command read KEEP_LAST 20 like the other streams.
@@ -47,7 +53,6 @@ DEVICE_QOS, DEVICE_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
 # Button presses must not be lost (a lost toggle inverts the mode for the rest of the run): RELIABLE, deep.
 JOY_QOS = qos.EVENTS
 
-OPERATOR_SOURCES = ("scripted", "closed_loop", "shape_sorting", "joy", "none")
 # The video the closed-loop operator watches: the robot's poses after the backward channel (the launcher adds the
 # two routes to channel_backward). Both carry the capture's stamp; a frame is a TCP pose and an object array of
 # one stamp.
@@ -56,50 +61,11 @@ VIDEO_OBJECTS_TOPIC = "/master/video/object_poses"
 VIDEO_QOS = qos.STREAM
 PUSHABLE_OBSTACLE_INDEX = 0   # superimposition scene: /sim/object_poses holds the pushable obstacle alone
 VIDEO_PAIRING_WINDOW_NS = 1_000_000_000  # a half frame older than this has lost its other half
-SCENES = ("superimposition", "shape_sorting", "free_space")
 JOY_RATE_HZ = 50.0
 LONGEST_STEP = 0.05      # [s] a clock jump (pause, sim restart) is integrated as at most this much time
 
 
-SCHEMA = Schema(
-    "haptic_device.yaml",
-    number("publish_rate_hz", 10.0, 2000.0, "pose/twist rate and loop rate [Hz]"),
-    number("substep", 1e-4, 0.005, "physics substep [s] (1 kHz default)"),
-    number("mass", 0.01, 10.0, "effective moving mass at the handle [kg]"),
-    number("damping", 0.0, 100.0, "mechanism viscous damping [N s/m]"),
-    numbers("half_extents", "workspace box half-sizes x, y, z [m] around the local origin (sigma.7: 0.19 x 0.13 m)"),
-    number("wall_stiffness", 0.0, 20000.0, "soft wall [N/m]"),
-    number("wall_damping", 0.0, 500.0, "soft wall [N s/m]"),
-    number("max_force", 0.0, 100.0, "command force saturation [N]"),
-    number("command_timeout", 0.001, 10.0, "a force command older than this is stale: zero force until a fresh one "
-                                           "[s]"),
-    text("operator_source", f"the hand on the handle: one of {OPERATOR_SOURCES}"),
-    number("reaction_time", 0.0, 2.0, "closed_loop, shape_sorting: a video frame is used this long after it "
-                                      "arrived [s]"),
-    number("assumed_one_way_delay", 0.0, 10.0, "closed_loop, shape_sorting: the link latency the operator has "
-                                               "learnt [s] (the launcher gives it the run's delay)"),
-    text("scene", f"scene whose operator script is played: one of {SCENES}"),
-    text("script_file", "operator script YAML; empty: config/operator_scripts/<scene>.yaml"),
-    number("script_start_time", -1.0, 1e10, "node-clock time of the script's t = 0 [s]; negative: when the node "
-                                            "starts"),
-    number("quiet_from", -1.0, 1e10, "node-clock time from which the operator's target holds still and the hand "
-                                     "keeps holding the handle (a run's quiet tail) [s]; negative: never"),
-    number("hand_stiffness", 1.0, 5000.0, "operator hand [N/m]"),
-    number("hand_damping", 0.0, 200.0, "operator hand [N s/m]"),
-    number("hand_correction_rate", 0.0, 50.0, "how fast the operator leans in to put the handle on target [1/s]; "
-                                              "0: never"),
-    number("hand_max_correction", 0.0, 0.5, "bound on lean-in [m]"),
-    number("hand_max_force", 0.1, 200.0, "strongest hand push [N]"),
-    number("joy_max_speed", 0.0, 2.0, "hand target speed at full axis [m/s]"),
-    number("joy_timeout", 0.01, 10.0, "axes older than this count as zero (a crashed keyboard stops the hand) [s]"),
-    text("frame_id", "frame of pose/twist"),
-    text("driver_interface", f"topics to speak: one of {DEVICE_INTERFACES} (forcedimension: the twin of "
-                             "forcedimension_ros2, driver_topics.py; publish_rate_hz is then its update rate)"),
-)
-#: The device node's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row): a name no
-#: row has is refused where it is built, naming the nearest.
-DeviceNodeParameters = parameter_set("DeviceNodeParameters", __name__, "haptic device", SCHEMA.rows,
-                                     "The simulated device's parameters (SCHEMA), checked, one field a row.")
+SCHEMA = Schema("haptic_device.yaml", DEVICE_PARAMETERS.values())
 
 
 def default_script_path(scene: str) -> Path:
@@ -117,13 +83,9 @@ class HapticDeviceNode(Node):
         self._periodic = PeriodicCallbacks(self)  # timers that follow the simulated clock (periodic.py)
         # Every row with its config/haptic_device.yaml value; unknown keys refused.
         p = DeviceNodeParameters.from_values(declare(self, SCHEMA))
-        parameters = HapticDeviceParameters(
-            mass=p.mass, damping=p.damping, half_extents=tuple(p.half_extents), wall_stiffness=p.wall_stiffness,
-            wall_damping=p.wall_damping, max_force=p.max_force, substep=p.substep)
+        parameters = haptic_device_parameters(p)
         self.device = HapticDevice(parameters)
-        self.hand = Hand(HandParameters(stiffness=p.hand_stiffness, damping=p.hand_damping,
-                                        correction_rate=p.hand_correction_rate, max_correction=p.hand_max_correction,
-                                        max_force=p.hand_max_force))
+        self.hand = Hand(hand_parameters(p))
         self.frame_id = p.frame_id
         self.command_timeout = p.command_timeout
         self.joy_timeout = p.joy_timeout

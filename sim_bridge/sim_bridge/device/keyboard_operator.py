@@ -19,6 +19,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import Joy
 from std_msgs.msg import String
 
+from fic_core.parameter_row import parameter_set
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.episode_markers import MARKER_TOPIC
 from fic_teleop_runtime.node_main import run_node
@@ -30,21 +31,26 @@ JOY_QOS = qos.EVENTS
 SCHEMA = Schema("keyboard_operator.yaml",
                 number("rate_hz", 1.0, 500.0, "Joy publishing rate [Hz]"),
                 number("hold_time", 0.05, 5.0, "an axis stays on this long after the key's last auto-repeat [s]"))
+#: The keyboard operator's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row): a name
+#: no row has is refused where it is built, naming the nearest.
+KeyboardOperatorParameters = parameter_set("KeyboardOperatorParameters", __name__, "keyboard operator", SCHEMA.rows,
+                                           "The keyboard operator's parameters (SCHEMA), checked, one field a row.")
 MODE_NAMES = ("OFFSET", "VELOCITY")
 
 
 class KeyboardOperator(Node):
     def __init__(self, stdin_fd: int) -> None:
         super().__init__("keyboard_operator")
-        values = declare(self, SCHEMA)  # config/keyboard_operator.yaml; unknown keys refused
+        # Every row with its config/keyboard_operator.yaml value (unknown keys refused), as one typed object.
+        p = KeyboardOperatorParameters.from_values(declare(self, SCHEMA))
         self.fd = stdin_fd
-        self.state = KeyboardState(hold_time=values["hold_time"])
+        self.state = KeyboardState(hold_time=p.hold_time)
         self.mode = 0                  # what the master should be in if it started in OFFSET (display only)
         self.gain_presses = 0
         self.last_mark = "none"
         self.publisher = self.create_publisher(Joy, "/operator/joy", JOY_QOS)
         self.marker_publisher = self.create_publisher(String, MARKER_TOPIC, qos.MARKERS)
-        self.create_timer(1.0 / values["rate_hz"], self._tick)
+        self.create_timer(1.0 / p.rate_hz, self._tick)
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -88,10 +94,12 @@ def main(args: list[str] | None = None) -> None:
     saved = termios.tcgetattr(fd)
 
     def make_node() -> KeyboardOperator:
+        # The parameters first: a refused start is its one line, not a help text and a line after it.
+        node = KeyboardOperator(fd)
         # cbreak: keys arrive one at a time without Enter, and Ctrl-C still raises SIGINT.
         tty.setcbreak(fd)
         print(HELP)
-        return KeyboardOperator(fd)
+        return node
 
     try:
         run_node(make_node, "keyboard_operator", args)

@@ -53,25 +53,23 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
-from fic_core.arm_profile import arm_profile
 from fic_core.command_stamp import stamp_ns as command_state_stamp_ns
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES
-from fic_core.parameter_row import parameter_set
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.driver_topics import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
-from fic_teleop_runtime.parameters import Schema, declare, integer, number, numbers, switch, text, texts
+from fic_teleop_runtime.parameters import Schema, declare
 from sim_bridge.os_thread import name_os_thread
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.peer_barrier import PeerBarrier
 from sim_bridge.robot.render import StateTape, check_video_path, default_view, launch_viewer, render_tape
+from sim_bridge.robot.robot_parameters import ROBOT_PARAMETERS, SUBSCRIBER_WAIT_S, RobotParameters
 from sim_bridge.robot.robot_station import RobotStation, RobotUpdate
 from sim_bridge.robot.scenes import SCENE_NAMES
 from sim_bridge.robot.stepping import STEPPING_MODES, LockstepCommand, LockstepGate, RealtimePacer, ZeroOrderHold
-from sim_bridge.robot.velocity_reflex import VelocityReflex
 from sim_bridge.robot.watchdog import WatchdogEvent
 
 # 1 kHz robot streams (docs/CONVENTIONS.md): RELIABLE, KEEP_LAST 1000. A reliable writer overwrites samples a
@@ -84,63 +82,10 @@ NEWEST_COMMAND_QOS, STATUS_QOS, DIAGNOSTICS_QOS = qos.NEWEST, qos.STREAM_WRITER,
 PEER_QOS = qos.best_effort(10)
 
 BASE_FRAME = "panda_link0"
-SUBSCRIBER_WAIT_S = 60.0  # lockstep: longest wall-clock wait for the /joint_states readers before the first step
 STEPS_PER_SECOND = round(1.0 / TIMESTEP)
 STEP_NS = round(TIMESTEP * 1e9)   # a step on the stamp grid [ns]
 
-SCHEMA = Schema(
-    "robot.yaml",
-    text("scene", f"scene to build: one of {', '.join(SCENE_NAMES)}"),
-    integer("seed", 0, 2 ** 31 - 1, "seed of the scene's random elements (adhesive bond break thresholds)"),
-    text("mode", "realtime: wall-clock paced 1 kHz; lockstep: step on each command"),
-    number("lockstep_timeout", 0.001, 10.0, "lockstep: longest wall-clock wait for the command of a step before "
-                                            "stepping on the last one (counted) [s]"),
-    texts("lockstep_peers", "lockstep: header-stamped topics of nodes that follow /clock (device, master, planner); "
-                            "no step past t until each has published a stamp >= t - lockstep_peer_lag, and no first "
-                            "step "
-                            "before each has a publisher (empty: none)"),
-    integer("lockstep_subscribers", 0, 100, "lockstep: the simulation starts once /joint_states has this many "
-                                            "readers (the replica, a recorder), or after "
-                                            f"{SUBSCRIBER_WAIT_S:g} s with a warning"),
-    number("lockstep_peer_lag", 0.0, 10.0, "lockstep: how far a peer's newest stamp may trail the simulation (at "
-                                           "least its own period) [s]"),
-    number("lockstep_peer_timeout", 0.001, 60.0, "lockstep: a peer that holds a step longer than this (wall) is "
-                                                 "declared stalled and not waited for until it catches up [s]"),
-    number("command_timeout", 0.002, 10.0, "watchdog: commands older than this are replaced by the hold torque "
-                                           "(wall s in realtime, simulated s in lockstep) [s]"),
-    number("command_state_timeout", 0.001, 10.0, "realtime: a torque command computed on a joint state older than "
-                                                 "this (the state stamp it carries, fic_core.command_stamp) is "
-                                                 "refused: never applied, the watchdog not released [s]"),
-    number("realtime_clock_rate_hz", 0.0, 1000.0, "realtime: /clock publication rate (lockstep publishes every "
-                                                  "step) [Hz]"),
-    number("joint_state_rate_hz", 1.0, 1000.0, "realtime: /joint_states publication rate, a divisor of 1000 "
-                                               "(lockstep publishes every step, the replica answers each) [Hz]"),
-    number("wrench_rate_hz", 1.0, 1000.0, "/ft_sensor/wrench publication rate, a divisor of 1000 (the sample of "
-                                          "that step) [Hz]"),
-    number("lateness_rate_hz", 0.0, 1000.0, "/sim/step_lateness publication rate [Hz]"),
-    number("object_pose_rate_hz", 0.0, 1000.0, "/sim/object_poses and /sim/tcp_pose publication rate [Hz]"),
-    number("diagnostics_rate_hz", 0.0, 100.0, "/diagnostics publication rate [Hz]"),
-    numbers("initial_configuration", "joint positions at start, panda_joint1..7 [rad]"),
-    text("render_video_path", "write the run to this .gif (or .mp4) at the end; empty: no video"),
-    text("snapshot_dir", "write PNG key frames of the run here at the end; empty: none"),
-    number("video_frame_rate_hz", 0.1, 60.0, "frames per simulated second taped for the video and key frames [Hz]"),
-    number("snapshot_interval", 0.01, 3600.0, "simulated time between key frames [s]"),
-    switch("viewer", "open the live MuJoCo viewer (needs a display)"),
-    switch("gravity_compensation", "the arm compensates its own gravity at every physics step, as a Franka under "
-                                   "torque control: commands then mean tau - G(q) (mujoco_panda.build_panda_spec)"),
-    text("driver_interface", f"topics, QoS, frames and joint names to speak: one of {ROBOT_INTERFACES} "
-                             "(franka_ros2: its twin, driver_topics.py)"),
-    switch("hold_on_stale_commands", "replace stale commands by the hold torque (command_timeout); false: apply "
-                                     "the last command until another comes, as ros2_control's forward controller "
-                                     "does"),
-    switch("velocity_reflex", "stop the arm (hold torque, commands ignored) once a joint moves beyond the arm "
-                              "profile's velocity limit, as a Franka arm stops with joint_velocity_violation"),
-)
-
-#: The robot node's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row): a name no
-#: row has is refused where it is built, naming the nearest.
-RobotParameters = parameter_set("RobotParameters", __name__, "robot", SCHEMA.rows,
-                                "The simulated robot's parameters (SCHEMA), checked, one field a row.")
+SCHEMA = Schema("robot.yaml", ROBOT_PARAMETERS.values())
 
 
 # The physics thread's name as the OS shows it (top -H, /proc): the launcher gives it real-time priority by it.
@@ -236,13 +181,8 @@ class RobotNode(Node):
         self._joint_state.header.frame_id = franka.joint_states_frame if self._franka else BASE_FRAME
         self._joint_state.name = ([f"{franka.joint_prefix}_joint{i}" for i in range(1, 8)] if self._franka
                                   else list(ARM_JOINT_NAMES))
-        # The simulated arm is the Panda; behind the franka_ros2 twin it stands for an FR3 and stops at its limits.
-        reflex = VelocityReflex(arm_profile("fr3" if self._franka else "panda").joint_velocity,
-                                self._joint_state.name) if p.velocity_reflex else None
         # The watchdog and the state-age rule (on the stamp grid: nanoseconds), the reflex and the hold.
-        self._station = RobotStation(self._sim, command_timeout=p.command_timeout,
-                                     command_state_timeout=round(p.command_state_timeout * 1e9),
-                                     hold_on_stale=self._hold_on_stale, reflex=reflex)
+        self._station = RobotStation.from_parameters(self._sim, p, self._joint_state.name, nanosecond_stamps=True)
         self._wrench = WrenchStamped()
         self._wrench.header.frame_id = franka.external_wrench_frame if self._franka else BASE_FRAME
 

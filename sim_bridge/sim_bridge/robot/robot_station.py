@@ -16,14 +16,17 @@ stamp grid; the runner: simulated seconds). Transitions come back as events, eac
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from fic_core.arm_profile import arm_profile
 from fic_core.panda_description import ARM_JOINT_NAMES
 from sim_bridge.robot.mujoco_panda import PandaSimulation
+from sim_bridge.robot.robot_parameters import RobotParameters
 from sim_bridge.robot.velocity_reflex import ReflexEvent, VelocityReflex
 from sim_bridge.robot.watchdog import CommandStateAge, CommandWatchdog, WatchdogEvent
 
@@ -60,6 +63,25 @@ class RobotStation:
         self._arm_dof = np.array([model.jnt_dofadr[model.joint(name).id] for name in ARM_JOINT_NAMES])
         self._arm_velocity, self._arm_momentum = np.zeros(model.nv), np.zeros(model.nv)
         self._geoms: dict[str, int] = {}
+
+    @classmethod
+    def from_parameters(cls, sim: PandaSimulation, parameters: RobotParameters, joint_names: Sequence[str], *,
+                        nanosecond_stamps: bool = False, state_age_rule: bool = True,
+                        dynamics_at_physics_rate: bool = False) -> RobotStation:
+        """The robot node's station from its parameters, for robot_node and the in-process runner alike: the
+        stale-command hold (``command_timeout``, ``hold_on_stale_commands``), the state-age rule
+        (``command_state_timeout``: in nanoseconds on the node's stamp grid with ``nanosecond_stamps``, else in
+        seconds; ``state_age_rule`` False: none, the robot before the rule existed) and the velocity reflex on
+        ``joint_names`` (``velocity_reflex``). The simulated arm is the Panda; behind the franka_ros2 twin it stands
+        for an FR3 and stops at its limits."""
+        p = parameters
+        arm = "fr3" if p.driver_interface == "franka_ros2" else "panda"
+        reflex = VelocityReflex(arm_profile(arm).joint_velocity, joint_names) if p.velocity_reflex else None
+        state_timeout = (round(p.command_state_timeout * 1e9) if nanosecond_stamps else p.command_state_timeout) \
+            if state_age_rule else math.inf
+        return cls(sim, command_timeout=p.command_timeout, command_state_timeout=state_timeout,
+                   hold_on_stale=p.hold_on_stale_commands, reflex=reflex,
+                   dynamics_at_physics_rate=dynamics_at_physics_rate)
 
     # --- read-outs -------------------------------------------------------------------------------------------
     @property
