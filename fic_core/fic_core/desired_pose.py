@@ -21,8 +21,9 @@ the planner's stamps (``SampledSetPoint``), so x_d moves smoothly at the control
   still running at the anchor end there: that one give-back replaces them, so x_d moves from the set-point's own
   motion at resume_speed at most (two left running beside it moved it at twice that, away from an arm at rest).
 - Feedforward acceleration (beyond paper Eq. 7, fic_core.replica): the planner's own (while fresh), plus the
-  estimate of x_d''s acceleration from the command stamps (while not stale). A jump being given back moves at
-  constant speed: it adds none.
+  estimate of x_d''s acceleration from the command stamps (while not stale, and not within a round trip of the
+  link after a contact: fic_core.offset_feedforward_gate). A jump being given back moves at constant speed: it adds
+  none.
 - First use of a teleoperation command: its age at the control tick that first used it is the pipeline latency
   plus the channel's hold; kept with it so a status published at a lower rate still carries it exactly.
 
@@ -38,6 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import FicInputError, finite_array, finite_scalar
 from .link_hold import LinkHold
+from .offset_feedforward_gate import OffsetFeedforwardGate
 from .set_point import SampledSetPoint, ShrinkingOffset
 
 #: An older planner acceleration is not fed forward (the planner publishes at 100 Hz) [s].
@@ -59,12 +61,17 @@ class DesiredPoseParameters:
     offset_feedforward: bool = True             # feed x_d''s estimated acceleration forward
     use_planner_orientation: bool = False       # track the planner's orientation (else: the start orientation)
     interpolate_link_samples: bool = True       # x_d' between link samples: interpolated (else extrapolated)
+    # After a contact (|F_R| at or above this [N]) the offset feedforward waits one round trip of the link plus
+    # offset_feedforward_settle [s] (fic_core.offset_feedforward_gate).
+    offset_feedforward_contact_force: float = 1.0
+    offset_feedforward_settle: float = 0.5
 
     def __post_init__(self) -> None:
         finite_scalar("master_timeout", self.master_timeout, minimum=0.0, minimum_inclusive=False)
         finite_scalar("resume_speed", self.resume_speed, minimum=0.0, minimum_inclusive=False)
         finite_scalar("set_point_acceleration_filter", self.set_point_acceleration_filter, minimum=0.0)
         finite_scalar("set_point_extrapolation", self.set_point_extrapolation, minimum=0.0)
+        OffsetFeedforwardGate(self.offset_feedforward_contact_force, self.offset_feedforward_settle)  # checks both
 
 
 @dataclass
@@ -103,6 +110,9 @@ class DesiredPose:
         self.master_stale = False
         self.master_stamp_used_ns = 0          # the command the last control tick used [ns]
         self.master_first_use_age = 0.0        # its age at the control tick that first used it [s]
+        self.contact_force = 0.0               # |F_R| [N] as last measured (measure_contact_force)
+        self._offset_feedforward_gate = OffsetFeedforwardGate(self._parameters.offset_feedforward_contact_force,
+                                                              self._parameters.offset_feedforward_settle)
 
     def _hold(self) -> SampledSetPoint:
         p = self._parameters
@@ -123,6 +133,8 @@ class DesiredPose:
         """New settings, taking effect at once; the holds keep their samples (a new link hold design starts afresh
         at the next sample)."""
         self._parameters = value
+        self._offset_feedforward_gate.contact_force = value.offset_feedforward_contact_force
+        self._offset_feedforward_gate.settle = value.offset_feedforward_settle
         self._planner_hold.acceleration_time_constant = value.set_point_acceleration_filter
         self._planner_hold.max_extrapolation = value.set_point_extrapolation
         self._offset_hold.acceleration_time_constant = value.set_point_acceleration_filter
@@ -209,6 +221,11 @@ class DesiredPose:
         self._planner_acceleration = finite_array("planner_acceleration", acceleration, (3,)).copy()
         self._planner_acceleration_received = finite_scalar("now", now)
 
+    def measure_contact_force(self, force_norm: float) -> None:
+        """|F_R| [N], the replica's measured contact force (inf: a reading refused): after a contact the offset
+        feedforward waits out its echo (fic_core.offset_feedforward_gate)."""
+        self.contact_force = float(force_norm)
+
     def update(self, now: float, dt: float) -> DesiredPoseSample:
         """x_d for a control tick at ``now``, ``dt`` after the last one (the give-backs advance by dt)."""
         if not self.started:
@@ -272,7 +289,10 @@ class DesiredPose:
         if p.planner_feedforward and self._planner_acceleration is not None and self._planner_in_use is not None \
                 and now - self._planner_acceleration_received <= FEEDFORWARD_TIMEOUT_S:
             acceleration = self._planner_acceleration
-        if p.offset_feedforward and not self.master_stale and self._offset_hold.has_sample:
+        # After a contact, not until its echo through the operator has passed (fic_core.offset_feedforward_gate); the
+        # gate sees every tick, so a contact is remembered whether the feedforward is on or not.
+        free = self._offset_feedforward_gate.update(now, self.contact_force, self.master_first_use_age)
+        if p.offset_feedforward and free and not self.master_stale and self._offset_hold.has_sample:
             offset_acceleration = self._offset_hold.acceleration(now)
             acceleration = offset_acceleration if acceleration is None else acceleration + offset_acceleration
         return acceleration

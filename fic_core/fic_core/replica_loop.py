@@ -70,7 +70,8 @@ def _loop_health_bounds(p: ReplicaLoopParameters) -> LoopHealthBounds:
 def _desired_pose_parameters(p: ReplicaLoopParameters) -> DesiredPoseParameters:
     return DesiredPoseParameters(p.master_timeout, p.resume_speed, p.set_point_acceleration_filter,
                                  p.set_point_extrapolation, p.planner_feedforward, p.offset_feedforward,
-                                 p.use_planner_orientation, p.interpolate_link_samples)
+                                 p.use_planner_orientation, p.interpolate_link_samples,
+                                 p.offset_feedforward_contact_force, p.offset_feedforward_settle)
 
 
 class ReplicaLoop:
@@ -182,6 +183,11 @@ class ReplicaLoop:
                 return
             self.desired.add_planner_pose(stamp_ns, self.planner_authority.check(target, now), rotation, now)
         self._counted("planner_poses", add)
+
+    def measure_contact_force(self, force_norm: float) -> None:
+        """|F_R| [N] as measured (inf: a reading refused): after a contact the offset feedforward waits out its echo
+        (fic_core.offset_feedforward_gate)."""
+        self.desired.measure_contact_force(force_norm)
 
     def add_planner_acceleration(self, acceleration: ArrayLike, now: float) -> None:
         try:

@@ -54,6 +54,11 @@ REPLICA_NUMBERS: dict[str, ParameterRow] = rows_by_name(
     number("resume_speed", 0.001, 2.0, "speed at which x_d' moves to the commanded value after a stale period [m/s]"),
     number("set_point_acceleration_filter", 0.0, 1.0, "time constant of the acceleration estimate of x_d' (fed "
                                                       "forward when offset_feedforward is true) [s]"),
+    number("offset_feedforward_contact_force", 0.01, 200.0, "after a contact (the measured |F_R| at or above this) "
+                                                            "the offset feedforward waits one round trip of the "
+                                                            "link plus offset_feedforward_settle [N] "
+                                                            "(fic_core.offset_feedforward_gate)"),
+    number("offset_feedforward_settle", 0.0, 10.0, "... the wait beyond the round trip [s]"),
     number("set_point_extrapolation", 0.0, 0.5, "x_d'' moves on along its last velocity for at most this long after "
                                                 "a planner sample (first-order hold between samples) [s]; 0: held "
                                                 "as steps (x_d' has its own hold over the link's learned interval: "

@@ -22,6 +22,7 @@ robot's own command watchdog holds the arm (docs/SECURITY.md).
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -274,9 +275,11 @@ class ReplicaStation:
         except FicInputError as exc:
             self.loop.counts["rejected_wrenches"] += 1
             self.feedback_force = np.zeros(3)
+            self.loop.measure_contact_force(math.inf)   # contact unknown: taken as contact (no offset feedforward)
             return self.feedback_force, np.zeros(3), exc
         self.loop.counts["wrenches"] += 1
         self.feedback_force = force
+        self.loop.measure_contact_force(float(np.linalg.norm(force)))
         return force, torque, None
 
     # --- the control step ------------------------------------------------------------------------------------
