@@ -763,7 +763,7 @@ def main(argv: list[str] | None = None) -> int:
     result = validate(with_held_out=not args.no_held_out)
     for group, counts in result["groups"].items():
         print(f"{group:40s} {counts['right']:3d}/{counts['cases']:<3d} right (without the fit "
-              f"{counts['without_fit_right']}, older verdict {counts['old_right']})")
+              f"{counts['without_fit_right']})")
     print(f"all: {result['right']}/{result['cases']}; stable {result['confusion']['stable']}; "
           f"safe {result['confusion']['safe']}")
     if result["held_out"] is not None:

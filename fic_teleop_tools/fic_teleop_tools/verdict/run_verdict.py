@@ -15,7 +15,8 @@ seen over the judged span, which starts ``settle`` seconds into the run:
    damping gains energy every cycle (Anderson and Spong 1989); the kinetic energy of an oscillation of period P
    peaks every P/2, so a window of 2 round trips holds a full energy period of the slowest delay-induced
    oscillation. Rising in EVERY window, not just last against first: an operator's aperiodic moves make the peaks go
-   up and down, a growing oscillation makes them rise.
+   up and down, a growing oscillation makes them rise. With a quiet tail the windows cover the tail after its flush
+   (2'), not the task: energy that grows from one of the operator's moves to the next is driven, not the loop's.
 2'. FREE OSCILLATION IN THE QUIET TAIL (runs with a tail). The tail's first ``tail_flush`` seconds (1 s) and one round
    trip are left out: the operator's last target reaches the replica one delay after it stops and the replica's
    answer reaches the hand another delay later, and the planner comes to rest within 0.8 s (fic_core.
@@ -662,7 +663,10 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
             # The kinetic energy of an oscillation of period P peaks every P/2: windows of 2 round trips hold a full
             # energy period of the slowest delay-induced oscillation (4 round trips).
             window = max(criterion.min_window, 0.5 * criterion.round_trips_judged * round_trip)
-            peaks = _energy_windows(time, on_grid["energy"].reshape(time.size, -1)[:, 0], free, judged_from, window)
+            # With a quiet tail, over the tail after its flush: stability is the free response's, and during the task
+            # the operator's moves drive the energy (a push that grows from one move to the next is not the loop's).
+            grown_from = judged_from if quiet_from is None else quiet_from + criterion.tail_flush_s(data.one_way_delay)
+            peaks = _energy_windows(time, on_grid["energy"].reshape(time.size, -1)[:, 0], free, grown_from, window)
             if len(peaks) < 2:
                 peaks = peaks or [0.0]
                 notes.append("fewer than two energy windows outside contact: the growth test is skipped")
