@@ -21,9 +21,9 @@ the planner's stamps (``SampledSetPoint``), so x_d moves smoothly at the control
   still running at the anchor end there: that one give-back replaces them, so x_d moves from the set-point's own
   motion at resume_speed at most (two left running beside it moved it at twice that, away from an arm at rest).
 - Feedforward acceleration (beyond paper Eq. 7, fic_core.replica): the planner's own (while fresh), plus the
-  estimate of x_d''s acceleration from the command stamps (while not stale, and not within a round trip of the
-  link after a contact: fic_core.offset_feedforward_gate). A jump being given back moves at constant speed: it adds
-  none.
+  estimate of x_d''s acceleration from the command stamps (while not stale; with the contact gate on, not within
+  a round trip of the link after a contact: fic_core.offset_feedforward_gate). A jump being given back moves at
+  constant speed: it adds none.
 - First use of a teleoperation command: its age at the control tick that first used it is the pipeline latency
   plus the channel's hold; kept with it so a status published at a lower rate still carries it exactly.
 
@@ -61,8 +61,10 @@ class DesiredPoseParameters:
     offset_feedforward: bool = True             # feed x_d''s estimated acceleration forward
     use_planner_orientation: bool = False       # track the planner's orientation (else: the start orientation)
     interpolate_link_samples: bool = True       # x_d' between link samples: interpolated (else extrapolated)
-    # After a contact (|F_R| at or above this [N]) the offset feedforward waits one round trip of the link plus
-    # offset_feedforward_settle [s] (fic_core.offset_feedforward_gate).
+    # With offset_feedforward_contact_gate, after a contact (|F_R| at or above offset_feedforward_contact_force [N])
+    # the offset feedforward waits one round trip of the link plus offset_feedforward_settle [s]
+    # (fic_core.offset_feedforward_gate).
+    offset_feedforward_contact_gate: bool = False
     offset_feedforward_contact_force: float = 1.0
     offset_feedforward_settle: float = 0.5
 
@@ -289,9 +291,10 @@ class DesiredPose:
         if p.planner_feedforward and self._planner_acceleration is not None and self._planner_in_use is not None \
                 and now - self._planner_acceleration_received <= FEEDFORWARD_TIMEOUT_S:
             acceleration = self._planner_acceleration
-        # After a contact, not until its echo through the operator has passed (fic_core.offset_feedforward_gate); the
-        # gate sees every tick, so a contact is remembered whether the feedforward is on or not.
-        free = self._offset_feedforward_gate.update(now, self.contact_force, self.master_first_use_age)
+        # With the contact gate: after a contact, not until its echo through the operator has passed
+        # (fic_core.offset_feedforward_gate). The gate sees every tick, so switched on live it knows the last contact.
+        free = self._offset_feedforward_gate.update(now, self.contact_force, self.master_first_use_age) \
+            or not p.offset_feedforward_contact_gate
         if p.offset_feedforward and free and not self.master_stale and self._offset_hold.has_sample:
             offset_acceleration = self._offset_hold.acceleration(now)
             acceleration = offset_acceleration if acceleration is None else acceleration + offset_acceleration

@@ -1,5 +1,5 @@
-"""The teleoperated offset's inertial feedforward waits out a contact's echo (beyond paper Eq. 7; docs/CONTROL_LAWS.md,
-"Low-rate links").
+"""An option: the teleoperated offset's inertial feedforward waits out a contact's echo (beyond paper Eq. 7;
+docs/CONTROL_LAWS.md, "Low-rate links").
 
 The replica feeds the estimated acceleration of x_d' forward through the task-space inertia, J^T Lambda a_d
 (fic_core.replica), so that the arm follows the operator's moves in free space without the error the FIC's K0 would
@@ -10,10 +10,12 @@ At 1 s of delay the FIC's arm, held on E1's fixed obstacle when the task stopped
 170 N; the same runs without the offset feedforward settled on the obstacle (docs/RESULTS.md, "Evidence and claims").
 Fading the feedforward by the contact force alone did not stop it: the jolts arrive after the arm has bounced off.
 
-So after any contact (the measured |F_R| at or above ``contact_force``, or no usable reading) the offset feedforward
-is off until the arm has been free for one round trip of the link -- twice the measured age of the teleoperation
-commands, the time a contact takes to come back through the operator -- plus ``settle``; then it acts in full again.
-In contact and in its echo the FIC alone acts, as the paper's law does; in free space nothing changes.
+So, when the replica's ``offset_feedforward_contact_gate`` is on, after any contact (the measured |F_R| at or above
+``contact_force``, or no usable reading) the offset feedforward is off until the arm has been free for one round trip
+of the link -- twice the measured age of the teleoperation commands, the time a contact takes to come back through the
+operator -- plus ``settle``; then it acts in full again. In contact and in its echo the FIC alone acts, as the paper's
+law does. It settles the tails above, but it also takes the feedforward away after every ordinary contact, and E1's
+free-motion error max rose from 41.9 to 56.6 mm with it: so it is off by default (docs/CONTROL_LAWS.md).
 """
 from __future__ import annotations
 

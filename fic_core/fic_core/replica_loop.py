@@ -71,7 +71,8 @@ def _desired_pose_parameters(p: ReplicaLoopParameters) -> DesiredPoseParameters:
     return DesiredPoseParameters(p.master_timeout, p.resume_speed, p.set_point_acceleration_filter,
                                  p.set_point_extrapolation, p.planner_feedforward, p.offset_feedforward,
                                  p.use_planner_orientation, p.interpolate_link_samples,
-                                 p.offset_feedforward_contact_force, p.offset_feedforward_settle)
+                                 p.offset_feedforward_contact_gate, p.offset_feedforward_contact_force,
+                                 p.offset_feedforward_settle)
 
 
 class ReplicaLoop:

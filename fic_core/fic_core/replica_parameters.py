@@ -54,9 +54,10 @@ REPLICA_NUMBERS: dict[str, ParameterRow] = rows_by_name(
     number("resume_speed", 0.001, 2.0, "speed at which x_d' moves to the commanded value after a stale period [m/s]"),
     number("set_point_acceleration_filter", 0.0, 1.0, "time constant of the acceleration estimate of x_d' (fed "
                                                       "forward when offset_feedforward is true) [s]"),
-    number("offset_feedforward_contact_force", 0.01, 200.0, "after a contact (the measured |F_R| at or above this) "
-                                                            "the offset feedforward waits one round trip of the "
-                                                            "link plus offset_feedforward_settle [N] "
+    number("offset_feedforward_contact_force", 0.01, 200.0, "with offset_feedforward_contact_gate: after a contact "
+                                                            "(the measured |F_R| at or above this) the offset "
+                                                            "feedforward waits one round trip of the link plus "
+                                                            "offset_feedforward_settle [N] "
                                                             "(fic_core.offset_feedforward_gate)"),
     number("offset_feedforward_settle", 0.0, 10.0, "... the wait beyond the round trip [s]"),
     number("set_point_extrapolation", 0.0, 0.5, "x_d'' moves on along its last velocity for at most this long after "
@@ -105,6 +106,10 @@ REPLICA_SWITCHES: dict[str, ParameterRow] = rows_by_name(
                                        "sample moved on along the last two samples' slope for one interval (no "
                                        "latency, overshoots a turn). Either way the feedforward of x_d''s "
                                        "acceleration acts over the whole interval, at any link rate"),
+    switch("offset_feedforward_contact_gate", "after a contact, no offset feedforward until the contact's echo "
+                                              "through the operator has passed (fic_core.offset_feedforward_gate; "
+                                              "off by default: it costs free-space tracking after every contact, "
+                                              "docs/CONTROL_LAWS.md 'Low-rate links')"),
     switch("joint_damping_compensation", "add D qd, the arm's viscous joint friction, to tau_d as Eq. 7 adds C qd "
                                          "(beyond the paper; fic_core.replica)"),
     switch("use_planner_orientation", "track the orientation of /planner/desired_pose; false holds the TCP "

@@ -11,7 +11,9 @@ runs with one thing changed at a time:
   and link, with the quiet tail begun at another point of the circle (and of the operator's moves around the
   obstacle);
 - ``no offset feedforward`` / ``no joint damping compensation`` / ``no planner feedforward``: the replica without
-  one of its terms beyond paper Eq. 7 (fic_core.replica; the paper's law has none of the three).
+  one of its terms beyond paper Eq. 7 (fic_core.replica; the paper's law has none of the three);
+- ``contact gate``: the offset feedforward waiting out a contact's echo (fic_core.offset_feedforward_gate, off by
+  default).
 
 For each run: the verdict (fic_teleop_tools.verdict.run_verdict), the obstacle contact time and peak contact force
 in the tail, and the tail's last-window swing of x_M about the operator's target, the figure the verdict names.
@@ -35,7 +37,7 @@ from fic_teleop_experiments.claims import ClaimRun, duration_for, tail_for
 from fic_teleop_experiments.in_process import RunConfig, run
 
 VARIANTS = ("as swept", "no force feedback", "stop 2 s earlier", "stop 2 s later", "no offset feedforward",
-            "no joint damping compensation", "no planner feedforward")
+            "no joint damping compensation", "no planner feedforward", "contact gate")
 #: The variants that switch off one of the replica's terms beyond paper Eq. 7 (fic_core.replica): the replica
 #: parameter each sets false.
 TERMS_OFF = {"no offset feedforward": "offset_feedforward",
@@ -53,7 +55,7 @@ def variant_run(claim: ClaimRun, variant: str) -> ClaimRun:
         return replace(claim, duration=claim.duration - 2.0)
     if variant == "stop 2 s later":
         return replace(claim, duration=claim.duration + 2.0)
-    if variant in TERMS_OFF:
+    if variant in TERMS_OFF or variant == "contact gate":
         return claim
     raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
 
@@ -63,6 +65,9 @@ def variant_config(claim: ClaimRun, variant: str) -> RunConfig:
     config = variant_run(claim, variant).config()
     if variant in TERMS_OFF:
         config = replace(config, replica_overrides={**config.replica_overrides, TERMS_OFF[variant]: False})
+    if variant == "contact gate":
+        config = replace(config, replica_overrides={**config.replica_overrides,
+                                                    "offset_feedforward_contact_gate": True})
     return config
 
 

@@ -1,6 +1,6 @@
-"""The offset feedforward waits out a contact's echo (fic_core.offset_feedforward_gate): off from a contact until the
-arm has been free for a round trip of the link plus the settle time, the planner's feedforward untouched, a refused
-F/T reading taken as contact."""
+"""The offset feedforward waits out a contact's echo (fic_core.offset_feedforward_gate), when its switch is on: off from
+a contact until the arm has been free for a round trip of the link plus the settle time, the planner's feedforward
+untouched, a refused F/T reading taken as contact; with the switch off (the default) contact changes nothing."""
 import math
 
 import numpy as np
@@ -60,10 +60,11 @@ def test_bad_settings_are_refused(contact, settle):
 
 
 def _offset_accelerations(contact_at: float | None, planner_acceleration: list[float] | None = None,
-                          delay: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
+                          delay: float = 0.2, gate: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """(times, fed-forward a_d) at each 500 Hz tick of a 0.7 Hz, 20 mm offset sent at 100 Hz and received ``delay``
     late, with one 50 ms contact of 20 N at ``contact_at`` (None: none)."""
-    pose = DesiredPose(DesiredPoseParameters(planner_feedforward=planner_acceleration is not None))
+    pose = DesiredPose(DesiredPoseParameters(planner_feedforward=planner_acceleration is not None,
+                                             offset_feedforward_contact_gate=gate))
     pose.start(np.zeros(3), np.eye(3))
     times, out = [], []
     for tick in range(3000):
@@ -93,6 +94,14 @@ def test_the_offset_feedforward_is_off_through_the_contacts_echo_and_as_before_a
     assert not touched[waiting].any()
     np.testing.assert_array_equal(touched[after], free[after])
     np.testing.assert_array_equal(touched[times < 2.0], free[times < 2.0])
+
+
+def test_without_the_switch_a_contact_changes_nothing_and_the_switch_is_off_by_default():
+    times, free = _offset_accelerations(None, gate=False)
+    _, touched = _offset_accelerations(2.0, gate=False)
+    np.testing.assert_array_equal(touched, free)
+    assert DesiredPoseParameters().offset_feedforward_contact_gate is False
+    assert config_values("replica.yaml")["offset_feedforward_contact_gate"] is False
 
 
 def test_the_planners_feedforward_goes_on_through_a_contact():

@@ -21,6 +21,12 @@ def test_a_term_off_changes_only_that_replica_parameter(variant):
     assert changed.master_overrides == swept.master_overrides and changed.seed == swept.seed
 
 
+def test_the_contact_gate_variant_switches_the_gate_on_and_nothing_else():
+    changed = variant_config(_claim(), "contact gate")
+    assert changed.replica_overrides == {"offset_feedforward_contact_gate": True}
+    assert changed.duration == _claim().config().duration
+
+
 def test_the_task_variants_move_the_stop_and_keep_the_tail_and_the_law():
     for variant, shift in (("stop 2 s earlier", -2.0), ("stop 2 s later", 2.0)):
         changed = variant_config(_claim(), variant)
