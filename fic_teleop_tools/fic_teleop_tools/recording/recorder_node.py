@@ -54,6 +54,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from fic_core.errors import FicInputError
+from fic_core.parameter_row import parameter_set
 from fic_teleop_runtime.cdr_header import header_stamp
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
@@ -99,6 +100,11 @@ SCHEMA = Schema(
     number("live_rate", 0.1, 1000.0, "most messages a second the live view sends of any one topic"),
 )
 
+#: The recorder's parameters as one typed object, one field a row of SCHEMA (fic_core.parameter_row): a name no row
+#: has is refused, naming the nearest.
+RecorderParameters = parameter_set("RecorderParameters", __name__, "recorder", SCHEMA.rows,
+                                   "The recorder's parameters (SCHEMA), checked, one field a row.")
+
 
 def default_topics() -> list[str]:
     """The topics a session records (config/recorder.yaml: the topic table of docs/INTERFACES.md)."""
@@ -143,32 +149,29 @@ class JointStateGapCounter:
 class RecorderNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__("recorder", **node_options)
-        declare(self, SCHEMA)  # every row with its config/recorder.yaml value; unknown keys refused
-        bag_path = self.get_parameter("bag_path").value or \
-            f"bags/rosbag2_{datetime.datetime.now().strftime('%Y_%m_%d-%H_%M_%S')}"
-        self._topics = list(self.get_parameter("topics").value or [])
-        self._record_all = bool(self.get_parameter("all").value)
-        self._exclude = [re.compile(p) for p in self.get_parameter("exclude").value or []]
-        self._queue_depth = int(self.get_parameter("queue_depth").value)
-        self._count_lost = bool(self.get_parameter("count_lost_messages").value)
-        self._joint_states_topic = str(self.get_parameter("joint_states_topic").value)
+        # Every row with its config/recorder.yaml value; unknown keys refused.
+        self.parameters = p = RecorderParameters.from_values(declare(self, SCHEMA))
+        bag_path = p.bag_path or f"bags/rosbag2_{datetime.datetime.now().strftime('%Y_%m_%d-%H_%M_%S')}"
+        self._topics = list(p.topics or [])
+        self._record_all = p.all
+        self._exclude = [re.compile(pattern) for pattern in p.exclude or []]
+        self._queue_depth = p.queue_depth
+        self._count_lost = p.count_lost_messages
+        self._joint_states_topic = p.joint_states_topic
         # Before the bag folder exists: a port in use leaves nothing behind.
         self.live = None
-        if self.get_parameter("live_port").value:
-            self.live = LiveView(host=str(self.get_parameter("live_host").value),
-                                 port=int(self.get_parameter("live_port").value),
-                                 view_rate=float(self.get_parameter("live_rate").value),
+        if p.live_port:
+            self.live = LiveView(host=p.live_host, port=p.live_port, view_rate=p.live_rate,
                                  joint_states_topic=self._joint_states_topic)
-            self.get_logger().info(f"live view on ws://{self.get_parameter('live_host').value}:{self.live.port}")
+            self.get_logger().info(f"live view on ws://{p.live_host}:{self.live.port}")
 
-        self.bag = BagWriter(Path(bag_path), chunk_size=int(self.get_parameter("chunk_size").value),
-                             compression=str(self.get_parameter("compression").value),
-                             flush_period=float(self.get_parameter("flush_period").value))
-        self.joint_states = JointStateGapCounter(round(self.get_parameter("joint_states_period").value * 1e9))
+        self.bag = BagWriter(Path(bag_path), chunk_size=p.chunk_size, compression=p.compression,
+                             flush_period=p.flush_period)
+        self.joint_states = JointStateGapCounter(round(p.joint_states_period * 1e9))
         # (topic index, cdr bytes, receive time ns, publish time ns or None), or (None, (topic, type, qos profiles),
         # 0, None) to add a topic.
         self._queue: collections.deque = collections.deque()
-        self._drain_period = float(self.get_parameter("drain_period").value)
+        self._drain_period = p.drain_period
         # The node whose subscriptions the taker thread takes from (module docstring); None: the executor's path.
         self._reader = None if self._count_lost else Node(
             f"{self.get_name()}_reader", namespace=self.get_namespace(), context=self.context,
@@ -196,9 +199,9 @@ class RecorderNode(Node):
         # Discovery on the wall clock: under simulated time the lockstep simulation stands at t = 0 until the
         # replica answers, and a sim-time timer would not look for topics until it moved on (the first 0.6 s of
         # /joint_states of a lockstep run were missed that way).
-        self.create_timer(float(self.get_parameter("discovery_period").value), self._discover,
+        self.create_timer(p.discovery_period, self._discover,
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
-        self.create_timer(float(self.get_parameter("status_period").value), self._publish_status)
+        self.create_timer(p.status_period, self._publish_status)
         self._discover()
         self.get_logger().info(f"recording to {self.bag.bag_dir.resolve()} "
                                f"({'all topics' if self._record_all else f'{len(self._topics)} topics'})")
