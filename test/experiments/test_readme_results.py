@@ -173,9 +173,13 @@ def planned_claim_runs() -> int:
     return len(claim_runs())
 
 
-def tail_stable(delay: float, laws: tuple[str, ...] = ("fic", *BASELINES)) -> tuple[int, int]:
-    """(stable, judged) over every cell at ``delay`` (both rates, both hands) and ``laws``."""
-    shares = [c["laws"][law]["stable"] for c in result(TAIL)["cells"] if c["delay"] == delay for law in laws]
+TAIL_V2 = "claims_tail_v2_statistics.json"   # the sweep again (the verdict's growth test on the tail), growing
+
+
+def tail_stable(delay: float, laws: tuple[str, ...] = ("fic", *BASELINES), source: str = TAIL) -> tuple[int, int]:
+    """(stable, judged) over every cell at ``delay`` (both rates, both hands) and ``laws``, in ``source``."""
+    shares = [c["laws"][law]["stable"] for c in result(source)["cells"] if c["delay"] == delay for law in laws
+              if law in c["laws"]]
     return sum(s["k"] for s in shares), sum(s["n"] for s in shares)
 
 
@@ -288,6 +292,21 @@ FIGURES = [
            r"runs so far \| (?P<judged>[\d,]+) of (?P<planned>[\d,]+) \(",
            lambda: dict(judged=f"{result(TAIL)['runs_judged']:,}",
                         planned=f"{planned_claim_runs():,}")),
+    Figure("claims again: runs so far and stable at 0, 0.2 and 1 s", "RESULTS",
+           r"the claim sweep again \(claims-tail-v2\): runs so far \| (?P<judged>[\d,]+) of (?P<planned>[\d,]+); "
+           r"stable at zero delay (?P<zero>\d+ of \d+), at 0\.2 s (?P<short>\d+ of \d+), at 1 s the FIC "
+           r"(?P<fic>\d+ of \d+), the baselines (?P<baselines>\d+ of \d+)",
+           lambda: dict(judged=f"{result(TAIL_V2)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
+                        zero="{} of {}".format(*tail_stable(0.0, source=TAIL_V2)),
+                        short="{} of {}".format(*tail_stable(0.2, source=TAIL_V2)),
+                        fic="{} of {}".format(*tail_stable(1.0, ("fic",), source=TAIL_V2)),
+                        baselines="{} of {}".format(*tail_stable(1.0, BASELINES, source=TAIL_V2)))),
+    Figure("README: the claim sweep again", "README",
+           r"running again: (?P<judged>[\d,]+) of (?P<planned>[\d,]+) runs judged, at 1 s the FIC (?P<fic>\d+ of \d+) "
+           r"stable, the baselines (?P<baselines>\d+ of \d+)",
+           lambda: dict(judged=f"{result(TAIL_V2)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
+                        fic="{} of {}".format(*tail_stable(1.0, ("fic",), source=TAIL_V2)),
+                        baselines="{} of {}".format(*tail_stable(1.0, BASELINES, source=TAIL_V2)))),
     Figure("claims on the new path: the false-alarm floor", "RESULTS",
            r"false-alarm floor at zero delay \| (?P<zero>\d+ of \d+) stable, every law",
            lambda: dict(zero="{} of {}".format(*tail_stable(0.0)))),
