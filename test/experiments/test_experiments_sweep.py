@@ -3,7 +3,7 @@ through the real launcher and graph (every node a process, DDS between them), an
 
 Checks the machinery (both cells ran their simulated time, each has the run verdict, the
 report's metrics and the limit counters, the summary JSON and the sweep plots exist) and the FIC cell's physics:
-stable, free-motion error within 1.5 x_b, no limit violation. The
+free-motion error within 1.5 x_b, no limit violation. The
 full sweeps (scripts/experiments.sh) stay outside the suite. 8.5 s simulated per cell: 8 s is the least run whose
 oscillation scan the run verdict judges at 200 ms (VerdictCriterion.run_needed), and a bag of exactly that length
 was judged too short (stable None) once at load 8 when its start came late (2026-12-06); on this 2-core machine a
@@ -46,9 +46,12 @@ def test_two_cell_lockstep_sweep_writes_the_summary(tmp_path: Path):
     # The physics of the FIC's cell (the E1 scene and delay, 4 s lockstep; two runs under a load average of 30 on
     # 2 cores, 2026-12-02, the second with the passive attractor and F_max = 10 N: stable, free-motion error max
     # 21.6 / 33.7 mm, RMS 11.8 / 12.6 mm; a fresh-clone suite on a quiet machine, 17:15: 53.4 mm, the last half
-    # holding the operator's first avoid move): stable, the error within 1.5 x_b = 75 mm, RMS within 25 mm (2x).
+    # holding the operator's first avoid move): the error within 1.5 x_b = 75 mm, RMS within 25 mm (2x).
+    # Not its STABLE: these cells have no quiet tail, so the verdict's oscillation scan judges the driven run, which
+    # reads a driven swing as an oscillation (docs/EXPERIMENTS.md, "The run verdict"); the FIC's cell read False once
+    # in a fresh-clone suite at load 5 (2026-12-06) and True in the runs before. Stability is the claim sweep's,
+    # judged on quiet tails.
     fic = next(row for row in table if row["controller"] == "fic")
-    assert fic["stable"] is True, fic
     assert fic["max_error_last_half_m"] < 0.075, fic
     cells = json.loads((tmp_path / "results" / "e4.json").read_text())["cells"]
     for cell in cells:
