@@ -376,3 +376,15 @@ def test_the_feedforward_wrench_solves_its_system_also_when_the_model_is_corrupt
         wrench = replica._feedforward_wrench(task_inverse_inertia, acceleration)
         matrix = task_inverse_inertia + replica.feedforward_regularisation * np.eye(6)
         np.testing.assert_allclose(matrix @ wrench, acceleration, atol=1e-9)
+
+
+def test_an_optimisation_for_another_control_period_is_refused(robot: RobotModel, limits: PandaLimits) -> None:
+    """The postural optimisation predicts one control period ahead: one built for 2 ms cannot shape a 1 ms law's
+    torques (nor one for 1.5 ms); the same period is taken."""
+    from fic_core.postural_optimisation import PosturalOptimisation
+
+    for period in (0.002, 0.0015):
+        with pytest.raises(FicInputError, match="control_period must equal"):
+            ReplicaController(robot, paper_fic(), control_period=DT, optimisation=PosturalOptimisation(limits, period))
+    replica = ReplicaController(robot, paper_fic(), control_period=DT, optimisation=PosturalOptimisation(limits, DT))
+    assert replica.optimisation.control_period == DT
