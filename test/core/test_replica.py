@@ -388,3 +388,12 @@ def test_an_optimisation_for_another_control_period_is_refused(robot: RobotModel
             ReplicaController(robot, paper_fic(), control_period=DT, optimisation=PosturalOptimisation(limits, period))
     replica = ReplicaController(robot, paper_fic(), control_period=DT, optimisation=PosturalOptimisation(limits, DT))
     assert replica.optimisation.control_period == DT
+
+
+def test_the_joint_velocity_ratio_is_each_joints_share_of_its_limit(robot: RobotModel, limits: PandaLimits) -> None:
+    """|qd_i| / qd_max_i of the measured state: half of every limit, either way, reads 0.5 on every joint."""
+    replica = ReplicaController(robot, paper_fic())
+    target, rotation = nominal_pose(robot)
+    qd = 0.5 * limits.joint_velocity_array * np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0])
+    command = replica.command(NOMINAL_CONFIGURATION, qd, target, rotation)
+    np.testing.assert_allclose(command.joint_velocity_ratio, 0.5, rtol=1e-12)
