@@ -248,3 +248,17 @@ def test_invalid_construction_and_shapes() -> None:
         FractalAttractor(PROFILE, 3, rate_deadband=-0.1)
     with pytest.raises(FicInputError, match="error"):
         FractalAttractor(PROFILE, 3).force([0.0, 0.0], [0.0, 0.0])
+
+
+def test_the_phase_stiffness_is_k_c_in_c_and_k0_in_d_also_after_a_c_episode() -> None:
+    """The stiffness a late tick's damper is sized on (pose_attractor, sampled_spring_damping): K_C while the axis
+    is in C (here 2 F(e_max) / e_max), the profile's K0 in D, including D again after C (e_max stays latched)."""
+    attractor = FractalAttractor(PROFILE, 1, rate_deadband=0.01)
+    attractor.force([0.03], [0.2])
+    assert attractor.snapshot().phase_stiffness(0) == PROFILE.stiffness
+    attractor.force([0.03], [-0.02])                                  # C, e_max = 0.03
+    assert attractor.phase[0] == Phase.CONVERGENCE
+    assert attractor.snapshot().phase_stiffness(0) == pytest.approx(2.0 * float(PROFILE.force(0.03)) / 0.03)
+    attractor.force([0.029], [0.001])                                 # |e| grows again: D
+    assert attractor.phase[0] == Phase.DIVERGENCE and attractor.latched_max_error[0] != 0.0
+    assert attractor.snapshot().phase_stiffness(0) == PROFILE.stiffness

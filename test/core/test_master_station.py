@@ -468,3 +468,17 @@ def test_the_handle_fic_starts_afresh_once_homed() -> None:
     assert station.engagement == Engagement.ENGAGED
     np.testing.assert_array_equal(station.law.attractor.phase, 0)
     np.testing.assert_array_equal(station.law.attractor.latched_max_error, 0.0)
+
+
+def test_each_tick_whose_eq_3_force_the_device_limit_cut_is_counted() -> None:
+    """K_H F_R of 30 N against a 20 N device: every such tick is one more saturated tick in the diagnostics, and a
+    tick within the limit adds none."""
+    station = master({**DEFAULTS, "haptic_gain": 1.0, "max_device_force": 20.0})
+    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 0.0)
+    station.add_feedback([30.0, 0.0, 0.0], 0.0)
+    for now in (0.004, 0.008):
+        force, _ = station.force(now)
+        assert np.linalg.norm(force) == pytest.approx(20.0)
+    station.add_feedback([3.0, 0.0, 0.0], 0.01)
+    station.force(0.012)
+    assert station.saturated_count == 2 and station.diagnostics(0.012)[1]["device_force_saturated_ticks"] == "2"
