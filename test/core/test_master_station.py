@@ -482,3 +482,15 @@ def test_each_tick_whose_eq_3_force_the_device_limit_cut_is_counted() -> None:
     station.add_feedback([3.0, 0.0, 0.0], 0.01)
     station.force(0.012)
     assert station.saturated_count == 2 and station.diagnostics(0.012)[1]["device_force_saturated_ticks"] == "2"
+
+
+def test_a_guidance_fixture_without_damping_is_its_spring_alone() -> None:
+    """B = 0 is a valid fixture (a spring onto the plane, whatever the handle's velocity across it): the station
+    takes it, and the guidance force is K times the distance to the plane for a handle moving across it."""
+    station = engaged_station(haptic_gain=0.0)
+    station.configure({"guidance_fixture": "plane", "guidance_point": [0.0, 0.0, 0.0],
+                       "guidance_direction": [0.0, 0.0, 1.0], "guidance_damping": 0.0})
+    station.add_pose([0.0, 0.0, 0.005], (0, 0, 0, 1), 0.0)   # x_d' = s_M x_M: 10 mm above the plane
+    station.add_twist([0.0, 0.0, 0.3], 0.0)                  # moving away from it
+    station.force(0.0)
+    np.testing.assert_allclose(station.guidance_force, [0.0, 0.0, -DEFAULTS["guidance_stiffness"] * 0.01])
