@@ -12,6 +12,7 @@ from fic_core.errors import FicInputError
 from fic_core.master_station import (
     GOAL_TRANSITION_SPEED,
     MASTER_PARAMETERS,
+    READ_ONLY,
     Engagement,
     MasterParameters,
     MasterStation,
@@ -494,3 +495,13 @@ def test_a_guidance_fixture_without_damping_is_its_spring_alone() -> None:
     station.add_twist([0.0, 0.0, 0.3], 0.0)                  # moving away from it
     station.force(0.0)
     np.testing.assert_allclose(station.guidance_force, [0.0, 0.0, -DEFAULTS["guidance_stiffness"] * 0.01])
+
+
+def test_the_parameters_fixed_at_start_are_the_tables_read_only_rows_and_each_is_refused_live() -> None:
+    """The rates (timers are made from them), the frame and the channel port's damper bound are fixed at start: the
+    node declares each read-only (its descriptor refuses a change), and the station refuses a live change too."""
+    assert set(READ_ONLY) <= {name for name, row in MASTER_PARAMETERS.items() if row.read_only}
+    station = master()
+    for name in READ_ONLY:
+        with pytest.raises(FicInputError, match=f"^{name} is fixed at start$"):
+            station.configure({name: DEFAULTS[name]})
