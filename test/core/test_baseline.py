@@ -144,3 +144,17 @@ def test_the_damping_follows_the_effective_mass_and_inertia_and_zero_ratio_is_no
     for name in ("effective_mass", "effective_inertia"):
         with pytest.raises(FicInputError, match=name):
             make_baseline_like(attractor, **{name: 0.0})
+
+
+def test_a_zero_gain_leaves_its_axes_free() -> None:
+    """Each gain may be zero (>= 0, not > 0): a baseline with no rotational spring or damper holds position only,
+    one with no translational spring is a pure damper there, and one with no translational damper a spring."""
+    position_only = LinearImpedance(1000.0, 0.0, 90.0, 0.0)
+    np.testing.assert_allclose(position_only.wrench([0.01, 0.0, 0.0], [0.3, -0.2, 0.1], np.ones(6)),
+                               [10.0 + 90.0, 90.0, 90.0, 0.0, 0.0, 0.0])
+    damper = LinearImpedance(0.0, 40.0, 90.0, 4.0)
+    np.testing.assert_allclose(damper.wrench([0.5, 0.5, 0.5], [0.0, 0.0, 0.0], [0.1, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                               [9.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    spring = LinearImpedance(1000.0, 40.0, 0.0, 4.0)
+    np.testing.assert_allclose(spring.wrench([0.01, 0.0, 0.0], [0.0, 0.0, 0.0], [5.0, 5.0, 5.0, 0.0, 0.0, 0.0]),
+                               [10.0, 0.0, 0.0, 0.0, 0.0, 0.0])
