@@ -147,3 +147,10 @@ def test_a_looping_sequence_reached_by_position_waits_to_reach_each_point_again(
     np.testing.assert_array_equal(source.point(1.5, position=[0.1, 0.0, 0.0]), [0.0, 0.0, 0.0])   # wrapped
     np.testing.assert_array_equal(source.point(2.5, position=[0.05, 0.0, 0.0]), [0.0, 0.0, 0.0])  # not reached
     assert source.index == 0
+
+
+def test_a_circle_needs_a_positive_period_and_diameter() -> None:
+    """Period 0 would turn the circle infinitely fast, diameter 0 is a point: both are refused, by name."""
+    for changes, name in (({"period": 0.0}, "period"), ({"period": -5.0}, "period"), ({"diameter": -0.2}, "diameter")):
+        with pytest.raises(FicInputError, match=name):
+            Circle([0.4, 0.0, 0.3], **changes)
