@@ -249,3 +249,16 @@ def test_an_offset_exactly_one_step_long_is_given_back_whole_and_none_is_not_act
     assert not jump.active
     jump.offset[0] = 5.0                                          # a copy
     np.testing.assert_array_equal(jump.offset, 0.0)
+
+
+def test_a_stamp_exactly_max_sample_gap_behind_is_an_older_stamp_not_a_restart() -> None:
+    """Only a stamp further than max_sample_gap off the last one restarts the estimates and becomes the slope's
+    reference; one exactly that far behind is an older stamp: it moves the hold but not the slope's reference."""
+    hold = SampledSetPoint(min_sample_interval=2 ** -6, max_sample_gap=0.5, max_extrapolation=1.0, blend_time=0.0,
+                           max_speed=10.0)
+    hold.add(0.0, [0.0, 0.0, 0.0], 0.0)
+    hold.add(0.25, [0.25, 0.0, 0.0], 0.25)                         # 1 m/s
+    hold.add(-0.25, [5.0, 0.0, 0.0], 0.26)                         # exactly the gap behind
+    np.testing.assert_array_equal(hold.velocity(0.26), [1.0, 0.0, 0.0])   # no restart
+    hold.add(0.5, [0.75, 0.0, 0.0], 0.5)                           # the slope from the sample at 0.25
+    np.testing.assert_array_equal(hold.velocity(0.5), [2.0, 0.0, 0.0])
