@@ -87,3 +87,12 @@ def test_a_lap_shorter_than_a_second_is_a_lap() -> None:
     assert source.angle(0.75) - source.angle(0.5) == pytest.approx(2 * math.pi)
     with pytest.raises(FicInputError, match="positive seconds"):
         LapVaryingCircle(CENTRE, [0.5, 0.0], [0.2, 0.2, 0.2])
+
+
+def test_point_ranges_give_that_value() -> None:
+    """A range may be one value (low == high): laps of exactly 5 s, 0.2 m, starting at exactly 0.5 rad."""
+    source = LapVaryingCircle.randomised(CENTRE, np.random.default_rng(2), 12.0, (5.0, 5.0), (0.2, 0.2),
+                                         phase_ranges=((0.5, 0.5),))
+    np.testing.assert_array_equal(source.periods, [5.0, 5.0, 5.0])
+    np.testing.assert_array_equal(source.diameters, 0.2)
+    assert source.phase == 0.5

@@ -397,3 +397,17 @@ def test_the_joint_velocity_ratio_is_each_joints_share_of_its_limit(robot: Robot
     qd = 0.5 * limits.joint_velocity_array * np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0])
     command = replica.command(NOMINAL_CONFIGURATION, qd, target, rotation)
     np.testing.assert_allclose(command.joint_velocity_ratio, 0.5, rtol=1e-12)
+
+
+def test_every_joint_past_a_limit_is_flagged(robot: RobotModel, limits: PandaLimits) -> None:
+    """The measured state breaks a limit on every joint at once: all seven at 1.2 x v_max, or all seven 0.01 rad
+    past their upper position limits at rest (the TCP slow): the command says so, as limits.py recomputes it."""
+    target, rotation = nominal_pose(robot)
+    beyond = robot.upper_position_limit + 0.01
+    for q, qd, flag in ((NOMINAL_CONFIGURATION, 1.2 * limits.joint_velocity_array, LimitFlag.JOINT_VELOCITY),
+                        (beyond, np.zeros(7), LimitFlag.JOINT_POSITION)):
+        replica = ReplicaController(robot, paper_fic())
+        command = replica.command(q, qd, target, rotation)
+        assert command.limit_violations & flag, flag
+        assert command.limit_violations == limit_violations(None, command.torque, q, qd, command.tcp_speed, DT,
+                                                            limits)
