@@ -248,3 +248,47 @@ def test_invalid_construction_and_shapes() -> None:
         FractalAttractor(PROFILE, 3, rate_deadband=-0.1)
     with pytest.raises(FicInputError, match="error"):
         FractalAttractor(PROFILE, 3).force([0.0, 0.0], [0.0, 0.0])
+
+
+def test_the_phase_stiffness_is_k_c_in_c_and_k0_in_d_also_after_a_c_episode() -> None:
+    """The stiffness a late tick's damper is sized on (pose_attractor, sampled_spring_damping): K_C while the axis
+    is in C (here 2 F(e_max) / e_max), the profile's K0 in D, including D again after C (e_max stays latched)."""
+    attractor = FractalAttractor(PROFILE, 1, rate_deadband=0.01)
+    attractor.force([0.03], [0.2])
+    assert attractor.snapshot().phase_stiffness(0) == PROFILE.stiffness
+    attractor.force([0.03], [-0.02])                                  # C, e_max = 0.03
+    assert attractor.phase[0] == Phase.CONVERGENCE
+    assert attractor.snapshot().phase_stiffness(0) == pytest.approx(2.0 * float(PROFILE.force(0.03)) / 0.03)
+    attractor.force([0.029], [0.001])                                 # |e| grows again: D
+    assert attractor.phase[0] == Phase.DIVERGENCE and attractor.latched_max_error[0] != 0.0
+    assert attractor.snapshot().phase_stiffness(0) == PROFILE.stiffness
+
+
+def test_an_axis_in_c_whose_error_stops_returns_to_d() -> None:
+    """C lasts while |e| keeps decreasing: a rate of exactly 0 ends it (on either side), and since V_D <= V_C
+    between the target and e_max the switch is allowed at once: the force is F_c(e) again."""
+    for sign in (1.0, -1.0):
+        attractor = FractalAttractor(PROFILE, 1, rate_deadband=0.01)
+        attractor.force([sign * 0.03], [sign * 0.2])
+        attractor.force([sign * 0.03], [-sign * 0.02])
+        attractor.force([sign * 0.025], [-sign * 0.1])
+        assert attractor.phase[0] == Phase.CONVERGENCE
+        force = attractor.force([sign * 0.025], [0.0])
+        assert attractor.phase[0] == Phase.DIVERGENCE, sign
+        assert force[0] == pytest.approx(float(PROFILE.force(sign * 0.025)))
+
+
+def test_an_axis_converging_in_c_stays_there_while_another_axis_switches() -> None:
+    """The axes are independent: axis 0 converging in C (same side, |e| decreasing) keeps its phase, e_max and C
+    force on the tick where axis 1 enters C, for either sign of axis 0's error."""
+    for sign in (1.0, -1.0):
+        attractor = FractalAttractor(PROFILE, 2, rate_deadband=0.01)
+        attractor.force([sign * 0.03, 0.02], [sign * 0.2, 0.2])
+        attractor.force([sign * 0.03, 0.02], [-sign * 0.02, 0.2])     # axis 0 enters C, axis 1 grows (D)
+        alone = FractalAttractor(PROFILE, 1, rate_deadband=0.01)
+        alone.force([sign * 0.03], [sign * 0.2])
+        alone.force([sign * 0.03], [-sign * 0.02])
+        force = attractor.force([sign * 0.025, 0.02], [-sign * 0.1, -0.1])   # axis 1 enters C now
+        np.testing.assert_array_equal(attractor.phase, [Phase.CONVERGENCE, Phase.CONVERGENCE])
+        assert attractor.latched_max_error[0] == sign * 0.03
+        assert force[0] == pytest.approx(alone.force([sign * 0.025], [-sign * 0.1])[0], rel=1e-12)

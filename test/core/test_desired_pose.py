@@ -44,3 +44,16 @@ def test_at_the_anchor_x_d_moves_from_the_set_points_own_motion_at_resume_speed_
     assert worst_after_anchor <= RESUME_SPEED + 1e-6, f"x_d moved from the set-point at {worst_after_anchor:.4f} m/s"
     np.testing.assert_allclose(previous_position, previous_set_point, atol=1e-9)   # and it reached the set-point
     assert not pose.anchored
+
+
+def test_by_default_x_d_holds_the_start_orientation_and_the_planners_only_when_asked() -> None:
+    """The planner plans positions: unless use_planner_orientation is set (config/replica.yaml ships it off),
+    R_d is the start orientation whatever orientation the planner's poses carry; set, it is the planner's."""
+    turned = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])   # 90 deg about z
+    start = np.eye(3)
+    for parameters, expected in ((DesiredPoseParameters(), start),
+                                 (DesiredPoseParameters(use_planner_orientation=True), turned)):
+        pose = DesiredPose(parameters)
+        pose.start(START, start)
+        pose.add_planner_pose(0, START, turned, 0.0)
+        np.testing.assert_array_equal(pose.update(0.001, DT).rotation, expected)

@@ -212,3 +212,146 @@ def test_a_jump_of_exactly_the_burst_is_taken_whole_and_one_a_hair_longer_is_rat
             assert np.linalg.norm(verdict.offset) <= 0.05 and "beyond 1 m/s" in verdict.reason
         else:
             np.testing.assert_array_equal(verdict.offset, [0.0, 0.0, -0.05])
+
+
+@pytest.mark.parametrize("field, inside, outside", [
+    ("haptic_gain", 1.0, float(np.nextafter(1.0, 2.0))),
+    ("haptic_gain", 0.0, -5e-324),
+    ("workspace_scale", 100.0, float(np.nextafter(100.0, 200.0))),
+    ("workspace_scale", 0.01, float(np.nextafter(0.01, 0.0))),
+    ("velocity_gain", 100.0, float(np.nextafter(100.0, 200.0))),
+    ("velocity_gain", 0.0, -5e-324),
+    ("handle_position", [10.0, -10.0, 0.0], [0.0, float(np.nextafter(-10.0, -20.0)), 0.0]),
+])
+def test_the_ranges_ends_are_accepted_and_the_next_float_past_them_refused(field, inside, outside) -> None:
+    """K_H in [0, 1] (Eq. 3), s_M and k_v within the master's own rows, |x_M| at most 10 m per axis: closed ranges,
+    so their ends are a valid command and the next float beyond them is not."""
+    authority = CommandAuthority()
+    assert authority.check(**command(**{field: inside})).accepted
+    verdict = authority.check(**command(**{field: outside}))
+    assert not verdict.accepted and (authority.accepted, authority.refused) == (1, 1)
+
+
+def test_the_stamp_window_is_closed_at_both_ends() -> None:
+    """A stamp exactly future_tolerance ahead or exactly max_age behind the receiver's clock is inside the window
+    (the channel's delay may fill max_age); the next float past either end is refused, with the figures said."""
+    bounds = AuthorityBounds(future_tolerance=0.5, max_age=3.0)
+    for stamp in (NOW + 0.5, NOW - 3.0):
+        assert CommandAuthority(bounds).check(**command(stamp=stamp)).accepted, stamp
+    ahead = CommandAuthority(bounds).check(**command(stamp=float(np.nextafter(NOW + 0.5, np.inf))))
+    assert not ahead.accepted and ahead.reason == "stamped 0.5 s in the receiver's future (tolerance 0.5 s)"
+    behind = CommandAuthority(bounds).check(**command(stamp=NOW - 4.0))
+    assert not behind.accepted and behind.reason == "stamped 4 s in the past (at most 3 s)"
+    assert not CommandAuthority(bounds).check(**command(stamp=float(np.nextafter(NOW - 3.0, 0.0)))).accepted
+
+
+def test_x_m_and_x_d_prime_must_be_3_vectors() -> None:
+    for field in ("handle_position", "desired_offset"):
+        verdict = CommandAuthority().check(**command(**{field: [0.0, 0.0]}))
+        assert not verdict.accepted and verdict.reason == "x_M and x_d' must be 3-vectors"
+
+
+def test_the_counters_count_each_verdict_once() -> None:
+    """accepted, refused, clamped (outside the box) and rate_limited, over a clean, an outside, a fast and a
+    refused command."""
+    authority = CommandAuthority(AuthorityBounds(max_offset_speed=1.0, max_offset_burst=0.05))
+    authority.check(**command(now=NOW, desired_offset=[0.0, 0.0, 0.0]))                  # clean
+    authority.check(**command(now=NOW + 1.0, desired_offset=[0.0, 0.0, 0.04]))           # within the burst
+    authority.check(**command(now=NOW + 2.0, desired_offset=[0.0, 0.0, 0.9]))            # outside and too far
+    authority.check(**command(now=NOW + 2.0, mode=3))                                    # refused
+    assert (authority.accepted, authority.refused, authority.clamped, authority.rate_limited) == (3, 1, 1, 1)
+
+
+def test_a_refused_command_neither_moves_x_d_prime_nor_fills_the_bucket() -> None:
+    """Only accepted commands set the last x_d' and its receipt time: a malformed command between two good ones
+    does not change what the second may move (the bucket is filled from the first's receipt)."""
+    authority = CommandAuthority(AuthorityBounds(max_offset_speed=1.0, max_offset_burst=0.05))
+    authority.check(**command(now=NOW, desired_offset=[0.0, 0.0, 0.0]))
+    assert not authority.check(**command(now=NOW + 0.01, mode=5, desired_offset=[0.3, 0.0, 0.0])).accepted
+    verdict = authority.check(**command(now=NOW + 0.02, desired_offset=[0.3, 0.0, 0.0]))
+    np.testing.assert_allclose(verdict.offset, [0.02, 0.0, 0.0], atol=1e-6)   # 20 ms at 1 m/s from x_d' = 0
+    # (atol: NOW's float spacing, 2.4e-7 s)
+
+
+def test_reset_forgets_the_last_command_and_its_bucket() -> None:
+    """After ``reset`` (the replica's resume) the next command is only clamped onto the box, as a first one is."""
+    authority = CommandAuthority(AuthorityBounds(max_offset_speed=1.0, max_offset_burst=0.05))
+    authority.check(**command(now=NOW, desired_offset=[0.0, 0.0, 0.0]))
+    authority.reset()
+    verdict = authority.check(**command(now=NOW + 0.001, desired_offset=[0.3, -0.2, 0.1]))
+    assert verdict.accepted and not verdict.rate_limited
+    np.testing.assert_array_equal(verdict.offset, [0.3, -0.2, 0.1])
+    # and the bucket starts empty: 1 ms later, 1 mm more at most
+    later = authority.check(**command(now=NOW + 0.002, desired_offset=[0.0, -0.2, 0.1]))
+    np.testing.assert_allclose(later.offset, [0.299, -0.2, 0.1], atol=1e-6)
+
+
+def test_a_receiver_clock_that_goes_back_gives_x_d_prime_no_room() -> None:
+    """The bucket fills with elapsed time on the receiver's clock, never less than none: with an empty bucket, a
+    command received 'before' the last one leaves x_d' where it stands rather than moving it backwards."""
+    for authority in (CommandAuthority(AuthorityBounds(max_offset_speed=1.0, max_offset_burst=0.05)),):
+        authority.check(**command(now=NOW, desired_offset=[0.0, 0.0, 0.0]))
+        verdict = authority.check(**command(now=NOW - 1.0, stamp=NOW - 1.2, desired_offset=[0.01, 0.0, 0.0]))
+        assert verdict.accepted and verdict.rate_limited
+        np.testing.assert_array_equal(verdict.offset, [0.0, 0.0, 0.0])
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(st.lists(st.tuples(st.sampled_from([0.0, 0.001, 0.01, 0.1, 1.0]),
+                          st.one_of(st.sampled_from([(0.0, 0.0, 0.0), (0.001, 0.0, 0.0), (0.4, 0.4, -0.4)]),
+                                    st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3))),
+                min_size=1, max_size=40))
+def test_x_d_prime_never_outruns_its_token_bucket(steps) -> None:
+    """Over any run of accepted commands, x_d' stays in the box and moves between two of them by at most the
+    burst plus max_offset_speed times the time between them; each step is toward the command asked."""
+    speed, burst = 0.5, 0.02
+    authority = CommandAuthority(AuthorityBounds(max_offset_speed=speed, max_offset_burst=burst))
+    now = NOW
+    offsets, times = [authority.check(**command(now=now, desired_offset=[0.0, 0.0, 0.0])).offset], [now]
+    for elapsed, target in steps:
+        now += elapsed
+        verdict = authority.check(**command(now=now, stamp=now, desired_offset=target))
+        assert verdict.accepted and np.all(np.abs(verdict.offset) <= 0.5)
+        step = verdict.offset - offsets[-1]
+        asked = np.clip(target, -0.5, 0.5) - offsets[-1]
+        assert np.linalg.norm(step) <= np.linalg.norm(asked) + 1e-12
+        assert np.linalg.norm(np.cross(step, asked)) <= 1e-9   # along the way to the command
+        offsets.append(verdict.offset)
+        times.append(now)
+    travelled = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(offsets, axis=0), axis=1))])
+    elapsed = np.asarray(times) - NOW
+    # every window [first, last]: travelled[last] - travelled[first] <= burst + speed (t_last - t_first)
+    budget = travelled - speed * elapsed
+    assert np.all(np.triu(budget[None, :] - budget[:, None]) <= burst + 1e-6)
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"max_offset_speed": 0.0}, "max_offset_speed"),
+    ({"max_offset_burst": -0.01}, "max_offset_burst"),
+    ({"future_tolerance": -0.1}, "future_tolerance"),
+    ({"max_age": 0.0}, "max_age"),
+    ({"haptic_gain": (1.0, 0.0)}, "haptic_gain range"),
+    ({"workspace_scale": (math.nan, 1.0)}, "workspace_scale range"),
+    ({"velocity_gain": (0.0, math.inf)}, "velocity_gain range"),
+    ({"max_handle_position": 0.0}, "max_handle_position"),
+    ({"offset_lower": (0.0, 0.0)}, "offset_lower"),
+    ({"offset_upper": (0.5, 0.5, -0.5)}, "below offset_upper"),
+])
+def test_each_bound_is_checked_with_its_name(changes, words) -> None:
+    with pytest.raises(FicInputError, match=words):
+        AuthorityBounds(**changes)
+
+
+def test_the_bounds_edges_that_make_sense_are_accepted() -> None:
+    """No burst (x_d' moves by the speed alone), no clock-skew allowance, a point range: valid bounds."""
+    bounds = AuthorityBounds(max_offset_burst=0.0, future_tolerance=0.0, haptic_gain=(0.5, 0.5))
+    assert CommandAuthority(bounds).check(**command(stamp=NOW)).accepted
+
+
+def test_a_joint_state_stamped_exactly_at_the_tolerance_is_used_and_a_negative_tolerance_refused() -> None:
+    guard = RobotStreamGuard(future_tolerance=0.5)
+    assert guard.joint_state(NOW + 0.5, NOW) == (True, "")
+    assert not guard.held and guard.skipped_states == 0
+    with pytest.raises(FicInputError, match="future_tolerance"):
+        RobotStreamGuard(future_tolerance=-0.5)
+    assert RobotStreamGuard().publishers("/joint_states", []) == ""   # no writer yet is no breach

@@ -77,3 +77,22 @@ def test_bad_ranges_are_refused() -> None:
                 dict(phase_ranges=((1.0, math.nan),))):
         with pytest.raises(FicInputError):
             LapVaryingCircle.randomised(CENTRE, np.random.default_rng(1), 10.0, **bad)
+
+
+def test_a_lap_shorter_than_a_second_is_a_lap() -> None:
+    """Periods are any positive seconds: laps of 0.5 s and 0.25 s turn the circle once each in that time (a lap's
+    turn is its duration times the mean of its end speeds: 0.5 (2 pi / 0.5 + 2 pi / 0.25) / 2 for the first)."""
+    source = LapVaryingCircle(CENTRE, [0.5, 0.25], [0.2, 0.2, 0.2])
+    assert source.angle(0.5) - source.angle(0.0) == pytest.approx(0.25 * (2 * math.pi / 0.5 + 2 * math.pi / 0.25))
+    assert source.angle(0.75) - source.angle(0.5) == pytest.approx(2 * math.pi)
+    with pytest.raises(FicInputError, match="positive seconds"):
+        LapVaryingCircle(CENTRE, [0.5, 0.0], [0.2, 0.2, 0.2])
+
+
+def test_point_ranges_give_that_value() -> None:
+    """A range may be one value (low == high): laps of exactly 5 s, 0.2 m, starting at exactly 0.5 rad."""
+    source = LapVaryingCircle.randomised(CENTRE, np.random.default_rng(2), 12.0, (5.0, 5.0), (0.2, 0.2),
+                                         phase_ranges=((0.5, 0.5),))
+    np.testing.assert_array_equal(source.periods, [5.0, 5.0, 5.0])
+    np.testing.assert_array_equal(source.diameters, 0.2)
+    assert source.phase == 0.5

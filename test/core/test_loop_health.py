@@ -211,3 +211,66 @@ def test_the_bounds_cannot_be_changed_behind_their_check() -> None:
 
     with pytest.raises(dataclasses.FrozenInstanceError):
         BOUNDS.max_tick_gap = -1.0   # type: ignore[misc]
+
+
+# --- the bounds' ends, on binary fractions (each difference exact) -------------------------------------------------
+EXACT = LoopHealthBounds(max_state_age=2 ** -5, max_tick_gap=2 ** -4, resume_ticks=1, resume_ramp=0.0)
+
+
+def test_a_state_exactly_max_state_age_old_and_ticks_exactly_max_tick_gap_apart_are_healthy() -> None:
+    """The bounds are the oldest state and the longest gap the law may still run on; past either one, it holds.
+    (The clock offset starts at 0 and may rise by half the tick gap: CLOCK_DRIFT_ALLOWANCE.)"""
+    health = LoopHealth(EXACT)
+    health.tick(1.0, 1.0)
+    health.tick(1.0625, 1.0625)                                    # ticks exactly max_tick_gap apart
+    assert health.state == HEALTHY and health.tick_gap == 2 ** -4
+    assert health.state_fresh                                      # not a long gap: the state's age is known
+    now = 1.0625 + 2 ** -8
+    assert health.tick(now, now - 2 ** -5 - 2 ** -9) == ""          # raw 2^-5 + 2^-9, less the drift 2^-9
+    assert health.state == HEALTHY and health.state_age == 2 ** -5 and health.state_fresh
+    notice = health.tick(now + 2 ** -4 + 2 ** -20, now + 2 ** -4 + 2 ** -20)
+    assert health.state == HOLDING and "ms apart" in notice
+    late = LoopHealth(EXACT)
+    late.tick(1.0, 1.0)
+    late.tick(1.0 + 2 ** -8, 1.0 + 2 ** -8 - 2 ** -5 - 2 ** -9 - 2 ** -20)
+    assert late.state == HOLDING and not late.state_fresh and "old" in late.reason
+
+
+def test_the_states_of_two_ticks_exactly_max_tick_gap_apart_on_the_arms_clock_are_healthy() -> None:
+    """The state gap is measured from a tick whose state was known fresh (not the first one)."""
+    health = LoopHealth(EXACT)
+    health.tick(1.0, 1.0)
+    health.tick(1.0078125, 1.0078125)
+    health.tick(1.03125, 1.0078125 + 2 ** -4)                      # the arm 1/16 s on, the receiver less
+    assert health.state == HEALTHY and health.state_gap == 2 ** -4
+    health.tick(1.0390625, 1.0078125 + 2 ** -3 + 2 ** -20)
+    assert health.state == HOLDING and "on the arm's clock" in health.reason
+
+
+def test_with_no_ramp_the_law_is_whole_at_once_and_one_healthy_tick_resumes() -> None:
+    health = LoopHealth(EXACT)
+    health.tick(1.0, 1.0)
+    health.tick(1.5, 1.5)                              # a long gap: held
+    assert health.holding and health.law_fraction(1.5) == 0.0
+    assert "takes over" in health.tick(1.515625, 1.515625)
+    assert health.law_fraction(1.515625) == 1.0
+    health.tick(1.53125, 1.53125)
+    assert health.state == HEALTHY
+
+
+def test_a_non_finite_clock_holds_and_a_not_a_number_age_is_not_late() -> None:
+    health = LoopHealth(EXACT)
+    health.tick(1.0, 1.0)
+    assert health.ready(1.0, float("nan")) == "" and health.state == HEALTHY
+    assert health.ready(1.0 + 2 ** -5, 1.0) == ""                # exactly the bound when ready: sent
+    assert "when its torque was ready" in health.ready(1.0 + 2 ** -5 + 2 ** -20, 1.0)
+    other = LoopHealth(EXACT)
+    other.tick(1.0, 1.0)
+    other.tick(1.0 + 2 ** -6, float("inf"))
+    assert other.holding and other.state_age == float("inf")
+
+
+def test_before_any_tick_the_diagnostics_say_none() -> None:
+    values = LoopHealth(EXACT).diagnostic_values()
+    assert values["clock_offset_ms"] == "none" and values["last_hold_reason"] == "none" and values["holds"] == "0"
+    assert values["state"] == HEALTHY

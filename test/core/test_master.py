@@ -114,3 +114,12 @@ def test_invalid_inputs_are_rejected() -> None:
         make_master(max_device_force=0.0)
     with pytest.raises(FicInputError, match="attractor"):
         MasterLaw(FractalAttractor(PROFILE, 6), 0.5)
+
+
+def test_reset_clears_the_device_saturation_flag() -> None:
+    """After ``reset`` (the handle homed) no force has been commanded yet, so none was saturated."""
+    master = make_master(haptic_gain=1.0, max_device_force=20.0)
+    master.force(np.zeros(3), np.zeros(3), [30.0, 40.0, 0.0])
+    assert master.device_force_saturated
+    master.reset()
+    assert not master.device_force_saturated

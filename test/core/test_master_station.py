@@ -12,6 +12,7 @@ from fic_core.errors import FicInputError
 from fic_core.master_station import (
     GOAL_TRANSITION_SPEED,
     MASTER_PARAMETERS,
+    READ_ONLY,
     Engagement,
     MasterParameters,
     MasterStation,
@@ -303,3 +304,204 @@ def test_the_teleoperation_command_carries_x_d_prime_with_the_mode_gains_and_han
     np.testing.assert_array_equal(sample.desired_offset, station.integrated_offset)   # no fixture: as integrated
     sample.handle_position[0] = 1.0   # the sample's own copy
     assert station.network_handle_position[0] == 0.01
+
+
+# --- freshness, counts and what the station says ---------------------------------------------------------------
+def timed_station() -> MasterStation:
+    """Timeouts on binary fractions (pose 1/8 s, F_R 1/4 s), so that an age of exactly a timeout is exact."""
+    return master({**DEFAULTS, "pose_timeout": 0.125, "feedback_timeout": 0.25, "haptic_gain": 1.0})
+
+
+def test_a_pose_or_f_r_exactly_a_timeout_old_is_still_fresh_and_one_a_hair_older_is_not() -> None:
+    """pose_timeout and feedback_timeout are the longest an input may be used: at that age the handle's Eq. 3
+    force (its FIC plus K_H F_R) is rendered; past it, zero, and F_R's staleness said once."""
+    station = timed_station()
+    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 1.0)
+    station.add_feedback([2.0, 0.0, 0.0], 1.0)
+    force, notices = station.force(1.125)
+    np.testing.assert_allclose(force, [2.0, 0.0, 0.0], atol=1e-12)
+    assert notices == []
+    assert not station.pose_stale(1.125) and station.pose_stale(float(np.nextafter(1.125, 2.0)))
+    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 1.25)
+    np.testing.assert_allclose(station.feedback_force(1.25)[0], [2.0, 0.0, 0.0])
+    force, notices = station.force(float(np.nextafter(1.25, 2.0)))
+    np.testing.assert_allclose(force, 0.0, atol=1e-12)
+    assert notices == [("warning", "/master/feedback_wrench is stale (0.25 s old): rendering F_R = 0")]
+
+
+def test_a_twist_exactly_pose_timeout_old_is_still_the_velocity() -> None:
+    station = timed_station()
+    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 1.0)
+    station.add_twist([0.0, 0.3, 0.0], 1.0)
+    station.add_pose([0.01, 0.0, 0.0], (0, 0, 0, 1), 1.125)
+    np.testing.assert_array_equal(station.handle_velocity, [0.0, 0.3, 0.0])
+    station.add_pose([0.02, 0.0, 0.0], (0, 0, 0, 1), 1.25)                  # now 0.25 s old: differences
+    np.testing.assert_allclose(station.handle_velocity, [0.08, 0.0, 0.0])
+
+
+def test_a_stale_pose_counts_a_wrench_command_but_no_evaluation_of_eq_3() -> None:
+    """wrench_commands counts every device command, the zero of a stale pose too; law_evaluations (what the
+    exchanged-energy observer books) only those that evaluated Eq. 3."""
+    station = timed_station()
+    assert station.force(0.0) == (None, [])   # before the first pose: no command at all
+    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 0.0)
+    station.force(0.1)
+    station.force(0.2)   # stale
+    station.force(0.3)
+    assert (station.wrench_count, station.law_evaluations) == (3, 1)
+    problems, values = station.diagnostics(0.3)
+    assert "/haptic/pose stale" in problems and values["wrench_commands"] == "3"
+
+
+def test_the_diagnostics_say_what_is_missing_and_the_stations_figures() -> None:
+    station = timed_station()
+    problems, values = station.diagnostics(0.0)
+    assert problems == ["no /haptic/pose yet"] and values["feedback_age_s"] == "inf"
+    station.add_pose([0.01, 0.0, 0.0], (0, 0, 0, 1), 0.0)
+    station.force(0.01)   # F_R never received: stale, said
+    problems, values = station.diagnostics(0.01)
+    assert problems == ["/master/feedback_wrench stale (F_R = 0)"]
+    station.add_feedback([0.0, 0.0, 1.0], 0.02)
+    problems, values = station.diagnostics(0.07)
+    assert problems == [] and values["feedback_age_s"] == "0.050"
+    assert values["mode"] == "OFFSET" and values["haptic_gain"] == "1.000" and values["engagement"] == "ENGAGED"
+    assert values["loop_gain"] == "1.000" and values["guidance_fixture"] == "none"
+    assert values["desired_offset"] == "0.0000 0.0000 0.0000" and values["device_force_saturated_ticks"] == "0"
+
+
+# --- homing's limits and ends ----------------------------------------------------------------------------------
+def test_the_homing_force_is_held_to_the_device_limit_and_counted() -> None:
+    """Homing obeys max_device_force as Eq. 3's force does: a handle 30 cm out, moving away at 2 m/s, asks for more
+    than a 1 N device; the command is that norm, along the homing force, and counted saturated."""
+    station = master({**DEFAULTS, "max_device_force": 1.0, "homing": True})
+    station.add_pose([0.3, 0.0, 0.0], (0, 0, 0, 1), 0.0)
+    station.add_twist([2.0, 0.0, 0.0], 0.0)
+    asked = station.homing.force(station.handle_position, station.handle_velocity)
+    assert np.linalg.norm(asked) > 1.0
+    force, _ = station.force(0.0)
+    assert np.linalg.norm(force) == pytest.approx(1.0)
+    np.testing.assert_allclose(force / np.linalg.norm(force), asked / np.linalg.norm(asked))
+    assert station.saturated_count == 1
+    station.configure({"max_device_force": 0.0})   # 0: no limit
+    np.testing.assert_allclose(station.force(0.0)[0], asked)
+    assert station.saturated_count == 1
+
+
+def test_homing_that_ends_with_the_clutch_held_leaves_the_handle_clutched() -> None:
+    station = master({**DEFAULTS, "homing": True, "clutch": True})
+    station.add_pose([0.0005, 0.0, 0.0], (0, 0, 0, 1), 0.0)   # within the 2 mm tolerance
+    _, notices = station.force(0.0)
+    assert station.engagement == Engagement.CLUTCHED and station.integrator.held and not station.parameters.homing
+    assert notices == [("info", "handle homed (0.5 mm from the centre): the clutch is still held")]
+
+
+def test_homing_stopped_early_engages_the_handle_where_it_is_and_restarts_its_fic() -> None:
+    station = master({**DEFAULTS, "homing": True})
+    station.add_pose([0.03, 0.0, 0.0], (0, 0, 0, 1), 0.0)
+    station.force(0.0)
+    assert station.engagement == Engagement.HOMING and station.configure({"homing": True}) == []
+    law = station.law
+    notices = station.configure({"homing": False})
+    assert notices == [("warning", "homing stopped before the handle was home: engaged where it is")]
+    assert station.engagement == Engagement.ENGAGED and not station.integrator.held and station.law is law
+    assert station.configure({"homing": False}) == []   # not homing: nothing to stop
+    before = station.desired_offset(0.01)
+    station.add_pose([0.04, 0.0, 0.0], (0, 0, 0, 1), 0.02)
+    np.testing.assert_allclose(station.desired_offset(0.02) - before, [0.01, 0.0, 0.0])   # s_M = 1 from here
+
+
+# --- the parameter dispatch --------------------------------------------------------------------------------------
+def test_configure_refuses_a_non_finite_number_and_leaves_other_nodes_names_alone() -> None:
+    station = master()
+    for bad in (float("nan"), float("inf")):
+        with pytest.raises(FicInputError, match="pose_timeout must be finite"):
+            station.configure({"pose_timeout": bad})
+    assert station.configure({"use_sim_time": True}) == [] and station.parameters == master().parameters
+
+
+def test_configure_applies_the_timeouts_the_device_limit_the_mode_and_the_deadband() -> None:
+    station = master()
+    notices = station.configure({"pose_timeout": 0.25, "feedback_timeout": 2.0, "max_device_force": 5.0,
+                                 "mode": 1, "velocity_deadband": 0.01, "velocity_gain": 4.0})
+    assert (station.pose_timeout, station.feedback_timeout, station.law.max_device_force) == (0.25, 2.0, 5.0)
+    assert station.integrator.mode == TeleoperationMode.VELOCITY and station.parameters.mode == 1
+    assert notices == [("info", "teleoperation mode: VELOCITY (parameter)")]
+    assert station.configure({"mode": 1}) == []   # no change, nothing said
+    assert (station.integrator.velocity_deadband, station.integrator.velocity_gain) == (0.01, 4.0)
+    assert station.parameters.pose_timeout == 0.25 and station.parameters.max_device_force == 5.0
+
+
+def test_a_haptic_gain_above_one_from_a_parameter_is_clamped_to_one_and_said() -> None:
+    station = master()
+    notices = station.configure({"haptic_gain": 3.0})
+    assert station.law.haptic_gain == 1.0 and station.parameters.haptic_gain == 1.0
+    assert notices == [("warning", "haptic_gain 3.0 from parameter clamped to 1.0")]
+    with pytest.raises(FicInputError, match="haptic_gain"):
+        station.set_haptic_gain(float("nan"), "topic")
+    assert station.law.haptic_gain == 1.0 and station.set_haptic_gain(0.25, "topic") == []
+
+
+# --- the velocity mode's clock -------------------------------------------------------------------------------------
+def test_velocity_mode_integrates_over_the_network_ticks_own_intervals() -> None:
+    """x_d' += k_v x_M dt with dt the time since the last network tick (k_v = 2 /s, x_M 5 cm out of the 5 mm
+    dead-band: 10 cm/s); a tick whose clock is behind the last adds nothing."""
+    station = master({**DEFAULTS, "mode": 1})
+    station.add_pose([0.05, 0.0, 0.0], (0, 0, 0, 1), 0.0)
+    np.testing.assert_allclose(station.desired_offset(1.0), 0.0)            # the first tick: no interval yet
+    np.testing.assert_allclose(station.desired_offset(1.5), [0.045 * 2.0 * 0.5, 0.0, 0.0])
+    np.testing.assert_allclose(station.desired_offset(1.2), [0.045, 0.0, 0.0])   # back in time: dt = 0
+    np.testing.assert_allclose(station.desired_offset(1.3), [0.045 + 0.009, 0.0, 0.0])
+
+
+def test_the_handle_fic_starts_afresh_once_homed() -> None:
+    """Eq. 2's attractor is not evaluated while homing, so the phase and latched peak it held when homing began
+    describe a motion long gone: once homed it starts again as a new one does (divergence, nothing latched)."""
+    station = engaged_station()
+    for now, x, speed in ((0.0, 0.03, 0.3), (0.004, 0.029, -0.3)):   # out to 3 cm, then coming back
+        station.add_pose([x, 0.0, 0.0], (0, 0, 0, 1), now)
+        station.add_twist([speed, 0.0, 0.0], now)
+        station.force(now)
+    assert station.law.attractor.phase[0] == 1 and abs(station.law.attractor.latched_max_error[0]) > 0.02
+    station.configure({"homing": True})
+    station.add_pose([0.001, 0.0, 0.0], (0, 0, 0, 1), 0.1)
+    station.add_twist([0.0, 0.0, 0.0], 0.1)
+    station.force(0.1)   # within the 2 mm tolerance: homed
+    assert station.engagement == Engagement.ENGAGED
+    np.testing.assert_array_equal(station.law.attractor.phase, 0)
+    np.testing.assert_array_equal(station.law.attractor.latched_max_error, 0.0)
+
+
+def test_each_tick_whose_eq_3_force_the_device_limit_cut_is_counted() -> None:
+    """K_H F_R of 30 N against a 20 N device: every such tick is one more saturated tick in the diagnostics, and a
+    tick within the limit adds none."""
+    station = master({**DEFAULTS, "haptic_gain": 1.0, "max_device_force": 20.0})
+    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 0.0)
+    station.add_feedback([30.0, 0.0, 0.0], 0.0)
+    for now in (0.004, 0.008):
+        force, _ = station.force(now)
+        assert np.linalg.norm(force) == pytest.approx(20.0)
+    station.add_feedback([3.0, 0.0, 0.0], 0.01)
+    station.force(0.012)
+    assert station.saturated_count == 2 and station.diagnostics(0.012)[1]["device_force_saturated_ticks"] == "2"
+
+
+def test_a_guidance_fixture_without_damping_is_its_spring_alone() -> None:
+    """B = 0 is a valid fixture (a spring onto the plane, whatever the handle's velocity across it): the station
+    takes it, and the guidance force is K times the distance to the plane for a handle moving across it."""
+    station = engaged_station(haptic_gain=0.0)
+    station.configure({"guidance_fixture": "plane", "guidance_point": [0.0, 0.0, 0.0],
+                       "guidance_direction": [0.0, 0.0, 1.0], "guidance_damping": 0.0})
+    station.add_pose([0.0, 0.0, 0.005], (0, 0, 0, 1), 0.0)   # x_d' = s_M x_M: 10 mm above the plane
+    station.add_twist([0.0, 0.0, 0.3], 0.0)                  # moving away from it
+    station.force(0.0)
+    np.testing.assert_allclose(station.guidance_force, [0.0, 0.0, -DEFAULTS["guidance_stiffness"] * 0.01])
+
+
+def test_the_parameters_fixed_at_start_are_the_tables_read_only_rows_and_each_is_refused_live() -> None:
+    """The rates (timers are made from them), the frame and the channel port's damper bound are fixed at start: the
+    node declares each read-only (its descriptor refuses a change), and the station refuses a live change too."""
+    assert set(READ_ONLY) <= {name for name, row in MASTER_PARAMETERS.items() if row.read_only}
+    station = master()
+    for name in READ_ONLY:
+        with pytest.raises(FicInputError, match=f"^{name} is fixed at start$"):
+            station.configure({name: DEFAULTS[name]})

@@ -147,3 +147,31 @@ def test_the_fixed_orientation_is_normalised_and_bad_ones_refused() -> None:
                 ["a", 0.0, 0.0, 1.0], None):
         with pytest.raises(FicInputError, match="orientation"):
             unit_quaternion(bad)
+
+
+def test_eq_6_limits_with_figures() -> None:
+    """v_max = v_p min(v_d, w_n |d|), a_max = 2 |d_i| (v_max / |d|)^2 per axis: a long move's v_max is v_p v_d, a
+    short one's v_p w_n |d| (then a_max = 2 v_p^2 w_n^2 |d_i|); no move, no acceleration."""
+    planner = HarmonicPlanner(2.0, 0.5)
+    peak, limits = planner.command_limits([0.3, -0.4, 0.0])               # |d| = 0.5, w_n |d| = 1 > v_d
+    assert peak == pytest.approx(1.595 * 0.5)
+    np.testing.assert_allclose(limits, 2.0 * np.array([0.3, 0.4, 0.0]) * (1.595 * 0.5 / 0.5) ** 2)
+    peak, limits = planner.command_limits([0.0, 0.1, 0.0])                # w_n |d| = 0.2 < v_d
+    assert peak == pytest.approx(1.595 * 0.2)
+    np.testing.assert_allclose(limits, [0.0, 2.0 * 1.595 ** 2 * 4.0 * 0.1, 0.0])
+    peak, limits = planner.command_limits([0.0, 0.0, 0.0])
+    assert peak == 0.0 and not limits.any()
+
+
+def test_a_target_moving_by_no_more_than_the_retarget_tolerance_keeps_the_command() -> None:
+    """d, v_max and a_max are those of the command: a target that moves within retarget_tolerance issues none, one
+    that moves past it issues a new one, measured from where x_d'' is then."""
+    planner = HarmonicPlanner(2.0, 0.5, retarget_tolerance=2 ** -7)
+    planner.step([0.5, 0.0, 0.0], 0.01)
+    first = planner.max_acceleration
+    planner.step([0.5 + 2 ** -7, 0.0, 0.0], 0.01)                         # exactly the tolerance: kept
+    np.testing.assert_array_equal(planner.max_acceleration, first)
+    position = planner.position
+    planner.step([0.0, 0.2, 0.0], 0.01)                                   # a new command from x_d''
+    np.testing.assert_allclose(planner.max_acceleration,
+                               planner.command_limits(np.array([0.0, 0.2, 0.0]) - position)[1])

@@ -199,3 +199,31 @@ def test_just_past_a_tiny_linear_region_the_secant_follows_the_tangent_at_its_en
     if saturation_start == 0.0:   # no linear region: the secant at 0 is that slope
         assert math.isclose(float(profile.secant_stiffness(0.0)), slope, rel_tol=1e-13)
         assert math.isclose(profile.scalar_secant_stiffness(0.0), slope, rel_tol=1e-13)
+
+
+@settings(max_examples=120, deadline=None, derandomize=True)
+@given(profiles(), st.floats(0.0, 1.0), st.sampled_from([1e-6, 0.01, 0.5, 1.0, 2.0, 30.0, 1e4]))
+def test_the_inverse_storage_is_v_d_inverted_from_the_linear_region_to_far_saturation(
+        p: ForceProfile, fraction: float, scale: float) -> None:
+    """energy_inverse(E) is the a >= 0 with V_D(a) = E (rounded to the smaller storage), for storages inside the
+    linear region (K0 a^2 / 2), just past it, and far into the saturation (where V_D grows like F_max a), with
+    xi = 0 (no linear region) too: V_D at the result is at most E (up to V_D's own rounding, a few ulps of F_max
+    x_b), and, for a storage well above that rounding, a result a relative 1e-9 larger stores more than E."""
+    linear_energy = 0.5 * p.stiffness * p.linear_limit ** 2
+    energy = fraction * scale * (linear_energy if linear_energy > 0.0 else float(p.energy(p.saturation_error)))
+    magnitude = p.energy_inverse(energy)
+    assert magnitude >= 0.0
+    assert float(p.energy(magnitude)) <= energy + 1e-12 * (energy + p.max_force * p.saturation_error)
+    if energy > 1e-6 * p.max_force * p.saturation_error:
+        assert float(p.energy(magnitude * (1.0 + 1e-9))) > energy
+    if 0.0 < energy <= linear_energy:
+        assert magnitude == pytest.approx(math.sqrt(2.0 * energy / p.stiffness), rel=1e-11)
+
+
+def test_the_inverse_storage_of_nothing_is_zero_and_a_negative_storage_is_refused() -> None:
+    p = ForceProfile(200.0, 0.05, 0.0, 30.0)   # xi = 0: the saturation from the origin
+    assert p.energy_inverse(0.0) == 0.0
+    with pytest.raises(FicInputError, match="energy"):
+        p.energy_inverse(-1e-9)
+    far = 1000.0 * float(p.energy(p.saturation_error))   # found by doubling from x_b, then Newton
+    assert float(p.energy(p.energy_inverse(far))) == pytest.approx(far, rel=1e-9)

@@ -376,3 +376,38 @@ def test_the_feedforward_wrench_solves_its_system_also_when_the_model_is_corrupt
         wrench = replica._feedforward_wrench(task_inverse_inertia, acceleration)
         matrix = task_inverse_inertia + replica.feedforward_regularisation * np.eye(6)
         np.testing.assert_allclose(matrix @ wrench, acceleration, atol=1e-9)
+
+
+def test_an_optimisation_for_another_control_period_is_refused(robot: RobotModel, limits: PandaLimits) -> None:
+    """The postural optimisation predicts one control period ahead: one built for 2 ms cannot shape a 1 ms law's
+    torques (nor one for 1.5 ms); the same period is taken."""
+    from fic_core.postural_optimisation import PosturalOptimisation
+
+    for period in (0.002, 0.0015):
+        with pytest.raises(FicInputError, match="control_period must equal"):
+            ReplicaController(robot, paper_fic(), control_period=DT, optimisation=PosturalOptimisation(limits, period))
+    replica = ReplicaController(robot, paper_fic(), control_period=DT, optimisation=PosturalOptimisation(limits, DT))
+    assert replica.optimisation.control_period == DT
+
+
+def test_the_joint_velocity_ratio_is_each_joints_share_of_its_limit(robot: RobotModel, limits: PandaLimits) -> None:
+    """|qd_i| / qd_max_i of the measured state: half of every limit, either way, reads 0.5 on every joint."""
+    replica = ReplicaController(robot, paper_fic())
+    target, rotation = nominal_pose(robot)
+    qd = 0.5 * limits.joint_velocity_array * np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0])
+    command = replica.command(NOMINAL_CONFIGURATION, qd, target, rotation)
+    np.testing.assert_allclose(command.joint_velocity_ratio, 0.5, rtol=1e-12)
+
+
+def test_every_joint_past_a_limit_is_flagged(robot: RobotModel, limits: PandaLimits) -> None:
+    """The measured state breaks a limit on every joint at once: all seven at 1.2 x v_max, or all seven 0.01 rad
+    past their upper position limits at rest (the TCP slow): the command says so, as limits.py recomputes it."""
+    target, rotation = nominal_pose(robot)
+    beyond = robot.upper_position_limit + 0.01
+    for q, qd, flag in ((NOMINAL_CONFIGURATION, 1.2 * limits.joint_velocity_array, LimitFlag.JOINT_VELOCITY),
+                        (beyond, np.zeros(7), LimitFlag.JOINT_POSITION)):
+        replica = ReplicaController(robot, paper_fic())
+        command = replica.command(q, qd, target, rotation)
+        assert command.limit_violations & flag, flag
+        assert command.limit_violations == limit_violations(None, command.torque, q, qd, command.tcp_speed, DT,
+                                                            limits)

@@ -161,3 +161,104 @@ def test_a_stopped_jump_is_forgotten() -> None:
     np.testing.assert_allclose(jump.apply([1.0, 2.0, 3.0], DT), [1.0, 2.0, 3.0])
     with pytest.raises(FicInputError, match="speed"):
         jump.start([0.0] * 3, [0.0] * 3, speed=0.0)
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"dimension": 0}, "dimension"), ({"dimension": True}, "dimension"), ({"dimension": 3.0}, "dimension"),
+    ({"max_extrapolation": -0.01}, "max_extrapolation"), ({"max_sample_gap": 0.0}, "max_sample_gap"),
+    ({"min_sample_interval": -1e-3}, "min_sample_interval"), ({"max_speed": 0.0}, "max_speed"),
+    ({"max_acceleration": 0.0}, "max_acceleration"), ({"blend_time": -0.05}, "blend_time"),
+    ({"acceleration_time_constant": -0.05}, "acceleration_time_constant"),
+])
+def test_each_parameter_of_the_hold_is_checked_with_its_name(changes, words) -> None:
+    with pytest.raises(FicInputError, match=words):
+        SampledSetPoint(**changes)
+
+
+def test_the_slopes_interval_and_the_gap_are_closed_at_their_ends() -> None:
+    """A sample exactly min_sample_interval after the last one measures a slope; exactly max_sample_gap after it is
+    not yet a gap (the slope across it is measured); past max_sample_gap the estimates restart from rest. Times on
+    binary fractions, so that each difference is exact."""
+    hold = SampledSetPoint(min_sample_interval=0.25, max_sample_gap=0.5, max_extrapolation=1.0, blend_time=0.0,
+                           acceleration_time_constant=0.0, max_speed=10.0, max_acceleration=100.0)
+    hold.add(0.0, [0.0, 0.0, 0.0], 0.0)
+    hold.add(0.25, [0.25, 0.0, 0.0], 0.25)                       # 1 m/s
+    np.testing.assert_array_equal(hold.velocity(0.25), [1.0, 0.0, 0.0])
+    np.testing.assert_array_equal(hold.acceleration(0.25), [4.0, 0.0, 0.0])   # raw: (1 - 0) / 0.25
+    hold.add(0.75, [0.25, 0.5, 0.0], 0.75)                       # 0.5 s on: the gap's end, still a slope
+    np.testing.assert_array_equal(hold.velocity(0.75), [0.0, 1.0, 0.0])
+    hold.add(1.25 + 2 ** -20, [0.0, 0.0, 0.0], 1.25)             # a hair past the gap: from rest
+    np.testing.assert_array_equal(hold.velocity(1.25), 0.0)
+    np.testing.assert_array_equal(hold.acceleration(1.25), 0.0)
+
+
+def test_the_velocity_holds_for_exactly_max_extrapolation_and_never_extrapolates_backwards() -> None:
+    hold = SampledSetPoint(max_extrapolation=0.25, max_sample_gap=1.0, blend_time=0.0)
+    hold.add(0.0, [0.0, 0.0, 0.0], 0.0)
+    hold.add(0.5, [0.5, 0.0, 0.0], 0.5)                          # 1 m/s
+    np.testing.assert_array_equal(hold.velocity(0.75), [1.0, 0.0, 0.0])
+    np.testing.assert_array_equal(hold.position(0.75), [0.75, 0.0, 0.0])
+    assert not hold.velocity(0.75 + 2 ** -20).any() and not hold.acceleration(0.75 + 2 ** -20).any()
+    np.testing.assert_array_equal(hold.position(0.25), [0.5, 0.0, 0.0])   # a clock behind the sample: the sample
+
+
+def test_one_stamp_far_ahead_does_not_freeze_the_estimates() -> None:
+    """A stamp 100 s ahead restarts the estimates and becomes the slope's reference; the sender's next normal
+    stamps, 100 s behind it, restart them once more, and then the slope is measured again."""
+    hold = SampledSetPoint(blend_time=0.0, acceleration_time_constant=0.0)
+    for k in range(3):
+        hold.add(k * PERIOD, [0.001 * k, 0.0, 0.0], k * PERIOD)
+    hold.add(100.0, [0.0, 0.0, 0.0], 0.025)
+    assert not hold.velocity(0.025).any()
+    hold.add(0.03, [0.003, 0.0, 0.0], 0.03)
+    assert not hold.velocity(0.03).any()
+    hold.add(0.04, [0.004, 0.0, 0.0], 0.04)
+    np.testing.assert_allclose(hold.velocity(0.04), [0.1, 0.0, 0.0])
+
+
+def test_a_jump_beyond_float_range_is_a_step_from_rest_never_inf_or_nan() -> None:
+    """Moving at 0.1 m/s, then a sample at 1e308 m and one at -1e308 m: their difference quotient is not a float,
+    so the estimates restart from rest rather than keep the last slope; the hold's output stays finite."""
+    hold = SampledSetPoint()
+    hold.add(0.0, [0.0, 0.0, 0.0], 0.0)
+    hold.add(0.01, [0.001, 0.0, 0.0], 0.01)
+    hold.add(0.02, [1e308, 0.0, 0.0], 0.02)
+    hold.add(0.03, [-1e308, 0.0, 0.0], 0.03)
+    assert not hold.velocity(0.03).any() and not hold.acceleration(0.03).any()
+    assert np.all(np.isfinite([hold.position(0.03 + k * DT) for k in range(60)]))
+    np.testing.assert_array_equal(hold.position(0.09), [-1e308, 0.0, 0.0])
+
+
+def test_reset_forgets_every_sample() -> None:
+    hold = SampledSetPoint(dimension=6)
+    hold.add(0.0, np.ones(6), 0.0)
+    assert hold.has_sample
+    hold.reset()
+    assert not hold.has_sample and not hold.velocity(0.0).any()
+    with pytest.raises(FicInputError, match="no sample"):
+        hold.position(0.0)
+
+
+def test_an_offset_exactly_one_step_long_is_given_back_whole_and_none_is_not_active() -> None:
+    jump = ShrinkingOffset()
+    jump.start([0.5, 0.0, 0.0], [0.5, 0.0, 0.0], speed=0.1)
+    assert not jump.active                                        # no difference: nothing to give back
+    jump.start([0.25, 0.0, 0.0], [0.0, 0.0, 0.0], speed=1.0)      # 0.25 m at 1 m/s: one 0.25 s step
+    np.testing.assert_array_equal(jump.apply([0.0, 0.0, 0.0], 0.125), [0.125, 0.0, 0.0])
+    np.testing.assert_array_equal(jump.apply([0.0, 0.0, 0.0], 0.125), [0.0, 0.0, 0.0])
+    assert not jump.active
+    jump.offset[0] = 5.0                                          # a copy
+    np.testing.assert_array_equal(jump.offset, 0.0)
+
+
+def test_a_stamp_exactly_max_sample_gap_behind_is_an_older_stamp_not_a_restart() -> None:
+    """Only a stamp further than max_sample_gap off the last one restarts the estimates and becomes the slope's
+    reference; one exactly that far behind is an older stamp: it moves the hold but not the slope's reference."""
+    hold = SampledSetPoint(min_sample_interval=2 ** -6, max_sample_gap=0.5, max_extrapolation=1.0, blend_time=0.0,
+                           max_speed=10.0)
+    hold.add(0.0, [0.0, 0.0, 0.0], 0.0)
+    hold.add(0.25, [0.25, 0.0, 0.0], 0.25)                         # 1 m/s
+    hold.add(-0.25, [5.0, 0.0, 0.0], 0.26)                         # exactly the gap behind
+    np.testing.assert_array_equal(hold.velocity(0.26), [1.0, 0.0, 0.0])   # no restart
+    hold.add(0.5, [0.75, 0.0, 0.0], 0.5)                           # the slope from the sample at 0.25
+    np.testing.assert_array_equal(hold.velocity(0.5), [2.0, 0.0, 0.0])

@@ -85,3 +85,22 @@ def test_a_step_of_exactly_the_burst_is_taken_whole_and_one_a_hair_longer_is_rat
             assert np.linalg.norm(position - START) <= 0.01
         else:
             np.testing.assert_array_equal(position, target)
+
+
+def test_a_pose_outside_and_too_far_says_both_and_every_pose_is_counted() -> None:
+    bounded = authority()
+    bounded.check(START, 0.0)
+    bounded.check(START + [1.0, 0.0, 0.0], 0.001)
+    assert bounded.last_reason == ("x_d'' [1.3 0.  0.5] m outside the workspace about the start pose; "
+                                   "x_d'' jumps beyond 0.5 m/s: clamped")
+    assert (bounded.accepted, bounded.clamped, bounded.rate_limited) == (2, 1, 1)
+
+
+def test_a_receiver_clock_that_goes_back_gives_x_d_pp_no_room() -> None:
+    """The bucket fills with the receiver's elapsed time, never less than none: with the burst spent, a pose
+    received 'before' the last one leaves x_d'' where it stands."""
+    bounded = authority()
+    bounded.check(START, 0.0)
+    bounded.check(START + [0.0, 0.0, 0.1], 1.0)            # spends the 0.01 m burst
+    held = bounded.check(START + [0.0, 0.0, 0.1], 1.0)
+    np.testing.assert_array_equal(bounded.check(START + [0.0, 0.0, 0.1], 0.5), held)
