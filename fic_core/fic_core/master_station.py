@@ -62,8 +62,6 @@ INTEGRATOR_PARAMETERS = ("workspace_scale", "velocity_gain", "velocity_deadband"
 HOMING_PARAMETERS = ("homing_stiffness", "homing_damping", "homing_speed", "homing_tolerance")
 FIXTURE_PARAMETERS = ("guidance_fixture", "guidance_point", "guidance_direction", "guidance_stiffness",
                       "guidance_damping", "guidance_max_force")
-#: Rates and frames are fixed at start (timers and message frames are created from them).
-READ_ONLY = ("control_rate", "network_rate", "diagnostics_rate", "tools_rate", "frame_id", "channel_max_damping")
 Notice = tuple[str, str]
 
 #: The master's numeric parameters (fic_core.parameter_row rows); their values are config/master.yaml's
@@ -131,6 +129,9 @@ MASTER_PARAMETERS: dict[str, ParameterRow] = {
                                          "(x_d' += k_v*x_M*dt)"),
                    text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True)),
     **MASTER_TOOLS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS, **EXCHANGED_ENERGY_SWITCHES}
+#: The rows fixed at start (rates and frames: timers and message frames are created from them; the channel port's and
+#: the exchanged-energy observer's switches), read from the table, so that the station refuses what the node refuses.
+READ_ONLY = tuple(name for name, row in MASTER_PARAMETERS.items() if row.read_only)
 #: The master's parameters as one typed object, one field a row of MASTER_PARAMETERS (fic_core.parameter_row):
 #: ``MasterParameters.from_values(values)`` checks every value and refuses a name no row has, naming the nearest.
 MasterParameters = parameter_set("MasterParameters", __name__, "master", MASTER_PARAMETERS.values(),

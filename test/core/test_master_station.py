@@ -498,9 +498,11 @@ def test_a_guidance_fixture_without_damping_is_its_spring_alone() -> None:
 
 
 def test_the_parameters_fixed_at_start_are_the_tables_read_only_rows_and_each_is_refused_live() -> None:
-    """The rates (timers are made from them), the frame and the channel port's damper bound are fixed at start: the
-    node declares each read-only (its descriptor refuses a change), and the station refuses a live change too."""
-    assert set(READ_ONLY) <= {name for name, row in MASTER_PARAMETERS.items() if row.read_only}
+    """The rates (timers are made from them), the frame, the channel port's and the exchanged-energy observer's rows
+    are fixed at start: the node declares each read-only (its descriptor refuses a change), and the station refuses
+    a live change of every one of them too (the two lists are one)."""
+    assert set(READ_ONLY) == {name for name, row in MASTER_PARAMETERS.items() if row.read_only}
+    assert {"channel_passivity_control", "channel_energy_window", "exchanged_energy_observer"} <= set(READ_ONLY)
     station = master()
     for name in READ_ONLY:
         with pytest.raises(FicInputError, match=f"^{name} is fixed at start$"):
