@@ -189,10 +189,10 @@ def tail_error_range(laws: tuple[str, ...]) -> str:
     return f"{min(values):.1f}-{max(values):.1f}"
 
 
-def tail_start_stable(where: str, law: str, delay: float = 1.0) -> str:
+def tail_start_stable(where: str, law: str, delay: float = 1.0, sweep: str = "claims_tail") -> str:
     """"k of n" stable at ``delay`` for ``law`` over the runs whose quiet tail begins ``where`` ("off" or "on" the
-    fixed obstacle; results/claims_tail_<where>_obstacle_statistics.json, fic_teleop_experiments.tail_start)."""
-    shares = [c["laws"][law]["stable"] for c in result(f"claims_tail_{where}_obstacle_statistics.json")["cells"]
+    fixed obstacle; results/<sweep>_<where>_obstacle_statistics.json, fic_teleop_experiments.tail_start)."""
+    shares = [c["laws"][law]["stable"] for c in result(f"{sweep}_{where}_obstacle_statistics.json")["cells"]
               if c["delay"] == delay and law in c["laws"]]
     return f"{sum(s['k'] for s in shares)} of {sum(s['n'] for s in shares)}"
 
@@ -318,11 +318,12 @@ FIGURES = [
            r"linear_tdpa (?P<linear_tdpa>\d+), fic_paper_law (?P<fic_paper_law>\d+)",
            lambda: dict(n=str(tail_stable(1.0, ("fic",))[1]),
                         **{law: str(tail_stable(1.0, (law,))[0]) for law in ("fic", *BASELINES)})),
-    *(Figure(f"claims on the new path: 1 s, the tail begun {where} the obstacle", "RESULTS",
-             rf"\| {where} the obstacle \| (?P<fic>\d+ of \d+) \| (?P<fic_paper_law>\d+ of \d+) \| "
-             rf"(?P<linear>\d+ of \d+) \| (?P<linear_bounded>\d+ of \d+) \| (?P<linear_tdpa>\d+ of \d+) \|",
-             lambda where=where: {law: tail_start_stable(where, law) for law in ("fic", *BASELINES)})
-      for where in ("off", "on")),
+    *(Figure(f"claims, {version}: 1 s, the tail begun {where} the obstacle", "RESULTS",
+             rf"\| {where} the obstacle, claims-tail-{version} \| (?P<fic>\d+ of \d+) \| (?P<fic_paper_law>\d+ of \d+) "
+             rf"\| (?P<linear>\d+ of \d+) \| (?P<linear_bounded>\d+ of \d+) \| (?P<linear_tdpa>\d+ of \d+) \|",
+             lambda where=where, sweep=sweep: {law: tail_start_stable(where, law, sweep=sweep)
+                                               for law in ("fic", *BASELINES)})
+      for where in ("off", "on") for version, sweep in (("v1", "claims_tail"), ("v2", "claims_tail_v2"))),
     Figure("claims on the new path: tracking error", "RESULTS",
            r"the FIC (?P<fic>[\d.]+-[\d.]+) mm, linear and linear_bounded (?P<linear>[\d.]+-[\d.]+) mm, linear_tdpa "
            r"(?P<tdpa>[\d.]+-[\d.]+) mm",
