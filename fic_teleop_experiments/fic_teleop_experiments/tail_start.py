@@ -3,7 +3,8 @@
 The quiet tail judges the loop's free response (docs/EXPERIMENTS.md, "The run verdict"). A tail that begins with the
 arm on E1's fixed obstacle judges a different loop: the arm held on a stiff contact, whose impacts return to the
 operator's hand one round trip later through the force feedback. The A/B of fic_teleop_experiments.tail_contact
-showed that loop cycling for every law at 1 s of delay, while the same runs stopped 2 s earlier or later settle.
+showed that loop cycling at 1 s of delay for the FIC (through the replica's offset feedforward) and the linear laws,
+while the same runs stopped 2 s earlier or later settle.
 So the claim statistics are also given for the runs whose tail begins off the obstacle.
 
 The criterion is fixed before it is applied and decided before the free response starts, so it cannot select on the
