@@ -15,8 +15,17 @@ if [[ -f "$stamp" && "$(cat "$stamp")" == "$inputs" ]] && "$VENV/bin/python" -c 
   exit 0
 fi
 start=$(date +%s)
+# torch's CUDA wheels make this venv about 8 GB, and pip unpacks them before it installs: check the room first, so a
+# full disk is one clear line instead of a pip traceback halfway through.
+need_gb=10
+mkdir -p "$(dirname "$VENV")"
+free_gb=$(( $(df -Pk "$(dirname "$VENV")" | awk 'NR==2 {print $4}') / 1048576 ))
+if (( free_gb < need_gb )); then
+  printf '\n[setup] FAILED: %s GB free beside %s; the LeRobot loader needs about %s GB\n' "$free_gb" "$VENV" "$need_gb" >&2
+  exit 1
+fi
 [[ -x "$VENV/bin/python" ]] || "$PYTHON" -m venv "$VENV"
-if ! "$VENV/bin/python" -m pip install -q -r "$REPO/scripts/requirements-lerobot.txt" \
+if ! "$VENV/bin/python" -m pip install -q --no-cache-dir -r "$REPO/scripts/requirements-lerobot.txt" \
      -c "$REPO/scripts/constraints-lerobot.txt" >/tmp/fic_setup_lerobot.log 2>&1; then
   tail -20 /tmp/fic_setup_lerobot.log >&2
   printf '\n[setup] FAILED: pip could not install the LeRobot loader (log: /tmp/fic_setup_lerobot.log)\n' >&2

@@ -7,13 +7,17 @@ set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$REPO/scripts/setup.sh"
 # Test-only: LeRobot's own dataset loader in .venv-lerobot (torch; never in the product's .venv), for the export test.
-"$REPO/scripts/setup_lerobot_env.sh"
+# Without it the suite still runs: that one test then fails, saying the loader does not import.
+"$REPO/scripts/setup_lerobot_env.sh" \
+  || echo "[setup] the LeRobot loader is not installed: test/tools/test_dataset_lerobot_load.py will fail"
 # shellcheck source=/dev/null
 source "$REPO/scripts/env.sh"
 # A private log folder, and a graph that stays on this machine; each node-level test picks its own
 # ROS_DOMAIN_ID (test/conftest.py), so tests never hear each other or a user's running graph.
 ROS_LOG_DIR="$(mktemp -d -t fic_teleop_test_logs.XXXXXX)"
 export ROS_LOG_DIR ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+# The LeRobot load test fails, not skips, when the loader is missing here (test/tools/test_dataset_lerobot_load.py).
+export FIC_LEROBOT_REQUIRED=1
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$REPO"
 echo "[test] ruff check"
