@@ -1,6 +1,8 @@
 """The DDS transport of the nodes the launcher starts on one host: the run profile's ``dds_profile`` (a Fast DDS XML
-file in config/), loopback UDP without shared memory by default (config/fastdds_loopback_udp.xml says why:
-docs/RESULTS.md, "Start-up stall").
+file in config/): loopback UDP without shared memory for the realtime graph (config/fastdds_loopback_udp.xml says why:
+docs/RESULTS.md, "Start-up stall"), shared memory plus loopback UDP for lockstep (config/fastdds_lockstep.xml); both
+keep every packet on the host and announce each participant 30 times at start (docs/RESULTS.md, "Starvation":
+discovery at start).
 
 The profile is applied only where the user has not chosen a DDS setup of their own: no Fast DDS profile file in the
 environment and a discovery range that is unset or LOCALHOST (the single-host default). A user's own profile file, a
@@ -38,4 +40,4 @@ def apply(environ: MutableMapping[str, str], profile: Path | None) -> str:
     for name in PROFILE_VARIABLES:
         environ[name] = str(profile)
     environ[RANGE_VARIABLE] = PROFILE_RANGE
-    return f"DDS: {profile.name} (loopback UDP, no shared memory; your own FASTRTPS_DEFAULT_PROFILES_FILE replaces it)"
+    return f"DDS: {profile.name} (this host only; your own FASTRTPS_DEFAULT_PROFILES_FILE replaces it)"

@@ -61,3 +61,26 @@ def test_the_default_run_profile_names_the_loopback_udp_file_which_has_no_shared
     text = (CONFIG / name).read_text()
     assert "<type>UDPv4</type>" in text and "<address>127.0.0.1</address>" in text
     assert "<useBuiltinTransports>false</useBuiltinTransports>" in text and "SHM" not in text
+
+
+@pytest.mark.parametrize("run_profile", ["realtime", "lockstep"])
+def test_each_single_host_profile_stays_on_the_host_and_announces_30_times_at_start(run_profile):
+    """Both single-host graphs load a profile that keeps every packet on 127.0.0.1 (or shared memory) and announces each
+    participant 30 times, 100 ms apart: with Fast DDS's 5 a node that came up late met another 3 s later, and a lockstep
+    run lost its first seconds of commands (config/fastdds_lockstep.xml)."""
+    import xml.etree.ElementTree as ElementTree
+
+    name = read_layer(profile_path(run_profile))["dds_profile"]
+    namespace = {"dds": "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"}
+    root = ElementTree.parse(CONFIG / name).getroot()
+    participant = root.find("dds:profiles/dds:participant[@is_default_profile='true']", namespace)
+    announcements = participant.find("dds:rtps/dds:builtin/dds:discovery_config/dds:initialAnnouncements", namespace)
+    assert int(announcements.find("dds:count", namespace).text) == 30
+    assert int(announcements.find("dds:period/dds:nanosec", namespace).text) == 100_000_000
+    assert participant.find("dds:rtps/dds:useBuiltinTransports", namespace).text == "false"
+    for descriptor in root.findall("dds:profiles/dds:transport_descriptors/dds:transport_descriptor", namespace):
+        kind = descriptor.find("dds:type", namespace).text
+        assert kind in ("SHM", "UDPv4"), kind
+        if kind == "UDPv4":
+            addresses = descriptor.findall("dds:interfaceWhiteList/dds:address", namespace)
+            assert [address.text for address in addresses] == ["127.0.0.1"]

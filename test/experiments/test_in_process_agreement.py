@@ -38,14 +38,6 @@ PRE_MOVE_TOLERANCE_RMS_M = 0.0012  # (measured 0.20-0.71 mm)
 DESIRED_TOLERANCE_M = 0.060      # max |x_d,in-process - x_d,graph| over the run (measured up to 39 mm)
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "open (2026-12-06): on this machine the lockstep graph's default run no longer agrees with the runner as it did: "
-    "10 of 13 runs failed, 8 before the operator's first move (|e| 3.5-13.8 mm apart, bound 2.5) and 3 over the "
-    "whole run (x_d 75-82 mm apart, bound 60; in the one examined the handle's first move came 0.65 s late); the "
-    "runner's own figures are unchanged since 7becbdf (6.03 mm RMS before the move), where CI passed this test; "
-    "the same with the last merge (the nodes' typed parameters) reverted, with the device and the master in one "
-    "process, and "
-    "with Fast DDS's stale shared-memory files removed. Not root-caused."))
 def test_in_process_run_agrees_with_a_lockstep_graph_run(default_lockstep_run) -> None:
     from fic_teleop_experiments.in_process import RunConfig, agreement, run
 
