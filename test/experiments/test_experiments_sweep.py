@@ -56,9 +56,10 @@ def test_two_cell_lockstep_sweep_writes_the_summary(tmp_path: Path):
     cells = json.loads((tmp_path / "results" / "e4.json").read_text())["cells"]
     for cell in cells:
         if cell["controller"] == "fic":
-            # Within 1.5 x_b, not x_b: on the low-rate command path this cell's free-motion error max was 45-61 mm at
-            # 8 s and 55.7 mm at 8.5 s (2026-12-06), 84-90 mm at 10 s with the offset feedforward's contact gate and
-            # without it; not root-caused (docs/RESULTS.md, "E1-E4"). The paper's x_b is E1's claim, judged there.
+            # Within 1.5 x_b, not x_b: this cell's free-motion error max was 45-90 mm while the lockstep followers could
+            # trail the simulation by 30 ms (their 100 Hz x_d' stream then had holes the link hold reads as gaps);
+            # 36.7 and 40.0 mm at 11 ms (2026-12-06, docs/RESULTS.md, "E1-E4"): two runs are too few to hold it to
+            # x_b here. The paper's x_b is E1's claim, judged there.
             assert cell["metrics"]["free_motion_error_max_m"] < 0.075, cell["metrics"]
             assert cell["metrics"]["free_motion_error_rms_m"] < 0.025, cell["metrics"]
             assert cell["metrics"]["limit_violations"] == 0
