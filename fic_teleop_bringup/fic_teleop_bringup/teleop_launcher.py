@@ -211,6 +211,11 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     by_name = {spec.name: spec for spec in nodes}
     if args.no_peer_barrier and "robot" in by_name:
         by_name["robot"].params.pop("lockstep_peers", None)
+    step_clock = by_name["robot"].params.get("step_clock_topic") if lockstep and "robot" in by_name else None
+    if step_clock and "replica" in by_name:
+        # The replica answers every state and reads its time at each one (the robot's step clock, published before
+        # the state); every other node follows /clock, at the profile's coarser rate (docs/ARCHITECTURE.md).
+        by_name["replica"].remaps["/clock"] = step_clock
     for node, path in params_files(args.params_file):
         if node not in by_name:
             raise ArgumentRefusal(f"--params-file: no node {node!r} in this graph (its nodes: {', '.join(by_name)})")
