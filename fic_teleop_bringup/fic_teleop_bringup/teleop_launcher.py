@@ -214,7 +214,7 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     step_clock = by_name["robot"].params.get("step_clock_topic") if lockstep and "robot" in by_name else None
     if step_clock and "replica" in by_name:
         # The replica answers every state and reads its time at each one (the robot's step clock, published before
-        # the state); every other node follows /clock, at the profile's coarser rate (docs/ARCHITECTURE.md).
+        # the state); every other node follows /clock, at the profile's coarser rate (docs/CONVENTIONS.md, "Time").
         by_name["replica"].remaps["/clock"] = step_clock
     for node, path in params_files(args.params_file):
         if node not in by_name:

@@ -170,7 +170,7 @@ class RobotNode(Node):
         self._clock_pub = self.create_publisher(Clock, "/clock", ROBOT_STREAM_QOS)
         # Lockstep: the node that answers every state reads the time of each step here, before the state; /clock,
         # for the nodes that only follow the simulation, goes out after the state, off the answer's path, and at
-        # lockstep_clock_rate_hz (docs/ARCHITECTURE.md, "Time in lockstep").
+        # lockstep_clock_rate_hz (docs/CONVENTIONS.md, "Time").
         self._step_clock_pub = (self.create_publisher(Clock, p.step_clock_topic, ROBOT_STREAM_QOS)
                                 if lockstep and p.step_clock_topic else None)
         self._clock_pending: Time | None = None   # /clock of the last step, sent after the next state
