@@ -382,6 +382,8 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     from rclpy.task import Future
     from rosgraph_msgs.msg import Clock
 
+    from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
+
     # Our own Ctrl-C handling (a flag set by main's signal handler) stops the graph in order; rclpy's would only end
     # the wait. The handler must not raise: an exception raised while rclpy's C++ layer converts a message comes out
     # as a pybind11 RuntimeError instead of a KeyboardInterrupt.
@@ -389,13 +391,19 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     node = rclpy.create_node("fic_teleop_launcher")
     latest = {"t": None, "start": None}
 
-    def on_clock(message: Clock) -> None:
-        now = message.clock.sec + 1e-9 * message.clock.nanosec
+    def on_clock(data: bytes) -> None:
+        # Raw: a Clock's CDR is a Time at the place of a header's stamp, read without building the message (this
+        # node takes every /clock message of the run, 500 a simulated second in lockstep).
+        stamp = header_stamp(data)
+        if stamp is None:
+            return
+        now = stamp_seconds(stamp)
         latest["t"] = now
         if latest["start"] is None and (wall_origin is None or time.time() >= wall_origin):
             latest["start"] = now
 
-    node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+    node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
+                             raw=True)
     if watch is not None:
         from fic_teleop_msgs.msg import TeleoperationCommand
         topic, seen = watch
