@@ -16,10 +16,8 @@ reads the model while it moves); the executor thread only receives commands. Mod
 - lockstep: after publishing the state of step k, wait for a command that arrives after that publication, then
   step; a wait longer than ``lockstep_timeout`` (wall clock) is counted and the step proceeds on the last command.
   Stamps are simulation time and /clock is published every ``1000 / lockstep_clock_rate_hz`` steps: run every other
-  node with use_sim_time:=true. With ``step_clock_topic`` set, the time of every step goes out there before the
-  state (for the node that answers each state, its /clock remapped there) and /clock after the state, so that the
-  fan-out to the nodes that only follow the simulation is off the answer's path; without it /clock goes out before
-  the state.
+  node with use_sim_time:=true. With ``step_clock_topic`` set, the time of every step also goes out there, for the
+  node that answers each state (its /clock remapped there). Both go out before the state of their step.
   Until the first command arrives the simulation waits at t=0 (re-publishing the initial state every
   ``lockstep_timeout``), so a run does not depend on how long the controller took to start; the answers to those
   copies are all drained (LockstepGate.wait_quiet) before the first step, so none is taken for a later step.
@@ -168,12 +166,11 @@ class RobotNode(Node):
                                       if self._franka else None)
         self._slow_every = _every(franka.slow_joint_states_rate_hz)
         self._clock_pub = self.create_publisher(Clock, "/clock", ROBOT_STREAM_QOS)
-        # Lockstep: the node that answers every state reads the time of each step here, before the state; /clock,
-        # for the nodes that only follow the simulation, goes out after the state, off the answer's path, and at
-        # lockstep_clock_rate_hz (docs/CONVENTIONS.md, "Time").
+        # Lockstep: the node that answers every state reads the time of each step here, so that /clock, which wakes
+        # every node that follows the simulation, can go out at the coarser lockstep_clock_rate_hz
+        # (docs/CONVENTIONS.md, "Time").
         self._step_clock_pub = (self.create_publisher(Clock, p.step_clock_topic, ROBOT_STREAM_QOS)
                                 if lockstep and p.step_clock_topic else None)
-        self._clock_pending: Time | None = None   # /clock of the last step, sent after the next state
         self._lateness_pub = self.create_publisher(Float64, "/sim/step_lateness", STATUS_QOS)
         self._object_poses_pub = self.create_publisher(PoseArray, "/sim/object_poses", STATUS_QOS)
         self._tcp_pose_pub = self.create_publisher(PoseStamped, "/sim/tcp_pose", STATUS_QOS)
@@ -346,9 +343,6 @@ class RobotNode(Node):
         while not self._stop.is_set():
             self._gate.state_published(self._sim.steps * STEP_NS)  # before publishing: an instant answer must count
             self._publish_state()
-            if self._clock_pending is not None:   # the followers' /clock, once the answering node has its state
-                self._clock_pub.publish(Clock(clock=self._clock_pending))
-                self._clock_pending = None
             started = self._last_command is not None
             if started and self._station.holding:
                 self._pacer.wait_next()  # held after commands stopped: keep the world moving at wall-clock pace
@@ -398,13 +392,12 @@ class RobotNode(Node):
                 self._publish_state()
             elif steps % self._wrench_every == 0:
                 self._publish_wrench(self._stamp())
+        # Both clocks before the state of this step (published next): no node gets a message about step t before
+        # its clock reads t; the step clock first, so the answering node has its time before a follower reacts.
         if self._step_clock_pub is not None:
             self._step_clock_pub.publish(Clock(clock=_time_from_steps(steps)))
         if self._clock_every and steps % self._clock_every == 0:
-            if self._step_clock_pub is not None:
-                self._clock_pending = _time_from_steps(steps)
-            else:
-                self._clock_pub.publish(Clock(clock=_time_from_steps(steps)))
+            self._clock_pub.publish(Clock(clock=_time_from_steps(steps)))
         if self._lateness_every and lateness is not None and steps % self._lateness_every == 0:
             # The worst step lateness over the last publication period (the 10 s p50/p99 go to /diagnostics).
             self._lateness_pub.publish(Float64(data=self._pacer.recent_max(self._lateness_every)))

@@ -45,9 +45,8 @@ ROBOT_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
     number("lockstep_clock_rate_hz", 1.0, 1000.0, "lockstep: /clock publication rate, a divisor of 1000 (every "
                                                   "follower's periods must be whole multiples of its period) [Hz]"),
     text("step_clock_topic", "lockstep: the simulation's time also on this topic (rosgraph_msgs/Clock) at every "
-                             "step, before the joint state, for the node that answers every state (its /clock "
-                             "remapped here); /clock then goes out after the joint state. Empty: none, /clock "
-                             "before the joint state"),
+                             "step, before /clock and the joint state, for the node that answers every state (its "
+                             "/clock remapped here); empty: none"),
     number("joint_state_rate_hz", 1.0, 1000.0, "realtime: /joint_states publication rate, a divisor of 1000 "
                                                "(lockstep publishes every step, the replica answers each) [Hz]"),
     number("wrench_rate_hz", 1.0, 1000.0, "/ft_sensor/wrench publication rate, a divisor of 1000 (the sample of "
