@@ -211,6 +211,11 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     by_name = {spec.name: spec for spec in nodes}
     if args.no_peer_barrier and "robot" in by_name:
         by_name["robot"].params.pop("lockstep_peers", None)
+    step_clock = by_name["robot"].params.get("step_clock_topic") if lockstep and "robot" in by_name else None
+    if step_clock and "replica" in by_name:
+        # The replica answers every state and reads its time at each one (the robot's step clock, published before
+        # the state); every other node follows /clock, at the profile's coarser rate (docs/CONVENTIONS.md, "Time").
+        by_name["replica"].remaps["/clock"] = step_clock
     for node, path in params_files(args.params_file):
         if node not in by_name:
             raise ArgumentRefusal(f"--params-file: no node {node!r} in this graph (its nodes: {', '.join(by_name)})")
@@ -377,6 +382,8 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     from rclpy.task import Future
     from rosgraph_msgs.msg import Clock
 
+    from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
+
     # Our own Ctrl-C handling (a flag set by main's signal handler) stops the graph in order; rclpy's would only end
     # the wait. The handler must not raise: an exception raised while rclpy's C++ layer converts a message comes out
     # as a pybind11 RuntimeError instead of a KeyboardInterrupt.
@@ -384,13 +391,19 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     node = rclpy.create_node("fic_teleop_launcher")
     latest = {"t": None, "start": None}
 
-    def on_clock(message: Clock) -> None:
-        now = message.clock.sec + 1e-9 * message.clock.nanosec
+    def on_clock(data: bytes) -> None:
+        # Raw: a Clock's CDR is a Time at the place of a header's stamp, read without building the message (this
+        # node takes every /clock message of the run, 500 a simulated second in lockstep).
+        stamp = header_stamp(data)
+        if stamp is None:
+            return
+        now = stamp_seconds(stamp)
         latest["t"] = now
         if latest["start"] is None and (wall_origin is None or time.time() >= wall_origin):
             latest["start"] = now
 
-    node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+    node.create_subscription(Clock, "/clock", on_clock, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
+                             raw=True)
     if watch is not None:
         from fic_teleop_msgs.msg import TeleoperationCommand
         topic, seen = watch

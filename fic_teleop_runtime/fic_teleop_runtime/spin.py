@@ -18,6 +18,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 
 from fic_teleop_runtime import stop_signals
+from fic_teleop_runtime.shared_clock import share_clock_subscription
 
 SLICE = 0.1   # [s] longest wait between two checks of the context
 
@@ -36,6 +37,7 @@ def spin_until_shutdown(nodes: Node | Sequence[Node], slice_s: float = SLICE, fo
     # The wait-set executor checks timers against the node's clock, so timer ticks land on simulated time.
     sim_time = follow_sim_time and any(member.get_parameter("use_sim_time").value for member in nodes)
     executor = SingleThreadedExecutor(context=node.context) if sim_time else EventsExecutor(context=node.context)
+    share_clock_subscription(nodes)   # a group's nodes under simulated time: one /clock subscription (shared_clock.py)
     for member in nodes:
         executor.add_node(member)
     # The start-up heap (rclpy, numpy, Pinocchio, MuJoCo: ~60k objects) moved out of the collector's reach: a

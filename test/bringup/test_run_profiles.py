@@ -160,3 +160,28 @@ def test_the_starved_verdicts_bounds_are_the_profiles(tmp_path, monkeypatch) -> 
     monkeypatch.setattr(run_profile, "PROFILES", copy)
     args, _ = _run()
     assert not timing_verdict(slow, {}, None, TimingBounds.from_profile(args.run_profile)).starved
+
+
+def test_in_lockstep_the_replica_follows_the_robots_step_clock_and_the_others_a_500_hz_clock(tmp_path) -> None:
+    _, nodes = _run("--time-mode", "lockstep")
+    robot = nodes["robot"].params
+    assert robot["step_clock_topic"] == "/sim/step_clock" and robot["lockstep_clock_rate_hz"] == 500.0
+    assert nodes["replica"].remaps == {"/clock": "/sim/step_clock"}
+    # Every follower's periods are whole multiples of the /clock period, so its callbacks keep their simulated times.
+    clock_period_ms = 1000.0 / robot["lockstep_clock_rate_hz"]
+    for node, file, keys in (("master", "master.yaml", ("control_rate", "network_rate")),
+                             ("planner", "planner.yaml", ("publish_rate",)),
+                             ("haptic_device", "haptic_device.yaml", ("publish_rate_hz",)),
+                             ("channel_forward", "channel.yaml", ("delivery_rate_hz",))):
+        sections = teleop_launcher.file_sections(teleop_launcher.CONFIG / file)
+        values = {**sections.get("/**", {}), **sections.get(node, {}), **nodes[node].params}
+        for key in keys:
+            multiple = 1000.0 / values[key] / clock_period_ms
+            assert multiple == pytest.approx(round(multiple)), (node, key, values[key])
+    _, realtime = _run()
+    assert "/clock" not in realtime["replica"].remaps
+    # A profile that turns the step clock off leaves the replica on /clock.
+    layer = tmp_path / "no_step_clock.yaml"
+    layer.write_text(yaml.safe_dump({"parameters": {"robot": {"step_clock_topic": ""}}}))
+    _, nodes = _run("--time-mode", "lockstep", "--profile", str(layer))
+    assert "/clock" not in nodes["replica"].remaps

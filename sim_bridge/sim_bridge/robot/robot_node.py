@@ -15,7 +15,9 @@ reads the model while it moves); the executor thread only receives commands. Mod
   with other nodes' wall-clock stamps); /clock (sim time) is published at ``realtime_clock_rate_hz``.
 - lockstep: after publishing the state of step k, wait for a command that arrives after that publication, then
   step; a wait longer than ``lockstep_timeout`` (wall clock) is counted and the step proceeds on the last command.
-  Stamps are simulation time and /clock is published every step: run every other node with use_sim_time:=true.
+  Stamps are simulation time and /clock is published every ``1000 / lockstep_clock_rate_hz`` steps: run every other
+  node with use_sim_time:=true. With ``step_clock_topic`` set, the time of every step also goes out there, for the
+  node that answers each state (its /clock remapped there). Both go out before the state of their step.
   Until the first command arrives the simulation waits at t=0 (re-publishing the initial state every
   ``lockstep_timeout``), so a run does not depend on how long the controller took to start; the answers to those
   copies are all drained (LockstepGate.wait_quiet) before the first step, so none is taken for a later step.
@@ -120,7 +122,8 @@ class RobotNode(Node):
                          if self._mode == "lockstep" and p.lockstep_peers else None)
         self._hold = ZeroOrderHold()
         self._pacer = RealtimePacer(TIMESTEP)
-        self._clock_every = 1 if self._mode == "lockstep" else _every(p.realtime_clock_rate_hz)
+        lockstep = self._mode == "lockstep"
+        self._clock_every = _every(p.lockstep_clock_rate_hz if lockstep else p.realtime_clock_rate_hz)
         self._lateness_every = _every(p.lateness_rate_hz)
         self._joint_state_every = 1 if self._mode == "lockstep" else _every(p.joint_state_rate_hz)
         self._joint_state_phase = 0
@@ -163,6 +166,11 @@ class RobotNode(Node):
                                       if self._franka else None)
         self._slow_every = _every(franka.slow_joint_states_rate_hz)
         self._clock_pub = self.create_publisher(Clock, "/clock", ROBOT_STREAM_QOS)
+        # Lockstep: the node that answers every state reads the time of each step here, so that /clock, which wakes
+        # every node that follows the simulation, can go out at the coarser lockstep_clock_rate_hz
+        # (docs/CONVENTIONS.md, "Time").
+        self._step_clock_pub = (self.create_publisher(Clock, p.step_clock_topic, ROBOT_STREAM_QOS)
+                                if lockstep and p.step_clock_topic else None)
         self._lateness_pub = self.create_publisher(Float64, "/sim/step_lateness", STATUS_QOS)
         self._object_poses_pub = self.create_publisher(PoseArray, "/sim/object_poses", STATUS_QOS)
         self._tcp_pose_pub = self.create_publisher(PoseStamped, "/sim/tcp_pose", STATUS_QOS)
@@ -207,6 +215,10 @@ class RobotNode(Node):
             raise FicInputError(f"scene must be one of {SCENE_NAMES}, got {p.scene!r}")
         if p.mode not in STEPPING_MODES:
             raise FicInputError(f"mode must be one of {STEPPING_MODES}, got {p.mode!r}")
+        steps = STEPS_PER_SECOND / p.lockstep_clock_rate_hz
+        if abs(steps - round(steps)) > 1e-9:
+            raise FicInputError(f"lockstep_clock_rate_hz must divide {STEPS_PER_SECOND:g}, got "
+                                f"{p.lockstep_clock_rate_hz:g}")
         return p.replaced({"lockstep_peers": [topic for topic in p.lockstep_peers if topic]})
 
     # --- commands (executor thread) ------------------------------------------------------------------------------
@@ -380,6 +392,10 @@ class RobotNode(Node):
                 self._publish_state()
             elif steps % self._wrench_every == 0:
                 self._publish_wrench(self._stamp())
+        # Both clocks before the state of this step (published next): no node gets a message about step t before
+        # its clock reads t; the step clock first, so the answering node has its time before a follower reacts.
+        if self._step_clock_pub is not None:
+            self._step_clock_pub.publish(Clock(clock=_time_from_steps(steps)))
         if self._clock_every and steps % self._clock_every == 0:
             self._clock_pub.publish(Clock(clock=_time_from_steps(steps)))
         if self._lateness_every and lateness is not None and steps % self._lateness_every == 0:

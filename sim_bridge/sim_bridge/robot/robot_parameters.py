@@ -40,8 +40,13 @@ ROBOT_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
     number("command_state_timeout", 0.001, 10.0, "realtime: a torque command computed on a joint state older than "
                                                  "this (the state stamp it carries, fic_core.command_stamp) is "
                                                  "refused: never applied, the watchdog not released [s]"),
-    number("realtime_clock_rate_hz", 0.0, 1000.0, "realtime: /clock publication rate (lockstep publishes every "
-                                                  "step) [Hz]"),
+    number("realtime_clock_rate_hz", 0.0, 1000.0, "realtime: /clock publication rate (lockstep: "
+                                                  "lockstep_clock_rate_hz) [Hz]"),
+    number("lockstep_clock_rate_hz", 1.0, 1000.0, "lockstep: /clock publication rate, a divisor of 1000 (every "
+                                                  "follower's periods must be whole multiples of its period) [Hz]"),
+    text("step_clock_topic", "lockstep: the simulation's time also on this topic (rosgraph_msgs/Clock) at every "
+                             "step, before /clock and the joint state, for the node that answers every state (its "
+                             "/clock remapped here); empty: none"),
     number("joint_state_rate_hz", 1.0, 1000.0, "realtime: /joint_states publication rate, a divisor of 1000 "
                                                "(lockstep publishes every step, the replica answers each) [Hz]"),
     number("wrench_rate_hz", 1.0, 1000.0, "/ft_sensor/wrench publication rate, a divisor of 1000 (the sample of "
