@@ -6,9 +6,11 @@ own fast-path tests) answers as ``shape`` does."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from fic_core.errors import FicInputError
 from fic_core.limits import LimitFlag, PandaLimits
 from fic_core.panda_description import NOMINAL_CONFIGURATION
 from fic_core.postural_optimisation import PosturalOptimisation
@@ -111,3 +113,41 @@ def test_the_replicas_path_after_its_fast_path_answers_as_shape(robot: RobotMode
     assert LimitFlag(flags) == shaped.flags
     assert (change, solved_qp, relaxed, guard) == (shaped.torque_change, shaped.solved_qp, shaped.relaxed,
                                                    shaped.guard_clipped)
+
+
+def test_the_tcp_cone_is_cut_along_the_demands_prediction_at_most_tcp_cuts_times(robot: RobotModel,
+                                                                                  limits: PandaLimits) -> None:
+    """The TCP-speed cone |v_T| <= 1.7 m/s (v_T the TCP velocity T ahead) is met by linear cuts: the first along
+    tau_d's own prediction, 0.1 % inside the limit; more, each along the last answer's prediction, while the
+    answer is outside the cone and fewer than ``tcp_cuts`` are placed. The 1.65 m/s state of
+    test_postural_optimisation, pushed on and sideways: one cut leaves an answer 1.7 % outside the cone, two bring
+    it inside, and the answer is on the first cut whenever that is the only one."""
+    from test_postural_optimisation import _tcp_at_1_65_m_s
+
+    q, qd, pushing = _tcp_at_1_65_m_s(robot, limits)
+    state, bias, minv, jacobian = dynamics(robot, q, qd)
+    sideways = jacobian.T @ (20.0 * np.cross([0.0, 0.0, 1.0], jacobian @ qd))
+    rng = np.random.default_rng(0)
+    extras = [rng.normal(scale=5.0, size=7) for _ in range(3)]
+    horizon = PosturalOptimisation(limits, DT).horizon
+    outside_after_one = 0
+    for extra in extras:
+        desired = pushing + sideways + extra
+        first_direction = jacobian @ (qd + horizon * minv @ (desired - bias))
+        assert np.linalg.norm(first_direction) > 1.7                       # tau_d breaks the TCP limit
+        first_direction /= np.linalg.norm(first_direction)
+        speeds = {}
+        for cuts in (1, 2, 8):
+            result = PosturalOptimisation(limits, DT, tcp_cuts=cuts).shape(desired, None, q, qd, bias, minv,
+                                                                            jacobian)
+            ahead = jacobian @ (qd + horizon * minv @ (result.torque - bias))
+            assert LimitFlag.TCP_SPEED in result.flags
+            assert first_direction @ ahead <= 1.7 * (1.0 - 1e-3) + 1e-9   # every answer meets the first cut
+            if cuts == 1:
+                assert first_direction @ ahead == pytest.approx(1.7 * (1.0 - 1e-3), rel=1e-9)
+            speeds[cuts] = np.linalg.norm(ahead)
+        assert speeds[2] <= 1.7 * (1.0 + 1e-6) and speeds[8] <= 1.7 * (1.0 + 1e-6)
+        outside_after_one += speeds[1] > 1.7 * 1.01
+    assert outside_after_one == 1
+    with pytest.raises(FicInputError, match="tcp_cuts"):
+        PosturalOptimisation(limits, DT, tcp_cuts=0)
