@@ -84,3 +84,20 @@ def test_the_offset_shrinks_along_its_direction_at_its_speed_under_the_commanded
         jump.start([np.nan, 0.0, 0.0], [0.0, 0.0, 0.0], speed=0.1)
     with pytest.raises(FicInputError, match="commanded"):
         jump.apply([0.0, np.inf, 0.0], 0.01)
+
+
+def test_by_default_a_blackout_of_the_100_hz_stream_restarts_the_estimates_from_rest() -> None:
+    """The default hold is made for a 100 Hz stream (the planner's, desired_pose.py): samples 0.2 s apart (a
+    blackout of twenty samples) restart the velocity and acceleration from rest; 0.05 s apart (four lost) they
+    are a slope like any other."""
+    for gap, restarted in ((0.2, True), (0.05, False)):
+        hold = SampledSetPoint()
+        hold.add(0.0, [0.0, 0.0, 0.0], received=0.0)
+        hold.add(0.01, [0.001, 0.0, 0.0], received=0.01)          # 0.1 m/s
+        hold.add(0.01 + gap, [0.001 + 0.1 * gap, 0.0, 0.0], received=0.01 + gap)
+        velocity = hold.velocity(0.01 + gap)
+        if restarted:
+            np.testing.assert_array_equal(velocity, [0.0, 0.0, 0.0])
+            np.testing.assert_array_equal(hold.acceleration(0.01 + gap), [0.0, 0.0, 0.0])
+        else:
+            np.testing.assert_allclose(velocity, [0.1, 0.0, 0.0], rtol=1e-9)
