@@ -84,8 +84,7 @@ def test_a_solver_that_gives_up_leaves_tau_d_clipped_into_the_box(robot: RobotMo
         solver = PosturalOptimisation(limits, DT)
         answered = solver.shape(desired, before, state.q, state.qd, bias, minv, jacobian)
         assert not answered.guard_clipped and solver.guard_clips == 0 and solver.qp_count == 1
-        assert np.all(answered.torque >= lower - 1e-9) and np.all(answered.torque <= upper + 1e-9)
-        assert answered.iterations > 1, count
+        assert np.all(answered.torque >= lower - 1e-9) and np.all(answered.torque <= upper + 1e-9), count
 
 
 @settings(max_examples=40, deadline=None, derandomize=True)
