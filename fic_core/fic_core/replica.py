@@ -688,9 +688,11 @@ class ReplicaController:
             for value, before in zip(torque, previous):
                 if not abs(value - before) <= step:
                     return False
+        # The excess over each limit against the slack, as limits.violation_flags computes it: "|x| <= limit +
+        # slack" rounds the sum and called fl(limit + 1e-9) inside, which limits.py flags (one float per limit).
         for value, torque_limit, velocity, velocity_limit, margin in zip(
                 torque, self._torque_values, qd, self._velocity_values, position_margin):
-            if not (abs(value) <= torque_limit + tolerance and abs(velocity) <= velocity_limit + tolerance
+            if not (abs(value) - torque_limit <= tolerance and abs(velocity) - velocity_limit <= tolerance
                     and margin >= -tolerance):
                 return False
         return True

@@ -5,8 +5,10 @@ beside the new one, two aligned give-backs moved x_d away from the set-point's o
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from fic_core.desired_pose import DesiredPose, DesiredPoseParameters
+from fic_core.errors import FicInputError
 
 START = np.array([0.3, 0.0, 0.5])
 RESUME_SPEED = 0.1          # [m/s]
@@ -57,3 +59,45 @@ def test_by_default_x_d_holds_the_start_orientation_and_the_planners_only_when_a
         pose.start(START, start)
         pose.add_planner_pose(0, START, turned, 0.0)
         np.testing.assert_array_equal(pose.update(0.001, DT).rotation, expected)
+
+
+def test_x_d_prime_goes_stale_strictly_after_master_timeout_says_so_once_and_is_held() -> None:
+    """No teleoperation command for more than master_timeout (by receipt): x_d' is held where it was, with one
+    notice naming the timeout; a tick exactly master_timeout after the last command is not stale yet. The command
+    before it was given back from 0 at resume_speed, and the first tick that used it recorded its age."""
+    pose = DesiredPose(DesiredPoseParameters(master_timeout=0.5, resume_speed=RESUME_SPEED,
+                                             offset_feedforward=False))
+    pose.start(START, np.eye(3))
+    assert not pose.command_unused
+    pose.add_teleoperation(int(0.25e9), [0.02, 0.0, 0.0], now=0.25)   # sampled at 0.25 s, received at 0.25 s
+    assert pose.command_unused and pose.resuming
+    first = pose.update(0.3, DT)
+    assert not pose.command_unused
+    assert pose.master_first_use_age == 0.3 - 0.25
+    np.testing.assert_allclose(first.position, START + [RESUME_SPEED * DT, 0.0, 0.0], rtol=1e-12)
+    for tick in range(1, 401):                      # to 0.7 s
+        sample = pose.update(0.3 + tick * DT, DT)
+    np.testing.assert_allclose(sample.position, START + [0.02, 0.0, 0.0], atol=1e-12)   # given back, 0.2 s
+    assert not pose.resuming and not pose.master_stale and sample.notices == []
+    assert pose.update(0.75, DT).notices == [] and not pose.master_stale   # exactly 0.5 s after: not stale
+    stale = pose.update(0.75 + 1e-6, DT)
+    assert pose.master_stale and len(stale.notices) == 1 and "master_timeout = 0.5 s" in stale.notices[0]
+    later = pose.update(5.0, DT)
+    assert later.notices == []
+    np.testing.assert_allclose(later.position, START + [0.02, 0.0, 0.0], atol=1e-12)
+    notice = pose.add_teleoperation(int(5.0e9), [0.05, 0.0, 0.0], now=5.0)
+    assert notice is not None and "back" in notice and not pose.master_stale
+    np.testing.assert_allclose(pose.update(5.001, DT).position, START + [0.02 + RESUME_SPEED * DT, 0.0, 0.0],
+                               rtol=1e-9)
+
+
+def test_no_desired_pose_before_the_start_pose_and_bad_samples_change_nothing() -> None:
+    pose = DesiredPose()
+    with pytest.raises(FicInputError, match="no start pose"):
+        pose.update(0.0, DT)
+    pose.start(START, np.eye(3))
+    pose.add_teleoperation(0, [0.01, 0.0, 0.0], now=0.0)
+    for bad in ([np.nan, 0.0, 0.0], [0.0, np.inf, 0.0]):
+        with pytest.raises(FicInputError, match="desired_offset"):
+            pose.add_teleoperation(1_000_000, bad, now=0.001)
+    assert pose.master_stamp_ns == 0 and pose.master_received == 0.0

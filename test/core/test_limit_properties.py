@@ -187,6 +187,31 @@ def test_the_replicas_violation_flags_agree_with_the_recomputation_at_and_around
     assert seen & LimitFlag.JOINT_POSITION and seen & LimitFlag.JOINT_VELOCITY and clear > 40, (seen, clear)
 
 
+def test_the_replica_and_limits_py_agree_on_the_float_nearest_the_limit_plus_the_slack(robot: RobotModel,
+                                                                                      limits: PandaLimits) -> None:
+    """A measured joint speed of fl(v_max + 1e-9), the float nearest the limit plus the slack, exceeds v_max by more
+    than 1e-9 (the sum rounds up) and limits.py flags it; the replica's tick flags it too, on either side, and the
+    float below it is inside for both. (The replica's fused check once compared |qd| <= v_max + 1e-9 and called it
+    inside.)"""
+    replica = _replica(robot)
+    state = robot.update(NOMINAL_CONFIGURATION, np.zeros(7))
+    position, rotation = state.tcp_position.copy(), state.tcp_rotation.copy()
+    for joint in range(7):
+        limit = limits.joint_velocity[joint]
+        rounded = limit + SLACK
+        assert rounded - limit > SLACK          # what makes this float the one to test
+        for speed, broken in ((rounded, True), (float(np.nextafter(rounded, 0.0)), False)):
+            for sign in (1.0, -1.0):
+                qd = np.zeros(7)
+                qd[joint] = sign * speed
+                previous = replica.previous_torque
+                command = replica.command(NOMINAL_CONFIGURATION, qd, position, rotation)
+                expected = limit_violations(previous, command.torque, NOMINAL_CONFIGURATION, qd, command.tcp_speed,
+                                            replica.control_period, limits)
+                assert (LimitFlag.JOINT_VELOCITY in expected) == broken, (joint, speed)
+                assert command.limit_violations == expected, (joint, sign, speed)
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # The postural optimisation: its fast paths against the QP's constraints written out, and its output against the
 # violation check.

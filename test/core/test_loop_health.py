@@ -274,3 +274,30 @@ def test_before_any_tick_the_diagnostics_say_none() -> None:
     values = LoopHealth(EXACT).diagnostic_values()
     assert values["clock_offset_ms"] == "none" and values["last_hold_reason"] == "none" and values["holds"] == "0"
     assert values["state"] == HEALTHY
+
+
+def test_the_diagnostics_give_each_figure_in_milliseconds_and_the_hold_its_reason() -> None:
+    """Ticks on binary-exact clocks (EXACT's bounds: 31.25 ms of age, 62.5 ms between ticks), 15.6 ms apart after
+    the first two: the clock offset (0.98 ms) may rise by half the time since the last tick (CLOCK_DRIFT_ALLOWANCE),
+    so a state stamped 54.7 ms before the tick is 45.9 ms old: the hold begins once, naming the age and its bound,
+    and the next tick on the same state (53.7 ms old, the offset risen to 16.6 ms) says nothing new. Every figure
+    of the status in ms with one decimal, the maxima kept; the state gap is 0 while no state was known fresh before
+    (the first tick's)."""
+    health = LoopHealth(EXACT)
+    health.tick(1.0, 1.0 - 2 ** -10)                    # offset 0.98 ms
+    health.command_sent(1.0)
+    health.tick(1.0 + 2 ** -7, 1.0 + 2 ** -7 - 2 ** -10)   # 7.8 ms later on both clocks
+    health.command_sent(1.0 + 2 ** -6)                  # 15.6 ms after the last command
+    notice = health.tick(1.0 + 2 ** -7 + 2 ** -6, 1.0 - 2 ** -5)   # 15.6 ms later, on a state from before
+    assert health.holding and health.holds == 1
+    assert health.reason == "state 45.9 ms old (bound 31.25 ms)"
+    assert notice == ("replica loop unhealthy: state 45.9 ms old (bound 31.25 ms); holding (gravity and joint "
+                      "damping) until 1 healthy ticks")
+    assert health.tick(1.0 + 2 ** -7 + 2 ** -5, 1.0 - 2 ** -5) == ""   # still old: no second notice
+    assert health.holds == 1
+    health.held_tick()
+    health.held_tick()
+    assert health.diagnostic_values() == {
+        "state": HOLDING, "state_age_ms": "53.7", "clock_offset_ms": "16.6", "tick_gap_ms": "15.6",
+        "command_gap_ms": "15.6", "max_state_age_ms": "53.7", "max_tick_gap_ms": "15.6", "max_state_gap_ms": "0.0",
+        "max_command_gap_ms": "15.6", "holds": "1", "held_ticks": "2", "last_hold_reason": health.reason}

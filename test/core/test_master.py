@@ -123,3 +123,56 @@ def test_reset_clears_the_device_saturation_flag() -> None:
     assert master.device_force_saturated
     master.reset()
     assert not master.device_force_saturated
+
+
+def test_a_guidance_force_is_added_before_the_devices_bound_and_the_bound_is_set_live() -> None:
+    """f = FIC(-x_M) + k_F K_H F_R + the fixture's force, then scaled as a vector to the device's bound: the
+    fixture's force counts toward the bound (a sum over it is scaled, direction kept), and the bound set while
+    running (None: unbounded; not positive or not finite: refused by name, the old bound kept) applies at once."""
+    master = make_master(haptic_gain=0.5, max_device_force=20.0)
+    guidance = np.array([0.0, 0.0, -4.0])
+    force = master.force(np.zeros(3), np.zeros(3), [6.0, 0.0, 0.0], guidance)
+    np.testing.assert_allclose(force, [3.0, 0.0, -4.0])
+    assert not master.device_force_saturated
+    force = master.force(np.zeros(3), np.zeros(3), [24.0, 0.0, 0.0], np.array([0.0, 0.0, -16.0]))
+    np.testing.assert_allclose(force, [12.0, 0.0, -16.0])   # 20 N exactly: on the bound, not past it
+    force = master.force(np.zeros(3), np.zeros(3), [48.0, 0.0, 0.0], np.array([0.0, 0.0, -32.0]))
+    np.testing.assert_allclose(force, [12.0, 0.0, -16.0])
+    assert master.device_force_saturated
+    master.max_device_force = 10.0
+    assert master.max_device_force == 10.0
+    np.testing.assert_allclose(master.force(np.zeros(3), np.zeros(3), [48.0, 0.0, 0.0], np.array([0.0, 0.0, -32.0])),
+                               [6.0, 0.0, -8.0])
+    for bad in (0.0, -1.0, math.nan, math.inf):
+        with pytest.raises(FicInputError, match="max_device_force"):
+            master.max_device_force = bad
+        assert master.max_device_force == 10.0
+    master.max_device_force = None
+    np.testing.assert_allclose(master.force(np.zeros(3), np.zeros(3), [48.0, 0.0, 0.0], np.array([0.0, 0.0, -32.0])),
+                               [24.0, 0.0, -32.0])
+    assert not master.device_force_saturated
+
+
+def test_the_loop_gain_bound_is_exact_at_one() -> None:
+    """G = 1 is allowed however the product is rounded (k_F s_M K_H = 3 x (1/3) x 1), a part in a million above
+    it is refused; the K_H ceiling is 1 up to scales whose product is 1 and their inverse above it."""
+    assert checked_loop_gain(3.0, 1.0 / 3.0, 1.0) == pytest.approx(1.0, rel=1e-15)
+    assert checked_loop_gain(10.0, 0.1, 1.0) == pytest.approx(1.0, rel=1e-15)
+    with pytest.raises(FicInputError, match="loop-gain bound"):
+        checked_loop_gain(1.0, 1.0, 1.000001)
+    assert haptic_gain_ceiling(4.0, 0.25) == 1.0
+    assert haptic_gain_ceiling(4.0, 0.5) == 0.5 and haptic_gain_ceiling(1.0, 1.25) == pytest.approx(0.8)
+
+
+def test_reset_puts_the_handles_fic_back_in_divergence_at_rest() -> None:
+    """After a swing in C (the handle moving back toward the origin), reset: D on every axis, nothing latched, and
+    the next force is the profile's F_c again."""
+    master = make_master(haptic_gain=0.0)
+    master.force([0.02, 0.0, 0.0], [0.0, 0.0, 0.0], np.zeros(3))
+    master.force([0.019, 0.0, 0.0], [-0.5, 0.0, 0.0], np.zeros(3))   # returning: error magnitude falling
+    assert master.attractor.phase[0] == 1
+    master.reset()
+    np.testing.assert_array_equal(master.attractor.phase, [0, 0, 0])
+    np.testing.assert_array_equal(master.attractor.latched_max_error, [0.0, 0.0, 0.0])
+    np.testing.assert_allclose(master.force([0.019, 0.0, 0.0], [-0.5, 0.0, 0.0], np.zeros(3)),
+                               -PROFILE.force([0.019, 0.0, 0.0]))

@@ -66,6 +66,25 @@ def test_unconstrained_torque_passes_unchanged(robot, limits) -> None:
     np.testing.assert_array_equal(result.torque, desired)
 
 
+@pytest.mark.parametrize("joint", range(7))
+def test_a_demand_breaking_nothing_near_a_position_limit_passes_unchanged(robot, limits, joint: int) -> None:
+    """Near a position limit (inside the braking room, where the far-from-limits test cannot decide) a demand that
+    breaks no constraint is the command as it is: no flag, no QP, a change of exactly 0 N m (not the fast path's
+    report, which says the state is far from the limits)."""
+    optimisation = PosturalOptimisation(limits, DT)
+    q = np.array(NOMINAL_CONFIGURATION)
+    q[joint] = limits.joint_position_upper[joint] - 0.02   # 20 mrad from its upper limit, at rest
+    robot.update(q, np.zeros(7))
+    bias = robot.nonlinear_effects.copy()
+    desired = bias.copy()
+    desired[joint] -= 0.05   # a slight pull away from the limit
+    result, _ = shape(optimisation, robot, q, np.zeros(7), desired, bias)
+    assert result.flags == LimitFlag.NONE and not result.fast_path
+    assert not result.solved_qp and result.iterations == 0 and optimisation.qp_count == 0
+    assert result.torque_change == 0.0 and not result.relaxed and not result.guard_clipped
+    np.testing.assert_array_equal(result.torque, desired)
+
+
 def test_torque_saturation_is_flagged_torque(robot, limits) -> None:
     optimisation = PosturalOptimisation(limits, DT)
     qd = np.zeros(7)
