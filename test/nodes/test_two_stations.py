@@ -212,7 +212,10 @@ def test_split_run_crosses_the_link_with_the_two_streams_and_survives_a_cut(tmp_
     tag = f"c{os.getpid() % 100000}"
     out = tmp_path / "run"
     result = subprocess.run(
-        [sys.executable, str(LAUNCHER), "--two-stations", "--stations-tag", tag, "--duration", "10",
+        # 12 s: the link is back at 6 s, and the run must outlast the 5 s the replica may take to use a new command
+        # after it (the assertion below); at 10 s a fresh-clone suite once ended the run 4 s after link-up, before
+        # one came.
+        [sys.executable, str(LAUNCHER), "--two-stations", "--stations-tag", tag, "--duration", "12",
          "--link-down-at", "4", "--link-down-for", "2", "--no-report", "--out", str(out)],
         env=ros_env, capture_output=True, text=True, timeout=400)
     output = result.stdout + result.stderr
