@@ -125,7 +125,7 @@ class RobotNode(Node):
         lockstep = self._mode == "lockstep"
         self._clock_every = _every(p.lockstep_clock_rate_hz if lockstep else p.realtime_clock_rate_hz)
         self._lateness_every = _every(p.lateness_rate_hz)
-        self._joint_state_every = 1 if self._mode == "lockstep" else _every(p.joint_state_rate_hz)
+        self._joint_state_every = 1 if lockstep else _every(p.joint_state_rate_hz)
         self._joint_state_phase = 0
         self._wrench_every = _every(p.wrench_rate_hz)
         self._poses_every = _every(p.object_pose_rate_hz)
@@ -394,10 +394,13 @@ class RobotNode(Node):
                 self._publish_wrench(self._stamp())
         # Both clocks before the state of this step (published next): no node gets a message about step t before
         # its clock reads t; the step clock first, so the answering node has its time before a follower reacts.
-        if self._step_clock_pub is not None:
-            self._step_clock_pub.publish(Clock(clock=_time_from_steps(steps)))
-        if self._clock_every and steps % self._clock_every == 0:
-            self._clock_pub.publish(Clock(clock=_time_from_steps(steps)))
+        on_clock = bool(self._clock_every) and steps % self._clock_every == 0
+        if self._step_clock_pub is not None or on_clock:
+            clock = Clock(clock=_time_from_steps(steps))   # one message for both clocks of this step
+            if self._step_clock_pub is not None:
+                self._step_clock_pub.publish(clock)
+            if on_clock:
+                self._clock_pub.publish(clock)
         if self._lateness_every and lateness is not None and steps % self._lateness_every == 0:
             # The worst step lateness over the last publication period (the 10 s p50/p99 go to /diagnostics).
             self._lateness_pub.publish(Float64(data=self._pacer.recent_max(self._lateness_every)))
