@@ -9,6 +9,7 @@ import numpy as np
 from fic_teleop_experiments.runner import Cell, report_metrics, stability_of, write_json
 from fic_teleop_experiments.shape_sorting import piece_outcomes
 from fic_teleop_tools.verdict.bag_series import read_run
+from fic_teleop_tools.verdict.run_record import quiet_from
 
 METRIC_KEYS = ("free_motion_error_max_m", "free_motion_error_rms_m", "contact_error_max_m", "peak_interaction_force_n",
                "limit_violations", "limit_shaped_ticks", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
@@ -17,7 +18,7 @@ METRIC_KEYS = ("free_motion_error_max_m", "free_motion_error_rms_m", "contact_er
 
 
 def analyse_cell(cell: Cell, run_dir: Path, outcome, blackout_at: float | None = None) -> dict:
-    requested = float(cell.options["duration"])
+    requested = cell.simulated
     result = {"id": cell.id, "experiment": cell.experiment, "options": cell.options, "labels": cell.labels,
               "run_dir": str(run_dir), "launcher_exit_code": outcome.returncode, "wall_s": round(outcome.wall_s, 1),
               "simulated_s": outcome.simulated_s, "complete": outcome.simulated_s >= 0.98 * requested,
@@ -26,15 +27,16 @@ def analyse_cell(cell: Cell, run_dir: Path, outcome, blackout_at: float | None =
     if not bag.exists():
         result["error"] = "no bag was written (see launcher.log)"
         return result
+    tail_from = quiet_from(run_dir)   # the launcher's --quiet-tail (E1 and E4 cells): STABLE is judged there
     try:
-        metrics = report_metrics(bag)
+        metrics = report_metrics(bag, tail_from)
         write_json(run_dir / "metrics.json", metrics)
         result["metrics"] = {key: metrics.get(key) for key in METRIC_KEYS}
     except Exception as error:  # noqa: BLE001  (a report failure is recorded, not hidden)
         result["metrics_error"] = f"{type(error).__name__}: {error}"
     series = read_run(bag)
     delay = float(cell.options["delay"])
-    result["stability"] = stability_of(series, delay)
+    result["stability"] = stability_of(series, delay, quiet_from=tail_from)
     result["controller"] = series.controller
     result["limits"] = {"violation_ticks": int(series.violation_ticks[-1]) if series.violation_ticks.size else None,
                         "shaped_ticks": int(series.shaped_ticks[-1]) if series.shaped_ticks.size else None}

@@ -64,9 +64,17 @@ def sweep_duration(args, delay: float) -> float:
     return max(args.sweep_duration, VerdictCriterion().run_needed(delay))
 
 
+def quiet_tail(delay: float) -> float:
+    """[s] the quiet tail after a superimposition cell's task (the launcher's --quiet-tail): the planner stops, the
+    operator's target holds still and the hand keeps holding the handle, and the run verdict judges STABLE by the
+    loop's free response there (VerdictCriterion.tail_needed: a flush, then 4 round trips, at least 8 s), not by
+    the driven swing of the task (docs/EXPERIMENTS.md, "The run verdict")."""
+    return VerdictCriterion().tail_needed(delay)
+
+
 def e1_cells(args) -> list[Cell]:
     return [Cell("e1", "E1", {"scene": "superimposition", "duration": args.e1_duration, "delay": 0.2,
-                              "controller": "fic", "seed": 1}, report=True)]
+                              "quiet_tail": quiet_tail(0.2), "controller": "fic", "seed": 1}, report=True)]
 
 
 def e2_cells(args) -> list[Cell]:
@@ -96,7 +104,7 @@ def e4_cells(args) -> list[Cell]:
             sweep = "delay+rate" if (delay == 0.0 and full_rate) else "delay"
             cells.append(Cell(f"e4_delay{delay:g}_{controller}", "E4",
                               {"scene": "superimposition", "duration": sweep_duration(args, delay), "delay": delay,
-                               "controller": controller, "seed": 1},
+                               "quiet_tail": quiet_tail(delay), "controller": controller, "seed": 1},
                               labels={"sweep": sweep, "delay": delay, "rate": 1000.0, "controller": controller}))
     for rate in args.rates:
         if rate >= 1000.0 and full_rate:
@@ -104,7 +112,8 @@ def e4_cells(args) -> list[Cell]:
         for controller in CONTROLLERS:
             cells.append(Cell(f"e4_rate{rate:g}_{controller}", "E4",
                               {"scene": "superimposition", "duration": sweep_duration(args, 0.0), "delay": 0.0,
-                               "rate_cap": rate, "control_rate": rate, "controller": controller, "seed": 1},
+                               "quiet_tail": quiet_tail(0.0), "rate_cap": rate, "control_rate": rate,
+                               "controller": controller, "seed": 1},
                               labels={"sweep": "rate", "delay": 0.0, "rate": rate, "controller": controller}))
     return cells
 
@@ -112,7 +121,7 @@ def e4_cells(args) -> list[Cell]:
 def quick_cells(args) -> list[Cell]:
     return [Cell(f"e4_delay0.2_{controller}", "E4",
                  {"scene": "superimposition", "duration": sweep_duration(args, 0.2), "delay": 0.2,
-                  "controller": controller,
+                  "quiet_tail": quiet_tail(0.2), "controller": controller,
                   "seed": 1}, labels={"sweep": "delay", "delay": 0.2, "rate": 1000.0, "controller": controller})
             for controller in CONTROLLERS]
 
@@ -237,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     args.results.mkdir(parents=True, exist_ok=True)
     args.runs.mkdir(parents=True, exist_ok=True)
-    total = sum(float(cell.options["duration"]) for cell in cells)
+    total = sum(cell.simulated for cell in cells)
     print(f"[experiments] {len(cells)} runs, {total:.0f} s simulated, {args.time_mode}; bags in {args.runs}; "
           f"results in {args.results}", flush=True)
     results: dict[str, list[tuple[dict, Path]]] = {}
@@ -250,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
             run_dir = args.runs / cell.id
             bar.set_postfix_str(f"{index + 1}/{len(cells)} {cell.id}")
 
-            def progress(simulated: float, base=done, limit=float(cell.options["duration"])) -> None:
+            def progress(simulated: float, base=done, limit=cell.simulated) -> None:
                 bar.n = round(base + min(simulated, limit), 1)
                 bar.refresh()
 
@@ -263,7 +272,7 @@ def main(argv: list[str] | None = None) -> int:
                 if run_dir.exists():
                     shutil.rmtree(run_dir)
                 outcome = launch(cell, run_dir, time_mode=args.time_mode, on_progress=progress)
-            done += float(cell.options["duration"])
+            done += cell.simulated
             bar.n = round(done, 1)
             bar.refresh()
             blackout = cell.options.get("blackout_at")
@@ -276,7 +285,7 @@ def main(argv: list[str] | None = None) -> int:
                        f"{result.get('stability', {}).get('max_error_last_half', float('nan')):.4f} m"
                        f", violations {result.get('limits', {}).get('violation_ticks')}, wall {outcome.wall_s:.0f} s"
                        + ("" if result.get("complete") else f" (ran {outcome.simulated_s:.1f} s of "
-                                                             f"{cell.options['duration']:g} s)"), file=sys.stdout)
+                                                             f"{cell.simulated:g} s)"), file=sys.stdout)
     except KeyboardInterrupt:
         tqdm.write("[experiments] interrupted: writing what has run")
     finally:

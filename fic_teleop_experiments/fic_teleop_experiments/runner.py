@@ -43,6 +43,11 @@ class Cell:
     report: bool = False               # let the launcher write the paper-style report (plots)
     labels: dict = field(default_factory=dict)  # what the cell varies, for tables and plots
 
+    @property
+    def simulated(self) -> float:
+        """[s] the simulated time the run lasts: its task (--duration) and its quiet tail (--quiet-tail)."""
+        return float(self.options.get("duration", 30.0)) + float(self.options.get("quiet_tail", 0.0))
+
     def arguments(self) -> list[str]:
         arguments: list[str] = []
         for key, value in self.options.items():
@@ -73,7 +78,7 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
                # domain)
                "--no-video",
                # lockstep runs at 0.1-0.3x real time on a loaded 2-core machine: let a cell finish
-               "--wall-limit", f"{120.0 + 30.0 * float(cell.options.get('duration', 30.0)):.0f}"]
+               "--wall-limit", f"{120.0 + 30.0 * cell.simulated:.0f}"]
     if not cell.report:
         command.append("--no-report")
     log_path = run_dir / "launcher.log"
@@ -109,31 +114,35 @@ def launch(cell: Cell, run_dir: Path, *, time_mode: str, on_progress: Callable[[
     return LaunchOutcome(process.returncode, time.monotonic() - start, simulated, log_path, node_errors)
 
 
-def report_metrics(bag: Path) -> dict:
+def report_metrics(bag: Path, quiet_from: float | None = None) -> dict:
     """The report's metrics (docs/EXPERIMENTS.md, "Metrics"; fic_teleop_tools.report), computed in-process without
-    plots."""
+    plots; with a quiet tail (``quiet_from``, a stamp), its error and force figures are the task's, before it."""
     from fic_teleop_tools.report.bag_data import load_bag
     from fic_teleop_tools.report.metrics import ReportSettings, analyse
     from fic_teleop_tools.report.report import replica_config_defaults
 
-    analysis = analyse(load_bag(bag), ReportSettings(**replica_config_defaults()))
+    analysis = analyse(load_bag(bag), ReportSettings(**replica_config_defaults(), quiet_from=quiet_from))
     return analysis.metrics
 
 
 def stability_of(series: RunSeries, one_way_delay: float, start: float | None = None,
-                 end: float | None = None) -> dict:
+                 end: float | None = None, quiet_from: float | None = None) -> dict:
     """The run verdict (fic_teleop_tools.verdict.run_verdict, the one every run is judged by) of the bag's series, or
     of its [start, end] part in the bag's own time, as a dict; with the tracking error's largest value over the part
-    and over its last half, the figures the E4 plots draw."""
+    and over its last half, the figures the E4 plots draw. ``quiet_from``: the run's quiet tail (a stamp; the
+    verdict judges STABLE by the free response there)."""
     if series.fic_time.size < 8:
         return {"stable": None, "safe": None, "reasons": ["no /replica/fic_state in the bag"]}
     try:
-        data = VerdictInput.from_series(series, one_way_delay).window(start, end)
+        data = VerdictInput.from_series(series, one_way_delay, quiet_from=quiet_from).window(start, end)
         verdict = judge(data)
     except VerdictInputError as error:
         return {"stable": None, "safe": None, "reasons": [f"not assessable: {error}"]}
     magnitude = np.linalg.norm(np.asarray(data.tracking_error), axis=1)
     time = np.asarray(data.time)
+    if data.quiet_from is not None:   # the error figures are the task's; the tail is the verdict's
+        task = time < data.quiet_from
+        magnitude, time = magnitude[task], time[task]
     last_half = time >= 0.5 * (time[0] + time[-1])
     return {**verdict.as_dict(), "reasons": verdict.reasons, "max_error": float(magnitude.max()),
             "max_error_last_half": float(magnitude[last_half].max())}

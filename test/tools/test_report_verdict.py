@@ -145,9 +145,10 @@ def test_a_run_folders_quiet_tail_is_judged_by_its_free_response_and_left_out_of
     """The launcher's --quiet-tail writes quiet_from (a stamp) in run.json: the report hands it to the verdict,
     which judges stability in the tail (the sine never dies: NOT STABLE there), and its error figures describe the
     task before it."""
-    from fic_teleop_tools.report.__main__ import print_verdict, quiet_from
+    from fic_teleop_tools.report.__main__ import print_verdict
     from fic_teleop_tools.report.bag_data import load_bag
     from fic_teleop_tools.report.metrics import ReportSettings, analyse
+    from fic_teleop_tools.verdict.run_record import quiet_from
     from fic_teleop_tools.verdict.run_verdict import VerdictInput
 
     run_dir = tmp_path / "run"

@@ -10,6 +10,7 @@ from pathlib import Path
 import yaml
 
 from fic_teleop_runtime.workspace import config_folder
+from fic_teleop_tools.verdict.run_record import quiet_from
 
 from .bag_data import BagData, BagReadError, load_bag
 from .loop_rates import joint_states_period
@@ -36,16 +37,6 @@ def one_way_delay(run_dir: Path | None) -> float:
         if found:
             return sum(found) / len(found)
     return delay(config_folder() / "channel.yaml") or 0.0
-
-
-def quiet_from(run_dir: Path | None) -> float | None:
-    """The stamp the run's quiet tail starts at, as the launcher wrote it in run.json (--quiet-tail); None when
-    the run has none or the bag is not in a run folder."""
-    try:
-        value = json.loads((run_dir / "run.json").read_text()).get("quiet_from") if run_dir is not None else None
-    except (OSError, ValueError):
-        return None
-    return float(value) if isinstance(value, (int, float)) and value > 0 else None
 
 
 def print_verdict(bag: Path | BagData, out: Path, delay: float, tail_from: float | None = None) -> None:

@@ -287,11 +287,13 @@ class VerdictInput:
                    source=f"bag {data.path.parent.name if data.path.suffix == '.mcap' else data.path.name}")
 
     @classmethod
-    def from_series(cls, run, one_way_delay: float, x_b: float = X_B, source: str = "bag") -> "VerdictInput":
+    def from_series(cls, run, one_way_delay: float, x_b: float = X_B, source: str = "bag",
+                    quiet_from: float | None = None) -> "VerdictInput":
         """From a bag's series (fic_teleop_tools.verdict.bag_series.RunSeries): the tracking error and the
         controller's energy of /replica/fic_state, the F/T force, the joint speeds (when read), the limit counter and
         the nodes' last diagnostics (the robot's reflex and holds, the replica's safe hold). A bag holds no command
-        and no obstacle flag: its motion test is on x_d - x_R, its contact is the force's."""
+        and no obstacle flag: its motion test is on x_d - x_R, its contact is the force's. ``quiet_from``: the
+        stamp the run's quiet tail starts at (run_record.quiet_from), None without one."""
         time = run.fic_time
         if time.size < 8:
             raise VerdictInputError(f"{source}: fewer than 8 /replica/fic_state messages ({time.size})")
@@ -315,7 +317,7 @@ class VerdictInput:
                    controller_energy=run.total_energy, force=force, joint_speed=joint_speed,
                    limit_violations=violations, reflex_trips=reflex,
                    safe_holds=None if hold is None else int(hold != "no"), stale_holds=stale, x_b=x_b,
-                   source=source)
+                   source=source, quiet_from=quiet_from)
 
     def window(self, start: float | None = None, end: float | None = None) -> "VerdictInput":
         """The samples within [start, end] (None: the run's own end); the whole-run counts stay as they are."""
