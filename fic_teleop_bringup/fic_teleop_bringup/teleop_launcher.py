@@ -209,6 +209,14 @@ def graph(args: argparse.Namespace, bag_path: Path) -> list[NodeSpec]:
     for spec in nodes:   # the profile's values for each node, under the options' own
         spec.params = {**run_profile.node_parameters(profile, spec.name, lockstep), **spec.params}
     by_name = {spec.name: spec for spec in nodes}
+    if lockstep and by_name.get("robot") and by_name["robot"].params.get("lockstep_peers"):
+        # The channels are /clock followers as the device, master and planner are: the simulation waits for their
+        # heartbeat too (sim_bridge/channel/channel_node.py), so a channel that lags holds the run, not the commands.
+        for name in ("channel_forward", "channel_backward"):
+            if name in by_name:
+                by_name[name].params["lockstep_heartbeat"] = True
+                by_name["robot"].params["lockstep_peers"] = [*by_name["robot"].params["lockstep_peers"],
+                                                             f"/{name}/heartbeat"]
     if args.no_peer_barrier and "robot" in by_name:
         by_name["robot"].params.pop("lockstep_peers", None)
     step_clock = by_name["robot"].params.get("step_clock_topic") if lockstep and "robot" in by_name else None

@@ -185,3 +185,15 @@ def test_in_lockstep_the_replica_follows_the_robots_step_clock_and_the_others_a_
     layer.write_text(yaml.safe_dump({"parameters": {"robot": {"step_clock_topic": ""}}}))
     _, nodes = _run("--time-mode", "lockstep", "--profile", str(layer))
     assert "/clock" not in nodes["replica"].remaps
+
+
+def test_in_lockstep_the_simulation_waits_for_the_channels_heartbeats_as_for_its_other_peers() -> None:
+    _, nodes = _run("--time-mode", "lockstep")
+    peers = nodes["robot"].params["lockstep_peers"]
+    assert {"/channel_forward/heartbeat", "/channel_backward/heartbeat", "/master/teleop_command"} <= set(peers)
+    assert nodes["channel_forward"].params["lockstep_heartbeat"] is True
+    assert nodes["channel_backward"].params["lockstep_heartbeat"] is True
+    _, realtime = _run()
+    assert "lockstep_heartbeat" not in realtime["channel_forward"].params
+    _, unbarred = _run("--time-mode", "lockstep", "--no-peer-barrier")
+    assert "lockstep_peers" not in unbarred["robot"].params

@@ -270,3 +270,48 @@ def test_a_blackout_delivers_nothing_and_the_link_comes_back(graph):
     stamps = np.array([stamp for _, stamp, _ in probe.received])
     # Lost: everything sent in the window, and what was sent in the 50 ms before it (it would have arrived in it).
     assert not np.any((stamps > window[0] - 0.05 + 0.005) & (stamps < window[1] - 0.005))
+
+
+def test_in_lockstep_the_heartbeat_follows_the_simulated_clock_and_is_off_by_default(graph):
+    """lockstep_heartbeat: after each delivery tick the node publishes its clock on ~/heartbeat, which the robot's
+    peer barrier waits for (a channel that lags holds the simulation, not the commands); off, no such publisher."""
+    from rosgraph_msgs.msg import Clock
+    from std_msgs.msg import Header
+
+    context, start_channel, _ = graph
+    quiet = start_channel(use_sim_time="true")
+    probe = Probe(context, rate_hz=100.0)
+    clock = probe.node.create_publisher(Clock, "/clock", QoSProfile(depth=10))
+    heartbeats: list[float] = []
+    probe.node.create_subscription(Header, f"/{NODE}/heartbeat", lambda m: heartbeats.append(
+        m.stamp.sec + m.stamp.nanosec * 1e-9), QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
+    try:
+        probe.wait_connected(quiet)
+        assert probe.node.count_publishers(f"/{NODE}/heartbeat") == 0
+        quiet.send_signal(signal.SIGINT)
+        quiet.wait(timeout=10)
+        channel = start_channel(use_sim_time="true", lockstep_heartbeat="true")
+        deadline = time.monotonic() + 30.0
+        while probe.node.count_publishers(f"/{NODE}/heartbeat") == 0 and time.monotonic() < deadline:
+            probe.spin_for(0.1)
+        assert channel.poll() is None and probe.node.count_publishers(f"/{NODE}/heartbeat") == 1
+        probe.spin_for(0.5)
+        simulated = 0.0
+        for _ in range(500):   # 1 s of simulated time in 2 ms steps, faster than real time
+            simulated += 0.002
+            nanoseconds = int(round(simulated * 1e9))
+            clock.publish(Clock(clock=_time(nanoseconds)))
+            probe.spin_for(0.001)
+        probe.spin_for(0.5)
+    finally:
+        probe.close()
+    assert len(heartbeats) > 100, len(heartbeats)
+    assert all(b > a for a, b in zip(heartbeats, heartbeats[1:])), "heartbeat stamps go back"
+    assert 0.0 <= heartbeats[0] and heartbeats[-1] <= simulated + 1e-9
+    assert heartbeats[-1] >= simulated - 0.01    # the delivery tick is 4 ms: the last one is at most one behind
+
+
+def _time(nanoseconds: int):
+    from builtin_interfaces.msg import Time
+
+    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)

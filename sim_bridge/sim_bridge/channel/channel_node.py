@@ -23,6 +23,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from std_msgs.msg import Header
 
 from fic_core.errors import FicInputError
 from fic_teleop_runtime import qos
@@ -46,6 +47,8 @@ CHANNEL_QOS, CHANNEL_WRITER_QOS = qos.STREAM, qos.STREAM_WRITER
 # One ChannelDelivery per forwarded message, read by the recorder: a stream's writer too.
 DELIVERY_QOS = qos.STREAM_WRITER
 DIAGNOSTICS_QOS = qos.DIAGNOSTICS
+# The lockstep heartbeat: only the newest stamp matters to the robot's peer barrier.
+HEARTBEAT_QOS = qos.NEWEST
 
 # Parameters that reconfigure the links at run time; ``routes`` and the timer rates are fixed at start.
 LINK_PARAMETERS = ("delay", "jitter", "jitter_distribution", "allow_reorder", "drop_probability",
@@ -130,6 +133,11 @@ class ChannelNode(Node):
             else:
                 self._deliveries = self.create_publisher(ChannelDelivery, "/channel/deliveries", DELIVERY_QOS)
         self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
+        # Lockstep: the simulation steps only as far as this node's clock has got (the robot's peer barrier reads the
+        # stamp). A channel process that fell behind the simulation held each command as long again as it lagged, and
+        # its 20-deep readers dropped commands that queued meanwhile (6-29 of an E1 run's, 2026-12-06).
+        self._heartbeat = self.create_publisher(Header, "~/heartbeat", HEARTBEAT_QOS) if p.lockstep_heartbeat \
+            else None
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._periodic.create(1.0 / p.delivery_rate_hz, self._deliver)
         self._periodic.create(1.0 / p.statistics_rate_hz, self._publish_statistics)
@@ -190,6 +198,8 @@ class ChannelNode(Node):
                     record.received = _time_msg(delivery.received_time)
                     record.held = delivery.held
                     self._deliveries.publish(record)
+        if self._heartbeat is not None:   # after the deliveries: everything due by ``now`` is out
+            self._heartbeat.publish(Header(stamp=_time_msg(now)))
 
     def _publish_statistics(self) -> None:
         now = self._now()

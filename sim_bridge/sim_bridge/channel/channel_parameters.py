@@ -37,6 +37,9 @@ CHANNEL_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
     number("statistics_rate_hz", 0.01, 100.0, "/diagnostics rate [Hz]"),
     switch("publish_deliveries", "publish fic_teleop_msgs/ChannelDelivery on /channel/deliveries for each "
                                  "delivery"),
+    switch("lockstep_heartbeat", "lockstep: publish this node's clock (std_msgs/Header) on ~/heartbeat after each "
+                                 "delivery tick, so that the simulation waits for the channel as for its other "
+                                 "peers (sim_bridge/robot/peer_barrier.py); the launcher sets it in lockstep"),
     texts("logged_deliveries", "with publish_deliveries: the out topics whose deliveries go on /channel/deliveries; "
                                "unset: every route's", read_only=True, optional=True),
 )
