@@ -5,7 +5,7 @@ Checks the machinery (both cells ran their simulated time, each has the run verd
 report's metrics and the limit counters, the summary JSON and the sweep plots exist) and the FIC cell's physics:
 free-motion error within 1.5 x_b, no limit violation, and both cells STABLE by their quiet tail's free response.
 The full sweeps (scripts/experiments.sh) stay outside the suite. 8.5 s of task per cell, then the quiet tail the
-verdict needs at 200 ms (9.4 s; VerdictCriterion.tail_needed); the two cells cost 80 s of wall time at load 4
+verdict needs at 200 ms and 1 s (10.4 s; paper_experiments.quiet_tail); the two cells cost 80 s of wall time at load 4
 (2026-12-06), a lockstep cell of 4 s 15-60 s depending on the load.
 """
 from __future__ import annotations
