@@ -84,3 +84,11 @@ def test_each_single_host_profile_stays_on_the_host_and_announces_30_times_at_st
         if kind == "UDPv4":
             addresses = descriptor.findall("dds:interfaceWhiteList/dds:address", namespace)
             assert [address.text for address in addresses] == ["127.0.0.1"]
+
+
+def test_the_two_station_profile_has_no_shared_memory():
+    """UDP only within a station too: with shared memory beside it, Fast DDS opened a late reader's shared-memory
+    port under a writer's lock (333 ms) and the replica held the arm at start in 4 of 10 two-station runs."""
+    text = (CONFIG / "fastdds_two_stations.xml").read_text()
+    assert "<type>UDPv4</type>" in text and "<type>SHM</type>" not in text
+    assert "<useBuiltinTransports>false</useBuiltinTransports>" in text
