@@ -1,7 +1,8 @@
 """The storage of an axis in C (attractor.convergence_storage, the module docstring's V_C): V_latch plus the work
 of the clipped C force F_C(e) = clip(K_C (e - e_max/2), +-F_max) from e_max to e, checked against that integral
 taken numerically, for C stiffnesses from a soft profile's (below 1 N/m) to a stiff one's, inside and past the
-clip (K_C no larger than Eq. 2 makes it: the storage's premise); with K_C = 0 there is no C force and the storage stays V_latch."""
+clip (K_C no larger than Eq. 2 makes it: the storage's premise); with K_C = 0 there is no C force and the
+storage stays V_latch."""
 from __future__ import annotations
 
 import numpy as np
