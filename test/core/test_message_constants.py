@@ -11,6 +11,7 @@ import pytest
 
 from fic_core.attractor import Phase
 from fic_core.guidance_fixture import FixtureKind
+from fic_core.input_authority import MODES
 from fic_core.limits import LimitFlag
 from fic_core.master_station import MASTER_PARAMETERS, Engagement
 from fic_core.teleoperation import TeleoperationMode
@@ -56,3 +57,8 @@ def test_the_masters_mode_row_admits_exactly_the_messages_modes() -> None:
         assert row.checked(mode) == mode
     with pytest.raises(ValueError, match="mode"):
         row.checked(modes[-1] + 1)
+
+
+def test_the_replica_admits_exactly_the_messages_modes() -> None:
+    """The input authority's modes (a command with another is refused) are TeleoperationCommand's MODE_*."""
+    assert tuple(sorted(MODES)) == tuple(sorted(message_constants("TeleoperationCommand", "MODE_").values()))
