@@ -64,3 +64,15 @@ def test_reading_the_report_leaves_the_commands_repr_as_it_was(robot: RobotModel
     _ = command.stored_energy, command.kinetic_energy, command.torque_ratio, command.posture_torque
     assert repr(command) == before
     assert "_cache" not in before
+
+
+def test_the_total_energy_is_the_springs_storage_plus_the_arms_kinetic_energy(robot: RobotModel) -> None:
+    replica = ReplicaController(robot, paper_fic(), control_period=0.001)
+    position, rotation, _ = rest(robot)
+    qd = np.full(7, 0.2)
+    command = replica.command(NOMINAL_CONFIGURATION, qd, position + [0.02, 0.0, 0.0], rotation)
+    stored = float(command.stored_energy.sum())
+    assert stored > 0.0 and command.kinetic_energy > 0.0
+    robot.update(NOMINAL_CONFIGURATION, qd)
+    assert command.kinetic_energy == pytest.approx(0.5 * qd @ robot.mass_matrix @ qd, rel=1e-9)
+    assert command.total_energy == pytest.approx(stored + command.kinetic_energy, rel=1e-12)
