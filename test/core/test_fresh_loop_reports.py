@@ -1,0 +1,33 @@
+"""What a part of the loop reports before anything happened to it: the replica loop's health has seen no tick, no
+gap, no hold (every figure 0, HEALTHY, no reason), the master law no saturated device force; and a via-point list
+needs at least one point (an empty list is refused in one line, not taken as a path with nowhere to go)."""
+from __future__ import annotations
+
+import pytest
+
+from fic_core.attractor import FractalAttractor
+from fic_core.errors import FicInputError
+from fic_core.loop_health import HEALTHY, LoopHealth
+from fic_core.master import MasterLaw
+from fic_core.profile import ForceProfile
+from fic_core.trajectories import ViaPoints
+
+
+def test_a_fresh_loop_health_has_seen_nothing() -> None:
+    health = LoopHealth()
+    assert health.state == HEALTHY and not health.holding and health.reason == ""
+    figures = ("state_age", "tick_gap", "command_gap", "state_gap", "max_state_age_seen", "max_tick_gap_seen",
+               "max_state_gap_seen", "max_command_gap_seen")
+    assert {name: getattr(health, name) for name in figures} == dict.fromkeys(figures, 0.0)
+    assert (health.holds, health.held_ticks) == (0, 0)
+
+
+def test_a_fresh_master_law_has_saturated_nothing() -> None:
+    law = MasterLaw(FractalAttractor(ForceProfile(200.0, 0.05, 0.5, 10.0), 3), 0.5, 20.0)
+    assert not law.device_force_saturated and not law.haptic_gain_clamped
+
+
+@pytest.mark.parametrize("points", [[], [[]], [[0.1, 0.2]]])
+def test_a_via_point_list_without_a_whole_point_is_refused(points) -> None:
+    with pytest.raises(FicInputError, match="points must be N x 3"):
+        ViaPoints(points)
