@@ -42,7 +42,8 @@ def analyse_cell(cell: Cell, run_dir: Path, outcome, blackout_at: float | None =
                         "shaped_ticks": int(series.shaped_ticks[-1]) if series.shaped_ticks.size else None}
     robot = series.diagnostics.get("robot_sim", {})
     # Lockstep steps that went ahead on the previous torque because the replica's answer took longer than the robot's
-    # lockstep_timeout (50 ms wall): the measure of how far a loaded machine made a lockstep run non-deterministic.
+    # lockstep_timeout (0.5 s wall, config/robot.yaml): the measure of how far a loaded machine made a lockstep run
+    # non-deterministic.
     result["lockstep_timeouts"] = int(robot["lockstep_timeouts"]) if "lockstep_timeouts" in robot else None
     force = np.linalg.norm(series.force, axis=1) if series.force.size else np.zeros(0)
     result["peak_force_n"] = float(force.max()) if force.size else None
