@@ -6,22 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_replica_handover import paper_fic, rest  # the paper's replica FIC, and the arm at rest
 
 from fic_core.limits import LimitFlag
 from fic_core.panda_description import NOMINAL_CONFIGURATION
-from fic_core.pose_attractor import PoseAttractor
-from fic_core.profile import ForceProfile
 from fic_core.replica import ReplicaController
 from fic_core.robot_model import RobotModel
-
-
-def paper_fic() -> PoseAttractor:
-    return PoseAttractor(ForceProfile(200.0, 0.05, 0.5, 30.0), ForceProfile(20.0, 0.5, 0.5, 10.0))
-
-
-def rest(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    robot.update(NOMINAL_CONFIGURATION, np.zeros(7))
-    return robot.tcp_position.copy(), robot.tcp_rotation.copy(), robot.nonlinear_effects.copy()
 
 
 def test_a_quiet_tick_reports_no_shaping_no_qp_no_relaxation_and_no_clip(robot: RobotModel) -> None:
