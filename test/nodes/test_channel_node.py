@@ -278,13 +278,15 @@ def test_in_lockstep_the_heartbeat_follows_the_simulated_clock_and_is_off_by_def
     from rosgraph_msgs.msg import Clock
     from std_msgs.msg import Header
 
+    from fic_teleop_runtime.stamps import seconds, time_message
+
     context, start_channel, _ = graph
     quiet = start_channel(use_sim_time="true")
     probe = Probe(context, rate_hz=100.0)
     clock = probe.node.create_publisher(Clock, "/clock", QoSProfile(depth=10))
     heartbeats: list[float] = []
     probe.node.create_subscription(Header, f"/{NODE}/heartbeat", lambda m: heartbeats.append(
-        m.stamp.sec + m.stamp.nanosec * 1e-9), QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
+        seconds(m.stamp)), QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
     try:
         probe.wait_connected(quiet)
         assert probe.node.count_publishers(f"/{NODE}/heartbeat") == 0
@@ -300,7 +302,7 @@ def test_in_lockstep_the_heartbeat_follows_the_simulated_clock_and_is_off_by_def
         for _ in range(500):   # 1 s of simulated time in 2 ms steps, faster than real time
             simulated += 0.002
             nanoseconds = int(round(simulated * 1e9))
-            clock.publish(Clock(clock=_time(nanoseconds)))
+            clock.publish(Clock(clock=time_message(nanoseconds)))
             probe.spin_for(0.001)
         probe.spin_for(0.5)
     finally:
@@ -310,8 +312,3 @@ def test_in_lockstep_the_heartbeat_follows_the_simulated_clock_and_is_off_by_def
     assert 0.0 <= heartbeats[0] and heartbeats[-1] <= simulated + 1e-9
     assert heartbeats[-1] >= simulated - 0.01    # the delivery tick is 4 ms: the last one is at most one behind
 
-
-def _time(nanoseconds: int):
-    from builtin_interfaces.msg import Time
-
-    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)

@@ -32,6 +32,7 @@ from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare
 from fic_teleop_runtime.periodic import PeriodicCallbacks
+from fic_teleop_runtime.stamps import time_message
 from sim_bridge.channel.channel import Channel, ChannelConfig
 from sim_bridge.channel.channel_parameters import CHANNEL_PARAMETERS, ChannelParameters, channel_config
 
@@ -84,11 +85,6 @@ def parse_route(text: str) -> tuple[str, str, str]:
     if len(parts) != 3 or not all(parts):
         raise FicInputError(f"route must be 'in_topic:out_topic:pkg/msg/Type', got {text!r}")
     return parts[0], parts[1], parts[2]
-
-
-def _time_msg(seconds: float) -> Time:
-    nanoseconds = int(round(seconds * 1e9))
-    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
 
 
 class ChannelNode(Node):
@@ -195,11 +191,11 @@ class ChannelNode(Node):
                     if stamp is not None:
                         record.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
                     record.topic = route.out_topic
-                    record.received = _time_msg(delivery.received_time)
+                    record.received = time_message(round(delivery.received_time * 1e9))
                     record.held = delivery.held
                     self._deliveries.publish(record)
         if self._heartbeat is not None:   # after the deliveries: everything due by ``now`` is out
-            self._heartbeat.publish(Header(stamp=_time_msg(now)))
+            self._heartbeat.publish(Header(stamp=time_message(round(now * 1e9))))
 
     def _publish_statistics(self) -> None:
         now = self._now()
