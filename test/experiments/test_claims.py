@@ -103,9 +103,46 @@ def test_the_kept_series_is_the_run_at_50_hz(tmp_path: Path) -> None:
     kept = load_series(path)
     assert np.median(np.diff(kept.time)) == pytest.approx(0.02)
     np.testing.assert_allclose(kept.tcp, result.tcp[::2], atol=1e-6)
-    np.testing.assert_array_equal(kept.obstacle_contact, result.obstacle_contact[::2])
+    # Flags are pooled over each kept sample's pair: a touch on either sample is kept.
+    np.testing.assert_array_equal(kept.obstacle_contact, result.obstacle_contact[::2]
+                                  | np.append(result.obstacle_contact[1::2], False)[:kept.time.size])
     assert kept.limit_violations == result.limit_violations and kept.draws == json.loads(json.dumps(result.draws))
     assert set(kept.draws) == {"task", "hand"}
+
+
+def test_a_touch_between_kept_samples_stays_in_the_kept_series() -> None:
+    """One 100 Hz sample of contact with a force spike, on the sample a stride drops: the kept series has the flag
+    and the spike at the kept sample before it, and the motions stay every second sample."""
+    claim = ClaimRun(0.2, 10.0, "fic", "reactive", 2, 2.0)
+    result = run(claim.config())
+    n = result.time.size
+    touch = 2 * (n // 4) + 1   # an odd sample: the stride keeps 0, 2, 4, ...
+    contact = np.zeros(n, dtype=bool)
+    contact[touch] = True
+    force = np.zeros_like(result.force)
+    force[touch] = (0.0, 71.6, 0.0)
+    force[touch - 1] = (3.0, 0.0, 0.0)
+    kept = thinned(dataclasses.replace(result, obstacle_contact=contact, force=force))
+    assert kept.obstacle_contact.sum() == 1 and kept.obstacle_contact[touch // 2]
+    np.testing.assert_array_equal(kept.force[touch // 2], (0.0, 71.6, 0.0))
+    assert np.count_nonzero(np.linalg.norm(kept.force, axis=1)) == 1
+    np.testing.assert_array_equal(kept.tcp, result.tcp[::2])
+    np.testing.assert_array_equal(kept.time, result.time[::2])
+
+
+def test_a_kept_series_is_judged_as_its_full_rate_run() -> None:
+    """The claim sweep's run (1 s, 10 Hz, FIC, reactive hand, seed 21) whose one 10 ms touch of the fixed obstacle
+    fell between the stride's samples: judged on the stride's series the channel's burst one delay later read as
+    steady generation outside contact (116 mW); on the pooled series, as on the full-rate run, it is stable."""
+    from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
+
+    claim = next(c for c in claim_runs(controllers=["fic"], hands=["reactive"], seeds=21)
+                 if c.key == "delay_1__rate_10__fic__reactive__21__30s__tail_11s")
+    result = run(claim.config())
+    full = judge(VerdictInput.from_run_result(result, one_way_delay=claim.delay))
+    kept = judge(VerdictInput.from_run_result(thinned(result), one_way_delay=claim.delay))
+    assert full.stable and kept.stable, (full.stable_reasons, kept.stable_reasons)
+    assert kept.figures["contact_share"] > 0.0
 
 
 def test_a_sweep_through_an_executor_keeps_every_run_and_resumes(tmp_path: Path) -> None:
