@@ -120,6 +120,7 @@ class ClaimRun:
         paper_law = self.controller == "fic_paper_law"
         return RunConfig(scene="superimposition", duration=self.duration + self.tail,
                          quiet_from=self.duration if self.tail > 0.0 else None, delay=self.delay, rate_cap=self.rate_hz,
+                         tail_clear=tail_for(self.delay) if self.tail > 0.0 else 0.0,
                          controller="fic" if paper_law else self.controller,
                          replica_overrides={"paper_law": True} if paper_law else {},
                          master_overrides={} if self.force_feedback else {"haptic_gain": 0.0},
@@ -310,7 +311,7 @@ def execute(claim: ClaimRun, directory: str | Path, provenance: dict[str, Any] |
 VERDICT_FIGURES = ("channel_generation_rate_w", "channel_generation_rate_all_w", "channel_generation_free_s",
                    "contact_share", "excluded_share", "energy_growth", "free_error_max_m", "resonance_gain",
                    "resonance_period_s", "swing_m", "swing_period_s", "quiet_from_s", "tail_motion_max_m",
-                   "tail_motion_ratio", "tail_energy_ratio")
+                   "tail_motion_ratio", "tail_energy_ratio", "tail_free_from_s")
 
 
 def judge_series(path: Path, delay: float) -> dict[str, Any]:

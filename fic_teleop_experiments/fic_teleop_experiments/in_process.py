@@ -17,6 +17,7 @@ figures are the random elements, each from its own stream of the seed).
 """
 from __future__ import annotations
 
+import itertools
 import math
 import time as wall_clock
 from collections import deque
@@ -215,6 +216,16 @@ class RunConfig:
     # still (DeviceStation's quiet_from); the hand keeps holding the handle, passive or reactive, and the link, its
     # delay and rate, the master and the replica keep running. The free response the run verdict judges. None: none.
     quiet_from: float | None = None
+    # [s] with a quiet tail: the tail goes on past ``duration`` until it has run this long since the robot's last
+    # contact (the fixed obstacle touched, or |F_R| at CONTACT_FORCE_N or more), at most one tail's length more. A
+    # touch in the tail is an input to the loop from its surroundings, and the free response the verdict judges is
+    # what follows the last one: a touch 4.9 s into an 11 s tail left too little of the tail to see its decay
+    # (docs/EXPERIMENTS.md, "Claims"). A contact that recurs to the end keeps the tail going to its cap. 0: fixed.
+    tail_clear: float = 0.0
+
+
+#: |F_R| at which the robot is in contact [N] (the run verdict's contact_force).
+CONTACT_FORCE_N = 1.0
 
 
 @dataclass
@@ -400,8 +411,13 @@ def run(config: RunConfig) -> RunResult:
     log_mode, log_sent = [], []
     state = device.state
     steps = int(round(config.duration / STEP))
+    # The tail's end (RunConfig.tail_clear): moved on by each contact in the tail, never past one more tail.
+    most_steps = steps + (int(round((config.duration - config.quiet_from) / STEP))
+                          if config.tail_clear > 0.0 and config.quiet_from is not None else 0)
     wall = wall_clock.perf_counter()
-    for k in range(steps):
+    for k in itertools.count():
+        if k >= steps:
+            break
         now = k * STEP
         ns = k * 1_000_000
         # Operator side (the device node's timer, then the master's): hand, handle, x_M; Eq. 3 back to the device.
@@ -495,6 +511,9 @@ def run(config: RunConfig) -> RunResult:
                               station.passivity_margin, float(np.linalg.norm(drift)) if drift.size else 0.0))
             # E1's fixed obstacle touches nothing but the robot (static bodies do not collide with the table).
             log_contact.append(superimposition and robot.touches("fixed_obstacle"))
+            if most_steps > steps and now >= config.quiet_from and (
+                    log_contact[-1] or float(np.linalg.norm(ft_wrench[:3])) >= CONTACT_FORCE_N):
+                steps = min(max(steps, int(math.ceil((now + config.tail_clear) / STEP))), most_steps)
         if result.torque is not None and robot.admits(state_time, now):
             robot.receive(result.torque, now, tick_dynamics)
         robot.update(now)   # the torque taken, or the last one until the watchdog holds the arm

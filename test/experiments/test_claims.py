@@ -145,6 +145,26 @@ def test_a_kept_series_is_judged_as_its_full_rate_run() -> None:
     assert kept.figures["contact_share"] > 0.0
 
 
+def test_a_touch_late_in_the_quiet_tail_gets_a_free_response_after_it() -> None:
+    """The claim sweep's run (1 s, 10 Hz, FIC, passive hand, seed 19) that touched the fixed obstacle 4.9 s into its
+    11 s tail: its swing after the touch had not decayed when the fixed tail ended (judged unstable). The tail now
+    goes on until it has run the verdict's tail since the last contact, and the verdict judges the response after
+    it: the swing decays and the run is stable. The same run, task draws frozen, with a 31 s tail decayed to
+    0.19 mm by 12-14 s into the tail."""
+    from fic_teleop_tools.verdict.run_verdict import VerdictInput, judge
+
+    claim = next(c for c in claim_runs(controllers=["fic"], hands=["passive"], seeds=19)
+                 if c.key == "delay_1__rate_10__fic__passive__19__30s__tail_11s")
+    result = run(claim.config())
+    in_tail = result.time >= result.quiet_from
+    last_touch = float(result.time[in_tail & result.obstacle_contact][-1]) - result.quiet_from
+    assert 4.5 < last_touch < 5.5
+    assert result.simulated_s == pytest.approx(claim.duration + last_touch + tail_for(claim.delay), abs=0.02)
+    verdict = judge(VerdictInput.from_run_result(thinned(result), one_way_delay=claim.delay))
+    assert verdict.stable, verdict.stable_reasons
+    assert verdict.figures["tail_free_from_s"] == pytest.approx(result.quiet_from + last_touch, abs=0.02)
+
+
 def test_a_sweep_through_an_executor_keeps_every_run_and_resumes(tmp_path: Path) -> None:
     runs = [ClaimRun(0.2, 10.0, "fic", hand, 1, 1.5) for hand in ("passive", "reactive")]
     directory, jsonl = tmp_path / "runs", tmp_path / "runs.jsonl"

@@ -576,8 +576,10 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
     # Contact (module docstring): the force's free-motion definition, the scene's flag, a margin around both.
     round_trip = 2.0 * data.one_way_delay
     contact = np.zeros(time.size, dtype=bool)
+    touch = np.zeros(time.size, dtype=bool)   # the contact itself, without the free-motion hold after it
     if on_grid["force"] is not None:
         pressing = np.linalg.norm(np.nan_to_num(on_grid["force"]), axis=1) >= criterion.contact_force
+        touch |= pressing
         hold = int(round(criterion.contact_hold / step))
         contact |= np.convolve(pressing.astype(float), np.ones(hold + 1), mode="full")[:time.size] > 0.0
     else:
@@ -585,6 +587,7 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
     touching = flag[:, 0] > 0.5 if flag is not None and flag.ndim == 2 else (flag > 0.5 if flag is not None else None)
     if touching is not None:
         contact |= touching
+        touch |= touching
     else:
         notes.append("no contact flag: collisions are not judged")
     excluded = _dilated(contact, int(round((criterion.contact_margin + round_trip) / step)))
@@ -780,7 +783,16 @@ def _judge(data: VerdictInput, criterion: VerdictCriterion) -> RunVerdict:
         if quiet_from is not None:
             window = criterion.tail_window(data.one_way_delay)
             tail_energy = on_grid["energy"].reshape(time.size, -1)[:, 0] if on_grid["energy"] is not None else None
-            reasons, found = _free_response(time, quiet_from + criterion.tail_flush_s(data.one_way_delay), window,
+            # A contact in the tail is an input from the surroundings: the free response follows the last one, when
+            # the tail holds enough of it (a claim run's tail goes on after a touch for that, in_process.RunConfig
+            # tail_clear). Else the whole tail, contacts and all: a cycle through the surroundings that recurs to the
+            # end is the loop's own oscillation.
+            touched = np.flatnonzero(touch & (time >= quiet_from))
+            free_from = quiet_from
+            if touched.size and float(time[-1]) - float(time[touched[-1]]) >= tail_needed - 2.0 * step:
+                free_from = float(time[touched[-1]])
+                figures["tail_free_from_s"] = free_from
+            reasons, found = _free_response(time, free_from + criterion.tail_flush_s(data.one_way_delay), window,
                                             {n: r for n, (r, _) in signals.items()}, tail_energy, criterion)
             stable_reasons += reasons
             figures.update(found)
