@@ -240,10 +240,6 @@ FIGURES = [
     Figure("README: the FIC's gain at 10 Hz with the interpolating hold", "README",
            r"the FIC's peak gain from the received offset to the arm (?P<gains>[\d.]+-[\d.]+) \|",
            lambda: dict(gains=link_hold_gains("interpolate"))),
-    Figure("README: the claim sweep on the new command path", "README",
-           r"(?P<judged>[\d,]+) of (?P<planned>[\d,]+) runs so far; at zero delay (?P<zero>\d+ of \d+) stable",
-           lambda: dict(judged=f"{result(TAIL)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
-                        zero="{} of {}".format(*tail_stable(0.0)))),
     # -- RESULTS.md: the main job and E1-E4 ------------------------------------------------------------------------
     Figure("bench: free-motion error of the ten default runs", "RESULTS",
            r"max (?P<max_low>[\d.]+)-(?P<max_high>[\d.]+) mm, RMS (?P<rms_low>[\d.]+)-(?P<rms_high>[\d.]+) mm: both "
@@ -302,7 +298,8 @@ FIGURES = [
                         fic="{} of {}".format(*tail_stable(1.0, ("fic",), source=TAIL_V2)),
                         baselines="{} of {}".format(*tail_stable(1.0, BASELINES, source=TAIL_V2)))),
     Figure("README: the claim sweep again", "README",
-           r"running again: (?P<judged>[\d,]+) of (?P<planned>[\d,]+) runs judged, at 1 s the FIC (?P<fic>\d+ of \d+) "
+           r"claims-tail-v2, stopped: (?P<judged>[\d,]+) of (?P<planned>[\d,]+) runs judged, at 1 s the FIC "
+           r"(?P<fic>\d+ of \d+) "
            r"stable, the baselines (?P<baselines>\d+ of \d+)",
            lambda: dict(judged=f"{result(TAIL_V2)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
                         fic="{} of {}".format(*tail_stable(1.0, ("fic",), source=TAIL_V2)),
