@@ -6,8 +6,8 @@ By default the launcher runs the run profile's ``node_groups``, the best configu
 channel's two directions in one process and the operator's side (haptic device, the driver twin's adapter, master)
 in another (fic_teleop_bringup/profiles/realtime.yaml).
 ``--group a,b`` (repeatable) replaces them; ``--isolated`` runs one process per node. No groups under
---scheduling fifo (its priorities are per node thread, realtime_scheduling.py); the two_stations profile has none
-(each station runs its own nodes, and the channel pair is split across them).
+--scheduling fifo (its priorities are per node thread, realtime_scheduling.py); the two_stations profile groups
+only the operator's side (each station runs its own nodes, and the channel pair is split across them).
 
 Which nodes can share: any of the graph's except the recorder (it stops last, after every other node, so that it
 records their last messages) and a foreground node (the keyboard operator owns the terminal).

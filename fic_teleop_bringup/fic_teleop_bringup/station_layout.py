@@ -43,6 +43,12 @@ class StationLayout:
         return set(self.master_topics) | set(self.robot_not_recorded)
 
     def station_of(self, node_name: str) -> str:
+        """The station of a node, or of a node group ("a+b", fic_teleop_bringup.node_groups): its members' one."""
+        if "+" in node_name:
+            stations = {self.station_of(member) for member in node_name.split("+")}
+            if len(stations) > 1:
+                raise StationError(f"node group {node_name} spans both stations: a process runs in one")
+            return stations.pop()
         if node_name in self.master_nodes:
             return "master"
         if node_name in self.robot_nodes:

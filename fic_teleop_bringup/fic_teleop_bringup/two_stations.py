@@ -276,7 +276,10 @@ def wrap_command(node_name: str, command: list[str], pair: StationPair, fastdds_
     if namespace == pair.master_namespace:
         if clock_offset_s:
             environment += faketime_environment(clock_offset_s)
-        command = command + master_remap_arguments(pair.layout)
+        # After each --ros-args: a node group's process holds one per member (node_groups.group_command).
+        remaps = master_remap_arguments(pair.layout)
+        command = [part for argument in command
+                   for part in ([argument, *remaps] if argument == "--ros-args" else [argument])]
     return ["ip", "netns", "exec", namespace, "env", *environment, *command]
 
 
@@ -419,13 +422,14 @@ class InsideStation:
     def adapt(self, specs: list, node_spec_class) -> None:
         adapt_graph(specs, node_spec_class, self.run_dir, self.pair.layout)
         offset = self.args.station_clock_offset
-        for spec in specs:
+        nodes = [member for spec in specs for member in (spec.members or [spec])]   # a group's members, each
+        for node in nodes:
             # A wall-clock time given to a master-station node is read on that station's clock.
-            if offset and self.pair.namespace_of(spec.name) == self.pair.master_namespace \
-                    and "script_start_time" in spec.params:
-                spec.params["script_start_time"] += offset
-        stations = {spec.name: ("master" if self.pair.namespace_of(spec.name) == self.pair.master_namespace
-                                else "robot") for spec in specs}
+            if offset and self.pair.namespace_of(node.name) == self.pair.master_namespace \
+                    and "script_start_time" in node.params:
+                node.params["script_start_time"] += offset
+        stations = {node.name: ("master" if self.pair.namespace_of(node.name) == self.pair.master_namespace
+                                else "robot") for node in nodes}
         layout = self.pair.layout
         print(f"[stations] master station ({self.pair.master_namespace}, {layout.master_address}): "
               f"{', '.join(n for n, s in stations.items() if s == 'master')}; robot station "

@@ -88,9 +88,14 @@ def test_the_default_groups_are_the_channel_pair_and_the_operators_side_present_
         ["channel_forward", "channel_backward"]]
 
 
-@pytest.mark.parametrize("given", [{"isolated": True}, {"scheduling": "fifo"}, {"two_stations": True}])
-def test_isolated_fifo_and_two_station_runs_have_no_default_groups(given) -> None:
+@pytest.mark.parametrize("given", [{"isolated": True}, {"scheduling": "fifo"}])
+def test_isolated_and_fifo_runs_have_no_default_groups(given) -> None:
     assert node_groups.run_groups([], _args(**given), _graph()) == []
+
+
+def test_two_stations_group_only_the_operators_side() -> None:
+    """The channel pair is split across the stations; the operator's side shares one process in the master's."""
+    assert node_groups.run_groups([], _args(two_stations=True), _graph()) == [["haptic_device", "master"]]
 
 
 def test_isolated_with_a_group_is_refused() -> None:

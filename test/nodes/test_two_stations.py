@@ -155,6 +155,25 @@ def test_master_station_nodes_run_in_their_namespace_with_their_topics_renamed()
     assert replica[3] == "fic_teleop_t1_robot" and not any(":=" in part for part in replica)
 
 
+def test_a_node_group_runs_in_its_station_with_each_members_topics_renamed() -> None:
+    """The operator's side shares one process in the master station (the two_stations profile's node_groups): the
+    group is that station's, each member's --ros-args gets the station's remaps, and a group across both stations is
+    refused."""
+    layout = _layout()
+    pair = two_stations.StationPair(layout, "t1")
+    command = ["python", "-m", "fic_teleop_runtime.node_group", "--node", "sim_bridge/haptic_device_node",
+               "--ros-args", "-r", "__node:=haptic_device", "--node", "fic_teleop_master/master_node", "--ros-args",
+               "-r", "__node:=master"]
+    wrapped = two_stations.wrap_command("haptic_device+master", command, pair, Path("/run/fastdds.xml"))
+    assert wrapped[3] == "fic_teleop_t1_master"
+    members = " ".join(wrapped).split(" --node ")[1:]
+    assert len(members) == 2
+    assert all("-r /diagnostics:=/master_station/diagnostics" in member for member in members), members
+    assert layout.station_of("haptic_device+master") == "master"
+    with pytest.raises(two_stations.StationError, match="spans both stations"):
+        layout.station_of("master+replica")
+
+
 def test_the_station_layout_is_the_profiles(tmp_path: Path) -> None:
     """Which node runs where, the namespaces and the link's addresses come from the run profile: a profile of one's
     own that moves the planner and readdresses the link moves them in the commands and in Fast DDS's peers."""
