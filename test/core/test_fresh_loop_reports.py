@@ -20,6 +20,9 @@ def test_a_fresh_loop_health_has_seen_nothing() -> None:
                "max_state_gap_seen", "max_command_gap_seen")
     assert {name: getattr(health, name) for name in figures} == dict.fromkeys(figures, 0.0)
     assert (health.holds, health.held_ticks) == (0, 0)
+    # No state of known age and no hold begun: a hold would send nothing (the robot's watchdog holds the arm).
+    assert not health.state_fresh
+    assert health.hold_command([0.0, -3.0, 0.5, 20.0, 0.6, 2.0, 0.0], [0.1] * 7) is None
 
 
 def test_a_fresh_master_law_has_saturated_nothing() -> None:
