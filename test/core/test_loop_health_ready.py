@@ -56,3 +56,24 @@ def test_a_late_torque_holds_once_with_gravity_alone_for_resume_ticks() -> None:
             assert health.ready(now + 0.05, now - LATENCY) == ""   # late again while holding: nothing new
             assert (health.holds, health.reason) == (1, reason)
     assert health.state == RESUMING
+
+
+def test_a_state_exactly_max_state_age_old_is_known_fresh_for_the_next_state_gap() -> None:
+    """On binary fractions: a state exactly max_state_age (1/32 s) old is inside the bound, so the next tick's state
+    gap on the arm's clock is measured from it; one a hair older is not fresh and the next gap starts afresh (0).
+    (Its stamp is 1/32 s plus the clock drift allowed over the tick, half a period, behind the clock.)"""
+    bounds = LoopHealthBounds(max_state_age=2.0 ** -5, max_tick_gap=2.0 ** -4, resume_ticks=5, resume_ramp=0.1)
+    drift = 0.5 * PERIOD
+    for extra, gap in ((0.0, 2.0 ** -5 + drift + PERIOD), (2.0 ** -20, 0.0)):
+        health = LoopHealth(bounds)
+        now = 0.0
+        for _ in range(3):
+            now += PERIOD
+            health.tick(now, now)
+        now += PERIOD
+        health.tick(now, now - 2.0 ** -5 - drift - extra)
+        assert health.state_age == 2.0 ** -5 + extra
+        assert health.state_fresh == (extra == 0.0)
+        now += PERIOD
+        health.tick(now, now)
+        assert health.state_gap == gap
