@@ -25,25 +25,24 @@ def test_the_prediction_is_the_demand_minus_the_bias(limits: PandaLimits, speed_
     """v_T = (24 - bias_1) / 16: 2.0 m/s with -8 N m (flagged, shaped onto the cone), 1.0 m/s with +8 N m, exactly
     1.7 m/s with -3.2 N m (inside: the limit is inclusive), 1.3 m/s with +3.2 N m, 1.5 m/s with none; from
     qd_1 = 0.25 rad/s, 2.05 m/s with -4.8 N m, 1.45 m/s with +4.8 N m (all joints inside their velocity bound). A first
-    command (no last one, so no rate step) on a second optimisation too (the first has solved a QP by then)."""
+    command (no last one, so no rate step)."""
     zeros = np.zeros(7)
     desired, bias, qd = zeros.copy(), zeros.copy(), zeros.copy()
     desired[0], bias[0], qd[0] = DEMAND, bias_1, speed_1
     predicted = speed_1 + (DEMAND - bias_1) * HORIZON
     breaks = predicted > limits.tcp_speed
-    for optimisation in (PosturalOptimisation(limits, 0.001, velocity_horizon=HORIZON),
-                         PosturalOptimisation(limits, 0.001, velocity_horizon=HORIZON)):
-        torque, flags, change, solved_qp, _, guard = optimisation.shape_rejected(
-            desired, desired.tolist(), None, Q.tolist(), qd, qd.tolist(), bias, np.eye(7), JACOBIAN)
-        shaped = optimisation.shape(desired, None, Q, qd, bias, np.eye(7), JACOBIAN)
-        for answer, answer_flags, answer_qp in ((torque, LimitFlag(flags), solved_qp),
-                                                (shaped.torque, shaped.flags, shaped.solved_qp)):
-            if breaks:
-                assert answer_flags == LimitFlag.TCP_SPEED and answer_qp
-                # The answer's own prediction is on the cut, 0.1 % inside the limit (at most the limit).
-                assert speed_1 + (answer[0] - bias_1) * HORIZON <= limits.tcp_speed
-                assert speed_1 + (answer[0] - bias_1) * HORIZON == pytest.approx(limits.tcp_speed, rel=2e-3)
-            else:
-                assert answer_flags == LimitFlag.NONE and not answer_qp
-                np.testing.assert_array_equal(answer, desired)
-        assert not guard and (change > 0.0) == breaks
+    optimisation = PosturalOptimisation(limits, 0.001, velocity_horizon=HORIZON)
+    torque, flags, change, solved_qp, _, guard = optimisation.shape_rejected(
+        desired, desired.tolist(), None, Q.tolist(), qd, qd.tolist(), bias, np.eye(7), JACOBIAN)
+    shaped = optimisation.shape(desired, None, Q, qd, bias, np.eye(7), JACOBIAN)
+    for answer, answer_flags, answer_qp in ((torque, LimitFlag(flags), solved_qp),
+                                            (shaped.torque, shaped.flags, shaped.solved_qp)):
+        if breaks:
+            assert answer_flags == LimitFlag.TCP_SPEED and answer_qp
+            # The answer's own prediction is on the cut, 0.1 % inside the limit (at most the limit).
+            assert speed_1 + (answer[0] - bias_1) * HORIZON <= limits.tcp_speed
+            assert speed_1 + (answer[0] - bias_1) * HORIZON == pytest.approx(limits.tcp_speed, rel=2e-3)
+        else:
+            assert answer_flags == LimitFlag.NONE and not answer_qp
+            np.testing.assert_array_equal(answer, desired)
+    assert not guard and (change > 0.0) == breaks
