@@ -45,10 +45,24 @@ def test_flag_values_match_the_limit_status_message() -> None:
     {"torque_rate": 0.0},
     {"tcp_speed": float("nan")},
     {"joint_velocity": (1.0,) * 6},
+    {"torque": (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 0.0)},
+    {"joint_velocity": (0.0, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)},
+    {"tcp_speed": 0.0},
 ])
 def test_invalid_limits_are_rejected(robot: RobotModel, overrides: dict) -> None:
     with pytest.raises(FicInputError):
         PandaLimits.from_robot(robot, **overrides)
+
+
+@pytest.mark.parametrize("name", ["torque", "joint_velocity"])
+def test_a_joint_limit_of_zero_is_refused_by_name_and_the_least_positive_one_taken(robot: RobotModel,
+                                                                                  name: str) -> None:
+    """Every limit must be > 0 (a zero limit would admit no torque or no motion at all on that joint)."""
+    shipped = getattr(PandaLimits.from_robot(robot), name)
+    with pytest.raises(FicInputError, match=f"^{name} limits must be > 0"):
+        PandaLimits.from_robot(robot, **{name: shipped[:6] + (0.0,)})
+    taken = PandaLimits.from_robot(robot, **{name: shipped[:6] + (5e-324,)})
+    assert getattr(taken, name)[6] == 5e-324
 
 
 def test_lower_above_upper_is_rejected() -> None:

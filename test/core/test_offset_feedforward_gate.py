@@ -60,9 +60,10 @@ def test_bad_settings_are_refused(contact, settle):
 
 
 def _offset_accelerations(contact_at: float | None, planner_acceleration: list[float] | None = None,
-                          delay: float = 0.2, gate: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                          delay: float = 0.2, gate: bool = True, measured: bool = True
+                          ) -> tuple[np.ndarray, np.ndarray]:
     """(times, fed-forward a_d) at each 500 Hz tick of a 0.7 Hz, 20 mm offset sent at 100 Hz and received ``delay``
-    late, with one 50 ms contact of 20 N at ``contact_at`` (None: none)."""
+    late, with one 50 ms contact of 20 N at ``contact_at`` (None: none); ``measured`` False: no F/T reading at all."""
     pose = DesiredPose(DesiredPoseParameters(planner_feedforward=planner_acceleration is not None,
                                              offset_feedforward_contact_gate=gate))
     pose.start(np.zeros(3), np.eye(3))
@@ -77,7 +78,8 @@ def _offset_accelerations(contact_at: float | None, planner_acceleration: list[f
                 pose.add_planner_pose(int(round(now * 1e9)), [0.4, 0.0, 0.4], np.eye(3), now)
                 pose.add_planner_acceleration(planner_acceleration, now)
         in_contact = contact_at is not None and contact_at <= now < contact_at + 0.05
-        pose.measure_contact_force(20.0 if in_contact else 0.3)
+        if measured:
+            pose.measure_contact_force(20.0 if in_contact else 0.3)
         sample = pose.update(now, PERIOD)
         times.append(now)
         out.append(np.zeros(3) if sample.acceleration is None else sample.acceleration)
@@ -102,6 +104,16 @@ def test_without_the_switch_a_contact_changes_nothing_and_the_switch_is_off_by_d
     np.testing.assert_array_equal(touched, free)
     assert DesiredPoseParameters().offset_feedforward_contact_gate is False
     assert config_values("replica.yaml")["offset_feedforward_contact_gate"] is False
+
+
+def test_before_any_reading_there_was_no_contact():
+    """A replica whose F/T has said nothing yet (its contact force is 0 N until measured) feeds the offset forward
+    with the switch on as with it off."""
+    assert DesiredPose(DesiredPoseParameters(offset_feedforward_contact_gate=True)).contact_force == 0.0
+    times, unmeasured = _offset_accelerations(None, measured=False)
+    _, without_gate = _offset_accelerations(None, gate=False, measured=False)
+    assert np.abs(unmeasured).max() > 0.05
+    np.testing.assert_array_equal(unmeasured, without_gate)
 
 
 def test_the_planners_feedforward_goes_on_through_a_contact():

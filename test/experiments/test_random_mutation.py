@@ -259,3 +259,17 @@ def test_an_interrupted_draw_is_tallied_over_what_it_judged_and_gives_no_score(m
     assert (tally["sample"], tally["killed"], tally["kill_rate"], tally["score"]) == (1, 1, 1.0, None)
     assert tally["per_module"]["limits.py"]["killed"] == 1 and random_mutation.tallied(whole) is whole
     assert "held_out, partial" in random_mutation.pooled_table([tally])
+
+
+def test_two_lines_of_the_same_text_in_one_scope_each_run_their_own_lines_tests(tmp_path: Path) -> None:
+    """Two mutants that ``key`` cannot tell apart (same module, scope, text and change: kept together for
+    equivalence reasons and reruns) are two mutants of the tree: each runs the tests that execute its own line."""
+    module = tmp_path / "fic_core" / "fic_core" / "twice.py"
+    module.parent.mkdir(parents=True)
+    module.write_text("def f(a, b):\n    if a:\n        b = 0.0\n    else:\n        b = 0.0\n    return b\n")
+    sites = [site for site in random_mutation.sites_of("twice.py", module.read_text()) if site.kind == "constant"]
+    assert [site.line for site in sites] == [3, 5] and random_mutation.key(sites[0]) == random_mutation.key(sites[1])
+    line_map = LineMap("tree", ("test_twice.py::test_a", "test_twice.py::test_b"), {"twice.py": {3: (0,), 5: (1,)}})
+    chosen = random_mutation.selections_of(sites, tmp_path, line_map)
+    assert [chosen[random_mutation.site_id(site)].tests for site in sites] == [("test_twice.py::test_a",),
+                                                                               ("test_twice.py::test_b",)]

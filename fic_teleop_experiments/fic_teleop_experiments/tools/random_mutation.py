@@ -310,6 +310,12 @@ def key(site: Site) -> tuple[str, str, str, str]:
     return site.module, site.scope, site.source_line, site.change
 
 
+def site_id(site: Site) -> tuple[str, int, str]:
+    """One mutant of one tree: module, node, change. Two lines of the same text in one scope share ``key``; the
+    tests a mutant runs and a resumed draw's verdicts are each mutant's own."""
+    return site.module, site.node, site.change
+
+
 def seed_sets(path: Path | None = None) -> tuple[set[int], list[int]]:
     """(the fitting seeds, the held-out seeds) of ``mutation_seeds.yaml``; a seed in both is refused."""
     path = path or SEEDS_FILE
@@ -483,23 +489,23 @@ def per_module(rows: list[dict], modules: tuple[str, ...] | None = None) -> dict
 
 def _judge(chosen: list[Site], root: Path, timeout: float, equivalent: dict, echo, partial: dict,
            out: Path | None, jobs: int = 1, judged: dict | None = None,
-           selections: dict[tuple[str, str, str, str], Selection] | None = None) -> list[dict]:
+           selections: dict[tuple[str, int, str], Selection] | None = None) -> list[dict]:
     """Every verdict of ``chosen`` in the snapshot at ``root``, ``jobs`` mutants at a time, in the sample's order,
     written to ``out`` as it goes (``partial`` is the JSON's head); ``judged`` (key -> row, from an interrupted run
-    of the same commit and seed) gives the verdicts already found, which are not run again; ``selections`` (key ->
-    the tests that execute the mutant's line) what each runs, every test where it gives none."""
+    of the same commit and seed) gives the verdicts already found, which are not run again; ``selections`` (site_id
+    -> the tests that execute the mutant's line) what each runs, every test where it gives none."""
     rows = []
     judged = judged or {}
     selections = selections or {}
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, jobs))   # each mutant is a pytest process
-    verdicts = [None if key(site) in equivalent or key(site) in judged
-                else pool.submit(run_mutant, site, timeout, root, selections.get(key(site))) for site in chosen]
+    verdicts = [None if key(site) in equivalent or site_id(site) in judged
+                else pool.submit(run_mutant, site, timeout, root, selections.get(site_id(site))) for site in chosen]
     for number, (site, pending) in enumerate(zip(chosen, verdicts), 1):
-        cpu, ran = None, _ran(selections.get(key(site)))
+        cpu, ran = None, _ran(selections.get(site_id(site)))
         if key(site) in equivalent:
             verdict, detail, seconds, ran = "EQUIVALENT", equivalent[key(site)], 0.0, None
         elif pending is None:
-            found = judged[key(site)]
+            found = judged[site_id(site)]
             verdict, detail, seconds = found["verdict"], found["detail"], found["seconds"]
             cpu, ran = found.get("cpu_seconds"), found.get("tests_run")
         else:
@@ -526,7 +532,7 @@ def _ran(chosen: Selection | None) -> str | int | None:
 
 
 def selections_of(sites: list[Site], root: Path, line_map: line_coverage_map.LineMap) -> dict:
-    """key -> line_coverage_map.selection of each site, its module parsed from the tree at ``root``."""
+    """site_id -> line_coverage_map.selection of each site, its module parsed from the tree at ``root``."""
     trees: dict[str, tuple[ast.AST, list[ast.AST]]] = {}
     found = {}
     for site in sites:
@@ -534,7 +540,7 @@ def selections_of(sites: list[Site], root: Path, line_map: line_coverage_map.Lin
             tree = ast.parse((root / PACKAGE.relative_to(REPO) / site.module).read_text())
             trees[site.module] = (tree, list(ast.walk(tree)))
         tree, nodes = trees[site.module]
-        found[key(site)] = line_coverage_map.selection(line_map, site.module, tree, nodes[site.node])
+        found[site_id(site)] = line_coverage_map.selection(line_map, site.module, tree, nodes[site.node])
     return found
 
 
@@ -622,15 +628,15 @@ def run_draws(seeds: list[int], size: int, timeout: float, outs: list[Path | Non
     return results
 
 
-def judged_before(out: Path | None, head: dict) -> dict[tuple[str, str, str, str], dict]:
-    """key -> row of the verdicts (killed, survived, no tests) in ``out``, when it holds a run of ``head``'s commit,
+def judged_before(out: Path | None, head: dict) -> dict[tuple[str, int, str], dict]:
+    """site_id -> row of the verdicts (killed, survived, no tests) in ``out``, when it holds a run of ``head``'s commit,
     seed and modules (an interrupted draw); {} otherwise. An ERROR says nothing about its mutant: it is run again."""
     if out is None or not out.exists():
         return {}
     earlier = json.loads(out.read_text())
     if any(earlier.get(field) != head[field] for field in ("commit", "seed", "drawn_from")):
         return {}
-    return {(row["module"], row["scope"], row["source_line"], row["change"]): row for row in earlier["mutants"]
+    return {(row["module"], row["node"], row["change"]): row for row in earlier["mutants"]
             if row["verdict"] in COUNTED}
 
 
