@@ -173,6 +173,14 @@ def planned_claim_runs() -> int:
     return len(claim_runs())
 
 
+TAIL_V3 = "claims_tail_v3.json"   # the sweep on the fixed code (pooled series, the tail carried past a late touch)
+
+
+def stable_runs(summary: str) -> int:
+    """The runs of a judged sweep (claims_sweep --judge) whose verdict is stable."""
+    return sum(bool((row.get("verdict") or {}).get("stable")) for row in result(summary)["runs"])
+
+
 TAIL_V2 = "claims_tail_v2_statistics.json"   # the sweep again (the verdict's growth test on the tail), growing
 
 
@@ -304,6 +312,11 @@ FIGURES = [
            lambda: dict(judged=f"{result(TAIL_V2)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
                         fic="{} of {}".format(*tail_stable(1.0, ("fic",), source=TAIL_V2)),
                         baselines="{} of {}".format(*tail_stable(1.0, BASELINES, source=TAIL_V2)))),
+    Figure("README: the claim sweep on the fixed code", "README",
+           r"running again on the fixed code \(claims-tail-v3\): (?P<judged>[\d,]+) of (?P<planned>[\d,]+) runs judged "
+           r"so far, (?P<stable>[\d,]+) stable",
+           lambda: dict(judged=f"{result(TAIL_V3)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
+                        stable=f"{stable_runs(TAIL_V3):,}")),
     Figure("claims on the new path: the false-alarm floor", "RESULTS",
            r"false-alarm floor at zero delay \| (?P<zero>\d+ of \d+) stable, every law",
            lambda: dict(zero="{} of {}".format(*tail_stable(0.0)))),
