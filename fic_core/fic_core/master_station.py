@@ -56,6 +56,12 @@ from .profile import ForceProfile
 from .set_point import ShrinkingOffset
 from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
 
+#: [s] the least time between the two poses the handle's velocity is differenced over: a quarter of the haptic
+#: device's 4 ms period. Two poses closer than that (a driver's duplicate, a clock step) would make a velocity of any
+#: size, up to infinity at a subnormal interval, and the velocity enters Eq. 3's damping and x_d''s rate; so the
+#: difference waits for the next pose far enough from the last one used.
+MIN_VELOCITY_INTERVAL_S = 0.001
+
 #: Parameters of the handle's FIC profile (Eq. 1); changing one rebuilds the attractor (phase reset).
 PROFILE_PARAMETERS = ("stiffness", "saturation_error", "saturation_start", "max_force", "rate_deadband")
 INTEGRATOR_PARAMETERS = ("workspace_scale", "velocity_gain", "velocity_deadband")
@@ -360,11 +366,18 @@ class MasterStation:
         """x_M and the handle's orientation; the velocity by differencing while no twist is fresh."""
         position = finite_array("handle_position", position, (3,)).copy()
         quaternion = tuple(float(v) for v in finite_array("handle_orientation", quaternion_xyzw, (4,)))
-        if self._previous_pose is not None and not self._twist_fresh(now):
+        differenced = self._previous_pose is not None and not self._twist_fresh(now)
+        if differenced:
             previous_time, previous_position = self._previous_pose
-            if now > previous_time:
+            if now - previous_time >= MIN_VELOCITY_INTERVAL_S:
                 self.handle_velocity = (position - previous_position) / (now - previous_time)
-        self._previous_pose = (now, position)
+                self._previous_pose = (now, position)
+            elif now < previous_time:   # the clock went back: difference from here on
+                self._previous_pose = (now, position)
+            else:   # too close: the newer position, at the time of the last difference (a burst's newest pose)
+                self._previous_pose = (previous_time, position)
+        else:
+            self._previous_pose = (now, position)
         self.handle_position = position
         self.handle_orientation = quaternion
         self.pose_received = now
