@@ -366,18 +366,15 @@ class MasterStation:
         """x_M and the handle's orientation; the velocity by differencing while no twist is fresh."""
         position = finite_array("handle_position", position, (3,)).copy()
         quaternion = tuple(float(v) for v in finite_array("handle_orientation", quaternion_xyzw, (4,)))
-        differenced = self._previous_pose is not None and not self._twist_fresh(now)
-        if differenced:
-            previous_time, previous_position = self._previous_pose
-            if now - previous_time >= MIN_VELOCITY_INTERVAL_S:
-                self.handle_velocity = (position - previous_position) / (now - previous_time)
-                self._previous_pose = (now, position)
-            elif now < previous_time:   # the clock went back: difference from here on
-                self._previous_pose = (now, position)
-            else:   # too close: the newer position, at the time of the last difference (a burst's newest pose)
-                self._previous_pose = (previous_time, position)
-        else:
+        previous = self._previous_pose
+        # A fresh twist is the velocity; a clock that went back starts the differences from here.
+        if previous is None or self._twist_fresh(now) or now < previous[0]:
             self._previous_pose = (now, position)
+        elif now - previous[0] >= MIN_VELOCITY_INTERVAL_S:
+            self.handle_velocity = (position - previous[1]) / (now - previous[0])
+            self._previous_pose = (now, position)
+        else:   # too close: the newer position, at the time of the last difference (a burst's newest pose)
+            self._previous_pose = (previous[0], position)
         self.handle_position = position
         self.handle_orientation = quaternion
         self.pose_received = now

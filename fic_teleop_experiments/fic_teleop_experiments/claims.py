@@ -216,12 +216,12 @@ def thinned(result: RunResult, rate_hz: float = SERIES_RATE_HZ) -> RunResult:
     n = len(result.time)
     step = float(np.median(np.diff(result.time))) if n > 1 else 1.0 / rate_hz
     every = max(1, int(round(1.0 / (rate_hz * step))))
+    if every == 1 or n == 0:
+        return result
     starts = np.arange(0, n, every)
 
     def kept(name: str) -> np.ndarray:
         values = getattr(result, name)
-        if every == 1 or n == 0:
-            return values
         if values.dtype == bool:
             return np.logical_or.reduceat(values, starts, axis=0)
         if name in POOLED_PEAK_FIELDS:

@@ -17,7 +17,6 @@ figures are the random elements, each from its own stream of the seed).
 """
 from __future__ import annotations
 
-import itertools
 import math
 import time as wall_clock
 from collections import deque
@@ -217,15 +216,12 @@ class RunConfig:
     # delay and rate, the master and the replica keep running. The free response the run verdict judges. None: none.
     quiet_from: float | None = None
     # [s] with a quiet tail: the tail goes on past ``duration`` until it has run this long since the robot's last
-    # contact (the fixed obstacle touched, or |F_R| at CONTACT_FORCE_N or more), at most one tail's length more. A
-    # touch in the tail is an input to the loop from its surroundings, and the free response the verdict judges is
-    # what follows the last one: a touch 4.9 s into an 11 s tail left too little of the tail to see its decay
-    # (docs/EXPERIMENTS.md, "Claims"). A contact that recurs to the end keeps the tail going to its cap. 0: fixed.
+    # contact (the fixed obstacle touched, or |F_R| at the run verdict's contact_force or more), at most one tail's
+    # length more. A touch in the tail is an input to the loop from its surroundings, and the free response the
+    # verdict judges is what follows the last one: a touch 4.9 s into an 11 s tail left too little of the tail to
+    # see its decay (docs/EXPERIMENTS.md, "Claims"). A contact that recurs to the end keeps the tail going to its
+    # cap. 0: fixed.
     tail_clear: float = 0.0
-
-
-#: |F_R| at which the robot is in contact [N] (the run verdict's contact_force).
-CONTACT_FORCE_N = 1.0
 
 
 @dataclass
@@ -414,8 +410,11 @@ def run(config: RunConfig) -> RunResult:
     # The tail's end (RunConfig.tail_clear): moved on by each contact in the tail, never past one more tail.
     most_steps = steps + (int(round((config.duration - config.quiet_from) / STEP))
                           if config.tail_clear > 0.0 and config.quiet_from is not None else 0)
+    if most_steps > steps:   # contact as the run verdict defines it (the verdict is the tail's reader)
+        from fic_teleop_tools.verdict.run_verdict import VerdictCriterion
+        contact_force = VerdictCriterion.contact_force
     wall = wall_clock.perf_counter()
-    for k in itertools.count():
+    for k in range(most_steps):
         if k >= steps:
             break
         now = k * STEP
@@ -512,7 +511,7 @@ def run(config: RunConfig) -> RunResult:
             # E1's fixed obstacle touches nothing but the robot (static bodies do not collide with the table).
             log_contact.append(superimposition and robot.touches("fixed_obstacle"))
             if most_steps > steps and now >= config.quiet_from and (
-                    log_contact[-1] or float(np.linalg.norm(ft_wrench[:3])) >= CONTACT_FORCE_N):
+                    log_contact[-1] or float(np.linalg.norm(ft_wrench[:3])) >= contact_force):
                 steps = min(max(steps, int(math.ceil((now + config.tail_clear) / STEP))), most_steps)
         if result.torque is not None and robot.admits(state_time, now):
             robot.receive(result.torque, now, tick_dynamics)

@@ -14,17 +14,20 @@ def _station() -> MasterStation:
     return MasterStation(MasterParameters.from_values(config_values("master.yaml")))
 
 
-def test_poses_a_period_apart_give_their_difference() -> None:
+def _moving(start: float) -> MasterStation:
+    """A station whose handle moved 1 mm along x in one device period (4 ms) from ``start``: 0.25 m/s."""
     station = _station()
-    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 1.0)
-    station.add_pose([0.001, 0.0, 0.0], (0, 0, 0, 1), 1.004)
-    np.testing.assert_allclose(station.handle_velocity, (0.25, 0.0, 0.0))
+    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), start)
+    station.add_pose([0.001, 0.0, 0.0], (0, 0, 0, 1), start + 0.004)
+    return station
+
+
+def test_poses_a_period_apart_give_their_difference() -> None:
+    np.testing.assert_allclose(_moving(1.0).handle_velocity, (0.25, 0.0, 0.0))
 
 
 def test_poses_too_close_keep_the_velocity_and_the_next_differences_from_the_last_used() -> None:
-    station = _station()
-    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 1.0)
-    station.add_pose([0.001, 0.0, 0.0], (0, 0, 0, 1), 1.004)
+    station = _moving(1.0)
     for interval in (5e-324, 1e-9, 0.5 * MIN_VELOCITY_INTERVAL_S):   # a subnormal interval made an infinite one
         station.add_pose([0.002, 0.0, 0.0], (0, 0, 0, 1), 1.004 + interval)
         assert np.all(np.isfinite(station.handle_velocity))
@@ -35,9 +38,7 @@ def test_poses_too_close_keep_the_velocity_and_the_next_differences_from_the_las
 
 
 def test_a_clock_that_steps_back_starts_the_differences_again() -> None:
-    station = _station()
-    station.add_pose([0.0, 0.0, 0.0], (0, 0, 0, 1), 10.0)
-    station.add_pose([0.001, 0.0, 0.0], (0, 0, 0, 1), 10.004)
+    station = _moving(10.0)
     station.add_pose([0.5, 0.0, 0.0], (0, 0, 0, 1), 2.0)   # back 8 s: no velocity from across the step
     np.testing.assert_allclose(station.handle_velocity, (0.25, 0.0, 0.0))
     station.add_pose([0.501, 0.0, 0.0], (0, 0, 0, 1), 2.004)
