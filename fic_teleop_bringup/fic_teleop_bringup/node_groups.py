@@ -7,7 +7,8 @@ channel's two directions in one process and the operator's side (haptic device, 
 in another (fic_teleop_bringup/profiles/realtime.yaml).
 ``--group a,b`` (repeatable) replaces them; ``--isolated`` runs one process per node. No groups under
 --scheduling fifo (its priorities are per node thread, realtime_scheduling.py); the two_stations profile groups
-only the operator's side (each station runs its own nodes, and the channel pair is split across them).
+within each station (the channel pair is split across them: channel_backward joins the operator's side,
+channel_forward the planner).
 
 Which nodes can share: any of the graph's except the recorder (it stops last, after every other node, so that it
 records their last messages) and a foreground node (the keyboard operator owns the terminal).

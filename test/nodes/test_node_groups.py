@@ -13,6 +13,7 @@ from conftest import REPO, assert_stopped_clean, isolated_env, reserved_domain, 
 
 from fic_teleop_bringup import node_groups, run_profile
 from fic_teleop_bringup.launch_checks import ArgumentRefusal
+from fic_teleop_bringup.station_layout import StationLayout
 from fic_teleop_bringup.teleop_launcher import NodeSpec, node_command
 
 LAUNCHER = REPO / "scripts" / "teleop_launcher.py"
@@ -93,9 +94,14 @@ def test_isolated_and_fifo_runs_have_no_default_groups(given) -> None:
     assert node_groups.run_groups([], _args(**given), _graph()) == []
 
 
-def test_two_stations_group_only_the_operators_side() -> None:
-    """The channel pair is split across the stations; the operator's side shares one process in the master's."""
-    assert node_groups.run_groups([], _args(two_stations=True), _graph()) == [["haptic_device", "master"]]
+def test_two_stations_group_within_each_station() -> None:
+    """The channel pair is split across the stations; each half shares a process in its own: channel_backward with
+    the operator's side in the master station, channel_forward with the planner in the robot station."""
+    planner = NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml")
+    groups = node_groups.run_groups([], _args(two_stations=True), [*_graph(), planner])
+    assert groups == [["haptic_device", "master", "channel_backward"], ["planner", "channel_forward"]]
+    layout = StationLayout.from_profile(_args(two_stations=True).run_profile)
+    assert [layout.station_of("+".join(group)) for group in groups] == ["master", "robot"]
 
 
 def test_isolated_with_a_group_is_refused() -> None:

@@ -76,6 +76,10 @@ class NodeSampler(threading.Thread):
             return "+".join(names)   # several: a group of nodes in one process (the launcher's --group)
         if any("fic_teleop_tools.report" in item for item in command):
             return "report"
+        if "fic_teleop_bringup.rtps_traffic" in command:
+            return "link capture"            # --two-stations: the capture of the link's traffic
+        if "fic_teleop_bringup.teleop_launcher" in command:
+            return "launcher (robot station)"   # --two-stations: the launcher inside the robot station
         return None
 
     def run(self) -> None:
