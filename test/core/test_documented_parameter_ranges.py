@@ -69,7 +69,8 @@ def test_each_documented_end_is_taken_and_the_next_value_past_it_refused(build: 
     for end in (low, high):
         value = int(end) if integer else end
         assert build(name, value) == value
-    past = (int(low) - 1, int(high) + 1) if integer else (math.nextafter(low, -math.inf), math.nextafter(high, math.inf))
+    past = (int(low) - 1, int(high) + 1) if integer else \
+        (math.nextafter(low, -math.inf), math.nextafter(high, math.inf))
     for value in past:
         with pytest.raises(FicInputError) as refused:
             build(name, value)
