@@ -59,12 +59,25 @@ def _seconds(time_msg) -> float:
 
 def read_bag(bag: Path, decode: set[str]) -> dict:
     """Per topic: receive (log) times [s]; for the topics in `decode`, the decoded messages too. Read with the
-    project's one sequential bag reader (fic_teleop_tools.recording.bag_reader), so a torn bag reads up to its tail."""
+    project's bag reader (fic_teleop_tools.recording.bag_reader): a finished bag from its indexes, a torn one
+    sequentially up to its tail."""
     from mcap_ros2.decoder import DecoderFactory
 
-    from fic_teleop_tools.recording.bag_reader import read_messages
+    from fic_teleop_tools.recording.bag_reader import read_indexed, read_messages
 
     factory, decoders = DecoderFactory(), {}
+    indexed = read_indexed(bag, decode)
+    if indexed is not None:   # a finished bag, from its indexes: the same times and messages for a tenth of the CPU
+        by_topic = {channel.topic: channel for channel in indexed.channels.values()}
+        decoded: dict[str, list] = {}
+        for topic, rows in indexed.payloads.items():
+            channel = by_topic[topic]
+            schema = indexed.schemas.get(channel.schema_id)
+            if schema is not None:
+                decoder = factory.decoder_for(channel.message_encoding, schema)
+                decoded[topic] = [(log * 1e-9, decoder(data)) for log, data in rows]
+        return {"logs": {k: np.sort(v * 1e-9) for k, v in indexed.receive_times.items() if len(v)},
+                "messages": decoded}
     logs: dict[str, list[float]] = {}
     messages: dict[str, list] = {}
     for schema, channel, message in read_messages(bag):
