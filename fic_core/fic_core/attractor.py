@@ -289,8 +289,10 @@ class FractalAttractor:
                     forces.append(max_force if force > max_force else (-max_force if force < -max_force else force))
                     continue
                 in_convergence[axis] = False
-            # D -> C past the dead-band, from a previous sample on the same side with a force there.
-            elif magnitude_rate < deadband and previous * error > 0.0 and abs(previous) > smallest_latch:
+            # D -> C past the dead-band, from a previous sample on the same side with a force there (the sides
+            # compared by sign, not by the product e_{k-1} e_k, which underflows to 0 at a subnormal e_k).
+            elif magnitude_rate < deadband and (error > 0.0 if previous > 0.0 else error < 0.0) \
+                    and abs(previous) > smallest_latch:
                 latched_force = profile.scalar_force(abs(previous))
                 latched_energy = profile.scalar_energy(previous)
                 magnitude = abs(previous)
