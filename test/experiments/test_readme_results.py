@@ -389,8 +389,8 @@ FIGURES = [
            lambda: e2_sweep_other_delays()),
     Figure("E2 on the new command path in process, every law, 10 seeds", "RESULTS",
            r"in process, 10 seeds a law, trials complete: the FIC (?P<fic>\d+ of \d+), as written "
-           r"(?P<fic_paper_law>\d+ of \d+), linear (?P<linear>\d+ of \d+), linear_bounded (?P<linear_bounded>\d+ of \d+), "
-           r"linear_tdpa (?P<linear_tdpa>\d+ of \d+)",
+           r"(?P<fic_paper_law>\d+ of \d+), linear (?P<linear>\d+ of \d+), "
+           r"linear_bounded (?P<linear_bounded>\d+ of \d+), linear_tdpa (?P<linear_tdpa>\d+ of \d+)",
            lambda: {law: "{} of {}".format(*complete_of(jsonl("e2_sweep_link_hold.jsonl"), law, 0.2, 10))
                     for law in ("fic", "fic_paper_law", "linear", "linear_bounded", "linear_tdpa")}),
     Figure("E2 on the new command path: the FIC's graph trials", "RESULTS",
