@@ -329,11 +329,12 @@ FIGURES = [
            lambda: dict(n=str(tail_stable(1.0, ("fic",))[1]),
                         **{law: str(tail_stable(1.0, (law,))[0]) for law in ("fic", *BASELINES)})),
     *(Figure(f"claims, {version}: 1 s, the tail begun {where} the obstacle", "RESULTS",
-             rf"\| {where} the obstacle, claims-tail-{version} \| (?P<fic>\d+ of \d+) \| (?P<fic_paper_law>\d+ of \d+) "
+             rf"\| {where} the obstacle, claims-tail-{version}(?: \(so far\))? \| (?P<fic>\d+ of \d+) "
+             rf"\| (?P<fic_paper_law>\d+ of \d+) "
              rf"\| (?P<linear>\d+ of \d+) \| (?P<linear_bounded>\d+ of \d+) \| (?P<linear_tdpa>\d+ of \d+) \|",
              lambda where=where, sweep=sweep: {law: tail_start_stable(where, law, sweep=sweep)
                                                for law in ("fic", *BASELINES)})
-      for where in ("off", "on") for version, sweep in (("v1", "claims_tail"), ("v2", "claims_tail_v2"))),
+      for where in ("off", "on") for version, sweep in (("v2", "claims_tail_v2"), ("v3", "claims_tail_v3"))),
     Figure("claims on the new path: tracking error", "RESULTS",
            r"the FIC (?P<fic>[\d.]+-[\d.]+) mm, linear and linear_bounded (?P<linear>[\d.]+-[\d.]+) mm, linear_tdpa "
            r"(?P<tdpa>[\d.]+-[\d.]+) mm",
