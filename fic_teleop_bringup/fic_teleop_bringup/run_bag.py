@@ -94,11 +94,6 @@ def _from_indexes(indexed, topics: set[str], statuses: dict[str, str]) -> RunBag
     spans = [(times.min(), times.max()) for times in indexed.receive_times.values() if len(times)]
     run.span = (int(min(low for low, _ in spans)), int(max(high for _, high in spans))) if spans else None
     run.clock_stamps = np.array([_clock_seconds(data) for _, data in indexed.payloads.get(CLOCK_TOPIC, [])])
-    records = indexed.payloads.get(DIAGNOSTICS_TOPIC, [])
-    if records:
-        channel = next(c for c in indexed.channels.values() if c.topic == DIAGNOSTICS_TOPIC)
-        schema = indexed.schemas.get(channel.schema_id)
-        if schema is not None:
-            decode = DecoderFactory().decoder_for(channel.message_encoding, schema)
-            _last_records((decode(data) for _, data in records), statuses, run.diagnostics)
+    diagnostics = indexed.decoded(DIAGNOSTICS_TOPIC, DecoderFactory()) or []
+    _last_records((message for _, message in diagnostics), statuses, run.diagnostics)
     return run

@@ -98,6 +98,16 @@ class IndexedRead:
     schemas: dict[int, Schema] = field(default_factory=dict)
     channels: dict[int, Channel] = field(default_factory=dict)
 
+    def decoded(self, topic: str, factory) -> list[tuple[int, object]] | None:
+        """``topic``'s payloads decoded by ``factory`` (an mcap DecoderFactory, mcap_ros2's for ROS 2 bags), each with
+        its log time [ns]; None if the topic was not asked for or its channel has no schema."""
+        channel = next((c for c in self.channels.values() if c.topic == topic), None)
+        schema = self.schemas.get(channel.schema_id) if channel is not None else None
+        if topic not in self.payloads or schema is None:
+            return None
+        decoder = factory.decoder_for(channel.message_encoding, schema)
+        return [(log_time, decoder(data)) for log_time, data in self.payloads[topic]]
+
 
 MESSAGE_INDEX_OPCODE, MESSAGE_OPCODE = 0x07, 0x05
 RECORD_PREFIX = 9          # opcode u8 + record length u64
@@ -153,8 +163,7 @@ def read_indexed(bag: str | os.PathLike, payload_topics: set[str]) -> IndexedRea
     try:
         with open(mcap_file(bag), "rb") as stream:
             summary = SeekingReader(stream, validate_crcs=True).get_summary()
-            if summary is None or (summary.statistics is not None and summary.statistics.message_count
-                                   and not summary.chunk_indexes):
+            if summary is None:
                 return None
             read = IndexedRead(schemas=dict(summary.schemas), channels=dict(summary.channels))
             topics = [channel.topic for channel in read.channels.values()]
