@@ -37,10 +37,11 @@ def tail_begins_on_obstacle(time: np.ndarray, obstacle_contact: np.ndarray, quie
     return bool(np.any(np.asarray(obstacle_contact)[window]))
 
 
-def classify_runs(judged: Path, series_folder: Path) -> dict[str, dict]:
+def classify_runs(judged: Path, series_folder: Path, earlier: dict[str, dict] | None = None) -> dict[str, dict]:
     """For each judged run of ``judged`` (claims_sweep's summary): whether its tail begins on the obstacle, or
     None when its series is not in ``series_folder`` (a run judged before its series was lost is kept by its
-    verdict alone)."""
+    verdict alone), unless ``earlier`` (an earlier classification of the same sweep, by run key) has it: a series
+    lost with a machine keeps the classification read from it while it was there."""
     from fic_teleop_experiments.claims_report import read_runs
 
     out: dict[str, dict] = {}
@@ -52,6 +53,8 @@ def classify_runs(judged: Path, series_folder: Path) -> dict[str, dict]:
                 if "obstacle_contact" in data.files and "quiet_from" in data.files:
                     on_obstacle = tail_begins_on_obstacle(data["time"], data["obstacle_contact"],
                                                           float(data["quiet_from"]), float(row["delay"]))
+        if on_obstacle is None:
+            on_obstacle = (earlier or {}).get(row["key"], {}).get("tail_begins_on_obstacle")
         out[row["key"]] = {"tail_begins_on_obstacle": on_obstacle}
     return out
 
@@ -60,11 +63,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Whether each claim run's quiet tail begins on the fixed obstacle")
     parser.add_argument("judged", type=Path, help="the judged sweep (results/claims_tail.json)")
     parser.add_argument("--series", type=Path, required=True, help="the sweep's series folder")
-    parser.add_argument("--out", type=Path, required=True, help="the JSON written: run key -> classification")
+    parser.add_argument("--out", type=Path, required=True,
+                        help="the JSON written: run key -> classification (an existing one is kept for the runs whose "
+                             "series is gone)")
     args = parser.parse_args(argv)
     if not args.judged.is_file() or not args.series.is_dir():
         parser.error(f"need a judged sweep file and a series folder, got {args.judged} and {args.series}")
-    runs = classify_runs(args.judged, args.series)
+    earlier = json.loads(args.out.read_text())["runs"] if args.out.is_file() else None
+    runs = classify_runs(args.judged, args.series, earlier)
     args.out.write_text(json.dumps({"criterion": __doc__.split("\n\n")[2].replace("\n", " "),
                                     "settle_after_last_command_s": SETTLE_AFTER_LAST_COMMAND_S,
                                     "runs": runs}, indent=1) + "\n")

@@ -63,3 +63,17 @@ def test_runs_are_classified_from_their_series_and_a_run_without_one_is_left_out
     assert statistics["runs_total"] == 1 and "off the fixed obstacle" in statistics["runs_kept"]
     fic = statistics["cells"][0]["laws"]["fic"]
     assert (fic["stable"]["k"], fic["stable"]["n"]) == (1, 1)
+
+
+def test_a_series_lost_after_it_was_classified_keeps_its_classification(tmp_path: Path):
+    judged = _write_sweep(tmp_path)
+    out = tmp_path / "tail_start.json"
+    assert tail_start_main([str(judged), "--series", str(tmp_path), "--out", str(out)]) == 0
+    on_obstacle_key = "delay_1__rate_10__fic__passive__1__30s__tail_11s"
+    (tmp_path / (on_obstacle_key + ".npz")).unlink()          # the series lost with a machine
+
+    assert tail_start_main([str(judged), "--series", str(tmp_path), "--out", str(out)]) == 0
+    kinds = json.loads(out.read_text())["runs"]
+    assert [kinds[k]["tail_begins_on_obstacle"] for k in sorted(kinds)] == [True, False, None]
+    # without the earlier file the lost series cannot be classified
+    assert classify_runs(judged, tmp_path)[on_obstacle_key]["tail_begins_on_obstacle"] is None
