@@ -3,8 +3,8 @@
 - traffic: bytes/s and RTPS samples/s per direction and topic crossing the veth (rtps_traffic.py), while the
   script runs (from 2 s after its start to the link cut or the end) and before it (discovery, start-up);
 - link cut: when the link went down and up; the first teleoperation command the replica used after link-up
-  (FicState.master_stamp changing to a command it had not used before; FicState comes at status_rate, 100 Hz,
-  so 10 ms resolution) and whether that command was sent before the cut, during it (kept and resent by DDS) or
+  (FicState.master_stamp changing to a command it had not used before; FicState comes at status_rate, 25 Hz,
+  so 40 ms resolution) and whether that command was sent before the cut, during it (kept and resent by DDS) or
   after; the first message of each link stream after link-up; the master's and the replica's log lines about
   it; per station stream the longest gap between recorded messages inside and outside the cut (the recorder of
   each station should lose nothing of its own station's streams); node logs with a traceback;
