@@ -415,8 +415,9 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
     if watch is not None:
         from fic_teleop_msgs.msg import TeleoperationCommand
         topic, seen = watch
-        node.create_subscription(TeleoperationCommand, topic, lambda _message: seen(time.time()),
-                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+        # raw: only the arrival time is read, so the 100 Hz command is not deserialised
+        node.create_subscription(TeleoperationCommand, topic, lambda _data: seen(time.time()),
+                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT), raw=True)
     wall_start = time.monotonic()
     last_print = last_scheduling = 0.0
     # The checks below a tenth of a second apart, not once per /clock message: the EventsExecutor takes every message
