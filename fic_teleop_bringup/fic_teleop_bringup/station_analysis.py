@@ -6,8 +6,10 @@
   (FicState.master_stamp changing to a command it had not used before; FicState comes at status_rate, 25 Hz,
   so 40 ms resolution) and whether that command was sent before the cut, during it (kept and resent by DDS) or
   after; the first message of each link stream after link-up; the master's and the replica's log lines about
-  it; per station stream the longest gap between recorded messages inside and outside the cut (the recorder of
-  each station should lose nothing of its own station's streams); node logs with a traceback;
+  it; per station stream the longest gap inside and outside the cut, between the recorder's receive times and
+  between the messages' header stamps (the recorder of each station should lose nothing of its own station's
+  streams: a stamp gap is a sample not published or lost, a receive gap alone a late delivery); node logs with a
+  traceback;
 - clocks: the master stamps the teleoperation command on its clock and the replica ages it on its own, so the
   report's pipeline latency (FicState.master_age - held) holds the offset between the two clocks. Two figures do
   not: the robot-station part (the control tick that first used a command minus its delivery by the robot-side
@@ -44,6 +46,11 @@ GAP_STREAM_PUBLISHERS = {"/joint_states": "robot", "/clock": "robot", "/ft_senso
                          "/haptic/wrench_command": "master", "/master/feedback_wrench": "channel_backward"}
 
 
+#: The gap streams whose header stamps are on the host's wall clock in realtime (the /clock message carries the
+#: simulation's time): their stamp gaps say whether the publisher went on and the recorder lost nothing.
+STAMPED_STREAMS = frozenset(GAP_STREAM_PUBLISHERS) - {"/clock"}
+
+
 def station_streams(layout: StationLayout) -> dict[str, list[str]]:
     """{"robot": [...], "master": [...]}: each gap stream on the side of the station its publisher runs in, so a
     profile that moves a node moves its stream's statistics with it (its own station's recorder should lose none)."""
@@ -57,31 +64,43 @@ def _seconds(time_msg) -> float:
     return time_msg.sec + 1e-9 * time_msg.nanosec
 
 
-def read_bag(bag: Path, decode: set[str]) -> dict:
-    """Per topic: receive (log) times [s]; for the topics in `decode`, the decoded messages too. Read with the
-    project's bag reader (fic_teleop_tools.recording.bag_reader): a finished bag from its indexes, a torn one
-    sequentially up to its tail."""
+def read_bag(bag: Path, decode: set[str], stamped: frozenset[str] = frozenset()) -> dict:
+    """Per topic: receive (log) times [s]; for the topics in `decode`, the decoded messages too; for those in
+    `stamped`, the header stamps [s] read off the serialized messages (fic_teleop_runtime.cdr_header), in receive
+    order. Read with the project's bag reader (fic_teleop_tools.recording.bag_reader): a finished bag from its
+    indexes, a torn one sequentially up to its tail."""
     from mcap_ros2.decoder import DecoderFactory
 
+    from fic_teleop_runtime.cdr_header import header_stamp
     from fic_teleop_tools.recording.bag_reader import read_indexed, read_messages
 
+    def stamps_of(payloads) -> np.ndarray:
+        stamps = (header_stamp(data) for data in payloads)
+        return np.array([np.nan if stamp is None else stamp[0] + 1e-9 * stamp[1] for stamp in stamps])
+
     factory, decoders = DecoderFactory(), {}
-    indexed = read_indexed(bag, decode)
+    indexed = read_indexed(bag, set(decode) | set(stamped))
     if indexed is not None:   # a finished bag, from its indexes: the same times and messages for a tenth of the CPU
-        decoded = {topic: indexed.decoded(topic, factory) for topic in indexed.payloads}
+        decoded = {topic: indexed.decoded(topic, factory) for topic in decode if topic in indexed.payloads}
         return {"logs": {k: np.sort(v * 1e-9) for k, v in indexed.receive_times.items() if len(v)},
                 "messages": {topic: [(log * 1e-9, message) for log, message in rows]
-                             for topic, rows in decoded.items() if rows is not None}}
+                             for topic, rows in decoded.items() if rows is not None},
+                "stamps": {topic: stamps_of(data for _, data in indexed.payloads[topic])
+                           for topic in stamped if topic in indexed.payloads}}
     logs: dict[str, list[float]] = {}
     messages: dict[str, list] = {}
+    payloads: dict[str, list[bytes]] = {}
     for schema, channel, message in read_messages(bag):
         log = message.log_time * 1e-9
         logs.setdefault(channel.topic, []).append(log)
+        if channel.topic in stamped:
+            payloads.setdefault(channel.topic, []).append(message.data)
         if channel.topic in decode and schema is not None:
             if channel.id not in decoders:
                 decoders[channel.id] = factory.decoder_for(channel.message_encoding, schema)
             messages.setdefault(channel.topic, []).append((log, decoders[channel.id](message.data)))
-    return {"logs": {k: np.sort(np.array(v)) for k, v in logs.items()}, "messages": messages}
+    return {"logs": {k: np.sort(np.array(v)) for k, v in logs.items()}, "messages": messages,
+            "stamps": {topic: stamps_of(data) for topic, data in payloads.items()}}
 
 
 def traffic_summary(capture: dict, start: float | None, end: float | None) -> dict:
@@ -129,6 +148,19 @@ def _gap_stats(times: np.ndarray, window: tuple[float, float] | None) -> dict:
         before = times[(times >= window[0] - span) & (times < window[0])]
         result["rate_before_cut_hz"] = round(len(before) / span, 1) if span > 0 else None
     return result
+
+
+def _stamp_gap_stats(stamps: np.ndarray, window: tuple[float, float]) -> dict:
+    """The longest gaps between the header stamps of consecutive samples, inside and outside `window`: whether the
+    publisher went on and the recorder lost nothing. A late delivery (the recorder not scheduled for a while on a
+    loaded machine) leaves the stamps whole, so it shows in the receive-time gaps of `_gap_stats` alone."""
+    stamps = np.sort(stamps[np.isfinite(stamps)])
+    if len(stamps) < 2:
+        return {}
+    gaps = np.diff(stamps)
+    inside = (stamps[1:] >= window[0]) & (stamps[:-1] <= window[1])
+    return {"longest_stamp_gap_in_cut_s": round(float(gaps[inside].max()), 4) if inside.any() else None,
+            "longest_stamp_gap_outside_cut_s": round(float(gaps[~inside].max()), 4) if (~inside).any() else None}
 
 
 def deliveries(bag: dict, topic_key: str, route_topic: str) -> tuple[np.ndarray, list[int]]:
@@ -207,7 +239,8 @@ def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path, lay
     the run's stations (which station's bag holds each gap stream)."""
     down, up = events["down_wall"], events["up_wall"]
     result: dict = {"down_s": round(up - down, 3), "down_at_run_s": events.get("down_run_s")}
-    master = {"logs": {topic: times - master_ahead_s for topic, times in master["logs"].items()}}
+    master = {"logs": {topic: times - master_ahead_s for topic, times in master["logs"].items()},
+              "stamps": {topic: stamps - master_ahead_s for topic, stamps in master.get("stamps", {}).items()}}
     states = [(s.header.stamp, s.master_stamp) for _, s in robot["messages"].get("/replica/fic_state", [])]
     used_before = {ms.sec * 1_000_000_000 + ms.nanosec for stamp, ms in states if _seconds(stamp) < up}
     last_before_cut = max((_seconds(ms) for stamp, ms in states if _seconds(stamp) < down), default=None)
@@ -231,7 +264,9 @@ def link_cut_figures(robot: dict, master: dict, events: dict, run_dir: Path, lay
     # Each stream from its own station's bag (bag/ for the robot station, bag_master/ for the master station's).
     for station, topics in station_streams(layout).items():
         bag = robot if station == "robot" else master
-        result[f"{station}_station_streams"] = {t: _gap_stats(bag["logs"].get(t, np.empty(0)), window) for t in topics}
+        result[f"{station}_station_streams"] = {
+            t: {**_gap_stats(bag["logs"].get(t, np.empty(0)), window),
+                **_stamp_gap_stats(bag.get("stamps", {}).get(t, np.empty(0)), window)} for t in topics}
     result["log_lines"] = _log_lines(run_dir / "logs")
     return result
 
@@ -280,8 +315,10 @@ def analyse_run(run_dir: Path, outer_record: dict, layout: StationLayout) -> str
                          + ", ".join(f"{name} {entry.get('bytes_per_s')} B/s" for name, entry in top))
     robot_bag, master_bag = run_dir / "bag", run_dir / "bag_master"
     if robot_bag.exists() and master_bag.exists():
-        robot = read_bag(robot_bag, {"/channel/deliveries", "/replica/fic_state"})
-        master = read_bag(master_bag, {DELIVERY_TOPICS["master"]})
+        streams = station_streams(layout)
+        robot = read_bag(robot_bag, {"/channel/deliveries", "/replica/fic_state"},
+                         STAMPED_STREAMS & set(streams["robot"]))
+        master = read_bag(master_bag, {DELIVERY_TOPICS["master"]}, STAMPED_STREAMS & set(streams["master"]))
         capture = json.loads(capture_path.read_text()) if capture_path.exists() else {}
         record["clocks"] = clock_figures(robot, master, capture, (origin or 0.0) + 2.0)
         clocks = record["clocks"]
