@@ -97,6 +97,16 @@ def test_a_command_records_its_age_at_first_use_once() -> None:
     assert pose.master_first_use_age == pytest.approx(0.02)
 
 
+def test_a_command_stamped_at_time_zero_is_unused_until_a_tick_uses_it() -> None:
+    # Simulated time starts at 0: a first command stamped 0 ns is a command like any other, not one already used.
+    pose = started_pose()
+    pose.add_teleoperation(0, [0.0, 0.0, 0.0], 0.01)
+    assert pose.command_unused
+    pose.update(0.02, 0.001)
+    assert not pose.command_unused and pose.master_stamp_used_ns == 0
+    assert pose.master_first_use_age == pytest.approx(0.02)
+
+
 def test_bad_set_points_change_nothing() -> None:
     pose = started_pose()
     pose.add_teleoperation(0, [0.01, 0.0, 0.0], 0.0)
