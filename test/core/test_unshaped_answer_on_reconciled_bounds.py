@@ -62,3 +62,29 @@ def test_without_a_qp_no_iteration_is_counted(limits: PandaLimits) -> None:
             assert result.iterations == 0
             np.testing.assert_array_equal(result.torque, desired)
     assert unshaped and shaped
+
+
+@pytest.mark.parametrize("edge", [-1.0, 1.0])
+def test_tau_d_exactly_on_its_rate_box_edge_beside_a_reconciled_joint_is_unshaped(limits: PandaLimits,
+                                                                                  edge: float) -> None:
+    """The box is closed: with the reconciled joint sending the tick to the flags, a joint whose tau_d is exactly
+    one rate step from its last command (on the box edge, inside its torque limit) breaks nothing."""
+    optimisation = PosturalOptimisation(limits, 0.001)
+    q = np.array(NOMINAL_CONFIGURATION, dtype=float)
+    qd = np.zeros(7)
+    q[0] = limits.upper_array[0] - ROOM
+    qd[0] = limits.joint_velocity_array[0]
+    low, high, _, _, reconciled = optimisation.acceleration_bounds(q, qd)
+    assert reconciled and low[0] == high[0]
+    previous = np.zeros(7)
+    previous[0] = low[0] / INVERSE_MASS_SCALE
+    previous[3] = 0.5                                          # joint 4: a binary fraction, so the edge is exact
+    desired = previous.copy()
+    desired[3] = previous[3] + edge * optimisation.rate_step   # exactly on the box's edge
+    box_low, box_high = optimisation.torque_box(previous)
+    assert desired[3] == (box_high[3] if edge > 0 else box_low[3])
+    inverse_mass = np.diag([INVERSE_MASS_SCALE, 1.0, 1.0, 2.0 ** -6, 1.0, 1.0, 1.0])   # powers of two: exact
+    assert low[3] <= inverse_mass[3, 3] * desired[3] <= high[3]   # joint 4's acceleration inside its bounds
+    result = optimisation.shape(desired, previous, q, qd, np.zeros(7), inverse_mass, np.zeros((3, 7)))
+    np.testing.assert_array_equal(result.torque, desired)
+    assert result.flags == LimitFlag.NONE and not result.solved_qp and result.iterations == 0
