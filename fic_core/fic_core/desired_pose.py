@@ -110,7 +110,9 @@ class DesiredPose:
         self.master_stamp_ns = 0               # stamp of the last good teleoperation command [ns]
         self.master_received: float | None = None  # receiver time of the last good teleoperation command
         self.master_stale = False
-        self.master_stamp_used_ns = 0          # the command the last control tick used [ns]
+        # The stamp of the command the last control tick used [ns]; None before any (a stamp of 0 is a command:
+        # a simulated clock's first stamps can be 0).
+        self.master_stamp_used_ns: int | None = None
         self.master_first_use_age = 0.0        # its age at the control tick that first used it [s]
         self.contact_force = 0.0               # |F_R| [N] as last measured (measure_contact_force)
         self._offset_feedforward_gate = OffsetFeedforwardGate(self._parameters.offset_feedforward_contact_force,
