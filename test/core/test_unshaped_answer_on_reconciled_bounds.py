@@ -88,3 +88,25 @@ def test_tau_d_exactly_on_its_rate_box_edge_beside_a_reconciled_joint_is_unshape
     result = optimisation.shape(desired, previous, q, qd, np.zeros(7), inverse_mass, np.zeros((3, 7)))
     np.testing.assert_array_equal(result.torque, desired)
     assert result.flags == LimitFlag.NONE and not result.solved_qp and result.iterations == 0
+
+
+@pytest.mark.parametrize("sign", [-1.0, 1.0])
+def test_tau_d_exactly_on_its_torque_limit_beside_a_reconciled_joint_is_unshaped(limits: PandaLimits,
+                                                                                 sign: float) -> None:
+    """With no last command the box is the torque limits, closed: a joint asking exactly +-tau_max (the reconciled
+    joint sending the tick to the flags) breaks nothing and is answered unshaped."""
+    optimisation = PosturalOptimisation(limits, 0.001)
+    q = np.array(NOMINAL_CONFIGURATION, dtype=float)
+    qd = np.zeros(7)
+    q[0] = limits.upper_array[0] - ROOM
+    qd[0] = limits.joint_velocity_array[0]
+    low, high, _, _, reconciled = optimisation.acceleration_bounds(q, qd)
+    assert reconciled and low[0] == high[0]
+    desired = np.zeros(7)
+    desired[0] = low[0] / INVERSE_MASS_SCALE
+    desired[3] = sign * limits.torque_array[3]                 # exactly on the torque limit
+    inverse_mass = np.diag([INVERSE_MASS_SCALE, 1.0, 1.0, 2.0 ** -6, 1.0, 1.0, 1.0])
+    assert low[3] <= inverse_mass[3, 3] * desired[3] <= high[3]
+    result = optimisation.shape(desired, None, q, qd, np.zeros(7), inverse_mass, np.zeros((3, 7)))
+    np.testing.assert_array_equal(result.torque, desired)
+    assert result.flags == LimitFlag.NONE and not result.solved_qp and result.iterations == 0
