@@ -110,8 +110,9 @@ class DesiredPose:
         self.master_stamp_ns = 0               # stamp of the last good teleoperation command [ns]
         self.master_received: float | None = None  # receiver time of the last good teleoperation command
         self.master_stale = False
-        self.master_stamp_used_ns = 0          # the command the last control tick used [ns] (0 before any: FicState)
-        self._master_used = False              # whether a control tick has used a command (a stamp of 0 ns is one)
+        # The stamp of the command the last control tick used [ns]; None before any (a stamp of 0 is a command:
+        # a simulated clock's first stamps can be 0).
+        self.master_stamp_used_ns: int | None = None
         self.master_first_use_age = 0.0        # its age at the control tick that first used it [s]
         self.contact_force = 0.0               # |F_R| [N] as last measured (measure_contact_force)
         self._offset_feedforward_gate = OffsetFeedforwardGate(self._parameters.offset_feedforward_contact_force,
@@ -178,8 +179,7 @@ class DesiredPose:
     @property
     def command_unused(self) -> bool:
         """Whether a teleoperation command has arrived that no control tick has used yet."""
-        return self.master_received is not None and (not self._master_used
-                                                     or self.master_stamp_ns != self.master_stamp_used_ns)
+        return self.master_received is not None and self.master_stamp_ns != self.master_stamp_used_ns
 
     def start(self, position: ArrayLike, rotation: ArrayLike) -> None:
         """The TCP pose at the first joint state: x_d'' (and R_d) until the planner speaks."""
@@ -257,7 +257,7 @@ class DesiredPose:
         rotation = self._planner_rotation if p.use_planner_orientation and self._planner_rotation is not None \
             else self.start_rotation
         if self.command_unused:
-            self.master_stamp_used_ns, self._master_used = self.master_stamp_ns, True
+            self.master_stamp_used_ns = self.master_stamp_ns
             self.master_first_use_age = now - self.master_stamp_ns * 1e-9
         return DesiredPoseSample(position, rotation, self._feedforward_acceleration(now), notices)
 

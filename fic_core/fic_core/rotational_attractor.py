@@ -42,7 +42,7 @@ from fic_core.attractor import DEFAULT_RATE_DEADBAND, AttractorSnapshot, Fractal
 from fic_core.errors import FicInputError, finite_floats
 from fic_core.profile import ForceProfile
 
-#: Below this angle [rad] the axis r/theta is not resolved: the moment is zero and the angle reads 0 (the
+#: At or below this angle [rad] the axis r/theta is not resolved: the moment is zero and the angle reads 0 (the
 #: profile's force there is below K0 * 1e-12 rad).
 _SMALLEST_ANGLE = 1e-12
 
