@@ -64,11 +64,8 @@ def test_without_a_qp_no_iteration_is_counted(limits: PandaLimits) -> None:
     assert unshaped and shaped
 
 
-@pytest.mark.parametrize("edge", [-1.0, 1.0])
-def test_tau_d_exactly_on_its_rate_box_edge_beside_a_reconciled_joint_is_unshaped(limits: PandaLimits,
-                                                                                  edge: float) -> None:
-    """The box is closed: with the reconciled joint sending the tick to the flags, a joint whose tau_d is exactly
-    one rate step from its last command (on the box edge, inside its torque limit) breaks nothing."""
+def _joint_one_reconciled(limits: PandaLimits):
+    """Joint 1 ROOM below its upper limit at its velocity limit: its acceleration bounds reconciled to one value."""
     optimisation = PosturalOptimisation(limits, 0.001)
     q = np.array(NOMINAL_CONFIGURATION, dtype=float)
     qd = np.zeros(7)
@@ -76,6 +73,15 @@ def test_tau_d_exactly_on_its_rate_box_edge_beside_a_reconciled_joint_is_unshape
     qd[0] = limits.joint_velocity_array[0]
     low, high, _, _, reconciled = optimisation.acceleration_bounds(q, qd)
     assert reconciled and low[0] == high[0]
+    return optimisation, q, qd, low, high
+
+
+@pytest.mark.parametrize("edge", [-1.0, 1.0])
+def test_tau_d_exactly_on_its_rate_box_edge_beside_a_reconciled_joint_is_unshaped(limits: PandaLimits,
+                                                                                  edge: float) -> None:
+    """The box is closed: with the reconciled joint sending the tick to the flags, a joint whose tau_d is exactly
+    one rate step from its last command (on the box edge, inside its torque limit) breaks nothing."""
+    optimisation, q, qd, low, high = _joint_one_reconciled(limits)
     previous = np.zeros(7)
     previous[0] = low[0] / INVERSE_MASS_SCALE
     previous[3] = 0.5                                          # joint 4: a binary fraction, so the edge is exact
@@ -95,13 +101,7 @@ def test_tau_d_exactly_on_its_torque_limit_beside_a_reconciled_joint_is_unshaped
                                                                                  sign: float) -> None:
     """With no last command the box is the torque limits, closed: a joint asking exactly +-tau_max (the reconciled
     joint sending the tick to the flags) breaks nothing and is answered unshaped."""
-    optimisation = PosturalOptimisation(limits, 0.001)
-    q = np.array(NOMINAL_CONFIGURATION, dtype=float)
-    qd = np.zeros(7)
-    q[0] = limits.upper_array[0] - ROOM
-    qd[0] = limits.joint_velocity_array[0]
-    low, high, _, _, reconciled = optimisation.acceleration_bounds(q, qd)
-    assert reconciled and low[0] == high[0]
+    optimisation, q, qd, low, high = _joint_one_reconciled(limits)
     desired = np.zeros(7)
     desired[0] = low[0] / INVERSE_MASS_SCALE
     desired[3] = sign * limits.torque_array[3]                 # exactly on the torque limit
