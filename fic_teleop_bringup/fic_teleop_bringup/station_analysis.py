@@ -71,12 +71,12 @@ def read_bag(bag: Path, decode: set[str], stamped: frozenset[str] = frozenset())
     indexes, a torn one sequentially up to its tail."""
     from mcap_ros2.decoder import DecoderFactory
 
-    from fic_teleop_runtime.cdr_header import header_stamp
+    from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
     from fic_teleop_tools.recording.bag_reader import read_indexed, read_messages
 
     def stamps_of(payloads) -> np.ndarray:
         stamps = (header_stamp(data) for data in payloads)
-        return np.array([np.nan if stamp is None else stamp[0] + 1e-9 * stamp[1] for stamp in stamps])
+        return np.array([np.nan if stamp is None else stamp_seconds(stamp) for stamp in stamps])
 
     factory, decoders = DecoderFactory(), {}
     indexed = read_indexed(bag, set(decode) | set(stamped))

@@ -33,8 +33,7 @@ def fic_state(command: ReplicaCommand, loop: ReplicaLoop, stamp: Time, frame_id:
                      latched_max_error=command.latched_max_error.tolist(), force=command.wrench.tolist(),
                      stored_energy=command.stored_energy.tolist(), total_energy=float(command.total_energy),
                      master_age=desired.master_first_use_age, master_stale=desired.master_stale,
-                     master_stamp=time_message(0 if desired.master_stamp_used_ns is None
-                                           else desired.master_stamp_used_ns),
+                     master_stamp=time_message(desired.master_stamp_used_ns or 0),   # 0: none used yet
                      port_work=passivity.port_work.tolist(), passivity_margin=passivity.margin.tolist(),
                      passivity_margin_min=passivity.min_margin,
                      passivity_violation_ticks=passivity.violation_ticks)
