@@ -129,7 +129,7 @@ class ForceProfile:
         error_array = finite_array("error", error)
         magnitude = np.abs(error_array)
         linear_limit = self.linear_limit
-        # Just past xi*x_b the profile is F0 + (tangent slope)*(a - xi*x_b); below `tiny` the finite quotient
+        # Just past xi*x_b the profile is F0 + (tangent slope)*(a - xi*x_b); at or below `tiny` the finite quotient
         # would lose its digits to the cancellation in tanh(u) - tanh(-pi), so that linearisation is used.
         tangent_slope = ((self.max_force - self.linear_limit_force) * (1.0 - _TANH_START ** 2)
                          / (_TANH_SPAN * self.saturation_width))
