@@ -34,15 +34,17 @@ class Watcher:
         from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from std_msgs.msg import Float64MultiArray
 
-        from fic_teleop_msgs.msg import TeleoperationCommand
+        from fic_teleop_msgs.msg import FicState, TeleoperationCommand
 
         qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=100)
         self.node = rclpy.create_node("test_channel", context=context)
         self.tcp: list[tuple[float, np.ndarray]] = []
         self.torques: list[list[float]] = []
         self.replica_status: list = []
+        self.commands_used = False   # the replica has used a teleoperation command (FicState.master_stamp set)
         self.node.create_subscription(PoseStamped, "/sim/tcp_pose", self._on_tcp, qos)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, qos)
+        self.node.create_subscription(FicState, "/replica/fic_state", self._on_fic_state, qos)
         self.node.create_subscription(Float64MultiArray, "/effort_controller/commands",
                                       lambda m: self.torques.append(list(m.data)), qos)
         if channel:
@@ -81,6 +83,10 @@ class Watcher:
     def _on_tcp(self, message) -> None:
         p = message.pose.position
         self.tcp.append((time.monotonic(), np.array([p.x, p.y, p.z])))
+
+    def _on_fic_state(self, message) -> None:
+        stamp = message.master_stamp
+        self.commands_used = self.commands_used or stamp.sec != 0 or stamp.nanosec != 0
 
     def _on_diagnostics(self, message) -> None:
         self.replica_status += [status for status in message.status if status.name == "replica"]
@@ -136,6 +142,12 @@ def _arm(start_node, ros_env, rclpy_context, channel: bool):
         f"{watcher.node.count_publishers('/replica/teleop_command')} writers of /replica/teleop_command before the " \
         "probe"
     assert watcher.wait(lambda: len(watcher.tcp) > 50, 60.0), robot.output()
+    if channel:
+        # The replica's reader must have matched the channel's writer before a probe starts: the graph above is the
+        # test's view. On a loaded machine the probe's writer was matched first, so the replica met it as the only
+        # writer and took its first command (as it must: one writer is the channel), then refused it 0.3 s later.
+        assert watcher.wait(lambda: watcher.commands_used, 60.0), \
+            f"the replica used no command of the test's channel\n{replica.output()}"
     _watch_poses(watcher, 1.0)  # the arm settles under the replica's hold of its start pose
     return robot, replica, watcher
 
