@@ -54,7 +54,9 @@ def wilson_interval(successes: int, trials: int, z: float = Z_95) -> tuple[float
     _check_counts(successes, trials)
     centre = (successes + z * z / 2.0) / (trials + z * z)
     half = z * math.sqrt(successes * (trials - successes) / trials + z * z / 4.0) / (trials + z * z)
-    return max(0.0, centre - half), min(1.0, centre + half)
+    # The interval holds the estimate; rounding put its end an ulp inside it (k = n: 0.9999999999999999).
+    share = successes / trials
+    return max(0.0, min(share, centre - half)), min(1.0, max(share, centre + half))
 
 
 def newcombe_difference_interval(successes_1: int, trials_1: int, successes_2: int, trials_2: int,

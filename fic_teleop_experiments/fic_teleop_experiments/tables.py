@@ -231,9 +231,19 @@ def claims_block(statistics: dict, reference: str = "fic") -> str:
     # Every law, cell and hand at its planned seeds: the sweep is complete and nothing is "so far" any more.
     complete = (bool(judged_n) and planned is not None and min(judged_n) >= planned
                 and all((cell_id, hand) in cells for cell_id, _ in RESULTS_CLAIM_CELLS for hand in hands))
+    # The claim rows alone at their planned seeds (or more): the sweep runs the claim cells first, so their figures
+    # are final while its other cells (the open-loop controls, 2 s, the delay sweep's extra delays) still run.
+    rows_complete = planned is not None and all(
+        (cell_id, hand) in cells and cells[(cell_id, hand)]["laws"]
+        and min(s["stable"]["n"] for s in cells[(cell_id, hand)]["laws"].values()) >= planned
+        for cell_id, _ in RESULTS_CLAIM_CELLS for hand in hands)
     if complete:
         opening = (f"All {statistics.get('runs_judged', 0)} runs of the claim sweep judged ({planned} seeds a law, "
                    "cell and hand)")
+    elif rows_complete:
+        opening = (f"The claim rows are complete ({planned} seeds or more a law, cell and hand); "
+                   f"{statistics.get('runs_judged', 0)} runs of the claim sweep judged so far, its other cells (the "
+                   "open-loop controls, 2 s and the delay sweep's extra delays) still running")
     else:
         opening = (f"Judged so far: {statistics.get('runs_judged', 0)} runs of the claim sweep"
                    + (f" ({min(judged_n)}-{max(judged_n)} judged seeds a law, cell and hand, of {planned} planned)"
@@ -291,7 +301,7 @@ def claims_block(statistics: dict, reference: str = "fic") -> str:
                                                                                  "undecided", "no run")}
     lines += ["", f"Of these {len(readings)} claim rows: {tally['reproduced']} reproduced, {tally['not reproduced']} "
               f"not reproduced, {tally['undecided']} undecided "
-              + (f"at {planned} seeds." if complete else
+              + (f"at {planned} seeds." if complete else "at the seeds of each row." if rows_complete else
                  f"at the seeds judged so far, {tally['no run']} without a judged run yet.")]
     lines += _control_sentences(cells, controls, hands, reference)
     lines += _resonance_sentences(cells, controls, hands)

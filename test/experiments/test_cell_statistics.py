@@ -36,6 +36,16 @@ def test_wilson_interval_agrees_with_scipy():
         assert wilson_interval(k, n) == pytest.approx((interval.low, interval.high), abs=1e-9)
 
 
+def test_the_wilson_interval_holds_its_estimate_exactly_at_every_count():
+    """Rounding once left the end of a k = n interval an ulp below k / n (0.9999999999999999 for 101 of 101), and
+    the plot of the interval's error bars refused the negative length."""
+    for n in range(1, 400):
+        for k in range(n + 1):
+            low, high = wilson_interval(k, n)
+            assert 0.0 <= low <= k / n <= high <= 1.0, (k, n, low, high)
+        assert wilson_interval(n, n)[1] == 1.0 and wilson_interval(0, n)[0] == 0.0
+
+
 def test_impossible_counts_are_refused():
     for call in (lambda: wilson_interval(3, 2), lambda: wilson_interval(0, 0),
                  lambda: newcombe_difference_interval(1, 0, 0, 5), lambda: boschloo_p(6, 5, 0, 5),

@@ -129,6 +129,24 @@ def test_claims_block_of_a_finished_sweep_says_all_runs_judged(tmp_path, capsys)
     assert "undecided at 2 seeds.\n" in block
 
 
+def test_claims_block_with_its_claim_rows_complete_and_other_cells_running_says_so(tmp_path, capsys):
+    """The sweep runs the claim cells first: once they are at their planned seeds the claim rows are final, while a
+    cell outside the block (2 s here) still has fewer runs; the block says which is which."""
+    from fic_teleop_experiments.tables import RESULTS_CLAIM_CELLS
+    rows = [_row(cell, law, seed, seed != 1 or law == "linear", hand=hand) for cell, _ in RESULTS_CLAIM_CELLS
+            for law in ("fic", "linear") for hand in ("passive", "reactive") for seed in (1, 2)]
+    rows += [_row("delay_2__rate_10", "fic", 1, True)]
+    path = tmp_path / "claims_statistics.json"
+    path.write_text(json.dumps(claims_statistics(rows, seeds_planned=2)))
+    assert main(["--block", str(path)]) == 0
+    block = capsys.readouterr().out
+    assert block.startswith(f"The claim rows are complete (2 seeds or more a law, cell and hand); {len(rows)} runs of "
+                            "the claim sweep judged so far, its other cells (the open-loop controls, 2 s and the delay "
+                            "sweep's extra delays) still running. ")
+    assert block.count("| 1/2 (") == 6   # the FIC's share in each claim row: seed 1 unstable
+    assert "0 reproduced, 0 not reproduced, 6 undecided at the seeds of each row.\n" in block
+
+
 def test_tables_say_how_many_runs_were_too_short_to_judge():
     from fic_teleop_experiments.tables import claims_markdown
     rows = [_row("c", "fic", 1, None), _row("c", "fic", 2, True)]
