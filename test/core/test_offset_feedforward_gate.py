@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 from config_values import config_values
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fic_core.desired_pose import DesiredPose, DesiredPoseParameters
@@ -37,6 +37,9 @@ def test_an_unusable_reading_is_taken_as_contact(reading):
     assert gate.update(10.9, 0.0, one_way_delay=0.2)
 
 
+# No deadline (a loaded machine once took 388 ms for an example that takes 0.02 ms), derandomized as the suite's
+# other properties are.
+@settings(max_examples=100, deadline=None, derandomize=True)
 @given(st.lists(st.tuples(st.floats(0.0, 5.0), st.floats(0.0, 3.0)), min_size=1, max_size=40),
        st.floats(0.0, 2.0), st.floats(0.0, 1.0))
 def test_the_gate_is_open_exactly_when_no_contact_came_within_the_wait(steps, delay, settle):
