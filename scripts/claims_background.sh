@@ -11,25 +11,9 @@ set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 COMMIT="$(git -C "$REPO" rev-parse "${1:-HEAD}")"
 [[ $# -gt 0 ]] && shift
-SNAPSHOT="$REPO/runs/claims_snapshot_${COMMIT:0:12}"
-if [[ ! -f "$SNAPSHOT/COMMIT" ]]; then
-  mkdir -p "$SNAPSHOT"
-  git -C "$REPO" archive "$COMMIT" | tar -x -C "$SNAPSHOT"
-  echo "$COMMIT" > "$SNAPSHOT/COMMIT"
-fi
-# shellcheck source=/dev/null
-source "$REPO/scripts/env.sh"
-# The snapshot is the workspace the sweep reads: its config/ and its COMMIT (fic_teleop_runtime.workspace).
-export FIC_TELEOP_ROOT="$SNAPSHOT"
-export PYTHONPATH="$SNAPSHOT/sim_bridge:$SNAPSHOT/fic_core${PYTHONPATH:+:$PYTHONPATH}"
-# The pure-Python packages a newer commit split out of sim_bridge, from the snapshot too where it has them.
-for package in fic_teleop_tools fic_teleop_runtime fic_teleop_bringup fic_teleop_experiments; do
-  if [[ -d "$SNAPSHOT/$package/$package" ]]; then export PYTHONPATH="$SNAPSHOT/$package:$PYTHONPATH"; fi
-done
+# shellcheck source=scripts/claims_snapshot.sh
+source "$REPO/scripts/claims_snapshot.sh"
 mkdir -p "$REPO/results"
-if [[ -f "$SNAPSHOT/scripts/claims_sweep.py" ]]; then sweep=("$SNAPSHOT/scripts/claims_sweep.py")
-elif [[ -f "$SNAPSHOT/sim_bridge/sim_bridge/experiments/claims_sweep.py" ]]; then sweep=(-m sim_bridge.experiments.claims_sweep)
-else sweep=(-m fic_teleop_experiments.claims_sweep); fi
 # Under autogroup scheduling (Linux's default on desktops and many servers) a nice value only orders threads within
 # one session: a setsid'd job still takes a full share against every other session. A CPU cgroup with a low weight
 # is what makes it background; as root, this script joins one (cgroup v1 cpu.shares, or v2 cpu.weight) before it

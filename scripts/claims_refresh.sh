@@ -11,21 +11,18 @@ set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 COMMIT="$(git -C "$REPO" rev-parse "${1:-claims-tail-v3}")"
 NAME="${2:-claims_tail_v3}"
-SNAPSHOT="$REPO/runs/claims_snapshot_${COMMIT:0:12}"
-[[ -f "$SNAPSHOT/COMMIT" ]] || { echo "no snapshot of $COMMIT: scripts/claims_background.sh makes it" >&2; exit 2; }
-# shellcheck source=/dev/null
-source "$REPO/scripts/env.sh"
+[[ -f "$REPO/runs/claims_snapshot_${COMMIT:0:12}/COMMIT" ]] || {
+  echo "no snapshot of $COMMIT: scripts/claims_background.sh makes it when the sweep starts" >&2; exit 2; }
 cd "$REPO"
 (
-  export FIC_TELEOP_ROOT="$SNAPSHOT"
-  export PYTHONPATH="$SNAPSHOT/sim_bridge:$SNAPSHOT/fic_core${PYTHONPATH:+:$PYTHONPATH}"
-  for package in fic_teleop_tools fic_teleop_runtime fic_teleop_bringup fic_teleop_experiments; do
-    if [[ -d "$SNAPSHOT/$package/$package" ]]; then export PYTHONPATH="$SNAPSHOT/$package:$PYTHONPATH"; fi
-  done
-  nice -n 10 python -m fic_teleop_experiments.claims_sweep --no-progress --judge --workers 1 \
+  # shellcheck source=scripts/claims_snapshot.sh
+  source "$REPO/scripts/claims_snapshot.sh"
+  nice -n 10 python "${sweep[@]}" --no-progress --judge --workers 1 \
     --out-dir "$REPO/results/${NAME}_runs" --jsonl "$REPO/results/${NAME}_runs.jsonl" \
     --summary "$REPO/results/$NAME.json" --reuse-verdicts "$REPO/results/$NAME.json"
 )
+# shellcheck source=/dev/null
+source "$REPO/scripts/env.sh"
 python -m fic_teleop_experiments.tail_start "results/$NAME.json" --series "results/${NAME}_runs" \
   --out "results/${NAME}_tail_start.json"
 python -m fic_teleop_experiments.claims_report "results/$NAME.json" --update-results docs/RESULTS.md
