@@ -66,7 +66,7 @@ class NodeSampler(threading.Thread):
         self._halt = threading.Event()
 
     @staticmethod
-    def _process_name(process: psutil.Process) -> str | None:
+    def process_name(process: psutil.Process) -> str | None:
         try:
             command = process.cmdline()
         except (psutil.NoSuchProcess, psutil.AccessDenied):
@@ -94,7 +94,7 @@ class NodeSampler(threading.Thread):
                 break
             now = time.monotonic()
             for child in [root, *children]:
-                name = LAUNCHER_PROCESS if child is root else self._process_name(child)
+                name = LAUNCHER_PROCESS if child is root else self.process_name(child)
                 if name is None:
                     continue
                 try:

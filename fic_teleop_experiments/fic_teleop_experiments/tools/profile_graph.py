@@ -156,7 +156,7 @@ def node_processes(launcher_pid: int) -> dict[str, int]:
 
     processes = {}
     for child in psutil.Process(launcher_pid).children(recursive=True):
-        name = NodeSampler._process_name(child)
+        name = NodeSampler.process_name(child)
         if name and name != "report" and "launcher" not in name and name != "link capture":
             processes[name] = child.pid
     return processes
