@@ -18,6 +18,9 @@
 Every figure depends on the machine's load (a 2-core VM shared with other work): the load average is written next
 to them.
 
+--versus NAME=DIR[:ARGS] ... instead runs whole main jobs of several checkouts or launcher options in turn, --runs
+rounds (bench_versus.py; results/bench_versus.json): the way to compare A and B on a VM whose speed drifts.
+
 --stress LEVELS (e.g. 150,100,70,50: % of one CPU) instead runs the starvation harness
 (fic_teleop_experiments/tools/stress.py): per level, --runs single-host runs and --two-stations-runs two-station runs of
 the default main job under a cgroup CPU quota at that level (the whole graph, or --stress-node alone; optional pinned
@@ -132,14 +135,15 @@ def machine_shares(before, after) -> dict:
             for name in fields} if total > 0 else {}
 
 
-def run_sampled(command: list[str], log_path: Path, while_running=None) -> tuple[int, float, dict]:
-    """Run ``command`` with its processes sampled (NodeSampler); ``while_running(pid)`` runs on a thread beside it.
+def run_sampled(command: list[str], log_path: Path, while_running=None, cwd: Path = REPO) -> tuple[int, float, dict]:
+    """Run ``command`` (from ``cwd``) with its processes sampled (NodeSampler); ``while_running(pid)`` runs on a
+    thread beside it.
     The table gains "main job", the whole process tree's CPU (every descendant's user + system time as the kernel
     counts it when they are reaped: the setup check, the launcher, the nodes, the report)."""
     start = time.monotonic()
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     with open(log_path, "w", encoding="utf-8") as log:
-        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=REPO,
+        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=cwd,
                                    env=dict(os.environ, PYTHONUNBUFFERED="1"))
         sampler = NodeSampler(process.pid)
         sampler.start()
@@ -333,10 +337,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--period-us", type=int, default=None, help="--stress: the quota's CFS period [us]")
     parser.add_argument("--graph-lock", type=Path, default=None,
                         help="--stress: flock this file around each run (e.g. /tmp/fic_graph.lock)")
+    parser.add_argument("--versus", nargs="+", default=None, metavar="NAME=DIR[:ARGS]",
+                        help="whole main jobs of these checkouts or launcher options, --runs rounds taken in turn "
+                             "(bench_versus.py; DIR . is this checkout); results/bench_versus.json unless --out")
     parser.add_argument("--stop-at", default=None, metavar="HH:MM",
                         help="--stress: start no run at or after this local time (a rerun resumes)")
     args = parser.parse_args(argv)
     launcher_args = shlex.split(args.launcher_args)
+    if args.versus is not None:
+        from fic_teleop_experiments.tools import bench_versus
+
+        try:
+            arms = [bench_versus.parse_arm(text, REPO) for text in args.versus]
+        except argparse.ArgumentTypeError as exc:
+            parser.error(str(exc))
+        out = args.out if args.out != parser.get_default("out") else REPO / "results" / "bench_versus.json"
+        runs_dir = args.runs_dir or REPO / "runs" / f"bench-versus-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+        return bench_versus.versus(arms, args.runs, runs_dir, out)
     if args.stress is not None:
         out = args.out if args.out != parser.get_default("out") else REPO / "results" / "stress.json"
         if args.markdown:
