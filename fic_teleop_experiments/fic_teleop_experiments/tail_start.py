@@ -13,8 +13,8 @@ SETTLE_AFTER_LAST_COMMAND_S`` seconds of the tail, while the commands sent befor
 the one-way delay) and the arm settles after the last of them. Contact that begins later belongs to the free
 response and does not count.
 
-    python -m fic_teleop_experiments.tail_start results/claims_tail.json --series results/claims_tail_runs \\
-        --out results/claims_tail_start.json
+    python -m fic_teleop_experiments.tail_start results/claims_tail_v3.json --series results/claims_tail_v3_runs \\
+        --out results/claims_tail_v3_tail_start.json
 """
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def classify_runs(judged: Path, series_folder: Path, earlier: dict[str, dict] | 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Whether each claim run's quiet tail begins on the fixed obstacle")
-    parser.add_argument("judged", type=Path, help="the judged sweep (results/claims_tail.json)")
+    parser.add_argument("judged", type=Path, help="the judged sweep (results/claims_tail_v3.json)")
     parser.add_argument("--series", type=Path, required=True, help="the sweep's series folder")
     parser.add_argument("--out", type=Path, required=True,
                         help="the JSON written: run key -> classification (an existing one is kept for the runs whose "

@@ -162,8 +162,9 @@ def delay_sweep(hand: str) -> str:
         f" and {claim_share('delay_2__rate_full', hand)['k']}"
 
 
-# -- the claim sweep on the low-rate command path (results/claims_tail_statistics.json, still growing) -------------
-TAIL = "claims_tail_statistics.json"
+# -- the claim sweep on the low-rate command path, on the fixed code (claims-tail-v3) --------------------------------
+TAIL_V3 = "claims_tail_v3.json"   # the judged runs (pooled series, the tail carried past a late touch)
+TAIL = "claims_tail_v3_statistics.json"   # their statistics per cell, law and hand
 
 
 def planned_claim_runs() -> int:
@@ -173,31 +174,31 @@ def planned_claim_runs() -> int:
     return len(claim_runs())
 
 
-TAIL_V3 = "claims_tail_v3.json"   # the sweep on the fixed code (pooled series, the tail carried past a late touch)
-
-
 def stable_runs(summary: str) -> int:
     """The runs of a judged sweep (claims_sweep --judge) whose verdict is stable."""
     return sum(bool((row.get("verdict") or {}).get("stable")) for row in result(summary)["runs"])
 
 
-TAIL_V2 = "claims_tail_v2_statistics.json"   # the sweep again (the verdict's growth test on the tail), growing
+def claim_cells(delay: float) -> list[dict]:
+    """The cells at ``delay`` with force feedback (every rate and hand; the open-loop controls left out)."""
+    return [c for c in result(TAIL)["cells"] if c["delay"] == delay and "feedback_off" not in c["cell"]]
 
 
-def tail_stable(delay: float, laws: tuple[str, ...] = ("fic", *BASELINES), source: str = TAIL) -> tuple[int, int]:
-    """(stable, judged) over every cell at ``delay`` (both rates, both hands) and ``laws``, in ``source``."""
-    shares = [c["laws"][law]["stable"] for c in result(source)["cells"] if c["delay"] == delay for law in laws
-              if law in c["laws"]]
+def tail_stable(delay: float, laws: tuple[str, ...] = ("fic", *BASELINES)) -> tuple[int, int]:
+    """(stable, judged) over the claim cells at ``delay`` and ``laws``."""
+    shares = [c["laws"][law]["stable"] for c in claim_cells(delay) for law in laws if law in c["laws"]]
     return sum(s["k"] for s in shares), sum(s["n"] for s in shares)
 
 
 def tail_error_range(laws: tuple[str, ...]) -> str:
-    """The range of the cells' median RMS tracking error [mm] over ``laws``, as RESULTS.md writes it."""
-    values = [c["laws"][law]["error_rms_median"] * 1e3 for c in result(TAIL)["cells"] for law in laws]
+    """The range of the median RMS tracking error [mm] of the claim cells at 1 s or less over ``laws``, as RESULTS.md
+    writes it."""
+    values = [c["laws"][law]["error_rms_median"] * 1e3 for delay in sorted({c["delay"] for c in result(TAIL)["cells"]})
+              if delay <= 1.0 for c in claim_cells(delay) for law in laws]
     return f"{min(values):.1f}-{max(values):.1f}"
 
 
-def tail_start_stable(where: str, law: str, delay: float = 1.0, sweep: str = "claims_tail") -> str:
+def tail_start_stable(where: str, law: str, delay: float = 1.0, sweep: str = "claims_tail_v3") -> str:
     """"k of n" stable at ``delay`` for ``law`` over the runs whose quiet tail begins ``where`` ("off" or "on" the
     fixed obstacle; results/<sweep>_<where>_obstacle_statistics.json, fic_teleop_experiments.tail_start)."""
     shares = [c["laws"][law]["stable"] for c in result(f"{sweep}_{where}_obstacle_statistics.json")["cells"]
@@ -292,43 +293,33 @@ FIGURES = [
            lambda: dict(interpolate=link_hold_gains("interpolate"), extrapolate=link_hold_gains("extrapolate"),
                         stable=str(sum(bool(r["stable"]) for r in result("link_hold_designs.json")["runs"])),
                         runs=str(len(result("link_hold_designs.json")["runs"])))),
-    Figure("claims on the new path: runs so far", "RESULTS",
-           r"judged by the free response \| (?P<judged>[\d,]+) of (?P<planned>[\d,]+) \(",
+    Figure("claims on the fixed code: runs judged", "RESULTS",
+           r"judged by the free response \| (?P<judged>[\d,]+) of (?P<planned>[\d,]+);",
            lambda: dict(judged=f"{result(TAIL)['runs_judged']:,}",
                         planned=f"{planned_claim_runs():,}")),
-    Figure("claims again: runs so far and stable at 0, 0.2 and 1 s", "RESULTS",
-           r"the claim sweep again \(claims-tail-v2\): runs so far \| (?P<judged>[\d,]+) of (?P<planned>[\d,]+); "
-           r"stable at zero delay (?P<zero>\d+ of \d+), at 0\.2 s (?P<short>\d+ of \d+), at 1 s the FIC "
-           r"(?P<fic>\d+ of \d+), the baselines (?P<baselines>\d+ of \d+)",
-           lambda: dict(judged=f"{result(TAIL_V2)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
-                        zero="{} of {}".format(*tail_stable(0.0, source=TAIL_V2)),
-                        short="{} of {}".format(*tail_stable(0.2, source=TAIL_V2)),
-                        fic="{} of {}".format(*tail_stable(1.0, ("fic",), source=TAIL_V2)),
-                        baselines="{} of {}".format(*tail_stable(1.0, BASELINES, source=TAIL_V2)))),
     Figure("README: the claim sweep on the fixed code", "README",
            r"running again on the fixed code \(claims-tail-v3\): (?P<judged>[\d,]+) of (?P<planned>[\d,]+) runs judged "
            r"so far, (?P<stable>[\d,]+) stable",
            lambda: dict(judged=f"{result(TAIL_V3)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
                         stable=f"{stable_runs(TAIL_V3):,}")),
-    Figure("claims on the new path: the false-alarm floor", "RESULTS",
+    Figure("claims on the fixed code: the false-alarm floor", "RESULTS",
            r"false-alarm floor at zero delay (?P<zero>\d+ of \d+) stable, every law",
            lambda: dict(zero="{} of {}".format(*tail_stable(0.0)))),
-    Figure("claims on the new path: 0.2 s", "RESULTS",
+    Figure("claims on the fixed code: 0.2 s", "RESULTS",
            r"every law; at 0\.2 s (?P<stable>\d+ of \d+) stable",
            lambda: dict(stable="{} of {}".format(*tail_stable(0.2)))),
-    Figure("claims on the new path: 1 s, by law", "RESULTS",
+    Figure("claims on the fixed code: 1 s, by law", "RESULTS",
            r"the FIC (?P<fic>\d+) of (?P<n>\d+), linear (?P<linear>\d+), linear_bounded (?P<linear_bounded>\d+), "
            r"linear_tdpa (?P<linear_tdpa>\d+), fic_paper_law (?P<fic_paper_law>\d+)",
            lambda: dict(n=str(tail_stable(1.0, ("fic",))[1]),
                         **{law: str(tail_stable(1.0, (law,))[0]) for law in ("fic", *BASELINES)})),
-    *(Figure(f"claims, {version}: 1 s, the tail begun {where} the obstacle", "RESULTS",
-             rf"\| {where} the obstacle, claims-tail-{version}(?: \(so far\))? \| (?P<fic>\d+ of \d+) "
+    *(Figure(f"claims: 1 s, the tail begun {where} the obstacle", "RESULTS",
+             rf"\| {where} the obstacle \| (?P<fic>\d+ of \d+) "
              rf"\| (?P<fic_paper_law>\d+ of \d+) "
              rf"\| (?P<linear>\d+ of \d+) \| (?P<linear_bounded>\d+ of \d+) \| (?P<linear_tdpa>\d+ of \d+) \|",
-             lambda where=where, sweep=sweep: {law: tail_start_stable(where, law, sweep=sweep)
-                                               for law in ("fic", *BASELINES)})
-      for where in ("off", "on") for version, sweep in (("v2", "claims_tail_v2"), ("v3", "claims_tail_v3"))),
-    Figure("claims on the new path: tracking error", "RESULTS",
+             lambda where=where: {law: tail_start_stable(where, law) for law in ("fic", *BASELINES)})
+      for where in ("off", "on")),
+    Figure("claims on the fixed code: tracking error", "RESULTS",
            r"the FIC (?P<fic>[\d.]+-[\d.]+) mm, linear and linear_bounded (?P<linear>[\d.]+-[\d.]+) mm, linear_tdpa "
            r"(?P<tdpa>[\d.]+-[\d.]+) mm",
            lambda: dict(fic=tail_error_range(("fic",)), linear=tail_error_range(("linear", "linear_bounded")),
