@@ -190,6 +190,12 @@ def tail_stable(delay: float, laws: tuple[str, ...] = ("fic", *BASELINES)) -> tu
     return sum(s["k"] for s in shares), sum(s["n"] for s in shares)
 
 
+def control_stable() -> tuple[int, int]:
+    """(stable, judged) over the open-loop control cells (the force feedback off), every law."""
+    shares = [law["stable"] for c in result(TAIL)["cells"] if "feedback_off" in c["cell"] for law in c["laws"].values()]
+    return sum(s["k"] for s in shares), sum(s["n"] for s in shares)
+
+
 def tail_error_range(laws: tuple[str, ...]) -> str:
     """The range of the median RMS tracking error [mm] of the claim cells at 1 s or less over ``laws``, as RESULTS.md
     writes it."""
@@ -199,10 +205,10 @@ def tail_error_range(laws: tuple[str, ...]) -> str:
 
 
 def tail_start_stable(where: str, law: str, delay: float = 1.0, sweep: str = "claims_tail_v3") -> str:
-    """"k of n" stable at ``delay`` for ``law`` over the runs whose quiet tail begins ``where`` ("off" or "on" the
+    """"k of n" stable at ``delay`` for ``law`` over the claim runs whose quiet tail begins ``where`` ("off" or "on" the
     fixed obstacle; results/<sweep>_<where>_obstacle_statistics.json, fic_teleop_experiments.tail_start)."""
     shares = [c["laws"][law]["stable"] for c in result(f"{sweep}_{where}_obstacle_statistics.json")["cells"]
-              if c["delay"] == delay and law in c["laws"]]
+              if c["delay"] == delay and law in c["laws"] and "feedback_off" not in c["cell"]]   # no control
     return f"{sum(s['k'] for s in shares)} of {sum(s['n'] for s in shares)}"
 
 
@@ -298,8 +304,8 @@ FIGURES = [
            lambda: dict(judged=f"{result(TAIL)['runs_judged']:,}",
                         planned=f"{planned_claim_runs():,}")),
     Figure("README: the claim sweep on the fixed code", "README",
-           r"running again on the fixed code \(claims-tail-v3\): (?P<judged>[\d,]+) of (?P<planned>[\d,]+) runs judged "
-           r"so far, (?P<stable>[\d,]+) stable",
+           r"on the fixed code \(claims-tail-v3, complete\): (?P<judged>[\d,]+) of (?P<planned>[\d,]+) runs judged, "
+           r"(?P<stable>[\d,]+) stable",
            lambda: dict(judged=f"{result(TAIL_V3)['runs_judged']:,}", planned=f"{planned_claim_runs():,}",
                         stable=f"{stable_runs(TAIL_V3):,}")),
     Figure("claims on the fixed code: the false-alarm floor", "RESULTS",
@@ -324,6 +330,21 @@ FIGURES = [
            r"(?P<tdpa>[\d.]+-[\d.]+) mm",
            lambda: dict(fic=tail_error_range(("fic",)), linear=tail_error_range(("linear", "linear_bounded")),
                         tdpa=tail_error_range(("linear_tdpa",)))),
+    Figure("claims: the open-loop controls", "RESULTS",
+           r"The open-loop controls \(K_H = 0,\s+1 s and 0\.2 s at 10 Hz, reactive hand\) settle in (?P<share>\d+ of \d+) "
+           r"runs, every law",
+           lambda: dict(share="{} of {}".format(*control_stable()))),
+    Figure("README: the open-loop controls", "README",
+           r"with the force feedback off every law settles, (?P<share>\d+ of \d+)",
+           lambda: dict(share="{} of {}".format(*control_stable()))),
+    Figure("claims beyond the claim cells: 2 s, 0.5 and 1.5 s", "RESULTS",
+           r"at 2 s the FIC (?P<fic>\d+) of (?P<n>\d+)\s+\(fic_paper_law (?P<fic_paper_law>\d+), linear_tdpa "
+           r"(?P<linear_tdpa>\d+), linear (?P<linear>\d+), linear_bounded (?P<linear_bounded>\d+)\); at 0\.5 and 1\.5 s "
+           r"\(full rate\) the FIC (?P<half>\d+ of \d+) and\s+(?P<one_half>\d+ of \d+)",
+           lambda: dict(n=str(tail_stable(2.0, ("fic",))[1]), **{law: str(tail_stable(2.0, (law,))[0])
+                                                                  for law in ("fic", *BASELINES)},
+                        half="{} of {}".format(*tail_stable(0.5, ("fic",))),
+                        one_half="{} of {}".format(*tail_stable(1.5, ("fic",))))),
     Figure("the run verdict on its labelled cases", "RESULTS",
            r"(?P<right>\d+) of (?P<cases>\d+) right; held-out seeds: (?P<false>\d+) of (?P<stable>\d+) false alarms, "
            r"(?P<missed>\d+) of (?P<cycles>\d+) limit cycles missed",
