@@ -331,16 +331,16 @@ FIGURES = [
            lambda: dict(fic=tail_error_range(("fic",)), linear=tail_error_range(("linear", "linear_bounded")),
                         tdpa=tail_error_range(("linear_tdpa",)))),
     Figure("claims: the open-loop controls", "RESULTS",
-           r"The open-loop controls \(K_H = 0,\s+1 s and 0\.2 s at 10 Hz, reactive hand\) settle in (?P<share>\d+ of \d+) "
-           r"runs, every law",
+           r"The open-loop controls \(K_H = 0,\s+1 s and 0\.2 s at 10 Hz, reactive hand\) settle in "
+           r"(?P<share>\d+ of \d+) runs, every law",
            lambda: dict(share="{} of {}".format(*control_stable()))),
     Figure("README: the open-loop controls", "README",
            r"with the force feedback off every law settles, (?P<share>\d+ of \d+)",
            lambda: dict(share="{} of {}".format(*control_stable()))),
     Figure("claims beyond the claim cells: 2 s, 0.5 and 1.5 s", "RESULTS",
            r"at 2 s the FIC (?P<fic>\d+) of (?P<n>\d+)\s+\(fic_paper_law (?P<fic_paper_law>\d+), linear_tdpa "
-           r"(?P<linear_tdpa>\d+), linear (?P<linear>\d+), linear_bounded (?P<linear_bounded>\d+)\); at 0\.5 and 1\.5 s "
-           r"\(full rate\) the FIC (?P<half>\d+ of \d+) and\s+(?P<one_half>\d+ of \d+)",
+           r"(?P<linear_tdpa>\d+), linear (?P<linear>\d+), linear_bounded (?P<linear_bounded>\d+)\); at 0\.5 and "
+           r"1\.5 s \(full rate\) the FIC (?P<half>\d+ of \d+) and\s+(?P<one_half>\d+ of \d+)",
            lambda: dict(n=str(tail_stable(2.0, ("fic",))[1]), **{law: str(tail_stable(2.0, (law,))[0])
                                                                   for law in ("fic", *BASELINES)},
                         half="{} of {}".format(*tail_stable(0.5, ("fic",))),
