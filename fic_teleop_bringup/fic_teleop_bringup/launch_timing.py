@@ -16,9 +16,15 @@ are the run profile's ``timing_bounds`` (fic_teleop_bringup/profiles/realtime.ya
   /clock at or after the script's start to the last /clock it saw, `SimulatedWindow`), and the bag's part of it is
   read on the same clock, from the bag's own /clock stamps (`recorded_in_window`). Not the bag's whole span: the
   recorder starts with the graph, before the start margin, so a 6 s run's bag spans about 10 s of simulated time;
-- the replica's own loop (its "replica loop health" record on /diagnostics): no hold, i.e. no control tick on a
-  state older, or after a gap longer, than the replica's bounds (loop_max_state_age, loop_max_tick_gap). Its largest
-  state age and tick gap are reported with it. A bag without the record: the figure is unknown, not a pass.
+- the replica's own loop (its "replica loop health" record on /diagnostics): no hold in the run's window, i.e. no
+  control tick on a state older, or after a gap longer, than the replica's bounds (loop_max_state_age,
+  loop_max_tick_gap) once the operator's script has started. Its largest state age and tick gap are reported with
+  it, and every hold is counted. A hold before the window (`holds_before_window`: the holds of the last record the
+  bag received before the window's first /clock) came while the other processes were still starting, with the arm
+  at rest and held before the operator's start: it touches none of the run's figures, which are all judged in the
+  window (2026-12-07: every hold that made a quiet run exit 6 came 64-340 ms after the replica's first joint
+  state). It is named, not a reason. A bag without the record: the figure is unknown, not a pass; without a record
+  before the window every hold counts as in it.
 
 A realtime run with none of these figures (no bag streams to measure them) is not shown to have kept real time,
 and gets the starved code too.
@@ -110,9 +116,11 @@ class Timing:
         if f.get("recorded_s") is not None:
             lines.append(f"the bag holds {f['recorded_s']:.1f} s of the run's {f['simulated_s']:.1f} s simulated "
                          f"(bound >= {bounds.recorded_fraction:.0%})")
-        lines.append(f"replica loop: {_show(f.get('loop_holds'), 'd')} holds, state age max "
-                     f"{_show(f.get('max_state_age_ms'), '.1f')} ms, tick gap max "
-                     f"{_show(f.get('max_tick_gap_ms'), '.1f')} ms (bound: no hold)"
+        before = f.get("loop_holds_before_window") or 0
+        lines.append(f"replica loop: {_show(f.get('loop_holds'), 'd')} holds"
+                     + (f" ({before} before the operator's start, the arm at rest)" if before else "")
+                     + f", state age max {_show(f.get('max_state_age_ms'), '.1f')} ms, tick gap max "
+                     f"{_show(f.get('max_tick_gap_ms'), '.1f')} ms (bound: no hold in the run's window)"
                      if f.get("loop_holds") is not None else
                      "replica loop: no loop-health record in the bag (state age not known)")
         if f.get("killed_at_stop"):
@@ -136,10 +144,11 @@ def _show(value, spec: str) -> str:
 
 def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[str, str] | None,
                    bounds: TimingBounds, realtime: bool = True, recorded_s: float | None = None,
-                   simulated_s: float | None = None) -> Timing:
+                   simulated_s: float | None = None, holds_before: int = 0) -> Timing:
     """The verdict from the report's metrics.json, the loop rates, the replica's last loop-health record and the
     bag's share of the run (``recorded_s`` of the ``simulated_s`` the launcher counted, `recorded_in_window`),
-    against the run profile's ``bounds``."""
+    against the run profile's ``bounds``; ``holds_before``: the replica's holds before the run's window
+    (`holds_before_window`)."""
     if not realtime:
         return Timing(judged=False)
     timing = Timing(judged=True, bounds=bounds)
@@ -165,12 +174,14 @@ def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[st
             timing.reasons.append(f"loops below {bounds.loop_rate_fraction:.0%} of their rate: {', '.join(slow)}")
     if health and LOOP_HEALTH_KEY in health:
         holds = int(health[LOOP_HEALTH_KEY])
-        timing.figures.update(loop_holds=holds, held_ticks=_integer(health.get("held_ticks")),
+        before = min(max(holds_before, 0), holds)
+        timing.figures.update(loop_holds=holds, loop_holds_before_window=before,
+                              held_ticks=_integer(health.get("held_ticks")),
                               max_state_age_ms=_float(health.get("max_state_age_ms")),
                               max_tick_gap_ms=_float(health.get("max_tick_gap_ms")))
-        if holds:
-            timing.reasons.append(f"the replica held the arm {holds} times on its own loop's bounds (the last: "
-                                  f"{health.get('last_hold_reason', 'not recorded')})")
+        if holds > before:
+            timing.reasons.append(f"the replica held the arm {holds - before} times in the run's window on its own "
+                                  f"loop's bounds (the last: {health.get('last_hold_reason', 'not recorded')})")
     if not timing.measured:
         # Nothing to show the run kept real time: a recorder starved before it wrote the replica's streams, or a
         # replica that never ticked. Measured: such runs under a 50 % CPU quota exited 0 before this line.
@@ -200,6 +211,20 @@ def _integer(text: str | None) -> int | None:
     return int(value) if value is not None else None
 
 
+def holds_before_window(scanned: RunBag, window: SimulatedWindow) -> int:
+    """The replica's holds before ``window``: those of the last "replica loop health" record the bag received before
+    the window's first /clock (0 without one: every hold then counts as in the window)."""
+    stamps, times = np.asarray(scanned.clock_stamps), np.asarray(scanned.clock_receive_times)
+    inside = np.flatnonzero(stamps >= window.start_s) if len(stamps) == len(times) else np.empty(0, dtype=int)
+    if not len(inside):
+        return 0
+    opened = int(times[inside[0]])
+    before = [values for received, values in scanned.history.get(LOOP_HEALTH_STATUS, []) if received < opened]
+    if not before:
+        return 0
+    return _integer(before[-1].get(LOOP_HEALTH_KEY)) or 0
+
+
 def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBounds, realtime: bool,
               window: SimulatedWindow | None = None, killed_at_stop: list[str] | None = None,
               scanned: "RunBag | None" = None) -> Timing:
@@ -211,6 +236,7 @@ def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBoun
     rates: dict[str, dict] = {}
     health = None
     recorded_s = None
+    holds_before = 0
     if realtime and bag.exists():
         from fic_teleop_tools.report.loop_rates import loop_rates
         try:
@@ -222,8 +248,9 @@ def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBoun
             health = scanned.diagnostics.get(LOOP_HEALTH_STATUS)
             if window is not None and window.length_s > 0:
                 recorded_s = recorded_in_window(scanned.clock_stamps, window)
+                holds_before = holds_before_window(scanned, window)
     timing = timing_verdict(metrics, rates, health, bounds, realtime, recorded_s,
-                            window.length_s if window is not None else None)
+                            window.length_s if window is not None else None, holds_before)
     if killed_at_stop and timing.judged:
         timing.figures["killed_at_stop"] = list(killed_at_stop)
     (run_dir / "timing.json").write_text(json.dumps(asdict(timing), indent=2) + "\n")

@@ -23,13 +23,16 @@ DIAGNOSTICS_TOPIC = "/diagnostics"
 class RunBag:
     """One pass over a bag (``scan``). ``receive_times``: topic -> the recorder's receive times [ns] of the topics
     asked for; ``span``: the first and last receive time of any message (None: an empty bag); ``clock_stamps``: the
-    simulation times [s] of /clock; ``diagnostics``: status name -> the key-values of its last record that holds the
-    key asked for (as launch_supervision.diagnostics_records gives them); ``error``: why the read stopped early, if
-    it did (a torn bag is read up to its last whole chunk)."""
+    simulation times [s] of /clock, and ``clock_receive_times`` their receive times [ns]; ``diagnostics``: status
+    name -> the key-values of its last record that holds the key asked for (as launch_supervision.diagnostics_records
+    gives them), and ``history`` every such record with its receive time [ns], in the bag's order; ``error``: why the
+    read stopped early, if it did (a torn bag is read up to its last whole chunk)."""
     receive_times: dict[str, list[int]] = field(default_factory=dict)
     span: tuple[int, int] | None = None
     clock_stamps: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    clock_receive_times: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     diagnostics: dict[str, dict[str, str]] = field(default_factory=dict)
+    history: dict[str, list[tuple[int, dict[str, str]]]] = field(default_factory=dict)
     error: str = ""
 
 
@@ -52,6 +55,7 @@ def scan(bag: Path, topics: set[str], statuses: dict[str, str]) -> RunBag:
     result, run = ReadResult(), RunBag()
     times: dict[str, list[int]] = {topic: [] for topic in topics}
     clock: list[float] = []
+    clock_times: list[int] = []
     first = last = None
     factory, decode = DecoderFactory(), None
     for schema, channel, message in read_messages(bag, result):
@@ -64,24 +68,28 @@ def scan(bag: Path, topics: set[str], statuses: dict[str, str]) -> RunBag:
             times[topic].append(log_time)
         if topic == CLOCK_TOPIC:
             clock.append(_clock_seconds(message.data))
+            clock_times.append(log_time)
         elif topic == DIAGNOSTICS_TOPIC and schema is not None:
             decode = decode or factory.decoder_for(channel.message_encoding, schema)
-            _last_records([decode(message.data)], statuses, run.diagnostics)
+            _records([(log_time, decode(message.data))], statuses, run)
     run.receive_times = {topic: stamps for topic, stamps in times.items() if stamps}
     run.span = (first, last) if first is not None else None
     run.clock_stamps = np.array(clock)
+    run.clock_receive_times = np.array(clock_times, dtype=np.int64)
     run.error = result.stopped_by
     return run
 
 
-def _last_records(decoded_messages, statuses: dict[str, str], diagnostics: dict[str, dict[str, str]]) -> None:
-    """Keep in ``diagnostics`` the last record of each status of ``statuses`` that holds its key."""
-    for message in decoded_messages:
+def _records(timed_messages, statuses: dict[str, str], run: RunBag) -> None:
+    """Each record of a status of ``statuses`` that holds its key, from (receive time, decoded /diagnostics) pairs:
+    into ``run.history`` with its time, and the last into ``run.diagnostics``."""
+    for log_time, message in timed_messages:
         for status in message.status:
             if status.name in statuses:
                 values = {item.key: item.value for item in status.values}
                 if statuses[status.name] in values:
-                    diagnostics[status.name] = values
+                    run.diagnostics[status.name] = values
+                    run.history.setdefault(status.name, []).append((int(log_time), values))
 
 
 def _from_indexes(indexed, topics: set[str], statuses: dict[str, str]) -> RunBag:
@@ -93,7 +101,8 @@ def _from_indexes(indexed, topics: set[str], statuses: dict[str, str]) -> RunBag
                          if len(indexed.receive_times.get(topic, ()))}
     spans = [(times.min(), times.max()) for times in indexed.receive_times.values() if len(times)]
     run.span = (int(min(low for low, _ in spans)), int(max(high for _, high in spans))) if spans else None
-    run.clock_stamps = np.array([_clock_seconds(data) for _, data in indexed.payloads.get(CLOCK_TOPIC, [])])
-    diagnostics = indexed.decoded(DIAGNOSTICS_TOPIC, DecoderFactory()) or []
-    _last_records((message for _, message in diagnostics), statuses, run.diagnostics)
+    clock = indexed.payloads.get(CLOCK_TOPIC, [])
+    run.clock_stamps = np.array([_clock_seconds(data) for _, data in clock])
+    run.clock_receive_times = np.array([log_time for log_time, _ in clock], dtype=np.int64)
+    _records(indexed.decoded(DIAGNOSTICS_TOPIC, DecoderFactory()) or [], statuses, run)
     return run

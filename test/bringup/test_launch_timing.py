@@ -63,7 +63,8 @@ def test_each_figure_out_of_its_bound_starves_the_run_and_is_named() -> None:
     held = verdict(QUIET, rates(replica_control=0.99), {**HEALTHY, "holds": "2",
                                                                 "last_hold_reason": "state 61.0 ms old"})
     assert held.starved and held.figures["loop_holds"] == 2
-    assert held.reasons == ["the replica held the arm 2 times on its own loop's bounds (the last: state 61.0 ms old)"]
+    assert held.reasons == ["the replica held the arm 2 times in the run's window on its own loop's bounds (the "
+                            "last: state 61.0 ms old)"]
     assert held.lines()[-1].startswith("STARVED: the machine did not keep real time")
 
 
@@ -210,3 +211,46 @@ def test_one_pass_gives_what_each_verdict_read_on_its_own(tmp_path: Path) -> Non
     assert len(scanned.clock_stamps) == 1000 and scanned.clock_stamps[-1] == 9.99
     assert loop_rates(bag, receive_times=(scanned.receive_times, scanned.span)) == loop_rates(bag)
     assert abs(loop_rates(bag)["replica control"]["achieved_hz"] - 90.0) < 1.0
+
+
+def test_a_hold_before_the_operators_start_is_named_but_does_not_starve_the_run(tmp_path: Path) -> None:
+    """Every hold that made a quiet run exit 6 on 2026-12-07 came 64-340 ms after the replica's first joint state,
+    before the operator's start, while the other processes were still starting: the arm at rest and held, no figure
+    of the run touched. Judged like every other timing figure, over the run's window: named, not a reason. A hold
+    inside the window still starves the run, and a bag with no record before the window counts every hold in it."""
+    from builtin_interfaces.msg import Time
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
+
+    from fic_teleop_tools.recording.bag_writer import BagWriter
+
+    def bag(folder: Path, holds_by_second: dict[int, str]) -> Path:
+        writer = BagWriter(folder / "bag")
+        writer.add_topic("/clock", "rosgraph_msgs/msg/Clock")
+        writer.add_topic("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray")
+        for k in range(1000):                          # 10 s of /clock at 100 Hz, received from 1 s on
+            log = 1_000_000_000 + k * 10_000_000
+            writer.write("/clock", serialize_message(Clock(clock=Time(sec=k // 100, nanosec=(k % 100) * 10_000_000))),
+                         log)
+            if k % 100 == 50 and k // 100 in holds_by_second:   # the 1 Hz loop-health record, half a second later
+                values = {**HEALTHY, "holds": holds_by_second[k // 100], "last_hold_reason": "ticks 57.6 ms apart"}
+                writer.write("/diagnostics", serialize_message(DiagnosticArray(status=[DiagnosticStatus(
+                    name=LOOP_HEALTH_STATUS, values=[KeyValue(key=key, value=v) for key, v in values.items()])])), log)
+        writer.finish()
+        return folder / "bag"
+
+    window = SimulatedWindow(3.8, 9.9)     # the operator's script from 3.8 s of simulated time
+    for name, holds, starved, before in (("start-up", {0: "1", 1: "1", 5: "1", 9: "1"}, False, 1),
+                                         ("in the window", {0: "0", 1: "0", 5: "1", 9: "1"}, True, 0),
+                                         ("both", {0: "1", 5: "2", 9: "2"}, True, 1),
+                                         ("no early record", {5: "1", 9: "1"}, True, 0)):
+        folder = tmp_path / name.replace(" ", "_")
+        folder.mkdir()
+        timing = judge_run(folder, bag(folder, holds), QUIET, BOUNDS, realtime=True, window=window)
+        assert timing.starved is starved, (name, timing.reasons)
+        assert timing.figures["loop_holds_before_window"] == before, name
+        line = next(text for text in timing.lines() if text.startswith("replica loop:"))
+        assert ("before the operator's start" in line) is bool(before), (name, line)
+        if starved:
+            assert "in the run's window" in timing.reasons[-1], (name, timing.reasons)
