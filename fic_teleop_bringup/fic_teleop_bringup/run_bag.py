@@ -23,17 +23,20 @@ DIAGNOSTICS_TOPIC = "/diagnostics"
 class RunBag:
     """One pass over a bag (``scan``). ``receive_times``: topic -> the recorder's receive times [ns] of the topics
     asked for; ``span``: the first and last receive time of any message (None: an empty bag); ``clock_stamps``: the
-    simulation times [s] of /clock, and ``clock_receive_times`` their receive times [ns]; ``diagnostics``: status
-    name -> the key-values of its last record that holds the key asked for (as launch_supervision.diagnostics_records
-    gives them), and ``history`` every such record with its receive time [ns], in the bag's order; ``error``: why the
-    read stopped early, if it did (a torn bag is read up to its last whole chunk)."""
+    simulation times [s] of /clock, and ``clock_receive_times`` their receive times [ns]; ``history``: status name ->
+    every record of it that holds the key asked for, as key-values with its receive time [ns], in the bag's order;
+    ``error``: why the read stopped early, if it did (a torn bag is read up to its last whole chunk)."""
     receive_times: dict[str, list[int]] = field(default_factory=dict)
     span: tuple[int, int] | None = None
     clock_stamps: np.ndarray = field(default_factory=lambda: np.zeros(0))
     clock_receive_times: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    diagnostics: dict[str, dict[str, str]] = field(default_factory=dict)
     history: dict[str, list[tuple[int, dict[str, str]]]] = field(default_factory=dict)
     error: str = ""
+
+    @property
+    def diagnostics(self) -> dict[str, dict[str, str]]:
+        """Status name -> the key-values of its last record (as launch_supervision.diagnostics_records gives them)."""
+        return {name: records[-1][1] for name, records in self.history.items()}
 
 
 def _clock_seconds(cdr: bytes) -> float:
@@ -81,14 +84,13 @@ def scan(bag: Path, topics: set[str], statuses: dict[str, str]) -> RunBag:
 
 
 def _records(timed_messages, statuses: dict[str, str], run: RunBag) -> None:
-    """Each record of a status of ``statuses`` that holds its key, from (receive time, decoded /diagnostics) pairs:
-    into ``run.history`` with its time, and the last into ``run.diagnostics``."""
+    """Each record of a status of ``statuses`` that holds its key, from (receive time, decoded /diagnostics) pairs,
+    into ``run.history`` with its time."""
     for log_time, message in timed_messages:
         for status in message.status:
             if status.name in statuses:
                 values = {item.key: item.value for item in status.values}
                 if statuses[status.name] in values:
-                    run.diagnostics[status.name] = values
                     run.history.setdefault(status.name, []).append((int(log_time), values))
 
 

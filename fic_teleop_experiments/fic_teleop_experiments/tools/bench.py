@@ -260,16 +260,19 @@ TARGETS = {
 }
 
 
-def default_run(run_dir: Path, log_path: Path, launcher_args: list[str] = ()) -> dict:
+def default_run(run_dir: Path, log_path: Path, launcher_args: list[str] = (), checkout: Path = REPO,
+                census: bool = True) -> dict:
     """One default main job (module docstring, 2.) with the loop rates of its bag; ``launcher_args`` for an A/B
-    (e.g. --group)."""
+    (e.g. --group); ``checkout``: whose scripts/run_teleop.sh, started from there (bench_versus.py); ``census``: take
+    the graph census while it runs (the messages a second of each process)."""
     from fic_teleop_tools.report.loop_rates import loop_rates
 
     # No --domain-id: the launcher reserves one no other run or test holds (fic_teleop_bringup.launch_isolation).
-    command = [str(REPO / "scripts" / "run_teleop.sh"), "--out", str(run_dir), *launcher_args]
+    command = [str(checkout / "scripts" / "run_teleop.sh"), "--out", str(run_dir), *launcher_args]
     cpu_before, load_before = psutil.cpu_times(), list(os.getloadavg())
     census_path = log_path.with_suffix(".census.json")
-    code, wall, nodes = run_sampled(command, log_path, census_when_up(run_dir, census_path))
+    code, wall, nodes = run_sampled(command, log_path, census_when_up(run_dir, census_path) if census else None,
+                                    cwd=checkout)
     machine = machine_shares(cpu_before, psutil.cpu_times())
     metrics_path = run_dir / "report" / "metrics.json"
     metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else {}

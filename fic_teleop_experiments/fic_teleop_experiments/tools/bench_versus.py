@@ -13,8 +13,6 @@ readers, so every arm is measured alike) the latency p99, the free-motion error,
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import shlex
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from fic_teleop_experiments.runner import write_json
+from fic_teleop_experiments.tools.bench import MAIN_JOB, default_run
 
 
 @dataclass(frozen=True)
@@ -44,25 +43,19 @@ def parse_arm(text: str, here: Path) -> Arm:
 
 
 def one_run(arm: Arm, run_dir: Path, log_path: Path) -> dict:
-    """One main job of ``arm`` with bench's sampling (run_sampled) and its figures."""
-    from fic_teleop_experiments.tools.bench import MAIN_JOB, run_sampled
-    from fic_teleop_tools.report.loop_rates import loop_rates
-
-    command = [str(arm.checkout / "scripts" / "run_teleop.sh"), "--no-video", "--out", str(run_dir),
-               *arm.launcher_args]
-    load = os.getloadavg()[0]
-    code, wall, nodes = run_sampled(command, log_path, cwd=arm.checkout)
-    metrics_path = run_dir / "report" / "metrics.json"
-    metrics = json.loads(metrics_path.read_text()) if metrics_path.exists() else {}
-    rates = loop_rates(run_dir / "bag", run_dir) if (run_dir / "bag").exists() else {}
-    known = {name: row["fraction"] for name, row in rates.items() if row["fraction"] is not None}
+    """One main job of ``arm`` (bench.default_run from the arm's checkout, without the graph census) and its line's
+    figures."""
+    run = default_run(run_dir, log_path, ["--no-video", *arm.launcher_args], checkout=arm.checkout, census=False)
+    metrics = run["metrics"]
+    known = {name: row["fraction"] for name, row in run["loop_rates"].items() if row["fraction"] is not None}
     slowest = min(known, key=known.get) if known else None
-    return {"arm": arm.name, "exit_code": code, "cpu_s": nodes[MAIN_JOB]["cpu_s"], "wall_s": round(wall, 1),
-            "load_average_before": round(load, 2), "pipeline_latency_p99_ms": metrics.get("pipeline_latency_p99_ms"),
+    return {"arm": arm.name, "exit_code": run["exit_code"], "cpu_s": run["nodes"][MAIN_JOB]["cpu_s"],
+            "wall_s": run["wall_s"], "load_average_before": round(run["load_average_before"][0], 2),
+            "pipeline_latency_p99_ms": run["pipeline_latency_p99_ms"],
             "free_motion_error_max_mm": _millimetres(metrics.get("free_motion_error_max_m")),
             "free_motion_error_rms_mm": _millimetres(metrics.get("free_motion_error_rms_m")),
             "slowest_loop": slowest, "slowest_loop_fraction": known.get(slowest), "run_dir": str(run_dir),
-            "nodes": nodes}
+            "nodes": run["nodes"]}
 
 
 def _millimetres(metres: float | None) -> float | None:
