@@ -141,27 +141,6 @@ def bench_range(name: str) -> tuple[float, float]:
     low, _, high = result("bench.json")["default_summary"]["min_median_max"][name]
     return low, high
 
-def claim_share(cell_id: str, hand: str, law: str = "fic", verdict: str = "stable") -> dict:
-    """A law's stable (or safe) share {k, n, interval_95} on a claim cell (results/claims_statistics.json)."""
-    return next(c for c in result("claims_statistics.json")["cells"]
-                if c["cell"] == cell_id and c.get("hand") == hand)["laws"][law][verdict]
-
-
-SWEEP_DELAYS = ("0", "0.2", "0.5", "1", "1.5", "2")
-
-
-def safe_range(laws: tuple[str, ...]) -> tuple[int, int]:
-    """(least, most) SAFE runs of ``laws`` at 1.5 and 2 s, full rate, either hand."""
-    counts = [claim_share(f"delay_{d}__rate_full", hand, law, "safe")["k"] for d in ("1.5", "2")
-              for hand in ("passive", "reactive") for law in laws]
-    return min(counts), max(counts)
-
-
-def delay_sweep(hand: str) -> str:
-    return ", ".join(str(claim_share(f"delay_{d}__rate_full", hand)["k"]) for d in SWEEP_DELAYS[:-1]) + \
-        f" and {claim_share('delay_2__rate_full', hand)['k']}"
-
-
 # -- the claim sweep on the low-rate command path, on the fixed code (claims-tail-v3) --------------------------------
 TAIL_V3 = "claims_tail_v3.json"   # the judged runs (pooled series, the tail carried past a late touch)
 TAIL = "claims_tail_v3_statistics.json"   # their statistics per cell, law and hand
@@ -354,15 +333,6 @@ FIGURES = [
                         stable=str(result("verdict_validation.json")["held_out"]["stable_runs"]),
                         missed=str(len(result("verdict_validation.json")["held_out"]["missed"])),
                         cycles=str(result("verdict_validation.json")["held_out"]["limit_cycle_runs"]))),
-    # -- RESULTS.md: the claim sweep on the earlier command path -----------------------------------------------------
-    Figure("claims: the delay sweep at full rate, both hands", "RESULTS",
-           r"passive hand (?P<passive>[\d, ]+ and \d+); reactive hand (?P<reactive>[\d, ]+ and \d+) \|",
-           lambda: dict(passive=delay_sweep("passive"), reactive=delay_sweep("reactive"))),
-    Figure("claims: SAFE beyond 1 s at full rate", "RESULTS",
-           r"the FIC (?P<fic_low>\d+)-(?P<fic_high>\d+) of 20 at 1\.5-2 s, the baselines "
-           r"(?P<base_low>\d+)-(?P<base_high>\d+) \|",
-           lambda: dict(zip(("fic_low", "fic_high"), map(str, safe_range(("fic",)))),
-                        **dict(zip(("base_low", "base_high"), map(str, safe_range(BASELINES)))))),
     # -- RESULTS.md: shape sorting -----------------------------------------------------------------------------------
     Figure("E2 graph, the replica's default law at 200 ms: trials complete and their interval", "RESULTS",
            r"the FIC completes (?P<complete>\d+) of (?P<trials>\d+) graph trials "
@@ -460,11 +430,10 @@ def test_claims_block_is_generated_from_the_statistics():
     assert CLAIMS_BEGIN not in (REPO / "README.md").read_text(), "the claims block lives in docs/RESULTS.md"
 
 
-@pytest.mark.parametrize("statistics, summary", [("claims_statistics.json", "claims.json"),
-                                                   ("claims_tail_v3_statistics.json", "claims_tail_v3.json")])
+@pytest.mark.parametrize("statistics, summary", [("claims_tail_v3_statistics.json", "claims_tail_v3.json")])
 def test_claims_statistics_are_those_of_the_judged_sweep(statistics: str, summary: str):
-    """Each sweep's statistics recomputed from its judged runs (every run with both verdicts): the earlier sweep's
-    (results/claims.json) and the one on the fixed code, whose statistics are written again with each judge pass."""
+    """The sweep's statistics recomputed from its judged runs (every run with both verdicts), written again with
+    each judge pass."""
     from fic_teleop_experiments.claims_report import claims_statistics, read_runs
 
     written = result(statistics)
