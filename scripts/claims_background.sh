@@ -1,9 +1,8 @@
 #!/usr/bin/env bash
 # The claim sweep in the background, on a frozen copy of one commit (docs/EXPERIMENTS.md "Claims"):
 #   scripts/claims_background.sh [COMMIT] [claims_sweep options...]     (COMMIT: default HEAD)
-# exports COMMIT's tree (git archive) to runs/claims_snapshot_<commit>/ and runs its claim sweep there (the module
-# fic_teleop_experiments.claims_sweep; an older commit has it as sim_bridge.experiments.claims_sweep, and one from
-# before that had a command line keeps it in scripts/claims_sweep.py),
+# exports COMMIT's tree (git archive) to runs/claims_snapshot_<commit>/ and runs its claim sweep there
+# (fic_teleop_experiments/claims_snapshot.py finds it in each era's layout),
 # under nice -n 15, detached from the terminal (setsid nohup), logging to results/claims_runs.log, with its series
 # and run lines in this checkout's results/claims_runs/ and results/claims_runs.jsonl. The code and the config are the
 # commit's even while the checkout changes; every run line names that commit. Run it again (same COMMIT) to resume.
@@ -11,8 +10,8 @@ set -euo pipefail
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 COMMIT="$(git -C "$REPO" rev-parse "${1:-HEAD}")"
 [[ $# -gt 0 ]] && shift
-# shellcheck source=scripts/claims_snapshot.sh
-source "$REPO/scripts/claims_snapshot.sh"
+# shellcheck source=/dev/null
+source "$REPO/scripts/env.sh"
 mkdir -p "$REPO/results"
 # Under autogroup scheduling (Linux's default on desktops and many servers) a nice value only orders threads within
 # one session: a setsid'd job still takes a full share against every other session. A CPU cgroup with a low weight
@@ -32,7 +31,7 @@ join_background_cgroup() {
   echo "claim sweep: no writable CPU cgroup (not root?): it runs under nice alone and competes with other sessions" >&2
 }
 join_background_cgroup "$$" || true
-setsid nohup nice -n 15 python "${sweep[@]}" --no-progress \
+setsid nohup nice -n 15 python -m fic_teleop_experiments.claims_snapshot "$COMMIT" --no-progress \
   --out-dir "$REPO/results/claims_runs" --jsonl "$REPO/results/claims_runs.jsonl" "$@" \
   >> "$REPO/results/claims_runs.log" 2>&1 < /dev/null &
 echo "claim sweep started: pid $!, commit $COMMIT, log $REPO/results/claims_runs.log"
