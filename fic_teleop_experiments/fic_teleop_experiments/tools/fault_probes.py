@@ -18,10 +18,12 @@ import sys
 import time
 
 SPOOF_FRAME = "fault_probe"  # header.frame_id of every probe message, so a test can tell them from the robot's
+ACK_TIMEOUT_S = 10.0         # how long a probe waits for its victim to acknowledge what it sent
 
 
 def _publish_for(node, publisher, make_message, seconds: float, rate: float) -> int:
     import rclpy
+    from rclpy.duration import Duration
 
     # Wait until the victim has matched us (discovery), so the probe's duration is spent being heard.
     deadline = time.monotonic() + 10.0
@@ -35,6 +37,12 @@ def _publish_for(node, publisher, make_message, seconds: float, rate: float) -> 
         sent += 1
         next_time += 1.0 / rate
         time.sleep(max(0.0, next_time - time.monotonic()))
+    # Our writer matching the victim's reader does not mean the reader has matched us: discovery runs each way on
+    # its own, and a victim whose discovery thread is busy (opening our shared-memory port took a third of a second,
+    # docs/RESULTS.md, "Start-up stall") matches later. A probe that left before then was never heard at all (seen
+    # in CI: no line in the replica's log). Stay until the reader has acknowledged what we sent.
+    if not publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT_S)):
+        print(f"[probe] the reader did not acknowledge every message within {ACK_TIMEOUT_S:g} s", file=sys.stderr)
     return sent
 
 
