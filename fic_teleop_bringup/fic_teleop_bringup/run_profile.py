@@ -10,8 +10,9 @@ A run's profile is built from layers, each a YAML file naming only what it chang
 A layer's ``options`` turn launcher options on, so ``--profile lockstep`` is ``--time-mode lockstep`` and a file of
 one's own with ``options: {time_mode: lockstep, paper_law: true}`` takes both layers and then its own values. Maps
 merge key by key (``parameters``, ``niceness``, ``timing_bounds``, ``stations`` and each station in it); lists and
-numbers replace. A key no layer of the schema knows is refused in one line naming the nearest known one; so is a node
-name no graph has, and a value out of its range (a timing bound outside (0, 1], an address that is not IPv4).
+numbers replace, and so does ``cpu_placement`` (one layout of the processes on the cores, whole or not at all). A key
+no layer of the schema knows is refused in one line naming the nearest known one; so is a node name no graph has,
+and a value out of its range (a timing bound outside (0, 1], an address that is not IPv4, a negative CPU index).
 
 Two sections are more than a map of values: ``timing_bounds`` (realtime.yaml), the bounds of the launcher's "the
 machine was starved" verdict (launch_timing.py), and ``stations`` (two_stations.yaml), the two-station layout: which
@@ -48,6 +49,7 @@ KEYS: dict[str, type | tuple[type, ...]] = {
     "node_groups": list,
     "niceness": dict,
     "fifo_priorities": dict,
+    "cpu_placement": dict,
     "parameters": dict,
     "parameters_in_lockstep": dict,
     "timing_bounds": dict,
@@ -117,13 +119,15 @@ def read_layer(path: Path) -> dict[str, Any]:
     time_mode = layer.get("options", {}).get("time_mode")
     if time_mode is not None and time_mode not in TIME_MODES:
         raise _unknown(f"{where} options time_mode", time_mode, TIME_MODES, "time mode")
-    for key in ("niceness", "fifo_priorities", "parameters", "parameters_in_lockstep"):
+    for key in ("niceness", "fifo_priorities", "cpu_placement", "parameters", "parameters_in_lockstep"):
         for node, value in layer.get(key, {}).items():
             if node not in NODES:
                 raise _unknown(f"{where} {key}", node, NODES, "node")
             wanted = dict if key.startswith("parameters") else int
             if not isinstance(value, wanted) or isinstance(value, bool):
                 raise ProfileError(f"{where} {key} {node}: {wanted.__name__} needed, got {value!r}")
+            if key == "cpu_placement" and value < 0:
+                raise ProfileError(f"{where} {key} {node}: a CPU index >= 0 needed, got {value!r}")
     for group in layer.get("node_groups", []):
         if not isinstance(group, list) or not all(isinstance(name, str) for name in group):
             raise ProfileError(f"{where} node_groups: each group is a list of node names, got {group!r}")

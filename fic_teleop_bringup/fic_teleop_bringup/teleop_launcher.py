@@ -24,6 +24,7 @@ from datetime import datetime
 from pathlib import Path
 
 from fic_teleop_bringup import (
+    cpu_placement,
     dds_transport,
     demonstrations,
     hardware_twin,
@@ -85,6 +86,7 @@ class NodeSpec:
     foreground: bool = False  # the interactive keyboard operator owns the terminal
     niceness: int | None = None  # negative: ahead of the recorder (the profile's niceness); None: unchanged
     fifo_priority: int | None = None  # SCHED_FIFO priority of its loop threads (realtime_scheduling.py); None: none
+    cpu: int | None = None  # the CPU its process runs on (cpu_placement.py); None: the scheduler's choice
     extra_params_files: list[str] = field(default_factory=list)  # after params_file (a driver profile, config/profiles)
     remaps: dict[str, str] = field(default_factory=dict)         # topic remaps (a driver profile's remaps.yaml)
     members: list["NodeSpec"] = field(default_factory=list)      # --group: the nodes sharing this process
@@ -302,7 +304,9 @@ class Graph:
             command = node_command(spec, write_node_params(params_dir, spec.name, spec.params))
         # Every node gets SIGTERM if the launcher dies, however it dies (launch_supervision.py); our own executables
         # start with the stop signals blocked until their handlers are in (a `ros2 run` wrapper would not unblock).
-        preexec = die_with_launcher(os.getpid(), then=_prioritised(spec.niceness),
+        preexec = die_with_launcher(os.getpid(),
+                                    then=cpu_placement.chained(_prioritised(spec.niceness),
+                                                               cpu_placement.pinned(spec.cpu)),
                                     block_stop_signals=command[0] != "ros2")
         if self.wrap is not None:
             command = self.wrap(spec.name, command)
@@ -567,6 +571,9 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                              "lower pipeline latency but on 2 cores the recorder can lose joint states "
                              "(fic_teleop_bringup/realtime_scheduling.py); default: every node as the shell starts it")
     parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
+    parser.add_argument("--cpu-placement", choices=cpu_placement.PLACEMENTS, default="profile",
+                        help="profile (default): each node process on the CPU the run profile's cpu_placement names "
+                             "(fic_teleop_bringup/cpu_placement.py says why); none: the scheduler places every node")
     two_stations.add_arguments(parser)
     hardware_twin.add_arguments(parser)
     demonstrations.add_arguments(parser)
@@ -700,6 +707,13 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"[run] node groups (one process each): {'; '.join(', '.join(g) for g in groups)}"
                       + ("" if args.group else " (the default; --isolated: one process per node)"))
                 _add_to_run_record(run_dir, "node_groups", groups)
+            cpus = cpu_placement.usable_cpus()
+            placement = args.run_profile.get("cpu_placement", {}) if args.cpu_placement == "profile" else {}
+            placed = cpu_placement.assign(placement, specs, cpus)
+            for spec in specs:
+                spec.cpu = placed.get(spec.name)
+            print(f"[run] {cpu_placement.describe(placed, cpus, args.cpu_placement)}")
+            _add_to_run_record(run_dir, "cpu_placement", placed)
         except ArgumentRefusal as refusal:   # a node name this graph does not have: nothing started yet
             print(f"[run] refused: {refusal}", file=sys.stderr)
             return EXIT_REFUSED

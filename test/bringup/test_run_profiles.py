@@ -105,6 +105,9 @@ def test_a_profile_of_ones_own_selects_layers_by_its_options_and_comes_last(tmp_
     ({"stations": {"prefix_length": 40}}, "stations prefix_length: 8-30 needed"),
     ({"stations": {"namespace_prefix": "Lab-"}}, "stations namespace_prefix: 1-32 characters"),
     ({"stations": {"link_streams": ["master/teleop_command"]}}, "stations link_streams: a topic name"),
+    ({"cpu_placement": {"replicа": 0}}, "did you mean 'replica'?"),
+    ({"cpu_placement": {"replica": -1}}, "cpu_placement replica: a CPU index >= 0 needed"),
+    ({"cpu_placement": {"replica": "0"}}, "cpu_placement replica: int needed"),
 ])
 def test_a_misspelt_or_mistyped_profile_is_refused_in_one_line(tmp_path, capsys, content, words) -> None:
     path = tmp_path / "bad.yaml"

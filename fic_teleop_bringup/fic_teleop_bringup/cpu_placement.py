@@ -1,0 +1,83 @@
+"""Which CPU each node process runs on: the run profile's ``cpu_placement`` (docs/ARCHITECTURE.md, "Bringup").
+
+On this machine kind (2 cores) the graph's processes wake each other thousands of times a second, and the scheduler
+moves them between the cores as they wake: each move starts the process on a core whose caches hold another's work.
+Measured (docs/RESULTS.md, "Graph levers"): the same code costs about 3x as much CPU a tick in the running graph as
+in process (the replica's law 328 against 116 us), and placing the processes on fixed cores cut the main job's CPU by
+6-7 % with a lower latency p99 and every loop nearer its rate. The placement splits the two loops that close through
+the robot: the replica (with its planner and the forward channel, which feed it) on one core, the robot's physics
+(with the haptic device and the master, whose 250 Hz loops pace themselves, and the recorder) on the other. The
+replica and the robot on one core shared it by turns and tracked worse (error max 40-42 against 34-36 mm).
+
+A placement names a node and an index into the CPUs the launcher itself may use (its affinity, so a cgroup's cpuset
+or a ``taskset`` around the launcher is kept): index i is the i-th of them, modulo their number. A node group runs on
+its first member's CPU. A node the profile does not name, and every node on a machine with one usable CPU, is left to
+the scheduler. ``--cpu-placement none`` leaves every node to it. Threads a process starts later (Fast DDS's, the
+robot's physics thread) inherit its CPU. Like ros2_control's ``cpu_affinity`` of its controller manager, this is
+placement only: it does not change a thread's priority (the profile's niceness does).
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable, Mapping
+
+PLACEMENTS = ("profile", "none")
+
+
+def usable_cpus() -> list[int]:
+    """The CPUs this process may run on, in order."""
+    return sorted(os.sched_getaffinity(0))
+
+
+def assign(placement: Mapping[str, int], specs: Iterable, cpus: list[int]) -> dict[str, int]:
+    """Process name -> CPU for the graph's ``specs`` (a group by its first named member); empty with fewer than
+    two usable CPUs (nothing to spread) or no placement."""
+    if len(cpus) < 2 or not placement:
+        return {}
+    assigned = {}
+    for spec in specs:
+        names = [member.name for member in spec.members] or [spec.name]
+        index = next((placement[name] for name in names if name in placement), None)
+        if index is not None:
+            assigned[spec.name] = cpus[index % len(cpus)]
+    return assigned
+
+
+def pinned(cpu: int | None) -> Callable[[], None] | None:
+    """A preexec step that runs the process on ``cpu`` (refused, e.g. by a cpuset that lost the CPU: left as it
+    is, and the launcher's line still says what it asked)."""
+    if cpu is None:
+        return None
+
+    def apply() -> None:
+        try:
+            os.sched_setaffinity(0, {cpu})
+        except OSError:
+            pass
+    return apply
+
+
+def describe(assigned: Mapping[str, int], cpus: list[int], chosen: str) -> str:
+    """One line for the run's output: which processes run on which CPU, or why none is placed."""
+    if chosen == "none":
+        return "CPU placement: none (--cpu-placement none): the scheduler places every node"
+    if not assigned:
+        return f"CPU placement: none ({len(cpus)} usable CPU{'s' if len(cpus) != 1 else ''} or no placement in the " \
+               "profile): the scheduler places every node"
+    by_cpu: dict[int, list[str]] = {}
+    for name, cpu in assigned.items():
+        by_cpu.setdefault(cpu, []).append(name)
+    return "CPU placement: " + "; ".join(f"CPU {cpu}: {', '.join(names)}" for cpu, names in sorted(by_cpu.items())) \
+        + " (--cpu-placement none: the scheduler's)"
+
+
+def chained(*steps: Callable[[], None] | None) -> Callable[[], None] | None:
+    """The preexec steps that are given, in order, as one (None if none is)."""
+    given = [step for step in steps if step is not None]
+    if not given:
+        return None
+
+    def apply() -> None:
+        for step in given:
+            step()
+    return apply
