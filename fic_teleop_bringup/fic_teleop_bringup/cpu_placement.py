@@ -1,13 +1,14 @@
 """Which CPU each node process runs on: the run profile's ``cpu_placement`` (docs/ARCHITECTURE.md, "Bringup").
 
-On this machine kind (2 cores) the graph's processes wake each other thousands of times a second, and the scheduler
-moves them between the cores as they wake: each move starts the process on a core whose caches hold another's work.
-Measured (docs/RESULTS.md, "Graph levers"): the same code costs about 3x as much CPU a tick in the running graph as
-in process (the replica's law 328 against 116 us), and placing the processes on fixed cores cut the main job's CPU by
-6-7 % with a lower latency p99 and every loop nearer its rate. The placement splits the two loops that close through
-the robot: the replica (with its planner and the forward channel, which feed it) on one core, the robot's physics
-(with the haptic device and the master, whose 250 Hz loops pace themselves, and the recorder) on the other. The
-replica and the robot on one core shared it by turns and tracked worse (error max 40-42 against 34-36 mm).
+On this machine kind (2 cores) the graph's processes wake each other thousands of times a second, and left to the
+scheduler they move between the cores as they wake, each time onto a core whose caches hold another process's work.
+Measured (docs/RESULTS.md, "Graph levers", 4 alternated rounds): placed on fixed cores, the main job used 48.8-50.5
+CPU-s against 51.2-53.1, with a lower latency p99 (2.4-3.9 against 3.5-4.2 ms); the replica's law cost 316 against
+351 us of CPU a tick (116 us in process: most of the graph's overhead per tick is not the placement's to remove). The
+placement splits the two loops that close through the robot: the replica (with its planner and the forward channel,
+which feed it) on one core, the robot's physics (with the haptic device and the master, whose 250 Hz loops pace
+themselves, and the recorder) on the other. The replica and the robot on one core took turns on it and tracked worse
+(error max 40-42 against 34-36 mm, 3 runs).
 
 A placement names a node and an index into the CPUs the launcher itself may use (its affinity, so a cgroup's cpuset
 or a ``taskset`` around the launcher is kept): index i is the i-th of them, modulo their number. A node group runs on

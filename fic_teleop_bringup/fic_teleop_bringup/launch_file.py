@@ -4,9 +4,9 @@
 For users with ROS 2 Jazzy from apt (launch and launch_ros are not wheels, so it cannot run here): the same
 nodes, names, config files and per-run values as `scripts/run_teleop.sh` with no arguments, in realtime. The
 operator script's and the circle's start on the wall clock are computed when the file is launched, as the
-launcher does. What the launcher adds beyond the graph (niceness, the stop order that lets the recorder finish
-its bag, the report) is not in it: stop with Ctrl-C, then `scripts/report.sh <bag>`. Each node is its own
-process here, as under the launcher's `--isolated` (the launcher's default node groups are its own).
+launcher does. What the launcher adds beyond the graph (niceness, the CPU placement, the stop order that lets the
+recorder finish its bag, the report) is not in it: stop with Ctrl-C, then `scripts/report.sh <bag>`. Each node is
+its own process here, as under the launcher's `--isolated` (the launcher's default node groups are its own).
 test/bringup/test_launch_file.py regenerates it and compares.
 
 usage: python -m fic_teleop_bringup.launch_file [--check]
