@@ -571,9 +571,11 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
                              "lower pipeline latency but on 2 cores the recorder can lose joint states "
                              "(fic_teleop_bringup/realtime_scheduling.py); default: every node as the shell starts it")
     parser.add_argument("--no-priority", action="store_true", help="the same as --scheduling default")
-    parser.add_argument("--cpu-placement", choices=cpu_placement.PLACEMENTS, default="profile",
-                        help="profile (default): each node process on the CPU the run profile's cpu_placement names "
-                             "(fic_teleop_bringup/cpu_placement.py says why); none: the scheduler places every node")
+    parser.add_argument("--cpu-placement", choices=cpu_placement.PLACEMENTS, default="none",
+                        help="none (default): the scheduler places every node; profile: each node process on the CPU "
+                             "the run profile's cpu_placement names, about 5 %% less CPU on 2 cores but longer "
+                             "control tick gaps when a new participant joins the graph "
+                             "(fic_teleop_bringup/cpu_placement.py)")
     two_stations.add_arguments(parser)
     hardware_twin.add_arguments(parser)
     demonstrations.add_arguments(parser)

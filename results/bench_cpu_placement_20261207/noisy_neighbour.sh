@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Noisy neighbour: a 3 s busy loop (its own session, niceness 0, placed by the scheduler) at +10 s and +20 s after the launcher wrote run.json
-cd /work/main && source scripts/env.sh
+cd "$(dirname "$0")/../.." && source scripts/env.sh
 for r in $(seq 1 $1); do
   for arm in profile none; do
     out=/tmp/noisy/$arm-$r; rm -rf $out; mkdir -p /tmp/noisy

@@ -44,9 +44,18 @@ def test_a_group_takes_its_first_named_members_cpu_and_an_unnamed_node_is_left_t
 
 def test_the_line_says_where_each_process_runs_or_why_none_is_placed() -> None:
     line = cpu_placement.describe({"replica": 0, "robot": 1, "planner": 0}, [0, 1], "profile")
-    assert line == "CPU placement: CPU 0: replica, planner; CPU 1: robot (--cpu-placement none: the scheduler's)"
+    assert line == "CPU placement: CPU 0: replica, planner; CPU 1: robot (--cpu-placement profile)"
     assert "1 usable CPU or no placement" in cpu_placement.describe({}, [0], "profile")
-    assert "--cpu-placement none" in cpu_placement.describe({}, [0, 1], "none")
+    assert cpu_placement.describe({}, [0, 1], "none").startswith("CPU placement: the scheduler's")
+
+
+def test_the_scheduler_places_the_nodes_unless_the_placement_is_asked_for() -> None:
+    """Opt-in: a new participant's discovery work on pinned cores made the replica's ticks come further apart
+    (cpu_placement.py)."""
+    from fic_teleop_bringup import teleop_launcher
+
+    assert teleop_launcher.parse_arguments([]).cpu_placement == "none"
+    assert teleop_launcher.parse_arguments(["--cpu-placement", "profile"]).cpu_placement == "profile"
 
 
 def test_the_realtime_profile_splits_the_replica_and_the_robot_and_lockstep_places_nothing() -> None:
