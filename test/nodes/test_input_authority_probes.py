@@ -22,6 +22,8 @@ pytestmark = pytest.mark.nodes
 
 PROBES = ["-m", "fic_teleop_experiments.tools.fault_probes"]
 POSE_RATE_HZ = config_values("robot.yaml")["object_pose_rate_hz"]
+RESUME_SPEED = config_values("replica.yaml")["resume_speed"]   # [m/s] a jump of x_d' is given back at this speed
+OFFSET_BOX = config_values("replica.yaml")["offset_workspace"]   # [m] x_d' clamped to +-this per axis about the start
 
 
 class Watcher:
@@ -214,10 +216,14 @@ def test_a_huge_offset_is_clamped_to_the_workspace_and_approached_at_the_bounded
     torques = np.array(watcher.torques[-200:])
     assert np.all(np.isfinite(torques)), "a non-finite torque"
     moved = watcher.displacement_since(start)
-    print(f"[probe] the TCP moved {moved * 1000:.1f} mm")
-    # 0.3 s of commands at 1 m/s and a 5 cm burst: x_d' moved at most 0.35 m toward the box corner, never 1e308
-    assert moved < 0.4, f"the TCP moved {moved:.3f} m"
     samples = [(t, p) for t, p in watcher.tcp if t >= start]
+    watched = samples[-1][0] - start
+    print(f"[probe] the TCP moved {moved * 1000:.1f} mm in the {watched:.1f} s watched")
+    # The replica had no command before the probe's (the master stale): its first is only clamped, onto the box
+    # corner, and DesiredPose gives that jump back at resume_speed, so the arm heads for the corner at that speed for
+    # as long as it is watched (the probe stays until its commands are acknowledged, 0-3 s), never toward 1e308.
+    assert moved <= RESUME_SPEED * watched + 0.05, f"the TCP moved {moved:.3f} m in {watched:.1f} s"
+    assert moved <= np.linalg.norm([OFFSET_BOX, OFFSET_BOX]) + 0.05, f"the TCP left the workspace box: {moved:.3f} m"
     speeds = [np.linalg.norm(b[1] - a[1]) / (b[0] - a[0]) for a, b in zip(samples[::10], samples[10::10])
               if b[0] - a[0] > 0.02]
     print(f"[probe] TCP speed at most {max(speeds):.2f} m/s")
