@@ -9,6 +9,8 @@ back by the launcher's exit code). The input authority's parameters are fic_core
 """
 from __future__ import annotations
 
+import threading
+
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 
@@ -31,9 +33,10 @@ def _node_name(info) -> str:
 class InputGuard:
     """The graph's writers of ``station``'s guarded streams, on ``node`` (module docstring)."""
 
-    def __init__(self, node: Node, station: ReplicaStation, on_hold) -> None:
+    def __init__(self, node: Node, station: ReplicaStation, on_hold, lock: threading.RLock) -> None:
         self._node = node
         self._station = station
+        self._lock = lock   # the node's: the station is also stepped from the robot's thread (in_process_link.py)
         self._on_hold = on_hold  # called once, when the safe hold latches (the node publishes diagnostics)
         # The names after the node's remaps (a driver profile renames /joint_states): count the writers there,
         # name them as the station knows them.
@@ -58,6 +61,10 @@ class InputGuard:
         return SubscriptionEventCallbacks(matched=lambda status: self._on_writers(resolved, status))
 
     def _on_writers(self, resolved: str, status) -> None:
+        with self._lock:
+            self._on_writers_locked(resolved, status)
+
+    def _on_writers_locked(self, resolved: str, status) -> None:
         if status.current_count <= 1 or self._station.held:
             return
         self._check_publishers()  # names the writers if the graph has them already
@@ -69,6 +76,10 @@ class InputGuard:
         return [_node_name(info) for info in self._node.get_publishers_info_by_topic(resolved)]
 
     def _check_publishers(self) -> None:
+        with self._lock:
+            self._check_publishers_locked()
+
+    def _check_publishers_locked(self) -> None:
         if self._station.held:
             self._name_late_writers()
             return

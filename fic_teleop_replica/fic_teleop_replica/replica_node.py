@@ -21,6 +21,9 @@ observer (fic_core.exchanged_energy_ports) at every control tick, on /diagnostic
 """
 from __future__ import annotations
 
+import functools
+import threading
+
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
@@ -38,10 +41,11 @@ from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 from fic_teleop_replica import messages
 from fic_teleop_replica.input_guard import InputGuard
-from fic_teleop_replica.schema import SCHEMA
+from fic_teleop_replica.schema import ROBOT_IN_PROCESS, SCHEMA
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.geometry import set_xyz, xyz, xyzw
+from fic_teleop_runtime.in_process_link import LINK
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import RefusalLog, log_notices
 from fic_teleop_runtime.parameters import declare
@@ -51,16 +55,31 @@ from fic_teleop_runtime.stamps import nanoseconds, seconds
 NODE_NAME = "replica"
 
 
+def _locked(method):
+    """``method`` under the node's lock: with the robot in this process the control step runs in its physics
+    thread, every other callback in the executor's."""
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+    return locked
+
+
 class ReplicaNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__(NODE_NAME, **node_options)
         values = declare(self, SCHEMA)  # every row with its config/replica.yaml value; unknown keys refused
+        self._robot_in_process = bool(values.pop(ROBOT_IN_PROCESS.name))
         self._station = ReplicaStation(ReplicaParameters.from_values(values))   # FicInputError if bad
+        # With the robot in this process its physics thread runs the control step (in_process_link.py), while the
+        # executor thread takes the set-points: one lock keeps the station's state whole between them.
+        self._lock = threading.RLock()
         self._loop = self._station.loop
         self._driver = self._station.driver
         self._wrench: WrenchStamped | None = None  # F_R as last received
         self._refusals = RefusalLog(self.get_logger())
-        self._input_guard = InputGuard(self, self._station, on_hold=lambda: self._publish_diagnostics())
+        self._input_guard = InputGuard(self, self._station, on_hold=lambda: self._publish_diagnostics(),
+                                       lock=self._lock)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         # The robot-side QoS (fic_teleop_runtime.qos): the command and the status streams RELIABLE with a deep
         # writer history for the recorder; joint states and F_R the newest only (no backlog of old states for the
@@ -77,10 +96,11 @@ class ReplicaNode(Node):
         guard = self._input_guard   # the guarded streams: a second writer matched is the safe hold at once
         self.create_subscription(Vector3Stamped, "/replica/master_port_energy", self._on_master_port_energy,
                                  qos.STREAM, event_callbacks=guard.stream_events("/replica/master_port_energy"))
-        self.create_subscription(JointState, "/joint_states", self._on_joint_state_bytes, qos.NEWEST, raw=True,
-                                 event_callbacks=guard.stream_events("/joint_states"))
-        self.create_subscription(WrenchStamped, "/ft_sensor/wrench", self._on_wrench, qos.NEWEST,
-                                 event_callbacks=guard.stream_events("/ft_sensor/wrench"))
+        if not self._robot_in_process:  # else the robot's physics thread calls the control step (below)
+            self.create_subscription(JointState, "/joint_states", self._on_joint_state_bytes, qos.NEWEST, raw=True,
+                                     event_callbacks=guard.stream_events("/joint_states"))
+            self.create_subscription(WrenchStamped, "/ft_sensor/wrench", self._on_wrench, qos.NEWEST,
+                                     event_callbacks=guard.stream_events("/ft_sensor/wrench"))
         self.create_subscription(TeleoperationCommand, "/replica/teleop_command", self._on_teleop_command,
                                  qos.SET_POINT)
         self.create_subscription(PoseStamped, "/planner/desired_pose", self._on_planner_pose, qos.SET_POINT,
@@ -94,9 +114,15 @@ class ReplicaNode(Node):
         if self._driver.ramp is not None:
             self.create_timer(0.01, self._check_joint_states, clock=self._steady)
         self.get_logger().info(f"driver: {self._driver.describe()}")
+        self._detached = False
+        if self._robot_in_process:  # last: the robot's physics thread may call in at once (in_process_link.py)
+            LINK.wrench_reader = self._on_wrench
+            LINK.joint_state_reader = self._on_joint_state
+        source = "the robot in this process" if self._robot_in_process else "/joint_states"
         self.get_logger().info(f"replica ready: controller {p.controller}, control_rate {p.control_rate:g} Hz, "
-                               f"master_timeout {p.master_timeout:g} s; waiting for /joint_states")
+                               f"master_timeout {p.master_timeout:g} s; waiting for {source}")
 
+    @_locked
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         changes = {parameter.name: parameter.value for parameter in parameters}
         old_rate = self._loop.parameters.diagnostics_rate
@@ -117,6 +143,7 @@ class ReplicaNode(Node):
     def _steady_now(self) -> float:
         return self._steady.now().nanoseconds * 1e-9
 
+    @_locked
     def _on_teleop_command(self, message: TeleoperationCommand) -> None:
         station = self._station
         writers = 1 if station.held else self._input_guard.teleop_writers()
@@ -130,12 +157,14 @@ class ReplicaNode(Node):
             return self._refusals.refuse("/replica/teleop_command", exc)
         log_notices(self.get_logger(), notices)
 
+    @_locked
     def _on_master_port_energy(self, message: Vector3Stamped) -> None:
         try:
             self._station.master_port_energy(message.vector.x)  # x: the master port's E_in
         except FicInputError as exc:
             self._refusals.refuse("/replica/master_port_energy", exc)
 
+    @_locked
     def _on_planner_pose(self, message: PoseStamped) -> None:
         try:
             notices = self._station.planner_pose(nanoseconds(message.header.stamp), xyz(message.pose.position),
@@ -144,12 +173,14 @@ class ReplicaNode(Node):
             return self._refusals.refuse("/planner/desired_pose", exc)
         log_notices(self.get_logger(), notices)
 
+    @_locked
     def _on_planner_accel(self, message: AccelStamped) -> None:
         try:
             self._station.planner_acceleration(xyz(message.accel.linear), self._now())
         except FicInputError as exc:
             self._refusals.refuse("/planner/desired_accel", exc)
 
+    @_locked
     def _on_wrench(self, message: WrenchStamped) -> None:
         force, torque, error = self._station.wrench(message.header.frame_id, xyz(message.wrench.force),
                                                     xyz(message.wrench.torque))
@@ -161,20 +192,41 @@ class ReplicaNode(Node):
         self._wrench = message  # F_R: the F/T reading, with the sensor's stamp
 
     # --- the control step ------------------------------------------------------------------------------------
+    @_locked
     def _on_joint_state_bytes(self, data: bytes) -> None:
         """The joint state as CDR bytes: its header stamp tells whether it is needed; the others are counted and
         dropped unconverted (a JointState costs tens of microseconds)."""
         raw_stamp = header_stamp(data)  # None: not plain CDR, the stamp is read from the message instead
         message = deserialize_message(data, JointState) if raw_stamp is None else None
         stamp_s = stamp_seconds(raw_stamp) if raw_stamp is not None else seconds(message.header.stamp)
+        if self._admits(stamp_s):
+            self._control_step(message if message is not None else deserialize_message(data, JointState))
+
+    @_locked
+    def _on_joint_state(self, message: JointState) -> None:
+        """The joint state from the robot in this process (its physics thread; in_process_link.py)."""
+        if not self._detached and self._admits(seconds(message.header.stamp)):
+            self._control_step(message)
+
+    @_locked
+    def detach(self) -> None:
+        """No more control steps from the robot's thread (the node is stopping: its publishers go next)."""
+        self._detached = True
+        if LINK.joint_state_reader == self._on_joint_state:
+            LINK.joint_state_reader = LINK.wrench_reader = None
+
+    def _admits(self, stamp_s: float) -> bool:
+        """Whether a joint state stamped ``stamp_s`` gets a control step: forward, not from the future, not held,
+        on the control grid."""
         station = self._station
         usable, reason = station.admits_joint_state(stamp_s, self._now())  # forward, not from the future
         if reason:
             self._input_guard.hold(reason)
-        if not usable or station.skips(stamp_s):  # held: no torque at all, the robot's own watchdog holds the arm
-            return
-        if message is None:
-            message = deserialize_message(data, JointState)
+        # held: no torque at all, the robot's own watchdog holds the arm
+        return usable and not station.skips(stamp_s)
+
+    def _control_step(self, message: JointState) -> None:
+        station = self._station
         stamp = message.header.stamp
         stamp_ns = nanoseconds(stamp)
         tick, error = station.named_joint_state(stamp_ns * 1e-9, self._now(), message.name, message.position,
@@ -211,18 +263,27 @@ class ReplicaNode(Node):
         if command is not None:
             layout = MultiArrayLayout() if state_stamp_ns is None else MultiArrayLayout(dim=[MultiArrayDimension(
                 label=command_stamp.label(state_stamp_ns), size=command.size, stride=command.size)])
-            self._command_pub.publish(Float64MultiArray(layout=layout, data=command.tolist()))
+            self._send_command(Float64MultiArray(layout=layout, data=command.tolist()))
 
+    def _send_command(self, message: Float64MultiArray) -> None:
+        """To the robot in this process first (in_process_link.py), then on DDS (the robot's input when it runs
+        elsewhere, and the record of every command either way)."""
+        if self._robot_in_process and LINK.command_reader is not None:
+            LINK.command_reader(message)
+        self._command_pub.publish(message)
+
+    @_locked
     def _check_joint_states(self) -> None:
         """No valid joint state for joint_state_timeout: the driver's ramp to the gravity-only hold."""
         command, notices = self._station.ramp(self._steady_now())
         log_notices(self.get_logger(), notices)
         if command is not None:
-            self._command_pub.publish(Float64MultiArray(data=command.tolist()))
+            self._send_command(Float64MultiArray(data=command.tolist()))
 
     def statistics(self) -> dict[str, str]:
         return self._station.statistics()
 
+    @_locked
     def _publish_diagnostics(self) -> None:
         station = self._station
         array = DiagnosticArray(status=[messages.diagnostic_status(self._loop, station.hold_reason, self.statistics()),
@@ -241,6 +302,7 @@ def main(args: list[str] | None = None) -> None:
 def _stopped(node: ReplicaNode) -> None:
     """The final counters once more on /diagnostics (a recorder behind a starved graph still takes them: it stops
     last) and in the log, which the launcher reads when the bag holds none (launch_supervision.py)."""
+    node.detach()
     try:
         node._publish_diagnostics()
     except Exception:  # noqa: BLE001 - the context already gone (an external shutdown): the log line remains

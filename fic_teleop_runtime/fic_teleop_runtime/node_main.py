@@ -32,6 +32,7 @@ from fic_teleop_runtime import stop_signals
 from fic_teleop_runtime.parameters import START_ARGUMENTS
 from fic_teleop_runtime.spin import SLICE, spin_until_shutdown
 
+EXIT_NODE_FAILED = 1  # launch_supervision.py's "a node crashed": a thread it needed died (stop_signals.fail)
 EXIT_REFUSED = 2  # fic_teleop_bringup/launch_supervision.py: EXIT_REFUSED, "refused before anything started"
 #: What a bad start raises: a parameter the node's schema refuses, a value fic_core refuses.
 INPUT_ERRORS: tuple[type[BaseException], ...] = (FicInputError, ParameterException)
@@ -118,3 +119,5 @@ def run_entries(entries: Sequence[NodeEntry], args: Sequence[str] | None = None,
                 entry.stopped(node)
             node.destroy_node()
         rclpy.try_shutdown()
+    if stop_signals.failed():
+        raise SystemExit(EXIT_NODE_FAILED)

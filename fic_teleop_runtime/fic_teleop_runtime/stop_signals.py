@@ -25,7 +25,7 @@ import signal
 import sys
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-_state = {"requested": False, "running": False, "installed": False}
+_state = {"requested": False, "running": False, "installed": False, "failed": False}
 
 
 def _on_signal(signum: int, frame) -> None:  # noqa: ARG001 - signal handler signature
@@ -89,6 +89,16 @@ def running() -> None:
 
 def requested() -> bool:
     return _state["requested"]
+
+
+def fail() -> None:
+    """A thread the node cannot run without has died (it said why): stop as a signal would, then exit 1 (node_main),
+    so that the launcher sees a crash instead of a node that runs on and does nothing."""
+    _state["failed"] = _state["requested"] = True
+
+
+def failed() -> bool:
+    return _state["failed"]
 
 
 def ignore() -> None:

@@ -89,6 +89,41 @@ def test_the_default_groups_are_the_channel_pair_and_the_operators_side_present_
         ["channel_forward", "channel_backward"]]
 
 
+def _robot_and_replica(*groups: str) -> list[NodeSpec]:
+    graph = [*_graph(), NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml")]
+    return node_groups.grouped(graph, node_groups.parse_groups(list(groups)))
+
+
+def test_the_robot_and_the_replica_grouped_in_realtime_are_linked_in_process() -> None:
+    specs = _robot_and_replica("robot,replica", "channel_forward,channel_backward")
+    assert node_groups.link_in_process(specs, realtime=True, simulated_robot=True)
+    members = {member.name: member for member in specs[0].members}
+    assert members["robot"].params == {"controller_in_process": True}
+    assert members["replica"].params == {"robot_in_process": True}
+    assert node_groups.run_groups([], _args(), [*_graph(), members["replica"]])[0] == ["robot", "replica"]
+
+
+@pytest.mark.parametrize("groups, realtime, simulated_robot", [
+    (("robot,replica",), False, True),                 # lockstep: the replica answers each state over DDS
+    (("robot,replica",), True, False),                 # a driver twin speaks DDS as the real driver would
+    (("robot,master", "replica,planner"), True, True),  # not in one process
+])
+def test_the_robot_and_the_replica_are_not_linked_otherwise(groups, realtime, simulated_robot) -> None:
+    graph = [*_graph(), NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml"),
+             NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml")]
+    specs = node_groups.grouped(graph, node_groups.parse_groups(list(groups)))
+    assert not node_groups.link_in_process(specs, realtime=realtime, simulated_robot=simulated_robot)
+    members = [member for spec in specs for member in (spec.members or [spec])]
+    assert not any("controller_in_process" in m.params or "robot_in_process" in m.params for m in members)
+
+
+@pytest.mark.parametrize("given", [{"time_mode": "lockstep"}, {"hardware_twin": True}])
+def test_lockstep_and_the_driver_twins_keep_the_robot_and_the_replica_apart(given) -> None:
+    replica = NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml")
+    groups = node_groups.run_groups([], _args(**given), [*_graph(), replica])
+    assert groups == [["channel_forward", "channel_backward"], ["haptic_device", "master"]]
+
+
 @pytest.mark.parametrize("given", [{"isolated": True}, {"scheduling": "fifo"}])
 def test_isolated_and_fifo_runs_have_no_default_groups(given) -> None:
     assert node_groups.run_groups([], _args(**given), _graph()) == []
@@ -102,6 +137,9 @@ def test_two_stations_group_within_each_station() -> None:
     assert groups == [["haptic_device", "master", "channel_backward"], ["planner", "channel_forward"]]
     layout = StationLayout.from_profile(_args(two_stations=True).run_profile)
     assert [layout.station_of("+".join(group)) for group in groups] == ["master", "robot"]
+    replica = NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml")
+    groups = node_groups.run_groups([], _args(two_stations=True), [*_graph(), planner, replica])
+    assert groups[-1] == ["robot", "replica"] and layout.station_of("robot+replica") == "robot"   # linked there
 
 
 def test_isolated_with_a_group_is_refused() -> None:
@@ -149,7 +187,9 @@ def test_a_default_lockstep_run_is_grouped_and_keeps_its_nodes_logs_and_figures(
                                  env=isolated_env(tmp_path / "ros_log", domain), capture_output=True, text=True,
                                  timeout=600)
     assert_stopped_clean(process.returncode, process.stdout + process.stderr, "the launcher")
-    assert json.loads((out / "run.json").read_text())["node_groups"] == [g.split(",") for g in GROUPS]
+    record = json.loads((out / "run.json").read_text())
+    assert record["node_groups"] == [g.split(",") for g in GROUPS]
+    assert record["robot_replica_in_process"] is False   # lockstep: the replica answers each state over DDS
     logs = {log.name: log.read_text(errors="replace") for log in (out / "logs").glob("*.log")}
     assert {"channel_forward+channel_backward.log", "haptic_device+master.log"} <= set(logs)
     # each member's own log, with its own lines and not its partner's

@@ -3,6 +3,7 @@ one more line once the graph has the name (fic_teleop_replica/input_guard.py), c
 station (the graph run is test/nodes/test_set_point_guard.py)."""
 from __future__ import annotations
 
+import threading
 from types import SimpleNamespace
 
 import pytest
@@ -61,7 +62,7 @@ def _one_guarded_stream(monkeypatch) -> None:
 
 
 def _guard(node: _Node) -> InputGuard:
-    return InputGuard(node, _Station(), on_hold=lambda: None)
+    return InputGuard(node, _Station(), on_hold=lambda: None, lock=threading.RLock())
 
 
 def test_a_writer_unnamed_at_the_hold_is_named_once_discovery_has_it() -> None:

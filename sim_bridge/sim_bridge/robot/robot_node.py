@@ -53,14 +53,15 @@ from geometry_msgs.msg import Pose, PoseArray, PoseStamped, WrenchStamped
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, Float64MultiArray
+from std_msgs.msg import Float64, Float64MultiArray, Header
 
 from fic_core.command_stamp import stamp_ns as command_state_stamp_ns
 from fic_core.errors import FicInputError
 from fic_core.panda_description import ARM_JOINT_NAMES
-from fic_teleop_runtime import qos
+from fic_teleop_runtime import qos, stop_signals
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.driver_topics import FRANKA_CONVENIENCE_QOS, FRANKA_ROS2, ROBOT_INTERFACES, SYSTEM_DEFAULTS_QOS
+from fic_teleop_runtime.in_process_link import LINK
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare
@@ -179,7 +180,15 @@ class RobotNode(Node):
         # command back behind one lost sample until it is repaired. Lockstep: every answer counts, in order.
         command_qos = ROBOT_STREAM_QOS if self._mode == "lockstep" else (
             SYSTEM_DEFAULTS_QOS if self._franka else NEWEST_COMMAND_QOS)
-        self.create_subscription(Float64MultiArray, "/effort_controller/commands", self._on_command, command_qos)
+        self._controller_in_process = p.controller_in_process
+        if self._controller_in_process:  # the replica of this process calls _on_command (in_process_link.py)
+            if self._franka or self._mode != "realtime":
+                raise FicInputError("controller_in_process needs mode realtime and driver_interface sim (lockstep "
+                                    "answers each state over the step clock; a driver twin speaks DDS as the real "
+                                    "driver does)")
+            LINK.command_reader = self._on_command
+        else:
+            self.create_subscription(Float64MultiArray, "/effort_controller/commands", self._on_command, command_qos)
         self._unresolved_peers = list(self._barrier.topics) if self._barrier is not None else []
         self._peer_subscriptions: dict[str, object] = {}   # peer topic -> our raw subscription (executor thread)
         if self._unresolved_peers:  # their types come from the graph, once their publishers are up
@@ -191,8 +200,8 @@ class RobotNode(Node):
                                   else list(ARM_JOINT_NAMES))
         # The watchdog and the state-age rule (on the stamp grid: nanoseconds), the reflex and the hold.
         self._station = RobotStation.from_parameters(self._sim, p, self._joint_state.name, nanosecond_stamps=True)
-        self._wrench = WrenchStamped()
-        self._wrench.header.frame_id = franka.external_wrench_frame if self._franka else BASE_FRAME
+        self._wrench_frame = franka.external_wrench_frame if self._franka else BASE_FRAME
+        self._wrench = WrenchStamped(header=Header(frame_id=self._wrench_frame))
 
         objects = ", ".join(self._sim.layout.movable_bodies) or "none"
         self.get_logger().info(
@@ -289,7 +298,8 @@ class RobotNode(Node):
                 self._run_realtime()
         except Exception as exc:  # noqa: BLE001  (a context shut down under a publish ends the thread quietly)
             if not self._stop.is_set() and rclpy.ok(context=self.context):
-                self.get_logger().fatal(f"physics thread failed: {exc!r}")
+                self.get_logger().fatal(f"physics thread failed: {exc!r}; the node stops (exit 1)")
+                stop_signals.fail()   # not a node that runs on with no physics
                 raise
 
     def _run_realtime(self) -> None:
@@ -423,22 +433,30 @@ class RobotNode(Node):
 
     def _publish_state(self) -> None:
         stamp = self._stamp()
+        if self._sim.steps % self._wrench_every == 0:  # first: a controller in this process steps on both
+            self._publish_wrench(stamp)
         self._joint_state.header.stamp = stamp
         self._joint_state.position = self._sim.joint_positions.tolist()
         self._joint_state.velocity = self._sim.joint_velocities.tolist()
         self._joint_state.effort = self._sim.applied_torque.tolist()
+        controller = LINK.joint_state_reader if self._controller_in_process else None
+        if controller is not None:  # the replica's control step, here in the physics thread; its torque comes back
+            controller(self._joint_state)   # through _on_command before the next step
         self._joint_state_pub.publish(self._joint_state)
         if self._slow_joint_state_pub is not None and self._sim.steps % self._slow_every == 0:
             self._slow_joint_state_pub.publish(self._joint_state)  # joint_state_publisher's 30 Hz copy
-        if self._sim.steps % self._wrench_every == 0:
-            self._publish_wrench(stamp)
 
     def _publish_wrench(self, stamp: Time) -> None:
         wrench = self._sim.ft_wrench()
-        self._wrench.header.stamp = stamp
-        force, torque = self._wrench.wrench.force, self._wrench.wrench.torque
+        controller = LINK.wrench_reader if self._controller_in_process else None
+        # The replica keeps the message it is handed (its F_R): a new one each time then.
+        message = self._wrench if controller is None else WrenchStamped(header=Header(frame_id=self._wrench_frame))
+        message.header.stamp = stamp
+        force, torque = message.wrench.force, message.wrench.torque
         force.x, force.y, force.z, torque.x, torque.y, torque.z = wrench.tolist()
-        self._wrench_pub.publish(self._wrench)
+        if controller is not None:
+            controller(message)
+        self._wrench_pub.publish(message)
 
     def _publish_poses(self) -> None:
         stamp = self._stamp()

@@ -67,6 +67,9 @@ ROBOT_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
     switch("hold_on_stale_commands", "replace stale commands by the hold torque (command_timeout); false: apply "
                                      "the last command until another comes, as ros2_control's forward controller "
                                      "does"),
+    switch("controller_in_process", "the replica runs in this process (a node group with robot_in_process): each "
+                                    "joint state and wrench goes straight to its control step and its torque straight "
+                                    "back (fic_teleop_runtime.in_process_link); no DDS command subscription"),
     switch("velocity_reflex", "stop the arm (hold torque, commands ignored) once a joint moves beyond the arm "
                               "profile's velocity limit, as a Franka arm stops with joint_velocity_violation"),
 )

@@ -1,0 +1,45 @@
+"""The robot and its torque controller in one process, joined without DDS, as a ros2_control hardware interface and
+its controller share the controller manager's real-time loop.
+
+When the simulated robot (sim_bridge's robot_node, ``controller_in_process``) and the replica
+(``robot_in_process``) run in one process (a node group), the robot's physics thread hands each joint state and F/T
+reading straight to the replica's control step, and the replica's torque straight back to the robot's command input:
+no serialisation, no wake-up of another process, no transport delay. Every message still goes out on DDS as well
+(the joint states, the wrench and the torque command), so the recorder, the report and ``ros2 topic echo`` see the
+same graph; only the robot's DDS command subscription and the replica's DDS state subscriptions are not made.
+
+Why: on 2 cores most of the replica's CPU was the graph's cost per control tick (the joint state's reception, the
+torque's publication and the robot's reception of it, the wake-ups between the two processes), not the law
+(docs/RESULTS.md, "Graph levers"). A real arm's driver (franka_ros2) is another process, where the replica keeps
+speaking DDS.
+
+The link is the process's one ``LINK``; each side registers the callable that takes the other's messages. A side
+that registers finds the other's reader whenever it has one: the robot may step before the replica is built (its
+states then reach no controller, and its watchdog holds the arm, as before the first DDS command).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+Reader = Callable[[Any], None]
+
+
+class InProcessLink:
+    """The readers of the robot's joint states and wrench (the controller's) and of the torque command (the
+    robot's), each None until its side registers."""
+
+    def __init__(self) -> None:
+        self.joint_state_reader: Reader | None = None
+        self.wrench_reader: Reader | None = None
+        self.command_reader: Reader | None = None
+
+    def controller_attached(self) -> bool:
+        return self.joint_state_reader is not None
+
+    def robot_attached(self) -> bool:
+        return self.command_reader is not None
+
+
+#: The process's link (one robot and one controller a process).
+LINK = InProcessLink()
