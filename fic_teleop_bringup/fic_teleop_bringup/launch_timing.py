@@ -144,14 +144,18 @@ def _show(value, spec: str) -> str:
 
 def timing_verdict(metrics: dict | None, rates: dict[str, dict], health: dict[str, str] | None,
                    bounds: TimingBounds, realtime: bool = True, recorded_s: float | None = None,
-                   simulated_s: float | None = None, holds_before: int = 0) -> Timing:
+                   simulated_s: float | None = None, holds_before: int = 0, asked_s: float | None = None) -> Timing:
     """The verdict from the report's metrics.json, the loop rates, the replica's last loop-health record and the
     bag's share of the run (``recorded_s`` of the ``simulated_s`` the launcher counted, `recorded_in_window`),
     against the run profile's ``bounds``; ``holds_before``: the replica's holds before the run's window
-    (`holds_before_window`)."""
+    (`holds_before_window`); ``asked_s``: the run's --duration when it was not cut short by the user (None: not
+    judged), of which the simulation must have run ``recorded_fraction`` (a simulation that never advanced leaves no
+    other figure to judge: the wall-clock limit ends such a run)."""
     if not realtime:
         return Timing(judged=False)
     timing = Timing(judged=True, bounds=bounds)
+    if asked_s and (simulated_s or 0.0) < bounds.recorded_fraction * asked_s:
+        timing.reasons.append(f"the simulation ran {simulated_s or 0.0:.1f} s of the {asked_s:g} s asked")
     rtf = (metrics or {}).get("real_time_factor")
     timing.figures["real_time_factor"] = rtf
     if rtf is not None and rtf < bounds.real_time_factor:
@@ -227,12 +231,12 @@ def holds_before_window(scanned: RunBag, window: SimulatedWindow) -> int:
 
 def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBounds, realtime: bool,
               window: SimulatedWindow | None = None, killed_at_stop: list[str] | None = None,
-              scanned: "RunBag | None" = None) -> Timing:
+              scanned: "RunBag | None" = None, asked_s: float | None = None) -> Timing:
     """The verdict of a finished run (its bag and report) against the profile's ``bounds``, also written to
     ``run_dir``/timing.json. ``window``: the run's duration as the launcher counted it (None: not known);
     ``killed_at_stop``: the nodes the launcher had to kill at the stop, named with the verdict (not a reason: a kill
     alone does not show that the machine was starved); ``scanned``: the bag as run_bag.scan read it for
-    ``judged_topics`` and ``JUDGED_RECORDS`` (None: read here)."""
+    ``judged_topics`` and ``JUDGED_RECORDS`` (None: read here); ``asked_s``: as for ``timing_verdict``."""
     rates: dict[str, dict] = {}
     health = None
     recorded_s = None
@@ -250,7 +254,7 @@ def judge_run(run_dir: Path, bag: Path, metrics: dict | None, bounds: TimingBoun
                 recorded_s = recorded_in_window(scanned.clock_stamps, window)
                 holds_before = holds_before_window(scanned, window)
     timing = timing_verdict(metrics, rates, health, bounds, realtime, recorded_s,
-                            window.length_s if window is not None else None, holds_before)
+                            window.length_s if window is not None else None, holds_before, asked_s)
     if killed_at_stop and timing.judged:
         timing.figures["killed_at_stop"] = list(killed_at_stop)
     (run_dir / "timing.json").write_text(json.dumps(asdict(timing), indent=2) + "\n")

@@ -794,7 +794,8 @@ def main(argv: list[str] | None = None) -> int:
     realtime = args.time_mode == "realtime"
     scanned = _scanned(bag_path, judged_topics(run_dir) if realtime else set())
     timing = judge_run(run_dir, bag_path, metrics, TimingBounds.from_profile(args.run_profile), realtime, window,
-                       killed_at_stop=running.killed_at_stop, scanned=scanned)
+                       killed_at_stop=running.killed_at_stop, scanned=scanned,
+                       asked_s=None if interrupted.is_set() else args.duration)
     code, reasons = safety_verdict(metrics, codes, running.early_exits, report_failed, bag_path,
                                    killed_at_stop=running.killed_at_stop, starved=timing.starved,
                                    records=scanned.diagnostics if scanned is not None else None)

@@ -54,6 +54,17 @@ def test_a_run_that_kept_real_time_is_not_starved() -> None:
     assert exit_code(EXIT_OK, timing, EXIT_STARVED) == EXIT_OK
 
 
+def test_a_simulation_that_did_not_run_its_duration_is_not_a_run_that_kept_real_time() -> None:
+    """A physics thread stuck at t = 0 leaves no real-time factor and no bag span to judge, while the operator's side
+    kept its rates and the replica its loop health; the wall-clock limit ended the run (measured once: "the computer
+    kept real time", exit 0). Cut short by the user: not judged."""
+    stuck = verdict({"real_time_factor": None}, rates(haptic_device=1.0), HEALTHY, simulated_s=0.0, asked_s=30.0)
+    assert stuck.starved and stuck.reasons == ["the simulation ran 0.0 s of the 30 s asked"]
+    assert exit_code(EXIT_OK, stuck, EXIT_STARVED) == EXIT_STARVED
+    assert not verdict(QUIET, rates(replica_control=0.99), HEALTHY, simulated_s=29.99, asked_s=30.0).starved
+    assert not verdict(QUIET, rates(replica_control=0.99), HEALTHY, simulated_s=5.0, asked_s=None).starved
+
+
 def test_each_figure_out_of_its_bound_starves_the_run_and_is_named() -> None:
     slow_clock = verdict({"real_time_factor": REAL_TIME_FACTOR_BOUND - 0.01}, rates(replica_control=0.99),
                                 HEALTHY)
