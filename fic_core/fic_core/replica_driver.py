@@ -41,6 +41,10 @@ DRIVER_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
                                              "to the gravity-only hold [s]; 0: off (robot_node holds the simulated "
                                              "arm itself)", read_only=True),
     number("torque_ramp_time", 0.0, 10.0, "duration of that ramp [s]", read_only=True),
+    switch("robot_in_process", "the simulated robot runs in the replica's process and calls its control step with "
+                               "each joint state and F/T reading, taking the torque back without DDS (a node group "
+                               "with the robot's controller_in_process; fic_teleop_runtime.in_process_link)",
+           read_only=True),
 )
 #: The driver's rows as one typed object (fic_core.parameter_row.parameter_set).
 DriverParameters = parameter_set("DriverParameters", __name__, "driver", DRIVER_PARAMETERS.values(),
@@ -61,6 +65,7 @@ class ReplicaDriver:
                                         tuple(p.wrench_reference_offset))
         self.ramp = StaleInputRamp(p.joint_state_timeout, p.torque_ramp_time) if p.joint_state_timeout > 0.0 \
             else None
+        self.in_process = p.robot_in_process   # the node reads its joint states from the robot's own thread
         self._rest = None
         self.published: np.ndarray | None = None  # the last command sent
 
@@ -99,7 +104,7 @@ class ReplicaDriver:
         ramp = "off" if self.ramp is None else f"{self.ramp.timeout:g} s, ramp {self.ramp.ramp_time:g} s"
         return (f"arm {self.profile.name} ({', '.join(self.joint_names)}), gravity {gravity}, wrench frames "
                 f"{list(self.wrench_frame.base_frame_ids)} sign {self.wrench_frame.sign:+g}, joint-state ramp-down "
-                f"{ramp}")
+                f"{ramp}{', the robot in this process' if self.in_process else ''}")
 
 
 __all__ = ["ReplicaDriver"]

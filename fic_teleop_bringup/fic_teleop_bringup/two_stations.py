@@ -310,17 +310,19 @@ class LinkCut:
     runs) and up again `down_for` wall-clock seconds later: the link is real, its outage is wall time.
 
     The cut also waits until the teleoperation has crossed the link for `SETTLED_S` (the robot station has
-    taken commands from the master station) and the robot station's /joint_states has its two readers (the
-    replica and the recorder): on a loaded machine the two stations' participants can take many seconds to
+    taken commands from the master station) and the robot station's /joint_states has its readers (the replica
+    and the recorder; the recorder alone when the replica is linked to the robot in one process,
+    node_groups.link_in_process): on a loaded machine the two stations' participants can take many seconds to
     discover each other (a run with a hog and a suite beside it had its first command across 13.7 s after the
     script's start, 9.7 s after its 4 s cut), and a cut before that tests nothing. How long it waited is in
     the link events (`waited_for_teleoperation_s`)."""
 
     SETTLED_S = 1.0
-    JOINT_STATE_READERS = 2   # the replica and the recorder
 
-    def __init__(self, pair: StationPair, down_at: float, down_for: float, stop: threading.Event) -> None:
+    def __init__(self, pair: StationPair, down_at: float, down_for: float, stop: threading.Event,
+                 joint_state_readers: int = 2) -> None:
         self.pair, self.down_at, self.down_for, self.stop = pair, down_at, down_for, stop
+        self.joint_state_readers = joint_state_readers
         self.events: dict[str, float] = {}
         self.thread = threading.Thread(target=self._run, name="link_cut", daemon=True)
         self._due_wall: float | None = None
@@ -336,7 +338,7 @@ class LinkCut:
         if self._due_wall is None:
             self._due_wall = now
         first = self.events.get("first_command_wall")
-        if first is None or now - first < self.SETTLED_S or joint_state_readers < self.JOINT_STATE_READERS:
+        if first is None or now - first < self.SETTLED_S or joint_state_readers < self.joint_state_readers:
             return
         self.events["down_run_s"] = round(elapsed, 3)
         self.events["waited_for_teleoperation_s"] = round(now - self._due_wall, 3)
@@ -418,9 +420,14 @@ class InsideStation:
         self.fastdds_profile = run_dir / RUN_FASTDDS_PROFILE   # written by `run`, the outer process
         self.stop = threading.Event()
         self.cut: LinkCut | None = None
+        self.joint_state_readers = 2   # adapt() counts them for the graph it runs
 
     def adapt(self, specs: list, node_spec_class) -> None:
         adapt_graph(specs, node_spec_class, self.run_dir, self.pair.layout)
+        members = [member for spec in specs for member in (spec.members or [spec])]
+        # The readers of /joint_states the cut waits for: the recorder, and the replica unless the robot calls it.
+        linked = any(member.params.get("robot_in_process") for member in members)
+        self.joint_state_readers = 1 if linked else 2
         offset = self.args.station_clock_offset
         nodes = [member for spec in specs for member in (spec.members or [spec])]   # a group's members, each
         for node in nodes:
@@ -443,7 +450,8 @@ class InsideStation:
     def started(self, origin_wall: float) -> None:
         self._record({"origin_wall": origin_wall})
         if self.args.link_down_at is not None:
-            self.cut = LinkCut(self.pair, self.args.link_down_at, self.args.link_down_for, self.stop)
+            self.cut = LinkCut(self.pair, self.args.link_down_at, self.args.link_down_for, self.stop,
+                               self.joint_state_readers)
 
     #: What the launcher's own node watches in the robot station for the cut: the commands that crossed the link.
     watched_topic = "/replica/teleop_command"

@@ -31,7 +31,7 @@ from fic_core.channel_ports import ChannelPorts
 from fic_core.master_station import MasterParameters, MasterStation
 from fic_core.panda_description import ARM_JOINT_NAMES
 from fic_core.planner_station import PlannerParameters, PlannerStation, make_source
-from fic_core.replica_station import REPLICA_PARAMETERS, ReplicaParameters, ReplicaStation
+from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_core.stopped_trajectory import StoppedTrajectory
 from fic_core.trajectories import LapVaryingCircle
 from fic_teleop_runtime.workspace import config_folder
@@ -285,7 +285,6 @@ def _every(rate: float) -> int:
 def run(config: RunConfig) -> RunResult:
     """One run of the graph (module docstring)."""
     r, m, pl = _parameters("replica.yaml"), _parameters("master.yaml"), _parameters("planner.yaml")
-    r = {name: value for name, value in r.items() if name in REPLICA_PARAMETERS}  # not the node's own rows
     trajectory = config.trajectory or ("circle" if config.scene == "superimposition" else "fixed")
     # linear_tdpa: the bounded linear impedance behind the channel's passivity controllers (fic_core.channel_ports).
     tdpa = config.tdpa or config.controller == "linear_tdpa"

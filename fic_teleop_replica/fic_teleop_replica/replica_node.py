@@ -41,7 +41,7 @@ from fic_core.replica_station import ReplicaParameters, ReplicaStation
 from fic_teleop_msgs.msg import FicState, LimitStatus, TeleoperationCommand
 from fic_teleop_replica import messages
 from fic_teleop_replica.input_guard import InputGuard
-from fic_teleop_replica.schema import ROBOT_IN_PROCESS, SCHEMA
+from fic_teleop_replica.schema import SCHEMA
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.cdr_header import header_stamp, stamp_seconds
 from fic_teleop_runtime.geometry import set_xyz, xyz, xyzw
@@ -69,8 +69,8 @@ class ReplicaNode(Node):
     def __init__(self, **node_options) -> None:  # node_options: rclpy Node keywords (node_group.py)
         super().__init__(NODE_NAME, **node_options)
         values = declare(self, SCHEMA)  # every row with its config/replica.yaml value; unknown keys refused
-        self._robot_in_process = bool(values.pop(ROBOT_IN_PROCESS.name))
         self._station = ReplicaStation(ReplicaParameters.from_values(values))   # FicInputError if bad
+        self._robot_in_process = self._station.driver.in_process
         # With the robot in this process its physics thread runs the control step (in_process_link.py), while the
         # executor thread takes the set-points: one lock keeps the station's state whole between them.
         self._lock = threading.RLock()
