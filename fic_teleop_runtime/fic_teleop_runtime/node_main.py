@@ -60,6 +60,7 @@ class NodeEntry:
     slice_s: float = SLICE
     follow_sim_time: bool = True
     switch_interval: float | None = None  # [s] the interpreter's thread switch interval (sys.setswitchinterval)
+    started: Callable[[Node], None] | None = None   # once every node of the process is built, before the spin
 
 
 def run_node(make_node: Callable[[], N], name: str, args: Sequence[str] | None = None, *,
@@ -108,6 +109,9 @@ def run_entries(entries: Sequence[NodeEntry], args: Sequence[str] | None = None,
                 refuse(entry.name, f"bad ROS arguments or parameter file: {exc}")
             except (*INPUT_ERRORS, *entry.refusals) as exc:
                 refuse(entry.name, exc)
+        for entry, node in nodes:   # e.g. the robot's physics: not while a neighbour is still being built
+            if entry.started is not None:
+                entry.started(node)
         spin_until_shutdown([node for _, node in nodes], min(entry.slice_s for entry in entries),
                             any(entry.follow_sim_time for entry in entries))
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -212,6 +212,10 @@ class RobotNode(Node):
             f"{'compensated by the arm' if p.gravity_compensation else 'in the command'}; "
             f"/sim/object_poses order: {objects}")
         self._thread = threading.Thread(target=self._run, name=PHYSICS_THREAD_NAME, daemon=True)
+
+    def start_physics(self) -> None:
+        """Start stepping (node_main runs it once every node of the process is built: a replica built beside it, in
+        the same interpreter, had the first steps run up to 100 ms behind the wall clock)."""
         self._thread.start()
 
     # --- parameters --------------------------------------------------------------------------------------------
@@ -535,7 +539,8 @@ class RobotNode(Node):
         self._gate.interrupt()
         if self._barrier is not None:
             self._barrier.interrupt()
-        self._thread.join(timeout=5.0)
+        if self._thread.is_alive():   # not started if the process stopped while its nodes were being built
+            self._thread.join(timeout=5.0)
         if self._viewer is not None:
             self._viewer.close()
         if self._tape is not None and len(self._tape):
@@ -571,7 +576,7 @@ def _stopped(node: RobotNode) -> None:
 
 # Two threads share the GIL here (physics, and the executor receiving commands): the default 5 ms switch interval
 # would let a busy executor hold the physics thread past several 1 ms steps.
-ENTRY = NodeEntry(RobotNode, "robot_sim", stopped=_stopped, switch_interval=0.0002)
+ENTRY = NodeEntry(RobotNode, "robot_sim", stopped=_stopped, switch_interval=0.0002, started=RobotNode.start_physics)
 
 
 if __name__ == "__main__":
