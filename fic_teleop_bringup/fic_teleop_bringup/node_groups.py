@@ -112,6 +112,11 @@ def link_in_process(specs: list, realtime: bool, simulated_robot: bool) -> bool:
     return False
 
 
+def linked_in_process(specs: list) -> bool:
+    """Whether ``link_in_process`` linked the robot and the replica of these specs."""
+    return any(member.params.get("robot_in_process") for spec in specs for member in (spec.members or [spec]))
+
+
 def group_command(spec, node_command: Callable, write_params: Callable[[str, dict], Path]) -> list[str]:
     """The one process of a folded spec: each member's ``--ros-args ...`` after its ``--node PACKAGE/EXECUTABLE``."""
     command = [sys.executable, "-m", "fic_teleop_runtime.node_group"]

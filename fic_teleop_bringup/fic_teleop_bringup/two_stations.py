@@ -41,6 +41,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from fic_teleop_bringup.node_groups import linked_in_process
 from fic_teleop_bringup.station_layout import StationError, StationLayout
 from fic_teleop_bringup.workspace import CONFIG
 
@@ -424,10 +425,8 @@ class InsideStation:
 
     def adapt(self, specs: list, node_spec_class) -> None:
         adapt_graph(specs, node_spec_class, self.run_dir, self.pair.layout)
-        members = [member for spec in specs for member in (spec.members or [spec])]
         # The readers of /joint_states the cut waits for: the recorder, and the replica unless the robot calls it.
-        linked = any(member.params.get("robot_in_process") for member in members)
-        self.joint_state_readers = 1 if linked else 2
+        self.joint_state_readers = 1 if linked_in_process(specs) else 2
         offset = self.args.station_clock_offset
         nodes = [member for spec in specs for member in (spec.members or [spec])]   # a group's members, each
         for node in nodes:

@@ -34,12 +34,6 @@ class InProcessLink:
         self.wrench_reader: Reader | None = None
         self.command_reader: Reader | None = None
 
-    def controller_attached(self) -> bool:
-        return self.joint_state_reader is not None
-
-    def robot_attached(self) -> bool:
-        return self.command_reader is not None
-
 
 #: The process's link (one robot and one controller a process).
 LINK = InProcessLink()

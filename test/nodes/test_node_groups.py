@@ -96,7 +96,9 @@ def _robot_and_replica(*groups: str) -> list[NodeSpec]:
 
 def test_the_robot_and_the_replica_grouped_in_realtime_are_linked_in_process() -> None:
     specs = _robot_and_replica("robot,replica", "channel_forward,channel_backward")
+    assert not node_groups.linked_in_process(specs)
     assert node_groups.link_in_process(specs, realtime=True, simulated_robot=True)
+    assert node_groups.linked_in_process(specs)   # what the two-station link cut reads back
     members = {member.name: member for member in specs[0].members}
     assert members["robot"].params == {"controller_in_process": True}
     assert members["replica"].params == {"robot_in_process": True}
@@ -113,6 +115,7 @@ def test_the_robot_and_the_replica_are_not_linked_otherwise(groups, realtime, si
              NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml")]
     specs = node_groups.grouped(graph, node_groups.parse_groups(list(groups)))
     assert not node_groups.link_in_process(specs, realtime=realtime, simulated_robot=simulated_robot)
+    assert not node_groups.linked_in_process(specs)
     members = [member for spec in specs for member in (spec.members or [spec])]
     assert not any("controller_in_process" in m.params or "robot_in_process" in m.params for m in members)
 
