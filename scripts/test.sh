@@ -22,5 +22,26 @@ export MUJOCO_GL="${MUJOCO_GL:-egl}"
 cd "$REPO"
 echo "[test] ruff check"
 ruff check .
-echo "[test] pytest (ROS logs in $ROS_LOG_DIR)"
-exec python -m pytest -p no:cacheprovider "${@:-test}"
+if (( $# > 0 )); then
+  echo "[test] pytest (ROS logs in $ROS_LOG_DIR)"
+  exec python -m pytest -p no:cacheprovider "$@"
+fi
+# The whole suite as two pytest sessions side by side (the ``graph`` marker, test/conftest.py): the tests that start node
+# processes or judge the wall clock in the foreground at normal priority, one at a time; the pure computation beside
+# them at nice 19, taking only the CPU the graphs leave. Its output follows the graph session's.
+work="$(mktemp -d -t fic_teleop_test.XXXXXX)"
+pure_log="$work/pure.log"
+echo "[test] pytest, pure computation at nice 19 beside the graph tests (its output after theirs; ROS logs in $ROS_LOG_DIR)"
+nice -n 19 python -m pytest -p no:cacheprovider -m "not graph" --basetemp "$work/pure" test >"$pure_log" 2>&1 &
+pure_pid=$!
+trap 'kill "$pure_pid" 2>/dev/null || true' EXIT INT TERM
+graph_status=0
+python -m pytest -p no:cacheprovider -m graph --basetemp "$work/graph" test || graph_status=$?
+pure_status=0
+wait "$pure_pid" || pure_status=$?
+trap - EXIT INT TERM
+echo "[test] the pure computation's session (exit $pure_status):"
+cat "$pure_log"
+echo "[test] graph tests exit $graph_status, pure computation exit $pure_status"
+(( graph_status != 0 )) && exit "$graph_status"
+exit "$pure_status"

@@ -37,6 +37,24 @@ def pytest_configure(config) -> None:
         print(f"[test] started under {inherited}: the suite and the nodes it starts run in the normal class")
 
 
+#: What scripts/test.sh runs in the foreground at normal priority, one test at a time: every test that starts node
+#: processes (the folders below, and any test marked ``nodes``) or judges the wall clock (the modules below). The rest
+#: is pure computation and runs beside it in a second session at the lowest priority (nice 19), so it only takes the
+#: CPU the graphs leave: on 2 cores the graphs' real-time runs keep their margin and the suite takes less wall time.
+GRAPH_FOLDERS = ("nodes", "bringup")
+WALL_CLOCK_MODULES = ("sim/test_stepping.py", "sim/test_peer_barrier.py", "runtime/test_periodic.py",
+                      "runtime/test_shared_clock.py", "experiments/test_profile_graph.py")
+
+
+@pytest.hookimpl(tryfirst=True)  # before ``-m`` selects on the marker
+def pytest_collection_modifyitems(config, items) -> None:
+    for item in items:
+        relative = item.path.relative_to(REPO / "test").as_posix()
+        if (relative.split("/")[0] in GRAPH_FOLDERS or relative in WALL_CLOCK_MODULES
+                or item.get_closest_marker("nodes") is not None):
+            item.add_marker(pytest.mark.graph)
+
+
 # The Panda's model and datasheet limits, one of each per test module (RobotModel keeps the last state it was
 # updated with, so modules do not share one).
 @pytest.fixture(scope="module")
