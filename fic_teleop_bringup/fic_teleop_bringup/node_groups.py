@@ -95,6 +95,8 @@ def grouped(specs: list, groups: list[list[str]]) -> list:
 
 #: The simulated robot and its torque controller: sharing a process, they are linked without DDS.
 ROBOT, CONTROLLER = "robot", "replica"
+#: Their switches (the robot's and the replica's parameters).
+ROBOT_SWITCH, CONTROLLER_SWITCH = "controller_in_process", "robot_in_process"
 
 
 def link_in_process(specs: list, realtime: bool, simulated_robot: bool) -> bool:
@@ -106,15 +108,15 @@ def link_in_process(specs: list, realtime: bool, simulated_robot: bool) -> bool:
     for spec in specs:
         members = {member.name: member for member in spec.members or []}
         if ROBOT in members and CONTROLLER in members and realtime and simulated_robot:
-            members[ROBOT].params["controller_in_process"] = True
-            members[CONTROLLER].params["robot_in_process"] = True
+            members[ROBOT].params[ROBOT_SWITCH] = True
+            members[CONTROLLER].params[CONTROLLER_SWITCH] = True
             return True
     return False
 
 
 def linked_in_process(specs: list) -> bool:
     """Whether ``link_in_process`` linked the robot and the replica of these specs."""
-    return any(member.params.get("robot_in_process") for spec in specs for member in (spec.members or [spec]))
+    return any(member.params.get(CONTROLLER_SWITCH) for spec in specs for member in (spec.members or [spec]))
 
 
 def group_command(spec, node_command: Callable, write_params: Callable[[str, dict], Path]) -> list[str]:

@@ -321,9 +321,9 @@ class LinkCut:
     SETTLED_S = 1.0
 
     def __init__(self, pair: StationPair, down_at: float, down_for: float, stop: threading.Event,
-                 joint_state_readers: int = 2) -> None:
+                 replica_linked: bool) -> None:
         self.pair, self.down_at, self.down_for, self.stop = pair, down_at, down_for, stop
-        self.joint_state_readers = joint_state_readers
+        self.joint_state_readers = 1 if replica_linked else 2   # the recorder, and the replica unless linked
         self.events: dict[str, float] = {}
         self.thread = threading.Thread(target=self._run, name="link_cut", daemon=True)
         self._due_wall: float | None = None
@@ -421,12 +421,11 @@ class InsideStation:
         self.fastdds_profile = run_dir / RUN_FASTDDS_PROFILE   # written by `run`, the outer process
         self.stop = threading.Event()
         self.cut: LinkCut | None = None
-        self.joint_state_readers = 2   # adapt() counts them for the graph it runs
+        self.replica_linked = False   # adapt() reads it from the graph it runs
 
     def adapt(self, specs: list, node_spec_class) -> None:
         adapt_graph(specs, node_spec_class, self.run_dir, self.pair.layout)
-        # The readers of /joint_states the cut waits for: the recorder, and the replica unless the robot calls it.
-        self.joint_state_readers = 1 if linked_in_process(specs) else 2
+        self.replica_linked = linked_in_process(specs)
         offset = self.args.station_clock_offset
         nodes = [member for spec in specs for member in (spec.members or [spec])]   # a group's members, each
         for node in nodes:
@@ -450,7 +449,7 @@ class InsideStation:
         self._record({"origin_wall": origin_wall})
         if self.args.link_down_at is not None:
             self.cut = LinkCut(self.pair, self.args.link_down_at, self.args.link_down_for, self.stop,
-                               self.joint_state_readers)
+                               self.replica_linked)
 
     #: What the launcher's own node watches in the robot station for the cut: the commands that crossed the link.
     watched_topic = "/replica/teleop_command"
