@@ -53,6 +53,7 @@ from .norm_bound import norm_bounded
 from .operator_buttons import HAPTIC_GAIN_STEP, ButtonEdges, OperatorButton
 from .parameter_row import ParameterRow, integer, number, numbers, parameter_set, rows_by_name, switch, text
 from .profile import ForceProfile
+from .record_batch_rows import RECORD_BATCH_ROWS
 from .set_point import ShrinkingOffset
 from .teleoperation import TeleoperationCommandIntegrator, TeleoperationMode
 
@@ -134,7 +135,7 @@ MASTER_PARAMETERS: dict[str, ParameterRow] = {
     **rows_by_name(integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
                                          "(x_d' += k_v*x_M*dt)"),
                    text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True)),
-    **MASTER_TOOLS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS, **EXCHANGED_ENERGY_SWITCHES}
+    **MASTER_TOOLS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS, **EXCHANGED_ENERGY_SWITCHES, **RECORD_BATCH_ROWS}
 #: The rows fixed at start (rates and frames: timers and message frames are created from them; the channel port's and
 #: the exchanged-energy observer's switches), read from the table, so that the station refuses what the node refuses.
 READ_ONLY = tuple(name for name, row in MASTER_PARAMETERS.items() if row.read_only)

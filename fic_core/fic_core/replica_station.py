@@ -41,6 +41,7 @@ from .input_authority import (
     RobotStreamGuard,
 )
 from .parameter_row import ParameterRow, parameter_set
+from .record_batch_rows import RECORD_BATCH_ROWS
 from .replica import ReplicaCommand
 from .replica_driver import DRIVER_PARAMETERS, DriverParameters, ReplicaDriver
 from .replica_loop import ReplicaLoop, ReplicaStep
@@ -54,7 +55,7 @@ Notice = tuple[str, str]
 #: (fic_core.input_authority), the channel's replica port and the exchanged-energy observer.
 REPLICA_PARAMETERS: dict[str, ParameterRow] = {
     **REPLICA_LOOP_ROWS, **DRIVER_PARAMETERS, **AUTHORITY_PARAMETERS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS,
-    **EXCHANGED_ENERGY_SWITCHES}
+    **EXCHANGED_ENERGY_SWITCHES, **RECORD_BATCH_ROWS}
 #: The replica's parameters as one typed object, one field a row of REPLICA_PARAMETERS (fic_core.parameter_row):
 #: ``ReplicaParameters.from_values(values)`` checks every value and refuses a name no row has, naming the nearest.
 ReplicaParameters = parameter_set("ReplicaParameters", __name__, "replica", REPLICA_PARAMETERS.values(),

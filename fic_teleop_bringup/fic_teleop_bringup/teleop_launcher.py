@@ -63,6 +63,7 @@ from fic_teleop_bringup.run_bag import RunBag
 from fic_teleop_bringup.workspace import CONFIG, REPO
 from fic_teleop_runtime.parameters import file_sections
 from fic_teleop_runtime.params_file import write_node_params
+from fic_teleop_runtime.record_batch import stream_readers
 from fic_teleop_runtime.workspace import executable
 from sim_bridge.device.closed_loop_operator import VIDEO_RATE_HZ
 
@@ -442,7 +443,7 @@ def wait_for_sim_time(duration: float, graph_: Graph, wall_limit: float, stop: t
             elapsed = 0.0 if latest["start"] is None else latest["t"] - latest["start"]
             if progress is not None and latest["start"] is not None:
                 # two stations: the link cut counts run time as --duration does
-                progress(elapsed, node.count_subscribers("/joint_states"))
+                progress(elapsed, stream_readers(node, "/joint_states"))
             if elapsed >= duration or graph_.foreground_done():
                 break
             dead = graph_.dead()

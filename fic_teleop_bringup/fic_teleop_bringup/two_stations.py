@@ -312,8 +312,9 @@ class LinkCut:
 
     The cut also waits until the teleoperation has crossed the link for `SETTLED_S` (the robot station has
     taken commands from the master station) and the robot station's /joint_states has its readers (the replica
-    and the recorder; the recorder alone when the replica is linked to the robot in one process,
-    node_groups.link_in_process): on a loaded machine the two stations' participants can take many seconds to
+    and the recorder, on the topic or its batches, fic_teleop_runtime.record_batch.stream_readers; the recorder
+    alone when the replica is linked to the robot in one process, node_groups.link_in_process): on a loaded
+    machine the two stations' participants can take many seconds to
     discover each other (a run with a hog and a suite beside it had its first command across 13.7 s after the
     script's start, 9.7 s after its 4 s cut), and a cut before that tests nothing. How long it waited is in
     the link events (`waited_for_teleoperation_s`)."""

@@ -46,6 +46,7 @@ from fic_teleop_runtime.notices import log_notices
 from fic_teleop_runtime.parameters import Schema, declare, refuse_unknown_names
 from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
 from fic_teleop_runtime.periodic import PeriodicCallbacks
+from fic_teleop_runtime.record_batch import BatchedPublisher
 
 # Device and teleoperation streams RELIABLE (the channel alone loses on purpose), read 20 deep and written with
 # the streams' deep writer history; button presses are events: a lost toggle would invert the mode for the rest
@@ -66,7 +67,9 @@ class MasterNode(Node):
         self._log(self._station.set_haptic_gain(values["haptic_gain"], "parameter"))
         self._frame_id = values["frame_id"]
         self._control_period, self._last_control_tick = 1.0 / values["control_rate"], None
-        self._wrench_publisher = self.create_publisher(WrenchStamped, "/haptic/wrench_command", STREAM_WRITER_QOS)
+        # The device reads the topic itself; the recorder its batches (record_batch.py).
+        self._wrench_publisher = BatchedPublisher(self, WrenchStamped, "/haptic/wrench_command", STREAM_WRITER_QOS,
+                                                  values["record_batch_period"])
         self._pose_publisher = self.create_publisher(PoseStamped, "/master/pose", STREAM_WRITER_QOS)
         self._command_publisher = self.create_publisher(TeleoperationCommand, "/master/teleop_command",
                                                         STREAM_WRITER_QOS)

@@ -50,6 +50,7 @@ from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import RefusalLog, log_notices
 from fic_teleop_runtime.parameters import declare
 from fic_teleop_runtime.passivity_status import channel_port_status, exchanged_energy_status
+from fic_teleop_runtime.record_batch import BatchedPublisher
 from fic_teleop_runtime.stamps import nanoseconds, seconds
 
 NODE_NAME = "replica"
@@ -85,7 +86,9 @@ class ReplicaNode(Node):
         # writer history for the recorder; joint states and F_R the newest only (no backlog of old states for the
         # law); set-points depth 1 (only the newest is used).
         publisher = self.create_publisher
-        self._command_pub = publisher(Float64MultiArray, "/effort_controller/commands", qos.ROBOT_STREAM)
+        # The torque command reaches the recorder in batches (record_batch.py); the driver reads the topic itself.
+        self._command_pub = BatchedPublisher(self, Float64MultiArray, "/effort_controller/commands", qos.ROBOT_STREAM,
+                                             values["record_batch_period"])
         self._fic_state_pub = publisher(FicState, "/replica/fic_state", qos.STREAM_WRITER)
         self._limit_status_pub = publisher(LimitStatus, "/replica/limit_status", qos.STREAM_WRITER)
         self._desired_pose_pub = publisher(PoseStamped, "/replica/desired_pose", qos.STREAM_WRITER)

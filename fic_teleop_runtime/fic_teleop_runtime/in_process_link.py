@@ -5,8 +5,9 @@ When the simulated robot (sim_bridge's robot_node, ``controller_in_process``) an
 (``robot_in_process``) run in one process (a node group), the robot's physics thread hands each joint state and F/T
 reading straight to the replica's control step, and the replica's torque straight back to the robot's command input:
 no serialisation, no wake-up of another process, no transport delay. Every message still goes out on DDS as well
-(the joint states, the wrench and the torque command), so the recorder, the report and ``ros2 topic echo`` see the
-same graph; only the robot's DDS command subscription and the replica's DDS state subscriptions are not made.
+(the joint states, the wrench and the torque command: to the recorder in batches, record_batch.py, and on the topics
+themselves while they have readers), so the recorder, the report and ``ros2 topic echo`` see the same graph; only
+the robot's DDS command subscription and the replica's DDS state subscriptions are not made.
 
 Why: on 2 cores most of the replica's CPU was the graph's cost per control tick (the joint state's reception, the
 torque's publication and the robot's reception of it, the wake-ups between the two processes), not the law

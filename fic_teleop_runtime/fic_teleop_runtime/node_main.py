@@ -28,7 +28,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from fic_core.errors import FicInputError
-from fic_teleop_runtime import stop_signals
+from fic_teleop_runtime import record_batch, stop_signals
 from fic_teleop_runtime.parameters import START_ARGUMENTS
 from fic_teleop_runtime.spin import SLICE, spin_until_shutdown
 
@@ -121,6 +121,7 @@ def run_entries(entries: Sequence[NodeEntry], args: Sequence[str] | None = None,
         for entry, node in reversed(nodes):
             if entry.stopped is not None:
                 entry.stopped(node)
+            record_batch.flush_node(node)   # its publishers' last batches to the recorder (record_batch.py)
             node.destroy_node()
         rclpy.try_shutdown()
     if stop_signals.failed():

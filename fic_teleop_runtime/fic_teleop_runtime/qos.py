@@ -27,6 +27,8 @@ Why each is what it is:
   latency p99 of about 200 ms with depth 20 at 100 Hz).
 - ``MARKERS``: episode markers (episode_markers.py): RELIABLE and TRANSIENT_LOCAL, KEEP_LAST 50, so that a mark is
   not lost and a reader that joins late (a recorder looks for new topics every 0.5 s) still gets the marks made.
+- ``RECORD_BATCH``: a fast stream's samples on their way to the recorder, many to a message (record_batch.py):
+  RELIABLE, KEEP_LAST 50 (seconds of samples at a batch every 50 ms), so that a busy recorder loses none.
 - ``DIAGNOSTICS``: /diagnostics, also rclcpp::SystemDefaultsQoS() as the RMW resolves it (``SYSTEM_DEFAULTS``,
   what the real drivers use: reliable, volatile, keep last 10).
 """
@@ -59,5 +61,6 @@ ROBOT_STREAM = reliable(WRITER_HISTORY)
 NEWEST = best_effort(1)
 SET_POINT = reliable(1)
 MARKERS = latched(50)
+RECORD_BATCH = reliable(50)
 DIAGNOSTICS = reliable(10)
 SYSTEM_DEFAULTS = reliable(10)

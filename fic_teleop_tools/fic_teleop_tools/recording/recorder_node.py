@@ -13,6 +13,16 @@ overflow. The executor thread only discovers topics and publishes the status. Wi
 subscriptions are the recorder node's own instead, as before (their message-lost events need the executor), and
 their callbacks append to the deque.
 
+Batched streams (fic_teleop_runtime/record_batch.py): a fast stream whose every publisher also publishes its samples
+in batches on ``/record<topic>`` (the robot's joint states and wrench, the torque command, the haptic pose and force
+command) is recorded from the batches: the taker takes a batch (every 50 ms) instead of 25-50 messages, and the writer
+writes each sample under the topic itself, with its publication time as log_time and publish_time. The choice is made
+per topic when it is found, by the publishing nodes: if any publisher of the topic has no batches (a real driver, a
+second writer), the topic is recorded message by message as before and its batches are not taken. Since a batch's
+samples arrive up to a batch period late, the writer holds every message ``reorder_window`` (only while some topic is
+batched) and writes them in time order; a sample later than that is written out of order (counted; MCAP readers
+that read by time sort it). A SIGKILL then loses at most ``flush_period`` + ``reorder_window``.
+
 Times: each message's MCAP log_time is the wall-clock time (ns since the Unix epoch) at which DDS received it
 (MessageInfo's received_timestamp, taken in rounds) and its publish_time the publisher's (source_timestamp), even
 under use_sim_time, so that the report can compare sim time (stamps) with wall time (real-time factor). In the
@@ -41,6 +51,8 @@ from __future__ import annotations
 
 import collections
 import datetime
+import heapq
+import itertools
 import json
 import re
 import threading
@@ -59,6 +71,7 @@ from fic_teleop_runtime.cdr_header import header_stamp
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare, defaults_for, integer, number, switch, text, texts
+from fic_teleop_runtime.record_batch import RECORD_BATCH_TYPE, record_topic, unpack
 from fic_teleop_tools.recording.bag_writer import (
     BagError,
     BagWriter,
@@ -89,6 +102,8 @@ SCHEMA = Schema(
                                                   "it reaches this size"),
     number("flush_period", 0.01, 60.0, "seconds between forced chunk closes: the most a SIGKILL can lose"),
     number("drain_period", 0.001, 1.0, "seconds between the writer thread's rounds over the subscriptions"),
+    number("reorder_window", 0.0, 10.0, "seconds every message is held before it is written, while some topic comes "
+                                        "in batches (/record/<topic>), so that the bag stays in time order"),
     text("compression", "chunk compression: zstd, lz4 or none"),
     number("status_period", 0.1, 60.0, "seconds between recorder status messages on /diagnostics"),
     text("joint_states_topic", "topic whose header stamps are checked for gaps"),
@@ -168,18 +183,27 @@ class RecorderNode(Node):
         self.bag = BagWriter(Path(bag_path), chunk_size=p.chunk_size, compression=p.compression,
                              flush_period=p.flush_period)
         self.joint_states = JointStateGapCounter(round(p.joint_states_period * 1e9))
-        # (topic index, cdr bytes, receive time ns, publish time ns or None), or (None, (topic, type, qos profiles),
-        # 0, None) to add a topic.
+        # (topic index, cdr bytes, receive time ns, publish time ns or None), (topic index, a RecordBatch's cdr bytes,
+        # receive time ns, BATCH), or (None, (topic, type, qos profiles), 0, None) to add a topic.
         self._queue: collections.deque = collections.deque()
         self._drain_period = p.drain_period
+        self._reorder_window_ns = round(p.reorder_window * 1e9)
+        self._batched: set[int] = set()   # topic indexes recorded from their batches (module docstring)
+        self._batching: set[str] = set()   # topics recorded from their batches alone (_check_batched)
+        self._deduplicated: set[int] = set()   # topic indexes read both ways: a sample's second copy is dropped
+        self._duplicates = 0
+        self._out_of_order = 0   # samples written before one with a later time (a batch later than reorder_window)
         # The node whose subscriptions the taker thread takes from (module docstring); None: the executor's path.
         self._reader = None if self._count_lost else Node(
             f"{self.get_name()}_reader", namespace=self.get_namespace(), context=self.context,
             use_global_arguments=False, enable_rosout=False, start_parameter_services=False)
-        self._taken: list[tuple[int, object]] = []   # (topic index, subscription) the taker thread takes from
+        # (topic index, subscription, BATCH or None) the taker thread takes from
+        self._taken: list[tuple[int, object, object]] = []
         self._topic_names: list[str] = []
         self._channel_ids: list[int] = []  # MCAP channel id per topic index (writer thread)
         self._recorded: dict[str, object] = {}
+        self._types: dict[str, str] = {}             # topic -> its type name
+        self._direct_qos: dict[str, QoSProfile] = {}  # topic -> the QoS it is (or would be) read with directly
         self._skipped: set[str] = set()
         self._counts: list[int] = []
         self._lost: dict[str, int] = {}  # topic -> DDS message-lost total (executor thread)
@@ -214,9 +238,36 @@ class RecorderNode(Node):
 
     def _discover(self) -> None:
         for topic, types in self.get_topic_names_and_types():
-            if topic in self._recorded or topic in self._skipped or not self._wanted(topic):
+            if RECORD_BATCH_TYPE in types or topic in self._skipped or not self._wanted(topic):
+                continue    # batches are unpacked into their topics, never recorded as such
+            if topic in self._recorded:
+                self._check_batched(topic)
                 continue
             self._subscribe(topic, types)
+
+    def _batching_nodes(self, topic: str) -> set[tuple[str, str]]:
+        return {(info.node_namespace, info.node_name)
+                for info in self.get_publishers_info_by_topic(record_topic(topic))
+                if info.topic_type == RECORD_BATCH_TYPE}
+
+    def _check_batched(self, topic: str) -> None:
+        """A topic recorded from its batches that gained a publisher without them: the topic is read message by
+        message as well, and since the batching publishers then publish it too (it has a reader), a sample that comes
+        both ways is written once (the writer compares the bytes of the topic's samples of the last
+        ``DUPLICATE_WINDOW_NS``); one warning."""
+        if topic not in self._batching:
+            return
+        others = ({(info.node_namespace, info.node_name) for info in self.get_publishers_info_by_topic(topic)}
+                  - self._batching_nodes(topic))
+        if not others:
+            return
+        self._batching.discard(topic)
+        index = self._topic_names.index(topic)
+        self.get_logger().warning(
+            f"{topic}: recorded from its batches, but {', '.join(name for _, name in sorted(others))} publishes it "
+            f"without: recording its messages one by one as well")
+        self._deduplicated.add(index)
+        self._subscribe_to(index, topic, message_class(self._types[topic]), self._direct_qos[topic])
 
     def _subscribe(self, topic: str, types: list[str]) -> None:
         if len(types) != 1:
@@ -248,26 +299,43 @@ class RecorderNode(Node):
         index = len(self._topic_names)
         self._topic_names.append(topic)
         self._counts.append(0)
+        self._types[topic], self._direct_qos[topic] = type_name, qos
         # The bag learns the topic before its first message: the queue is FIFO.
         self._queue.append((None, (topic, type_name, offered), 0, None))
-        if self._reader is not None:
-            subscription = self._reader.create_subscription(subscription_type, topic, _never_called, qos, raw=True)
-            self._taken.append((index, subscription))
-        else:
-            subscription = self.create_subscription(
-                subscription_type, topic, self._enqueuer(index), qos, raw=True,
-                event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_counter(topic)))
-        self._recorded[topic] = subscription
+        publishing = {(p.node_namespace, p.node_name) for p in publishers}
+        batching = self._batching_nodes(topic)
+        if publishing <= batching:   # every publisher also sends batches: take those instead
+            self._batched.add(index)
+            self._batching.add(topic)
+            batch_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=self._queue_depth,
+                                   reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+            self._recorded[topic] = self._subscribe_to(index, record_topic(topic), message_class(RECORD_BATCH_TYPE),
+                                                       batch_qos, batches=True)
+            self.get_logger().info(f"recording {topic} [{type_name}] from its batches on {record_topic(topic)}")
+            return
+        self._recorded[topic] = self._subscribe_to(index, topic, subscription_type, qos)
         self.get_logger().info(f"recording {topic} [{type_name}] "
                                f"({qos.reliability.name.lower()}, {qos.durability.name.lower()}, depth {qos.depth})")
 
-    def _enqueuer(self, index: int):
+    def _subscribe_to(self, index: int, topic: str, subscription_type: type, qos: QoSProfile, batches: bool = False):
+        """A raw subscription whose messages (``batches``: whose batches' samples) go to the bag as topic
+        ``index``'s."""
+        kind = BATCH if batches else None
+        if self._reader is not None:
+            subscription = self._reader.create_subscription(subscription_type, topic, _never_called, qos, raw=True)
+            self._taken.append((index, subscription, kind))
+            return subscription
+        return self.create_subscription(
+            subscription_type, topic, self._enqueuer(index, kind), qos, raw=True,
+            event_callbacks=SubscriptionEventCallbacks(message_lost=self._lost_counter(topic)))
+
+    def _enqueuer(self, index: int, kind: object):
         # One argument only: rclpy takes a callback that also accepts a second argument for a MessageInfo
         # callback, which the EventsExecutor cannot serve (a default argument would trip that check).
         append, now = self._queue.append, time.time_ns
 
         def enqueue(data: bytes) -> None:
-            append((index, data, now(), None))
+            append((index, data, now(), kind))
         return enqueue
 
     def _lost_counter(self, topic: str):
@@ -293,11 +361,12 @@ class RecorderNode(Node):
             while True:
                 stopping = self._stop.is_set()
                 taken = []
-                for index, subscription in list(self._taken):
+                for index, subscription, kind in list(self._taken):
                     take = subscription.handle.take_message
                     while (item := take(subscription.msg_type, True)) is not None:
                         data, info = item
-                        taken.append((index, data, info["received_timestamp"], info["source_timestamp"]))
+                        taken.append((index, data, info["received_timestamp"],
+                                      info["source_timestamp"] if kind is None else kind))
                 taken.sort(key=lambda row: row[2])
                 for row in taken:
                     append(row)
@@ -310,6 +379,12 @@ class RecorderNode(Node):
 
     def _write_loop(self) -> None:
         queue, bag, counts, live = self._queue, self.bag, self._counts, self.live
+        # Messages held for the reorder window, oldest first: (log time, arrival number, topic index, cdr, publish
+        # time); the arrival number keeps a topic's messages of one time in order and never compares the rest.
+        held: list[tuple[int, int, int, bytes, int | None]] = []
+        arrival = itertools.count()
+        last_written = 0
+        seen: dict[int, dict[bytes, int]] = {}   # the samples written lately of each deduplicated topic -> time
         try:
             while True:
                 # The taker's last round is in the queue once it has ended (finish joins it before the writer).
@@ -320,7 +395,21 @@ class RecorderNode(Node):
                     index, data, stamp, published = queue.popleft()
                     if index is None:
                         self._add_topic(*data)
+                    elif published is BATCH:
+                        for when, sample in unpack(data)[1]:
+                            heapq.heappush(held, (when, next(arrival), index, sample, when))
+                    else:
+                        heapq.heappush(held, (stamp, next(arrival), index, data, published))
+                # Without batched topics nothing waits: every message taken is older than now.
+                horizon = time.time_ns() - (self._reorder_window_ns if self._batched else 0)
+                while held and (stopping or held[0][0] <= horizon):
+                    stamp, _, index, data, published = heapq.heappop(held)
+                    if index in self._deduplicated and self._seen_before(seen.setdefault(index, {}), data, stamp):
+                        self._duplicates += 1
                         continue
+                    if stamp < last_written:
+                        self._out_of_order += 1
+                    last_written = max(last_written, stamp)
                     bag.write(self._channel_ids[index], data, stamp, published)
                     counts[index] += 1
                     if live is not None:
@@ -334,6 +423,17 @@ class RecorderNode(Node):
         except BaseException as error:  # the executor thread reports it; recording cannot go on
             self._writer_error = error
             raise
+
+    @staticmethod
+    def _seen_before(seen: dict[bytes, int], data: bytes, stamp: int) -> bool:
+        """Whether these bytes were written within DUPLICATE_WINDOW_NS; remembered if not."""
+        if data in seen and stamp - seen[data] <= DUPLICATE_WINDOW_NS:
+            return True
+        seen[data] = stamp
+        if len(seen) > 50_000:   # a minute at 1 kHz: forget what is older than the window
+            for old in [key for key, when in seen.items() if stamp - when > DUPLICATE_WINDOW_NS]:
+                del seen[old]
+        return False
 
     def _add_topic(self, topic: str, type_name: str, offered: list[dict]) -> None:
         try:
@@ -368,7 +468,10 @@ class RecorderNode(Node):
                   "joint_states_dropped": self.joint_states.dropped,
                   "joint_states_out_of_order": self.joint_states.out_of_order,
                   "joint_states_off_step_grid": self.joint_states.off_grid,
-                  "lost_messages": "not counted" if lost is None else sum(lost.values())}
+                  "lost_messages": "not counted" if lost is None else sum(lost.values()),
+                  "batched_topics": ",".join(self._topic_names[index] for index in sorted(self._batched)),
+                  "written_out_of_time_order": self._out_of_order,
+                  "duplicates_dropped": self._duplicates}
         values.update({f"count {topic}": count for topic, count in self.counts().items()})
         values.update({f"lost {topic}": count for topic, count in (lost or {}).items()})
         status.values = [KeyValue(key=key, value=str(value)) for key, value in values.items()]
@@ -409,9 +512,17 @@ class RecorderNode(Node):
                 f"{self.joint_states.received} received, {self.joint_states.dropped} dropped in "
                 f"{self.joint_states.gaps} gaps, {self.joint_states.out_of_order} out of order, "
                 f"{self.joint_states.off_grid} off the step grid (not gap-checked); "
-                f"max backlog {self._max_backlog}; DDS lost "
+                f"max backlog {self._max_backlog}; {self._out_of_order} written out of time order; DDS lost "
                 + ("(not counted)" if lost is None else
                    ", ".join(f"{topic} {count}" for topic, count in lost.items()) if lost else "none"))
+
+
+#: How far apart two copies of one sample can reach the writer (a batch's and the topic's own) [ns].
+DUPLICATE_WINDOW_NS = 5_000_000_000
+
+#: The mark of a queued message that is a batch of samples (fic_teleop_runtime.record_batch), in place of its publish
+#: time.
+BATCH = object()
 
 
 def _never_called(_data: bytes) -> None:

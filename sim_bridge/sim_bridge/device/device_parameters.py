@@ -4,6 +4,7 @@ runner build the device and the operator's hand. Importable without rclpy, as th
 from __future__ import annotations
 
 from fic_core.parameter_row import ParameterRow, number, numbers, parameter_set, rows_by_name, text
+from fic_core.record_batch_rows import RECORD_BATCH_ROWS
 from sim_bridge.device.haptic_device import HapticDeviceParameters
 from sim_bridge.device.virtual_operator import HandParameters
 
@@ -44,6 +45,7 @@ DEVICE_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
     text("driver_interface", "topics to speak: sim or forcedimension (the twin of forcedimension_ros2, "
                              "fic_teleop_runtime.driver_topics; publish_rate_hz is then its update rate)"),
 )
+DEVICE_PARAMETERS.update(RECORD_BATCH_ROWS)  # how /haptic/pose reaches the recorder (fic_teleop_runtime.record_batch)
 #: The device node's parameters as one typed object, one field a row of DEVICE_PARAMETERS (fic_core.parameter_row):
 #: a name no row has is refused where it is built, naming the nearest.
 DeviceNodeParameters = parameter_set("DeviceNodeParameters", __name__, "haptic device", DEVICE_PARAMETERS.values(),

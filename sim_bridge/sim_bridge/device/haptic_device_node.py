@@ -31,6 +31,7 @@ from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION,
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare
 from fic_teleop_runtime.periodic import PeriodicCallbacks
+from fic_teleop_runtime.record_batch import BatchedPublisher
 from fic_teleop_runtime.stamps import nanoseconds
 from fic_teleop_runtime.workspace import config_folder
 from sim_bridge.device.closed_loop_operator import ClosedLoopOperator, ClosedLoopParameters, Frame
@@ -110,7 +111,9 @@ class HapticDeviceNode(Node):
             self.fd_joint_state = JointState(name=list(fd.joint_names))
             self.fd_button_pressed = False
         else:
-            self.pose_publisher = self.create_publisher(PoseStamped, "/haptic/pose", DEVICE_WRITER_QOS)
+            # The master reads the topic itself; the recorder its batches (record_batch.py).
+            self.pose_publisher = BatchedPublisher(self, PoseStamped, "/haptic/pose", DEVICE_WRITER_QOS,
+                                                   p.record_batch_period)
             self.twist_publisher = self.create_publisher(TwistStamped, "/haptic/twist", DEVICE_WRITER_QOS)
             self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_command, DEVICE_QOS)
         self.scripted: ScriptedOperator | None = None

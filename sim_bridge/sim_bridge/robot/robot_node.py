@@ -65,6 +65,7 @@ from fic_teleop_runtime.in_process_link import LINK
 from fic_teleop_runtime.message_types import message_class
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare
+from fic_teleop_runtime.record_batch import BatchedPublisher
 from sim_bridge.os_thread import name_os_thread
 from sim_bridge.robot.mujoco_panda import TIMESTEP, PandaSimulation
 from sim_bridge.robot.peer_barrier import PeerBarrier
@@ -157,12 +158,15 @@ class RobotNode(Node):
 
         # The franka_ros2 twin (driver_topics.py): its topics, QoS and frames; the arm compensates its gravity.
         franka = FRANKA_ROS2
-        self._joint_state_pub = self.create_publisher(
-            JointState, franka.joint_states if self._franka else "/joint_states",
-            SYSTEM_DEFAULTS_QOS if self._franka else ROBOT_STREAM_QOS)
-        self._wrench_pub = self.create_publisher(
-            WrenchStamped, franka.external_wrench if self._franka else "/ft_sensor/wrench",
-            FRANKA_CONVENIENCE_QOS if self._franka else ROBOT_STREAM_QOS)
+        # The two physics-rate streams reach the recorder in batches (record_batch.py); the twin speaks as the real
+        # driver does, one message a sample.
+        batch_period = 0.0 if self._franka else p.record_batch_period
+        self._joint_state_pub = BatchedPublisher(
+            self, JointState, franka.joint_states if self._franka else "/joint_states",
+            SYSTEM_DEFAULTS_QOS if self._franka else ROBOT_STREAM_QOS, batch_period)
+        self._wrench_pub = BatchedPublisher(
+            self, WrenchStamped, franka.external_wrench if self._franka else "/ft_sensor/wrench",
+            FRANKA_CONVENIENCE_QOS if self._franka else ROBOT_STREAM_QOS, batch_period)
         self._slow_joint_state_pub = (self.create_publisher(JointState, franka.slow_joint_states, SYSTEM_DEFAULTS_QOS)
                                       if self._franka else None)
         self._slow_every = _every(franka.slow_joint_states_rate_hz)
@@ -336,7 +340,7 @@ class RobotNode(Node):
         peers = self._barrier.topics if self._barrier is not None else ()
 
         def missing() -> list[str]:
-            readers = self._joint_state_pub.get_subscription_count()
+            readers = self._joint_state_pub.reader_count()
             absent = [] if readers >= self._lockstep_subscribers else \
                 [f"{readers} of {self._lockstep_subscribers} /joint_states readers"]
             subscriptions = dict(self._peer_subscriptions)   # filled by the executor thread

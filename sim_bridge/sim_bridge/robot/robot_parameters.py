@@ -14,6 +14,7 @@ from fic_core.parameter_row import (
     text,
     texts,
 )
+from fic_core.record_batch_rows import RECORD_BATCH_ROWS
 from sim_bridge.robot.scenes import SCENE_NAMES
 
 SUBSCRIBER_WAIT_S = 60.0  # lockstep: longest wall-clock wait for the /joint_states readers before the first step
@@ -73,6 +74,8 @@ ROBOT_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
     switch("velocity_reflex", "stop the arm (hold torque, commands ignored) once a joint moves beyond the arm "
                               "profile's velocity limit, as a Franka arm stops with joint_velocity_violation"),
 )
+# How /joint_states and /ft_sensor/wrench reach the recorder (fic_teleop_runtime.record_batch).
+ROBOT_PARAMETERS.update(RECORD_BATCH_ROWS)
 #: The robot's parameters as one typed object, one field a row of ROBOT_PARAMETERS (fic_core.parameter_row): a name
 #: no row has is refused where it is built, naming the nearest.
 RobotParameters = parameter_set("RobotParameters", __name__, "robot", ROBOT_PARAMETERS.values(),
