@@ -134,7 +134,12 @@ MASTER_PARAMETERS: dict[str, ParameterRow] = {
     **MASTER_NUMBERS,
     **rows_by_name(integer("mode", 0, 1, "teleoperation mode: 0 offset (x_d' = s_M*x_M), 1 velocity "
                                          "(x_d' += k_v*x_M*dt)"),
-                   text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True)),
+                   text("frame_id", "frame of /master/pose and /haptic/wrench_command", read_only=True),
+                   switch("device_in_process", "the simulated haptic device runs in this process (a node group with "
+                                               "its master_in_process): its pose and velocity come straight from it "
+                                               "and the force command goes straight to it "
+                                               "(fic_teleop_runtime.in_process_link); no DDS subscriptions of "
+                                               "/haptic/pose and /haptic/twist", read_only=True)),
     **MASTER_TOOLS, **CHANNEL_PORT_SWITCHES, **CHANNEL_PORT_NUMBERS, **EXCHANGED_ENERGY_SWITCHES, **RECORD_BATCH_ROWS}
 #: The rows fixed at start (rates and frames: timers and message frames are created from them; the channel port's and
 #: the exchanged-energy observer's switches), read from the table, so that the station refuses what the node refuses.

@@ -11,7 +11,9 @@ within each station (the channel pair is split across them: channel_backward joi
 channel_forward the planner).
 
 The robot and the replica in one group (the realtime default) are linked without DDS: the robot's physics thread
-calls the replica's control step and takes its torque back directly (``link_in_process``).
+calls the replica's control step and takes its torque back directly (``link_in_process``). The simulated haptic
+device and the master in one group (the realtime default too) are linked the same way: the device's tick hands the
+handle to the master, the master's force tick its command to the device (``link_handle_in_process``).
 
 Which nodes can share: any of the graph's except the recorder (it stops last, after every other node, so that it
 records their last messages) and a foreground node (the keyboard operator owns the terminal).
@@ -110,6 +112,27 @@ def link_in_process(specs: list, realtime: bool, simulated_robot: bool) -> bool:
         if ROBOT in members and CONTROLLER in members and realtime and simulated_robot:
             members[ROBOT].params[ROBOT_SWITCH] = True
             members[CONTROLLER].params[CONTROLLER_SWITCH] = True
+            return True
+    return False
+
+
+#: The simulated haptic device and the master: sharing a process, they are linked without DDS.
+DEVICE, MASTER = "haptic_device", "master"
+#: Their switches (the device's and the master's parameters).
+DEVICE_SWITCH, MASTER_SWITCH = "master_in_process", "device_in_process"
+
+
+def link_handle_in_process(specs: list, realtime: bool, simulated_device: bool) -> bool:
+    """Whether a group holds the simulated haptic device and the master and they can be linked in process
+    (fic_teleop_runtime.in_process_link, HANDLE_LINK): in realtime, with the simulated device (the forcedimension_ros2
+    twin speaks DDS as the real driver would, through the fd adapter). If so, each gets its switch
+    (``master_in_process``, ``device_in_process``). Lockstep keeps them apart, as it keeps the robot and the
+    replica: the robot's step barrier waits for their stamps on DDS."""
+    for spec in specs:
+        members = {member.name: member for member in spec.members or []}
+        if DEVICE in members and MASTER in members and realtime and simulated_device:
+            members[DEVICE].params[DEVICE_SWITCH] = True
+            members[MASTER].params[MASTER_SWITCH] = True
             return True
     return False
 

@@ -707,12 +707,16 @@ def main(argv: list[str] | None = None) -> int:
             groups = node_groups.run_groups(groups, args, nodes)
             specs = node_groups.grouped(nodes, groups)
             linked = node_groups.link_in_process(specs, args.time_mode == "realtime", not args.hardware_twin)
+            handle_linked = node_groups.link_handle_in_process(specs, args.time_mode == "realtime",
+                                                               not args.hardware_twin)
             if groups:
                 print(f"[run] node groups (one process each): {'; '.join(', '.join(g) for g in groups)}"
                       + ("" if args.group else " (the default; --isolated: one process per node)")
-                      + ("; the robot and the replica linked without DDS" if linked else ""))
+                      + ("; the robot and the replica linked without DDS" if linked else "")
+                      + ("; the haptic device and the master linked without DDS" if handle_linked else ""))
                 _add_to_run_record(run_dir, "node_groups", groups)
             _add_to_run_record(run_dir, "robot_replica_in_process", linked)
+            _add_to_run_record(run_dir, "device_master_in_process", handle_linked)
             cpus = cpu_placement.usable_cpus()
             placement = args.run_profile.get("cpu_placement", {}) if args.cpu_placement == "profile" else {}
             placed = cpu_placement.assign(placement, specs, cpus)

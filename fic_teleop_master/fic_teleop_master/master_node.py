@@ -41,6 +41,7 @@ from fic_core.master_station import MASTER_PARAMETERS, MasterParameters, MasterS
 from fic_teleop_msgs.msg import OperatorTools, TeleoperationCommand
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.geometry import xyz, xyzw
+from fic_teleop_runtime.in_process_link import HANDLE_LINK
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.notices import log_notices
 from fic_teleop_runtime.parameters import Schema, declare, refuse_unknown_names
@@ -76,8 +77,12 @@ class MasterNode(Node):
         self._port_energy_publisher = self.create_publisher(Vector3Stamped, "/master/port_energy", STREAM_WRITER_QOS)
         self._diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", DIAGNOSTICS_QOS)
         self._tools_publisher = self.create_publisher(OperatorTools, "/master/operator_tools", STREAM_WRITER_QOS)
-        self.create_subscription(PoseStamped, "/haptic/pose", self._on_pose, STREAM_QOS)
-        self.create_subscription(TwistStamped, "/haptic/twist", self._on_twist, STREAM_QOS)
+        self._device_in_process = values["device_in_process"]
+        if self._device_in_process:   # the device of this process hands its handle over (in_process_link.py)
+            HANDLE_LINK.pose_reader, HANDLE_LINK.twist_reader = self._on_pose, self._on_twist
+        else:
+            self.create_subscription(PoseStamped, "/haptic/pose", self._on_pose, STREAM_QOS)
+            self.create_subscription(TwistStamped, "/haptic/twist", self._on_twist, STREAM_QOS)
         self.create_subscription(WrenchStamped, "/master/feedback_wrench", self._on_feedback, STREAM_QOS)
         self.create_subscription(Vector3Stamped, "/master/replica_port_energy", self._on_replica_port_energy,
                                  STREAM_QOS)
@@ -196,6 +201,8 @@ class MasterNode(Node):
         message.header.stamp = self.get_clock().now().to_msg()
         message.header.frame_id = self._frame_id
         message.wrench.force.x, message.wrench.force.y, message.wrench.force.z = (float(f) for f in force)
+        if self._device_in_process and HANDLE_LINK.force_reader is not None:
+            HANDLE_LINK.force_reader(message)   # the device of this process (in_process_link.py), then DDS
         self._wrench_publisher.publish(message)
 
     def _network_tick(self) -> None:

@@ -14,6 +14,14 @@ torque's publication and the robot's reception of it, the wake-ups between the t
 (docs/RESULTS.md, "Graph levers"). A real arm's driver (franka_ros2) is another process, where the replica keeps
 speaking DDS.
 
+The simulated haptic device and the master in one process (``master_in_process``, ``device_in_process``) are joined
+the same way by ``HANDLE_LINK``: the device's tick hands the handle's pose and velocity to the master, the master's
+force tick its force command to the device, both on the process's one executor thread. Why: those were 750 messages
+a second between two nodes of one process, each a DDS delivery and a wake-up (docs/RESULTS.md, "Benches"). The pose
+and the force command still reach the recorder (record_batch.py) and any other reader; /haptic/twist, which only the
+master read, is published only while something else reads it. A real device's driver (forcedimension_ros2) is
+another process, where the master keeps reading DDS.
+
 The link is the process's one ``LINK``; each side registers the callable that takes the other's messages. A side
 that registers finds the other's reader whenever it has one: the robot may step before the replica is built (its
 states then reach no controller, and its watchdog holds the arm, as before the first DDS command).
@@ -38,3 +46,17 @@ class InProcessLink:
 
 #: The process's link (one robot and one controller a process).
 LINK = InProcessLink()
+
+
+class HandleLink:
+    """The readers of the device's handle pose and velocity (the master's) and of the force command (the device's),
+    each None until its side registers."""
+
+    def __init__(self) -> None:
+        self.pose_reader: Reader | None = None
+        self.twist_reader: Reader | None = None
+        self.force_reader: Reader | None = None
+
+
+#: The process's handle link (one haptic device and one master a process).
+HANDLE_LINK = HandleLink()

@@ -1,6 +1,8 @@
 """The robot and the replica in one process (fic_teleop_runtime.in_process_link): the robot's physics thread runs the
 replica's control step and takes its torque back without DDS, every message still goes out for the record, the
-group stops clean, and a physics thread that dies ends its process with exit 1 instead of a node that does nothing."""
+group stops clean, and a physics thread that dies ends its process with exit 1 instead of a node that does nothing.
+The haptic device and the master likewise (HANDLE_LINK): the master renders the handle it is handed, and the handle
+and the force still reach the bag."""
 from __future__ import annotations
 
 import json
@@ -52,6 +54,18 @@ def test_the_default_realtime_run_links_the_robot_and_the_replica_in_one_process
     metrics = json.loads((out / "report" / "metrics.json").read_text())
     assert metrics["limit_violations"] == 0 and metrics["dropped_joint_states"] == 0
 
+    # The device and the master: linked, the operator's motion still reached the arm (the tracking figure) and the
+    # handle and the force still reached the bag at their rates.
+    assert "the haptic device and the master linked without DDS" in output
+    assert record["device_master_in_process"] is True
+    assert metrics["free_motion_error_max_m"] < 0.05
+    counts = {topic: sum(1 for _ in read_ros2_messages(str(next((out / "bag").glob("*.mcap"))), topics=[topic]))
+              for topic in ("/haptic/pose", "/haptic/wrench_command", "/haptic/twist")}
+    assert counts["/haptic/pose"] > 250 * 8 * 0.8 and counts["/haptic/wrench_command"] > 250 * 8 * 0.8, counts
+    assert counts["/haptic/twist"] == 0   # only the master read it: not published without another reader
+    group = (out / "logs" / "haptic_device+master.log").read_text(errors="replace")
+    assert not unclean_exit(0, group), unclean_exit(0, group)
+
 
 @pytest.mark.nodes
 def test_a_dead_physics_thread_ends_the_robots_process_with_exit_1(tmp_path: Path) -> None:
@@ -90,3 +104,16 @@ def test_the_link_is_refused_where_it_cannot_work(tmp_path: Path, setting: str) 
                                  timeout=120)
     assert process.returncode == 2, process.stderr[-2000:]
     assert "controller_in_process needs mode realtime and driver_interface sim" in process.stderr
+
+
+@pytest.mark.nodes
+def test_the_handle_link_is_refused_for_the_device_driver_twin(tmp_path: Path) -> None:
+    """The forcedimension_ros2 twin speaks DDS as the real driver does: the device refuses master_in_process there,
+    in one line."""
+    with reserved_domain() as domain:
+        process = subprocess.run([sys.executable, "-m", "sim_bridge.device.haptic_device_node", "--ros-args", "-p",
+                                  "master_in_process:=true", "-p", "driver_interface:=forcedimension"],
+                                 env=isolated_env(tmp_path / "ros_log", domain), capture_output=True, text=True,
+                                 timeout=120)
+    assert process.returncode == 2, process.stderr[-2000:]
+    assert "master_in_process needs driver_interface sim" in process.stderr

@@ -120,6 +120,27 @@ def test_the_robot_and_the_replica_are_not_linked_otherwise(groups, realtime, si
     assert not any("controller_in_process" in m.params or "robot_in_process" in m.params for m in members)
 
 
+def test_the_device_and_the_master_grouped_in_realtime_are_linked_in_process() -> None:
+    specs = node_groups.grouped(_graph(), node_groups.parse_groups(["haptic_device,master"]))
+    assert node_groups.link_handle_in_process(specs, realtime=True, simulated_device=True)
+    members = {member.name: member for spec in specs for member in (spec.members or [])}
+    assert members["haptic_device"].params == {"master_in_process": True}
+    assert members["master"].params == {"device_in_process": True}
+
+
+@pytest.mark.parametrize("groups, realtime, simulated_device", [
+    (("haptic_device,master",), False, True),    # lockstep: the robot's step barrier waits for their stamps on DDS
+    (("haptic_device,master",), True, False),    # the forcedimension_ros2 twin speaks DDS as the real driver would
+    (("haptic_device,planner",), True, True),    # not in one process
+])
+def test_the_device_and_the_master_are_not_linked_otherwise(groups, realtime, simulated_device) -> None:
+    graph = [*_graph(), NodeSpec("fic_teleop_planner", "planner_node", "planner", "planner.yaml")]
+    specs = node_groups.grouped(graph, node_groups.parse_groups(list(groups)))
+    assert not node_groups.link_handle_in_process(specs, realtime=realtime, simulated_device=simulated_device)
+    members = [member for spec in specs for member in (spec.members or [spec])]
+    assert not any("master_in_process" in m.params or "device_in_process" in m.params for m in members)
+
+
 @pytest.mark.parametrize("given", [{"time_mode": "lockstep"}, {"hardware_twin": True}])
 def test_lockstep_and_the_driver_twins_keep_the_robot_and_the_replica_apart(given) -> None:
     replica = NodeSpec("fic_teleop_replica", "replica_node", "replica", "replica.yaml")

@@ -3,7 +3,7 @@ config/haptic_device.yaml's values) and the typed object generated from it, from
 runner build the device and the operator's hand. Importable without rclpy, as the runner is."""
 from __future__ import annotations
 
-from fic_core.parameter_row import ParameterRow, number, numbers, parameter_set, rows_by_name, text
+from fic_core.parameter_row import ParameterRow, number, numbers, parameter_set, rows_by_name, switch, text
 from fic_core.record_batch_rows import RECORD_BATCH_ROWS
 from sim_bridge.device.haptic_device import HapticDeviceParameters
 from sim_bridge.device.virtual_operator import HandParameters
@@ -44,6 +44,9 @@ DEVICE_PARAMETERS: dict[str, ParameterRow] = rows_by_name(
     text("frame_id", "frame of pose/twist"),
     text("driver_interface", "topics to speak: sim or forcedimension (the twin of forcedimension_ros2, "
                              "fic_teleop_runtime.driver_topics; publish_rate_hz is then its update rate)"),
+    switch("master_in_process", "the master runs in this process (a node group with its device_in_process): the "
+                                "handle's pose and velocity go straight to it and its force command straight back "
+                                "(fic_teleop_runtime.in_process_link); no DDS command subscription", read_only=True),
 )
 DEVICE_PARAMETERS.update(RECORD_BATCH_ROWS)  # how /haptic/pose reaches the recorder (fic_teleop_runtime.record_batch)
 #: The device node's parameters as one typed object, one field a row of DEVICE_PARAMETERS (fic_core.parameter_row):

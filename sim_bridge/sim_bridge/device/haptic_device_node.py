@@ -28,6 +28,7 @@ from std_msgs.msg import Bool, Float64MultiArray
 from fic_core.errors import FicInputError
 from fic_teleop_runtime import qos
 from fic_teleop_runtime.driver_topics import DEVICE_INTERFACES, FORCE_DIMENSION, SYSTEM_DEFAULTS_QOS
+from fic_teleop_runtime.in_process_link import HANDLE_LINK
 from fic_teleop_runtime.node_main import NodeEntry, run_entry
 from fic_teleop_runtime.parameters import Schema, declare
 from fic_teleop_runtime.periodic import PeriodicCallbacks
@@ -98,6 +99,10 @@ class HapticDeviceNode(Node):
         if self.interface not in DEVICE_INTERFACES:
             raise FicInputError(f"driver_interface must be one of {DEVICE_INTERFACES}, got {self.interface!r}")
         self.fd = self.interface == "forcedimension"
+        self.master_in_process = p.master_in_process
+        if self.fd and self.master_in_process:
+            raise FicInputError("master_in_process needs driver_interface sim (the forcedimension_ros2 twin speaks "
+                                "DDS as the real driver does)")
         if self.fd:
             # The forcedimension_ros2 twin: its topics, types, QoS and frame; its effort controller holds the last
             # force with no timeout (command_timeout does not apply) and renders NaN as zero force.
@@ -115,7 +120,10 @@ class HapticDeviceNode(Node):
             self.pose_publisher = BatchedPublisher(self, PoseStamped, "/haptic/pose", DEVICE_WRITER_QOS,
                                                    p.record_batch_period)
             self.twist_publisher = self.create_publisher(TwistStamped, "/haptic/twist", DEVICE_WRITER_QOS)
-            self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_command, DEVICE_QOS)
+            if self.master_in_process:   # the master of this process hands its force command over (in_process_link)
+                HANDLE_LINK.force_reader = self._on_command
+            else:
+                self.create_subscription(WrenchStamped, "/haptic/wrench_command", self._on_command, DEVICE_QOS)
         self.scripted: ScriptedOperator | None = None
         self.watcher: ClosedLoopOperator | None = None
         self.sorter: ShapeSortingOperator | None = None
@@ -284,8 +292,13 @@ class HapticDeviceNode(Node):
         twist = TwistStamped()
         twist.header.stamp, twist.header.frame_id = stamp, self.frame_id
         twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z = (float(v) for v in state.velocity)
+        master = HANDLE_LINK if self.master_in_process else None
+        if master is not None and master.pose_reader is not None:   # the master's inputs, here in the tick
+            master.pose_reader(pose)
+            master.twist_reader(twist)
         self.pose_publisher.publish(pose)
-        self.twist_publisher.publish(twist)
+        if master is None or self.twist_publisher.get_subscription_count():  # linked: only the master read it
+            self.twist_publisher.publish(twist)
 
     def _fd_buttons(self) -> None:
         """The device's one button carries the script's mode toggles (held for one publication, released for
