@@ -89,6 +89,35 @@ def test_one_lost_sample_does_not_change_the_learned_interval():
     assert hold.interval.value == pytest.approx(0.1)
 
 
+def test_an_interval_first_learned_from_a_burst_is_learned_again_and_the_feedforward_acts():
+    """The master's first commands 0.8 ms apart, then its 100 Hz: the 10 ms intervals are a new rate after three of
+    them, not gaps for ever (which kept the offset feedforward off for whole main jobs)."""
+    hold = LinkHold()
+    acceleration = 0.4   # [m/s^2] along x: x = a t^2 / 2
+    stamps = [0.0, 0.0008, 0.0016] + [0.0016 + 0.01 * k for k in range(1, 40)]
+    for stamp in stamps:
+        hold.add(stamp, [0.5 * acceleration * stamp ** 2, 0.0, 0.0], stamp + 0.2)
+    assert hold.interval.value == pytest.approx(0.01)
+    assert hold.acceleration(stamps[-1] + 0.2 + 0.001)[0] == pytest.approx(acceleration, rel=0.05)
+
+
+def test_a_link_that_slows_down_is_learned_at_its_new_rate():
+    hold = LinkHold()
+    stamps = [0.01 * k for k in range(20)] + [0.19 + 0.1 * k for k in range(1, 10)]
+    for stamp in stamps:
+        hold.add(stamp, [0.0, 0.0, 0.0], stamp)
+    assert hold.interval.value == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("outage", [0.05, 0.2, 1.0])
+def test_a_blackout_between_samples_at_the_old_rate_stays_a_gap(outage):
+    hold = LinkHold()
+    stamps = [0.01 * k for k in range(20)] + [0.19 + outage + 0.01 * k for k in range(10)]
+    for stamp in stamps:
+        hold.add(stamp, [0.0, 0.0, 0.0], stamp)
+    assert hold.interval.value == pytest.approx(0.01)
+
+
 @pytest.mark.parametrize("design", HOLD_DESIGNS)
 def test_a_stream_that_stops_leaves_the_hold_still_near_the_newest_sample(design):
     hold = LinkHold(design)
