@@ -33,10 +33,12 @@ def test_the_cpu_budget_counts_each_topic_once_per_publishing_and_reading_node()
               "/haptic/pose": {"publishers": ["haptic_device"], "subscribers": ["master", "recorder"]},
               "/haptic/wrench_command": {"publishers": ["master"], "subscribers": ["haptic_device", "recorder"]},
               "/clock": {"publishers": ["robot"], "subscribers": ["fic_teleop_launcher", "recorder"]},
-              "/replica/master_port_energy": {"publishers": ["channel_forward"], "subscribers": ["replica"]}}
+              "/replica/master_port_energy": {"publishers": ["channel_forward"], "subscribers": ["replica"]},
+              # the recorder's subscriptions belong to its unspun second node, recorder_reader: still the recorder's
+              "/replica/tcp_pose": {"publishers": ["replica"], "subscribers": ["recorder_reader"]}}
     metrics = {"duration_s": 30.0, "wall_duration_s": 10.0,
                "message_counts": {"/joint_states": 5000, "/haptic/pose": 2500, "/haptic/wrench_command": 2500,
-                                  "/clock": 1000}}
+                                  "/clock": 1000, "/replica/tcp_pose": 1000}}
     nodes = {"robot": {"cpu_s": 9.0}, "replica": {"cpu_s": 6.0}, "haptic_device+master": {"cpu_s": 7.5},
              "recorder": {"cpu_s": 3.0}, "launcher": {"cpu_s": 1.5}, "report": {"cpu_s": 4.0},
              bench.MAIN_JOB: {"cpu_s": 40.0}}
@@ -47,7 +49,8 @@ def test_the_cpu_budget_counts_each_topic_once_per_publishing_and_reading_node()
     # the group publishes the pose and the command and reads both: a message between its members counts twice
     assert rows["haptic_device+master"]["published_per_s"] == 500.0
     assert rows["haptic_device+master"]["received_per_s"] == 500.0
-    assert rows["recorder"]["received_per_s"] == 1100.0 and rows["launcher"]["received_per_s"] == 100.0
+    assert rows["recorder"]["received_per_s"] == 1200.0 and rows["launcher"]["received_per_s"] == 100.0
+    assert rows["replica"]["published_per_s"] == 100.0
     assert rows[bench.MAIN_JOB] == {"cpu_s": 40.0, "cpu_s_per_simulated_s": 1.333}
     assert budget["topics_not_in_the_bag"] == ["/replica/master_port_energy"]
     assert bench.cpu_budget(nodes, metrics, None)["processes"]["replica"] == {"cpu_s": 6.0,

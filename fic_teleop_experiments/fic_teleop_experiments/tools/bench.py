@@ -193,7 +193,9 @@ def cpu_budget(nodes: dict[str, dict], metrics: dict, census: dict | None) -> di
     from fic_teleop_experiments.tools.graph_census import message_budget
 
     simulated = metrics.get("duration_s") or 0.0
-    processes = {name: ([LAUNCHER_NODE] if name == LAUNCHER_PROCESS else name.split("+"))
+    # A node's second, unspun node (the recorder's ``recorder_reader``, which holds its subscriptions) is its process's.
+    processes = {name: ([LAUNCHER_NODE] if name == LAUNCHER_PROCESS else
+                        [member for node in name.split("+") for member in (node, f"{node}_reader")])
                  for name in nodes if name not in (MAIN_JOB, "report")}
     messages, unrecorded = message_budget(census or {}, metrics.get("message_counts") or {},
                                           metrics.get("wall_duration_s") or 0.0, processes)
