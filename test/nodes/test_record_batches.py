@@ -11,6 +11,7 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -117,22 +118,30 @@ def test_a_batched_stream_is_recorded_under_its_own_topic_every_sample_once_in_o
     assert "0 written out of time order" in log and "/joint_states: 2000 received, 0 dropped" in log
 
 
-def test_a_topic_with_a_publisher_that_does_not_batch_is_recorded_message_by_message(start_node, tmp_path,
-                                                                                    ros_env):
+@pytest.mark.parametrize("count_lost_messages", [False, True])   # the taker's path and the executor's
+def test_a_topic_with_a_publisher_that_does_not_batch_is_recorded_message_by_message(start_node, tmp_path, ros_env,
+                                                                                    count_lost_messages):
     bag = tmp_path / "bag"
     recorder = start_node("fic_teleop_tools", "recorder_node",
                           params={"bag_path": str(bag), "topics": ["/joint_states", "/replica/fic_state"],
-                                  "joint_states_period": 0.001})
-    batcher = _publish(tmp_path, ros_env, 1000, "batcher", 0.05, 0, 2.0)
-    plain = _publish(tmp_path, ros_env, 1000, "plain", 0.0, 5000, 2.0)
+                                  "joint_states_period": 0.001, "count_lost_messages": count_lost_messages})
+    # The batching publisher first: the recorder takes /joint_states from its batches; then a plain one joins.
+    batcher = _publish(tmp_path, ros_env, 1000, "batcher", 0.05, 0, 6.0)
+    deadline = time.monotonic() + 30.0
+    while "from its batches on /record/joint_states" not in recorder.output() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert "from its batches on /record/joint_states" in recorder.output(), recorder.output()
+    plain = _publish(tmp_path, ros_env, 1000, "plain", 0.0, 5000, 1.0)
     for process, name in ((batcher, "batcher"), (plain, "plain")):
         assert process.wait(timeout=60) == 0, _output(tmp_path, name) + recorder.output()
     recorder.process.send_signal(signal.SIGINT)
     assert recorder.process.wait(timeout=20) == 0, recorder.output()
 
+    # The recorder read the topic message by message as well once the plain one came, and wrote every sample of
+    # each publisher once (the batching one's came both ways).
+    assert "recording its messages one by one as well" in recorder.output(), recorder.output()
     stamps, _, _ = _joint_stamps(bag)
-    # Each publisher's samples once: the batching one's taken from the topic itself, since the recorder reads it
-    # there (whichever publisher the recorder found first, the topic ends up read message by message).
     assert sorted(stamps) == _stamps(0, 1000) + _stamps(5000, 1000), (len(stamps), recorder.output())
-    assert "from its batches" not in recorder.output() or "recording its messages one by one as well" in \
-        recorder.output()
+    assert len(stamps) == 2000
+    dropped = int(recorder.output().split(" second copies dropped")[0].rsplit(" ", 1)[1])
+    assert dropped > 0   # the batching publisher's samples did come both ways, and one copy of each was kept

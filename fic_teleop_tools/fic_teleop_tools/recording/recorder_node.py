@@ -202,6 +202,7 @@ class RecorderNode(Node):
         self._topic_names: list[str] = []
         self._channel_ids: list[int] = []  # MCAP channel id per topic index (writer thread)
         self._recorded: dict[str, object] = {}
+        self._also_read: list[object] = []   # the direct subscriptions of topics also read from batches
         self._types: dict[str, str] = {}             # topic -> its type name
         self._direct_qos: dict[str, QoSProfile] = {}  # topic -> the QoS it is (or would be) read with directly
         self._skipped: set[str] = set()
@@ -267,7 +268,8 @@ class RecorderNode(Node):
             f"{topic}: recorded from its batches, but {', '.join(name for _, name in sorted(others))} publishes it "
             f"without: recording its messages one by one as well")
         self._deduplicated.add(index)
-        self._subscribe_to(index, topic, message_class(self._types[topic]), self._direct_qos[topic])
+        self._also_read.append(self._subscribe_to(index, topic, message_class(self._types[topic]),
+                                                  self._direct_qos[topic]))
 
     def _subscribe(self, topic: str, types: list[str]) -> None:
         if len(types) != 1:
@@ -493,7 +495,7 @@ class RecorderNode(Node):
                 return
             self._finished = True
             if self._reader is None:
-                for subscription in list(self._recorded.values()):
+                for subscription in [*self._recorded.values(), *self._also_read]:
                     self.destroy_subscription(subscription)
             self._stop.set()
             if self._taker is not None:
@@ -512,7 +514,8 @@ class RecorderNode(Node):
                 f"{self.joint_states.received} received, {self.joint_states.dropped} dropped in "
                 f"{self.joint_states.gaps} gaps, {self.joint_states.out_of_order} out of order, "
                 f"{self.joint_states.off_grid} off the step grid (not gap-checked); "
-                f"max backlog {self._max_backlog}; {self._out_of_order} written out of time order; DDS lost "
+                f"max backlog {self._max_backlog}; {self._out_of_order} written out of time order, "
+                f"{self._duplicates} second copies dropped; DDS lost "
                 + ("(not counted)" if lost is None else
                    ", ".join(f"{topic} {count}" for topic, count in lost.items()) if lost else "none"))
 
