@@ -107,13 +107,7 @@ def link_in_process(specs: list, realtime: bool, simulated_robot: bool) -> bool:
     real driver would). If so, each gets its switch (``controller_in_process``, ``robot_in_process``). Lockstep keeps
     them apart (the lockstep profile's groups): linked there, the step and the replica's answer in one thread, a
     10 s lockstep run took 28.7 s of wall time and 39.7 CPU-s against 21.9 s and 31.1 apart (2 pairs, 2026-12-07)."""
-    for spec in specs:
-        members = {member.name: member for member in spec.members or []}
-        if ROBOT in members and CONTROLLER in members and realtime and simulated_robot:
-            members[ROBOT].params[ROBOT_SWITCH] = True
-            members[CONTROLLER].params[CONTROLLER_SWITCH] = True
-            return True
-    return False
+    return _link(specs, {ROBOT: ROBOT_SWITCH, CONTROLLER: CONTROLLER_SWITCH}, realtime and simulated_robot)
 
 
 #: The simulated haptic device and the master: sharing a process, they are linked without DDS.
@@ -128,11 +122,17 @@ def link_handle_in_process(specs: list, realtime: bool, simulated_device: bool) 
     twin speaks DDS as the real driver would, through the fd adapter). If so, each gets its switch
     (``master_in_process``, ``device_in_process``). Lockstep keeps them apart, as it keeps the robot and the
     replica: the robot's step barrier waits for their stamps on DDS."""
+    return _link(specs, {DEVICE: DEVICE_SWITCH, MASTER: MASTER_SWITCH}, realtime and simulated_device)
+
+
+def _link(specs: list, switches: dict[str, str], allowed: bool) -> bool:
+    """If ``allowed`` and one group holds every node of ``switches`` (node name -> its switch), sets each one's
+    switch and says so."""
     for spec in specs:
         members = {member.name: member for member in spec.members or []}
-        if DEVICE in members and MASTER in members and realtime and simulated_device:
-            members[DEVICE].params[DEVICE_SWITCH] = True
-            members[MASTER].params[MASTER_SWITCH] = True
+        if allowed and all(name in members for name in switches):
+            for name, switch in switches.items():
+                members[name].params[switch] = True
             return True
     return False
 
