@@ -125,25 +125,20 @@ class BatchedPublisher:
                                           data=b"".join(samples)))
         self.batches_sent += 1
 
-    def stop(self) -> None:
-        """The last batch out. Not waited for: DDS sends it before publish returns (rmw_fastrtps publishes
-        synchronously), while its acknowledgement waits for the writer's next heartbeat, 0.6-2 s here, which made
-        every stop of the main job 2 s longer."""
-        if self._batches is not None:
-            self.flush()
-
 
 #: The batched publishers of each node, so that the node's stop sends their last batches (node_main).
 _NODES: dict[Node, list[BatchedPublisher]] = {}
 
 
 def flush_node(node: Node) -> None:
-    """Send the last batch of every batched publisher of ``node``; before the node is destroyed. A context already
-    shut down (an external shutdown) cannot send: one line names the samples lost."""
+    """Send the last batch of every batched publisher of ``node``; before the node is destroyed. Not waited for: DDS
+    sends it before publish returns (rmw_fastrtps publishes synchronously), while its acknowledgement waits for the
+    writer's next heartbeat, 0.6-2 s here, which made every stop of the main job 2 s longer. A context already shut
+    down (an external shutdown) cannot send: one line names the samples lost."""
     for publisher in _NODES.pop(node, []):
         pending = publisher.pending()
         try:
-            publisher.stop()
+            publisher.flush()
         except Exception as error:  # noqa: BLE001 - rclpy raises several types on a dead context
             print(f"[WARN] [{node.get_name()}]: the last {pending} samples of {publisher.topic} did not reach the "
                   f"recorder: {error}", file=sys.stderr, flush=True)

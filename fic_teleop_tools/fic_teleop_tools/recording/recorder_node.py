@@ -189,7 +189,6 @@ class RecorderNode(Node):
         self._drain_period = p.drain_period
         self._reorder_window_ns = round(p.reorder_window * 1e9)
         self._batched: set[int] = set()   # topic indexes recorded from their batches (module docstring)
-        self._batching: set[str] = set()   # topics recorded from their batches alone (_check_batched)
         self._deduplicated: set[int] = set()   # topic indexes read both ways: a sample's second copy is dropped
         self._duplicates = 0
         self._out_of_order = 0   # samples written before one with a later time (a batch later than reorder_window)
@@ -241,29 +240,26 @@ class RecorderNode(Node):
         for topic, types in self.get_topic_names_and_types():
             if RECORD_BATCH_TYPE in types or topic in self._skipped or not self._wanted(topic):
                 continue    # batches are unpacked into their topics, never recorded as such
-            if topic in self._recorded:
-                self._check_batched(topic)
-                continue
-            self._subscribe(topic, types)
+            if topic not in self._recorded:
+                self._subscribe(topic, types)
+        for index in self._batched - self._deduplicated:
+            self._check_batched(index)
 
     def _batching_nodes(self, topic: str) -> set[tuple[str, str]]:
         return {(info.node_namespace, info.node_name)
                 for info in self.get_publishers_info_by_topic(record_topic(topic))
                 if info.topic_type == RECORD_BATCH_TYPE}
 
-    def _check_batched(self, topic: str) -> None:
+    def _check_batched(self, index: int) -> None:
         """A topic recorded from its batches that gained a publisher without them: the topic is read message by
         message as well, and since the batching publishers then publish it too (it has a reader), a sample that comes
         both ways is written once (the writer compares the bytes of the topic's samples of the last
         ``DUPLICATE_WINDOW_NS``); one warning."""
-        if topic not in self._batching:
-            return
+        topic = self._topic_names[index]
         others = ({(info.node_namespace, info.node_name) for info in self.get_publishers_info_by_topic(topic)}
                   - self._batching_nodes(topic))
         if not others:
             return
-        self._batching.discard(topic)
-        index = self._topic_names.index(topic)
         self.get_logger().warning(
             f"{topic}: recorded from its batches, but {', '.join(name for _, name in sorted(others))} publishes it "
             f"without: recording its messages one by one as well")
@@ -308,7 +304,6 @@ class RecorderNode(Node):
         batching = self._batching_nodes(topic)
         if publishing <= batching:   # every publisher also sends batches: take those instead
             self._batched.add(index)
-            self._batching.add(topic)
             batch_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=self._queue_depth,
                                    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
             self._recorded[topic] = self._subscribe_to(index, record_topic(topic), message_class(RECORD_BATCH_TYPE),
